@@ -1,0 +1,120 @@
+#ifndef PPM_BVH_H
+#define PPM_BVH_H
+#include "geometry.h"
+
+/* Triangles in BVH leaf order, three float4 each (bvh_build.cl, reorder_triangles):
+ *   v0 = (p0, as_float(original triangle index)), e1 = (p1 - p0, as_float(visibility bits)),
+ *   e2 = (p2 - p0, as_float(material index)).
+ * Nodes: 4 float4 per internal node, both children's boxes stored in the parent:
+ *   (lmin, as_float(left)), (lmax, as_float(right)), (rmin, 0), (rmax, 0);
+ * child >= 0 is an internal node, child < 0 is the leaf ~child (one triangle per leaf). */
+#define BVH_STACK 64
+
+typedef struct {
+    float t, u, v;
+    int leaf;         /* index into the leaf-ordered triangle arrays, -1 = miss */
+} Hit;
+
+#define BVH_ARGS __global const float4 *nodes, __global const float4 *tri_v0, \
+                 __global const float4 *tri_e1, __global const float4 *tri_e2
+#define BVH_PASS nodes, tri_v0, tri_e1, tri_e2
+
+inline bool box_hit(float3 bmin, float3 bmax, float3 o, float3 inv_d, float tmax, float *tnear) {
+    float3 t0 = (bmin - o) * inv_d, t1 = (bmax - o) * inv_d;
+    float3 lo = fmin(t0, t1), hi = fmax(t0, t1);
+    float tn = fmax(fmax(lo.x, lo.y), fmax(lo.z, 0.0f));
+    float tf = fmin(fmin(hi.x, hi.y), fmin(hi.z, tmax));
+    *tnear = tn;
+    return tn <= tf;
+}
+
+/* Moeller-Trumbore; returns t in (tmin, tmax) or -1 */
+inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float tmax,
+                     float *u, float *v) {
+    float3 p = cross(d, e2);
+    float det = dot(e1, p);
+    if (det == 0.0f || !isfinite(det)) return -1.0f;
+    float inv = 1.0f / det;
+    float3 s = o - v0;
+    float uu = dot(s, p) * inv;
+    if (uu < 0.0f || uu > 1.0f) return -1.0f;
+    float3 q = cross(s, e1);
+    float vv = dot(d, q) * inv;
+    if (vv < 0.0f || uu + vv > 1.0f) return -1.0f;
+    float t = dot(e2, q) * inv;
+    if (!(t > 0.0f && t < tmax)) return -1.0f;
+    *u = uu; *v = vv;
+    return t;
+}
+
+inline void leaf_test(int k, float3 o, float3 d, uint mask, BVH_ARGS, Hit *hit) {
+    float4 e1 = tri_e1[k];
+    if ((as_uint(e1.w) & mask) == 0u) return;
+    float4 v0 = tri_v0[k], e2 = tri_e2[k];
+    float u, v;
+    float t = tri_hit(o, d, v0.xyz, e1.xyz, e2.xyz, hit->t, &u, &v);
+    if (t > 0.0f) { hit->t = t; hit->u = u; hit->v = v; hit->leaf = k; }
+}
+
+/* Closest hit along o + t d, 0 < t < tmax, among triangles whose visibility has a bit of mask.
+ * With any_hit set it returns at the first hit (shadow rays). */
+inline Hit bvh_intersect(float3 o, float3 d, float tmax, uint mask, bool any_hit, BVH_ARGS) {
+    Hit hit; hit.t = tmax; hit.u = 0.0f; hit.v = 0.0f; hit.leaf = -1;
+    float3 inv_d = 1.0f / d;   /* IEEE infinities for zero components are what the slabs need */
+    int stack[BVH_STACK];
+    int sp = 0, node = 0;
+    for (;;) {
+        float4 a = nodes[4 * node], b = nodes[4 * node + 1];
+        float4 c = nodes[4 * node + 2], e = nodes[4 * node + 3];
+        int left = as_int(a.w), right = as_int(b.w);
+        float tl, tr;
+        bool hl = box_hit(a.xyz, b.xyz, o, inv_d, hit.t, &tl);
+        bool hr = box_hit(c.xyz, e.xyz, o, inv_d, hit.t, &tr);
+        if (hl && left < 0) { leaf_test(~left, o, d, mask, BVH_PASS, &hit); hl = false; }
+        if (hr && right < 0) { leaf_test(~right, o, d, mask, BVH_PASS, &hit); hr = false; }
+        if (any_hit && hit.leaf >= 0) return hit;
+        if (hl && hr) {
+            int near = tl <= tr ? left : right, far = tl <= tr ? right : left;
+            if (sp < BVH_STACK) stack[sp++] = far;
+            node = near;
+        } else if (hl) {
+            node = left;
+        } else if (hr) {
+            node = right;
+        } else {
+            if (sp == 0) break;
+            node = stack[--sp];
+        }
+    }
+    return hit;
+}
+
+/* Surface data at a hit, from the leaf-ordered triangles and per-original-triangle normals. */
+typedef struct {
+    float3 p;        /* position from barycentrics (more precise than o + t d) */
+    float3 ng;       /* unit geometric normal, as stored (not flipped) */
+    float3 ns;       /* unit shading normal, flipped to the side of ng */
+    int material;
+    uint tri;        /* original triangle index */
+} Surface;
+
+inline Surface surface_at(Hit h, __global const float4 *tri_v0, __global const float4 *tri_e1,
+                          __global const float4 *tri_e2, __global const float *normals) {
+    Surface s;
+    float4 v0 = tri_v0[h.leaf], e1 = tri_e1[h.leaf], e2 = tri_e2[h.leaf];
+    s.p = v0.xyz + h.u * e1.xyz + h.v * e2.xyz;
+    float3 ng = cross(e1.xyz, e2.xyz);
+    float len = length(ng);
+    s.ng = len > 0.0f ? ng / len : (float3)(0.0f, 0.0f, 1.0f);
+    s.tri = as_uint(v0.w);
+    s.material = as_int(e2.w);
+    __global const float *n = normals + 9 * (size_t)s.tri;
+    float w = 1.0f - h.u - h.v;
+    float3 ns = w * (float3)(n[0], n[1], n[2]) + h.u * (float3)(n[3], n[4], n[5])
+              + h.v * (float3)(n[6], n[7], n[8]);
+    float nl = length(ns);
+    ns = (nl > 0.0f && isfinite(nl)) ? ns / nl : s.ng;
+    s.ns = dot(ns, s.ng) < 0.0f ? -ns : ns;
+    return s;
+}
+#endif

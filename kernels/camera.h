@@ -1,0 +1,60 @@
+#ifndef PPM_CAMERA_H
+#define PPM_CAMERA_H
+#include "geometry.h"
+
+/* Cycles' camera rays exactly (BLENDER_NOTES section 6): pixel (px, py) in full-frame pixel
+ * units, y up from the bottom; planar clipping; thin-lens depth of field. */
+inline void camera_ray(__global const Camera *cam, float px, float py, float u1, float u2,
+                       float3 *o, float3 *d, float *tmax) {
+    float xc = (px / (float)cam->width - 0.5f) * cam->extent[0] + cam->shift[0];
+    float yc = (py / (float)cam->height - 0.5f) * cam->extent[1] + cam->shift[1];
+    float3 oc, dc;
+    float depth_scale;    /* planar depth per unit of t along the normalised direction */
+    if (cam->type == CAMERA_ORTHO) {
+        oc = (float3)(xc, yc, 0.0f);
+        dc = (float3)(0.0f, 0.0f, -1.0f);
+    } else {
+        oc = (float3)(0.0f);
+        dc = (float3)(xc, yc, -1.0f);
+    }
+    if (cam->aperture_radius > 0.0f) {
+        float2 lens;
+        int blades = cam->aperture_blades;
+        if (blades >= 3) {
+            /* regular polygon: pick a sector, sample its triangle */
+            float fk = floor(u1 * (float)blades);
+            float uu = u1 * (float)blades - fk;
+            float a0 = cam->aperture_rotation + 2.0f * PPM_PI * fk / (float)blades;
+            float a1 = a0 + 2.0f * PPM_PI / (float)blades;
+            float2 b = sample_triangle(uu, u2);
+            lens = b.x * (float2)(cos(a0), sin(a0)) + b.y * (float2)(cos(a1), sin(a1));
+        } else {
+            lens = sample_disk(u1, u2);
+        }
+        lens *= cam->aperture_radius;
+        lens.x /= cam->aperture_ratio > 0.0f ? cam->aperture_ratio : 1.0f;
+        float3 focus = oc + dc * (cam->focus_distance / -dc.z);
+        oc += (float3)(lens.x, lens.y, 0.0f);
+        dc = focus - oc;
+    }
+    float len = length(dc);
+    dc /= len;
+    depth_scale = -dc.z;
+    float t0 = cam->clip[0] / depth_scale, t1 = cam->clip[1] / depth_scale;
+    __global const float *m = cam->to_world;
+    float3 ow = (float3)(m[0] * oc.x + m[1] * oc.y + m[2] * oc.z + m[3],
+                         m[4] * oc.x + m[5] * oc.y + m[6] * oc.z + m[7],
+                         m[8] * oc.x + m[9] * oc.y + m[10] * oc.z + m[11]);
+    float3 dw = (float3)(m[0] * dc.x + m[1] * dc.y + m[2] * dc.z,
+                         m[4] * dc.x + m[5] * dc.y + m[6] * dc.z,
+                         m[8] * dc.x + m[9] * dc.y + m[10] * dc.z);
+    *d = normalize(dw);
+    *o = ow + t0 * (*d);
+    *tmax = t1 - t0;
+}
+
+/* size of one pixel on the view plane at distance 1 (ortho: in scene units) */
+inline float camera_pixel_size(__global const Camera *cam) {
+    return cam->extent[0] / (float)cam->width;
+}
+#endif

@@ -1,0 +1,66 @@
+/* Eye pass (the paper's first phase): one jittered camera ray per pixel, through specular
+ * bounces to the first diffuse hit, where it stores a visible point and adds direct light by
+ * next-event estimation.  Emission and background seen directly or through mirrors/glass go to
+ * the pixel's direct sum. */
+#include "lights.h"
+#include "camera.h"
+
+__kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint seed,
+                       int max_bounces, float initial_radius, float auto_radius_pixels,
+                       __global float4 *direct, __global float *radius,
+                       __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
+                       __global uint *counters) {
+    int id = get_global_id(0);
+    int rw = cam->region[2], rh = cam->region[3];
+    if (id >= rw * rh) return;
+    int i = id % rw, j = id / rw;
+    uint rng = rng_seed(seed, pass, (uint)id, 1u);
+    float px = (float)(cam->region[0] + i) + rnd(&rng);
+    float py = (float)(cam->region[1] + j) + rnd(&rng);
+    float3 o, d;
+    float tmax;
+    camera_ray(cam, px, py, rnd(&rng), rnd(&rng), &o, &d, &tmax);
+    float3 beta = (float3)(1.0f), L = (float3)(0.0f);
+    float path_len = 0.0f;
+    uint mask = VIS_CAMERA;
+    float4 vp = (float4)(0.0f);
+    for (int depth = 0;; depth++) {
+        Hit h = bvh_intersect(o, d, tmax, mask, false, BVH_PASS);
+        if (h.leaf < 0) {
+            L += beta * F3(emitter_info->world);
+            break;
+        }
+        path_len += h.t;
+        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        __global const Material *m = materials + s.material;
+        if (m->flags & MAT_EMISSIVE) L += beta * F3(m->emission);
+        int lobe = choose_lobe(m, rnd(&rng));
+        if (lobe == LOBE_ABSORBED) break;
+        if (lobe == LOBE_DIFFUSE) {
+            bool front = dot(d, s.ng) < 0.0f;
+            float3 ngf = front ? s.ng : -s.ng, nsf = front ? s.ns : -s.ns;
+            float3 bvp = beta * F3(m->diffuse) * (1.0f / PPM_PI);
+            L += bvp * sample_direct(s.p, nsf, ngf, SCENE_PASS, &rng);
+            vp = (float4)(s.p, 1.0f);
+            vp_nrm[id] = (float4)(nsf, 0.0f);
+            vp_beta[id] = (float4)(bvp, 0.0f);
+            if (radius[id] <= 0.0f) {
+                float foot = camera_pixel_size(cam) * (cam->type == CAMERA_ORTHO ? 1.0f : path_len);
+                float r0 = initial_radius > 0.0f ? initial_radius : auto_radius_pixels * foot;
+                radius[id] = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
+            }
+            break;
+        }
+        if (depth >= max_bounces) break;
+        float3 leave_n;
+        lobe = scatter_specular(lobe, m, s.ng, s.ns, rnd(&rng), true, &d, &beta, &leave_n);
+        o = offset_ray(s.p, leave_n);
+        tmax = PPM_INF;
+        mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;
+        if (!(max3(beta) > 0.0f)) break;
+    }
+    vp_pos[id] = vp;
+    /* NaN/Inf guard: drop the sample, count it (render stats) */
+    if (isfinite(L.x) && isfinite(L.y) && isfinite(L.z)) direct[id] += (float4)(L, 1.0f);
+    else atomic_inc(&counters[0]);
+}

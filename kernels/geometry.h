@@ -1,0 +1,89 @@
+#ifndef PPM_GEOMETRY_H
+#define PPM_GEOMETRY_H
+#include "types.h"
+
+#define PPM_PI 3.14159265358979323846f
+#define PPM_INF INFINITY
+
+inline float max3(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
+inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+
+/* Offset a ray origin off a surface along n (pointing to the side the ray leaves to), by a
+ * number of ULPs that scales with |p| (Waechter & Binder, Ray Tracing Gems ch. 6): robust at
+ * any scale and distance from the origin, unlike one fixed epsilon. */
+inline float3 offset_ray(float3 p, float3 n) {
+    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+    int3 oi = convert_int3(int_scale * n);
+    float3 pi = (float3)(as_float(as_int(p.x) + (p.x < 0.0f ? -oi.x : oi.x)),
+                         as_float(as_int(p.y) + (p.y < 0.0f ? -oi.y : oi.y)),
+                         as_float(as_int(p.z) + (p.z < 0.0f ? -oi.z : oi.z)));
+    return (float3)(fabs(p.x) < origin ? p.x + float_scale * n.x : pi.x,
+                    fabs(p.y) < origin ? p.y + float_scale * n.y : pi.y,
+                    fabs(p.z) < origin ? p.z + float_scale * n.z : pi.z);
+}
+
+/* orthonormal basis around unit n (Duff et al. 2017) */
+inline void make_frame(float3 n, float3 *t, float3 *b) {
+    float sign = copysign(1.0f, n.z);
+    float a = -1.0f / (sign + n.z);
+    float bb = n.x * n.y * a;
+    *t = (float3)(1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
+    *b = (float3)(bb, sign + n.y * n.y * a, -n.y);
+}
+
+inline float3 to_world_frame(float3 v, float3 n) {
+    float3 t, b;
+    make_frame(n, &t, &b);
+    return v.x * t + v.y * b + v.z * n;
+}
+
+inline float3 sample_cosine_hemisphere(float3 n, float u1, float u2) {
+    float r = sqrt(u1), phi = 2.0f * PPM_PI * u2;
+    float3 v = (float3)(r * cos(phi), r * sin(phi), sqrt(fmax(0.0f, 1.0f - u1)));
+    return normalize(to_world_frame(v, n));
+}
+
+inline float3 sample_uniform_sphere(float u1, float u2) {
+    float z = 1.0f - 2.0f * u1, r = sqrt(fmax(0.0f, 1.0f - z * z)), phi = 2.0f * PPM_PI * u2;
+    return (float3)(r * cos(phi), r * sin(phi), z);
+}
+
+/* uniform direction in the cone of half-angle acos(cos_max) around n */
+inline float3 sample_cone(float3 n, float cos_max, float u1, float u2) {
+    float c = 1.0f - u1 * (1.0f - cos_max), s = sqrt(fmax(0.0f, 1.0f - c * c));
+    float phi = 2.0f * PPM_PI * u2;
+    return normalize(to_world_frame((float3)(s * cos(phi), s * sin(phi), c), n));
+}
+
+/* concentric map of the unit square to the unit disk (Shirley & Chiu) */
+inline float2 sample_disk(float u1, float u2) {
+    float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
+    if (a == 0.0f && b == 0.0f) return (float2)(0.0f, 0.0f);
+    float r, phi;
+    if (fabs(a) > fabs(b)) { r = a; phi = (PPM_PI / 4.0f) * (b / a); }
+    else { r = b; phi = (PPM_PI / 2.0f) - (PPM_PI / 4.0f) * (a / b); }
+    return (float2)(r * cos(phi), r * sin(phi));
+}
+
+inline float2 sample_triangle(float u1, float u2) {
+    float su = sqrt(u1);
+    return (float2)(1.0f - su, u2 * su);   /* barycentrics (b1, b2) of v1, v2 */
+}
+
+/* Octahedral unit-vector packing into 2 x 16 bits (for photon records). */
+inline uint pack_unit(float3 n) {
+    n /= (fabs(n.x) + fabs(n.y) + fabs(n.z));
+    float2 e = n.z >= 0.0f ? n.xy
+        : (float2)((1.0f - fabs(n.y)) * copysign(1.0f, n.x), (1.0f - fabs(n.x)) * copysign(1.0f, n.y));
+    uint2 q = convert_uint2_sat_rte((e * 0.5f + 0.5f) * 65535.0f);
+    return q.x | (q.y << 16);
+}
+inline float3 unpack_unit(uint v) {
+    float2 e = (float2)((float)(v & 0xffffu), (float)(v >> 16)) * (2.0f / 65535.0f) - 1.0f;
+    float3 n = (float3)(e.x, e.y, 1.0f - fabs(e.x) - fabs(e.y));
+    float t = fmax(-n.z, 0.0f);
+    n.x += n.x >= 0.0f ? -t : t;
+    n.y += n.y >= 0.0f ? -t : t;
+    return normalize(n);
+}
+#endif

@@ -1,0 +1,113 @@
+/* Stochastic spatial hash (Hachisuka & Jensen 2010): each entry keeps ONE photon chosen
+ * uniformly among the n that hash to it, plus n.  Departure from the paper: the choice is
+ * made by the largest random key (atom_max on (key << 32) | index, or a two-pass 32-bit
+ * fallback) instead of the unsynchronised last writer, which is biased whenever the order of
+ * writes correlates with position.  No lists, no sorting.
+ *
+ * Also here: the grid over this pass's visible points (bounds expanded by each point's
+ * radius), computed on the device so no host round trip sits between the passes. */
+#include "hash.h"
+#include "geometry.h"
+
+/* floats as order-preserving uints, for atomic min/max */
+inline uint f2o(float f) { uint u = as_uint(f); return (u & 0x80000000u) ? ~u : (u | 0x80000000u); }
+inline float o2f(uint u) { return as_float((u & 0x80000000u) ? (u & 0x7fffffffu) : ~u); }
+
+#define BOUNDS_WG 64
+/* bounds[0..2] min, [3..5] max, [6] r_max, [7] r_min (ordered uints), [8] count */
+__kernel void bounds_init(__global uint *bounds) {
+    for (int k = 0; k < 3; k++) { bounds[k] = 0xffffffffu; bounds[3 + k] = 0u; }
+    bounds[6] = 0u;
+    bounds[7] = 0xffffffffu;
+    bounds[8] = 0u;
+}
+
+__kernel __attribute__((reqd_work_group_size(BOUNDS_WG, 1, 1)))
+void vp_bounds(__global const float4 *vp_pos, __global const float *radius, uint n,
+               __global uint *bounds) {
+    __local uint lmin[3][BOUNDS_WG], lmax[3][BOUNDS_WG], lr[BOUNDS_WG], lrmin[BOUNDS_WG], lc[BOUNDS_WG];
+    uint id = get_global_id(0), l = get_local_id(0);
+    float4 p = id < n ? vp_pos[id] : (float4)(0.0f);
+    bool ok = id < n && p.w > 0.0f;
+    float r = ok ? radius[id] : 0.0f;
+    lmin[0][l] = ok ? f2o(p.x - r) : 0xffffffffu; lmax[0][l] = ok ? f2o(p.x + r) : 0u;
+    lmin[1][l] = ok ? f2o(p.y - r) : 0xffffffffu; lmax[1][l] = ok ? f2o(p.y + r) : 0u;
+    lmin[2][l] = ok ? f2o(p.z - r) : 0xffffffffu; lmax[2][l] = ok ? f2o(p.z + r) : 0u;
+    lr[l] = ok ? f2o(r) : 0u;
+    lrmin[l] = ok ? f2o(r) : 0xffffffffu;
+    lc[l] = ok ? 1u : 0u;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint s = BOUNDS_WG / 2; s > 0; s >>= 1) {
+        if (l < s) {
+            for (int k = 0; k < 3; k++) {
+                lmin[k][l] = min(lmin[k][l], lmin[k][l + s]);
+                lmax[k][l] = max(lmax[k][l], lmax[k][l + s]);
+            }
+            lr[l] = max(lr[l], lr[l + s]);
+            lrmin[l] = min(lrmin[l], lrmin[l + s]);
+            lc[l] += lc[l + s];
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (l == 0 && lc[0] > 0u) {
+        for (int k = 0; k < 3; k++) { atomic_min(&bounds[k], lmin[k][0]); atomic_max(&bounds[3 + k], lmax[k][0]); }
+        atomic_max(&bounds[6], lr[0]);
+        atomic_min(&bounds[7], lrmin[0]);
+        atomic_add(&bounds[8], lc[0]);
+    }
+}
+
+/* cell size = cell_scale * r_max: 2 (default) makes every query sphere overlap at most 2 cells
+ * per axis (8 cells); the paper's 1 needs 27. */
+__kernel void grid_setup(__global const uint *bounds, float cell_scale, __global Grid *grid) {
+    Grid g;
+    g.valid = bounds[8];
+    for (int k = 0; k < 3; k++) { g.bmin[k] = o2f(bounds[k]); g.bmax[k] = o2f(bounds[3 + k]); }
+    g.r_max = g.valid ? o2f(bounds[6]) : 0.0f;
+    g.r_min = g.valid ? o2f(bounds[7]) : 0.0f;
+    float cs = fmax(cell_scale * g.r_max, FLT_MIN);
+    g.cell_size = cs;
+    g.inv_cell_size = 1.0f / cs;
+    g.pad = 0u;
+    if (!g.valid) for (int k = 0; k < 3; k++) { g.bmin[k] = 0.0f; g.bmax[k] = 0.0f; }
+    *grid = g;
+}
+
+__kernel void clear_table(__global uint *counts, __global ulong *keys, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    counts[i] = 0u;
+    keys[i] = 0UL;
+}
+
+inline uint photon_key(uint seed, uint pass, uint i) { return rng_seed(seed, pass, i, 3u) | 1u; }
+
+__kernel void hash_build(__global const float4 *ph_pos, __global const uint *counters,
+                         uint capacity, __global const Grid *grid, uint table_mask, uint pass,
+                         uint seed, __global uint *counts, __global ulong *keys) {
+    uint i = get_global_id(0);
+    if (i >= min(counters[1], capacity)) return;
+    Grid g = *grid;
+    uint h = cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask);
+    atomic_inc(&counts[h]);
+    uint key = photon_key(seed, pass, i);
+#ifdef PPM_INT64_ATOMICS
+    atom_max(&keys[h], ((ulong)key << 32) | (ulong)i);
+#else
+    atomic_max(&((__global uint *)keys)[2 * h], key);
+#endif
+}
+
+#ifndef PPM_INT64_ATOMICS
+/* second pass of the 32-bit fallback: the photon whose key won writes its index */
+__kernel void hash_pick(__global const float4 *ph_pos, __global const uint *counters,
+                        uint capacity, __global const Grid *grid, uint table_mask, uint pass,
+                        uint seed, __global ulong *keys) {
+    uint i = get_global_id(0);
+    if (i >= min(counters[1], capacity)) return;
+    Grid g = *grid;
+    uint h = cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask);
+    __global uint *k32 = (__global uint *)keys;
+    if (k32[2 * h] == photon_key(seed, pass, i)) k32[2 * h + 1] = i;
+}
+#endif

@@ -1,0 +1,222 @@
+#ifndef PPM_LIGHTS_H
+#define PPM_LIGHTS_H
+#include "bvh.h"
+#include "bsdf.h"
+
+/* Everything a kernel needs to see the scene: BVH, shading normals, materials, emitters. */
+#define SCENE_ARGS BVH_ARGS, __global const float *normals, __global const Material *materials, \
+    __global const Light *lights, __global const float *emitter_cdf, __global const int *emissive, \
+    __global const EmitterInfo *emitter_info
+#define SCENE_PASS BVH_PASS, normals, materials, lights, emitter_cdf, emissive, emitter_info
+
+/* Emitter chosen in proportion to its power (cdf built by ppm_engine/emitters.py). */
+inline int pick_emitter(__global const float *cdf, int n, float u, float *pmf) {
+    int lo = 0, hi = n - 1;
+    while (lo < hi) {
+        int mid = (lo + hi) >> 1;
+        if (u < cdf[mid]) hi = mid; else lo = mid + 1;
+    }
+    *pmf = cdf[lo] - (lo > 0 ? cdf[lo - 1] : 0.0f);
+    return lo;
+}
+
+/* Cycles' spot cone: smoothstep over cos(theta), theta measured in the light's scaled frame. */
+inline float spot_attenuation(const Light *L, float3 dir_from_light) {
+    float3 ax = F3(L->axis_x), ay = F3(L->axis_y);
+    float sx = dot(ax, ax), sy = dot(ay, ay);
+    float3 loc = (float3)(sx > 0.0f ? dot(dir_from_light, ax) / sx : 0.0f,
+                          sy > 0.0f ? dot(dir_from_light, ay) / sy : 0.0f,
+                          dot(dir_from_light, F3(L->direction)) * L->spot_scale_z);
+    float len = length(loc);
+    float c = len > 0.0f ? loc.z / len : -1.0f;
+    if (c <= L->spot_cos_half) return 0.0f;
+    if (L->spot_smooth <= 0.0f) return 1.0f;
+    float t = clamp((c - L->spot_cos_half) / L->spot_smooth, 0.0f, 1.0f);
+    return t * t * (3.0f - 2.0f * t);
+}
+
+/* a spot whose frame is uniformly scaled has a round cone we can sample directly */
+inline float spot_sample_cos(const Light *L) {
+    float sx = length(F3(L->axis_x)) * L->spot_scale_z, sy = length(F3(L->axis_y)) * L->spot_scale_z;
+    return (fabs(sx - 1.0f) < 1e-4f && fabs(sy - 1.0f) < 1e-4f) ? L->spot_cos_half : -1.0f;
+}
+
+inline float area_light_area(const Light *L) {
+    float a = length(cross(F3(L->axis_x), F3(L->axis_y)));
+    return L->type == LIGHT_AREA_ELLIPSE ? a * (PPM_PI / 4.0f) : a;
+}
+
+inline float3 area_light_point(const Light *L, float u1, float u2) {
+    float2 q;
+    if (L->type == LIGHT_AREA_ELLIPSE) q = sample_disk(u1, u2) * 0.5f;
+    else q = (float2)(u1 - 0.5f, u2 - 0.5f);
+    return F3(L->position) + q.x * F3(L->axis_x) + q.y * F3(L->axis_y);
+}
+
+/* Next-event estimation at a diffuse point p (shading normal n and geometric normal ngf both on
+ * the side the light must come from).  Returns E with the pixel contribution = beta * f * E,
+ * f the Lambert BSDF; one emitter sample, shadow ray through the BVH. */
+inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng) {
+    EmitterInfo info = *emitter_info;
+    if (info.n_emitters == 0) return (float3)(0.0f);
+    float pmf;
+    int e = pick_emitter(emitter_cdf, info.n_emitters, rnd(rng), &pmf);
+    if (!(pmf > 0.0f)) return (float3)(0.0f);
+    float u1 = rnd(rng), u2 = rnd(rng);
+    float3 wi, E;
+    float dist = PPM_INF;
+    bool cosine_included = false;
+    if (e < info.n_lights) {
+        Light L = lights[e];
+        if (L.type == LIGHT_SUN) {
+            float3 to_sun = -F3(L.direction);
+            if (L.radius > 0.0f) {
+                float cm = cos(L.radius), s = sin(L.radius);
+                wi = sample_cone(to_sun, cm, u1, u2);
+                /* disc radiance E/(pi sin^2) times the cone's solid angle */
+                E = F3(L.emit) * (2.0f * (1.0f - cm) / (s * s));
+            } else {
+                wi = to_sun;
+                E = F3(L.emit);
+            }
+        } else if (L.type == LIGHT_POINT || L.type == LIGHT_SPOT) {
+            float3 to = F3(L.position) - p;
+            float d2 = dot(to, to), d = sqrt(d2);
+            if (!(d > 0.0f)) return (float3)(0.0f);
+            float3 w0 = to / d;
+            float3 I = F3(L.emit);
+            if (L.type == LIGHT_SPOT) I *= spot_attenuation(&L, -w0);
+            float r = L.radius;
+            if (r > 0.0f && d > r && (L.flags & LIGHT_FLAG_SOFT_FALLOFF)) {
+                /* Cycles' soft falloff: a disk of radius r facing p, radiance I/(pi r^2) */
+                float3 t, b;
+                make_frame(w0, &t, &b);
+                float2 q = sample_disk(u1, u2) * r;
+                float3 tq = to + q.x * t + q.y * b;
+                float dq2 = dot(tq, tq);
+                dist = sqrt(dq2);
+                wi = tq / dist;
+                E = I * (dot(wi, w0) / dq2);
+            } else if (r > 0.0f && d > r) {
+                /* sphere of radius r, radiance I/(pi r^2): sample its cone of directions */
+                float cm = sqrt(fmax(0.0f, 1.0f - r * r / d2));
+                wi = sample_cone(w0, cm, u1, u2);
+                float bb = dot(wi, to);
+                dist = bb - sqrt(fmax(0.0f, bb * bb - (d2 - r * r)));
+                E = I * (2.0f * (1.0f - cm) / (r * r));
+            } else {
+                wi = w0;
+                dist = d;
+                E = I / d2;
+            }
+        } else {
+            float3 q = area_light_point(&L, u1, u2);
+            float3 tq = q - p;
+            float dq2 = dot(tq, tq);
+            dist = sqrt(dq2);
+            if (!(dist > 0.0f)) return (float3)(0.0f);
+            wi = tq / dist;
+            float cos_l = -dot(wi, F3(L.direction));
+            if (cos_l <= 0.0f) return (float3)(0.0f);
+            E = F3(L.emit) * (cos_l * area_light_area(&L) / dq2);
+        }
+    } else if (e < info.n_lights + info.n_emissive) {
+        int k = emissive[e - info.n_lights];
+        float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
+        float2 b = sample_triangle(u1, u2);
+        float3 q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
+        float3 c = cross(e1.xyz, e2.xyz);
+        float area2 = length(c);
+        float3 tq = q - p;
+        float dq2 = dot(tq, tq);
+        dist = sqrt(dq2);
+        if (!(dist > 0.0f) || !(area2 > 0.0f)) return (float3)(0.0f);
+        wi = tq / dist;
+        float cos_l = fabs(dot(wi, c)) / area2;            /* mesh lights emit on both sides */
+        E = F3(materials[as_int(e2.w)].emission) * (cos_l * 0.5f * area2 / dq2);
+    } else {
+        wi = sample_cosine_hemisphere(n, u1, u2);       /* pdf cos/pi: f L cos/pdf = f L pi */
+        E = F3(info.world) * PPM_PI;
+        cosine_included = true;
+    }
+    float cos_s = dot(wi, n);
+    if (cos_s <= 0.0f || dot(wi, ngf) <= 0.0f) return (float3)(0.0f);
+    float3 o = offset_ray(p, ngf);
+    float tmax = isfinite(dist) ? dist * (1.0f - 1e-4f) : PPM_INF;
+    Hit h = bvh_intersect(o, wi, tmax, VIS_SHADOW, true, BVH_PASS);
+    if (h.leaf >= 0) return (float3)(0.0f);
+    return E * ((cosine_included ? 1.0f : cos_s) / pmf);
+}
+
+/* Emit one photon: origin, direction and flux (already divided by all sampling pdfs). */
+inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flux) {
+    EmitterInfo info = *emitter_info;
+    if (info.n_emitters == 0) return false;
+    float pmf;
+    int e = pick_emitter(emitter_cdf, info.n_emitters, rnd(rng), &pmf);
+    if (!(pmf > 0.0f)) return false;
+    float u1 = rnd(rng), u2 = rnd(rng), u3 = rnd(rng), u4 = rnd(rng);
+    float3 c = F3(info.scene_center);
+    float R = info.scene_radius;
+    if (e < info.n_lights) {
+        Light L = lights[e];
+        if (L.type == LIGHT_SUN) {
+            float3 dir = F3(L.direction);
+            *d = L.radius > 0.0f ? sample_cone(dir, cos(L.radius), u3, u4) : dir;
+            float2 q = sample_disk(u1, u2) * R;
+            float3 t, b;
+            make_frame(dir, &t, &b);
+            *o = c - R * dir + q.x * t + q.y * b;
+            *flux = F3(L.emit) * (PPM_PI * R * R / pmf);
+        } else if (L.type == LIGHT_POINT || L.type == LIGHT_SPOT) {
+            float3 I = F3(L.emit);
+            if (L.type == LIGHT_SPOT) {
+                float cm = spot_sample_cos(&L);
+                *d = sample_cone(F3(L.direction), cm, u3, u4);
+                *flux = I * (spot_attenuation(&L, *d) * 2.0f * PPM_PI * (1.0f - cm) / pmf);
+            } else {
+                *d = sample_uniform_sphere(u3, u4);
+                *flux = I * (4.0f * PPM_PI / pmf);
+            }
+            *o = F3(L.position);
+            if (L.radius > 0.0f && L.type == LIGHT_POINT) {
+                /* sphere light: uniform point, cosine-weighted direction; same total power */
+                float3 ns = sample_uniform_sphere(u1, u2);
+                *d = sample_cosine_hemisphere(ns, u3, u4);
+                *o = offset_ray(F3(L.position) + L.radius * ns, ns);
+            }
+        } else {
+            float3 q = area_light_point(&L, u1, u2);
+            float3 nl = F3(L.direction);
+            *d = sample_cosine_hemisphere(nl, u3, u4);
+            *o = offset_ray(q, nl);
+            *flux = F3(L.emit) * (PPM_PI * area_light_area(&L) / pmf);
+        }
+    } else if (e < info.n_lights + info.n_emissive) {
+        int k = emissive[e - info.n_lights];
+        float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
+        float2 b = sample_triangle(u1, u2);
+        float3 q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
+        float3 cr = cross(e1.xyz, e2.xyz);
+        float area2 = length(cr);
+        if (!(area2 > 0.0f)) return false;
+        float3 nt = cr / area2;
+        /* both sides, each with probability 1/2 */
+        float side = u3 < 0.5f ? 1.0f : -1.0f;
+        float uu = u3 < 0.5f ? 2.0f * u3 : 2.0f * u3 - 1.0f;
+        nt *= side;
+        *d = sample_cosine_hemisphere(nt, uu, u4);
+        *o = offset_ray(q, nt);
+        *flux = F3(materials[as_int(e2.w)].emission) * (2.0f * PPM_PI * 0.5f * area2 / pmf);
+    } else {
+        float3 dir = sample_uniform_sphere(u3, u4);
+        float2 q = sample_disk(u1, u2) * R;
+        float3 t, b;
+        make_frame(dir, &t, &b);
+        *d = dir;
+        *o = c - R * dir + q.x * t + q.y * b;
+        *flux = F3(info.world) * (4.0f * PPM_PI * PPM_PI * R * R / pmf);
+    }
+    return max3(*flux) > 0.0f && isfinite(max3(*flux));
+}
+#endif

@@ -1,0 +1,69 @@
+/* Photon pass: photons emitted from the emitters in proportion to power, traced through
+ * specular and diffuse bounces with Russian roulette, stored at diffuse hits after the first
+ * (direct light is counted by next-event estimation in the eye pass).  Photons outside this
+ * pass's grid (visible points' bounds) cannot be gathered and are only counted. */
+#include "lights.h"
+#include "hash.h"
+
+#define CNT_NAN 0
+#define CNT_STORED 1
+#define CNT_OUTSIDE 2
+#define CNT_OVERFLOW 3
+
+__kernel void photon_pass(SCENE_ARGS, uint pass, uint seed, int max_bounces, uint n_photons,
+                          __global const Grid *grid, uint capacity, __global float4 *ph_pos,
+                          __global float4 *ph_flux, __global uint *counters) {
+    uint id = get_global_id(0);
+    if (id >= n_photons) return;
+    Grid g = *grid;
+    if (g.valid == 0u) return;
+    uint rng = rng_seed(seed, pass, id, 2u);
+    float3 o, d, flux;
+    if (!emit_photon(SCENE_PASS, &rng, &o, &d, &flux)) return;
+    uint mask = VIS_SHADOW;    /* the light's own segment: objects that cast no shadow let it by */
+    for (int bounce = 0; bounce <= max_bounces; bounce++) {
+        Hit h = bvh_intersect(o, d, PPM_INF, mask, false, BVH_PASS);
+        if (h.leaf < 0) break;
+        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        __global const Material *m = materials + s.material;
+        bool front = dot(d, s.ng) < 0.0f;
+        float3 ngf = front ? s.ng : -s.ng, nsf = front ? s.ns : -s.ns;
+        if (bounce > 0 && (m->flags & MAT_DIFFUSE)) {
+            if (!(isfinite(flux.x) && isfinite(flux.y) && isfinite(flux.z))) {
+                atomic_inc(&counters[CNT_NAN]);
+                break;
+            }
+            if (in_grid(s.p, &g)) {
+                uint k = atomic_inc(&counters[CNT_STORED]);
+                if (k < capacity) {
+                    ph_pos[k] = (float4)(s.p, as_float(pack_unit(nsf)));
+                    ph_flux[k] = (float4)(flux, as_float(pack_unit(-d)));
+                } else {
+                    atomic_inc(&counters[CNT_OVERFLOW]);
+                }
+            } else {
+                atomic_inc(&counters[CNT_OUTSIDE]);
+            }
+        }
+        if (bounce == max_bounces) break;
+        int lobe = choose_lobe(m, rnd(&rng));
+        if (lobe == LOBE_ABSORBED) break;
+        float3 before = flux;
+        if (lobe == LOBE_DIFFUSE) {
+            d = sample_cosine_hemisphere(nsf, rnd(&rng), rnd(&rng));
+            if (dot(d, ngf) <= 0.0f) break;
+            flux *= F3(m->diffuse);
+            o = offset_ray(s.p, ngf);
+            mask = VIS_DIFFUSE;
+        } else {
+            float3 leave_n;
+            lobe = scatter_specular(lobe, m, s.ng, s.ns, rnd(&rng), false, &d, &flux, &leave_n);
+            o = offset_ray(s.p, leave_n);
+            mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;
+        }
+        /* Russian roulette keeps photon power roughly constant */
+        float q = fmin(1.0f, max3(flux) / max3(before));
+        if (!(q > 0.0f) || rnd(&rng) >= q) break;
+        flux /= q;
+    }
+}

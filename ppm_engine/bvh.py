@@ -1,0 +1,106 @@
+"""LBVH over all triangles, built data-parallel on the device (kernels/bvh_build.cl):
+Morton codes, pyopencl's RadixSort, Karras' hierarchy, bottom-up boxes, packed nodes."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .scene_arrays import SceneArrays
+
+
+class BVH:
+    """Device buffers ``nodes``, ``tri_v0``, ``tri_e1``, ``tri_e2`` (layout: kernels/bvh.h) and
+    ``leaf_order`` (host copy: original triangle index of each leaf)."""
+
+    def __init__(self, device, scene: SceneArrays):
+        import pyopencl as cl
+        t0 = time.perf_counter()
+        self.device = device
+        q = device.queue
+        n = scene.n_triangles
+        self.n_triangles = n
+        prog = device.programs.get("bvh_build.cl")
+        ntri = max(n, 1)
+        f4 = 16
+        self.tri_v0 = device.buffer(ntri * f4, "triangles")
+        self.tri_e1 = device.buffer(ntri * f4, "triangles")
+        self.tri_e2 = device.buffer(ntri * f4, "triangles")
+        n_nodes = max(n - 1, 1)
+        self.nodes = device.buffer(n_nodes * 4 * f4, "BVH nodes")
+        if n < 2:
+            self._tiny(scene)
+            self.build_seconds = time.perf_counter() - t0
+            return
+
+        pos = device.upload(scene.positions, "triangle positions")
+        mat = device.upload(scene.material, "triangle materials")
+        vis = device.upload(scene.visibility, "triangle visibility")
+        p = scene.positions.reshape(-1, 3, 3).mean(axis=1)
+        p = p[np.isfinite(p).all(axis=1)]
+        lo = p.min(axis=0) if p.size else np.zeros(3, np.float32)
+        hi = p.max(axis=0) if p.size else np.ones(3, np.float32)
+        ext = np.maximum(hi - lo, 1e-30)
+        cmin = np.array([*lo, 0], np.float32)
+        cscale = np.array([*(1023.0 / ext), 0], np.float32)
+
+        codes = device.buffer(4 * n, "Morton codes")
+        ids = device.buffer(4 * n, "triangle ids")
+        ev = prog.morton_codes(q, (_round(n),), None, pos, np.uint32(n), cmin, cscale, codes, ids)
+        ev.wait()
+        import pyopencl.array as cla
+        keys_a = cla.Array(q, (n,), np.uint32, data=codes)
+        vals_a = cla.Array(q, (n,), np.uint32, data=ids)
+        sort = device.radix_sort_uint_pairs()
+        (skeys, svals), ev = sort(keys_a, vals_a, key_bits=30)
+        ev.wait()
+        left = device.buffer(4 * (n - 1), "BVH")
+        right = device.buffer(4 * (n - 1), "BVH")
+        parent_int = device.buffer(4 * (n - 1), "BVH")
+        parent_leaf = device.buffer(4 * n, "BVH")
+        prog.build_hierarchy(q, (_round(n - 1),), None, skeys.data, np.int32(n), left, right,
+                             parent_int, parent_leaf)
+        leaf_min = device.buffer(16 * n, "BVH")
+        leaf_max = device.buffer(16 * n, "BVH")
+        node_min = device.buffer(16 * (n - 1), "BVH")
+        node_max = device.buffer(16 * (n - 1), "BVH")
+        arrivals = device.buffer(4 * (n - 1), "BVH")
+        cl.enqueue_fill_buffer(q, arrivals, np.uint32(0), 0, 4 * (n - 1))
+        prog.bottom_up_boxes(q, (_round(n),), None, pos, svals.data, np.int32(n), left, right,
+                             parent_int, parent_leaf, leaf_min, leaf_max, node_min, node_max,
+                             arrivals)
+        prog.pack_nodes(q, (_round(n - 1),), None, np.int32(n), left, right, leaf_min, leaf_max,
+                        node_min, node_max, self.nodes)
+        prog.reorder_triangles(q, (_round(n),), None, pos, svals.data, mat, vis, np.int32(n),
+                               self.tri_v0, self.tri_e1, self.tri_e2)
+        self.leaf_order = svals.get().astype(np.int64)
+        q.finish()
+        self.build_seconds = time.perf_counter() - t0
+
+    def _tiny(self, scene: SceneArrays):
+        """0 or 1 triangles: one root whose missing children have empty (inverted) boxes."""
+        import pyopencl as cl
+        q = self.device.queue
+        node = np.zeros((4, 4), np.float32)
+        empty_min, empty_max = np.full(3, np.inf, np.float32), np.full(3, -np.inf, np.float32)
+        node[0, :3], node[1, :3] = empty_min, empty_max
+        node[2, :3], node[3, :3] = empty_min, empty_max
+        node[0, 3] = node[1, 3] = np.int32(~0).view(np.float32)
+        tri = np.zeros((3, 4), np.float32)
+        if scene.n_triangles == 1:
+            v = scene.positions[0]
+            node[0, :3], node[1, :3] = v.min(axis=0), v.max(axis=0)
+            tri[0, :3], tri[1, :3], tri[2, :3] = v[0], v[1] - v[0], v[2] - v[0]
+            tri[0, 3] = np.uint32(0).view(np.float32)
+            tri[1, 3] = scene.visibility[0].view(np.float32)
+            tri[2, 3] = scene.material[0].view(np.float32)
+        # (0 triangles: visibility 0, nothing is ever hit)
+        cl.enqueue_copy(q, self.nodes, node)
+        for buf, row in ((self.tri_v0, 0), (self.tri_e1, 1), (self.tri_e2, 2)):
+            cl.enqueue_copy(q, buf, np.ascontiguousarray(tri[row]))
+        q.finish()
+        self.leaf_order = np.arange(scene.n_triangles, dtype=np.int64)
+
+
+def _round(n: int, wg: int = 64) -> int:
+    return max(wg, (n + wg - 1) // wg * wg)

@@ -1,0 +1,108 @@
+"""The emitter table the kernels sample, for photon emission and next-event estimation:
+scene lights, then emissive triangles, then the world; chosen in proportion to power, so dim
+lights get few photons and lights that cannot contribute are never sampled."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_POINT, LIGHT_SPOT,
+                           LIGHT_SUN, SceneArrays)
+
+# mirrors kernels/types.h EmitterInfo
+EMITTER_INFO_DTYPE = np.dtype([
+    ("n_lights", np.int32),
+    ("n_emissive", np.int32),
+    ("has_world", np.int32),
+    ("n_emitters", np.int32),
+    ("world", np.float32, 3),
+    ("scene_center", np.float32, 3),
+    ("scene_radius", np.float32),
+])
+
+
+@dataclasses.dataclass
+class Emitters:
+    info: np.ndarray          # (1,) EMITTER_INFO_DTYPE
+    cdf: np.ndarray           # (n_emitters,) float32, last = 1
+    emissive_leaves: np.ndarray  # (n_emissive,) int32 leaf indices of emissive triangles
+    power: np.ndarray         # (n_emitters,) float64 scalar power used for selection
+    total_power: float
+
+
+def scene_bounds(positions: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre and radius of a sphere around every finite triangle corner."""
+    p = positions.reshape(-1, 3)
+    p = p[np.isfinite(p).all(axis=1)]
+    if p.shape[0] == 0:
+        return np.zeros(3, np.float32), 1.0
+    lo, hi = p.min(axis=0).astype(np.float64), p.max(axis=0).astype(np.float64)
+    c = 0.5 * (lo + hi)
+    r = 0.5 * float(np.linalg.norm(hi - lo))
+    return c.astype(np.float32), max(r * 1.01, 1e-6 * max(1.0, float(np.abs(c).max())), 1e-30)
+
+
+def spot_solid_angle(cos_half: np.ndarray, smooth: np.ndarray) -> np.ndarray:
+    """Integral of Cycles' spot attenuation over the sphere (round cone)."""
+    t = np.linspace(0.0, 1.0, 257)[None, :]
+    c = cos_half[:, None] + (1.0 - cos_half[:, None]) * t
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(smooth[:, None] > 0, np.clip((c - cos_half[:, None]) / smooth[:, None], 0, 1), 1.0)
+    att = x * x * (3 - 2 * x)
+    return 2 * np.pi * (1.0 - cos_half) * np.trapz(att, t, axis=1)
+
+
+def light_power(lights: np.ndarray, scene_radius: float) -> np.ndarray:
+    emit = lights["emit"].astype(np.float64).mean(axis=1)
+    t = lights["type"]
+    ax, ay = lights["axis_x"].astype(np.float64), lights["axis_y"].astype(np.float64)
+    area = np.linalg.norm(np.cross(ax, ay), axis=1) * np.where(t == LIGHT_AREA_ELLIPSE, np.pi / 4, 1.0)
+    p = np.zeros(lights.shape[0])
+    p = np.where(t == LIGHT_POINT, 4 * np.pi * emit, p)
+    spot = t == LIGHT_SPOT
+    if spot.any():
+        p[spot] = emit[spot] * spot_solid_angle(lights["spot_cos_half"][spot].astype(np.float64),
+                                                lights["spot_smooth"][spot].astype(np.float64))
+    p = np.where(t == LIGHT_SUN, emit * np.pi * scene_radius ** 2, p)
+    p = np.where((t == LIGHT_AREA_RECT) | (t == LIGHT_AREA_ELLIPSE), np.pi * emit * area, p)
+    return np.where(np.isfinite(p) & (p > 0), p, 0.0)
+
+
+def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.ndarray) -> Emitters:
+    """``leaf_order[k]`` = original index of the triangle in BVH leaf k."""
+    center, radius = scene_bounds(scene.positions)
+    lp = light_power(scene.lights, radius)
+
+    # emissive triangles, in leaf order
+    mat_of_leaf = scene.material[leaf_order]
+    emission = kmaterials["emission"].astype(np.float64).mean(axis=1)
+    leaf_em = emission[mat_of_leaf]
+    cand = np.nonzero(leaf_em > 0)[0]
+    p = scene.positions[leaf_order[cand]].astype(np.float64)
+    tri_area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    tp = 2 * np.pi * leaf_em[cand] * tri_area          # both sides
+    keep = np.isfinite(tp) & (tp > 0)
+    emissive_leaves, tp = cand[keep].astype(np.int32), tp[keep]
+
+    world = np.maximum(np.nan_to_num(scene.world.astype(np.float64), nan=0.0, posinf=0.0), 0.0)
+    wp = 4 * np.pi ** 2 * radius ** 2 * world.mean()
+    has_world = bool(wp > 0 and np.isfinite(wp))
+
+    power = np.concatenate([lp, tp, [wp] if has_world else []])
+    total = float(power.sum())
+    n = power.shape[0]
+    if total > 0:
+        cdf = np.cumsum(power) / total
+        cdf[-1] = 1.0
+    else:
+        cdf = np.zeros(n)
+    info = np.zeros(1, EMITTER_INFO_DTYPE)
+    info["n_lights"] = scene.lights.shape[0]
+    info["n_emissive"] = emissive_leaves.shape[0]
+    info["has_world"] = int(has_world)
+    info["n_emitters"] = n if total > 0 else 0
+    info["world"] = world
+    info["scene_center"] = center
+    info["scene_radius"] = radius
+    return Emitters(info, cdf.astype(np.float32), emissive_leaves, power, total)

@@ -1,0 +1,47 @@
+"""Per-pixel SPPM accumulators on the device and their resolve to a linear RGBA image."""
+from __future__ import annotations
+
+import numpy as np
+
+
+class Film:
+    """direct (rgb sum, sample count), tau (rgb), N, R per pixel; photons emitted (host, exact)."""
+
+    def __init__(self, device, width: int, height: int):
+        import pyopencl as cl
+        self.device = device
+        self.width, self.height = width, height
+        n = self.n_pixels = width * height
+        self.direct = device.buffer(16 * n, "film (direct light)")
+        self.tau = device.buffer(16 * n, "film (tau)")
+        self.nstat = device.buffer(4 * n, "film (N)")
+        self.radius = device.buffer(4 * n, "film (radius)")
+        self.image_buf = device.buffer(16 * n, "film (image)")
+        for b, size in ((self.direct, 16), (self.tau, 16), (self.nstat, 4), (self.radius, 4)):
+            cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
+        self.photons_emitted = 0      # Python int: exact at any count
+        self.prog = device.programs.get("progressive.cl")
+
+    def resolve(self, wait_for=None):
+        """Enqueue the resolve; returns (event, host array (h, w, 4) float32, row 0 = bottom)."""
+        import pyopencl as cl
+        q = self.device.queue
+        inv = 1.0 / (np.pi * self.photons_emitted) if self.photons_emitted else 0.0
+        n = self.n_pixels
+        ev = self.prog.film_resolve(q, (_round(n),), None, self.direct, self.tau, self.radius,
+                                    np.float32(inv), self.image_buf, np.uint32(n),
+                                    wait_for=wait_for)
+        out = np.empty((self.height, self.width, 4), np.float32)
+        ev2 = cl.enqueue_copy(q, out, self.image_buf, wait_for=[ev], is_blocking=False)
+        return ev2, out
+
+    def read(self, name: str, dtype=np.float32, channels: int = 1) -> np.ndarray:
+        import pyopencl as cl
+        out = np.empty((self.height, self.width, channels) if channels > 1
+                       else (self.height, self.width), dtype)
+        cl.enqueue_copy(self.device.queue, out, getattr(self, name))
+        return out
+
+
+def _round(n: int, wg: int = 64) -> int:
+    return max(wg, (n + wg - 1) // wg * wg)

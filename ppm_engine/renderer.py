@@ -1,0 +1,236 @@
+"""One render on one device: scene upload, BVH, and SPPM passes in the paper's order.
+
+    iterate():  eye pass -> grid over visible points -> photon pass -> hash build -> gather
+                -> progressive radius update
+
+Every phase is one kernel (or a few) and one timing label; launches are chained on one
+in-order queue without host waits, and the small per-pass statistics are read once at the end.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from .bvh import BVH
+from .device import get_device
+from .emitters import build_emitters
+from .errors import SceneError
+from .film import Film
+from .materials import kernel_materials
+from .options import RenderOptions
+from .scene_arrays import LIGHT_DTYPE, SceneArrays
+
+# mirrors kernels/types.h Grid
+GRID_DTYPE = np.dtype([
+    ("bmin", np.float32, 3), ("bmax", np.float32, 3), ("cell_size", np.float32),
+    ("inv_cell_size", np.float32), ("r_max", np.float32), ("r_min", np.float32),
+    ("valid", np.uint32), ("pad", np.uint32),
+])
+
+CNT_NAN, CNT_STORED, CNT_OUTSIDE, CNT_OVERFLOW = range(4)
+
+
+@dataclasses.dataclass
+class PassStats:
+    pass_index: int            # passes done, 1-based
+    photons_emitted: int       # total so far
+    photons_stored: int        # this pass
+    photons_outside: int       # this pass: landed outside the visible points' grid
+    photons_dropped: int       # this pass: did not fit the photon buffer (it grows next pass)
+    visible_points: int
+    radius_min: float
+    radius_max: float
+    nan_dropped: int           # total NaN/Inf contributions dropped by the kernel guards
+    seconds: float             # wall time of this pass
+    phase_ms: dict             # device time per phase
+
+    def line(self, passes: int | None = None, elapsed: float | None = None) -> str:
+        of = f"/{passes}" if passes else ""
+        s = f"Pass {self.pass_index}{of} · {_si(self.photons_emitted)} photons"
+        if elapsed is not None:
+            s += f" · {elapsed:.1f} s"
+        return s
+
+
+def _si(n: float) -> str:
+    for unit, div in (("G", 1e9), ("M", 1e6), ("K", 1e3)):
+        if n >= div:
+            return f"{n / div:.1f}{unit}"
+    return str(int(n))
+
+
+def _round(n: int, wg: int = 64) -> int:
+    return max(wg, (n + wg - 1) // wg * wg)
+
+
+def _next_pow2(n: int) -> int:
+    return 1 << max(4, int(n - 1).bit_length())
+
+
+class Renderer:
+    # initial radius when options.initial_radius == 0: this many pixel footprints at the point
+    AUTO_RADIUS_PIXELS = 2.0
+    # cell size / r_max: 2 -> 8-cell query
+    CELL_SCALE = 2.0
+    # photon buffer capacity per emitted photon (grows when a pass overflows)
+    STORE_FACTOR = 2
+
+    def __init__(self, scene: SceneArrays, options: RenderOptions):
+        import pyopencl as cl
+        self.options = options.validate()
+        self.scene = scene
+        self.device = dev = get_device(options.device)
+        self.queue = dev.queue
+        w, h = scene.resolution
+        self.width, self.height = w, h
+        self.n_pixels = w * h
+        t0 = time.perf_counter()
+
+        self.kmaterials = kernel_materials(scene.materials)
+        self.bvh = BVH(dev, scene)
+        self.emitters = build_emitters(scene, self.kmaterials, self.bvh.leaf_order)
+        up = dev.upload
+        self.normals = up(scene.normals, "shading normals")
+        self.materials = up(self.kmaterials, "materials")
+        lights = scene.lights if scene.lights.shape[0] else np.zeros(1, LIGHT_DTYPE)
+        self.lights = up(lights, "lights")
+        self.cdf = up(self.emitters.cdf if self.emitters.cdf.size else np.zeros(1, np.float32), "emitters")
+        em = self.emitters.emissive_leaves
+        self.emissive = up(em if em.size else np.zeros(1, np.int32), "emissive triangles")
+        self.emitter_info = up(self.emitters.info, "emitters")
+        self.camera = up(scene.camera, "camera")
+
+        defines = {"PPM_INT64_ATOMICS": True} if dev.int64_atomics else {}
+        P = dev.programs
+        self.k_eye = P.get("eye_pass.cl").eye_pass
+        self.k_photon = P.get("photon_pass.cl").photon_pass
+        hp = P.get("hash_build.cl", defines)
+        self.k_bounds_init, self.k_bounds = hp.bounds_init, hp.vp_bounds
+        self.k_grid, self.k_clear, self.k_hash = hp.grid_setup, hp.clear_table, hp.hash_build
+        self.k_pick = None if dev.int64_atomics else hp.hash_pick
+        self.k_gather = P.get("gather.cl", defines).gather
+        self.k_update = P.get("progressive.cl").progressive_update
+
+        n = self.n_pixels
+        self.film = Film(dev, w, h)
+        self.vp_pos = dev.buffer(16 * n, "visible points")
+        self.vp_nrm = dev.buffer(16 * n, "visible points")
+        self.vp_beta = dev.buffer(16 * n, "visible points")
+        self.gathered = dev.buffer(16 * n, "gather results")
+        self.bounds = dev.buffer(4 * 16, "grid bounds")
+        self.grid = dev.buffer(GRID_DTYPE.itemsize, "grid")
+        self.counters = dev.buffer(4 * 4, "counters")
+        cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 16)
+        self._alloc_photons(self.STORE_FACTOR * options.photons_per_pass)
+
+        # skip what the scene cannot use
+        self.photons_needed = (self.emitters.info["n_emitters"][0] > 0 and options.max_bounces > 0)
+        self.passes_done = 0
+        self.nan_dropped = 0
+        self.setup_seconds = time.perf_counter() - t0
+        self.queue.finish()
+
+    # ------------------------------------------------------------------------------------------
+    def _alloc_photons(self, capacity: int):
+        dev = self.device
+        self.capacity = int(capacity)
+        self.ph_pos = dev.buffer(16 * self.capacity, "photon map")
+        self.ph_flux = dev.buffer(16 * self.capacity, "photon map")
+        self.table_size = _next_pow2(self.capacity)
+        self.table_counts = dev.buffer(4 * self.table_size, "hash table")
+        self.table_keys = dev.buffer(8 * self.table_size, "hash table")
+
+    def _scene_args(self):
+        b = self.bvh
+        return (b.nodes, b.tri_v0, b.tri_e1, b.tri_e2, self.normals, self.materials, self.lights,
+                self.cdf, self.emissive, self.emitter_info)
+
+    # ------------------------------------------------------------------------------------------
+    def iterate(self) -> PassStats:
+        """Run one SPPM pass."""
+        import pyopencl as cl
+        t0 = time.perf_counter()
+        o, q, n = self.options, self.queue, self.n_pixels
+        pass_id = np.uint32(self.passes_done)
+        seed = np.uint32(o.seed)
+        events = []
+
+        def run(label, kernel, size, *args, local=None):
+            ev = kernel(q, (size,), local, *args)
+            events.append((label, ev))
+            return ev
+
+        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4, 12)   # keep the NaN count
+        run("eye", self.k_eye, _round(n), self.camera, *self._scene_args(), pass_id, seed,
+            np.int32(o.max_bounces), np.float32(o.initial_radius),
+            np.float32(self.AUTO_RADIUS_PIXELS), self.film.direct, self.film.radius,
+            self.vp_pos, self.vp_nrm, self.vp_beta, self.counters)
+        run("grid", self.k_bounds_init, 1, self.bounds)
+        run("grid", self.k_bounds, _round(n), self.vp_pos, self.film.radius, np.uint32(n),
+            self.bounds, local=(64,))
+        run("grid", self.k_grid, 1, self.bounds, np.float32(self.CELL_SCALE), self.grid)
+        emitted = 0
+        if self.photons_needed:
+            P = o.photons_per_pass
+            run("photon", self.k_photon, _round(P), *self._scene_args(), pass_id, seed,
+                np.int32(o.max_bounces), np.uint32(P), self.grid, np.uint32(self.capacity),
+                self.ph_pos, self.ph_flux, self.counters)
+            emitted = P
+            mask = np.uint32(self.table_size - 1)
+            run("hash", self.k_clear, _round(self.table_size), self.table_counts, self.table_keys,
+                np.uint32(self.table_size))
+            run("hash", self.k_hash, _round(self.capacity), self.ph_pos, self.counters,
+                np.uint32(self.capacity), self.grid, mask, pass_id, seed, self.table_counts,
+                self.table_keys)
+            if self.k_pick is not None:
+                run("hash", self.k_pick, _round(self.capacity), self.ph_pos, self.counters,
+                    np.uint32(self.capacity), self.grid, mask, pass_id, seed, self.table_keys)
+            run("gather", self.k_gather, _round(n), self.vp_pos, self.vp_nrm, self.film.radius,
+                self.grid, self.table_counts, self.table_keys, mask, self.ph_pos, self.ph_flux,
+                self.gathered, np.uint32(n))
+            run("update", self.k_update, _round(n), self.vp_pos, self.vp_beta, self.gathered,
+                self.film.radius, self.film.nstat, self.film.tau, np.float32(o.alpha),
+                np.uint32(n))
+        counters = np.empty(4, np.uint32)
+        grid = np.empty(1, GRID_DTYPE)
+        cl.enqueue_copy(q, counters, self.counters, is_blocking=False)
+        cl.enqueue_copy(q, grid, self.grid, is_blocking=False)
+        q.finish()
+
+        self.film.photons_emitted += emitted
+        self.passes_done += 1
+        self.nan_dropped = int(counters[CNT_NAN])
+        phase_ms: dict[str, float] = {}
+        for label, ev in events:
+            phase_ms[label] = phase_ms.get(label, 0.0) + (ev.profile.end - ev.profile.start) * 1e-6
+        overflow = int(counters[CNT_OVERFLOW])
+        if overflow:
+            self._alloc_photons(2 * self.capacity)
+        return PassStats(
+            pass_index=self.passes_done, photons_emitted=self.film.photons_emitted,
+            photons_stored=min(int(counters[CNT_STORED]), self.capacity),
+            photons_outside=int(counters[CNT_OUTSIDE]), photons_dropped=overflow,
+            visible_points=int(grid["valid"][0]), radius_min=float(grid["r_min"][0]),
+            radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
+            seconds=time.perf_counter() - t0, phase_ms=phase_ms)
+
+    def image(self) -> np.ndarray:
+        """Linear RGBA (h, w, 4) float32 of the render region, row 0 = bottom."""
+        ev, out = self.film.resolve()
+        ev.wait()
+        return out
+
+    def close(self):
+        """Drop device buffers now (the context stays for the next render)."""
+        for name in list(vars(self)):
+            if name in ("device", "queue", "options", "scene"):
+                continue
+            obj = getattr(self, name)
+            if hasattr(obj, "release") and hasattr(obj, "int_ptr"):
+                try:
+                    obj.release()
+                except Exception:
+                    pass
+            setattr(self, name, None) if name not in ("passes_done", "nan_dropped") else None

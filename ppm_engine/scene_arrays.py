@@ -1,0 +1,214 @@
+"""The contract between the Blender export and the bpy-free core.
+
+``SceneArrays`` holds everything a render needs as immutable NumPy arrays in world space and in
+physical units (Cycles' conventions already applied by the exporter).  The core never reads
+Blender; tests, the CLI and the benchmark can build a ``SceneArrays`` by hand or load one from
+``.npz``.
+
+Structured dtypes contain only 4-byte scalars (and fixed arrays of them) so that the C structs in
+``kernels/types.h`` that mirror them have no padding (checked by ``tests/test_types.py``).
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+# --- triangle visibility bits (Blender's Object.visible_* ray flags) -------------------------
+VIS_CAMERA = 1
+VIS_DIFFUSE = 2
+VIS_GLOSSY = 4
+VIS_TRANSMISSION = 8
+VIS_SHADOW = 16
+VIS_ALL = VIS_CAMERA | VIS_DIFFUSE | VIS_GLOSSY | VIS_TRANSMISSION | VIS_SHADOW
+
+# --- light types --------------------------------------------------------------------------------
+LIGHT_POINT = 0
+LIGHT_SPOT = 1
+LIGHT_SUN = 2
+LIGHT_AREA_RECT = 3      # SQUARE and RECTANGLE
+LIGHT_AREA_ELLIPSE = 4   # DISK and ELLIPSE
+
+LIGHT_FLAG_SOFT_FALLOFF = 1   # point/spot with radius > 0: Cycles' "soft falloff" disk model
+
+CAMERA_PERSP = 0
+CAMERA_ORTHO = 1
+
+MATERIAL_DTYPE = np.dtype([
+    ("base_color", np.float32, 3),    # linear RGB albedo
+    ("emission", np.float32, 3),      # emitted radiance (colour x strength), W/(m^2 sr)
+    ("metallic", np.float32),
+    ("roughness", np.float32),
+    ("transmission", np.float32),     # Principled "Transmission Weight"
+    ("ior", np.float32),
+])
+
+# ``emit`` depends on the type: POINT/SPOT radiant intensity in W/sr (Cycles: P/(4 pi)),
+# SUN irradiance in W/m^2 on a surface facing it, AREA radiance in W/(m^2 sr).
+LIGHT_DTYPE = np.dtype([
+    ("type", np.int32),
+    ("flags", np.uint32),
+    ("emit", np.float32, 3),
+    ("position", np.float32, 3),      # world position (sun: unused)
+    ("direction", np.float32, 3),     # unit vector the light points along (object -Z)
+    ("axis_x", np.float32, 3),        # AREA: full edge vector along X (size x scale); SPOT: scaled X column
+    ("axis_y", np.float32, 3),        # AREA: full edge vector along Y; SPOT: scaled Y column
+    ("radius", np.float32),           # POINT/SPOT: sphere radius; SUN: half of the angular diameter (rad)
+    ("spot_cos_half", np.float32),    # SPOT: cos(spot_size / 2)
+    ("spot_smooth", np.float32),      # SPOT: (1 - cos(spot_size / 2)) * spot_blend
+    ("spot_scale_z", np.float32),     # SPOT: 1 / |scaled Z column| (cone measured in the scaled frame)
+])
+
+CAMERA_DTYPE = np.dtype([
+    ("type", np.int32),               # CAMERA_PERSP | CAMERA_ORTHO
+    ("width", np.int32),              # full frame in pixels (resolution percentage applied)
+    ("height", np.int32),
+    ("region", np.int32, 4),          # x0, y0, w, h of the rendered rectangle (border), pixels, y up
+    ("to_world", np.float32, (3, 4)), # camera-to-world rows, scale removed; camera looks down -Z
+    ("extent", np.float32, 2),        # w_ext, h_ext: view-plane size at distance 1 (ortho: in units)
+    ("shift", np.float32, 2),         # shift_x * fit, shift_y * fit
+    ("clip", np.float32, 2),          # clip_start, clip_end (planar depth)
+    ("aperture_radius", np.float32),  # 0 = pinhole
+    ("focus_distance", np.float32),
+    ("aperture_blades", np.int32),
+    ("aperture_rotation", np.float32),
+    ("aperture_ratio", np.float32),
+])
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a)
+    a.setflags(write=False)
+    return a
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneArrays:
+    """World-space triangles, materials, lights, camera and world of one frame."""
+
+    positions: np.ndarray          # (T, 3, 3) float32 triangle corners
+    normals: np.ndarray            # (T, 3, 3) float32 shading normals per corner (unit)
+    uvs: np.ndarray                # (T, 3, 2) float32
+    material: np.ndarray           # (T,) int32 index into ``materials``
+    visibility: np.ndarray         # (T,) uint32 VIS_* bits
+    materials: np.ndarray          # (M,) MATERIAL_DTYPE, M >= 1
+    lights: np.ndarray             # (L,) LIGHT_DTYPE
+    camera: np.ndarray             # (1,) CAMERA_DTYPE
+    world: np.ndarray              # (3,) float32 background radiance (colour x strength)
+    material_names: tuple = ()
+    warnings: tuple = ()
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, np.ndarray):
+                object.__setattr__(self, f.name, _frozen(v))
+            elif isinstance(v, list):
+                object.__setattr__(self, f.name, tuple(v))
+        self.validate()
+
+    # ------------------------------------------------------------------------------------------
+    @property
+    def n_triangles(self) -> int:
+        return int(self.positions.shape[0])
+
+    @property
+    def resolution(self) -> tuple[int, int]:
+        """(w, h) of the rendered region."""
+        r = self.camera["region"][0]
+        return int(r[2]), int(r[3])
+
+    def validate(self) -> None:
+        t = self.positions.shape[0]
+        expect = {
+            "positions": ((t, 3, 3), np.float32),
+            "normals": ((t, 3, 3), np.float32),
+            "uvs": ((t, 3, 2), np.float32),
+            "material": ((t,), np.int32),
+            "visibility": ((t,), np.uint32),
+            "world": ((3,), np.float32),
+        }
+        for name, (shape, dtype) in expect.items():
+            a = getattr(self, name)
+            if a.shape != shape or a.dtype != dtype:
+                raise ValueError(f"SceneArrays.{name}: expected {dtype.__name__}{shape}, "
+                                 f"got {a.dtype}{a.shape}")
+        for name, dt in (("materials", MATERIAL_DTYPE), ("lights", LIGHT_DTYPE),
+                         ("camera", CAMERA_DTYPE)):
+            a = getattr(self, name)
+            if a.dtype != dt or a.ndim != 1:
+                raise ValueError(f"SceneArrays.{name}: expected a 1-D array of its dtype")
+        if self.camera.shape != (1,):
+            raise ValueError("SceneArrays.camera must hold exactly one camera")
+        if self.materials.shape[0] < 1:
+            raise ValueError("SceneArrays.materials must hold at least one material")
+        if t and (self.material.min() < 0 or self.material.max() >= self.materials.shape[0]):
+            raise ValueError("SceneArrays.material indexes outside the material table")
+        w, h = self.resolution
+        if w < 1 or h < 1:
+            raise ValueError(f"render region is empty ({w}x{h})")
+
+    # ------------------------------------------------------------------------------------------
+    def save(self, path: str | Path) -> None:
+        arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                  if isinstance(getattr(self, f.name), np.ndarray)}
+        np.savez_compressed(path, **arrays,
+                            material_names=np.array(self.material_names, dtype=str),
+                            warnings=np.array(self.warnings, dtype=str))
+
+    @classmethod
+    def load(cls, path: str | Path) -> "SceneArrays":
+        with np.load(path, allow_pickle=False) as z:
+            kw = {k: z[k] for k in z.files}
+        kw["material_names"] = tuple(str(s) for s in kw.get("material_names", ()))
+        kw["warnings"] = tuple(str(s) for s in kw.get("warnings", ()))
+        return cls(**kw)
+
+    def replace(self, **changes) -> "SceneArrays":
+        return dataclasses.replace(self, **changes)
+
+
+def make_camera(*, type=CAMERA_PERSP, width, height, to_world, extent, shift=(0.0, 0.0),
+                clip=(0.1, 1000.0), region=None, aperture_radius=0.0, focus_distance=10.0,
+                aperture_blades=0, aperture_rotation=0.0, aperture_ratio=1.0) -> np.ndarray:
+    """One CAMERA_DTYPE record (used by the exporter, tests and scripted scenes)."""
+    cam = np.zeros(1, CAMERA_DTYPE)
+    cam["type"] = type
+    cam["width"], cam["height"] = width, height
+    cam["region"] = region if region is not None else (0, 0, width, height)
+    cam["to_world"] = np.asarray(to_world, np.float32)[:3, :4]
+    cam["extent"], cam["shift"], cam["clip"] = extent, shift, clip
+    cam["aperture_radius"], cam["focus_distance"] = aperture_radius, focus_distance
+    cam["aperture_blades"], cam["aperture_rotation"] = aperture_blades, aperture_rotation
+    cam["aperture_ratio"] = aperture_ratio
+    return cam
+
+
+def perspective_extent(width: int, height: int, lens_mm: float, sensor_mm: float,
+                       fit: str = "AUTO", sensor_height_mm: float | None = None,
+                       pixel_aspect=(1.0, 1.0)) -> tuple[float, float, float]:
+    """Cycles' view plane: (w_ext, h_ext, fit) at distance 1 (BLENDER_NOTES section 6).
+
+    ``fit`` is the fitted dimension's extent; the camera shift is ``shift * fit``."""
+    return _fit_extent(width, height, None, lens_mm, sensor_mm, fit, sensor_height_mm, pixel_aspect)
+
+
+def ortho_extent(width: int, height: int, ortho_scale: float, fit: str = "AUTO",
+                 pixel_aspect=(1.0, 1.0)) -> tuple[float, float, float]:
+    """Orthographic view plane: (w_ext, h_ext, fit) in scene units."""
+    return _fit_extent(width, height, ortho_scale, None, None, fit, None, pixel_aspect)
+
+
+def _fit_extent(width, height, ortho_scale, lens_mm, sensor_mm, fit, sensor_height_mm,
+                pixel_aspect):
+    xr, yr = width * pixel_aspect[0], height * pixel_aspect[1]
+    horizontal = (xr > yr) if fit == "AUTO" else (fit == "HORIZONTAL")
+    if ortho_scale is not None:
+        f = ortho_scale
+    else:
+        sensor = sensor_mm if (fit == "AUTO" or fit == "HORIZONTAL") else sensor_height_mm
+        f = sensor / lens_mm
+    if horizontal:
+        return f, f * yr / xr, f
+    return f * xr / yr, f, f
