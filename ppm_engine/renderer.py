@@ -16,20 +16,11 @@ import numpy as np
 from .bvh import BVH
 from .device import get_device
 from .emitters import build_emitters
-from .errors import SceneError
 from .film import Film
 from .materials import kernel_materials
 from .options import RenderOptions
+from .photon_map import CNT_NAN, CNT_OUTSIDE, CNT_OVERFLOW, CNT_STORED, GRID_DTYPE, PhotonMap
 from .scene_arrays import LIGHT_DTYPE, SceneArrays
-
-# mirrors kernels/types.h Grid
-GRID_DTYPE = np.dtype([
-    ("bmin", np.float32, 3), ("bmax", np.float32, 3), ("cell_size", np.float32),
-    ("inv_cell_size", np.float32), ("r_max", np.float32), ("r_min", np.float32),
-    ("valid", np.uint32), ("pad", np.uint32),
-])
-
-CNT_NAN, CNT_STORED, CNT_OUTSIDE, CNT_OVERFLOW = range(4)
 
 
 @dataclasses.dataclass
@@ -65,15 +56,9 @@ def _round(n: int, wg: int = 64) -> int:
     return max(wg, (n + wg - 1) // wg * wg)
 
 
-def _next_pow2(n: int) -> int:
-    return 1 << max(4, int(n - 1).bit_length())
-
-
 class Renderer:
     # initial radius when options.initial_radius == 0: this many pixel footprints at the point
     AUTO_RADIUS_PIXELS = 2.0
-    # cell size / r_max: 2 -> 8-cell query
-    CELL_SCALE = 2.0
     # photon buffer capacity per emitted photon (grows when a pass overflows)
     STORE_FACTOR = 2
 
@@ -102,15 +87,9 @@ class Renderer:
         self.emitter_info = up(self.emitters.info, "emitters")
         self.camera = up(scene.camera, "camera")
 
-        defines = {"PPM_INT64_ATOMICS": True} if dev.int64_atomics else {}
         P = dev.programs
         self.k_eye = P.get("eye_pass.cl").eye_pass
         self.k_photon = P.get("photon_pass.cl").photon_pass
-        hp = P.get("hash_build.cl", defines)
-        self.k_bounds_init, self.k_bounds = hp.bounds_init, hp.vp_bounds
-        self.k_grid, self.k_clear, self.k_hash = hp.grid_setup, hp.clear_table, hp.hash_build
-        self.k_pick = None if dev.int64_atomics else hp.hash_pick
-        self.k_gather = P.get("gather.cl", defines).gather
         self.k_update = P.get("progressive.cl").progressive_update
 
         n = self.n_pixels
@@ -119,11 +98,9 @@ class Renderer:
         self.vp_nrm = dev.buffer(16 * n, "visible points")
         self.vp_beta = dev.buffer(16 * n, "visible points")
         self.gathered = dev.buffer(16 * n, "gather results")
-        self.bounds = dev.buffer(4 * 16, "grid bounds")
-        self.grid = dev.buffer(GRID_DTYPE.itemsize, "grid")
         self.counters = dev.buffer(4 * 4, "counters")
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 16)
-        self._alloc_photons(self.STORE_FACTOR * options.photons_per_pass)
+        self.photon_map = PhotonMap(dev, self.STORE_FACTOR * options.photons_per_pass)
 
         # skip what the scene cannot use
         self.photons_needed = (self.emitters.info["n_emitters"][0] > 0 and options.max_bounces > 0)
@@ -133,15 +110,6 @@ class Renderer:
         self.queue.finish()
 
     # ------------------------------------------------------------------------------------------
-    def _alloc_photons(self, capacity: int):
-        dev = self.device
-        self.capacity = int(capacity)
-        self.ph_pos = dev.buffer(16 * self.capacity, "photon map")
-        self.ph_flux = dev.buffer(16 * self.capacity, "photon map")
-        self.table_size = _next_pow2(self.capacity)
-        self.table_counts = dev.buffer(4 * self.table_size, "hash table")
-        self.table_keys = dev.buffer(8 * self.table_size, "hash table")
-
     def _scene_args(self):
         b = self.bvh
         return (b.nodes, b.tri_v0, b.tri_e1, b.tri_e2, self.normals, self.materials, self.lights,
@@ -167,36 +135,25 @@ class Renderer:
             np.int32(o.max_bounces), np.float32(o.initial_radius),
             np.float32(self.AUTO_RADIUS_PIXELS), self.film.direct, self.film.radius,
             self.vp_pos, self.vp_nrm, self.vp_beta, self.counters)
-        run("grid", self.k_bounds_init, 1, self.bounds)
-        run("grid", self.k_bounds, _round(n), self.vp_pos, self.film.radius, np.uint32(n),
-            self.bounds, local=(64,))
-        run("grid", self.k_grid, 1, self.bounds, np.float32(self.CELL_SCALE), self.grid)
+        pm = self.photon_map
+        events += pm.enqueue_grid(q, self.vp_pos, self.film.radius, n)
         emitted = 0
         if self.photons_needed:
             P = o.photons_per_pass
             run("photon", self.k_photon, _round(P), *self._scene_args(), pass_id, seed,
-                np.int32(o.max_bounces), np.uint32(P), self.grid, np.uint32(self.capacity),
-                self.ph_pos, self.ph_flux, self.counters)
+                np.int32(o.max_bounces), np.uint32(P), pm.grid, np.uint32(pm.capacity),
+                pm.ph_pos, pm.ph_flux, self.counters)
             emitted = P
-            mask = np.uint32(self.table_size - 1)
-            run("hash", self.k_clear, _round(self.table_size), self.table_counts, self.table_keys,
-                np.uint32(self.table_size))
-            run("hash", self.k_hash, _round(self.capacity), self.ph_pos, self.counters,
-                np.uint32(self.capacity), self.grid, mask, pass_id, seed, self.table_counts,
-                self.table_keys)
-            if self.k_pick is not None:
-                run("hash", self.k_pick, _round(self.capacity), self.ph_pos, self.counters,
-                    np.uint32(self.capacity), self.grid, mask, pass_id, seed, self.table_keys)
-            run("gather", self.k_gather, _round(n), self.vp_pos, self.vp_nrm, self.film.radius,
-                self.grid, self.table_counts, self.table_keys, mask, self.ph_pos, self.ph_flux,
-                self.gathered, np.uint32(n))
+            events += pm.enqueue_build(q, self.counters, self.passes_done, o.seed)
+            events += pm.enqueue_gather(q, self.vp_pos, self.vp_nrm, self.film.radius,
+                                        self.gathered, n)
             run("update", self.k_update, _round(n), self.vp_pos, self.vp_beta, self.gathered,
                 self.film.radius, self.film.nstat, self.film.tau, np.float32(o.alpha),
                 np.uint32(n))
         counters = np.empty(4, np.uint32)
         grid = np.empty(1, GRID_DTYPE)
         cl.enqueue_copy(q, counters, self.counters, is_blocking=False)
-        cl.enqueue_copy(q, grid, self.grid, is_blocking=False)
+        cl.enqueue_copy(q, grid, pm.grid, is_blocking=False)
         q.finish()
 
         self.film.photons_emitted += emitted
@@ -206,11 +163,11 @@ class Renderer:
         for label, ev in events:
             phase_ms[label] = phase_ms.get(label, 0.0) + (ev.profile.end - ev.profile.start) * 1e-6
         overflow = int(counters[CNT_OVERFLOW])
-        if overflow:
-            self._alloc_photons(2 * self.capacity)
+        if overflow:     # this pass lost photons (counted); the next one has room
+            pm.allocate(2 * pm.capacity)
         return PassStats(
             pass_index=self.passes_done, photons_emitted=self.film.photons_emitted,
-            photons_stored=min(int(counters[CNT_STORED]), self.capacity),
+            photons_stored=min(int(counters[CNT_STORED]), pm.capacity),
             photons_outside=int(counters[CNT_OUTSIDE]), photons_dropped=overflow,
             visible_points=int(grid["valid"][0]), radius_min=float(grid["r_min"][0]),
             radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
@@ -223,14 +180,10 @@ class Renderer:
         return out
 
     def close(self):
-        """Drop device buffers now (the context stays for the next render)."""
-        for name in list(vars(self)):
-            if name in ("device", "queue", "options", "scene"):
-                continue
-            obj = getattr(self, name)
-            if hasattr(obj, "release") and hasattr(obj, "int_ptr"):
-                try:
-                    obj.release()
-                except Exception:
-                    pass
-            setattr(self, name, None) if name not in ("passes_done", "nan_dropped") else None
+        """Release this render's device buffers now (the device and its programs stay)."""
+        import pyopencl as cl
+        for obj in (self.bvh, self.film, self.photon_map, self):
+            for name, value in list(vars(obj).items()):
+                if isinstance(value, cl.MemoryObjectHolder):
+                    value.release()
+                    setattr(obj, name, None)

@@ -1,0 +1,102 @@
+"""The stochastic spatial hash: the grid over the visible points, the table build and the
+gather (kernels/hash_build.cl, kernels/gather.cl).  The renderer chains these after the photon
+pass; tests drive them with synthetic photons."""
+from __future__ import annotations
+
+import numpy as np
+
+# mirrors kernels/types.h Grid
+GRID_DTYPE = np.dtype([
+    ("bmin", np.float32, 3), ("bmax", np.float32, 3), ("cell_size", np.float32),
+    ("inv_cell_size", np.float32), ("r_max", np.float32), ("r_min", np.float32),
+    ("valid", np.uint32), ("pad", np.uint32),
+])
+
+# counters shared with the photon pass (kernels/photon_pass.cl CNT_*)
+CNT_NAN, CNT_STORED, CNT_OUTSIDE, CNT_OVERFLOW = range(4)
+
+
+def _round(n: int, wg: int = 64) -> int:
+    return max(wg, (n + wg - 1) // wg * wg)
+
+
+def next_pow2(n: int) -> int:
+    return 1 << max(4, int(n - 1).bit_length())
+
+
+class PhotonMap:
+    # cell size / r_max: 2 -> every query sphere overlaps at most 8 cells
+    CELL_SCALE = 2.0
+
+    def __init__(self, device, capacity: int):
+        self.device = device
+        defines = {"PPM_INT64_ATOMICS": True} if device.int64_atomics else {}
+        hp = device.programs.get("hash_build.cl", defines)
+        self.k_bounds_init, self.k_bounds, self.k_grid = hp.bounds_init, hp.vp_bounds, hp.grid_setup
+        self.k_clear, self.k_hash = hp.clear_table, hp.hash_build
+        self.k_pick = None if device.int64_atomics else hp.hash_pick
+        self.k_gather = device.programs.get("gather.cl", defines).gather
+        self.bounds = device.buffer(4 * 16, "grid bounds")
+        self.grid = device.buffer(GRID_DTYPE.itemsize, "grid")
+        self.allocate(capacity)
+
+    def allocate(self, capacity: int):
+        """Photon storage for ``capacity`` photons and a table of the next power of two."""
+        dev = self.device
+        self.capacity = int(capacity)
+        self.ph_pos = dev.buffer(16 * self.capacity, "photon map")
+        self.ph_flux = dev.buffer(16 * self.capacity, "photon map")
+        self.table_size = next_pow2(self.capacity)
+        self.counts = dev.buffer(4 * self.table_size, "hash table")
+        self.keys = dev.buffer(8 * self.table_size, "hash table")
+
+    # -- phases (each returns the list of (label, event) it enqueued) ------------------------------
+    def enqueue_grid(self, q, vp_pos, radius, n: int):
+        """Grid over the valid visible points, bounds expanded by each one's radius."""
+        return [("grid", self.k_bounds_init(q, (1,), None, self.bounds)),
+                ("grid", self.k_bounds(q, (_round(n),), (64,), vp_pos, radius, np.uint32(n),
+                                       self.bounds)),
+                ("grid", self.k_grid(q, (1,), None, self.bounds, np.float32(self.CELL_SCALE),
+                                     self.grid))]
+
+    def enqueue_build(self, q, counters, pass_id: int, seed: int):
+        """Table from the photons the photon pass stored (count in counters[CNT_STORED])."""
+        mask = np.uint32(self.table_size - 1)
+        cap = np.uint32(self.capacity)
+        ev = [("hash", self.k_clear(q, (_round(self.table_size),), None, self.counts, self.keys,
+                                    np.uint32(self.table_size))),
+              ("hash", self.k_hash(q, (_round(self.capacity),), None, self.ph_pos, counters, cap,
+                                   self.grid, mask, np.uint32(pass_id), np.uint32(seed),
+                                   self.counts, self.keys))]
+        if self.k_pick is not None:
+            ev.append(("hash", self.k_pick(q, (_round(self.capacity),), None, self.ph_pos,
+                                           counters, cap, self.grid, mask, np.uint32(pass_id),
+                                           np.uint32(seed), self.keys)))
+        return ev
+
+    def enqueue_gather(self, q, vp_pos, vp_nrm, radius, gathered, n: int):
+        """gathered[i] = (sum of n x flux, sum of n) over accepted entries."""
+        return [("gather", self.k_gather(q, (_round(n),), None, vp_pos, vp_nrm, radius, self.grid,
+                                         self.counts, self.keys, np.uint32(self.table_size - 1),
+                                         self.ph_pos, self.ph_flux, gathered, np.uint32(n)))]
+
+    # -- host views (tests, statistics) ------------------------------------------------------------
+    def read_grid(self) -> np.ndarray:
+        import pyopencl as cl
+        g = np.empty(1, GRID_DTYPE)
+        cl.enqueue_copy(self.device.queue, g, self.grid)
+        return g[0]
+
+    def read_table(self):
+        """(counts, photon index per entry)."""
+        import pyopencl as cl
+        q = self.device.queue
+        counts = np.empty(self.table_size, np.uint32)
+        keys = np.empty(self.table_size, np.uint64)
+        cl.enqueue_copy(q, counts, self.counts)
+        cl.enqueue_copy(q, keys, self.keys)
+        if self.k_pick is None:
+            idx = (keys & np.uint64(0xffffffff)).astype(np.uint32)
+        else:
+            idx = keys.view(np.uint32).reshape(-1, 2)[:, 1].copy()
+        return counts, idx

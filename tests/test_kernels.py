@@ -1,0 +1,267 @@
+"""Every kernel against the NumPy reference (ppm_engine/reference.py), on every OpenCL device."""
+import numpy as np
+import pytest
+
+pytest.importorskip("pyopencl")
+import pyopencl as cl  # noqa: E402
+
+from ppm_engine import reference as ref  # noqa: E402
+from ppm_engine.bvh import BVH  # noqa: E402
+from ppm_engine.device import get_device, list_devices  # noqa: E402
+from ppm_engine.emitters import EMITTER_INFO_DTYPE  # noqa: E402
+from ppm_engine.materials import KMATERIAL_DTYPE  # noqa: E402
+from ppm_engine.photon_map import CNT_STORED, GRID_DTYPE, PhotonMap  # noqa: E402
+from ppm_engine.procedural import MeshBuilder, look_at  # noqa: E402
+from ppm_engine.scene_arrays import CAMERA_DTYPE, LIGHT_DTYPE, make_camera  # noqa: E402
+
+DEVICES = [d.key for d in list_devices()]
+
+
+@pytest.fixture(params=DEVICES, scope="module")
+def device(request):
+    return get_device(request.param)
+
+
+def _upload(dev, a):
+    return cl.Buffer(dev.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
+                     hostbuf=np.ascontiguousarray(a))
+
+
+def _read(dev, buf, shape, dtype):
+    out = np.empty(shape, dtype)
+    cl.enqueue_copy(dev.queue, out, buf)
+    return out
+
+
+def test_struct_layouts_match_dtypes(device):
+    out = cl.Buffer(device.context, cl.mem_flags.WRITE_ONLY, 4 * 8)
+    device.programs.get("debug.cl").struct_sizes(device.queue, (1,), None, out)
+    sizes = _read(device, out, 8, np.uint32)[:5]
+    assert list(sizes) == [LIGHT_DTYPE.itemsize, CAMERA_DTYPE.itemsize, KMATERIAL_DTYPE.itemsize,
+                           EMITTER_INFO_DTYPE.itemsize, GRID_DTYPE.itemsize]
+
+
+# --- ray tracing -------------------------------------------------------------------------------
+def _random_scene(rng, n):
+    mb = MeshBuilder()
+    m = mb.material("m")
+    centers = rng.uniform(-1, 1, (n, 1, 3))
+    tris = centers + rng.normal(0, 0.08, (n, 3, 3))
+    tris[: n // 10] = rng.uniform(-1.5, 1.5, (n // 10, 3, 3))      # some large ones
+    tris[n // 10: n // 10 + 50] = tris[n // 10]                     # duplicates (equal codes)
+    mb.add(tris, m)
+    cam = make_camera(width=4, height=4, to_world=look_at((0, -5, 0), (0, 0, 0)), extent=(1, 1))
+    return mb.build(camera=cam)
+
+
+def _trace(device, bvh, o, d, tmax, any_hit=False, mask=0xFFFFFFFF):
+    n = o.shape[0]
+    ob = _upload(device, np.c_[o, np.zeros(n)].astype(np.float32))
+    db = _upload(device, np.c_[d, tmax].astype(np.float32))
+    hits = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n)
+    device.programs.get("debug.cl").trace_rays(
+        device.queue, (n,), None, bvh.nodes, bvh.tri_v0, bvh.tri_e1, bvh.tri_e2, ob, db,
+        np.uint32(mask), np.int32(any_hit), hits, np.uint32(n))
+    h = _read(device, hits, (n, 4), np.float32)
+    return h[:, 0], h[:, 3].view(np.int32)
+
+
+@pytest.mark.parametrize("n_tris", [1, 2, 3, 2000])
+def test_bvh_closest_hit_equals_brute_force(device, n_tris):
+    rng = np.random.default_rng(n_tris)
+    scene = _random_scene(rng, n_tris) if n_tris > 3 else None
+    if scene is None:
+        mb = MeshBuilder()
+        mb.add(rng.uniform(-1, 1, (n_tris, 3, 3)), mb.material("m"))
+        scene = mb.build(camera=make_camera(width=4, height=4, to_world=np.eye(4)[:3],
+                                            extent=(1, 1)))
+    bvh = BVH(device, scene)
+    n = 3000
+    o = rng.uniform(-2, 2, (n, 3))
+    target = rng.uniform(-1, 1, (n, 3))
+    # half the rays aim at a random point on a random triangle
+    k = rng.integers(0, scene.n_triangles, n // 2)
+    b = rng.dirichlet((1, 1, 1), n // 2)
+    target[: n // 2] = np.einsum("nk,nkj->nj", b, scene.positions[k])
+    d = target - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    tmax = np.where(rng.random(n) < 0.2, rng.uniform(0.5, 2, n), 1e30)
+    t, idx = _trace(device, bvh, o, d, tmax)
+    t_ref, i_ref = ref.closest_hits(o, d, tmax, scene.positions)
+    assert ((t < 0) == (t_ref < 0)).mean() > 0.999          # grazing edge cases only
+    both = (t >= 0) & (t_ref >= 0)
+    # float32 t is ill-conditioned at grazing incidence: error bound ~ eps * t / |cos|
+    p = scene.positions[np.maximum(i_ref, 0)].astype(np.float64)
+    nrm = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    cos = np.abs((nrm * d).sum(1)) / np.maximum(np.linalg.norm(nrm, axis=1), 1e-30)
+    tol = 1e-5 + 2e-5 * (np.abs(o).max(1) + np.abs(t_ref)) / np.maximum(cos, 1e-6)
+    assert (np.abs(t - t_ref)[both] <= tol[both]).all()
+    same_t = np.isclose(t, t_ref, rtol=1e-5, atol=1e-6)
+    assert (idx[both & ~same_t] == i_ref[both & ~same_t]).all()
+    assert (idx[both] == i_ref[both]).mean() > 0.99         # ties between coplanar duplicates
+    assert (t_ref >= 0).sum() > n // 3                      # the test really hits things
+    # any-hit (shadow) queries agree on occlusion
+    t_any, _ = _trace(device, bvh, o, d, tmax, any_hit=True)
+    assert ((t_any >= 0) == (t_ref >= 0)).mean() > 0.999
+
+
+def test_bvh_visibility_mask(device):
+    rng = np.random.default_rng(7)
+    scene = _random_scene(rng, 500)
+    vis = np.where(np.arange(500) % 2 == 0, 1, 2).astype(np.uint32)
+    scene = scene.replace(visibility=vis)
+    bvh = BVH(device, scene)
+    o = rng.uniform(-2, 2, (1000, 3))
+    d = rng.normal(size=(1000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    tmax = np.full(1000, 1e30)
+    t, idx = _trace(device, bvh, o, d, tmax, mask=1)
+    keep = vis == 1
+    t_ref, i_ref = ref.closest_hits(o, d, tmax, scene.positions[keep])
+    assert ((t >= 0) == (t_ref >= 0)).mean() > 0.999
+    assert (vis[idx[t >= 0]] == 1).all()
+
+
+# --- stochastic hash ------------------------------------------------------------------------------
+def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None):
+    """Photons on the plane z=0 sorted by x (order correlated with position, which breaks a
+    last-writer selection), visible points on the same plane."""
+    ph = np.c_[rng.uniform(0, 1, (n_ph, 2)), np.zeros(n_ph)]
+    ph = ph[np.argsort(ph[:, 0])]
+    flux = rng.uniform(0.5, 1.5, (n_ph, 3))
+    up = np.tile([0.0, 0.0, 1.0], (n_ph, 1))
+    wi = np.c_[rng.normal(size=(n_ph, 2)) * 0.3, np.ones(n_ph)]
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    wi[::7, 2] *= -1                       # some arrive from below: rejected
+    vp = np.c_[rng.uniform(0.1, 0.9, (n_vp, 2)), np.zeros(n_vp)]
+    radius = rng.uniform(0.01, 0.03, n_vp).astype(np.float32)
+    pm = PhotonMap(device, n_ph)
+    if table is not None:                  # force hash collisions between cells
+        pm.table_size = table
+    q = device.queue
+    pos4 = np.zeros((n_ph, 4), np.float32)
+    flux4 = np.zeros((n_ph, 4), np.float32)
+    pos4[:, :3], flux4[:, :3] = ph, flux
+    pos4.view(np.uint32)[:, 3] = ref.pack_unit(up)      # bit patterns, never through float64
+    flux4.view(np.uint32)[:, 3] = ref.pack_unit(wi)
+    cl.enqueue_copy(q, pm.ph_pos, pos4)
+    cl.enqueue_copy(q, pm.ph_flux, flux4)
+    counters = _upload(device, np.array([0, n_ph, 0, 0], np.uint32))
+    vp_pos = _upload(device, np.c_[vp, np.ones(n_vp)].astype(np.float32))
+    vp_nrm = _upload(device, np.tile([0, 0, 1, 0], (n_vp, 1)).astype(np.float32))
+    rad = _upload(device, radius)
+    pm.enqueue_grid(q, vp_pos, rad, n_vp)
+    return dict(pm=pm, ph=ph, flux=flux, up=up, wi=wi, vp=vp, radius=radius, counters=counters,
+                vp_pos=vp_pos, vp_nrm=vp_nrm, rad=rad, n_vp=n_vp)
+
+
+def test_grid_bounds_cover_visible_points(device):
+    s = _photon_setup(device, np.random.default_rng(1))
+    g = s["pm"].read_grid()
+    lo = (s["vp"] - s["radius"][:, None]).min(axis=0)
+    hi = (s["vp"] + s["radius"][:, None]).max(axis=0)
+    np.testing.assert_allclose(g["bmin"], lo, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(g["bmax"], hi, rtol=1e-6, atol=1e-7)
+    assert g["r_max"] == pytest.approx(s["radius"].max())
+    assert g["cell_size"] == pytest.approx(PhotonMap.CELL_SCALE * s["radius"].max())
+    assert g["valid"] == s["n_vp"]
+
+
+def test_hash_counts_and_selected_photons(device):
+    s = _photon_setup(device, np.random.default_rng(2))
+    pm, q = s["pm"], device.queue
+    pm.enqueue_build(q, s["counters"], pass_id=0, seed=1)
+    counts, idx = pm.read_table()
+    g = pm.read_grid()
+    expect = ref.hash_counts(s["ph"], g["bmin"], g["inv_cell_size"], pm.table_size)
+    assert counts.sum() == s["ph"].shape[0]                      # every stored photon counted
+    assert (counts == expect).mean() > 0.999                     # float rounding at cell walls
+    occupied = np.nonzero(counts)[0]
+    h_sel = ref.cell_hash(ref.cell_of(s["ph"][idx[occupied]], g["bmin"], g["inv_cell_size"]),
+                          pm.table_size - 1)
+    assert (h_sel == occupied).all()                             # photon really hashed there
+
+
+def test_selection_is_uniform_within_an_entry(device):
+    """Each of the n photons of an entry is kept with probability 1/n (chi-square)."""
+    s = _photon_setup(device, np.random.default_rng(3), n_ph=4000, n_vp=50)
+    pm, q = s["pm"], device.queue
+    trials = 300
+    picks = []
+    for t in range(trials):
+        pm.enqueue_build(q, s["counters"], pass_id=t, seed=5)
+        counts, idx = pm.read_table()
+        picks.append(idx.copy())
+    picks = np.array(picks)
+    counts = counts.astype(np.int64)
+    entries = np.nonzero(counts >= 4)[0][:40]
+    assert entries.size >= 10
+    chi2, dof = 0.0, 0
+    for e in entries:
+        members, freq = np.unique(picks[:, e], return_counts=True)
+        n = counts[e]
+        full = np.zeros(n)
+        full[: members.size] = freq
+        chi2 += ((full - trials / n) ** 2 / (trials / n)).sum()
+        dof += n - 1
+    # chi-square with dof degrees of freedom: mean dof, sd sqrt(2 dof)
+    assert chi2 < dof + 5 * np.sqrt(2 * dof), (chi2, dof)
+
+
+@pytest.mark.parametrize("table", [None, 64])
+def test_stochastic_gather_is_unbiased(device, table):
+    """Mean over passes of the stochastic gather = the brute-force range sum (and it fails if
+    an entry shared by two cells is counted twice, or the selection is not uniform)."""
+    s = _photon_setup(device, np.random.default_rng(4 if table is None else 5), table=table)
+    pm, q = s["pm"], device.queue
+    n_vp = s["n_vp"]
+    gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
+    trials = 200
+    est = np.zeros((trials, n_vp, 4))
+    for t in range(trials):
+        pm.enqueue_build(q, s["counters"], pass_id=t, seed=11)
+        pm.enqueue_gather(q, s["vp_pos"], s["vp_nrm"], s["rad"], gathered, n_vp)
+        est[t] = _read(device, gathered, (n_vp, 4), np.float32)
+    phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
+                                      s["ph"], s["up"], s["wi"], s["flux"])
+    mean, se = est.mean(axis=0), est.std(axis=0, ddof=1) / np.sqrt(trials)
+    for k, exact in ((3, M_ref), (0, phi_ref[:, 0]), (2, phi_ref[:, 2])):
+        # the sum over all visible points, trial by trial: a z-test with its own spread
+        total = est[:, :, k].sum(axis=1)
+        z_total = (total.mean() - exact.sum()) / (total.std(ddof=1) / np.sqrt(trials))
+        assert abs(z_total) < 5, (k, z_total)
+        # each visible point with enough photons in reach
+        many = M_ref >= 20
+        z = (mean[many, k] - exact[many]) / se[many, k]
+        assert np.abs(z).max() < 5.5, (k, np.abs(z).max())
+    if table is None:
+        assert mean[:, 3].sum() == pytest.approx(M_ref.sum(), rel=0.01)
+    assert M_ref.mean() > 5                                       # the test has photons to find
+
+
+# --- progressive update ---------------------------------------------------------------------------
+def test_progressive_update_equals_closed_form(device):
+    rng = np.random.default_rng(9)
+    n = 1000
+    valid = (rng.random(n) < 0.9).astype(np.float32)
+    M = np.where(rng.random(n) < 0.2, 0, rng.integers(1, 500, n)).astype(np.float32)
+    phi = rng.uniform(0, 10, (n, 3)).astype(np.float32)
+    beta = rng.uniform(0, 1, (n, 3)).astype(np.float32)
+    N = rng.uniform(0, 1000, n).astype(np.float32)
+    R = rng.uniform(1e-3, 1, n).astype(np.float32)
+    tau = rng.uniform(0, 100, (n, 3)).astype(np.float32)
+    alpha = 0.7
+    f4 = lambda a, w=0: np.c_[a, np.full(n, w)].astype(np.float32)  # noqa: E731
+    vp_pos = _upload(device, np.c_[np.zeros((n, 3)), valid].astype(np.float32))
+    bufs = dict(beta=_upload(device, f4(beta)), g=_upload(device, np.c_[phi, M].astype(np.float32)),
+                R=_upload(device, R), N=_upload(device, N), tau=_upload(device, f4(tau)))
+    device.programs.get("progressive.cl").progressive_update(
+        device.queue, (n,), None, vp_pos, bufs["beta"], bufs["g"], bufs["R"], bufs["N"],
+        bufs["tau"], np.float32(alpha), np.uint32(n))
+    M_eff = np.where(valid > 0, M, 0)
+    N_ref, R_ref, tau_ref = ref.ppm_update(alpha, M_eff, beta * phi, N, R, tau)
+    np.testing.assert_allclose(_read(device, bufs["N"], n, np.float32), N_ref, rtol=1e-5)
+    np.testing.assert_allclose(_read(device, bufs["R"], n, np.float32), R_ref, rtol=1e-5)
+    np.testing.assert_allclose(_read(device, bufs["tau"], (n, 4), np.float32)[:, :3], tau_ref,
+                               rtol=1e-5)
+    assert (R_ref <= R + 1e-7).all() and (R_ref[M_eff > 0] < R[M_eff > 0]).all()
