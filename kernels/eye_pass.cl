@@ -15,8 +15,13 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
     if (id >= rw * rh) return;
     int i = id % rw, j = id / rw;
     uint rng = rng_seed(seed, pass, (uint)id, 1u);
-    float px = (float)(cam->region[0] + i) + rnd(&rng);
-    float py = (float)(cam->region[1] + j) + rnd(&rng);
+    /* pixel jitter: the R2 sequence (Roberts 2018) over the passes, rotated per pixel
+     * (Cranley-Patterson): stratified over passes, so anti-aliasing converges ~1/N */
+    uint prng = rng_seed(seed, 0u, (uint)id, 4u);
+    uint jx = rng_next(&prng) + pass * 3242174889u;     /* 0.7548776662 * 2^32, wraps = frac */
+    uint jy = rng_next(&prng) + pass * 2447445413u;     /* 0.5698402910 * 2^32 */
+    float px = (float)(cam->region[0] + i) + (float)(jx >> 8) * (1.0f / 16777216.0f);
+    float py = (float)(cam->region[1] + j) + (float)(jy >> 8) * (1.0f / 16777216.0f);
     float3 o, d;
     float tmax;
     camera_ray(cam, px, py, rnd(&rng), rnd(&rng), &o, &d, &tmax);
