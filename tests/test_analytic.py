@@ -8,7 +8,7 @@ import pytest
 from ppm_engine.options import RenderOptions
 from ppm_engine.procedural import MeshBuilder, look_at
 from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import (CAMERA_ORTHO, LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT,
+from ppm_engine.scene_arrays import (CAMERA_ORTHO, LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_SUN,
                                      LIGHT_DTYPE, LIGHT_FLAG_SOFT_FALLOFF, LIGHT_POINT,
                                      LIGHT_SPOT, make_camera, perspective_extent)
 
@@ -205,3 +205,25 @@ def test_area_light_irradiance(shape):
             cos = h / np.sqrt(d2)
             ref[j, i] = albedo / np.pi * (Lr * cos * cos / d2 * dA * inside).sum()
     assert_matches(scene, ref, 30, photons_per_pass=64)
+
+
+@pytest.mark.parametrize("angle", [0.0, np.radians(10.0)])
+def test_sun_irradiance(angle):
+    """Sun strength is the irradiance on a surface facing it, whatever its angle: E cos(theta)."""
+    E, albedo = 3.0, 0.5
+    d = np.array([0.3, 0.0, -1.0])
+    d /= np.linalg.norm(d)
+    scene = plane_scene(light(LIGHT_SUN, emit=(E,) * 3, direction=d, radius=angle / 2), albedo, W=8)
+    ref = np.full((8, 8), albedo / np.pi * E * -d[2])
+    if angle == 0.0:
+        np.testing.assert_allclose(render(scene, 2, photons_per_pass=64)[..., 0], ref, rtol=1e-4)
+    else:
+        assert_matches(scene, ref, 20, photons_per_pass=64, rel_bias=0.002)
+
+
+def test_world_lights_open_plane():
+    """A diffuse plane under a uniform world of radiance Lw: L = albedo * Lw."""
+    Lw, albedo = 0.8, 0.6
+    scene = plane_scene(np.zeros(0, LIGHT_DTYPE), albedo, W=8).replace(
+        world=np.array([Lw, Lw, Lw], np.float32))
+    assert_matches(scene, np.full((8, 8), albedo * Lw), 20, photons_per_pass=256)
