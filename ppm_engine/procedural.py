@@ -125,5 +125,5 @@ def cornell_box(width=64, height=64, light_radiance=15.0, bulb=False) -> SceneAr
         mb.box((0.15, -0.5, 0), (0.65, 0.0, 0.6), white)
     ext = perspective_extent(width, height, 35.0, 36.0)
     cam = make_camera(type=CAMERA_PERSP, width=width, height=height,
-                      to_world=look_at((0, -3.9, 1), (0, 0, 1)), extent=ext[:2], clip=(0.1, 100))
+                      to_world=look_at((0, -2.9, 1), (0, 0, 1)), extent=ext[:2], clip=(0.1, 100))
     return mb.build(camera=cam)

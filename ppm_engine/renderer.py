@@ -163,15 +163,16 @@ class Renderer:
         for label, ev in events:
             phase_ms[label] = phase_ms.get(label, 0.0) + (ev.profile.end - ev.profile.start) * 1e-6
         overflow = int(counters[CNT_OVERFLOW])
-        if overflow:     # this pass lost photons (counted); the next one has room
-            pm.allocate(2 * pm.capacity)
-        return PassStats(
+        stats = PassStats(
             pass_index=self.passes_done, photons_emitted=self.film.photons_emitted,
             photons_stored=min(int(counters[CNT_STORED]), pm.capacity),
             photons_outside=int(counters[CNT_OUTSIDE]), photons_dropped=overflow,
             visible_points=int(grid["valid"][0]), radius_min=float(grid["r_min"][0]),
             radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
             seconds=time.perf_counter() - t0, phase_ms=phase_ms)
+        if overflow:     # this pass lost photons (counted); the next one has room
+            pm.allocate(2 * pm.capacity)
+        return stats
 
     def image(self) -> np.ndarray:
         """Linear RGBA (h, w, 4) float32 of the render region, row 0 = bottom."""

@@ -1,0 +1,80 @@
+"""The renderer as a whole, without Blender: settings, statistics, buffers, edge cases."""
+import numpy as np
+import pytest
+
+from ppm_engine.errors import DeviceError
+from ppm_engine.options import RenderOptions, SettingsError
+from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.renderer import Renderer
+from ppm_engine.scene_arrays import SceneArrays, make_camera
+
+
+@pytest.mark.parametrize("bad", [dict(passes=-1), dict(passes=0), dict(alpha=0.0),
+                                 dict(alpha=1.0), dict(alpha=1.5), dict(photons_per_pass=0),
+                                 dict(time_limit=-1.0), dict(max_bounces=-2),
+                                 dict(initial_radius=float("nan")), dict(passes="ten")])
+def test_invalid_settings_are_refused_with_the_name(bad):
+    with pytest.raises(SettingsError, match=next(iter(bad))):
+        RenderOptions(**bad).validate()
+
+
+def test_unknown_device_lists_the_available_ones():
+    with pytest.raises(DeviceError, match="available"):
+        Renderer(cornell_box(8, 8), RenderOptions(device="no-such-device-xyz"))
+
+
+def test_cornell_box_statistics_and_monotone_radii():
+    r = Renderer(cornell_box(32, 32), RenderOptions(photons_per_pass=1 << 13, seed=3))
+    radii = []
+    for _ in range(8):
+        s = r.iterate()
+        radii.append(r.film.read("radius"))
+        assert s.photons_stored > 0 and s.photons_dropped == 0 and s.nan_dropped == 0
+        assert 0 < s.radius_min <= s.radius_max
+        assert s.visible_points > 0.8 * 32 * 32
+        assert set(s.phase_ms) == {"eye", "grid", "photon", "hash", "gather", "update"}
+    radii = np.array(radii)
+    grown = (np.diff(radii, axis=0) > 0) & (radii[:-1] > 0)   # 0 = no visible point yet
+    assert not grown.any()                                  # radii never grow
+    assert (radii[-1] < radii[0]).mean() > 0.8            # and shrink where photons arrive
+    assert s.photons_emitted == 8 * (1 << 13)
+    img = r.image()
+    assert img.shape == (32, 32, 4) and np.isfinite(img).all() and (img[..., 3] == 1).all()
+    assert img[..., :3].mean() > 0.05
+    assert s.line(64, 1.25) == "Pass 8/64 · 65.5K photons · 1.2 s"
+
+
+def test_photon_buffer_overflow_is_counted_then_grows():
+    class Tight(Renderer):
+        STORE_FACTOR = 0.05
+    r = Tight(cornell_box(16, 16), RenderOptions(photons_per_pass=1 << 12))
+    cap = r.photon_map.capacity
+    s1 = r.iterate()
+    assert s1.photons_dropped > 0 and s1.photons_stored == cap
+    assert r.photon_map.capacity == 2 * cap                # doubled for the next pass
+    for _ in range(10):                                     # until everything fits
+        s = r.iterate()
+        if s.photons_dropped == 0:
+            break
+    assert s.photons_dropped == 0 and s.photons_stored > cap
+    assert r.photon_map.capacity >= s.photons_stored
+    assert np.isfinite(r.image()).all()
+
+
+def test_empty_scene_shows_the_world():
+    scene = MeshBuilder().build(
+        camera=make_camera(width=8, height=8, to_world=look_at((0, 0, 0), (1, 0, 0)),
+                           extent=(1, 1)), world=(0.25, 0.5, 1.0))
+    r = Renderer(scene, RenderOptions(photons_per_pass=1000))
+    r.iterate()
+    np.testing.assert_allclose(r.image()[..., :3], np.broadcast_to([0.25, 0.5, 1.0], (8, 8, 3)),
+                               rtol=1e-6)
+
+
+def test_scene_arrays_round_trip(tmp_path):
+    s = cornell_box(8, 8, bulb=True)
+    s.save(tmp_path / "s.npz")
+    t = SceneArrays.load(tmp_path / "s.npz")
+    for name in ("positions", "normals", "material", "materials", "camera", "world"):
+        assert np.array_equal(getattr(s, name), getattr(t, name))
+    assert t.material_names == s.material_names
