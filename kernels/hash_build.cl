@@ -111,3 +111,27 @@ __kernel void hash_pick(__global const float4 *ph_pos, __global const uint *coun
     if (k32[2 * h] == photon_key(seed, pass, i)) k32[2 * h + 1] = i;
 }
 #endif
+
+/* --- exact photon map (debug / reference mode): photons sorted by entry, every photon of the
+ * entry gathered.  Slots past the stored count get the sentinel key table_size. */
+__kernel void exact_keys(__global const float4 *ph_pos, __global const uint *counters,
+                         uint capacity, __global const Grid *grid, uint table_mask,
+                         __global uint *keys, __global uint *ids) {
+    uint i = get_global_id(0);
+    if (i >= capacity) return;
+    Grid g = *grid;
+    keys[i] = i < min(counters[1], capacity) ? cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask)
+                                              : table_mask + 1u;
+    ids[i] = i;
+}
+
+/* ranges[2h], ranges[2h+1] = first and one-past-last sorted position of entry h (cleared to 0) */
+__kernel void exact_ranges(__global const uint *sorted_keys, uint capacity, uint table_mask,
+                           __global uint *ranges) {
+    uint i = get_global_id(0);
+    if (i >= capacity) return;
+    uint k = sorted_keys[i];
+    if (k > table_mask) return;
+    if (i == 0u || sorted_keys[i - 1] != k) ranges[2 * k] = i;
+    if (i + 1u == capacity || sorted_keys[i + 1] != k) ranges[2 * k + 1] = i + 1u;
+}

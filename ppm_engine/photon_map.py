@@ -28,14 +28,19 @@ class PhotonMap:
     # cell size / r_max: 2 -> every query sphere overlaps at most 8 cells
     CELL_SCALE = 2.0
 
-    def __init__(self, device, capacity: int):
+    def __init__(self, device, capacity: int, exact: bool = False):
+        """``exact``: the reference mode -- photons sorted by entry (pyopencl RadixSort), every
+        photon gathered -- instead of one stochastic photon per entry."""
         self.device = device
+        self.exact = exact
         defines = {"PPM_INT64_ATOMICS": True} if device.int64_atomics else {}
         hp = device.programs.get("hash_build.cl", defines)
         self.k_bounds_init, self.k_bounds, self.k_grid = hp.bounds_init, hp.vp_bounds, hp.grid_setup
         self.k_clear, self.k_hash = hp.clear_table, hp.hash_build
         self.k_pick = None if device.int64_atomics else hp.hash_pick
-        self.k_gather = device.programs.get("gather.cl", defines).gather
+        gp = device.programs.get("gather.cl", defines)
+        self.k_gather, self.k_gather_exact = gp.gather, gp.gather_exact
+        self.k_exact_keys, self.k_exact_ranges = hp.exact_keys, hp.exact_ranges
         self.bounds = device.buffer(4 * 16, "grid bounds")
         self.grid = device.buffer(GRID_DTYPE.itemsize, "grid")
         self.allocate(capacity)
@@ -49,6 +54,10 @@ class PhotonMap:
         self.table_size = next_pow2(self.capacity)
         self.counts = dev.buffer(4 * self.table_size, "hash table")
         self.keys = dev.buffer(8 * self.table_size, "hash table")
+        if self.exact:
+            self.sort_keys = dev.buffer(4 * self.capacity, "photon sort keys")
+            self.sort_ids = dev.buffer(4 * self.capacity, "photon sort keys")
+            self.ranges = dev.buffer(8 * self.table_size, "photon ranges")
 
     # -- phases (each returns the list of (label, event) it enqueued) ------------------------------
     def enqueue_grid(self, q, vp_pos, radius, n: int):
@@ -61,6 +70,8 @@ class PhotonMap:
 
     def enqueue_build(self, q, counters, pass_id: int, seed: int):
         """Table from the photons the photon pass stored (count in counters[CNT_STORED])."""
+        if self.exact:
+            return self._enqueue_build_exact(q, counters)
         mask = np.uint32(self.table_size - 1)
         cap = np.uint32(self.capacity)
         ev = [("hash", self.k_clear(q, (_round(self.table_size),), None, self.counts, self.keys,
@@ -74,8 +85,33 @@ class PhotonMap:
                                            np.uint32(seed), self.keys)))
         return ev
 
+    def _enqueue_build_exact(self, q, counters):
+        import pyopencl as cl
+        import pyopencl.array as cla
+        mask = np.uint32(self.table_size - 1)
+        cap = self.capacity
+        ev = [("hash", self.k_exact_keys(q, (_round(cap),), None, self.ph_pos, counters,
+                                         np.uint32(cap), self.grid, mask, self.sort_keys,
+                                         self.sort_ids))]
+        keys = cla.Array(q, (cap,), np.uint32, data=self.sort_keys)
+        ids = cla.Array(q, (cap,), np.uint32, data=self.sort_ids)
+        (skeys, sids), sort_ev = self.device.radix_sort_uint_pairs()(
+            keys, ids, key_bits=int(self.table_size).bit_length())
+        ev.append(("hash", sort_ev))
+        self._sorted = (skeys, sids)                 # keep alive until the gather ran
+        ev.append(("hash", cl.enqueue_fill_buffer(q, self.ranges, np.uint32(0), 0,
+                                                  8 * self.table_size)))
+        ev.append(("hash", self.k_exact_ranges(q, (_round(cap),), None, skeys.data,
+                                               np.uint32(cap), mask, self.ranges)))
+        return ev
+
     def enqueue_gather(self, q, vp_pos, vp_nrm, radius, gathered, n: int):
         """gathered[i] = (sum of n x flux, sum of n) over accepted entries."""
+        if self.exact:
+            return [("gather", self.k_gather_exact(
+                q, (_round(n),), None, vp_pos, vp_nrm, radius, self.grid, self.ranges,
+                self._sorted[1].data, np.uint32(self.table_size - 1), self.ph_pos, self.ph_flux,
+                gathered, np.uint32(n)))]
         return [("gather", self.k_gather(q, (_round(n),), None, vp_pos, vp_nrm, radius, self.grid,
                                          self.counts, self.keys, np.uint32(self.table_size - 1),
                                          self.ph_pos, self.ph_flux, gathered, np.uint32(n)))]

@@ -100,7 +100,8 @@ class Renderer:
         self.gathered = dev.buffer(16 * n, "gather results")
         self.counters = dev.buffer(4 * 4, "counters")
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 16)
-        self.photon_map = PhotonMap(dev, self.STORE_FACTOR * options.photons_per_pass)
+        self.photon_map = PhotonMap(dev, self.STORE_FACTOR * options.photons_per_pass,
+                                    exact=options.exact_gather)
 
         # skip what the scene cannot use
         self.photons_needed = (self.emitters.info["n_emitters"][0] > 0 and options.max_bounces > 0)

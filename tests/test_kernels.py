@@ -123,7 +123,7 @@ def test_bvh_visibility_mask(device):
 
 
 # --- stochastic hash ------------------------------------------------------------------------------
-def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None):
+def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None, exact=False):
     """Photons on the plane z=0 sorted by x (order correlated with position, which breaks a
     last-writer selection), visible points on the same plane."""
     ph = np.c_[rng.uniform(0, 1, (n_ph, 2)), np.zeros(n_ph)]
@@ -135,7 +135,7 @@ def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None):
     wi[::7, 2] *= -1                       # some arrive from below: rejected
     vp = np.c_[rng.uniform(0.1, 0.9, (n_vp, 2)), np.zeros(n_vp)]
     radius = rng.uniform(0.01, 0.03, n_vp).astype(np.float32)
-    pm = PhotonMap(device, n_ph)
+    pm = PhotonMap(device, n_ph, exact=exact)
     if table is not None:                  # force hash collisions between cells
         pm.table_size = table
     q = device.queue
@@ -237,6 +237,24 @@ def test_stochastic_gather_is_unbiased(device, table):
     if table is None:
         assert mean[:, 3].sum() == pytest.approx(M_ref.sum(), rel=0.01)
     assert M_ref.mean() > 5                                       # the test has photons to find
+
+
+@pytest.mark.parametrize("table", [None, 64])
+def test_exact_gather_equals_brute_force(device, table):
+    """The reference mode (photons sorted by entry with RadixSort) finds exactly the photons a
+    brute-force range search finds."""
+    s = _photon_setup(device, np.random.default_rng(6), n_ph=5000, table=table, exact=True)
+    pm, q, n_vp = s["pm"], device.queue, s["n_vp"]
+    gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
+    pm.enqueue_build(q, s["counters"], pass_id=0, seed=0)
+    pm.enqueue_gather(q, s["vp_pos"], s["vp_nrm"], s["rad"], gathered, n_vp)
+    got = _read(device, gathered, (n_vp, 4), np.float32)
+    phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
+                                      s["ph"], s["up"], s["wi"], s["flux"])
+    assert M_ref.sum() > 100
+    assert (got[:, 3] == M_ref).mean() > 0.99            # float rounding at the radius only
+    np.testing.assert_allclose(got[:, 3].sum(), M_ref.sum(), rtol=1e-3)
+    np.testing.assert_allclose(got[:, :3].sum(0), phi_ref.sum(0), rtol=1e-3)
 
 
 # --- progressive update ---------------------------------------------------------------------------
