@@ -104,3 +104,13 @@ def test_stochastic_hash_and_exact_gather_converge_to_the_same_image():
     z = (a - b) / np.hypot(sa, sb)
     assert (np.abs(z) > 3.5).mean() < 0.04 and np.abs(z).max() < 8
     assert sa.mean() > sb.mean()          # the stochastic map is the noisier one
+
+
+def test_kernel_build_failure_carries_the_compiler_log():
+    from ppm_engine.device import get_device
+    from ppm_engine.errors import KernelBuildError
+    dev = get_device()
+    with pytest.raises(KernelBuildError) as e:
+        dev.programs.get("gather.cl", {"PPM_INT64_ATOMICS": True, "uint": "float"})
+    msg = str(e.value)
+    assert "kernels/gather.cl" in msg and "error:" in msg     # the compiler log itself
