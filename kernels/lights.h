@@ -53,6 +53,42 @@ inline float3 area_light_point(const Light *L, float u1, float u2) {
     return F3(L->position) + q.x * F3(L->axis_x) + q.y * F3(L->axis_y);
 }
 
+/* Radiance of the scene lights seen directly along o + t d, t < tmax (camera rays and their
+ * specular chains; Cycles shows area lights from the front and point lights as spheres).
+ * Lights do not block rays: only the nearest one in front of the surface hit counts. */
+inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *lights,
+                          int n_lights) {
+    float3 L = (float3)(0.0f);
+    float best = tmax;
+    for (int i = 0; i < n_lights; i++) {
+        Light l = lights[i];
+        float3 c = F3(l.position);
+        if (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE) {
+            float3 nl = F3(l.direction);
+            float denom = dot(d, nl);
+            if (denom >= 0.0f) continue;                      /* emits along its -Z only */
+            float t = dot(c - o, nl) / denom;
+            if (!(t > 0.0f && t < best)) continue;
+            float3 q = o + t * d - c;
+            float3 ax = F3(l.axis_x), ay = F3(l.axis_y);
+            float u = dot(q, ax) / dot(ax, ax), v = dot(q, ay) / dot(ay, ay);
+            bool inside = l.type == LIGHT_AREA_RECT ? (fabs(u) <= 0.5f && fabs(v) <= 0.5f)
+                                                    : (u * u + v * v <= 0.25f);
+            if (inside) { best = t; L = F3(l.emit); }
+        } else if (l.type == LIGHT_POINT && l.radius > 0.0f) {
+            float3 oc = o - c;
+            float b = dot(oc, d), cc = dot(oc, oc) - l.radius * l.radius;
+            float disc = b * b - cc;
+            if (disc < 0.0f || cc < 0.0f) continue;           /* missed, or starts inside */
+            float t = -b - sqrt(disc);
+            if (!(t > 0.0f && t < best)) continue;
+            best = t;
+            L = F3(l.emit) / (PPM_PI * l.radius * l.radius);
+        }
+    }
+    return L;
+}
+
 /* Next-event estimation at a diffuse point p (shading normal n and geometric normal ngf both on
  * the side the light must come from).  Returns E with the pixel contribution = beta * f * E,
  * f the Lambert BSDF; one emitter sample, shadow ray through the BVH. */

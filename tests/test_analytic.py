@@ -66,14 +66,14 @@ def test_furnace_radiance_is_le_over_one_minus_rho(rho):
 
 
 # --- point, spot and area lights over a diffuse plane ---------------------------------------------
-def plane_scene(light, albedo=0.5, W=16, half=2.0):
+def plane_scene(light, albedo=0.5, W=16, half=2.0, cam_height=10.0):
     """A large diffuse plane z=0 seen from straight above by an orthographic camera that
     covers [-half, half]^2; photons leave the plane and never come back (no indirect light)."""
     mb = MeshBuilder()
     m = mb.material("plane", (albedo,) * 3)
     mb.quad((0, 0, 0), (50, 0, 0), (0, 50, 0), m)
     cam = make_camera(type=CAMERA_ORTHO, width=W, height=W,
-                      to_world=look_at((0, 0, 10), (0, 0, 0), up=(0, 1, 0)),
+                      to_world=look_at((0, 0, cam_height), (0, 0, 0), up=(0, 1, 0)),
                       extent=(2 * half, 2 * half), clip=(0.1, 100))
     return mb.build(camera=cam, lights=light)
 
@@ -142,7 +142,8 @@ def test_point_light_soft_falloff_matches_cycles_disk_model():
     I = P / (4 * np.pi)
     W, half = 16, 1.0
     scene = plane_scene(light(LIGHT_POINT, emit=(I,) * 3, position=(0, 0, h), radius=r,
-                              flags=LIGHT_FLAG_SOFT_FALLOFF), albedo, W=W, half=half)
+                              flags=LIGHT_FLAG_SOFT_FALLOFF), albedo, W=W, half=half,
+                        cam_height=0.4)           # below the light, which the camera would see
     x, y = pixel_centers(W, half)
     ref = np.zeros((W, W))
     for j in range(W):
@@ -227,3 +228,26 @@ def test_world_lights_open_plane():
     scene = plane_scene(np.zeros(0, LIGHT_DTYPE), albedo, W=8).replace(
         world=np.array([Lw, Lw, Lw], np.float32))
     assert_matches(scene, np.full((8, 8), albedo * Lw), 20, photons_per_pass=256)
+
+
+def test_lights_are_seen_by_the_camera_like_in_cycles():
+    """Looking up at a one-sided area light and a sphere light: their radiance, L = P/(pi A)
+    for the area light (front only) and I/(pi r^2) for the sphere."""
+    P = 40.0
+    area = light(LIGHT_AREA_RECT, emit=(P / np.pi,) * 3, position=(-1, 0, 5), axis_x=(1, 0, 0),
+                 axis_y=(0, 1, 0))                              # 1 x 1, faces down
+    back = light(LIGHT_AREA_RECT, emit=(5.0,) * 3, position=(1, 0, 5), axis_x=(1, 0, 0),
+                 axis_y=(0, 1, 0), direction=(0, 0, 1))         # faces away: invisible
+    I, r = P / (4 * np.pi), 0.5
+    sphere = light(LIGHT_POINT, emit=(I,) * 3, position=(0, 1.5, 5), radius=r)
+    mb = MeshBuilder()
+    cam = make_camera(type=CAMERA_ORTHO, width=8, height=8,
+                      to_world=look_at((0, 0, 0), (0, 0, 1), up=(0, 1, 0)), extent=(4, 4),
+                      clip=(0.01, 100))
+    scene = mb.build(camera=cam, lights=np.concatenate([area, back, sphere]))
+    img = render(scene, 1, photons_per_pass=16)[..., 0]
+    # ortho camera looking up +z with up +y: image x = -world x
+    assert img[3, 5] == pytest.approx(P / np.pi, rel=1e-6)      # world (-1, 0): the area light
+    assert img[3, 2] == 0.0                                      # world (+1, 0): its back
+    assert img[6, 3] == pytest.approx(I / (np.pi * r * r), rel=1e-6)
+    assert img[0, 0] == 0.0
