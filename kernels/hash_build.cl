@@ -82,14 +82,14 @@ __kernel void clear_table(__global uint *counts, __global ulong *keys, uint n) {
 
 inline uint photon_key(uint seed, uint pass, uint i) { return rng_seed(seed, pass, i, 3u) | 1u; }
 
-__kernel void hash_build(__global const float4 *ph_pos, __global const uint *counters,
+__kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
                          uint capacity, __global const Grid *grid, uint table_mask, uint pass,
                          uint seed, __global uint *counts, __global ulong *keys) {
     uint i = get_global_id(0);
     if (i >= min(counters[1], capacity)) return;
     Grid g = *grid;
     uint h = cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask);
-    atomic_inc(&counts[h]);
+    if (atomic_inc(&counts[h]) == 0u) atomic_inc(&counters[4]);   /* occupied entries */
     uint key = photon_key(seed, pass, i);
 #ifdef PPM_INT64_ATOMICS
     atom_max(&keys[h], ((ulong)key << 32) | (ulong)i);

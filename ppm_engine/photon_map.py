@@ -12,8 +12,9 @@ GRID_DTYPE = np.dtype([
     ("valid", np.uint32), ("pad", np.uint32),
 ])
 
-# counters shared with the photon pass (kernels/photon_pass.cl CNT_*)
-CNT_NAN, CNT_STORED, CNT_OUTSIDE, CNT_OVERFLOW = range(4)
+# counters shared by the passes (kernels/photon_pass.cl CNT_*, hash_build.cl [4])
+CNT_NAN, CNT_STORED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_OCCUPIED = range(5)
+N_COUNTERS = 8
 
 
 def _round(n: int, wg: int = 64) -> int:

@@ -19,7 +19,8 @@ from .emitters import build_emitters
 from .film import Film
 from .materials import kernel_materials
 from .options import RenderOptions
-from .photon_map import CNT_NAN, CNT_OUTSIDE, CNT_OVERFLOW, CNT_STORED, GRID_DTYPE, PhotonMap
+from .photon_map import (CNT_NAN, CNT_OCCUPIED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_STORED,
+                         GRID_DTYPE, N_COUNTERS, PhotonMap)
 from .scene_arrays import LIGHT_DTYPE, SceneArrays
 
 
@@ -30,12 +31,18 @@ class PassStats:
     photons_stored: int        # this pass
     photons_outside: int       # this pass: landed outside the visible points' grid
     photons_dropped: int       # this pass: did not fit the photon buffer (it grows next pass)
+    occupied_entries: int      # hash entries holding at least one photon (stochastic map)
     visible_points: int
     radius_min: float
     radius_max: float
     nan_dropped: int           # total NaN/Inf contributions dropped by the kernel guards
     seconds: float             # wall time of this pass
     phase_ms: dict             # device time per phase
+
+    @property
+    def photons_per_entry(self) -> float:
+        """Mean photons per occupied entry: the stochastic map's variance grows with it."""
+        return self.photons_stored / self.occupied_entries if self.occupied_entries else 0.0
 
     def line(self, passes: int | None = None, elapsed: float | None = None) -> str:
         of = f"/{passes}" if passes else ""
@@ -98,8 +105,8 @@ class Renderer:
         self.vp_nrm = dev.buffer(16 * n, "visible points")
         self.vp_beta = dev.buffer(16 * n, "visible points")
         self.gathered = dev.buffer(16 * n, "gather results")
-        self.counters = dev.buffer(4 * 4, "counters")
-        cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 16)
+        self.counters = dev.buffer(4 * N_COUNTERS, "counters")
+        cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
         self.photon_map = PhotonMap(dev, self.STORE_FACTOR * options.photons_per_pass,
                                     exact=options.exact_gather)
 
@@ -131,7 +138,7 @@ class Renderer:
             events.append((label, ev))
             return ev
 
-        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4, 12)   # keep the NaN count
+        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4, 4 * (N_COUNTERS - 1))  # keep NaNs
         run("eye", self.k_eye, _round(n), self.camera, *self._scene_args(), pass_id, seed,
             np.int32(o.max_bounces), np.float32(o.initial_radius),
             np.float32(self.AUTO_RADIUS_PIXELS), self.film.direct, self.film.radius,
@@ -151,7 +158,7 @@ class Renderer:
             run("update", self.k_update, _round(n), self.vp_pos, self.vp_beta, self.gathered,
                 self.film.radius, self.film.nstat, self.film.tau, np.float32(o.alpha),
                 np.uint32(n))
-        counters = np.empty(4, np.uint32)
+        counters = np.empty(N_COUNTERS, np.uint32)
         grid = np.empty(1, GRID_DTYPE)
         cl.enqueue_copy(q, counters, self.counters, is_blocking=False)
         cl.enqueue_copy(q, grid, pm.grid, is_blocking=False)
@@ -168,6 +175,7 @@ class Renderer:
             pass_index=self.passes_done, photons_emitted=self.film.photons_emitted,
             photons_stored=min(int(counters[CNT_STORED]), pm.capacity),
             photons_outside=int(counters[CNT_OUTSIDE]), photons_dropped=overflow,
+            occupied_entries=int(counters[CNT_OCCUPIED]),
             visible_points=int(grid["valid"][0]), radius_min=float(grid["r_min"][0]),
             radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
             seconds=time.perf_counter() - t0, phase_ms=phase_ms)

@@ -146,7 +146,7 @@ def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None, exact=False):
     flux4.view(np.uint32)[:, 3] = ref.pack_unit(wi)
     cl.enqueue_copy(q, pm.ph_pos, pos4)
     cl.enqueue_copy(q, pm.ph_flux, flux4)
-    counters = _upload(device, np.array([0, n_ph, 0, 0], np.uint32))
+    counters = _upload(device, np.array([0, n_ph, 0, 0, 0, 0, 0, 0], np.uint32))
     vp_pos = _upload(device, np.c_[vp, np.ones(n_vp)].astype(np.float32))
     vp_nrm = _upload(device, np.tile([0, 0, 1, 0], (n_vp, 1)).astype(np.float32))
     rad = _upload(device, radius)
@@ -180,6 +180,7 @@ def test_hash_counts_and_selected_photons(device):
     h_sel = ref.cell_hash(ref.cell_of(s["ph"][idx[occupied]], g["bmin"], g["inv_cell_size"]),
                           pm.table_size - 1)
     assert (h_sel == occupied).all()                             # photon really hashed there
+    assert _read(device, s["counters"], 8, np.uint32)[4] == occupied.size
 
 
 def test_selection_is_uniform_within_an_entry(device):

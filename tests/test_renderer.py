@@ -30,6 +30,7 @@ def test_cornell_box_statistics_and_monotone_radii():
         s = r.iterate()
         radii.append(r.film.read("radius"))
         assert s.photons_stored > 0 and s.photons_dropped == 0 and s.nan_dropped == 0
+        assert 0 < s.occupied_entries <= s.photons_stored and s.photons_per_entry >= 1
         assert 0 < s.radius_min <= s.radius_max
         assert s.visible_points > 0.8 * 32 * 32
         assert set(s.phase_ms) == {"eye", "grid", "photon", "hash", "gather", "update"}
