@@ -10,7 +10,7 @@
 
 __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nrm,
                      __global const float *radius, __global const Grid *grid,
-                     __global const uint *counts, __global const ulong *keys, uint table_mask,
+                     __global const ulong *table, uint table_mask,
                      __global const float4 *ph_pos, __global const float4 *ph_flux,
                      __global float4 *gathered, uint n) {
     uint id = get_global_id(0);
@@ -32,9 +32,9 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
     for (int k = 0; k < 8; k++) {
         bool dup = false;
         for (int j = 0; j < k; j++) dup |= (h[j] == h[k]);
-        uint cnt = dup ? 0u : counts[h[k]];
+        uint cnt = dup ? 0u : ENTRY_COUNT(table, h[k]);
         if (cnt == 0u) continue;
-        uint pi = ENTRY_INDEX(keys, h[k]);
+        uint pi = ENTRY_INDEX(table, h[k]);
         float4 pp = ph_pos[pi];
         float3 dd = pp.xyz - x;
         if (dot(dd, dd) > r2) continue;

@@ -25,11 +25,15 @@ inline bool in_grid(float3 p, const Grid *g) {
         && p.x <= g->bmax[0] && p.y <= g->bmax[1] && p.z <= g->bmax[2];
 }
 
-/* Entry layout: with 64-bit atomics one ulong per entry, (random key << 32) | photon index,
- * kept by atom_max.  Without them two uints: [2h] = random key (atomic_max), [2h+1] = index. */
+/* Entry layout: 16 bytes per entry, count and chosen photon side by side so that the build
+ * and the query touch one cache line per entry:
+ *   uint [4h] = n (photons hashed here), [4h+1] unused,
+ *   with 64-bit atomics: ulong [2h+1] = (random key << 32) | photon index, kept by atom_max;
+ *   without: uint [4h+2] = random key (atomic_max), [4h+3] = photon index (second pass). */
+#define ENTRY_COUNT(table, h) (((__global uint *)(table))[4 * (h)])
 #ifdef PPM_INT64_ATOMICS
-#define ENTRY_INDEX(keys, h) ((uint)((keys)[h] & 0xffffffffUL))
+#define ENTRY_INDEX(table, h) ((uint)((table)[2 * (h) + 1] & 0xffffffffUL))
 #else
-#define ENTRY_INDEX(keys, h) (((__global const uint *)(keys))[2 * (h) + 1])
+#define ENTRY_INDEX(table, h) (((__global const uint *)(table))[4 * (h) + 3])
 #endif
 #endif

@@ -73,28 +73,27 @@ __kernel void grid_setup(__global const uint *bounds, float cell_scale, __global
     *grid = g;
 }
 
-__kernel void clear_table(__global uint *counts, __global ulong *keys, uint n) {
+__kernel void clear_table(__global ulong2 *table, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    counts[i] = 0u;
-    keys[i] = 0UL;
+    table[i] = (ulong2)(0UL);
 }
 
 inline uint photon_key(uint seed, uint pass, uint i) { return rng_seed(seed, pass, i, 3u) | 1u; }
 
 __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
                          uint capacity, __global const Grid *grid, uint table_mask, uint pass,
-                         uint seed, __global uint *counts, __global ulong *keys) {
+                         uint seed, __global ulong *table) {
     uint i = get_global_id(0);
     if (i >= min(counters[1], capacity)) return;
     Grid g = *grid;
     uint h = cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask);
-    if (atomic_inc(&counts[h]) == 0u) atomic_inc(&counters[4]);   /* occupied entries */
+    if (atomic_inc(&ENTRY_COUNT(table, h)) == 0u) atomic_inc(&counters[4]);   /* occupied */
     uint key = photon_key(seed, pass, i);
 #ifdef PPM_INT64_ATOMICS
-    atom_max(&keys[h], ((ulong)key << 32) | (ulong)i);
+    atom_max(&table[2 * h + 1], ((ulong)key << 32) | (ulong)i);
 #else
-    atomic_max(&((__global uint *)keys)[2 * h], key);
+    atomic_max(&((__global uint *)table)[4 * h + 2], key);
 #endif
 }
 
@@ -102,13 +101,13 @@ __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
 /* second pass of the 32-bit fallback: the photon whose key won writes its index */
 __kernel void hash_pick(__global const float4 *ph_pos, __global const uint *counters,
                         uint capacity, __global const Grid *grid, uint table_mask, uint pass,
-                        uint seed, __global ulong *keys) {
+                        uint seed, __global ulong *table) {
     uint i = get_global_id(0);
     if (i >= min(counters[1], capacity)) return;
     Grid g = *grid;
     uint h = cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask);
-    __global uint *k32 = (__global uint *)keys;
-    if (k32[2 * h] == photon_key(seed, pass, i)) k32[2 * h + 1] = i;
+    __global uint *t32 = (__global uint *)table;
+    if (t32[4 * h + 2] == photon_key(seed, pass, i)) t32[4 * h + 3] = i;
 }
 #endif
 

@@ -53,8 +53,7 @@ class PhotonMap:
         self.ph_pos = dev.buffer(16 * self.capacity, "photon map")
         self.ph_flux = dev.buffer(16 * self.capacity, "photon map")
         self.table_size = next_pow2(self.capacity)
-        self.counts = dev.buffer(4 * self.table_size, "hash table")
-        self.keys = dev.buffer(8 * self.table_size, "hash table")
+        self.table = dev.buffer(16 * self.table_size, "hash table")   # layout: kernels/hash.h
         if self.exact:
             self.sort_keys = dev.buffer(4 * self.capacity, "photon sort keys")
             self.sort_ids = dev.buffer(4 * self.capacity, "photon sort keys")
@@ -75,15 +74,15 @@ class PhotonMap:
             return self._enqueue_build_exact(q, counters)
         mask = np.uint32(self.table_size - 1)
         cap = np.uint32(self.capacity)
-        ev = [("hash", self.k_clear(q, (_round(self.table_size),), None, self.counts, self.keys,
+        ev = [("hash", self.k_clear(q, (_round(self.table_size),), None, self.table,
                                     np.uint32(self.table_size))),
               ("hash", self.k_hash(q, (_round(self.capacity),), None, self.ph_pos, counters, cap,
                                    self.grid, mask, np.uint32(pass_id), np.uint32(seed),
-                                   self.counts, self.keys))]
+                                   self.table))]
         if self.k_pick is not None:
             ev.append(("hash", self.k_pick(q, (_round(self.capacity),), None, self.ph_pos,
                                            counters, cap, self.grid, mask, np.uint32(pass_id),
-                                           np.uint32(seed), self.keys)))
+                                           np.uint32(seed), self.table)))
         return ev
 
     def _enqueue_build_exact(self, q, counters):
@@ -114,7 +113,7 @@ class PhotonMap:
                 self._sorted[1].data, np.uint32(self.table_size - 1), self.ph_pos, self.ph_flux,
                 gathered, np.uint32(n)))]
         return [("gather", self.k_gather(q, (_round(n),), None, vp_pos, vp_nrm, radius, self.grid,
-                                         self.counts, self.keys, np.uint32(self.table_size - 1),
+                                         self.table, np.uint32(self.table_size - 1),
                                          self.ph_pos, self.ph_flux, gathered, np.uint32(n)))]
 
     # -- host views (tests, statistics) ------------------------------------------------------------
@@ -127,13 +126,6 @@ class PhotonMap:
     def read_table(self):
         """(counts, photon index per entry)."""
         import pyopencl as cl
-        q = self.device.queue
-        counts = np.empty(self.table_size, np.uint32)
-        keys = np.empty(self.table_size, np.uint64)
-        cl.enqueue_copy(q, counts, self.counts)
-        cl.enqueue_copy(q, keys, self.keys)
-        if self.k_pick is None:
-            idx = (keys & np.uint64(0xffffffff)).astype(np.uint32)
-        else:
-            idx = keys.view(np.uint32).reshape(-1, 2)[:, 1].copy()
-        return counts, idx
+        t = np.empty((self.table_size, 4), np.uint32)
+        cl.enqueue_copy(self.device.queue, t, self.table)
+        return t[:, 0].copy(), t[:, 3 if self.k_pick is not None else 2].copy()
