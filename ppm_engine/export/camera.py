@@ -1,0 +1,68 @@
+"""The scene camera -> CAMERA_DTYPE, exactly Cycles' rays (BLENDER_NOTES section 6)."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SceneError
+from ..scene_arrays import (CAMERA_ORTHO, CAMERA_PERSP, make_camera, ortho_extent,
+                            perspective_extent)
+
+
+def render_size(render) -> tuple[int, int]:
+    pct = render.resolution_percentage / 100.0
+    return max(int(render.resolution_x * pct), 1), max(int(render.resolution_y * pct), 1)
+
+
+def export_camera(scene, depsgraph) -> np.ndarray:
+    cam_obj = scene.camera
+    if cam_obj is None:
+        raise SceneError("the scene has no active camera: add a camera and make it active "
+                         "(Scene Properties > Camera)")
+    if cam_obj.type != 'CAMERA':
+        raise SceneError(f"the active camera '{cam_obj.name}' is a {cam_obj.type.lower()}, not "
+                         "a camera: choose a camera object in Scene Properties > Camera")
+    cam_eval = cam_obj.evaluated_get(depsgraph)
+    cam = cam_eval.data
+    render = scene.render
+    W, H = render_size(render)
+    aspect = (render.pixel_aspect_x, render.pixel_aspect_y)
+    if cam.type == 'PERSP':
+        w_ext, h_ext, fit = perspective_extent(W, H, cam.lens, cam.sensor_width, cam.sensor_fit,
+                                               cam.sensor_height, aspect)
+        ctype = CAMERA_PERSP
+    elif cam.type == 'ORTHO':
+        w_ext, h_ext, fit = ortho_extent(W, H, cam.ortho_scale, cam.sensor_fit, aspect)
+        ctype = CAMERA_ORTHO
+    else:
+        raise SceneError(f"camera '{cam_obj.name}' is panoramic; this engine renders "
+                         "perspective and orthographic cameras")
+    m = np.array(cam_eval.matrix_world, dtype=np.float64)
+    cols = m[:3, :3]
+    m[:3, :3] = cols / np.maximum(np.linalg.norm(cols, axis=0, keepdims=True), 1e-30)
+
+    region = (0, 0, W, H)
+    if render.use_border:
+        x0, x1 = int(render.border_min_x * W), int(render.border_max_x * W)
+        y0, y1 = int(render.border_min_y * H), int(render.border_max_y * H)
+        if x1 <= x0 or y1 <= y0:
+            raise SceneError("the render border is empty: widen it or turn border rendering off")
+        region = (x0, y0, x1 - x0, y1 - y0)
+
+    dof = cam.dof
+    aperture, focus, blades, rotation, ratio = 0.0, 10.0, 0, 0.0, 1.0
+    if dof.use_dof:
+        fstop = max(float(dof.aperture_fstop), 1e-6)
+        aperture = (cam.lens * 1e-3 / (2 * fstop)) if ctype == CAMERA_PERSP else 1 / (2 * fstop)
+        if dof.focus_object is not None:
+            target = np.array(dof.focus_object.matrix_world.translation, np.float64)
+            focus = float(-(target - m[:3, 3]) @ m[:3, 2])       # along the view axis
+        else:
+            focus = float(dof.focus_distance)
+        focus = max(focus, 1e-6)
+        blades, rotation = int(dof.aperture_blades), float(dof.aperture_rotation)
+        ratio = float(dof.aperture_ratio)
+    return make_camera(type=ctype, width=W, height=H, to_world=m[:3], extent=(w_ext, h_ext),
+                       shift=(cam.shift_x * fit, cam.shift_y * fit),
+                       clip=(cam.clip_start, cam.clip_end), region=region,
+                       aperture_radius=aperture, focus_distance=focus, aperture_blades=blades,
+                       aperture_rotation=rotation, aperture_ratio=ratio)

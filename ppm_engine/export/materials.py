@@ -1,0 +1,90 @@
+"""Principled BSDF and Emission node trees -> MATERIAL_DTYPE rows."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene_arrays import MATERIAL_DTYPE
+
+DEFAULT_NAME = "(default grey)"
+
+
+def _value(node, name, warn, mat_name, n=None):
+    sock = node.inputs.get(name)
+    if sock is None:
+        return None
+    if sock.is_linked:
+        warn(f"Material '{mat_name}': '{name}' is driven by a node link this engine does not "
+             "evaluate; its unlinked value is used")
+    v = sock.default_value
+    return tuple(v)[:n] if n else float(v)
+
+
+def _surface_node(material):
+    tree = material.node_tree
+    if tree is None:
+        return None
+    out = tree.get_output_node('CYCLES') or tree.get_output_node('ALL')
+    if out is None:
+        return None
+    sock = out.inputs.get("Surface")
+    if sock is None or not sock.is_linked:
+        return None
+    return sock.links[0].from_node
+
+
+def read_material(material, warn) -> np.ndarray:
+    row = np.zeros(1, MATERIAL_DTYPE)
+    row["base_color"], row["roughness"], row["ior"] = 0.8, 0.5, 1.5
+    node = _surface_node(material)
+    name = material.name
+    kind = node.bl_idname if node is not None else None
+    if kind == "ShaderNodeBsdfPrincipled":
+        row["base_color"] = _value(node, "Base Color", warn, name, 3)
+        row["metallic"] = _value(node, "Metallic", warn, name)
+        row["roughness"] = _value(node, "Roughness", warn, name)
+        tw = _value(node, "Transmission Weight", warn, name)
+        row["transmission"] = tw if tw is not None else 0.0
+        row["ior"] = _value(node, "IOR", warn, name)
+        ec = _value(node, "Emission Color", warn, name, 3) or (0.0, 0.0, 0.0)
+        es = _value(node, "Emission Strength", warn, name) or 0.0
+        row["emission"] = np.asarray(ec, np.float32) * es
+    elif kind == "ShaderNodeEmission":
+        c = _value(node, "Color", warn, name, 3)
+        s = _value(node, "Strength", warn, name)
+        row["base_color"] = 0.0
+        row["emission"] = np.asarray(c, np.float32) * s
+    else:
+        what = f"a '{node.name}' node" if node is not None else "no shader connected to the output"
+        warn(f"Material '{name}' has {what}; this engine renders Principled BSDF and Emission "
+             "shaders only, so it is rendered as grey diffuse")
+    return row
+
+
+class MaterialTable:
+    """Materials deduplicated by datablock; index 0 is the default grey diffuse."""
+
+    def __init__(self, warn):
+        self.warn = warn
+        default = np.zeros(1, MATERIAL_DTYPE)
+        default["base_color"], default["roughness"], default["ior"] = 0.8, 0.5, 1.5
+        self.rows = [default]
+        self.names = [DEFAULT_NAME]
+        self._index = {}
+
+    def index(self, material) -> int:
+        if material is None:
+            return 0
+        key = material.name_full
+        if key not in self._index:
+            self._index[key] = len(self.rows)
+            self.rows.append(read_material(material, self.warn))
+            self.names.append(material.name)
+        return self._index[key]
+
+    def slot_map(self, obj) -> np.ndarray:
+        """Global material index for each of the object's slots (at least one entry)."""
+        slots = [self.index(s.material) if s is not None else 0 for s in obj.material_slots]
+        return np.array(slots or [0], np.int32)
+
+    def array(self) -> np.ndarray:
+        return np.concatenate(self.rows)

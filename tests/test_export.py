@@ -1,0 +1,303 @@
+"""Blender scene -> SceneArrays: each light type, material kind, camera type and instancing."""
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+from mathutils import Vector  # noqa: E402
+
+from ppm_engine.errors import SceneError  # noqa: E402
+from ppm_engine.export import export_scene  # noqa: E402
+from ppm_engine.scene_arrays import (CAMERA_ORTHO, LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT,  # noqa: E402
+                                     LIGHT_FLAG_SOFT_FALLOFF, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN,
+                                     VIS_CAMERA, VIS_SHADOW, SceneArrays)
+
+
+@pytest.fixture
+def empty():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    return scene
+
+
+def export():
+    return export_scene(bpy.context.evaluated_depsgraph_get())
+
+
+def add_light(kind, name="L", loc=(0, 0, 3), **props):
+    data = bpy.data.lights.new(name, kind)
+    for k, v in props.items():
+        setattr(data, k, v)
+    obj = bpy.data.objects.new(name, data)
+    obj.location = loc
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def add_plane(name="Plane", material=None, loc=(0, 0, 0), size=2.0):
+    bpy.ops.mesh.primitive_plane_add(size=size, location=loc)
+    obj = bpy.context.active_object
+    obj.name = name
+    if material is not None:
+        obj.data.materials.append(material)
+    return obj
+
+
+# --- lights -------------------------------------------------------------------------------------
+def test_point_light_cycles_units(empty):
+    add_light('POINT', energy=100.0, color=(1, 0.5, 0.25), shadow_soft_size=0.2, exposure=1.0)
+    L = export().lights
+    assert L.shape == (1,) and L["type"][0] == LIGHT_POINT
+    np.testing.assert_allclose(L["emit"][0], np.array([1, 0.5, 0.25]) * 200 / (4 * np.pi), rtol=1e-6)
+    assert L["radius"][0] == pytest.approx(0.2) and L["flags"][0] & LIGHT_FLAG_SOFT_FALLOFF
+    np.testing.assert_allclose(L["position"][0], (0, 0, 3))
+
+
+def test_spot_light_cone(empty):
+    o = add_light('SPOT', energy=50.0, spot_size=math.radians(60), spot_blend=0.25)
+    o.rotation_euler = (math.radians(90), 0, 0)            # points along +y
+    L = export().lights[0]
+    assert L["type"] == LIGHT_SPOT
+    np.testing.assert_allclose(L["emit"], 50 / (4 * np.pi), rtol=1e-6)
+    assert L["spot_cos_half"] == pytest.approx(math.cos(math.radians(30)))
+    assert L["spot_smooth"] == pytest.approx((1 - math.cos(math.radians(30))) * 0.25)
+    np.testing.assert_allclose(L["direction"], (0, 1, 0), atol=1e-6)
+    assert L["spot_scale_z"] == pytest.approx(1.0)
+
+
+def test_sun_light(empty):
+    o = add_light('SUN', energy=3.0, angle=math.radians(2))
+    o.rotation_euler = (math.radians(30), 0, 0)
+    L = export().lights[0]
+    assert L["type"] == LIGHT_SUN and L["radius"] == pytest.approx(math.radians(1))
+    np.testing.assert_allclose(L["emit"], 3.0, rtol=1e-6)
+    np.testing.assert_allclose(L["direction"], (0, math.sin(math.radians(30)), -math.cos(math.radians(30))),
+                               atol=1e-6)
+
+
+@pytest.mark.parametrize("shape,sx,sy,area,kind", [
+    ('SQUARE', 2.0, None, 4.0, LIGHT_AREA_RECT),
+    ('RECTANGLE', 2.0, 1.0, 2.0, LIGHT_AREA_RECT),
+    ('DISK', 2.0, None, math.pi, LIGHT_AREA_ELLIPSE),
+    ('ELLIPSE', 2.0, 1.0, math.pi / 2, LIGHT_AREA_ELLIPSE)])
+def test_area_light_radiance(empty, shape, sx, sy, area, kind):
+    props = dict(energy=50.0, shape=shape, size=sx)
+    if sy is not None:
+        props["size_y"] = sy
+    o = add_light('AREA', **props)
+    o.scale = (1.0, 1.5, 1.0)                               # object scale enlarges the light
+    L = export().lights[0]
+    assert L["type"] == kind
+    np.testing.assert_allclose(L["emit"], 50 / (np.pi * area * 1.5), rtol=1e-6)
+    np.testing.assert_allclose(np.linalg.norm(L["axis_y"]), (sy or sx) * 1.5, rtol=1e-6)
+    np.testing.assert_allclose(L["direction"], (0, 0, -1), atol=1e-7)
+
+
+# --- materials ----------------------------------------------------------------------------------
+def test_principled_emission_and_fallback_materials(empty):
+    p = bpy.data.materials.new("Gold")
+    n = p.node_tree.nodes["Principled BSDF"]
+    n.inputs["Base Color"].default_value = (0.9, 0.6, 0.2, 1)
+    n.inputs["Metallic"].default_value = 1.0
+    n.inputs["Roughness"].default_value = 0.1
+    n.inputs["Emission Color"].default_value = (1, 0, 0, 1)
+    n.inputs["Emission Strength"].default_value = 2.0
+    e = bpy.data.materials.new("Glow")
+    t = e.node_tree
+    t.nodes.remove(t.nodes["Principled BSDF"])
+    em = t.nodes.new("ShaderNodeEmission")
+    em.inputs["Strength"].default_value = 5.0
+    em.inputs["Color"].default_value = (0.5, 1, 1, 1)
+    t.links.new(em.outputs[0], t.nodes["Material Output"].inputs["Surface"])
+    d = bpy.data.materials.new("Toon")
+    t = d.node_tree
+    t.nodes.remove(t.nodes["Principled BSDF"])
+    tn = t.nodes.new("ShaderNodeBsdfToon")
+    t.links.new(tn.outputs[0], t.nodes["Material Output"].inputs["Surface"])
+    for i, m in enumerate((p, e, d)):
+        add_plane(f"P{i}", m, loc=(3 * i, 0, 0))
+    s = export()
+    mats = dict(zip(s.material_names, s.materials))
+    g = mats["Gold"]
+    np.testing.assert_allclose(g["base_color"], (0.9, 0.6, 0.2), rtol=1e-6)
+    assert g["metallic"] == 1.0 and g["roughness"] == pytest.approx(0.1)
+    np.testing.assert_allclose(g["emission"], (2, 0, 0))
+    np.testing.assert_allclose(mats["Glow"]["emission"], (2.5, 5, 5))
+    np.testing.assert_allclose(mats["Glow"]["base_color"], 0)
+    np.testing.assert_allclose(mats["Toon"]["base_color"], 0.8)
+    assert sum("Toon" in w for w in s.warnings) == 1
+    # per-triangle material follows the object
+    for i, name in enumerate(("Gold", "Glow", "Toon")):
+        tris = np.abs(s.positions[:, :, 0].mean(1) - 3 * i) < 1.5
+        assert (np.array(s.material_names)[s.material[tris]] == name).all()
+
+
+def test_material_slots_and_out_of_range_index(empty):
+    a, b = bpy.data.materials.new("A"), bpy.data.materials.new("B")
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.active_object
+    cube.data.materials.append(a)
+    cube.data.materials.append(b)
+    idx = np.zeros(6, np.int32)
+    idx[1], idx[2] = 1, 5                      # 5 > slot count: clamped to the last slot
+    cube.data.attributes["material_index"].data.foreach_set("value", idx) \
+        if "material_index" in cube.data.attributes else \
+        cube.data.attributes.new("material_index", 'INT', 'FACE').data.foreach_set("value", idx)
+    s = export()
+    names = np.array(s.material_names)[s.material]
+    assert (names == "A").sum() == 8 and (names == "B").sum() == 4
+
+
+# --- geometry -----------------------------------------------------------------------------------
+def test_transform_instancing_and_normals(empty):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=8, ring_count=4, radius=1.0)
+    src = bpy.context.active_object
+    src.data.shade_smooth()
+    coll = bpy.data.collections.new("Inst")
+    bpy.context.scene.collection.children.link(coll)
+    bpy.context.scene.collection.objects.unlink(src)
+    coll.objects.link(src)
+    bpy.context.view_layer.layer_collection.children["Inst"].exclude = True
+    for i in range(3):
+        e = bpy.data.objects.new(f"E{i}", None)
+        e.instance_type = 'COLLECTION'
+        e.instance_collection = coll
+        e.location = (10 * i, 0, 0)
+        e.scale = (2, 2, 2)
+        bpy.context.scene.collection.objects.link(e)
+    s = export()
+    n_one = len(src.data.loop_triangles) if src.data.loop_triangles else 8 * 4 * 2 - 16
+    assert s.n_triangles == 3 * n_one
+    c = s.positions.mean(axis=1)
+    for i in range(3):
+        mine = np.abs(c[:, 0] - 10 * i) < 5
+        assert mine.sum() == n_one
+        r = np.linalg.norm(s.positions[mine] - (10 * i, 0, 0), axis=2)
+        np.testing.assert_allclose(r, 2.0, rtol=1e-5)            # scaled by 2
+        # smooth (angle-weighted vertex) normals: unit length, within a few degrees of radial
+        d = s.positions[mine] - (10 * i, 0, 0)
+        d /= np.linalg.norm(d, axis=2, keepdims=True)
+        np.testing.assert_allclose(np.linalg.norm(s.normals[mine], axis=2), 1.0, rtol=1e-5)
+        assert ((s.normals[mine] * d).sum(2) > 0.99).all()
+        assert len({tuple(n) for n in s.normals[mine].reshape(-1, 3).round(4)}) > 8   # not flat
+
+
+def test_flat_normals_follow_faces(empty):
+    o = add_plane(size=2.0)
+    o.rotation_euler = (math.radians(90), 0, 0)
+    s = export()
+    np.testing.assert_allclose(s.normals.reshape(-1, 3), np.tile([0, -1, 0], (6, 1))[:s.n_triangles * 3],
+                               atol=1e-6)
+
+
+def test_nan_vertices_are_dropped_with_a_warning(empty):
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=4, size=2)
+    o = bpy.context.active_object
+    o.name = "Broken"
+    before = export()
+    pos = np.zeros(3 * len(o.data.vertices), np.float32)
+    o.data.attributes["position"].data.foreach_get("vector", pos)
+    corner = pos[:3].copy()
+    using = np.isclose(before.positions, corner).all(axis=2).any(axis=1).sum()
+    assert 1 <= using <= 2
+    pos[0] = np.nan
+    o.data.attributes["position"].data.foreach_set("vector", pos)
+    s = export()
+    assert s.n_triangles == before.n_triangles - using and np.isfinite(s.positions).all()
+    assert any("Broken" in w and "NaN" in w for w in s.warnings)
+
+
+def test_visibility_flags(empty):
+    a = add_plane("Seen")
+    b = add_plane("NoShadow", loc=(5, 0, 0))
+    b.visible_shadow = False
+    c = add_plane("NoCamera", loc=(10, 0, 0))
+    c.visible_camera = False
+    s = export()
+    cx = s.positions[:, :, 0].mean(1)
+    vis = {name: s.visibility[np.abs(cx - x) < 2] for name, x in
+           (("Seen", 0), ("NoShadow", 5), ("NoCamera", 10))}
+    assert (vis["Seen"] & VIS_SHADOW).all() and (vis["Seen"] & VIS_CAMERA).all()
+    assert not (vis["NoShadow"] & VIS_SHADOW).any() and (vis["NoShadow"] & VIS_CAMERA).all()
+    assert not (vis["NoCamera"] & VIS_CAMERA).any()
+    assert a.visible_camera      # (hide_render is honoured by the render depsgraph: test_e2e.py)
+
+
+# --- camera -------------------------------------------------------------------------------------
+def _ray_dir(cam, px, py):
+    c = cam[0]
+    xc = (px / c["width"] - 0.5) * c["extent"][0] + c["shift"][0]
+    yc = (py / c["height"] - 0.5) * c["extent"][1] + c["shift"][1]
+    m = c["to_world"].astype(np.float64)
+    return m[:, :3] @ np.array([xc, yc, -1.0]), m[:, 3]
+
+
+@pytest.mark.parametrize("fit,shift,aspect,pct", [('AUTO', (0, 0), (1, 1), 100),
+                                                  ('VERTICAL', (0.1, -0.2), (1, 1), 50),
+                                                  ('HORIZONTAL', (0, 0.3), (2, 1), 100)])
+def test_perspective_camera_matches_blender_projection(empty, fit, shift, aspect, pct):
+    from bpy_extras.object_utils import world_to_camera_view
+    scene = empty
+    cam = scene.camera
+    cam.location = (1, -6, 2)
+    cam.rotation_euler = (math.radians(80), math.radians(5), math.radians(10))
+    cam.data.lens, cam.data.sensor_fit = 42.0, fit
+    cam.data.shift_x, cam.data.shift_y = shift
+    scene.render.pixel_aspect_x, scene.render.pixel_aspect_y = aspect
+    scene.render.resolution_percentage = pct
+    s = export()
+    W, H = s.camera["width"][0], s.camera["height"][0]
+    assert (W, H) == (int(64 * pct / 100), int(48 * pct / 100))
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        p = Vector(rng.uniform(-2, 2, 3))
+        ndc = world_to_camera_view(scene, cam, p)
+        d, o = _ray_dir(s.camera, ndc.x * W, ndc.y * H)
+        v = np.array(p) - o
+        cosang = v @ d / np.linalg.norm(v) / np.linalg.norm(d)
+        assert cosang == pytest.approx(1.0, abs=1e-6)
+
+
+def test_ortho_camera_and_border(empty):
+    scene = empty
+    scene.camera.data.type = 'ORTHO'
+    scene.camera.data.ortho_scale = 4.0
+    scene.render.use_border = True
+    scene.render.border_min_x, scene.render.border_max_x = 0.25, 0.8
+    scene.render.border_min_y, scene.render.border_max_y = 0.1, 0.55
+    s = export()
+    c = s.camera[0]
+    assert c["type"] == CAMERA_ORTHO
+    np.testing.assert_allclose(c["extent"], (4.0, 3.0))
+    assert tuple(c["region"]) == (16, 4, int(0.8 * 64) - 16, int(0.55 * 48) - 4)
+    assert s.resolution == (c["region"][2], c["region"][3])
+
+
+def test_no_camera_is_a_scene_error(empty):
+    e = bpy.data.objects.new("Empty", None)
+    empty.collection.objects.link(e)
+    empty.camera = e
+    with pytest.raises(SceneError, match="not a camera"):
+        export()
+
+
+def test_world_colour_and_npz_round_trip(empty, tmp_path):
+    w = bpy.data.worlds.new("W")
+    bg = w.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1)
+    bg.inputs["Strength"].default_value = 2.0
+    empty.world = w
+    add_plane()
+    add_light('POINT')
+    s = export()
+    np.testing.assert_allclose(s.world, (0.4, 0.8, 1.2), rtol=1e-6)
+    s.save(tmp_path / "s.npz")
+    t = SceneArrays.load(tmp_path / "s.npz")
+    for name in ("positions", "normals", "uvs", "material", "visibility", "materials", "lights",
+                 "camera", "world"):
+        assert np.array_equal(getattr(s, name), getattr(t, name))
