@@ -33,8 +33,12 @@ inline float3 reflect3(float3 d, float3 n) { return d - 2.0f * dot(d, n) * n; }
 
 /* Scatter a ray arriving along d off a specular lobe.  ng, ns: the surface's normals as stored
  * (ns on the side of ng).  Updates *d, *weight and returns the lobe taken; *leave_n is the
- * geometric normal on the side the new ray leaves to (for offset_ray).  radiance_mode applies
- * the (eta_i/eta_t)^2 radiance scaling of refraction (camera paths, not photons). */
+ * geometric normal on the side the new ray leaves to (for offset_ray).
+ * Refraction follows Cycles' convention: camera paths (radiance_mode) carry no
+ * (eta_i/eta_t)^2 radiance compression, and photons carry the matching (eta_i/eta_t)^2 on their
+ * flux, so both estimators agree with Cycles -- also for an emitter inside glass, where the
+ * physical convention would be eta^2 darker than Cycles.  For paths that start and end in air
+ * the factors cancel and the conventions agree. */
 inline int scatter_specular(int lobe, __global const Material *m, float3 ng, float3 ns, float u,
                             bool radiance_mode, float3 *d, float3 *weight, float3 *leave_n) {
     bool front = dot(*d, ng) < 0.0f;           /* arriving on the side ng points to */
@@ -65,7 +69,7 @@ inline int scatter_specular(int lobe, __global const Material *m, float3 ng, flo
     if (dot(t, ngf) >= 0.0f) t = *d;           /* shading normal bent it back: pass straight */
     *d = normalize(t);
     *weight *= F3(m->transmit);
-    if (radiance_mode) *weight *= 1.0f / (eta * eta);
+    if (!radiance_mode) *weight *= 1.0f / (eta * eta);
     *leave_n = -ngf;
     return LOBE_GLASS_TRANSMIT;
 }

@@ -99,6 +99,10 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
     int e = pick_emitter(emitter_cdf, info.n_emitters, rnd(rng), &pmf);
     if (!(pmf > 0.0f)) return (float3)(0.0f);
     float u1 = rnd(rng), u2 = rnd(rng);
+    /* All geometry from the shadow ray's own origin: a direction computed from p but traced
+     * from the offset origin would meet a planar emitter's own plane early at grazing angles
+     * (the offset over cos) and the light would shadow itself. */
+    float3 o = offset_ray(p, ngf);
     float3 wi, E;
     float dist = PPM_INF;
     bool cosine_included = false;
@@ -116,7 +120,7 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
                 E = F3(L.emit);
             }
         } else if (L.type == LIGHT_POINT || L.type == LIGHT_SPOT) {
-            float3 to = F3(L.position) - p;
+            float3 to = F3(L.position) - o;
             float d2 = dot(to, to), d = sqrt(d2);
             if (!(d > 0.0f)) return (float3)(0.0f);
             float3 w0 = to / d;
@@ -146,13 +150,14 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
                 E = I / d2;
             }
         } else {
-            float3 q = area_light_point(&L, u1, u2);
-            float3 tq = q - p;
+            float3 nl = F3(L.direction);
+            float3 q = offset_ray(area_light_point(&L, u1, u2), nl);   /* in front of it */
+            float3 tq = q - o;
             float dq2 = dot(tq, tq);
             dist = sqrt(dq2);
             if (!(dist > 0.0f)) return (float3)(0.0f);
             wi = tq / dist;
-            float cos_l = -dot(wi, F3(L.direction));
+            float cos_l = -dot(wi, nl);
             if (cos_l <= 0.0f) return (float3)(0.0f);
             E = F3(L.emit) * (cos_l * area_light_area(&L) / dq2);
         }
@@ -160,15 +165,18 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
         int k = emissive[e - info.n_lights];
         float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
         float2 b = sample_triangle(u1, u2);
-        float3 q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
         float3 c = cross(e1.xyz, e2.xyz);
         float area2 = length(c);
-        float3 tq = q - p;
+        if (!(area2 > 0.0f)) return (float3)(0.0f);
+        float3 nt = c / area2;
+        float3 q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
+        q = offset_ray(q, dot(o - q, nt) >= 0.0f ? nt : -nt);    /* on our side of it */
+        float3 tq = q - o;
         float dq2 = dot(tq, tq);
         dist = sqrt(dq2);
-        if (!(dist > 0.0f) || !(area2 > 0.0f)) return (float3)(0.0f);
+        if (!(dist > 0.0f)) return (float3)(0.0f);
         wi = tq / dist;
-        float cos_l = fabs(dot(wi, c)) / area2;            /* mesh lights emit on both sides */
+        float cos_l = fabs(dot(wi, nt));                          /* mesh lights: both sides */
         E = F3(materials[as_int(e2.w)].emission) * (cos_l * 0.5f * area2 / dq2);
     } else {
         wi = sample_cosine_hemisphere(n, u1, u2);       /* pdf cos/pi: f L cos/pdf = f L pi */
@@ -177,9 +185,8 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
     }
     float cos_s = dot(wi, n);
     if (cos_s <= 0.0f || dot(wi, ngf) <= 0.0f) return (float3)(0.0f);
-    float3 o = offset_ray(p, ngf);
-    float tmax = isfinite(dist) ? dist * (1.0f - 1e-4f) : PPM_INF;
-    Hit h = bvh_intersect(o, wi, tmax, VIS_SHADOW, true, BVH_PASS);
+    /* planar emitters: the ray ends just in front of the emitter, so it never reaches it */
+    Hit h = bvh_intersect(o, wi, dist, VIS_SHADOW, true, BVH_PASS);
     if (h.leaf >= 0) return (float3)(0.0f);
     return E * ((cosine_included ? 1.0f : cos_s) / pmf);
 }

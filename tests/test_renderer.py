@@ -82,11 +82,11 @@ def test_scene_arrays_round_trip(tmp_path):
 
 
 def test_stochastic_hash_and_exact_gather_converge_to_the_same_image():
-    """Same scene: the stochastic map only adds noise (the paper's claim, which the biased
-    last-writer rule would break).  Per-pixel luminance over 8 seeds per mode; the Welch z is
-    heavy-tailed with so few seeds, hence the 4 % allowance past 3.5.  The image means may
-    differ slightly because noisier photon counts shrink radii a little more slowly (the
-    update is convex in M): that is the 1 % term, and it vanishes as the radii shrink."""
+    """Same scene: the stochastic map only adds noise (the paper's claim).  Luminance of 3x3
+    pixel blocks over 8 seeds per mode (single pixels with few photons give unreliable
+    variance estimates from 8 seeds).  The image means may differ slightly because noisier
+    photon counts shrink radii a little more slowly (the update is convex in M): that is the
+    1 % term, and it vanishes as the radii shrink."""
     scene = cornell_box(12, 12)
     stats = {}
     for exact in (False, True):
@@ -96,14 +96,14 @@ def test_stochastic_hash_and_exact_gather_converge_to_the_same_image():
                                               exact_gather=exact))
             for _ in range(25):
                 r.iterate()
-            imgs.append(r.image()[..., :3].mean(axis=-1))
+            imgs.append(r.image()[..., :3].mean(axis=-1).reshape(4, 3, 4, 3).mean(axis=(1, 3)))
             r.close()
         stats[exact] = (np.mean(imgs, axis=0), np.std(imgs, axis=0, ddof=1) / np.sqrt(8),
                         np.std([i.mean() for i in imgs], ddof=1) / np.sqrt(8))
     (a, sa, ta), (b, sb, tb) = stats[False], stats[True]
     assert abs(a.mean() - b.mean()) < 0.01 * b.mean() + 4 * np.hypot(ta, tb)
     z = (a - b) / np.hypot(sa, sb)
-    assert (np.abs(z) > 3.5).mean() < 0.04 and np.abs(z).max() < 8
+    assert np.abs(z).max() < 5, z
     assert sa.mean() > sb.mean()          # the stochastic map is the noisier one
 
 
