@@ -1,12 +1,16 @@
-/* Gather: each visible point reads the 8 cells its sphere can overlap (cell = 2 r_max), each
- * DISTINCT hash entry once (two cells can share an entry), one photon fetch per entry.  The
- * entry's photon stands for all n photons of the entry (flux x n): unbiased, since every
- * photon of the entry is chosen with probability 1/n and only accepted within the radius. */
+/* Gather: each visible point visits every cell its sphere overlaps (at most 2 per axis with
+ * the default cell = 2 r_max, 3 with the paper's cell = r_max), one photon fetch per cell.
+ * The entry's photon stands for all n photons of the entry (flux x n) and is accepted only
+ * in its own cell: two cells that share an entry are then never counted twice, and the
+ * estimate is unbiased (each photon of the entry is chosen with probability 1/n and counted
+ * only from its own cell, within the radius). */
 #include "hash.h"
 #include "geometry.h"
 
 /* photons on a surface facing another way (thin walls, corners) are not this point's */
 #define NORMAL_COS_MIN 0.5f
+/* guard for absurd radius/cell ratios (the grid setup keeps cell >= r_max / 2: <= 5^3) */
+#define MAX_CELLS_PER_AXIS 5
 
 __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nrm,
                      __global const float *radius, __global const Grid *grid,
@@ -20,24 +24,23 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     float3 x = vp.xyz, nrm = vp_nrm[id].xyz;
     float r = radius[id], r2 = r * r;
-    long3 base = convert_long3(floor(clamp((x - F3(g.bmin)) * g.inv_cell_size - 0.5f,
-                                           -1.0e15f, 1.0e15f)));
-    uint h[8];
-#pragma unroll
-    for (int k = 0; k < 8; k++)
-        h[k] = cell_hash(base + (long3)(k & 1, (k >> 1) & 1, (k >> 2) & 1), table_mask);
+    long3 lo = cell_of(x - r, &g), hi = cell_of(x + r, &g);
+    hi = min(hi, lo + (long)(MAX_CELLS_PER_AXIS - 1));
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
-#pragma unroll
-    for (int k = 0; k < 8; k++) {
-        bool dup = false;
-        for (int j = 0; j < k; j++) dup |= (h[j] == h[k]);
-        uint cnt = dup ? 0u : ENTRY_COUNT(table, h[k]);
+    for (long cz = lo.z; cz <= hi.z; cz++)
+    for (long cy = lo.y; cy <= hi.y; cy++)
+    for (long cx = lo.x; cx <= hi.x; cx++) {
+        long3 c = (long3)(cx, cy, cz);
+        uint h = cell_hash(c, table_mask);
+        uint cnt = ENTRY_COUNT(table, h);
         if (cnt == 0u) continue;
-        uint pi = ENTRY_INDEX(table, h[k]);
+        uint pi = ENTRY_INDEX(table, h);
         float4 pp = ph_pos[pi];
         float3 dd = pp.xyz - x;
         if (dot(dd, dd) > r2) continue;
+        long3 pc = cell_of(pp.xyz, &g);
+        if (pc.x != cx || pc.y != cy || pc.z != cz) continue;     /* not this cell's photon */
         if (dot(unpack_unit(as_uint(pp.w)), nrm) < NORMAL_COS_MIN) continue;
         float4 pf = ph_flux[pi];
         if (dot(unpack_unit(as_uint(pf.w)), nrm) <= 0.0f) continue;
@@ -47,7 +50,7 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
     gathered[id] = (float4)(phi, M);
 }
 
-/* Exact gather (reference mode): every photon of every distinct entry the sphere overlaps. */
+/* Exact gather (reference mode): every photon of every cell the sphere overlaps. */
 __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 *vp_nrm,
                            __global const float *radius, __global const Grid *grid,
                            __global const uint *ranges, __global const uint *sorted_ids,
@@ -60,23 +63,22 @@ __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     float3 x = vp.xyz, nrm = vp_nrm[id].xyz;
     float r = radius[id], r2 = r * r;
-    long3 base = convert_long3(floor(clamp((x - F3(g.bmin)) * g.inv_cell_size - 0.5f,
-                                           -1.0e15f, 1.0e15f)));
-    uint h[8];
-    for (int k = 0; k < 8; k++)
-        h[k] = cell_hash(base + (long3)(k & 1, (k >> 1) & 1, (k >> 2) & 1), table_mask);
+    long3 lo = cell_of(x - r, &g), hi = cell_of(x + r, &g);
+    hi = min(hi, lo + (long)(MAX_CELLS_PER_AXIS - 1));
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
-    for (int k = 0; k < 8; k++) {
-        bool dup = false;
-        for (int j = 0; j < k; j++) dup |= (h[j] == h[k]);
-        if (dup) continue;
-        uint end = ranges[2 * h[k] + 1];
-        for (uint s = ranges[2 * h[k]]; s < end; s++) {
+    for (long cz = lo.z; cz <= hi.z; cz++)
+    for (long cy = lo.y; cy <= hi.y; cy++)
+    for (long cx = lo.x; cx <= hi.x; cx++) {
+        uint h = cell_hash((long3)(cx, cy, cz), table_mask);
+        uint end = ranges[2 * h + 1];
+        for (uint s = ranges[2 * h]; s < end; s++) {
             uint pi = sorted_ids[s];
             float4 pp = ph_pos[pi];
             float3 dd = pp.xyz - x;
             if (dot(dd, dd) > r2) continue;
+            long3 pc = cell_of(pp.xyz, &g);
+            if (pc.x != cx || pc.y != cy || pc.z != cz) continue;
             if (dot(unpack_unit(as_uint(pp.w)), nrm) < NORMAL_COS_MIN) continue;
             float4 pf = ph_flux[pi];
             if (dot(unpack_unit(as_uint(pf.w)), nrm) <= 0.0f) continue;

@@ -57,15 +57,15 @@ void vp_bounds(__global const float4 *vp_pos, __global const float *radius, uint
     }
 }
 
-/* cell size = cell_scale * r_max: 2 (default) makes every query sphere overlap at most 2 cells
- * per axis (8 cells); the paper's 1 needs 27. */
+/* cell size = cell_scale * r_max (>= 0.5: a query sphere overlaps at most 5 cells per axis);
+ * 2 -> at most 8 cells, the paper's 1 -> 27, the default 0.5 -> ~27 typical, 125 at most. */
 __kernel void grid_setup(__global const uint *bounds, float cell_scale, __global Grid *grid) {
     Grid g;
     g.valid = bounds[8];
     for (int k = 0; k < 3; k++) { g.bmin[k] = o2f(bounds[k]); g.bmax[k] = o2f(bounds[3 + k]); }
     g.r_max = g.valid ? o2f(bounds[6]) : 0.0f;
     g.r_min = g.valid ? o2f(bounds[7]) : 0.0f;
-    float cs = fmax(cell_scale * g.r_max, FLT_MIN);
+    float cs = fmax(fmax(cell_scale, 0.5f) * g.r_max, FLT_MIN);
     g.cell_size = cs;
     g.inv_cell_size = 1.0f / cs;
     g.pad = 0u;

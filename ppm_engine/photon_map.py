@@ -26,8 +26,11 @@ def next_pow2(n: int) -> int:
 
 
 class PhotonMap:
-    # cell size / r_max: 2 -> every query sphere overlaps at most 8 cells
-    CELL_SCALE = 2.0
+    # cell size / r_max.  Measured (docs/BENCHMARKS.md): on a CPU the gather is ~1 % of a
+    # pass, so small cells (few photons per entry, up to 5 cells per axis) cost nothing and
+    # bring the stochastic map's error down to the exact gather's: 2.0 (8 cells) gave 12
+    # photons/entry and 30 % more error in the Cornell box, 0.5 gives ~1.4 and matches it.
+    CELL_SCALE = 0.5
 
     def __init__(self, device, capacity: int, exact: bool = False):
         """``exact``: the reference mode -- photons sorted by entry (pyopencl RadixSort), every

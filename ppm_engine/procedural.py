@@ -99,7 +99,8 @@ def look_at(eye, target, up=(0, 0, 1)) -> np.ndarray:
     return m
 
 
-def cornell_box(width=64, height=64, light_radiance=15.0, bulb=False) -> SceneArrays:
+def cornell_box(width=64, height=64, light_radiance=15.0, bulb=False,
+                filament_radiance=80.0) -> SceneArrays:
     """The classic box (x, y in [-1, 1], z in [0, 2], open towards -y where the camera is).
     ``bulb``: no ceiling light; an emissive sphere inside a glass sphere, and a glass ball on
     the floor (the paper's bulb box)."""
@@ -114,7 +115,7 @@ def cornell_box(width=64, height=64, light_radiance=15.0, bulb=False) -> SceneAr
     mb.quad((1, 0, 1), (0, 1, 0), (0, 0, 1), green)        # right wall, normal -x
     if bulb:
         glass = mb.material("glass", (1, 1, 1), transmission=1.0, roughness=0.0, ior=1.5)
-        filament = mb.material("filament", (0, 0, 0), emission=(light_radiance * 40,) * 3)
+        filament = mb.material("filament", (0, 0, 0), emission=(filament_radiance,) * 3)
         mb.sphere((0, 0, 1.6), 0.05, filament, 16, 8)
         mb.sphere((0, 0, 1.6), 0.15, glass, 32, 16)
         mb.sphere((0.3, 0.2, 0.3), 0.3, glass, 32, 16)

@@ -13,7 +13,7 @@ WHITE = (0.73, 0.73, 0.73)
 RED = (0.63, 0.065, 0.05)
 GREEN = (0.14, 0.45, 0.091)
 LAMP_RADIANCE = 15.0
-FILAMENT_RADIANCE = 600.0
+FILAMENT_RADIANCE = 80.0
 
 
 def _lambert(name, color):
