@@ -1,0 +1,1 @@
+from .ppm_engine import register, unregister  # noqa: F401

@@ -1,0 +1,225 @@
+"""Command line: render a .blend headless, list OpenCL devices, write the example scenes.
+
+    python -m ppm_engine render SCENE.blend -o OUT.png|OUT.exr [--passes N] [--time-limit S]
+                                [--resolution WxH] [--device NAME] [--photons N] [--seed N]
+    python -m ppm_engine devices
+    python -m ppm_engine example NAME OUT.blend
+
+The .blend is treated as untrusted: it is opened without running its embedded scripts.
+Errors print one line on stderr and exit with 1 (failed) or 2 (bad arguments or settings).
+"""
+import argparse
+import dataclasses
+import sys
+import time
+from pathlib import Path
+
+from .errors import PPMError
+from .options import RenderOptions, SettingsError
+
+PROG = "ppm_engine"
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+
+# extension -> (file_format, color_depth)
+OUTPUT_FORMATS = {
+    ".png": ("PNG", "8"),
+    ".exr": ("OPEN_EXR", "32"),
+}
+
+# zstd (Blender >= 3.0 compression), gzip (older compression), plain
+_BLEND_MAGIC = (b"BLENDER", b"\x28\xb5\x2f\xfd", b"\x1f\x8b")
+
+
+class CLIError(Exception):
+    def __init__(self, message: str, code: int = EXIT_FAILED):
+        super().__init__(message)
+        self.code = code
+
+
+def _say(message: str) -> None:
+    print(f"{PROG}: {message}", file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------------------------------------
+def _parse_resolution(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WxH such as 640x480, got '{text}'") from None
+    if not (4 <= w <= 65536 and 4 <= h <= 65536):
+        raise argparse.ArgumentTypeError(f"resolution {w}x{h} is outside 4..65536 per side")
+    return w, h
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog=PROG, description="Progressive Photon Mapping for Blender")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    r = sub.add_parser("render", help="render a .blend with the PPM engine")
+    r.add_argument("scene", help="the .blend file (its scripts are never run)")
+    r.add_argument("-o", "--output", required=True, help="output image, .png (8-bit) or .exr (32-bit float)")
+    r.add_argument("--passes", type=int, help="number of SPPM passes")
+    r.add_argument("--time-limit", type=float, help="stop after this many seconds (0 = no limit)")
+    r.add_argument("--resolution", type=_parse_resolution, metavar="WxH", help="image size (at 100%%)")
+    r.add_argument("--device", help="OpenCL device: a key from 'devices', part of its name, or DEFAULT")
+    r.add_argument("--photons", type=int, help="photons per pass")
+    r.add_argument("--seed", type=int, help="random seed")
+
+    sub.add_parser("devices", help="list the OpenCL devices")
+
+    e = sub.add_parser("example", help="write an example scene")
+    e.add_argument("name", help="example name")
+    e.add_argument("output", help="the .blend to write")
+    return p
+
+
+def main(argv=None) -> int:
+    args = _build_parser().parse_args(argv)
+    try:
+        return {"render": cmd_render, "devices": cmd_devices, "example": cmd_example}[args.command](args)
+    except CLIError as e:
+        _say(f"error: {e}")
+        return e.code
+    except SettingsError as e:
+        _say(f"error: {e}")
+        return EXIT_USAGE
+    except PPMError as e:
+        _say(f"error: {e}")
+        return EXIT_FAILED
+
+
+# ------------------------------------------------------------------------------------------------
+def cmd_devices(args) -> int:
+    from .device import list_devices
+    devices = list_devices()
+    if not devices:
+        raise CLIError("no OpenCL device found: install a GPU OpenCL driver or the PoCL CPU "
+                       "device (pip install pocl-binary-distribution)")
+    for d in devices:
+        print(f"{d.key}\t{d.type}\t{d.name} ({d.platform})")
+    return 0
+
+
+def cmd_example(args) -> int:
+    out = Path(args.output).resolve()
+    if out.suffix.lower() != ".blend":
+        raise CLIError(f"the example is saved as a .blend, got '{args.output}'", EXIT_USAGE)
+    if not out.parent.is_dir():
+        raise CLIError(f"output folder does not exist: {out.parent}")
+    from .scenes import EXAMPLES, save_example
+    if args.name not in EXAMPLES:
+        raise CLIError(f"unknown example '{args.name}'; available: {', '.join(EXAMPLES)}", EXIT_USAGE)
+    _ensure_registered()
+    save_example(args.name, str(out))
+    _say(f"wrote {out}")
+    return 0
+
+
+def cmd_render(args) -> int:
+    src = Path(args.scene)
+    if not src.is_file():
+        raise CLIError(f"scene file not found: {src}")
+    with open(src, "rb") as f:
+        head = f.read(8)
+    if not head.startswith(_BLEND_MAGIC):
+        raise CLIError(f"not a .blend file: {src}")
+    out = Path(args.output).resolve()
+    if out.suffix.lower() not in OUTPUT_FORMATS:
+        raise CLIError(f"unsupported output format '{out.suffix or out.name}': use .png or .exr",
+                       EXIT_USAGE)
+    if not out.parent.is_dir():
+        raise CLIError(f"output folder does not exist: {out.parent}")
+    overrides = {name: value for name, value in (
+        ("passes", args.passes), ("time_limit", args.time_limit),
+        ("photons_per_pass", args.photons), ("seed", args.seed)) if value is not None}
+    RenderOptions().replace(**overrides).validate()      # refuse bad values before loading Blender
+
+    import bpy
+    _ensure_registered()
+    try:
+        # never use_scripts=True: the file is untrusted and its scripts stay off
+        bpy.ops.wm.open_mainfile(filepath=str(src.resolve()), load_ui=False)
+    except RuntimeError as e:
+        raise CLIError(f"cannot open {src}: {_blender_message(e)}") from None
+    scene = bpy.context.scene
+    if scene.render.engine != "PPM":      # setting it again would drop a persistent engine
+        scene.render.engine = "PPM"
+    if scene.render.engine != "PPM":      # BLENDER_NOTES section 9: never render another engine
+        raise CLIError("could not select the PPM render engine in the loaded file")
+
+    _apply_settings(scene, overrides, args.device)
+    if args.resolution:
+        scene.render.resolution_x, scene.render.resolution_y = args.resolution
+        scene.render.resolution_percentage = 100
+    _set_output(scene, out)
+
+    from . import session
+    listener = lambda text: _say(text)  # noqa: E731
+    session.progress_listeners.append(listener)
+    t0 = time.perf_counter()
+    try:
+        bpy.ops.render.render(write_still=True)
+    except RuntimeError as e:
+        raise CLIError(f"render failed: {_blender_message(e)}") from None
+    finally:
+        session.progress_listeners.remove(listener)
+    if not out.is_file():
+        raise CLIError(f"render finished but {out} was not written")
+    _say(f"wrote {out} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+# ------------------------------------------------------------------------------------------------
+def _ensure_registered() -> None:
+    from . import register
+    from .engine import PPMRenderEngine
+    if not PPMRenderEngine.is_registered:
+        register()
+
+
+def _blender_message(e: Exception) -> str:
+    text = " ".join(str(e).split())
+    return text[len("Error: "):] if text.startswith("Error: ") else text
+
+
+def _apply_settings(scene, overrides: dict, device: str | None) -> None:
+    """Validate the file's settings with the overrides, then store the overrides in scene.ppm.
+    (Validation comes first: Blender would silently clamp an out-of-range assignment.)"""
+    from .properties import DEFAULT_DEVICE, refresh_devices
+    settings = scene.ppm
+    stored = {f.name: getattr(settings, f.name) for f in dataclasses.fields(RenderOptions)
+              if f.name not in ("device", "exact_gather")}
+    RenderOptions(**stored).replace(**overrides).validate()
+    for name, value in overrides.items():
+        setattr(settings, name, value)
+    if device is not None:
+        settings.device = _resolve_device(device, refresh_devices(), DEFAULT_DEVICE)
+
+
+def _resolve_device(name: str, items, default_key: str) -> str:
+    """A device key from a key, a case-insensitive part of a device name, or DEFAULT."""
+    if name.upper() == default_key:
+        return default_key
+    keys = [item[0] for item in items if item[0] != default_key]
+    if name in keys:
+        return name
+    low = name.lower()
+    match = [item[0] for item in items if item[0] != default_key
+             and (low in item[1].lower() or low in item[2].lower())]
+    if not match:
+        listed = ", ".join(f"'{k}'" for k in keys) or "none"
+        raise CLIError(f"no OpenCL device matches '{name}'; available: {listed}", EXIT_USAGE)
+    return match[0]
+
+
+def _set_output(scene, out: Path) -> None:
+    file_format, depth = OUTPUT_FORMATS[out.suffix.lower()]
+    settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):     # Blender 5.0: single image, not multilayer
+        settings.media_type = "IMAGE"
+    settings.file_format = file_format
+    settings.color_mode = "RGBA"
+    settings.color_depth = depth
+    scene.render.use_file_extension = True
+    scene.render.filepath = str(out)

@@ -1,0 +1,98 @@
+"""Scene.ppm: the engine's settings, one property per RenderOptions field (exact_gather is a
+debug switch of the core and is not exposed).  Names, descriptions and limits come from
+``options.LIMITS`` so the UI, the CLI and the core refuse the same values."""
+import sys
+import zlib
+
+import bpy
+from bpy.props import EnumProperty, FloatProperty, IntProperty, PointerProperty
+
+from .options import LIMITS, RenderOptions
+
+DEFAULT_DEVICE = "DEFAULT"
+
+# Dynamic EnumProperty items must stay referenced from Python while Blender uses them, or the
+# UI shows garbage strings: the list lives here and is rebuilt only by refresh_devices().
+_device_items: list[tuple[str, str, str, int]] | None = None
+
+
+def device_enum_value(key: str) -> int:
+    """A stable enum value per device key (a dynamic enum stores the integer in the .blend, so
+    it must not depend on the order in which OpenCL lists the devices)."""
+    return 0 if key == DEFAULT_DEVICE else (zlib.crc32(key.encode()) & 0x7FFFFFFF) or 1
+
+
+def refresh_devices() -> list[tuple[str, str, str, int]]:
+    """Re-list the OpenCL devices (imports pyopencl; called lazily, never at add-on import)."""
+    global _device_items
+    items = [(DEFAULT_DEVICE, "Default", "A GPU if one is present, else the PoCL CPU device", 0)]
+    try:
+        from .device import list_devices
+        devices = list_devices()
+    except Exception as e:  # no OpenCL platform, broken driver: only DEFAULT (the render reports it)
+        print(f"PPM: could not list OpenCL devices: {e}", file=sys.stderr)
+        devices = []
+    for d in devices:
+        items.append((d.key, f"{d.name} ({d.type})", f"{d.name} on {d.platform}",
+                      device_enum_value(d.key)))
+    _device_items = items
+    return items
+
+
+def _device_items_cb(self, context):
+    return _device_items if _device_items is not None else refresh_devices()
+
+
+def _int(name: str, **kw):
+    lo, hi, default, desc = LIMITS[name]
+    return IntProperty(name=kw.pop("label"), description=desc, min=lo, max=hi, default=default, **kw)
+
+
+def _float(name: str, **kw):
+    lo, hi, default, desc = LIMITS[name]
+    return FloatProperty(name=kw.pop("label"), description=desc, min=lo, max=hi, default=default,
+                         **kw)
+
+
+class PPMSettings(bpy.types.PropertyGroup):
+    passes: _int("passes", label="Passes", soft_max=4096)
+    time_limit: _float("time_limit", label="Time Limit", subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE",
+                       soft_max=3600.0, step=100)
+    photons_per_pass: _int("photons_per_pass", label="Photons per Pass", soft_min=1024,
+                           soft_max=1 << 22)
+    initial_radius: _float("initial_radius", label="Initial Radius", subtype="DISTANCE",
+                           soft_max=10.0, precision=4)
+    # validate() wants 0 < alpha < 1; the soft limits keep the slider inside that
+    alpha: _float("alpha", label="Alpha", subtype="FACTOR", soft_min=0.01, soft_max=0.99)
+    max_bounces: _int("max_bounces", label="Max Bounces", soft_max=64)
+    seed: _int("seed", label="Seed")
+    device: EnumProperty(
+        name="Device",
+        description="OpenCL device that renders (Default: a GPU if present, else the PoCL CPU device)",
+        items=_device_items_cb,
+    )
+
+
+def to_options(settings) -> RenderOptions:
+    """RenderOptions from ``scene.ppm``, validated (raises options.SettingsError)."""
+    device = settings.device  # '' when the stored device is no longer listed
+    return RenderOptions(
+        passes=int(settings.passes),
+        time_limit=float(settings.time_limit),
+        photons_per_pass=int(settings.photons_per_pass),
+        initial_radius=float(settings.initial_radius),
+        alpha=float(settings.alpha),
+        max_bounces=int(settings.max_bounces),
+        seed=int(settings.seed),
+        device="" if device in ("", DEFAULT_DEVICE) else device,
+    ).validate()
+
+
+def register():
+    bpy.utils.register_class(PPMSettings)
+    bpy.types.Scene.ppm = PointerProperty(type=PPMSettings, name="Progressive Photon Mapping")
+
+
+def unregister():
+    del bpy.types.Scene.ppm
+    bpy.utils.unregister_class(PPMSettings)

@@ -1,0 +1,88 @@
+"""Render-properties panels for scene.ppm, and the built-in panels the engine reuses."""
+import bpy
+
+ENGINE_ID = "PPM"
+
+# Built-in panels that are EEVEE-only but draw exactly what this engine reads (node-based
+# material and world surfaces, the material slot list, the full light settings).  Every panel
+# marked 'BLENDER_RENDER' (Blender's marker for external engines) is added as well.
+EXTRA_BUILTIN_PANELS = (
+    "EEVEE_MATERIAL_PT_surface",
+    "EEVEE_MATERIAL_PT_context_material",
+    "DATA_PT_EEVEE_light",
+    "EEVEE_WORLD_PT_surface",
+)
+
+
+class PPMPanel:
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+def _draw_props(layout, settings, names):
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    col = layout.column()
+    for name in names:
+        col.prop(settings, name)
+
+
+class PPM_PT_sampling(PPMPanel, bpy.types.Panel):
+    bl_label = "Sampling"
+
+    def draw(self, context):
+        _draw_props(self.layout, context.scene.ppm, ("passes", "time_limit", "seed"))
+
+
+class PPM_PT_photons(PPMPanel, bpy.types.Panel):
+    bl_label = "Photons"
+
+    def draw(self, context):
+        _draw_props(self.layout, context.scene.ppm,
+                    ("photons_per_pass", "initial_radius", "alpha", "max_bounces"))
+
+
+class PPM_PT_device(PPMPanel, bpy.types.Panel):
+    bl_label = "Device"
+
+    def draw(self, context):
+        _draw_props(self.layout, context.scene.ppm, ("device",))
+
+
+CLASSES = (PPM_PT_sampling, PPM_PT_photons, PPM_PT_device)
+
+
+def _all_subclasses(cls):
+    for sub in cls.__subclasses__():
+        yield sub
+        yield from _all_subclasses(sub)
+
+
+def builtin_panels():
+    """The registered built-in panels this engine shows: every Panel whose COMPAT_ENGINES
+    contains 'BLENDER_RENDER', plus EXTRA_BUILTIN_PANELS."""
+    panels = [p for p in set(_all_subclasses(bpy.types.Panel))
+              if "BLENDER_RENDER" in getattr(p, "COMPAT_ENGINES", ())]
+    panels += [getattr(bpy.types, name) for name in EXTRA_BUILTIN_PANELS
+               if hasattr(bpy.types, name)]
+    return panels
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    for panel in builtin_panels():
+        panel.COMPAT_ENGINES.add(ENGINE_ID)
+
+
+def unregister():
+    for panel in builtin_panels():
+        panel.COMPAT_ENGINES.discard(ENGINE_ID)
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

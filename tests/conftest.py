@@ -1,0 +1,127 @@
+"""Shared fixtures: the engine registered once in this process, a session temp folder, the
+example .blend files, the PoCL device key, tiny render settings and a CLI runner."""
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+# Blender's user config/scripts/extensions go to a throw-away folder, not ~/.config/blender
+# (set before anything imports bpy; subprocesses inherit it).
+os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="ppm-blender-user-"))
+
+# tiny renders: every image test stays well under a second per render on a 2-core CPU
+TINY = dict(width=24, height=24, passes=3, photons_per_pass=4096)
+
+
+@pytest.fixture(scope="session")
+def bpy():
+    """bpy with the PPM engine registered (once per test session)."""
+    bpy = pytest.importorskip("bpy")
+    import ppm_engine
+    from ppm_engine.engine import PPMRenderEngine
+    if not PPMRenderEngine.is_registered:
+        ppm_engine.register()
+    yield bpy
+    if PPMRenderEngine.is_registered:
+        ppm_engine.unregister()
+
+
+@pytest.fixture(scope="session")
+def session_dir(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("ppm")
+
+
+@pytest.fixture(scope="session")
+def pocl_key() -> str:
+    """The key of the PoCL CPU device (the device every test renders on)."""
+    pytest.importorskip("pyopencl")
+    from ppm_engine.device import list_devices
+    for d in list_devices():
+        if "portable computing language" in d.platform.lower() or "pocl" in d.platform.lower():
+            return d.key
+    pytest.skip("the PoCL CPU device is not installed")
+
+
+@pytest.fixture(scope="session")
+def example_blend(bpy, session_dir):
+    """example_blend(name) -> path of the example scene saved as .blend (built once)."""
+    made = {}
+
+    def get(name: str) -> Path:
+        if name not in made:
+            from ppm_engine.scenes import save_example
+            path = session_dir / f"{name}.blend"
+            save_example(name, str(path))
+            assert path.is_file()
+            made[name] = path
+        return made[name]
+    return get
+
+
+@pytest.fixture(scope="session")
+def tiny(pocl_key):
+    """tiny(scene, **kw): tiny, deterministic render settings on the PoCL device."""
+    return lambda scene, **kw: configure_tiny(scene, pocl_key, **kw)
+
+
+@pytest.fixture(scope="session")
+def exr():
+    """Namespace with .set_output(scene, path) and .read(path)."""
+    import types
+    return types.SimpleNamespace(set_output=set_exr_output, read=read_exr)
+
+
+@pytest.fixture(scope="session")
+def cli():
+    """cli(*args) runs ``python -m ppm_engine ARGS`` in a fresh process."""
+    return run_cli
+
+
+def configure_tiny(scene, pocl_key: str, *, width=TINY["width"], height=TINY["height"],
+                   passes=TINY["passes"], photons=TINY["photons_per_pass"]) -> None:
+    """Tiny, deterministic render settings on the PoCL device."""
+    if scene.render.engine != "PPM":
+        scene.render.engine = "PPM"
+    assert scene.render.engine == "PPM"
+    scene.render.resolution_x, scene.render.resolution_y = width, height
+    scene.render.resolution_percentage = 100
+    scene.render.use_border = False
+    scene.render.dither_intensity = 0.0
+    scene.ppm.passes = passes
+    scene.ppm.photons_per_pass = photons
+    scene.ppm.time_limit = 0.0
+    scene.ppm.device = pocl_key
+
+
+def set_exr_output(scene, path: Path) -> None:
+    s = scene.render.image_settings
+    s.media_type = "IMAGE"
+    s.file_format = "OPEN_EXR"
+    s.color_mode = "RGBA"
+    s.color_depth = "32"
+    scene.render.filepath = str(path)
+
+
+def read_exr(path: Path):
+    """RGBA float32 (h, w, 4) of a single-part EXR, rows top-down (EXR order)."""
+    OpenEXR = pytest.importorskip("OpenEXR")
+    import numpy as np
+    with OpenEXR.File(str(path)) as f:
+        channels = f.parts[0].channels
+        rgba = [v.pixels for k, v in channels.items() if v.pixels.ndim == 3]
+        assert rgba, f"no RGBA layer in {path}: {list(channels)}"
+        return np.asarray(rgba[0], dtype=np.float32)
+
+
+def run_cli(*args, timeout=600):
+    """``python -m ppm_engine ARGS`` in a fresh process; returns the CompletedProcess."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    return subprocess.run([sys.executable, "-m", "ppm_engine", *map(str, args)], cwd=REPO,
+                          env=env, capture_output=True, text=True, timeout=timeout,
+                          stdin=subprocess.DEVNULL)

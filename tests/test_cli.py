@@ -1,0 +1,111 @@
+"""``python -m ppm_engine``: devices, render to PNG/EXR, examples and its error messages (each
+command in a fresh process, as a user runs it)."""
+import struct
+
+import numpy as np
+import pytest
+
+RENDER_TINY = ("--passes", "2", "--photons", "4096", "--resolution", "24x16")
+
+
+def _one_clear_line(proc, *words):
+    """A failure: non-zero exit, no traceback, one 'ppm_engine: error: ...' line naming words."""
+    assert proc.returncode not in (0, None), proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    lines = [l for l in proc.stderr.splitlines() if l.startswith("ppm_engine: error:")]
+    assert len(lines) == 1, proc.stderr
+    for w in words:
+        assert w.lower() in lines[0].lower(), lines[0]
+    return lines[0]
+
+
+def _png_size(path):
+    with open(path, "rb") as f:
+        head = f.read(24)
+    assert head[:8] == b"\x89PNG\r\n\x1a\n"
+    return struct.unpack(">II", head[16:24])
+
+
+def test_devices_lists_the_pocl_device(cli, pocl_key):
+    proc = cli("devices")
+    assert proc.returncode == 0, proc.stderr
+    assert any(line.split("\t")[0] == pocl_key for line in proc.stdout.splitlines()), proc.stdout
+
+
+@pytest.mark.parametrize("ext", ["png", "exr"])
+def test_render_cornell_box(cli, example_blend, pocl_key, exr, tmp_path, ext):
+    out = tmp_path / f"cornell.{ext}"
+    proc = cli("render", example_blend("cornell_box"), "-o", out, *RENDER_TINY,
+               "--device", pocl_key, "--seed", "3")
+    assert proc.returncode == 0, proc.stderr
+    assert out.is_file()
+    assert "Pass 2/2" in proc.stderr               # a progress line per pass on stderr
+    if ext == "png":
+        assert _png_size(out) == (24, 16)
+    else:
+        img = exr.read(out)
+        assert img.shape == (16, 24, 4)
+        assert np.isfinite(img).all() and img[..., :3].mean() > 1e-3
+
+
+def test_render_device_by_name_part(cli, example_blend, tmp_path):
+    out = tmp_path / "default.png"
+    proc = cli("render", example_blend("cornell_box"), "-o", out, *RENDER_TINY, "--device", "DEFAULT")
+    assert proc.returncode == 0, proc.stderr
+    assert out.is_file()
+
+
+def test_missing_blend_file(cli, tmp_path):
+    proc = cli("render", tmp_path / "nope.blend", "-o", tmp_path / "x.png")
+    _one_clear_line(proc, "not found", "nope.blend")
+
+
+def test_not_a_blend_file(cli, tmp_path):
+    fake = tmp_path / "fake.blend"
+    fake.write_text("hello")
+    proc = cli("render", fake, "-o", tmp_path / "x.png")
+    _one_clear_line(proc, "not a .blend")
+
+
+@pytest.mark.parametrize("args, words", [
+    (("--passes", "0"), ("passes",)),
+    (("--photons", "-5"), ("photons_per_pass",)),
+    (("--time-limit", "-1"), ("time_limit",)),
+    (("--device", "no-such-device"), ("no-such-device", "available")),
+])
+def test_invalid_settings_are_refused(cli, example_blend, tmp_path, args, words):
+    out = tmp_path / "x.png"
+    proc = cli("render", example_blend("cornell_box"), "-o", out, *args)
+    assert proc.returncode == 2
+    _one_clear_line(proc, *words)
+    assert not out.exists()
+
+
+def test_unsupported_output_format(cli, example_blend, tmp_path):
+    proc = cli("render", example_blend("cornell_box"), "-o", tmp_path / "x.jpg")
+    assert proc.returncode == 2
+    _one_clear_line(proc, ".png", ".exr")
+
+
+def test_engine_error_becomes_one_line(bpy, cli, tmp_path):
+    """A scene the engine refuses (its camera is an Empty): the engine's ERROR report, no traceback."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    cam = bpy.data.objects.new("NotACamera", None)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    path = tmp_path / "empty_camera.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    proc = cli("render", path, "-o", tmp_path / "x.png", *RENDER_TINY)
+    assert proc.returncode == 1
+    _one_clear_line(proc, "render failed")
+
+
+def test_example_command(cli, tmp_path):
+    out = tmp_path / "bulb.blend"
+    proc = cli("example", "bulb_box", out)
+    assert proc.returncode == 0, proc.stderr
+    assert out.stat().st_size > 1000
+    proc = cli("example", "no_such_scene", tmp_path / "x.blend")
+    assert proc.returncode == 2
+    _one_clear_line(proc, "no_such_scene", "cornell_box")
