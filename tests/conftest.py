@@ -125,3 +125,41 @@ def run_cli(*args, timeout=600):
     return subprocess.run([sys.executable, "-m", "ppm_engine", *map(str, args)], cwd=REPO,
                           env=env, capture_output=True, text=True, timeout=timeout,
                           stdin=subprocess.DEVNULL)
+
+
+def cycles_settings(scene, samples: int, width: int = 32) -> None:
+    """Cycles with the same light transport as ours (for comparisons): enough diffuse bounces,
+    no clamping, no denoising, caustics on, fixed seed, CPU."""
+    if scene.render.engine != "CYCLES":
+        scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.device, c.samples = "CPU", samples
+    c.use_adaptive_sampling = c.use_denoising = False
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 12
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.blur_glossy = 0.0
+    c.caustics_reflective = c.caustics_refractive = True
+    c.seed = 1
+    scene.render.resolution_x = scene.render.resolution_y = width
+    scene.render.resolution_percentage = 100
+
+
+@pytest.fixture(scope="session")
+def cycles():
+    """cycles(scene, samples, width=32): configure the scene for a Cycles comparison render."""
+    return cycles_settings
+
+
+@pytest.fixture(scope="session")
+def render_exr(bpy, exr):
+    """render_exr(path) -> RGB float32 (h, w, 3) of the current scene, top-down, finite."""
+    import numpy as np
+
+    def render(path):
+        scene = bpy.context.scene
+        exr.set_output(scene, path)
+        assert bpy.ops.render.render(write_still=True) == {'FINISHED'}
+        img = exr.read(path)
+        assert np.isfinite(img).all()
+        return img[..., :3]
+    return render

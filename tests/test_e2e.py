@@ -5,32 +5,6 @@ import pytest
 W = 32
 
 
-def cycles_settings(scene, samples):
-    """Cycles with the same light transport as ours: enough diffuse bounces, no clamping,
-    no denoising, caustics on."""
-    if scene.render.engine != "CYCLES":
-        scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device, c.samples = "CPU", samples
-    c.use_adaptive_sampling = c.use_denoising = False
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 12
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.blur_glossy = 0.0
-    c.caustics_reflective = c.caustics_refractive = True
-    c.seed = 1
-    scene.render.resolution_x = scene.render.resolution_y = W
-    scene.render.resolution_percentage = 100
-
-
-def render(bpy, exr, path):
-    scene = bpy.context.scene
-    exr.set_output(scene, path)
-    assert bpy.ops.render.render(write_still=True) == {'FINISHED'}
-    img = exr.read(path)
-    assert np.isfinite(img).all()
-    return img[..., :3]
-
-
 @pytest.fixture
 def open_example(bpy, example_blend):
     def open_(name):
@@ -39,12 +13,12 @@ def open_example(bpy, example_blend):
     return open_
 
 
-def test_cornell_box_matches_cycles(bpy, open_example, tiny, exr, tmp_path):
+def test_cornell_box_matches_cycles(open_example, tiny, cycles, render_exr, tmp_path):
     scene = open_example("cornell_box")
-    cycles_settings(scene, 256)
-    ref = render(bpy, exr, tmp_path / "cycles.exr")
+    cycles(scene, 256, W)
+    ref = render_exr(tmp_path / "cycles.exr")
     tiny(scene, width=W, height=W, passes=60, photons=1 << 13)
-    ours = render(bpy, exr, tmp_path / "ppm.exr")
+    ours = render_exr(tmp_path / "ppm.exr")
     assert ours.mean() == pytest.approx(ref.mean(), rel=0.05)
     # and region by region (4x4 blocks, colour included)
     b_ours = ours.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
@@ -53,30 +27,30 @@ def test_cornell_box_matches_cycles(bpy, open_example, tiny, exr, tmp_path):
     assert np.abs(b_ours[bright] / b_ref[bright] - 1).max() < 0.15
 
 
-def test_bulb_box_is_lit_through_the_glass(bpy, open_example, tiny, exr, tmp_path):
+def test_bulb_box_is_lit_through_the_glass(open_example, tiny, cycles, render_exr, tmp_path):
     """The only light is a filament inside glass: direct light (shadow rays) cannot reach the
     walls, photons through the glass must; and the result is as bright as Cycles'."""
     scene = open_example("bulb_box")
     tiny(scene, width=W, height=W, passes=40, photons=1 << 13)
-    lit = render(bpy, exr, tmp_path / "lit.exr")
+    lit = render_exr(tmp_path / "lit.exr")
     scene.ppm.max_bounces = 0
-    direct = render(bpy, exr, tmp_path / "direct.exr")
+    direct = render_exr(tmp_path / "direct.exr")
     walls = np.ones((W, W), bool)
     walls[:, W // 2 - 5:W // 2 + 5] = False           # the bulb and ball column
     assert direct[walls].max() == 0.0                  # nothing reaches a wall directly
     assert lit[walls].mean() > 0.05                    # ... photons through the glass do
     assert (lit[walls].mean(axis=-1) > 0).mean() > 0.95
     # brightness against Cycles (its own noise on this scene is large: 10 % allowed)
-    cycles_settings(scene, 512)
-    ref = render(bpy, exr, tmp_path / "cycles.exr")
+    cycles(scene, 512, W)
+    ref = render_exr(tmp_path / "cycles.exr")
     lum = lambda im: im.mean(axis=-1)  # noqa: E731
     keep = (lum(ref) < 50) & (lum(lit) < 50)           # leave out the directly seen filament
     assert lum(lit)[keep & walls].mean() == pytest.approx(lum(ref)[keep & walls].mean(), rel=0.1)
 
 
-def test_hidden_lamp_leaves_the_box_dark(bpy, open_example, tiny, exr, tmp_path):
+def test_hidden_lamp_leaves_the_box_dark(bpy, open_example, tiny, render_exr, tmp_path):
     scene = open_example("cornell_box")
     tiny(scene, width=16, height=16, passes=3)
     bpy.data.objects["Lamp"].hide_render = True
-    img = render(bpy, exr, tmp_path / "dark.exr")
+    img = render_exr(tmp_path / "dark.exr")
     assert img.max() == 0.0
