@@ -7,9 +7,11 @@ W = 32
 
 @pytest.fixture
 def open_example(bpy, example_blend):
+    """open_example(name) opens an example .blend; open_example.path(name) is its file."""
     def open_(name):
         bpy.ops.wm.open_mainfile(filepath=str(example_blend(name)), load_ui=False)
         return bpy.context.scene
+    open_.path = example_blend
     return open_
 
 
@@ -54,3 +56,28 @@ def test_hidden_lamp_leaves_the_box_dark(bpy, open_example, tiny, render_exr, tm
     bpy.data.objects["Lamp"].hide_render = True
     img = render_exr(tmp_path / "dark.exr")
     assert img.max() == 0.0
+
+
+def test_cli_renders_match_cycles_and_light_the_bulb_box(open_example, cli, pocl_key, exr,
+                                                          cycles, render_exr, tmp_path):
+    """The same through `python -m ppm_engine render` (a fresh process): the Cornell box as
+    bright as Cycles, the bulb box lit through its glass."""
+    scene = open_example("cornell_box")
+    cycles(scene, 256, W)
+    ref = render_exr(tmp_path / "cycles.exr")
+    out = tmp_path / "cli.exr"
+    proc = cli("render", open_example.path("cornell_box"), "-o", out, "--resolution", f"{W}x{W}",
+               "--passes", "60", "--photons", str(1 << 13), "--device", pocl_key)
+    assert proc.returncode == 0, proc.stderr
+    ours = exr.read(out)[..., :3]
+    assert np.isfinite(ours).all()
+    assert ours.mean() == pytest.approx(ref.mean(), rel=0.05)
+
+    out = tmp_path / "bulb.exr"
+    proc = cli("render", open_example.path("bulb_box"), "-o", out, "--resolution", f"{W}x{W}",
+               "--passes", "20", "--photons", str(1 << 13), "--device", pocl_key)
+    assert proc.returncode == 0, proc.stderr
+    bulb = exr.read(out)[..., :3]
+    walls = np.ones((W, W), bool)
+    walls[:, W // 2 - 5:W // 2 + 5] = False
+    assert np.isfinite(bulb).all() and bulb[walls].mean() > 0.05
