@@ -5,8 +5,20 @@
 #include "lights.h"
 #include "camera.h"
 
+#define FILTER_TABLE_SIZE 256      /* ppm_engine/film.py */
+
+/* offset from the pixel centre: the filter table (inverse CDF) at u = bits / 2^32, lerped */
+inline float filter_offset(__global const float *table, uint bits) {
+    float x = (float)(bits >> 8) * (1.0f / 16777216.0f) * (float)FILTER_TABLE_SIZE - 0.5f;
+    x = clamp(x, 0.0f, (float)(FILTER_TABLE_SIZE - 1));
+    int k = min((int)x, FILTER_TABLE_SIZE - 2);
+    float t = x - (float)k;
+    return mix(table[k], table[k + 1], t);
+}
+
 __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint seed,
                        int max_bounces, float initial_radius, float auto_radius_pixels,
+                       __global const float *filter_table,
                        __global float4 *direct, __global float *radius,
                        __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
                        __global uint *counters) {
@@ -20,8 +32,9 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
     uint prng = rng_seed(seed, 0u, (uint)id, 4u);
     uint jx = rng_next(&prng) + pass * 3242174889u;     /* 0.7548776662 * 2^32, wraps = frac */
     uint jy = rng_next(&prng) + pass * 2447445413u;     /* 0.5698402910 * 2^32 */
-    float px = (float)(cam->region[0] + i) + (float)(jx >> 8) * (1.0f / 16777216.0f);
-    float py = (float)(cam->region[1] + j) + (float)(jy >> 8) * (1.0f / 16777216.0f);
+    /* pixel filter by importance sampling (as Cycles): offsets from the filter's inverse CDF */
+    float px = (float)(cam->region[0] + i) + 0.5f + filter_offset(filter_table, jx);
+    float py = (float)(cam->region[1] + j) + 0.5f + filter_offset(filter_table, jy);
     float3 o, d;
     float tmax;
     camera_ray(cam, px, py, rnd(&rng), rnd(&rng), &o, &d, &tmax);

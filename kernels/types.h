@@ -51,6 +51,7 @@ typedef struct {
     int aperture_blades;
     float aperture_rotation;
     float aperture_ratio;
+    float filter_width;     /* 0: box; > 0: Blackman-Harris over +-filter_width pixels */
 } Camera;
 
 /* mirrors renderer.KMATERIAL_DTYPE: the lobes the kernels sample, derived from

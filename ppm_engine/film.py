@@ -45,3 +45,22 @@ class Film:
 
 def _round(n: int, wg: int = 64) -> int:
     return max(wg, (n + wg - 1) // wg * wg)
+
+
+FILTER_TABLE_SIZE = 256
+
+
+def filter_table(width: float) -> np.ndarray:
+    """Inverse CDF of Cycles' Blackman-Harris pixel filter (scene/film.cpp: the function is
+    evaluated with its width doubled, so its support is +-width pixels), sampled at
+    FILTER_TABLE_SIZE uniform u; the eye pass jitters each axis with it.  width <= 0: the box
+    filter (offsets uniform in the pixel)."""
+    u = (np.arange(FILTER_TABLE_SIZE) + 0.5) / FILTER_TABLE_SIZE
+    if width <= 0:
+        return (u - 0.5).astype(np.float32)
+    x = np.linspace(-width, width, 4097)
+    v = 2 * np.pi * (x / (2 * width) + 0.5)
+    f = 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
+    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(x))])
+    cdf /= cdf[-1]
+    return np.interp(u, cdf, x).astype(np.float32)

@@ -16,7 +16,7 @@ import numpy as np
 from .bvh import BVH
 from .device import get_device
 from .emitters import build_emitters
-from .film import Film
+from .film import Film, filter_table
 from .materials import kernel_materials
 from .options import RenderOptions
 from .photon_map import (CNT_NAN, CNT_OCCUPIED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_STORED,
@@ -93,6 +93,8 @@ class Renderer:
         self.emissive = up(em if em.size else np.zeros(1, np.int32), "emissive triangles")
         self.emitter_info = up(self.emitters.info, "emitters")
         self.camera = up(scene.camera, "camera")
+        self.filter_table = up(filter_table(float(scene.camera["filter_width"][0])),
+                               "pixel filter")
 
         P = dev.programs
         self.k_eye = P.get("eye_pass.cl").eye_pass
@@ -141,7 +143,8 @@ class Renderer:
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4, 4 * (N_COUNTERS - 1))  # keep NaNs
         run("eye", self.k_eye, _round(n), self.camera, *self._scene_args(), pass_id, seed,
             np.int32(o.max_bounces), np.float32(o.initial_radius),
-            np.float32(self.AUTO_RADIUS_PIXELS), self.film.direct, self.film.radius,
+            np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct,
+            self.film.radius,
             self.vp_pos, self.vp_nrm, self.vp_beta, self.counters)
         pm = self.photon_map
         events += pm.enqueue_grid(q, self.vp_pos, self.film.radius, n)

@@ -74,6 +74,7 @@ CAMERA_DTYPE = np.dtype([
     ("aperture_blades", np.int32),
     ("aperture_rotation", np.float32),
     ("aperture_ratio", np.float32),
+    ("filter_width", np.float32),     # pixel filter: 0 = box (one pixel), > 0 = Cycles' Blackman-Harris
 ])
 
 
@@ -171,7 +172,8 @@ class SceneArrays:
 
 def make_camera(*, type=CAMERA_PERSP, width, height, to_world, extent, shift=(0.0, 0.0),
                 clip=(0.1, 1000.0), region=None, aperture_radius=0.0, focus_distance=10.0,
-                aperture_blades=0, aperture_rotation=0.0, aperture_ratio=1.0) -> np.ndarray:
+                aperture_blades=0, aperture_rotation=0.0, aperture_ratio=1.0,
+                filter_width=0.0) -> np.ndarray:
     """One CAMERA_DTYPE record (used by the exporter, tests and scripted scenes)."""
     cam = np.zeros(1, CAMERA_DTYPE)
     cam["type"] = type
@@ -182,6 +184,7 @@ def make_camera(*, type=CAMERA_PERSP, width, height, to_world, extent, shift=(0.
     cam["aperture_radius"], cam["focus_distance"] = aperture_radius, focus_distance
     cam["aperture_blades"], cam["aperture_rotation"] = aperture_blades, aperture_rotation
     cam["aperture_ratio"] = aperture_ratio
+    cam["filter_width"] = filter_width
     return cam
 
 

@@ -276,6 +276,7 @@ def test_ortho_camera_and_border(empty):
     np.testing.assert_allclose(c["extent"], (4.0, 3.0))
     assert tuple(c["region"]) == (16, 4, int(0.8 * 64) - 16, int(0.55 * 48) - 4)
     assert s.resolution == (c["region"][2], c["region"][3])
+    assert c["filter_width"] == pytest.approx(scene.render.filter_size)    # Cycles' pixel filter
 
 
 def test_no_camera_is_a_scene_error(empty):

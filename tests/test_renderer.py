@@ -115,3 +115,22 @@ def test_kernel_build_failure_carries_the_compiler_log():
         dev.programs.get("gather.cl", {"PPM_INT64_ATOMICS": True, "uint": "float"})
     msg = str(e.value)
     assert "kernels/gather.cl" in msg and "error:" in msg     # the compiler log itself
+
+
+def test_pixel_filter_table_samples_cycles_blackman_harris():
+    """The eye pass's jitter table is the inverse CDF of Cycles' Blackman-Harris filter
+    (support +-width pixels); width 0 is the box filter."""
+    from ppm_engine.film import filter_table
+    box = filter_table(0.0)
+    assert box.min() > -0.5 and box.max() < 0.5
+    assert np.allclose(np.diff(box), 1 / len(box), atol=1e-6)          # uniform in the pixel
+    w = 1.5
+    t = filter_table(w)
+    assert -w < t.min() < -0.9 * w and 0.9 * w < t.max() < w
+    assert np.all(np.diff(t) > 0) and abs(t.mean()) < 1e-6
+    # the table's samples have the filter's variance
+    x = np.linspace(-w, w, 20001)
+    v = 2 * np.pi * (x / (2 * w) + 0.5)
+    f = 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
+    var = (f * x * x).sum() / f.sum()
+    assert t.var() == pytest.approx(var, rel=0.02)

@@ -65,4 +65,5 @@ def export_camera(scene, depsgraph) -> np.ndarray:
                        shift=(cam.shift_x * fit, cam.shift_y * fit),
                        clip=(cam.clip_start, cam.clip_end), region=region,
                        aperture_radius=aperture, focus_distance=focus, aperture_blades=blades,
-                       aperture_rotation=rotation, aperture_ratio=ratio)
+                       aperture_rotation=rotation, aperture_ratio=ratio,
+                       filter_width=float(getattr(render, "filter_size", 1.5)))
