@@ -126,7 +126,7 @@ def test_pixel_filter_table_samples_cycles_blackman_harris():
     assert np.allclose(np.diff(box), 1 / len(box), atol=1e-6)          # uniform in the pixel
     w = 1.5
     t = filter_table(w)
-    assert -w < t.min() < -0.9 * w and 0.9 * w < t.max() < w
+    assert -w < t.min() < -0.7 * w and 0.7 * w < t.max() < w       # thin tails: u = 0.5/256 at 0.75 w
     assert np.all(np.diff(t) > 0) and abs(t.mean()) < 1e-6
     # the table's samples have the filter's variance
     x = np.linspace(-w, w, 20001)
