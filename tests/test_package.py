@@ -1,0 +1,77 @@
+"""The extension zip, built with Blender's own tool, installs and renders in a fresh Blender
+(bpy) process with its bundled pyopencl and PoCL, not the test environment's."""
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("bpy")
+
+
+def run_py(code, env, timeout=600):
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], env=env, cwd=env["HOME"],
+                          capture_output=True, text=True, timeout=timeout,
+                          stdin=subprocess.DEVNULL)
+
+
+def test_linux_zip_installs_enables_and_renders(tmp_path):
+    from ppm_engine.package import blender_ext_tool, build
+    cache = os.environ.get("PPM_WHEEL_CACHE")        # optional, to save downloads locally
+    zips = build(tmp_path / "dist", ["linux-x64"], cache=Path(cache) if cache else None,
+                 log=lambda *a: None)
+    assert len(zips) == 1 and zips[0].name.endswith("linux_x64.zip")
+    user = tmp_path / "blender-user"
+    repo = user / "extensions" / "user_default"
+    repo.mkdir(parents=True)
+    proc = subprocess.run([sys.executable, str(blender_ext_tool()), "install-files",
+                           "--local-dir", str(repo), str(zips[0])], capture_output=True, text=True)
+    assert proc.returncode == 0 and "ERROR" not in proc.stdout + proc.stderr, proc.stdout + proc.stderr
+    assert (repo / "ppm_engine" / "kernels" / "gather.cl").is_file()
+
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
+    env.update(BLENDER_USER_RESOURCES=str(user), HOME=str(home))
+    enable = """
+        import bpy
+        assert bpy.ops.preferences.addon_enable(module="bl_ext.user_default.ppm_engine") == {'FINISHED'}
+        bpy.ops.wm.save_userpref()
+        print("ENABLED")
+    """
+    p1 = run_py(enable, env)
+    assert "ENABLED" in p1.stdout, p1.stdout + p1.stderr
+    # a fresh process: the wheels' site-packages now exist before import, so they win
+    render = f"""
+        import bpy, numpy as np
+        assert bpy.ops.preferences.addon_enable(module="bl_ext.user_default.ppm_engine") == {{'FINISHED'}}
+        import pyopencl
+        print("PYOPENCL", pyopencl.__file__)
+        import bl_ext.user_default.ppm_engine.ppm_engine as ext
+        print("ENGINE", ext.__file__)
+        bpy.ops.wm.read_factory_settings(use_empty=False)
+        assert bpy.ops.preferences.addon_enable(module="bl_ext.user_default.ppm_engine") == {{'FINISHED'}}
+        sc = bpy.context.scene
+        sc.render.engine = "PPM"
+        assert sc.render.engine == "PPM"
+        sc.render.resolution_x = sc.render.resolution_y = 8
+        sc.ppm.passes, sc.ppm.photons_per_pass = 2, 1024
+        s = sc.render.image_settings
+        s.media_type, s.file_format, s.color_depth = "IMAGE", "OPEN_EXR", "32"
+        sc.render.filepath = r"{tmp_path / 'frame.exr'}"
+        assert bpy.ops.render.render(write_still=True) == {{'FINISHED'}}
+        img = bpy.data.images.load(sc.render.filepath)
+        px = np.empty(len(img.pixels), np.float32)
+        img.pixels.foreach_get(px)
+        assert np.isfinite(px).all() and px.reshape(-1, 4)[:, :3].mean() > 0
+        print("RENDERED", px.reshape(-1, 4)[:, :3].mean())
+    """
+    p2 = run_py(render, env)
+    out = p2.stdout + p2.stderr
+    assert "RENDERED" in p2.stdout, out
+    pyopencl_path = next(line for line in p2.stdout.splitlines() if line.startswith("PYOPENCL"))
+    assert str(user) in pyopencl_path and ".local" in pyopencl_path, pyopencl_path
+    engine_path = next(line for line in p2.stdout.splitlines() if line.startswith("ENGINE"))
+    assert str(repo) in engine_path, engine_path
