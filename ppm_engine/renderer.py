@@ -80,33 +80,16 @@ class Renderer:
         self.n_pixels = w * h
         t0 = time.perf_counter()
 
-        self.kmaterials = kernel_materials(scene.materials)
         self.bvh = BVH(dev, scene)
-        self.emitters = build_emitters(scene, self.kmaterials, self.bvh.leaf_order)
-        up = dev.upload
-        self.normals = up(scene.normals, "shading normals")
-        self.materials = up(self.kmaterials, "materials")
-        lights = scene.lights if scene.lights.shape[0] else np.zeros(1, LIGHT_DTYPE)
-        self.lights = up(lights, "lights")
-        self.cdf = up(self.emitters.cdf if self.emitters.cdf.size else np.zeros(1, np.float32), "emitters")
-        em = self.emitters.emissive_leaves
-        self.emissive = up(em if em.size else np.zeros(1, np.int32), "emissive triangles")
-        self.emitter_info = up(self.emitters.info, "emitters")
-        self.camera = up(scene.camera, "camera")
-        self.filter_table = up(filter_table(float(scene.camera["filter_width"][0])),
-                               "pixel filter")
+        self._upload_scene(scene)
 
         P = dev.programs
         self.k_eye = P.get("eye_pass.cl").eye_pass
         self.k_photon = P.get("photon_pass.cl").photon_pass
         self.k_update = P.get("progressive.cl").progressive_update
 
-        n = self.n_pixels
         self.film = Film(dev, w, h)
-        self.vp_pos = dev.buffer(16 * n, "visible points")
-        self.vp_nrm = dev.buffer(16 * n, "visible points")
-        self.vp_beta = dev.buffer(16 * n, "visible points")
-        self.gathered = dev.buffer(16 * n, "gather results")
+        self._allocate_pixels()
         self.counters = dev.buffer(4 * N_COUNTERS, "counters")
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
         self.photon_map = PhotonMap(dev, self.STORE_FACTOR * options.photons_per_pass,
@@ -120,6 +103,70 @@ class Renderer:
         self.queue.finish()
 
     # ------------------------------------------------------------------------------------------
+    def _upload_scene(self, scene: SceneArrays):
+        """Everything but the BVH: materials, emitters, lights, camera, pixel filter."""
+        up = self.device.upload
+        self.scene = scene
+        self.kmaterials = kernel_materials(scene.materials)
+        self.emitters = build_emitters(scene, self.kmaterials, self.bvh.leaf_order)
+        self.normals = up(scene.normals, "shading normals")
+        self.materials = up(self.kmaterials, "materials")
+        lights = scene.lights if scene.lights.shape[0] else np.zeros(1, LIGHT_DTYPE)
+        self.lights = up(lights, "lights")
+        cdf = self.emitters.cdf
+        self.cdf = up(cdf if cdf.size else np.zeros(1, np.float32), "emitters")
+        em = self.emitters.emissive_leaves
+        self.emissive = up(em if em.size else np.zeros(1, np.int32), "emissive triangles")
+        self.emitter_info = up(self.emitters.info, "emitters")
+        self.camera = up(scene.camera, "camera")
+        self.filter_table = up(filter_table(float(scene.camera["filter_width"][0])),
+                               "pixel filter")
+
+    @staticmethod
+    def same_geometry(a: SceneArrays, b: SceneArrays) -> bool:
+        """True when the BVH of ``a`` serves ``b`` (same triangles, materials, visibility)."""
+        return all(np.array_equal(getattr(a, k), getattr(b, k))
+                   for k in ("positions", "material", "visibility"))
+
+    def can_reuse(self, options: RenderOptions, scene: SceneArrays | None = None) -> bool:
+        """Whether reset() can serve a render with these options and scene."""
+        return (options.device == self.options.device
+                and (scene is None or self.same_geometry(self.scene, scene)))
+
+    def reset(self, options: RenderOptions, scene: SceneArrays | None = None):
+        """Start a new render on the same device, keeping the BVH and the built programs
+        (persistent data): a new film, statistics and photon storage; a new scene whose
+        geometry is unchanged (``same_geometry``) re-uploads only what it changed."""
+        import pyopencl as cl
+        options = options.validate()
+        if not self.can_reuse(options, scene):
+            raise ValueError("reset() needs the same device and geometry; build a new Renderer")
+        if scene is not None and scene is not self.scene:
+            self._upload_scene(scene)
+        w, h = self.scene.resolution
+        o = self.options
+        if ((w, h) != (self.width, self.height)
+                or options.photons_per_pass != o.photons_per_pass
+                or options.exact_gather != o.exact_gather):
+            self.width, self.height, self.n_pixels = w, h, w * h
+            self._allocate_pixels()
+            self.photon_map = PhotonMap(self.device, self.STORE_FACTOR * options.photons_per_pass,
+                                        exact=options.exact_gather)
+        self.options = options
+        self.film = Film(self.device, w, h)
+        cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
+        self.photons_needed = (self.emitters.info["n_emitters"][0] > 0 and options.max_bounces > 0)
+        self.passes_done = 0
+        self.nan_dropped = 0
+        self.queue.finish()
+
+    def _allocate_pixels(self):
+        dev, n = self.device, self.n_pixels
+        self.vp_pos = dev.buffer(16 * n, "visible points")
+        self.vp_nrm = dev.buffer(16 * n, "visible points")
+        self.vp_beta = dev.buffer(16 * n, "visible points")
+        self.gathered = dev.buffer(16 * n, "gather results")
+
     def _scene_args(self):
         b = self.bvh
         return (b.nodes, b.tri_v0, b.tri_e1, b.tri_e2, self.normals, self.materials, self.lights,

@@ -4,6 +4,7 @@ time limit or a cancel -> the render result, with progress and stats after every
 The render result is always begun and ended, also on errors (Blender can crash saving a frame
 whose engine wrote no result), and whatever was rendered stays in it.
 """
+import collections
 import sys
 import time
 import traceback
@@ -28,16 +29,80 @@ def _si(n: float) -> str:
     return str(int(n))
 
 
+# What each render reused (diagnostics, and the persistent-data tests): one dict per render,
+# the last 64 kept.
+render_log = collections.deque(maxlen=64)
+
+# depsgraph update types that change what we export (BLENDER_NOTES section 3: with persistent
+# data and nothing changed, every object still reports a shading update and the scene
+# collection a geometry update, so those flags alone mean nothing)
+_EXPORTED_TYPES = {'MATERIAL', 'LIGHT', 'WORLD', 'CAMERA', 'NODETREE', 'IMAGE', 'TEXTURE'}
+
+
+def _scene_changed(depsgraph) -> bool:
+    for u in depsgraph.updates:
+        t = getattr(u.id, "id_type", "") if u.id is not None else ""
+        if t in _EXPORTED_TYPES:
+            return True
+        if t == 'OBJECT' and (u.is_updated_transform or u.is_updated_geometry):
+            return True
+        if t not in ('OBJECT', 'SCENE', 'COLLECTION') and u.is_updated_geometry:
+            return True        # mesh, curve... data
+    return False
+
+
+def _render_key(depsgraph, options) -> tuple:
+    """What the depsgraph does not report: our settings, frame, resolution, border, layer."""
+    scene, r = depsgraph.scene, depsgraph.scene.render
+    return (options, scene.frame_current, r.resolution_x, r.resolution_y,
+            r.resolution_percentage, r.pixel_aspect_x, r.pixel_aspect_y, r.use_border,
+            r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y, r.filter_size,
+            depsgraph.view_layer.name, scene.camera.name if scene.camera else None)
+
+
 class Session:
-    """Owns the Renderer of one engine instance.  Today every render builds a fresh one and
-    frees it at the end; persistent data can later keep ``self.renderer`` between renders."""
+    """Owns the Renderer of one engine instance.  Without persistent data every render builds
+    a fresh one and frees it at the end.  With Blender's persistent data
+    (render.use_persistent_data) the Renderer stays: an unchanged scene re-renders without
+    re-export, BVH build or program build; changed lights, materials or camera keep the BVH;
+    changed geometry builds anew."""
 
     def __init__(self):
         self.renderer = None
+        self.arrays = None
+        self.key = None
         self.written_passes = 0     # passes of the current renderer whose image is in the result
 
+    def _prepare(self, engine, depsgraph, options):
+        """The SceneArrays and a Renderer ready for pass 1, reusing what persistent data may."""
+        from .export import export_scene
+        from .renderer import Renderer
+        persistent = bool(depsgraph.scene.render.use_persistent_data)
+        key = _render_key(depsgraph, options) if persistent else None
+        log = {"persistent": persistent, "exported": True, "bvh_built": True}
+        t0 = time.perf_counter()
+        if persistent and self.renderer is not None and key == self.key \
+                and not _scene_changed(depsgraph) and self.renderer.can_reuse(options):
+            arrays = self.arrays
+            log["exported"] = log["bvh_built"] = False
+            self.renderer.reset(options)
+        else:
+            engine.update_stats("", "Exporting scene")
+            arrays = export_scene(depsgraph, engine)
+            if persistent and self.renderer is not None and self.renderer.can_reuse(options, arrays):
+                log["bvh_built"] = False
+                self.renderer.reset(options, arrays)
+            else:
+                engine.update_stats("", "Building kernels, uploading scene, building BVH")
+                self.free()
+                self.renderer = Renderer(arrays, options)
+        self.arrays, self.key = arrays, key
+        log["setup_s"] = time.perf_counter() - t0
+        render_log.append(log)
+        return arrays
+
     def free(self) -> None:
-        r, self.renderer = self.renderer, None
+        r, self.renderer, self.arrays, self.key = self.renderer, None, None, None
         if r is not None:
             r.close()
 
@@ -47,13 +112,10 @@ class Session:
         result = None
         error = None
         try:
-            from .export import export_scene
             from .properties import to_options
-            from .renderer import Renderer
 
-            engine.update_stats("", "Exporting scene")
             options = to_options(depsgraph.scene.ppm)
-            arrays = export_scene(depsgraph, engine)
+            arrays = self._prepare(engine, depsgraph, options)
             w, h = arrays.resolution
             # coordinates are relative to the border rectangle (BLENDER_NOTES section 1)
             result = engine.begin_result(0, 0, w, h, layer=layer)
@@ -61,9 +123,6 @@ class Session:
                 raise PPMError(f"internal error: the exported render region is {w}x{h} but "
                                f"Blender's render result is {result.resolution_x}x"
                                f"{result.resolution_y}")
-            engine.update_stats("", "Building kernels, uploading scene, building BVH")
-            self.free()
-            self.renderer = Renderer(arrays, options)
             self.written_passes = 0
             self._passes(engine, result, options)
         except PPMError as e:
@@ -84,7 +143,8 @@ class Session:
             finally:
                 if result is not None:
                     engine.end_result(result)
-                self.free()
+                if error is not None or not depsgraph.scene.render.use_persistent_data:
+                    self.free()
         if error is not None:
             engine.report({'ERROR'}, error)
 
@@ -121,6 +181,8 @@ class Session:
                 listener(text)
         if r.passes_done > self.written_passes:
             self._write(engine, result)
+        if render_log:
+            render_log[-1]["passes"] = r.passes_done
         if cancelled:
             engine.update_stats("", f"Cancelled after pass {r.passes_done}")
 

@@ -211,8 +211,10 @@ def fake_render(bpy, pocl_key, monkeypatch):
         settings = types.SimpleNamespace(passes=passes, time_limit=0.0, photons_per_pass=4096,
                                          initial_radius=0.0, alpha=0.7, max_bounces=8, seed=0,
                                          device=pocl_key)
-        depsgraph = types.SimpleNamespace(view_layer=types.SimpleNamespace(name="ViewLayer"),
-                                          scene=types.SimpleNamespace(ppm=settings))
+        depsgraph = types.SimpleNamespace(
+            view_layer=types.SimpleNamespace(name="ViewLayer"),
+            scene=types.SimpleNamespace(ppm=settings,
+                                        render=types.SimpleNamespace(use_persistent_data=False)))
         engine.session = session_mod.Session()
         engine.session.render(engine, depsgraph)
         return engine

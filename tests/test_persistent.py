@@ -1,0 +1,39 @@
+"""Re-renders with Blender's persistent data: skip what did not change (export, BVH, programs)
+and never reuse what did."""
+import pytest
+
+
+def test_persistent_data_reuses_only_what_did_not_change(bpy, example_blend, tiny, render_exr,
+                                                         tmp_path):
+    from ppm_engine import session
+    bpy.ops.wm.open_mainfile(filepath=str(example_blend("cornell_box")), load_ui=False)
+    scene = bpy.context.scene
+    tiny(scene, width=16, height=16, passes=4)
+    scene.render.use_persistent_data = True
+    log = session.render_log
+    log.clear()
+
+    first = render_exr(tmp_path / "a.exr")
+    again = render_exr(tmp_path / "b.exr")
+    assert log[0] == {**log[0], "persistent": True, "exported": True, "bvh_built": True}
+    assert log[1]["exported"] is False and log[1]["bvh_built"] is False       # nothing changed
+    assert log[1]["passes"] == 4                                 # a new film, not 4 more passes
+    assert again.mean() == pytest.approx(first.mean(), rel=0.03)               # the same image
+
+    lamp = bpy.data.materials["Lamp"].node_tree.nodes["Emission"].inputs["Strength"]
+    lamp.default_value *= 2                                                     # shading only
+    brighter = render_exr(tmp_path / "c.exr")
+    assert log[2]["exported"] is True and log[2]["bvh_built"] is False
+    assert brighter.mean() == pytest.approx(2 * first.mean(), rel=0.02)        # not the old one
+
+    scene.ppm.passes = 5                                                        # our settings
+    render_exr(tmp_path / "d.exr")
+    assert log[3]["exported"] is True and log[3]["bvh_built"] is False
+
+    bpy.data.objects["TallBox"].location.x += 0.1                               # geometry moved
+    render_exr(tmp_path / "e.exr")
+    assert log[4]["bvh_built"] is True
+
+    scene.render.use_persistent_data = False
+    render_exr(tmp_path / "f.exr")
+    assert log[5] == {**log[5], "persistent": False, "exported": True, "bvh_built": True}
