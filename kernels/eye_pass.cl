@@ -21,7 +21,8 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
                        __global const float *filter_table,
                        __global float4 *direct, __global float *radius,
                        __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
-                       __global uint *counters) {
+                       __global uint *counters, __global float4 *aux_albedo,
+                       __global float4 *aux_normal) {
     int id = get_global_id(0);
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;
@@ -63,6 +64,9 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
             vp = (float4)(s.p, 1.0f);
             vp_nrm[id] = (float4)(nsf, 0.0f);
             vp_beta[id] = (float4)(bvp, 0.0f);
+            /* denoising passes: albedo through the specular chain, world-space normal */
+            aux_albedo[id] += (float4)(beta * F3(m->diffuse), 1.0f);
+            aux_normal[id] += (float4)(nsf, 1.0f);
             if (radius[id] <= 0.0f) {
                 float foot = camera_pixel_size(cam) * (cam->type == CAMERA_ORTHO ? 1.0f : path_len);
                 float r0 = initial_radius > 0.0f ? initial_radius : auto_radius_pixels * foot;

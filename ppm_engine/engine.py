@@ -29,6 +29,10 @@ class PPMRenderEngine(bpy.types.RenderEngine):
     def render(self, depsgraph):
         self.session.render(self, depsgraph)
 
+    def update_render_passes(self, scene=None, renderlayer=None):
+        for name, channels, chan_id, kind in session.RENDER_PASSES:
+            self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
+
 
 def register():
     bpy.utils.register_class(PPMRenderEngine)

@@ -17,7 +17,10 @@ class Film:
         self.nstat = device.buffer(4 * n, "film (N)")
         self.radius = device.buffer(4 * n, "film (radius)")
         self.image_buf = device.buffer(16 * n, "film (image)")
-        for b, size in ((self.direct, 16), (self.tau, 16), (self.nstat, 4), (self.radius, 4)):
+        self.aux_albedo = device.buffer(16 * n, "film (albedo)")
+        self.aux_normal = device.buffer(16 * n, "film (normal)")
+        for b, size in ((self.direct, 16), (self.tau, 16), (self.nstat, 4), (self.radius, 4),
+                        (self.aux_albedo, 16), (self.aux_normal, 16)):
             cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
         self.photons_emitted = 0      # Python int: exact at any count
         self.prog = device.programs.get("progressive.cl")
@@ -34,6 +37,22 @@ class Film:
         out = np.empty((self.height, self.width, 4), np.float32)
         ev2 = cl.enqueue_copy(q, out, self.image_buf, wait_for=[ev], is_blocking=False)
         return ev2, out
+
+    def aux_passes(self) -> dict:
+        """Extra render passes, (h, w, c) float32, row 0 = bottom: 'Denoising Albedo' and
+        'Denoising Normal' (averaged over the passes whose camera ray found a diffuse surface),
+        'PPM Radius' (current gather radius) and 'PPM Photons' (the progressive count N)."""
+        albedo = self.read("aux_albedo", channels=4)
+        normal = self.read("aux_normal", channels=4)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            a = np.where(albedo[..., 3:] > 0, albedo[..., :3] / albedo[..., 3:], 0.0)
+            nrm = normal[..., :3]
+            length = np.linalg.norm(nrm, axis=-1, keepdims=True)
+            nrm = np.where(length > 0, nrm / length, 0.0)
+        return {"Denoising Albedo": a.astype(np.float32),
+                "Denoising Normal": nrm.astype(np.float32),
+                "PPM Radius": self.read("radius")[..., None],
+                "PPM Photons": self.read("nstat")[..., None]}
 
     def read(self, name: str, dtype=np.float32, channels: int = 1) -> np.ndarray:
         import pyopencl as cl

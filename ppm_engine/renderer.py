@@ -192,7 +192,8 @@ class Renderer:
             np.int32(o.max_bounces), np.float32(o.initial_radius),
             np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct,
             self.film.radius,
-            self.vp_pos, self.vp_nrm, self.vp_beta, self.counters)
+            self.vp_pos, self.vp_nrm, self.vp_beta, self.counters, self.film.aux_albedo,
+            self.film.aux_normal)
         pm = self.photon_map
         events += pm.enqueue_grid(q, self.vp_pos, self.film.radius, n)
         emitted = 0
@@ -238,6 +239,10 @@ class Renderer:
         ev, out = self.film.resolve()
         ev.wait()
         return out
+
+    def passes(self) -> dict:
+        """The extra render passes (Film.aux_passes) of the render region."""
+        return self.film.aux_passes()
 
     def close(self):
         """Release this render's device buffers now (the device and its programs stay)."""

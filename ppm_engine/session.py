@@ -29,6 +29,16 @@ def _si(n: float) -> str:
     return str(int(n))
 
 
+# Render passes besides Combined: (name, channels, channel ids, type).  The denoising pair lets
+# Blender's compositor Denoise node work on our renders; the last two are diagnostics.
+RENDER_PASSES = (
+    ("Combined", 4, "RGBA", 'COLOR'),
+    ("Denoising Albedo", 3, "RGB", 'COLOR'),
+    ("Denoising Normal", 3, "XYZ", 'VECTOR'),
+    ("PPM Radius", 1, "X", 'VALUE'),
+    ("PPM Photons", 1, "X", 'VALUE'),
+)
+
 # What each render reused (diagnostics, and the persistent-data tests): one dict per render,
 # the last 64 kept.
 render_log = collections.deque(maxlen=64)
@@ -187,7 +197,13 @@ class Session:
             engine.update_stats("", f"Cancelled after pass {r.passes_done}")
 
     def _write(self, engine, result) -> None:
+        passes = result.layers[0].passes
         img = np.ascontiguousarray(self.renderer.image(), dtype=np.float32)
-        result.layers[0].passes["Combined"].rect.foreach_set(img.ravel())
+        passes["Combined"].rect.foreach_set(img.ravel())
+        extra = [name for name, *_ in RENDER_PASSES[1:] if passes.get(name) is not None]
+        if extra:
+            aux = self.renderer.passes()
+            for name in extra:
+                passes[name].rect.foreach_set(np.ascontiguousarray(aux[name], np.float32).ravel())
         engine.update_result(result)
         self.written_passes = self.renderer.passes_done
