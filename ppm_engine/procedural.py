@@ -100,7 +100,7 @@ def look_at(eye, target, up=(0, 0, 1)) -> np.ndarray:
 
 
 def cornell_box(width=64, height=64, light_radiance=15.0, bulb=False,
-                filament_radiance=80.0) -> SceneArrays:
+                filament_radiance=120.0) -> SceneArrays:
     """The classic box (x, y in [-1, 1], z in [0, 2], open towards -y where the camera is).
     ``bulb``: no ceiling light; an emissive sphere inside a glass sphere, and a glass ball on
     the floor (the paper's bulb box)."""

@@ -171,7 +171,7 @@ def test_transform_instancing_and_normals(empty):
         e.scale = (2, 2, 2)
         bpy.context.scene.collection.objects.link(e)
     s = export()
-    n_one = len(src.data.loop_triangles) if src.data.loop_triangles else 8 * 4 * 2 - 16
+    n_one = 8 * 2 + 8 * 2 * 2                 # two triangle fans + two quad rings of 8
     assert s.n_triangles == 3 * n_one
     c = s.positions.mean(axis=1)
     for i in range(3):
@@ -302,3 +302,272 @@ def test_world_colour_and_npz_round_trip(empty, tmp_path):
     for name in ("positions", "normals", "uvs", "material", "visibility", "materials", "lights",
                  "camera", "world"):
         assert np.array_equal(getattr(s, name), getattr(t, name))
+
+
+# --- more lights --------------------------------------------------------------------------------
+def test_unnormalized_lights_keep_the_documented_meaning(empty):
+    add_light('POINT', "P", energy=100.0, shadow_soft_size=0.5, normalize=False,
+              use_soft_falloff=False)
+    add_light('POINT', "P0", energy=100.0, shadow_soft_size=0.0, normalize=False)
+    add_light('AREA', "A", energy=50.0, shape='RECTANGLE', size=2.0, size_y=1.0, normalize=False)
+    lights = export().lights
+    by_radius = {float(l["radius"]): l for l in lights if l["type"] == LIGHT_POINT}
+    # sphere radiance L = P/pi (area not divided) <=> intensity I = L * pi r^2 = P r^2
+    np.testing.assert_allclose(by_radius[0.5]["emit"], 100 * 0.25, rtol=1e-6)
+    assert by_radius[0.5]["flags"] == 0
+    np.testing.assert_allclose(by_radius[0.0]["emit"], 100 / (4 * np.pi), rtol=1e-6)
+    area = lights[lights["type"] == LIGHT_AREA_RECT][0]
+    np.testing.assert_allclose(area["emit"], 50 / np.pi, rtol=1e-6)
+
+
+def test_spot_axes_follow_the_scaled_frame(empty):
+    o = add_light('SPOT', energy=10.0, loc=(1, 2, 3))
+    o.scale = (2, 3, 4)
+    L = export().lights[0]
+    np.testing.assert_allclose(L["axis_x"], (2, 0, 0), atol=1e-6)
+    np.testing.assert_allclose(L["axis_y"], (0, 3, 0), atol=1e-6)
+    assert L["spot_scale_z"] == pytest.approx(0.25)
+    np.testing.assert_allclose(L["direction"], (0, 0, -1), atol=1e-7)
+    np.testing.assert_allclose(L["position"], (1, 2, 3), atol=1e-6)
+
+
+def test_light_temperature_and_zero_strength(empty):
+    o = add_light('POINT', "T", energy=40.0, use_temperature=True, temperature=3000.0)
+    add_light('POINT', "Off", energy=0.0, loc=(5, 0, 0))
+    lights = export().lights
+    assert lights.shape == (2,)                      # zero-strength lights are still exported
+    tc = np.array(o.data.temperature_color[:3])
+    assert not np.allclose(tc, 1.0)                  # 3000 K is reddish
+    np.testing.assert_allclose(lights[0]["emit"], 40 / (4 * np.pi) * tc, rtol=1e-5)
+    np.testing.assert_allclose(lights[1]["emit"], 0.0)
+
+
+# --- more materials -----------------------------------------------------------------------------
+def test_glass_linked_input_dedup_and_empty_slots(empty):
+    g = bpy.data.materials.new("Glass")
+    n = g.node_tree.nodes["Principled BSDF"]
+    n.inputs["Transmission Weight"].default_value = 1.0
+    n.inputs["IOR"].default_value = 1.33
+    n.inputs["Roughness"].default_value = 0.0
+    tex = g.node_tree.nodes.new("ShaderNodeTexChecker")
+    g.node_tree.links.new(tex.outputs["Color"], n.inputs["Base Color"])
+    a = add_plane("A", g)
+    add_plane("B", g, loc=(3, 0, 0))                  # same material: one table entry
+    c = add_plane("C", loc=(6, 0, 0))
+    c.data.materials.append(None)                     # empty slot -> default grey
+    s = export()
+    assert s.material_names.count("Glass") == 1 and s.materials.shape[0] == 2
+    m = s.materials[s.material_names.index("Glass")]
+    assert m["transmission"] == 1.0 and m["ior"] == pytest.approx(1.33) and m["roughness"] == 0.0
+    np.testing.assert_allclose(m["base_color"], 0.8)  # the unlinked default value
+    assert sum("Glass" in w and "Base Color" in w for w in s.warnings) == 1
+    cx = s.positions[:, :, 0].mean(1)
+    assert (s.material[cx > 5] == 0).all() and (s.material[cx < 5] == 1).all()
+    np.testing.assert_allclose(s.materials[0]["base_color"], 0.8)
+    assert a.name == "A"
+
+
+def test_uvs_follow_the_corners(empty):
+    add_plane(size=2.0)                               # primitive plane: uv = (x + 1) / 2
+    s = export()
+    np.testing.assert_allclose(s.uvs, (s.positions[:, :, :2] + 1) / 2, atol=1e-6)
+
+
+# --- more geometry ------------------------------------------------------------------------------
+def test_mirrored_instance_keeps_normals_and_winding(empty):
+    o = add_plane(size=2.0)
+    o.scale = (-1, 1, 1)
+    s = export()
+    np.testing.assert_allclose(s.normals.reshape(-1, 3), np.tile([0, 0, 1], (s.n_triangles * 3, 1)),
+                               atol=1e-6)
+    p = s.positions.astype(np.float64)
+    ng = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    assert (ng[:, 2] > 0).all()                       # winding agrees with the shading normal
+
+
+def test_linked_duplicates_read_the_mesh_once(empty, monkeypatch):
+    import ppm_engine.export.mesh as mesh_mod
+    calls = []
+    real = mesh_mod.read_mesh
+    monkeypatch.setattr(mesh_mod, "read_mesh", lambda m: calls.append(m.name) or real(m))
+    bpy.ops.mesh.primitive_cube_add(size=2.0)
+    src = bpy.context.active_object
+    for i in range(1, 40):
+        d = src.copy()                                # linked duplicate: same mesh datablock
+        d.location = (3 * i, 0, 0)
+        d.rotation_euler = (0, 0, 0.1 * i)
+        bpy.context.scene.collection.objects.link(d)
+    s = export()
+    assert s.n_triangles == 40 * 12 and len(calls) == 1
+    for i in (0, 17, 39):                             # each copy is a rotated 2 m cube at 3 i
+        mine = np.abs(s.positions.mean(1)[:, 0] - 3 * i) < 1.5
+        local = s.positions[mine].reshape(-1, 3) - (3 * i, 0, 0)
+        rz = np.array([[np.cos(0.1 * i), np.sin(0.1 * i)], [-np.sin(0.1 * i), np.cos(0.1 * i)]])
+        back = local[:, :2] @ rz.T                    # undo the rotation
+        np.testing.assert_allclose(np.abs(back), 1.0, atol=1e-5)
+        np.testing.assert_allclose(np.abs(local[:, 2]), 1.0, atol=1e-6)
+
+
+def test_geometry_nodes_instances(empty):
+    bpy.ops.mesh.primitive_plane_add()
+    host = bpy.context.active_object
+    host.name = "GNHost"
+    tree = bpy.data.node_groups.new("GN", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
+    tree.interface.new_socket("Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
+    out = tree.nodes.new("NodeGroupOutput")
+    line = tree.nodes.new("GeometryNodeMeshLine")
+    line.inputs["Count"].default_value = 5
+    line.inputs["Offset"].default_value = (2.0, 0.0, 0.0)
+    cube = tree.nodes.new("GeometryNodeMeshCube")
+    inst = tree.nodes.new("GeometryNodeInstanceOnPoints")
+    tree.links.new(line.outputs["Mesh"], inst.inputs["Points"])
+    tree.links.new(cube.outputs["Mesh"], inst.inputs["Instance"])
+    tree.links.new(inst.outputs["Instances"], out.inputs[0])
+    mod = host.modifiers.new("GN", 'NODES')
+    mod.node_group = tree
+    s = export()
+    assert s.n_triangles == 5 * 12
+    centres = np.unique(s.positions.reshape(-1, 12, 3, 3).mean(axis=(1, 2)).round(4), axis=0)
+    np.testing.assert_allclose(centres, [(2 * i, 0, 0) for i in range(5)], atol=1e-5)
+
+
+def test_text_and_curve_objects_become_triangles(empty):
+    txt = bpy.data.objects.new("Txt", bpy.data.curves.new("Txt", 'FONT'))
+    txt.data.body = "Hi"
+    bpy.context.scene.collection.objects.link(txt)
+    cu = bpy.data.curves.new("Tube", 'CURVE')
+    cu.bevel_depth = 0.1
+    sp = cu.splines.new('POLY')
+    sp.points.add(1)
+    sp.points[1].co = (0, 0, 2, 1)
+    tube = bpy.data.objects.new("Tube", cu)
+    tube.location = (5, 0, 0)
+    bpy.context.scene.collection.objects.link(tube)
+    s = export()
+    cx = s.positions[:, :, 0].mean(1)
+    assert (cx < 3).sum() > 10 and (cx > 4).sum() > 10 and np.isfinite(s.normals).all()
+    np.testing.assert_allclose(np.linalg.norm(s.normals, axis=2), 1.0, rtol=1e-5)
+
+
+# --- more camera --------------------------------------------------------------------------------
+def test_ortho_rays_match_blender_projection(empty):
+    from bpy_extras.object_utils import world_to_camera_view
+    scene = empty
+    cam = scene.camera
+    cam.data.type, cam.data.ortho_scale = 'ORTHO', 5.0
+    cam.data.shift_x, cam.data.sensor_fit = 0.15, 'VERTICAL'
+    cam.location, cam.rotation_euler = (0, -8, 1), (math.radians(85), 0, math.radians(-5))
+    cam.scale = (1.5, 0.5, 2.0)                       # camera scale is ignored by rays
+    s = export()
+    c = s.camera[0]
+    m = c["to_world"].astype(np.float64)
+    np.testing.assert_allclose(np.linalg.norm(m[:, :3], axis=0), 1.0, rtol=1e-6)
+    rng = np.random.default_rng(1)
+    for _ in range(10):
+        p = Vector(rng.uniform(-2, 2, 3))
+        ndc = world_to_camera_view(scene, cam, p)
+        xc = (ndc.x - 0.5) * c["extent"][0] + c["shift"][0]
+        yc = (ndc.y - 0.5) * c["extent"][1] + c["shift"][1]
+        local = m[:, :3].T @ (np.array(p) - m[:, 3])  # point in camera space
+        np.testing.assert_allclose(local[:2], (xc, yc), atol=1e-5)
+
+
+def test_depth_of_field(empty):
+    cam = empty.camera
+    cam.data.lens = 50.0
+    dof = cam.data.dof
+    dof.use_dof, dof.aperture_fstop = True, 2.0
+    dof.aperture_blades, dof.aperture_rotation, dof.aperture_ratio = 6, 0.3, 1.5
+    target = bpy.data.objects.new("Target", None)
+    target.location = (1.0, 0.5, -5.0)                # camera at the origin looks down -Z
+    empty.collection.objects.link(target)
+    dof.focus_object = target
+    c = export().camera[0]
+    assert c["aperture_radius"] == pytest.approx(0.05 / 4)
+    assert c["focus_distance"] == pytest.approx(5.0)
+    assert c["aperture_blades"] == 6 and c["aperture_rotation"] == pytest.approx(0.3)
+    assert c["aperture_ratio"] == pytest.approx(1.5)
+    dof.focus_object, dof.focus_distance = None, 3.5
+    cam.data.type = 'ORTHO'
+    c = export().camera[0]
+    assert c["aperture_radius"] == pytest.approx(0.25) and c["focus_distance"] == pytest.approx(3.5)
+
+
+def test_panoramic_camera_and_empty_border_are_scene_errors(empty):
+    empty.render.use_border = True
+    empty.render.border_min_x = empty.render.border_max_x = 0.5
+    with pytest.raises(SceneError, match="border"):
+        export()
+    empty.render.use_border = False
+    empty.camera.data.type = 'PANO'
+    with pytest.raises(SceneError, match="not supported"):
+        export()
+
+
+def test_world_fallbacks(empty):
+    assert empty.world is None
+    np.testing.assert_array_equal(export().world, 0)
+    w = bpy.data.worlds.new("Odd")
+    t = w.node_tree
+    d = t.nodes.new("ShaderNodeBsdfDiffuse")
+    t.links.new(d.outputs[0], t.nodes["World Output"].inputs["Surface"])
+    w.color = (0.1, 0.2, 0.3)
+    empty.world = w
+    s = export()
+    np.testing.assert_allclose(s.world, (0.1, 0.2, 0.3), rtol=1e-6)
+    assert any("Odd" in m for m in s.warnings)
+
+
+# --- the real render depsgraph ------------------------------------------------------------------
+class _Probe(bpy.types.RenderEngine):
+    """Test-only engine: exports the render depsgraph, writes a black result."""
+    bl_idname = "PPM_EXPORT_PROBE"
+    bl_label = "export probe"
+    result = None
+
+    def render(self, depsgraph):
+        try:
+            type(self).result = export_scene(depsgraph, self)
+        finally:
+            r = self.begin_result(0, 0, self.resolution_x, self.resolution_y)
+            self.end_result(r)
+
+
+@pytest.fixture
+def probe(empty):
+    bpy.utils.register_class(_Probe)
+    empty.render.engine = _Probe.bl_idname
+    empty.render.resolution_x = empty.render.resolution_y = 8
+    _Probe.result = None
+
+    def run():
+        bpy.ops.render.render()
+        assert _Probe.result is not None
+        return _Probe.result
+    yield run
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.utils.unregister_class(_Probe)
+
+
+def test_render_depsgraph_honours_hide_render_and_reports(probe, capfd):
+    add_plane("Shown")
+    h = add_plane("Hidden", loc=(5, 0, 0))
+    h.hide_render = True
+    v = add_plane("ViewportHidden", loc=(10, 0, 0))
+    v.hide_viewport = True                            # still rendered
+    add_light('POINT', "Lamp")
+    off = add_light('SUN', "OffLamp")
+    off.hide_render = True
+    toon = bpy.data.materials.new("ToonProbe")
+    t = toon.node_tree
+    t.nodes.remove(t.nodes["Principled BSDF"])
+    t.links.new(t.nodes.new("ShaderNodeBsdfToon").outputs[0],
+                t.nodes["Material Output"].inputs["Surface"])
+    bpy.data.objects["Shown"].data.materials.append(toon)
+    s = probe()
+    cx = np.sort(np.unique(s.positions[:, :, 0].mean(1).round(3)))
+    assert s.n_triangles == 4 and set(np.round(cx / 5).astype(int)) == {0, 2}
+    assert s.lights.shape == (1,) and s.lights[0]["type"] == LIGHT_POINT
+    assert any("ToonProbe" in w for w in s.warnings)
+    assert "Warning: Material 'ToonProbe'" in "".join(capfd.readouterr())

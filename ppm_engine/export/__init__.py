@@ -1,24 +1,33 @@
 """Blender depsgraph -> SceneArrays.  The only code that reads Blender scene data.
 
+    arrays = export_scene(depsgraph, engine)     # engine optional: warnings are also reported
+
 Everything is read with attribute-API ``foreach_get`` into buffers of the stored dtype
 (BLENDER_NOTES section 3); the per-object work is a handful of NumPy calls, never a loop over
-vertices or triangles.
+vertices or triangles.  Mesh data is read once per evaluated mesh and transformed per instance.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..errors import SceneError
-from ..scene_arrays import SceneArrays
+from ..scene_arrays import (LIGHT_DTYPE, VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY, VIS_SHADOW,
+                            VIS_TRANSMISSION, SceneArrays)
 from .camera import export_camera
 from .lights import export_light
 from .materials import MaterialTable
 from .mesh import GEOMETRY_TYPES, MeshCache, transform_part
 from .world import export_world
 
+__all__ = ["export_scene", "Warnings"]
+
+_VIS_FLAGS = (("visible_camera", VIS_CAMERA), ("visible_diffuse", VIS_DIFFUSE),
+              ("visible_glossy", VIS_GLOSSY), ("visible_transmission", VIS_TRANSMISSION),
+              ("visible_shadow", VIS_SHADOW))
+
 
 class Warnings(list):
-    """Collects warnings once each; forwards them to the engine's report when there is one."""
+    """Collects each warning once; forwards it to the engine's report when there is one."""
 
     def __init__(self, engine=None):
         super().__init__()
@@ -33,6 +42,9 @@ class Warnings(list):
 
 
 def export_scene(depsgraph, engine=None) -> SceneArrays:
+    """Everything the core needs from one evaluated depsgraph (render or viewport).
+
+    Raises SceneError when the scene cannot be rendered (no/invalid camera, empty border)."""
     scene = depsgraph.scene
     warn = Warnings(engine)
     camera = export_camera(scene, depsgraph)
@@ -41,25 +53,28 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
     parts, lights = [], []
     for inst in depsgraph.object_instances:
         obj = inst.object
-        if obj.type == 'LIGHT':
+        kind = obj.type
+        if kind == 'LIGHT':
             m = np.array(inst.matrix_world, dtype=np.float64)    # copy inside the loop
             lights.append(export_light(obj.data, m, warn))
-        elif obj.type in GEOMETRY_TYPES:
-            m = np.array(inst.matrix_world, dtype=np.float64)
+        elif kind in GEOMETRY_TYPES:
+            if not inst.show_self:          # e.g. particle instancer hidden for render
+                continue
+            m = np.array(inst.matrix_world, dtype=np.float64)    # copy inside the loop
             mesh = meshes.get(obj)
             if mesh is None or mesh.n_triangles == 0:
                 continue
-            slots = materials.slot_map(obj)
-            parts.append(transform_part(mesh, m, slots, _visibility(obj), obj.name, warn))
+            parts.append(transform_part(mesh, m, materials.slot_map(obj), visibility_bits(obj),
+                                        obj.name, warn))
     meshes.clear()
     world = export_world(scene.world, warn)
 
-    from ..scene_arrays import LIGHT_DTYPE
     light_arr = np.concatenate(lights) if lights else np.zeros(0, LIGHT_DTYPE)
     if parts:
         cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     else:
-        cat = dict(positions=np.zeros((0, 3, 3), np.float32), normals=np.zeros((0, 3, 3), np.float32),
+        cat = dict(positions=np.zeros((0, 3, 3), np.float32),
+                   normals=np.zeros((0, 3, 3), np.float32),
                    uvs=np.zeros((0, 3, 2), np.float32), material=np.zeros(0, np.int32),
                    visibility=np.zeros(0, np.uint32))
     try:
@@ -70,13 +85,10 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
 
 
-def _visibility(obj) -> int:
-    from ..scene_arrays import (VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY, VIS_SHADOW,
-                                VIS_TRANSMISSION)
+def visibility_bits(obj) -> int:
+    """VIS_* bits from the object's ray-visibility flags (Object Properties > Visibility)."""
     bits = 0
-    for flag, bit in (("visible_camera", VIS_CAMERA), ("visible_diffuse", VIS_DIFFUSE),
-                      ("visible_glossy", VIS_GLOSSY), ("visible_transmission", VIS_TRANSMISSION),
-                      ("visible_shadow", VIS_SHADOW)):
+    for flag, bit in _VIS_FLAGS:
         if getattr(obj, flag, True):
             bits |= bit
     return bits

@@ -34,8 +34,8 @@ def export_camera(scene, depsgraph) -> np.ndarray:
         w_ext, h_ext, fit = ortho_extent(W, H, cam.ortho_scale, cam.sensor_fit, aspect)
         ctype = CAMERA_ORTHO
     else:
-        raise SceneError(f"camera '{cam_obj.name}' is panoramic; this engine renders "
-                         "perspective and orthographic cameras")
+        raise SceneError(f"camera '{cam_obj.name}': panoramic cameras are not supported; "
+                         "use a perspective or orthographic camera")
     m = np.array(cam_eval.matrix_world, dtype=np.float64)
     cols = m[:3, :3]
     m[:3, :3] = cols / np.maximum(np.linalg.norm(cols, axis=0, keepdims=True), 1e-30)
@@ -54,7 +54,8 @@ def export_camera(scene, depsgraph) -> np.ndarray:
         fstop = max(float(dof.aperture_fstop), 1e-6)
         aperture = (cam.lens * 1e-3 / (2 * fstop)) if ctype == CAMERA_PERSP else 1 / (2 * fstop)
         if dof.focus_object is not None:
-            target = np.array(dof.focus_object.matrix_world.translation, np.float64)
+            target = np.array(dof.focus_object.evaluated_get(depsgraph).matrix_world.translation,
+                              np.float64)
             focus = float(-(target - m[:3, 3]) @ m[:3, 2])       # along the view axis
         else:
             focus = float(dof.focus_distance)

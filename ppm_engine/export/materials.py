@@ -29,12 +29,23 @@ def _surface_node(material):
     sock = out.inputs.get("Surface")
     if sock is None or not sock.is_linked:
         return None
-    return sock.links[0].from_node
+    node = sock.links[0].from_node
+    for _ in range(64):                       # follow reroutes (bounded: no cycles possible)
+        if node.bl_idname != "NodeReroute" or not node.inputs[0].is_linked:
+            break
+        node = node.inputs[0].links[0].from_node
+    return node
+
+
+def default_row() -> np.ndarray:
+    """Grey (0.8) Lambertian diffuse: empty slots, missing and unsupported materials."""
+    row = np.zeros(1, MATERIAL_DTYPE)
+    row["base_color"], row["roughness"], row["ior"] = 0.8, 1.0, 1.5
+    return row
 
 
 def read_material(material, warn) -> np.ndarray:
-    row = np.zeros(1, MATERIAL_DTYPE)
-    row["base_color"], row["roughness"], row["ior"] = 0.8, 0.5, 1.5
+    row = default_row()
     node = _surface_node(material)
     name = material.name
     kind = node.bl_idname if node is not None else None
@@ -61,13 +72,11 @@ def read_material(material, warn) -> np.ndarray:
 
 
 class MaterialTable:
-    """Materials deduplicated by datablock; index 0 is the default grey diffuse."""
+    """Materials deduplicated by (full) name; index 0 is the default grey diffuse."""
 
     def __init__(self, warn):
         self.warn = warn
-        default = np.zeros(1, MATERIAL_DTYPE)
-        default["base_color"], default["roughness"], default["ior"] = 0.8, 0.5, 1.5
-        self.rows = [default]
+        self.rows = [default_row()]
         self.names = [DEFAULT_NAME]
         self._index = {}
 

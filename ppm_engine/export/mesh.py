@@ -1,12 +1,13 @@
 """Triangles, shading normals and UVs of evaluated meshes, read once per mesh datablock and
-transformed per instance."""
+transformed per instance.  No per-vertex or per-triangle Python loops: attribute-API
+``foreach_get`` into buffers of the stored dtype, then NumPy (BLENDER_NOTES section 3)."""
 from __future__ import annotations
 
 import dataclasses
 
 import numpy as np
 
-# object types that evaluate to a mesh
+# object types that can evaluate to a mesh (non-MESH types go through ``to_mesh()``)
 GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT', 'CURVES', 'POINTCLOUD', 'VOLUME'}
 
 
@@ -22,6 +23,10 @@ class LocalMesh:
         return self.positions.shape[0]
 
 
+EMPTY = LocalMesh(np.zeros((0, 3, 3), np.float32), np.zeros((0, 3, 3), np.float32),
+                  np.zeros((0, 3, 2), np.float32), np.zeros(0, np.int32))
+
+
 def _attr(mesh, name, domain_len, comps, dtype, prop):
     a = mesh.attributes.get(name)
     if a is None:
@@ -32,71 +37,76 @@ def _attr(mesh, name, domain_len, comps, dtype, prop):
 
 
 def read_mesh(mesh) -> LocalMesh:
+    """Object-space triangle soup of one (evaluated) mesh."""
     mesh.calc_loop_triangles()
     n_tri = len(mesh.loop_triangles)
     n_v, n_loops, n_polys = len(mesh.vertices), len(mesh.loops), len(mesh.polygons)
     if n_tri == 0:
-        z = np.zeros((0, 3, 3), np.float32)
-        return LocalMesh(z, z, np.zeros((0, 3, 2), np.float32), np.zeros(0, np.int32))
+        return EMPTY
     pos = _attr(mesh, "position", n_v, 3, np.float32, "vector")
     corner_vert = _attr(mesh, ".corner_vert", n_loops, 1, np.int32, "value")
-    if n_loops == 3 * n_polys:                       # all triangles: loops are in order
+    tri_poly = np.empty(n_tri, np.int32)
+    mesh.loop_triangle_polygons.foreach_get("value", tri_poly)
+    if n_loops == 3 * n_polys and n_tri == n_polys:   # all triangles: loops are in order
         tri_loops = np.arange(3 * n_tri, dtype=np.int32)
     else:
         tri_loops = np.empty(3 * n_tri, np.int32)
         mesh.loop_triangles.foreach_get("loops", tri_loops)
-    tri_poly = np.empty(n_tri, np.int32)
-    mesh.loop_triangle_polygons.foreach_get("value", tri_poly)
     tri_vert = corner_vert[tri_loops]
     positions = pos[tri_vert].reshape(n_tri, 3, 3)
 
-    domain = mesh.normals_domain
-    if domain == 'FACE':
+    if mesh.normals_domain == 'FACE':                   # flat: one normal per polygon
         pn = np.empty(n_polys * 3, np.float32)
         mesh.polygon_normals.foreach_get("vector", pn)
         normals = np.repeat(pn.reshape(-1, 3)[tri_poly][:, None, :], 3, axis=1)
-    elif domain == 'POINT':
-        vn = np.empty(n_v * 3, np.float32)
-        mesh.vertex_normals.foreach_get("vector", vn)
-        normals = vn.reshape(-1, 3)[tri_vert].reshape(n_tri, 3, 3)
-    else:
+    else:  # POINT or CORNER: corner normals hold either (and are far faster than vertex_normals)
         cn = np.empty(n_loops * 3, np.float32)
         mesh.corner_normals.foreach_get("vector", cn)
         normals = cn.reshape(-1, 3)[tri_loops].reshape(n_tri, 3, 3)
 
-    uvs = np.zeros((n_tri, 3, 2), np.float32)
+    uvs = None
     uv_layer = mesh.uv_layers.active
     if uv_layer is not None:
         uv = _attr(mesh, uv_layer.name, n_loops, 2, np.float32, "vector")
         if uv is not None:
             uvs = uv[tri_loops].reshape(n_tri, 3, 2)
+    if uvs is None:
+        uvs = np.zeros((n_tri, 3, 2), np.float32)
     mat = _attr(mesh, "material_index", n_polys, 1, np.int32, "value")
     slot = mat[tri_poly] if mat is not None else np.zeros(n_tri, np.int32)
-    return LocalMesh(positions, normals.astype(np.float32), uvs, slot.astype(np.int32))
+    return LocalMesh(positions, normals.astype(np.float32, copy=False), uvs,
+                     slot.astype(np.int32, copy=False))
 
 
 class MeshCache:
-    """One read per mesh datablock: 1000 instances of a mesh cost one read."""
+    """One read per evaluated geometry: 1000 instances of a mesh cost one read."""
 
     def __init__(self, warn):
         self.warn = warn
-        self._cache: dict[int, LocalMesh] = {}
+        self._cache: dict = {}
 
     def get(self, obj) -> LocalMesh | None:
+        data = obj.data
         if obj.type == 'MESH':
-            key = obj.data.as_pointer()
+            key = data.as_pointer()
             if key not in self._cache:
-                self._cache[key] = read_mesh(obj.data)
+                self._cache[key] = read_mesh(data)
             return self._cache[key]
-        # curves, text, metaballs...: evaluate to a temporary mesh, always cleared
+        # curves, surfaces, text, metaballs...: evaluate to a temporary mesh, always cleared.
+        # The result depends on the evaluated object (modifiers), so key on object and data.
+        key = (obj.as_pointer(), data.as_pointer() if data is not None else 0)
+        if key in self._cache:
+            return self._cache[key]
         try:
             mesh = obj.to_mesh()
         except RuntimeError:
-            return None
+            mesh = None
         try:
-            return read_mesh(mesh) if mesh is not None else None
+            local = read_mesh(mesh) if mesh is not None else EMPTY
         finally:
             obj.to_mesh_clear()
+        self._cache[key] = local
+        return local
 
     def clear(self):
         self._cache.clear()
@@ -104,19 +114,39 @@ class MeshCache:
 
 def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibility: int,
                    name: str, warn) -> dict:
-    """World-space arrays of one instance; triangles with NaN/Inf corners are dropped."""
+    """World-space arrays of one instance.
+
+    Positions by the world matrix, normals by its inverse transpose (renormalised).  A mirroring
+    matrix (negative determinant) also reverses the winding (corners 1 and 2 swapped) so that
+    the geometric normal from the winding keeps its side relative to the shading normals, as
+    Cycles' negative-scale flag does.  Triangles with NaN/Inf corners are dropped with a warning;
+    non-finite or zero shading normals are replaced by the geometric normal."""
     m3, t = m[:3, :3], m[:3, 3]
     p = mesh.positions.astype(np.float64) @ m3.T + t
-    with np.errstate(invalid="ignore", over="ignore"):
-        nm = np.linalg.inv(m3).T if abs(np.linalg.det(m3)) > 1e-300 else np.eye(3)
+    det = np.linalg.det(m3)
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        nm = np.linalg.inv(m3).T if abs(det) > 1e-300 else np.eye(3)
         n = mesh.normals.astype(np.float64) @ nm.T
-        n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-30)
-    good = np.isfinite(p).all(axis=(1, 2))
-    if not good.all():
-        warn(f"Object '{name}': {int((~good).sum())} triangles with NaN or infinite vertex "
-             "coordinates were skipped")
-    n = np.where(np.isfinite(n), n, 0.0)
+        n /= np.linalg.norm(n, axis=2, keepdims=True)
+        good = np.isfinite(p).all(axis=(1, 2))
+        if not good.all():
+            warn(f"Object '{name}': {int((~good).sum())} triangles with NaN or infinite vertex "
+                 "coordinates were skipped")
+            p, n = p[good], n[good]
+        uvs = mesh.uvs[good] if not good.all() else mesh.uvs
+        order = [0, 2, 1] if det < 0 else [0, 1, 2]
+        if det < 0:
+            p, n, uvs = p[:, order], n[:, order], uvs[:, order]
+        bad = ~np.isfinite(n).all(axis=2)
+        if bad.any():
+            ng = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+            ng /= np.linalg.norm(ng, axis=1, keepdims=True)
+            ng = np.where(np.isfinite(ng), ng, (0.0, 0.0, 1.0))
+            n = np.where(bad[:, :, None], ng[:, None, :], n)
     slot = np.clip(mesh.slot, 0, len(slot_map) - 1)
-    return dict(positions=p[good].astype(np.float32), normals=n[good].astype(np.float32),
-                uvs=mesh.uvs[good], material=slot_map[slot][good].astype(np.int32),
-                visibility=np.full(int(good.sum()), visibility, np.uint32))
+    mat = slot_map[slot]
+    if not good.all():
+        mat = mat[good]
+    return dict(positions=p.astype(np.float32), normals=n.astype(np.float32),
+                uvs=np.ascontiguousarray(uvs, np.float32), material=mat.astype(np.int32),
+                visibility=np.full(p.shape[0], visibility, np.uint32))

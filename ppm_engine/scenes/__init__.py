@@ -1,29 +1,34 @@
 """Example scenes built with bpy from nothing (no binary files in the repository).
 
+    from ppm_engine.scenes import EXAMPLES, build_example, save_example
+    scene = EXAMPLES["cornell_box"]()        # resets the current file, returns the scene
     save_example("bulb_box", "bulb_box.blend")
 
-The geometry matches ``ppm_engine.procedural.cornell_box`` (the arrays version used by the
+Each builder takes an optional ``scene``: None resets the file (empty factory settings) and
+builds into its scene; a given scene is emptied and reused.  The render engine is left as it
+is.  The geometry matches ``ppm_engine.procedural.cornell_box`` (the arrays version used by the
 core tests and the benchmark)."""
 from __future__ import annotations
 
-from . import cornell_box as _cornell_box
+from . import bulb_box, cornell_box
 
 EXAMPLES = {
-    "cornell_box": lambda: _cornell_box.build(bulb=False),
-    "bulb_box": lambda: _cornell_box.build(bulb=True),
+    "cornell_box": cornell_box.build,
+    "bulb_box": bulb_box.build,
 }
 
 
-def build_example(name: str):
-    """Replace the current file's content with an example scene; returns the scene."""
+def build_example(name: str, scene=None):
+    """Build an example scene (replacing the current file's content); returns the scene."""
     try:
         builder = EXAMPLES[name]
     except KeyError:
         raise KeyError(f"unknown example '{name}'; examples: {', '.join(EXAMPLES)}") from None
-    return builder()
+    return builder(scene)
 
 
 def save_example(name: str, path) -> None:
+    """Build an example and save it as a .blend file at ``path``."""
     import bpy
     build_example(name)
     bpy.ops.wm.save_as_mainfile(filepath=str(path), check_existing=False)

@@ -1,22 +1,27 @@
-"""The Cornell box and the paper's bulb box, built with bpy.
+"""The Cornell box, built with bpy from nothing (also the room of the bulb box).
 
 Box: x, y in [-1, 1], z in [0, 2], open towards -y where the camera is.  Walls are Lambertian
-(Principled with roughness 1 and no specular layer, so Cycles renders them as pure Lambert
-too).  Cornell box: an emissive quad under the ceiling.  Bulb box: no ceiling light; the only
-light is a small emissive sphere inside a clear glass sphere hanging under the ceiling, and a
-glass ball lies on the floor, so every wall is lit through glass."""
+(Principled with Roughness 1 and Specular IOR Level 0, so Cycles renders them as pure Lambert
+too).  Light: a 0.5 x 0.5 m emissive quad 1 cm under the ceiling facing down, radiance
+``LAMP_RADIANCE`` (power pi * A * L = 11.8 W).  Two white boxes stand on the floor.
+
+The geometry matches ``ppm_engine.procedural.cornell_box`` (the arrays version)."""
 from __future__ import annotations
 
+import math
+
 import bpy
+import bmesh
 
 WHITE = (0.73, 0.73, 0.73)
 RED = (0.63, 0.065, 0.05)
 GREEN = (0.14, 0.45, 0.091)
 LAMP_RADIANCE = 15.0
-FILAMENT_RADIANCE = 80.0
+RESOLUTION = 256
 
 
-def _lambert(name, color):
+# --- helpers shared with bulb_box.py ------------------------------------------------------------
+def lambert(name, color):
     m = bpy.data.materials.new(name)
     p = m.node_tree.nodes["Principled BSDF"]
     p.inputs["Base Color"].default_value = (*color, 1.0)
@@ -25,7 +30,8 @@ def _lambert(name, color):
     return m
 
 
-def _glass(name, ior=1.5):
+def glass(name, ior=1.5):
+    """Clear glass: Principled, Transmission Weight 1, Roughness 0 (Specular IOR Level default)."""
     m = bpy.data.materials.new(name)
     p = m.node_tree.nodes["Principled BSDF"]
     p.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
@@ -35,84 +41,119 @@ def _glass(name, ior=1.5):
     return m
 
 
-def _emission(name, radiance):
+def emission(name, radiance):
+    """Emission shader, white, Strength = radiance in W/(m^2 sr)."""
     m = bpy.data.materials.new(name)
     tree = m.node_tree
     tree.nodes.remove(tree.nodes["Principled BSDF"])
     e = tree.nodes.new("ShaderNodeEmission")
+    e.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
     e.inputs["Strength"].default_value = radiance
     tree.links.new(e.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
     return m
 
 
-def _quad(name, corners, material):
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata([tuple(c) for c in corners], [], [(0, 1, 2, 3)])
+def _link(scene, name, mesh, material):
     mesh.materials.append(material)
     obj = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(obj)
+    scene.collection.objects.link(obj)
     return obj
 
 
-def _box(name, lo, hi, material):
+def quad(scene, name, corners, material):
+    """One quad; its normal follows the corner order (right hand)."""
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([tuple(map(float, c)) for c in corners], [], [(0, 1, 2, 3)])
+    mesh.update()
+    return _link(scene, name, mesh, material)
+
+
+def box(scene, name, lo, hi, material):
+    """Axis-aligned closed box with outward normals."""
     x0, y0, z0 = lo
     x1, y1, z1 = hi
     v = [(x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0),
          (x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)]
     f = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
     mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(v, [], f)
-    mesh.materials.append(material)
-    obj = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(obj)
+    mesh.from_pydata([tuple(map(float, p)) for p in v], [], f)
+    mesh.update()
+    return _link(scene, name, mesh, material)
+
+
+def sphere(scene, name, center, radius, material, segments=32, rings=16):
+    """Smooth-shaded UV sphere (bmesh: no operator context needed)."""
+    mesh = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=segments, v_segments=rings, radius=radius)
+    bm.to_mesh(mesh)
+    bm.free()
+    mesh.shade_smooth()
+    obj = _link(scene, name, mesh, material)
+    obj.location = center
     return obj
 
 
-def _sphere(name, center, radius, material, segments=32, rings=16):
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=radius,
-                                         location=center)
-    obj = bpy.context.active_object
-    obj.name = obj.data.name = name
-    obj.data.materials.append(material)
-    obj.data.shade_smooth()
-    return obj
+def new_scene(scene=None):
+    """``scene`` None: reset to an empty file and use its scene.  Otherwise empty the given
+    scene (its objects and child collections are unlinked, nothing else in the file changes)."""
+    if scene is None:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        return bpy.context.scene
+    for child in list(scene.collection.children):
+        scene.collection.children.unlink(child)
+    for obj in list(scene.collection.objects):
+        scene.collection.objects.unlink(obj)
+    return scene
 
 
-def build(bulb: bool = False):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    white, red, green = _lambert("White", WHITE), _lambert("Red", RED), _lambert("Green", GREEN)
-    _quad("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], white)
-    _quad("Ceiling", [(-1, -1, 2), (-1, 1, 2), (1, 1, 2), (1, -1, 2)], white)
-    _quad("Back", [(-1, 1, 0), (1, 1, 0), (1, 1, 2), (-1, 1, 2)], white)
-    _quad("Left", [(-1, -1, 0), (-1, 1, 0), (-1, 1, 2), (-1, -1, 2)], red)
-    _quad("Right", [(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], green)
-    if bulb:
-        glass = _glass("Glass")
-        _sphere("Filament", (0, 0, 1.6), 0.05, _emission("Filament", FILAMENT_RADIANCE), 16, 8)
-        _sphere("Bulb", (0, 0, 1.6), 0.15, glass)
-        _sphere("GlassBall", (0.3, 0.2, 0.3), 0.3, glass)
-    else:
-        _quad("Lamp", [(-0.25, -0.25, 1.99), (-0.25, 0.25, 1.99), (0.25, 0.25, 1.99),
-                       (0.25, -0.25, 1.99)], _emission("Lamp", LAMP_RADIANCE))
-        _box("TallBox", (-0.6, -0.1, 0.0), (-0.1, 0.5, 1.2), white)
-        _box("ShortBox", (0.15, -0.5, 0.0), (0.65, 0.0, 0.6), white)
+def room(scene):
+    """The five walls (floor, ceiling, back white; left red; right green), facing inwards."""
+    white, red, green = lambert("White", WHITE), lambert("Red", RED), lambert("Green", GREEN)
+    quad(scene, "Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], white)
+    quad(scene, "Ceiling", [(-1, -1, 2), (-1, 1, 2), (1, 1, 2), (1, -1, 2)], white)
+    quad(scene, "Back", [(-1, 1, 0), (1, 1, 0), (1, 1, 2), (-1, 1, 2)], white)
+    quad(scene, "Left", [(-1, -1, 0), (-1, 1, 0), (-1, 1, 2), (-1, -1, 2)], red)
+    quad(scene, "Right", [(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], green)
+    return white
 
+
+def camera_world_render(scene):
+    """35 mm lens on a 36 mm sensor at (0, -2.9, 1) looking along +y; black world; 256 x 256
+    at 100 %, no dithering, opaque film.  The render engine is left to the caller."""
     cam_data = bpy.data.cameras.new("Camera")
     cam_data.lens, cam_data.sensor_width = 35.0, 36.0
+    cam_data.clip_start, cam_data.clip_end = 0.1, 100.0
     cam = bpy.data.objects.new("Camera", cam_data)
     scene.collection.objects.link(cam)
     cam.location = (0.0, -2.9, 1.0)
-    cam.rotation_euler = (1.5707963267948966, 0.0, 0.0)      # looks along +y
+    cam.rotation_euler = (math.pi / 2, 0.0, 0.0)
     scene.camera = cam
 
     world = bpy.data.worlds.new("World")
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+    bg = world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    world.color = (0.0, 0.0, 0.0)
     scene.world = world
     r = scene.render
-    r.resolution_x = r.resolution_y = 256
+    r.resolution_x = r.resolution_y = RESOLUTION
     r.resolution_percentage = 100
+    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
+    r.use_border = False
     r.dither_intensity = 0.0
     r.film_transparent = False
     scene.frame_set(1)
+
+
+# --- the example ------------------------------------------------------------------------------
+def build(scene=None):
+    """Build the Cornell box (see the module docstring); returns the scene."""
+    scene = new_scene(scene)
+    white = room(scene)
+    quad(scene, "Lamp", [(-0.25, -0.25, 1.99), (-0.25, 0.25, 1.99), (0.25, 0.25, 1.99),
+                         (0.25, -0.25, 1.99)], emission("Lamp", LAMP_RADIANCE))
+    box(scene, "TallBox", (-0.6, -0.1, 0.0), (-0.1, 0.5, 1.2), white)
+    box(scene, "ShortBox", (0.15, -0.5, 0.0), (0.65, 0.0, 0.6), white)
+    camera_world_render(scene)
     return scene
