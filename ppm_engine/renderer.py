@@ -44,11 +44,25 @@ class PassStats:
         """Mean photons per occupied entry: the stochastic map's variance grows with it."""
         return self.photons_stored / self.occupied_entries if self.occupied_entries else 0.0
 
-    def line(self, passes: int | None = None, elapsed: float | None = None) -> str:
+    def line(self, passes: int | None = None, elapsed: float | None = None,
+             time_limit: float = 0.0) -> str:
+        """The stats a user reads: "Pass 12/64 · 3.1M photons · r 0.012–0.034 · 2.4 s · 18 s
+        left" (remaining time from the pass rate, or the time limit if that comes first)."""
         of = f"/{passes}" if passes else ""
         s = f"Pass {self.pass_index}{of} · {_si(self.photons_emitted)} photons"
+        if self.radius_max > 0:
+            s += f" · r {self.radius_min:.3g}–{self.radius_max:.3g}"
         if elapsed is not None:
             s += f" · {elapsed:.1f} s"
+            left = []
+            if passes and self.pass_index:
+                left.append(elapsed / self.pass_index * (passes - self.pass_index))
+            if time_limit > 0:
+                left.append(max(time_limit - elapsed, 0.0))
+            if left:
+                s += f" · {min(left):.0f} s left"
+        if self.nan_dropped:
+            s += f" · {self.nan_dropped} NaN/Inf dropped"
         return s
 
 
@@ -86,7 +100,6 @@ class Renderer:
         P = dev.programs
         self.k_eye = P.get("eye_pass.cl").eye_pass
         self.k_photon = P.get("photon_pass.cl").photon_pass
-        self.k_update = P.get("progressive.cl").progressive_update
 
         self.film = Film(dev, w, h)
         self._allocate_pixels()
@@ -190,10 +203,11 @@ class Renderer:
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4, 4 * (N_COUNTERS - 1))  # keep NaNs
         run("eye", self.k_eye, _round(n), self.camera, *self._scene_args(), pass_id, seed,
             np.int32(o.max_bounces), np.float32(o.initial_radius),
-            np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct,
+            np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct_pass,
             self.film.radius,
             self.vp_pos, self.vp_nrm, self.vp_beta, self.counters, self.film.aux_albedo,
             self.film.aux_normal)
+        events.append(("eye", self.film.add_direct(q)))
         pm = self.photon_map
         events += pm.enqueue_grid(q, self.vp_pos, self.film.radius, n)
         emitted = 0
@@ -206,9 +220,8 @@ class Renderer:
             events += pm.enqueue_build(q, self.counters, self.passes_done, o.seed)
             events += pm.enqueue_gather(q, self.vp_pos, self.vp_nrm, self.film.radius,
                                         self.gathered, n)
-            run("update", self.k_update, _round(n), self.vp_pos, self.vp_beta, self.gathered,
-                self.film.radius, self.film.nstat, self.film.tau, np.float32(o.alpha),
-                np.uint32(n))
+            events.append(("update", self.film.update(q, self.vp_pos, self.vp_beta,
+                                                      self.gathered, o.alpha)))
         counters = np.empty(N_COUNTERS, np.uint32)
         grid = np.empty(1, GRID_DTYPE)
         cl.enqueue_copy(q, counters, self.counters, is_blocking=False)

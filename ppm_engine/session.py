@@ -22,13 +22,6 @@ progress_listeners: list = []
 WRITE_INTERVAL = 0.25
 
 
-def _si(n: float) -> str:
-    for unit, div in (("G", 1e9), ("M", 1e6), ("K", 1e3)):
-        if n >= div:
-            return f"{n / div:.1f}{unit}"
-    return str(int(n))
-
-
 # Render passes besides Combined: (name, channels, channel ids, type).  The denoising pair lets
 # Blender's compositor Denoise node work on our renders; the last two are diagnostics.
 RENDER_PASSES = (
@@ -184,8 +177,7 @@ class Session:
             if options.time_limit > 0:
                 progress = max(progress, elapsed / options.time_limit)
             engine.update_progress(min(progress, 1.0))
-            text = (f"Pass {done}/{options.passes} · {_si(stats.photons_emitted)} photons · "
-                    f"{elapsed:.1f} s")
+            text = stats.line(options.passes, elapsed, options.time_limit)
             engine.update_stats("", text)
             for listener in progress_listeners:
                 listener(text)

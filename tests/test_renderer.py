@@ -42,7 +42,9 @@ def test_cornell_box_statistics_and_monotone_radii():
     img = r.image()
     assert img.shape == (32, 32, 4) and np.isfinite(img).all() and (img[..., 3] == 1).all()
     assert img[..., :3].mean() > 0.05
-    assert s.line(64, 1.25) == "Pass 8/64 · 65.5K photons · 1.2 s"
+    r_txt = f"r {s.radius_min:.3g}–{s.radius_max:.3g}"
+    assert s.line(64, 1.25) == f"Pass 8/64 · 65.5K photons · {r_txt} · 1.2 s · 9 s left"
+    assert s.line(64, 1.25, time_limit=2.0).endswith("· 1 s left")     # the limit comes first
 
 
 def test_photon_buffer_overflow_is_counted_then_grows():
