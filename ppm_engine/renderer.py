@@ -100,6 +100,7 @@ class Renderer:
         P = dev.programs
         self.k_eye = P.get("eye_pass.cl").eye_pass
         self.k_photon = P.get("photon_pass.cl").photon_pass
+        self.k_update = P.get("progressive.cl").progressive_update
 
         self.film = Film(dev, w, h)
         self._allocate_pixels()
@@ -203,11 +204,10 @@ class Renderer:
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4, 4 * (N_COUNTERS - 1))  # keep NaNs
         run("eye", self.k_eye, _round(n), self.camera, *self._scene_args(), pass_id, seed,
             np.int32(o.max_bounces), np.float32(o.initial_radius),
-            np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct_pass,
+            np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct,
             self.film.radius,
             self.vp_pos, self.vp_nrm, self.vp_beta, self.counters, self.film.aux_albedo,
             self.film.aux_normal)
-        events.append(("eye", self.film.add_direct(q)))
         pm = self.photon_map
         events += pm.enqueue_grid(q, self.vp_pos, self.film.radius, n)
         emitted = 0
@@ -220,8 +220,9 @@ class Renderer:
             events += pm.enqueue_build(q, self.counters, self.passes_done, o.seed)
             events += pm.enqueue_gather(q, self.vp_pos, self.vp_nrm, self.film.radius,
                                         self.gathered, n)
-            events.append(("update", self.film.update(q, self.vp_pos, self.vp_beta,
-                                                      self.gathered, o.alpha)))
+            run("update", self.k_update, _round(n), self.vp_pos, self.vp_beta, self.gathered,
+                self.film.radius, self.film.nstat, self.film.tau, np.float32(o.alpha),
+                np.uint32(n))
         counters = np.empty(N_COUNTERS, np.uint32)
         grid = np.empty(1, GRID_DTYPE)
         cl.enqueue_copy(q, counters, self.counters, is_blocking=False)
