@@ -83,7 +83,9 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
         if (!(max3(beta) > 0.0f)) break;
     }
     vp_pos[id] = vp;
-    /* NaN/Inf guard: drop the sample, count it (render stats) */
-    if (isfinite(L.x) && isfinite(L.y) && isfinite(L.z)) direct[id] += (float4)(L, 1.0f);
-    else atomic_inc(&counters[0]);
+    /* this pass's sample (the film adds it to its sums, progressive.cl film_add_direct);
+     * NaN/Inf guard: drop the sample, count it (render stats) */
+    bool ok = isfinite(L.x) && isfinite(L.y) && isfinite(L.z);
+    direct[id] = ok ? (float4)(L, 1.0f) : (float4)(0.0f);
+    if (!ok) atomic_inc(&counters[0]);
 }

@@ -4,26 +4,60 @@ from __future__ import annotations
 import numpy as np
 
 
-class Film:
-    """direct (rgb sum, sample count), tau (rgb), N, R per pixel; photons emitted (host, exact)."""
+def has_fp64(device) -> bool:
+    """Whether the OpenCL device does double precision (cl_khr_fp64)."""
+    d = device.cl_device
+    if "cl_khr_fp64" in d.extensions:
+        return True
+    try:
+        return bool(d.double_fp_config)
+    except Exception:       # devices without doubles may refuse the query
+        return False
 
-    def __init__(self, device, width: int, height: int):
+
+class Film:
+    """Per pixel: the sums direct (rgb, sample count) and S = sum of Phi_i / R_i^2 (the paper's
+    tau / R^2), N and R; photons emitted on the host (a Python int, exact).
+
+    The sums are 32 bytes per pixel: double4 where the device has cl_khr_fp64, else a float4
+    sum and its Neumaier compensation (``fp64=False`` forces that path; kernels/progressive.cl).
+    A float32 sum would lose ~1e-5 of a constant pixel in 2,000 passes and ~1e-4 in 10,000
+    (docs/STABILITY.md).  The eye pass writes each pass's sample to ``direct_pass``."""
+
+    def __init__(self, device, width: int, height: int, fp64: bool | None = None):
         import pyopencl as cl
         self.device = device
         self.width, self.height = width, height
+        self.fp64 = has_fp64(device) if fp64 is None else bool(fp64)
         n = self.n_pixels = width * height
-        self.direct = device.buffer(16 * n, "film (direct light)")
-        self.tau = device.buffer(16 * n, "film (tau)")
+        self.direct_pass = device.buffer(16 * n, "film (direct light)")
+        self.direct = device.buffer(32 * n, "film (direct light)")
+        self.photon_sum = device.buffer(32 * n, "film (photon flux)")
         self.nstat = device.buffer(4 * n, "film (N)")
         self.radius = device.buffer(4 * n, "film (radius)")
         self.image_buf = device.buffer(16 * n, "film (image)")
-        self.aux_albedo = device.buffer(16 * n, "film (albedo)")
-        self.aux_normal = device.buffer(16 * n, "film (normal)")
-        for b, size in ((self.direct, 16), (self.tau, 16), (self.nstat, 4), (self.radius, 4),
-                        (self.aux_albedo, 16), (self.aux_normal, 16)):
+        # denoising passes (eye_pass.cl adds (value, 1) at each visible point)
+        self.aux_albedo = device.buffer(16 * n, "film (denoising albedo)")
+        self.aux_normal = device.buffer(16 * n, "film (denoising normal)")
+        for b, size in ((self.direct_pass, 16), (self.direct, 32), (self.photon_sum, 32),
+                        (self.nstat, 4), (self.radius, 4), (self.aux_albedo, 16),
+                        (self.aux_normal, 16)):
             cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
         self.photons_emitted = 0      # Python int: exact at any count
-        self.prog = device.programs.get("progressive.cl")
+        self.prog = device.programs.get("progressive.cl", {"PPM_FP64": True} if self.fp64 else {})
+
+    def add_direct(self, q, wait_for=None):
+        """Enqueue direct += direct_pass (after each eye pass); returns the event."""
+        n = self.n_pixels
+        return self.prog.film_add_direct(q, (_round(n),), None, self.direct_pass, self.direct,
+                                         np.uint32(n), wait_for=wait_for)
+
+    def update(self, q, vp_pos, vp_beta, gathered, alpha: float, wait_for=None):
+        """Enqueue the progressive update (N, R, S) from this pass's gather; returns the event."""
+        n = self.n_pixels
+        return self.prog.film_update(q, (_round(n),), None, vp_pos, vp_beta, gathered,
+                                     self.radius, self.nstat, self.photon_sum, np.float32(alpha),
+                                     np.uint32(n), wait_for=wait_for)
 
     def resolve(self, wait_for=None):
         """Enqueue the resolve; returns (event, host array (h, w, 4) float32, row 0 = bottom)."""
@@ -31,7 +65,7 @@ class Film:
         q = self.device.queue
         inv = 1.0 / (np.pi * self.photons_emitted) if self.photons_emitted else 0.0
         n = self.n_pixels
-        ev = self.prog.film_resolve(q, (_round(n),), None, self.direct, self.tau, self.radius,
+        ev = self.prog.film_resolve(q, (_round(n),), None, self.direct, self.photon_sum,
                                     np.float32(inv), self.image_buf, np.uint32(n),
                                     wait_for=wait_for)
         out = np.empty((self.height, self.width, 4), np.float32)
@@ -39,20 +73,20 @@ class Film:
         return ev2, out
 
     def aux_passes(self) -> dict:
-        """Extra render passes, (h, w, c) float32, row 0 = bottom: 'Denoising Albedo' and
-        'Denoising Normal' (averaged over the passes whose camera ray found a diffuse surface),
-        'PPM Radius' (current gather radius) and 'PPM Photons' (the progressive count N)."""
-        albedo = self.read("aux_albedo", channels=4)
-        normal = self.read("aux_normal", channels=4)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            a = np.where(albedo[..., 3:] > 0, albedo[..., :3] / albedo[..., 3:], 0.0)
-            nrm = normal[..., :3]
-            length = np.linalg.norm(nrm, axis=-1, keepdims=True)
-            nrm = np.where(length > 0, nrm / length, 0.0)
-        return {"Denoising Albedo": a.astype(np.float32),
-                "Denoising Normal": nrm.astype(np.float32),
-                "PPM Radius": self.read("radius")[..., None],
-                "PPM Photons": self.read("nstat")[..., None]}
+        """The extra render passes, (h, w, channels) float32, row 0 = bottom: "Denoising
+        Albedo" (mean), "Denoising Normal" (unit mean), "PPM Radius" (R), "PPM Photons" (N)."""
+        out = {}
+        for name, buf in (("Denoising Albedo", "aux_albedo"), ("Denoising Normal", "aux_normal")):
+            a = self.read(buf, np.float32, 4)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                v = np.where(a[..., 3:] > 0, a[..., :3] / a[..., 3:], 0.0)
+                if name == "Denoising Normal":
+                    length = np.linalg.norm(v, axis=-1, keepdims=True)
+                    v = np.where(length > 0, v / length, 0.0)
+            out[name] = v.astype(np.float32)
+        out["PPM Radius"] = self.read("radius")[..., None]
+        out["PPM Photons"] = self.read("nstat")[..., None]
+        return out
 
     def read(self, name: str, dtype=np.float32, channels: int = 1) -> np.ndarray:
         import pyopencl as cl
@@ -60,6 +94,13 @@ class Film:
                        else (self.height, self.width), dtype)
         cl.enqueue_copy(self.device.queue, out, getattr(self, name))
         return out
+
+    def read_sum(self, name: str) -> np.ndarray:
+        """The value of the sum ``direct`` or ``photon_sum``: float64 (h, w, 4)."""
+        if self.fp64:
+            return self.read(name, np.float64, 4)
+        raw = self.read(name, np.float32, 8).reshape(self.height, self.width, 2, 4)
+        return raw.astype(np.float64).sum(axis=2)
 
 
 def _round(n: int, wg: int = 64) -> int:

@@ -77,6 +77,63 @@ def _round(n: int, wg: int = 64) -> int:
     return max(wg, (n + wg - 1) // wg * wg)
 
 
+def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
+    """The scene as the device renders it, and warnings (docs/STABILITY.md):
+      * triangles with a NaN/Inf corner are dropped (as the exporter does), NaN/Inf shading
+        normals fall back to the geometric normal, lights with NaN/Inf values are dropped;
+      * NaN/Inf in the camera, the world or a material is refused with a SceneError;
+      * a scene far from the origin (|centre| > 4 x its size) is moved to it, in float64:
+        the kernels' ULP-scaled ray offsets and float32 hit points then work at the
+        precision of the scene's size, not of its distance (a box 1e5 from the origin).
+    The shift depends on the positions only, so the same geometry always gets the same one."""
+    from .errors import SceneError
+    warnings = []
+    for name in ("camera", "materials"):
+        a = getattr(scene, name)
+        for field in a.dtype.names:
+            bad = ~np.isfinite(a[field]).reshape(len(a), -1).all(axis=1)
+            if a.dtype[field].kind == "f" and bad.any():
+                k = int(np.nonzero(bad)[0][0])
+                what = "camera" if name == "camera" else (
+                    f"material '{scene.material_names[k]}'" if k < len(scene.material_names)
+                    else f"material {k}")
+                raise SceneError(f"the {what} has NaN or infinite values in '{field}': fix "
+                                 "them and render again")
+    if not np.isfinite(scene.world).all():
+        raise SceneError("the world colour has NaN or infinite values: fix its strength or colour")
+    changes = {}
+    good = np.isfinite(scene.positions).all(axis=(1, 2))
+    if not good.all():
+        warnings.append(f"{int((~good).sum())} triangles with NaN or infinite vertex coordinates "
+                        "were skipped")
+        changes.update(positions=scene.positions[good], normals=scene.normals[good],
+                       uvs=scene.uvs[good], material=scene.material[good],
+                       visibility=scene.visibility[good])
+    nrm = changes.get("normals", scene.normals)
+    if not np.isfinite(nrm).all():
+        changes["normals"] = np.where(np.isfinite(nrm), nrm, 0.0).astype(np.float32)
+    lights = scene.lights
+    lf = [f for f in lights.dtype.names if lights.dtype[f].kind == "f"]
+    ok = np.ones(lights.shape[0], bool)
+    for f in lf:
+        ok &= np.isfinite(lights[f]).reshape(lights.shape[0], -1).all(axis=1) if ok.size else ok
+    if not ok.all():
+        warnings.append(f"{int((~ok).sum())} lights with NaN or infinite values were skipped")
+        changes["lights"] = lights = lights[ok]
+    pos = changes.get("positions", scene.positions).reshape(-1, 3).astype(np.float64)
+    if pos.shape[0]:
+        lo, hi = pos.min(axis=0), pos.max(axis=0)
+        centre = np.float32(0.5 * (lo + hi)).astype(np.float64)
+        if np.abs(centre).max() > 4 * max(float((hi - lo).max()), 1e-30):
+            changes["positions"] = (pos - centre).astype(np.float32).reshape(-1, 3, 3)
+            lights = lights.copy()
+            lights["position"] = lights["position"].astype(np.float64) - centre
+            cam = scene.camera.copy()
+            cam["to_world"][0, :, 3] = cam["to_world"][0, :, 3].astype(np.float64) - centre
+            changes.update(lights=lights, camera=cam)
+    return (scene.replace(**changes) if changes else scene), warnings
+
+
 class Renderer:
     # initial radius when options.initial_radius == 0: this many pixel footprints at the point
     AUTO_RADIUS_PIXELS = 2.0
@@ -94,13 +151,13 @@ class Renderer:
         self.n_pixels = w * h
         t0 = time.perf_counter()
 
-        self.bvh = BVH(dev, scene)
-        self._upload_scene(scene)
+        prepared, self.warnings = prepare_scene(scene)   # NaN/Inf dropped (docs/STABILITY.md)
+        self.bvh = BVH(dev, prepared)
+        self._upload_scene(scene, prepared)
 
         P = dev.programs
         self.k_eye = P.get("eye_pass.cl").eye_pass
         self.k_photon = P.get("photon_pass.cl").photon_pass
-        self.k_update = P.get("progressive.cl").progressive_update
 
         self.film = Film(dev, w, h)
         self._allocate_pixels()
@@ -117,10 +174,13 @@ class Renderer:
         self.queue.finish()
 
     # ------------------------------------------------------------------------------------------
-    def _upload_scene(self, scene: SceneArrays):
+    def _upload_scene(self, scene: SceneArrays, prepared: SceneArrays | None = None):
         """Everything but the BVH: materials, emitters, lights, camera, pixel filter."""
         up = self.device.upload
         self.scene = scene
+        if prepared is None:
+            prepared, self.warnings = prepare_scene(scene)
+        scene = prepared                     # the BVH's triangles, moved as the BVH's
         self.kmaterials = kernel_materials(scene.materials)
         self.emitters = build_emitters(scene, self.kmaterials, self.bvh.leaf_order)
         self.normals = up(scene.normals, "shading normals")
@@ -204,10 +264,11 @@ class Renderer:
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4, 4 * (N_COUNTERS - 1))  # keep NaNs
         run("eye", self.k_eye, _round(n), self.camera, *self._scene_args(), pass_id, seed,
             np.int32(o.max_bounces), np.float32(o.initial_radius),
-            np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct,
+            np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct_pass,
             self.film.radius,
             self.vp_pos, self.vp_nrm, self.vp_beta, self.counters, self.film.aux_albedo,
             self.film.aux_normal)
+        events.append(("eye", self.film.add_direct(q)))
         pm = self.photon_map
         events += pm.enqueue_grid(q, self.vp_pos, self.film.radius, n)
         emitted = 0
@@ -220,9 +281,8 @@ class Renderer:
             events += pm.enqueue_build(q, self.counters, self.passes_done, o.seed)
             events += pm.enqueue_gather(q, self.vp_pos, self.vp_nrm, self.film.radius,
                                         self.gathered, n)
-            run("update", self.k_update, _round(n), self.vp_pos, self.vp_beta, self.gathered,
-                self.film.radius, self.film.nstat, self.film.tau, np.float32(o.alpha),
-                np.uint32(n))
+            events.append(("update", self.film.update(q, self.vp_pos, self.vp_beta,
+                                                      self.gathered, o.alpha)))
         counters = np.empty(N_COUNTERS, np.uint32)
         grid = np.empty(1, GRID_DTYPE)
         cl.enqueue_copy(q, counters, self.counters, is_blocking=False)

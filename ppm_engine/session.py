@@ -99,6 +99,8 @@ class Session:
                 engine.update_stats("", "Building kernels, uploading scene, building BVH")
                 self.free()
                 self.renderer = Renderer(arrays, options)
+                for w in self.renderer.warnings:     # what the device copy of the scene dropped
+                    engine.report({'WARNING'}, w)
         self.arrays, self.key = arrays, key
         log["setup_s"] = time.perf_counter() - t0
         render_log.append(log)
