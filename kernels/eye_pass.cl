@@ -45,7 +45,8 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
     float4 vp = (float4)(0.0f);
     for (int depth = 0;; depth++) {
         Hit h = bvh_intersect(o, d, tmax, mask, false, BVH_PASS);
-        L += beta * lights_seen(o, d, h.leaf < 0 ? tmax : h.t, lights, emitter_info->n_lights);
+        L += beta * lights_seen(o, d, h.leaf < 0 ? tmax : h.t, lights, emitter_info->n_lights,
+                                  mask);
         if (h.leaf < 0) {
             L += beta * F3(emitter_info->world);
             break;

@@ -55,13 +55,15 @@ inline float3 area_light_point(const Light *L, float u1, float u2) {
 
 /* Radiance of the scene lights seen directly along o + t d, t < tmax (camera rays and their
  * specular chains; Cycles shows area lights from the front and point lights as spheres).
- * Lights do not block rays: only the nearest one in front of the surface hit counts. */
+ * Lights do not block rays: only the nearest one in front of the surface hit counts.
+ * ray_type: VIS_CAMERA, VIS_GLOSSY or VIS_TRANSMISSION; lights hidden from it are skipped. */
 inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *lights,
-                          int n_lights) {
+                          int n_lights, uint ray_type) {
     float3 L = (float3)(0.0f);
     float best = tmax;
     for (int i = 0; i < n_lights; i++) {
         Light l = lights[i];
+        if (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT)) continue;
         float3 c = F3(l.position);
         if (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE) {
             float3 nl = F3(l.direction);
@@ -75,6 +77,22 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *
             bool inside = l.type == LIGHT_AREA_RECT ? (fabs(u) <= 0.5f && fabs(v) <= 0.5f)
                                                     : (u * u + v * v <= 0.25f);
             if (inside) { best = t; L = F3(l.emit); }
+        } else if (l.type == LIGHT_POINT && l.radius > 0.0f && (l.flags & LIGHT_FLAG_SOFT_FALLOFF)) {
+            /* soft falloff (Blender's default): Cycles sees the light as a disk of the light's
+             * radius facing the ray's origin, not as a sphere (d^2 / (d^2 + r^2) of the sphere's
+             * solid angle: -8 % for a light 1 m from a mirror at r = 0.3 m) */
+            float3 nl = o - c;
+            float dl = length(nl);
+            if (!(dl > l.radius)) continue;                   /* starts inside */
+            nl /= dl;
+            float denom = dot(d, nl);
+            if (denom >= 0.0f) continue;
+            float t = dot(c - o, nl) / denom;
+            if (!(t > 0.0f && t < best)) continue;
+            float3 q = o + t * d - c;
+            if (dot(q, q) > l.radius * l.radius) continue;
+            best = t;
+            L = F3(l.emit) / (PPM_PI * l.radius * l.radius);
         } else if (l.type == LIGHT_POINT && l.radius > 0.0f) {
             float3 oc = o - c;
             float b = dot(oc, d), cc = dot(oc, oc) - l.radius * l.radius;

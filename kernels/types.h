@@ -17,6 +17,9 @@
 #define LIGHT_AREA_RECT 3
 #define LIGHT_AREA_ELLIPSE 4
 #define LIGHT_FLAG_SOFT_FALLOFF 1u
+/* a light hidden from a ray type (object visible_camera/glossy/transmission off):
+ * its VIS_* bit shifted by LIGHT_HIDDEN_SHIFT in flags */
+#define LIGHT_HIDDEN_SHIFT 8
 
 #define CAMERA_PERSP 0
 #define CAMERA_ORTHO 1

@@ -31,6 +31,9 @@ LIGHT_AREA_RECT = 3      # SQUARE and RECTANGLE
 LIGHT_AREA_ELLIPSE = 4   # DISK and ELLIPSE
 
 LIGHT_FLAG_SOFT_FALLOFF = 1   # point/spot with radius > 0: Cycles' "soft falloff" disk model
+# flags bit (VIS_x << LIGHT_HIDDEN_SHIFT): the light is not seen by rays of type VIS_x
+# (the light object's visible_camera / visible_glossy / visible_transmission off)
+LIGHT_HIDDEN_SHIFT = 8
 
 CAMERA_PERSP = 0
 CAMERA_ORTHO = 1

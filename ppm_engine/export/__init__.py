@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SceneError
-from ..scene_arrays import (LIGHT_DTYPE, VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY, VIS_SHADOW,
+from ..scene_arrays import (LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT, VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY, VIS_SHADOW,
                             VIS_TRANSMISSION, SceneArrays)
 from .camera import export_camera
 from .lights import export_light
@@ -56,7 +56,12 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
         kind = obj.type
         if kind == 'LIGHT':
             m = np.array(inst.matrix_world, dtype=np.float64)    # copy inside the loop
-            lights.append(export_light(obj.data, m, warn))
+            row = export_light(obj.data, m, warn)
+            for attr, bit in (("visible_camera", VIS_CAMERA), ("visible_glossy", VIS_GLOSSY),
+                              ("visible_transmission", VIS_TRANSMISSION)):
+                if not getattr(obj, attr, True):      # the light seen directly or in a mirror
+                    row["flags"] |= np.uint32(bit << LIGHT_HIDDEN_SHIFT)
+            lights.append(row)
         elif kind in GEOMETRY_TYPES:
             if not inst.show_self:          # e.g. particle instancer hidden for render
                 continue

@@ -34,7 +34,7 @@ def export_light(light, m: np.ndarray, warn) -> np.ndarray:
         if r > 0 and not getattr(light, "normalize", True):
             row["emit"] = S / (4 * math.pi) * (4 * math.pi * r * r)   # L = P/pi: area not divided
         if getattr(light, "use_soft_falloff", False):
-            row["flags"] = LIGHT_FLAG_SOFT_FALLOFF
+            row["flags"] |= LIGHT_FLAG_SOFT_FALLOFF
         if t == 'SPOT':
             half = float(light.spot_size) / 2
             row["spot_cos_half"] = math.cos(half)
