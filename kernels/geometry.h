@@ -49,8 +49,11 @@ inline float3 sample_uniform_sphere(float u1, float u2) {
 }
 
 /* uniform direction in the cone of half-angle acos(cos_max) around n */
-inline float3 sample_cone(float3 n, float cos_max, float u1, float u2) {
-    float c = 1.0f - u1 * (1.0f - cos_max), s = sqrt(fmax(0.0f, 1.0f - c * c));
+/* uniform direction in the cone around n with 1 - cos(half angle) = omc: the cone is given by
+ * omc, not cos, so that tiny cones (a 1e-6 m light 1 m away, a sun of 0.01 degrees) keep their
+ * size in float32 (1 - cos rounds to 0 below ~3e-8) */
+inline float3 sample_cone(float3 n, float omc, float u1, float u2) {
+    float c = 1.0f - u1 * omc, s = sqrt(fmax(0.0f, u1 * omc * (2.0f - u1 * omc)));
     float phi = 2.0f * PPM_PI * u2;
     return normalize(to_world_frame((float3)(s * cos(phi), s * sin(phi), c), n));
 }

@@ -129,10 +129,11 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
         if (L.type == LIGHT_SUN) {
             float3 to_sun = -F3(L.direction);
             if (L.radius > 0.0f) {
-                float cm = cos(L.radius), s = sin(L.radius);
-                wi = sample_cone(to_sun, cm, u1, u2);
-                /* disc radiance E/(pi sin^2) times the cone's solid angle */
-                E = F3(L.emit) * (2.0f * (1.0f - cm) / (s * s));
+                float sh = sin(0.5f * L.radius), ch = cos(0.5f * L.radius);
+                wi = sample_cone(to_sun, 2.0f * sh * sh, u1, u2);     /* 1 - cos r, stably */
+                /* disc radiance E/(pi sin^2 r) times the cone's solid angle 2 pi (1 - cos r):
+                 * 4 sin^2(r/2) / sin^2 r = 1 / cos^2(r/2) */
+                E = F3(L.emit) / (ch * ch);
             } else {
                 wi = to_sun;
                 E = F3(L.emit);
@@ -157,11 +158,12 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
                 E = I * (dot(wi, w0) / dq2);
             } else if (r > 0.0f && d > r) {
                 /* sphere of radius r, radiance I/(pi r^2): sample its cone of directions */
-                float cm = sqrt(fmax(0.0f, 1.0f - r * r / d2));
-                wi = sample_cone(w0, cm, u1, u2);
+                /* 1 - cos = x / (1 + sqrt(1 - x)), x = sin^2 = r^2/d^2: no cancellation */
+                float x = r * r / d2, root = sqrt(fmax(0.0f, 1.0f - x));
+                wi = sample_cone(w0, x / (1.0f + root), u1, u2);
                 float bb = dot(wi, to);
                 dist = bb - sqrt(fmax(0.0f, bb * bb - (d2 - r * r)));
-                E = I * (2.0f * (1.0f - cm) / (r * r));
+                E = I * (2.0f / (d2 * (1.0f + root)));   /* I 2 pi (1 - cos) / (pi r^2) */
             } else {
                 wi = w0;
                 dist = d;
@@ -223,7 +225,8 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
         Light L = lights[e];
         if (L.type == LIGHT_SUN) {
             float3 dir = F3(L.direction);
-            *d = L.radius > 0.0f ? sample_cone(dir, cos(L.radius), u3, u4) : dir;
+            float sh = sin(0.5f * L.radius);
+            *d = L.radius > 0.0f ? sample_cone(dir, 2.0f * sh * sh, u3, u4) : dir;
             float2 q = sample_disk(u1, u2) * R;
             float3 t, b;
             make_frame(dir, &t, &b);
@@ -233,7 +236,7 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
             float3 I = F3(L.emit);
             if (L.type == LIGHT_SPOT) {
                 float cm = spot_sample_cos(&L);
-                *d = sample_cone(F3(L.direction), cm, u3, u4);
+                *d = sample_cone(F3(L.direction), 1.0f - cm, u3, u4);
                 *flux = I * (spot_attenuation(&L, *d) * 2.0f * PPM_PI * (1.0f - cm) / pmf);
             } else {
                 *d = sample_uniform_sphere(u3, u4);
