@@ -9,6 +9,12 @@
 
 /* photons on a surface facing another way (thin walls, corners) are not this point's */
 #define NORMAL_COS_MIN 0.5f
+/* the gather region is a disc, not a ball: photons farther than this x r from the visible
+ * point's tangent plane are not its own (a floor under a closed box would otherwise gather the
+ * photons on the box's inner bottom face; a table top those under it).  The density estimate
+ * over pi r^2 is unchanged on a plane; on a curved surface only r > curvature radius / 2
+ * loses photons. */
+#define DISC_HALF_THICKNESS 0.25f
 /* guard for absurd radius/cell ratios (the grid setup keeps cell >= r_max / 2: <= 5^3) */
 #define MAX_CELLS_PER_AXIS 5
 
@@ -39,6 +45,7 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
         float4 pp = ph_pos[pi];
         float3 dd = pp.xyz - x;
         if (dot(dd, dd) > r2) continue;
+        if (fabs(dot(dd, nrm)) > DISC_HALF_THICKNESS * r) continue;
         long3 pc = cell_of(pp.xyz, &g);
         if (pc.x != cx || pc.y != cy || pc.z != cz) continue;     /* not this cell's photon */
         if (dot(unpack_unit(as_uint(pp.w)), nrm) < NORMAL_COS_MIN) continue;
@@ -77,6 +84,7 @@ __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 
             float4 pp = ph_pos[pi];
             float3 dd = pp.xyz - x;
             if (dot(dd, dd) > r2) continue;
+            if (fabs(dot(dd, nrm)) > DISC_HALF_THICKNESS * r) continue;
             long3 pc = cell_of(pp.xyz, &g);
             if (pc.x != cx || pc.y != cy || pc.z != cz) continue;
             if (dot(unpack_unit(as_uint(pp.w)), nrm) < NORMAL_COS_MIN) continue;

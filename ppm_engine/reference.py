@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 NORMAL_COS_MIN = 0.5    # kernels/gather.cl
+DISC_HALF_THICKNESS = 0.25   # kernels/gather.cl: |(photon - point) . normal| <= this x r
 
 
 # --- rays ------------------------------------------------------------------------------------
@@ -78,7 +79,9 @@ def gather_exact(vp_pos, vp_nrm, radius, ph_pos, ph_nrm, ph_wi, ph_flux):
     M = np.zeros(vp_pos.shape[0])
     for i in range(vp_pos.shape[0]):     # test oracle: clarity over speed
         d2 = ((ph_pos - vp_pos[i]) ** 2).sum(axis=1)
-        ok = (d2 <= radius[i] ** 2) & (ph_nrm @ vp_nrm[i] >= NORMAL_COS_MIN) & (ph_wi @ vp_nrm[i] > 0)
+        off_plane = np.abs((ph_pos - vp_pos[i]) @ vp_nrm[i])
+        ok = ((d2 <= radius[i] ** 2) & (off_plane <= DISC_HALF_THICKNESS * radius[i])
+              & (ph_nrm @ vp_nrm[i] >= NORMAL_COS_MIN) & (ph_wi @ vp_nrm[i] > 0))
         M[i] = ok.sum()
         phi[i] = ph_flux[ok].sum(axis=0)
     return phi, M
