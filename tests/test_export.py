@@ -314,7 +314,7 @@ def test_unnormalized_lights_keep_the_documented_meaning(empty):
     by_radius = {float(l["radius"]): l for l in lights if l["type"] == LIGHT_POINT}
     # sphere radiance L = P/pi (area not divided) <=> intensity I = L * pi r^2 = P r^2
     np.testing.assert_allclose(by_radius[0.5]["emit"], 100 * 0.25, rtol=1e-6)
-    assert by_radius[0.5]["flags"] == 0
+    assert by_radius[0.5]["flags"] & LIGHT_FLAG_SOFT_FALLOFF == 0
     np.testing.assert_allclose(by_radius[0.0]["emit"], 100 / (4 * np.pi), rtol=1e-6)
     area = lights[lights["type"] == LIGHT_AREA_RECT][0]
     np.testing.assert_allclose(area["emit"], 50 / np.pi, rtol=1e-6)
@@ -571,3 +571,17 @@ def test_render_depsgraph_honours_hide_render_and_reports(probe, capfd):
     assert s.lights.shape == (1,) and s.lights[0]["type"] == LIGHT_POINT
     assert any("ToonProbe" in w for w in s.warnings)
     assert "Warning: Material 'ToonProbe'" in "".join(capfd.readouterr())
+
+
+def test_light_ray_visibility_flags(empty):
+    """Blender makes lights invisible to camera rays by default (Cycles then does not show
+    them); glossy and transmission rays see them unless turned off."""
+    from ppm_engine.scene_arrays import LIGHT_HIDDEN_SHIFT, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION
+    add_light('POINT', "Default")
+    o = add_light('AREA', "Shown", loc=(1, 0, 3))
+    o.visible_camera, o.visible_glossy = True, False
+    lights = export().lights
+    hidden = {int(l["type"]): int(l["flags"]) >> LIGHT_HIDDEN_SHIFT for l in lights}
+    assert hidden[LIGHT_POINT] == VIS_CAMERA
+    assert hidden[LIGHT_AREA_RECT] == VIS_GLOSSY
+    assert not any(h & VIS_TRANSMISSION for h in hidden.values())
