@@ -6,6 +6,7 @@ first time it is enqueued with a new work-group size), timed with OpenCL profili
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -158,4 +159,153 @@ def format_micro(m: dict) -> str:
                  f"{t['photons_per_s']:.3g}/s")
     for b in m["bvh"]:
         lines.append(f"BVH build {b['triangles']:>9,} triangles: {b['bvh_build_ms_wall']:.1f} ms (wall)")
+    if "export" in m:
+        e = m["export"]
+        lines.append(f"export_scene {e['triangles']:>9,} triangles: {e['export_s_wall']:.3f} s (wall)")
+    if "first_image" in m:
+        f = m["first_image"]
+        lines.append(f"render() to first image ({f['scene']}, warm caches): "
+                     f"{f['first_image_s']:.3f} s (wall; export + setup {f['setup_s']:.3f} s)")
     return "\n".join(lines)
+
+
+# --- through Blender (bpy) ----------------------------------------------------------------------
+PAPER_TARGETS = {
+    # issue 4's targets on this CPU (2 cores, PoCL)
+    "hash_build_200k_ms": 2.5,
+    "gather_ns_per_vp": 50.0,
+    "export_1m_triangles_s": 0.2,
+    "first_image_s": 1.5,
+}
+
+
+def _big_mesh(n_side: int):
+    """A flat n_side x n_side vertex grid: 2 (n_side - 1)^2 triangles, built with foreach_set."""
+    import bpy
+    xs = np.linspace(-1.0, 1.0, n_side, dtype=np.float32)
+    X, Y = np.meshgrid(xs, xs)
+    co = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size, np.float32)], 1)
+    i, j = np.meshgrid(np.arange(n_side - 1), np.arange(n_side - 1), indexing="ij")
+    a = (i * n_side + j).ravel()
+    quads = np.stack([a, a + 1, a + n_side + 1, a + n_side], 1).astype(np.int32)
+    mesh = bpy.data.meshes.new("Big")
+    mesh.vertices.add(co.shape[0])
+    mesh.vertices.foreach_set("co", co.ravel())
+    mesh.loops.add(quads.size)
+    mesh.loops.foreach_set("vertex_index", quads.ravel())
+    mesh.polygons.add(quads.shape[0])
+    mesh.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+    mesh.update()
+    mesh.validate()
+    return mesh
+
+
+def export_big_mesh(n_triangles: int = 1_000_000, repeat: int = 3) -> dict:
+    """Wall time of ppm_engine.export.export_scene for one mesh of ~n_triangles (plus a camera
+    and a light) in an otherwise empty file; median of ``repeat`` after one warm-up."""
+    import bpy
+    from .export import export_scene
+    from .scenes.cornell_box import lambert, new_scene
+    scene = new_scene(None)
+    mesh = _big_mesh(int(round(math.sqrt(n_triangles / 2))) + 1)
+    mesh.materials.append(lambert("Grey", (0.5, 0.5, 0.5)))
+    obj = bpy.data.objects.new("Big", mesh)
+    scene.collection.objects.link(obj)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location = (0.0, 0.0, 3.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    light = bpy.data.objects.new("Light", bpy.data.lights.new("Light", 'POINT'))
+    light.location = (0.0, 0.0, 2.0)
+    scene.collection.objects.link(light)
+    scene.render.resolution_x = scene.render.resolution_y = 64
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    arrays = export_scene(depsgraph)
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        arrays = export_scene(depsgraph)
+        times.append(time.perf_counter() - t)
+    return {"triangles": int(arrays.n_triangles), "export_s_wall": float(np.median(times)),
+            "export_s_all": [float(t) for t in times]}
+
+
+def first_image(scene_name: str = "bulb_box", device: str = "", repeat: int = 3) -> dict:
+    """Wall time from the bpy.ops.render.render call to the first image written into the
+    render result (session.progress_listeners fire right after that write), with warm kernel
+    caches: one full render first, then ``repeat`` renders, median.  Default settings of the
+    example (256x256, 2^18 photons per pass), 2 passes per render."""
+    import tempfile
+
+    import bpy
+    from . import session
+    from .cli import _ensure_registered
+    from .scenes import build_example
+    _ensure_registered()
+    scene = build_example(scene_name)
+    scene.render.engine = "PPM"
+    scene.ppm.passes = 2
+    scene.ppm.time_limit = 0.0
+    if device:
+        scene.ppm.device = device
+    firsts, setups = [], []
+    with tempfile.TemporaryDirectory(prefix="ppm-first-") as tmp:
+        s = scene.render.image_settings
+        s.file_format = "OPEN_EXR"
+        scene.render.filepath = str(tmp) + "/first"
+        for k in range(repeat + 1):
+            stamp = []
+            t0 = time.perf_counter()
+            listener = lambda text: stamp.append(time.perf_counter())  # noqa: E731
+            session.progress_listeners.append(listener)
+            try:
+                bpy.ops.render.render(write_still=False)
+            finally:
+                session.progress_listeners.remove(listener)
+            if k == 0:
+                continue                    # warm-up: programs built, caches filled
+            firsts.append(stamp[0] - t0)
+            if session.render_log:
+                setups.append(session.render_log[-1].get("setup_s", float("nan")))
+    return {"scene": scene_name, "resolution": [scene.render.resolution_x,
+                                                scene.render.resolution_y],
+            "photons_per_pass": int(scene.ppm.photons_per_pass),
+            "first_image_s": float(np.median(firsts)), "first_image_s_all": firsts,
+            "setup_s": float(np.median(setups)) if setups else None}
+
+
+def run_micro_blender(device_name: str = "", quick: bool = False, progress=print) -> dict:
+    """The micro figures that need Blender: export of a big mesh and time to the first image."""
+    out = {}
+    n = 20_000 if quick else 1_000_000
+    progress(f"export_scene of a {n}-triangle mesh")
+    out["export"] = export_big_mesh(n, repeat=1 if quick else 3)
+    progress("time from render() to the first image (bulb box, warm caches)")
+    out["first_image"] = first_image("bulb_box", device_name, repeat=1 if quick else 3)
+    return out
+
+
+def targets_table(m: dict) -> str:
+    """Markdown: our figures against the issue's targets and the paper's."""
+    rows = ["| figure | ours | target | met | paper |", "|---|---:|---:|---|---|"]
+    h200 = next((h for h in m["hash"] if h["photons"] == 200_000), m["hash"][0])
+    t = PAPER_TARGETS
+
+    def row(label, value, target, unit, paper="–"):
+        met = "yes" if value <= target else f"no ({value / target:.1f}x over)"
+        rows.append(f"| {label} | {value:.3g} {unit} | ≤ {target:g} {unit} | {met} | {paper} |")
+    row(f"hash build, {h200['photons']:,} photons", h200["hash_build_ms"],
+        t["hash_build_200k_ms"], "ms",
+        f"{PAPER['hash_build_200k_ms'][0]} ms ({PAPER['hash_build_200k_ms'][1]}); kd-tree "
+        f"{PAPER['kdtree_build_200k_ms'][0]} ms")
+    row(f"gather per visible point ({h200['visible_points']:,} points)", h200["gather_ns_per_vp"],
+        t["gather_ns_per_vp"], "ns")
+    if "export" in m:
+        e = m["export"]
+        row(f"export_scene, {e['triangles']:,} triangles (wall)", e["export_s_wall"],
+            t["export_1m_triangles_s"], "s")
+    if "first_image" in m:
+        f = m["first_image"]
+        row(f"render() to first image, {f['scene']} {f['resolution'][0]}x{f['resolution'][1]} "
+            f"(wall, warm caches)", f["first_image_s"], t["first_image_s"], "s")
+    return "\n".join(rows)

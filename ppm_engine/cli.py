@@ -4,11 +4,14 @@
                                 [--resolution WxH] [--device NAME] [--photons N] [--seed N]
     python -m ppm_engine devices
     python -m ppm_engine example NAME OUT.blend
+    python -m ppm_engine bench [--quick] [--times S ...] [--resolution N] [--micro]
+                               [--phases SCENE] (docs/BENCHMARKS.md)
 
 The .blend is treated as untrusted: it is opened without running its embedded scripts.
 Errors print one line on stderr and exit with 1 (failed) or 2 (bad arguments or settings).
 """
 import argparse
+import importlib.util
 import dataclasses
 import sys
 import time
@@ -71,13 +74,34 @@ def _build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("example", help="write an example scene")
     e.add_argument("name", help="example name")
     e.add_argument("output", help="the .blend to write")
+
+    b = sub.add_parser("bench", help="benchmark: error against time vs Cycles, --micro, --phases")
+    b.add_argument("--times", type=float, nargs="+", metavar="S",
+                   help="time budgets in seconds (default 2 4 8 16 32)")
+    b.add_argument("--resolution", type=int, metavar="N", help="square image size (default 128; "
+                   "--phases: 256)")
+    b.add_argument("--scenes", nargs="+", metavar="NAME", help="scenes (default: all four)")
+    b.add_argument("--ref-seconds", type=float, metavar="S",
+                   help="seconds per reference half (default 2 x the longest budget)")
+    b.add_argument("--photons", type=int, help="photons per pass (default: the engine's)")
+    b.add_argument("--device", default="", help="OpenCL device for our engine")
+    b.add_argument("--quick", action="store_true", help="tiny sizes (seconds): what CI runs")
+    b.add_argument("--micro", action="store_true", help="the micro benchmarks instead")
+    b.add_argument("--phases", metavar="SCENE", help="per-phase breakdown of a pass of SCENE")
+    b.add_argument("--passes", type=int, default=8, help="--phases: timed passes (default 8)")
+    b.add_argument("--json", metavar="PATH", help="JSON output (default docs/bench/bench.json, "
+                   "micro.json or phases.json)")
+    b.add_argument("--plot", metavar="PATH", help="plot (default docs/bench/error_vs_time.png)")
+    b.add_argument("--markdown", metavar="PATH", help="markdown file whose <!-- bench:NAME --> "
+                   "block gets the tables (default docs/BENCHMARKS.md)")
     return p
 
 
 def main(argv=None) -> int:
     args = _build_parser().parse_args(argv)
     try:
-        return {"render": cmd_render, "devices": cmd_devices, "example": cmd_example}[args.command](args)
+        return {"render": cmd_render, "devices": cmd_devices, "example": cmd_example,
+                "bench": cmd_bench}[args.command](args)
     except CLIError as e:
         _say(f"error: {e}")
         return e.code
@@ -167,6 +191,93 @@ def cmd_render(args) -> int:
     if not out.is_file():
         raise CLIError(f"render finished but {out} was not written")
     _say(f"wrote {out} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+_DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def _replace_block(path: Path, name: str, text: str) -> None:
+    """Put ``text`` between <!-- bench:NAME --> and <!-- /bench:NAME --> in ``path`` (the block
+    is appended when the file or the markers do not exist yet)."""
+    begin, end = f"<!-- bench:{name} -->", f"<!-- /bench:{name} -->"
+    block = f"{begin}\n{text.strip()}\n{end}"
+    old = path.read_text() if path.is_file() else ""
+    if begin in old and end in old:
+        head, rest = old.split(begin, 1)
+        new = head + block + rest.split(end, 1)[1]
+    else:
+        new = (old.rstrip() + "\n\n" if old.strip() else "") + block + "\n"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(new)
+
+
+def cmd_bench(args) -> int:
+    """python -m ppm_engine bench [--quick] [--micro | --phases SCENE] ..."""
+    from . import bench
+    needed = ("OpenEXR", "matplotlib") if not (args.micro or args.phases) else ()
+    missing = [m for m in needed if importlib.util.find_spec(m) is None]
+    if missing:
+        raise CLIError(f"the benchmark needs {' and '.join(missing)}: pip install -e \".[bench]\" "
+                       f"(or pip install {' '.join(missing)})", EXIT_USAGE)
+    cmdline = "python -m ppm_engine " + " ".join(sys.argv[1:]) if sys.argv[1:] else "python -m ppm_engine bench"
+    progress = lambda text: _say(text)  # noqa: E731
+    md_path = Path(args.markdown) if args.markdown else _DOCS / "BENCHMARKS.md"
+    if args.photons is not None and args.photons < 1:
+        raise CLIError("--photons must be at least 1", EXIT_USAGE)
+    if args.micro:
+        from . import bench_micro
+        m = bench_micro.run_micro(args.device, quick=args.quick, progress=progress)
+        _ensure_registered()
+        m.update(bench_micro.run_micro_blender(args.device, quick=args.quick, progress=progress))
+        m["machine"] = bench.machine_info(args.device)
+        m["command"] = cmdline
+        text = bench_micro.format_micro(m) + "\n\n" + bench_micro.targets_table(m)
+        print(text)
+        bench.write_json(m, args.json or _DOCS / "bench" / "micro.json")
+        _replace_block(md_path, "micro", f"`{cmdline}`\n\n```\n{bench_micro.format_micro(m)}\n"
+                                         f"```\n\n{bench_micro.targets_table(m)}")
+        return 0
+    if args.phases:
+        from .scenes import EXAMPLES
+        if args.phases not in EXAMPLES:
+            raise CLIError(f"unknown scene '{args.phases}'; available: {', '.join(EXAMPLES)}",
+                           EXIT_USAGE)
+        _ensure_registered()
+        res = args.resolution or (32 if args.quick else 256)
+        p = bench.run_phases(args.phases, res, passes=2 if args.quick else args.passes,
+                             warmup=1 if args.quick else 3, device=args.device,
+                             photons=args.photons or (4096 if args.quick else None),
+                             progress=progress)
+        p["command"] = cmdline
+        text = bench.format_phases(p)
+        print(text)
+        bench.write_json(p, args.json or _DOCS / "bench" / "phases.json")
+        _replace_block(md_path, "phases", f"`{cmdline}`\n\n{text}")
+        return 0
+    q = bench.QUICK if args.quick else {}
+    times = tuple(args.times) if args.times else q.get("times", bench.DEFAULT_TIMES)
+    if any(t <= 0 for t in times):
+        raise CLIError("--times must be positive", EXIT_USAGE)
+    res = args.resolution or q.get("resolution", bench.DEFAULT_RESOLUTION)
+    scenes = tuple(args.scenes) if args.scenes else bench.SCENES
+    unknown = [s for s in scenes if s not in bench.REFERENCE_ENGINE]
+    if unknown:
+        raise CLIError(f"unknown bench scene(s) {', '.join(unknown)}; available: "
+                       f"{', '.join(bench.SCENES)}", EXIT_USAGE)
+    result = bench.run_bench(times, res, scenes, args.ref_seconds or q.get("ref_seconds"),
+                             args.device, args.photons or q.get("photons"), progress)
+    result["command"] = cmdline
+    json_path = Path(args.json) if args.json else _DOCS / "bench" / "bench.json"
+    plot_path = Path(args.plot) if args.plot else _DOCS / "bench" / "error_vs_time.png"
+    bench.write_json(result, json_path)
+    bench.plot(result, plot_path)
+    text = (f"`{cmdline}`\n\nReference per scene:\n\n{bench.reference_table(result)}\n\n"
+            f"Error against time (RMSE over RGB; relative = RMSE / mean of the reference):\n\n"
+            f"{bench.table(result)}\n\nAt equal time:\n\n{bench.ratio_table(result)}")
+    print(text)
+    _replace_block(md_path, "curves", text)
+    _say(f"wrote {json_path}, {plot_path}, {md_path} in {result['total_s']:.0f} s")
     return 0
 
 

@@ -1,0 +1,170 @@
+"""The benchmark's caustic scenes (``python -m ppm_engine bench``), built with bpy from nothing.
+
+Both stand on the same stage: a 4 x 4 m white Lambertian floor (z = 0, x, y in [-2, 2]) and a
+back wall at y = 2, black world, the camera at the front looking down at the middle.  Lights
+are small spheres (radius ``LIGHT_RADIUS``) kept out of view and invisible to camera rays
+(lights are not visible to our camera rays; Cycles would show them).
+
+- ``glass_caustic``: a clear glass ball (radius 0.3 m, IOR 1.5) on the floor, lit by a spot
+  light above and to the left, aimed at the ball: the ball focuses the light to a bright
+  caustic on the floor to the ball's right.
+- ``mirror_caustic``: a point light and a perfect planar mirror (Principled metallic 1,
+  roughness 0, base colour 1), a 0.8 x 0.6 m rectangle tilted towards the floor, which
+  reflects the light onto a bright patch of floor in front of it.
+
+``CAUSTIC_MASKS`` describes, per benchmark scene, the floor region counted as "caustic pixels"
+(see ``ppm_engine.bench.caustic_mask``): a world-space disk on the floor, or the set of floor
+points that see the light's mirror image through the mirror rectangle (exact); pixels whose
+camera ray meets one of the listed spheres first (glass) are left out.
+"""
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+
+from .bulb_box import BALL_CENTER, BULB_CENTER
+from .cornell_box import glass, lambert, new_scene, quad, sphere
+
+RESOLUTION = 128
+LIGHT_RADIUS = 0.02
+FLOOR = (0.8, 0.8, 0.8)
+
+# glass_caustic
+BALL = ((0.0, 0.0, 0.3), 0.3)                    # centre, radius
+SPOT_POS = (-2.0, 0.0, 1.7)
+SPOT_POWER = 300.0                               # W (Cycles units)
+SPOT_SIZE = math.radians(30.0)
+
+# mirror_caustic
+POINT_POS = (-0.6, 0.3, 1.2)
+POINT_POWER = 100.0                              # W
+MIRROR_CENTER = np.array([0.8, 0.3, 0.7])
+MIRROR_NORMAL = np.array([-1.0, 0.0, -0.45]) / np.linalg.norm([-1.0, 0.0, -0.45])
+MIRROR_SIZE = (0.8, 0.6)                         # along y, along the tilted vertical
+
+
+def mirror_corners() -> np.ndarray:
+    """The mirror's four corners (counter-clockwise seen from the side it faces)."""
+    n = MIRROR_NORMAL
+    u = np.array([0.0, 1.0, 0.0])                # horizontal edge
+    v = np.cross(n, u)                           # in the plane, going up
+    if v[2] < 0:
+        v = -v
+    hu, hv = MIRROR_SIZE[0] / 2, MIRROR_SIZE[1] / 2
+    c = MIRROR_CENTER
+    corners = np.array([c - hu * u - hv * v, c + hu * u - hv * v, c + hu * u + hv * v,
+                        c - hu * u + hv * v])
+    e1, e2 = corners[1] - corners[0], corners[2] - corners[0]
+    if np.dot(np.cross(e1, e2), n) < 0:
+        corners = corners[::-1].copy()
+    return corners
+
+
+def _mirror_image(p) -> np.ndarray:
+    p = np.asarray(p, float)
+    return p - 2.0 * np.dot(p - MIRROR_CENTER, MIRROR_NORMAL) * MIRROR_NORMAL
+
+
+# scene name -> caustic mask description (used by ppm_engine.bench.caustic_mask)
+CAUSTIC_MASKS = {
+    # the Cornell box has no caustic: the whole floor counts (its indirect light)
+    "cornell_box": {"kind": "disk", "center": (0.0, 0.0, 0.0), "radius": 1.5,
+                    "occluders": [], "note": "the floor (no caustic in this scene)"},
+    # the floor beside and under the glass ball, where its caustic falls
+    "bulb_box": {"kind": "disk", "center": (BALL_CENTER[0] + 0.07, BALL_CENTER[1] + 0.05, 0.0),
+                 "radius": 0.45, "occluders": [(BALL_CENTER, 0.3), (BULB_CENTER, 0.15)],
+                 "note": "floor within 0.45 m of the point below the bulb-to-ball line, "
+                         "not hidden by the ball"},
+    "glass_caustic": {"kind": "disk", "center": (0.43, 0.0, 0.0), "radius": 0.35,
+                      "occluders": [BALL],
+                      "note": "floor within 0.35 m of where the ray from the spot through the "
+                              "ball centre meets the floor, not hidden by the ball"},
+    "mirror_caustic": {"kind": "mirror", "light": POINT_POS, "light_radius": LIGHT_RADIUS,
+                       "corners": None, "occluders": [],
+                       "note": "floor points that see the light's mirror image through the "
+                               "mirror (the reflected patch, exact)"},
+}
+
+
+def _stage(scene):
+    white = lambert("Floor", FLOOR)
+    quad(scene, "Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], white)
+    quad(scene, "Back", [(-2, 2, 0), (2, 2, 0), (2, 2, 2.5), (-2, 2, 2.5)], white)
+    cam_data = bpy.data.cameras.new("Camera")
+    cam_data.lens, cam_data.sensor_width = 35.0, 36.0
+    cam_data.clip_start, cam_data.clip_end = 0.1, 100.0
+    cam = bpy.data.objects.new("Camera", cam_data)
+    scene.collection.objects.link(cam)
+    eye, target = np.array([0.1, -2.8, 1.7]), np.array([0.2, 0.2, 0.25])
+    d = target - eye
+    cam.rotation_euler = (math.atan2(math.hypot(d[0], d[1]), -d[2]), 0.0,
+                          math.atan2(d[0], d[1]) * -1.0)
+    cam.location = tuple(eye)
+    scene.camera = cam
+    world = bpy.data.worlds.new("World")
+    bg = world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    world.color = (0.0, 0.0, 0.0)
+    scene.world = world
+    r = scene.render
+    r.resolution_x = r.resolution_y = RESOLUTION
+    r.resolution_percentage = 100
+    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
+    r.use_border = False
+    r.dither_intensity = 0.0
+    r.film_transparent = False
+    scene.frame_set(1)
+
+
+def _light(scene, name, kind, location, power, direction=None):
+    data = bpy.data.lights.new(name, kind)
+    data.energy = power
+    data.shadow_soft_size = LIGHT_RADIUS
+    data.color = (1.0, 1.0, 1.0)
+    obj = bpy.data.objects.new(name, data)
+    obj.location = location
+    if direction is not None:      # a light looks along its local -z
+        d = np.asarray(direction, float) / np.linalg.norm(direction)
+        obj.rotation_euler = (math.acos(-d[2]), 0.0, math.atan2(-d[0], d[1]))
+    obj.visible_camera = False
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def glass_caustic(scene=None):
+    """A glass ball on the floor under a spot light (see the module docstring)."""
+    scene = new_scene(scene)
+    _stage(scene)
+    center, radius = BALL
+    sphere(scene, "GlassBall", center, radius, glass("Glass"), 48, 24)
+    spot = _light(scene, "Spot", 'SPOT', SPOT_POS, SPOT_POWER,
+                  direction=np.subtract(center, SPOT_POS))
+    spot.data.spot_size = SPOT_SIZE
+    spot.data.spot_blend = 0.1
+    return scene
+
+
+def mirror_caustic(scene=None):
+    """A point light and a tilted planar mirror (see the module docstring)."""
+    scene = new_scene(scene)
+    _stage(scene)
+    m = bpy.data.materials.new("Mirror")
+    p = m.node_tree.nodes["Principled BSDF"]
+    p.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    p.inputs["Metallic"].default_value = 1.0
+    p.inputs["Roughness"].default_value = 0.0
+    quad(scene, "Mirror", [tuple(c) for c in mirror_corners()], m)
+    _light(scene, "Point", 'POINT', POINT_POS, POINT_POWER)
+    return scene
+
+
+CAUSTIC_MASKS["mirror_caustic"]["corners"] = mirror_corners().tolist()
+CAUSTIC_MASKS["mirror_caustic"]["light_image"] = _mirror_image(POINT_POS).tolist()
+
+# objects Cycles' shadow caustics (MNEE) uses, per scene: (casters, receivers, lights)
+MNEE_OBJECTS = {
+    "glass_caustic": (["GlassBall"], ["Floor", "Back"], ["Spot"]),
+    "mirror_caustic": (["Mirror"], ["Floor", "Back"], ["Point"]),
+}

@@ -1,0 +1,75 @@
+"""``python -m ppm_engine bench --quick`` (what CI runs of the benchmark): the error-against-
+time run, the micro benchmarks and the phase breakdown run end to end and write well-formed
+JSON, the plot and the markdown tables.  The full run is not part of CI (docs/BENCHMARKS.md)."""
+import json
+import math
+
+import pytest
+
+pytest.importorskip("OpenEXR")
+pytest.importorskip("matplotlib")
+
+
+def _finite_numbers(obj):
+    if isinstance(obj, dict):
+        for v in obj.values():
+            yield from _finite_numbers(v)
+    elif isinstance(obj, list):
+        for v in obj:
+            yield from _finite_numbers(v)
+    elif isinstance(obj, float):
+        yield obj
+
+
+def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
+    md = tmp_path / "B.md"
+    md.write_text("# head\n\n<!-- bench:curves -->\nold\n<!-- /bench:curves -->\n\ntail\n")
+    p = cli("bench", "--quick", "--json", tmp_path / "b.json", "--plot", tmp_path / "p.png",
+            "--markdown", md, timeout=900)
+    assert p.returncode == 0, p.stderr
+    res = json.loads((tmp_path / "b.json").read_text())
+    assert set(res["scenes"]) == {"cornell_box", "bulb_box", "glass_caustic", "mirror_caustic"}
+    for name, s in res["scenes"].items():
+        curves = {"ours", "cycles"} | ({"cycles_mnee"} if "caustic" in name else set())
+        assert set(s["curves"]) == curves
+        for rows in s["curves"].values():
+            assert [r["seconds"] for r in rows] == res["times"]
+            for r in rows:
+                assert r["image"]["rmse"] >= 0 and r["image"]["pixels"] > 0
+                assert r["wall_s"] >= r["seconds"] * 0.5
+        assert s["reference"]["noise_rmse"] >= 0 and s["reference"]["mean"] > 0
+        # the references agree with each other: Cycles' longest render is no more than a few
+        # tens of percent off ours in mean, even at 16x16 and one second
+        assert 0.7 < s["bias_check"]["cycles_longest_mean_over_reference"] < 1.3
+        ours = s["curves"]["ours"]
+        assert ours[-1]["passes"] >= ours[0]["passes"] >= 1
+    assert all(math.isfinite(x) for x in _finite_numbers(res))
+    assert set(res["ratios"]["bulb_box"]) >= {"image_rmse", "target", "met"}
+    assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    text = md.read_text()
+    assert text.startswith("# head") and text.rstrip().endswith("tail") and "old" not in text
+    assert "| bulb_box |" in text and "RMSE ours/Cycles" in text
+
+
+def test_bench_micro_and_phases_quick(cli, tmp_path):
+    md = tmp_path / "B.md"
+    p = cli("bench", "--micro", "--quick", "--json", tmp_path / "m.json", "--markdown", md)
+    assert p.returncode == 0, p.stderr
+    m = json.loads((tmp_path / "m.json").read_text())
+    text = md.read_text()
+    assert "<!-- bench:micro -->" in text and "hash build" in text and "paper" in text
+    assert all(math.isfinite(x) and x >= 0 for x in _finite_numbers(m))
+    p = cli("bench", "--phases", "bulb_box", "--quick", "--json", tmp_path / "ph.json",
+            "--markdown", md)
+    assert p.returncode == 0, p.stderr
+    ph = json.loads((tmp_path / "ph.json").read_text())
+    assert set(ph["phase_ms"]) == {"eye", "grid", "photon", "hash", "gather", "update"}
+    assert ph["device_ms"] == pytest.approx(sum(ph["phase_ms"].values()))
+    assert "<!-- bench:phases -->" in md.read_text()
+
+
+def test_bench_refuses_bad_arguments(cli):
+    p = cli("bench", "--scenes", "no_such_scene", "--quick")
+    assert p.returncode == 2 and "no_such_scene" in p.stderr and "cornell_box" in p.stderr
+    p = cli("bench", "--times", "0", "--quick")
+    assert p.returncode == 2 and "positive" in p.stderr
