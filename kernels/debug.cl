@@ -21,7 +21,8 @@ __kernel void struct_sizes(__global uint *out) {
     out[4] = sizeof(Grid);
 }
 
-/* direct light (the eye pass's next-event estimate, averaged over n_samples) at given points */
+/* direct light (the eye pass's estimate: next-event estimation and the BSDF sample with MIS,
+ * averaged over n_samples) at given points */
 #include "lights.h"
 __kernel void direct_light(SCENE_ARGS, __global const float4 *points, __global const float4 *nrm,
                            int n_samples, __global float4 *out, uint n) {
@@ -30,6 +31,6 @@ __kernel void direct_light(SCENE_ARGS, __global const float4 *points, __global c
     uint rng = rng_seed(1u, 0u, i, 9u);
     float3 E = (float3)(0.0f);
     for (int k = 0; k < n_samples; k++)
-        E += sample_direct(points[i].xyz, nrm[i].xyz, nrm[i].xyz, SCENE_PASS, &rng);
+        E += direct_lighting(points[i].xyz, nrm[i].xyz, nrm[i].xyz, SCENE_PASS, &rng);
     out[i] = (float4)(E / (float)n_samples, 0.0f);
 }

@@ -61,7 +61,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
             bool front = dot(d, s.ng) < 0.0f;
             float3 ngf = front ? s.ng : -s.ng, nsf = front ? s.ns : -s.ns;
             float3 bvp = beta * F3(m->diffuse) * (1.0f / PPM_PI);
-            L += bvp * sample_direct(s.p, nsf, ngf, SCENE_PASS, &rng);
+            L += bvp * direct_lighting(s.p, nsf, ngf, SCENE_PASS, &rng);
             vp = (float4)(s.p, 1.0f);
             vp_nrm[id] = (float4)(nsf, 0.0f);
             vp_beta[id] = (float4)(bvp, 0.0f);

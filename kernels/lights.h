@@ -107,10 +107,33 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *
     return L;
 }
 
+/* The probability of picking emissive BVH leaf k as the emitter (0 when it is not one):
+ * emissive[] holds the emissive leaves in ascending order (ppm_engine/emitters.py). */
+inline float emissive_leaf_pmf(int leaf, SCENE_ARGS) {
+    int n_lights = emitter_info->n_lights;
+    int lo = 0, hi = emitter_info->n_emissive - 1;
+    while (lo <= hi) {
+        int mid = (lo + hi) >> 1, v = emissive[mid];
+        if (v == leaf) {
+            int e = n_lights + mid;
+            return emitter_cdf[e] - (e > 0 ? emitter_cdf[e - 1] : 0.0f);
+        }
+        if (v < leaf) lo = mid + 1; else hi = mid - 1;
+    }
+    return 0.0f;
+}
+
+/* power heuristic weight of strategy a against b */
+inline float mis_power(float a, float b) {
+    float a2 = a * a, b2 = b * b;
+    return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
+}
+
 /* Next-event estimation at a diffuse point p (shading normal n and geometric normal ngf both on
  * the side the light must come from).  Returns E with the pixel contribution = beta * f * E,
- * f the Lambert BSDF; one emitter sample, shadow ray through the BVH. */
-inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng) {
+ * f the Lambert BSDF; one emitter sample, shadow ray through the BVH.  With mis, an emissive
+ * triangle's sample is weighted against the BSDF sample of direct_bsdf (power heuristic). */
+inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng, bool mis) {
     EmitterInfo info = *emitter_info;
     if (info.n_emitters == 0) return (float3)(0.0f);
     float pmf;
@@ -124,6 +147,7 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
     float3 wi, E;
     float dist = PPM_INF;
     bool cosine_included = false;
+    float pdf_light = 0.0f;          /* solid-angle pdf of an emissive triangle's sample */
     if (e < info.n_lights) {
         Light L = lights[e];
         if (L.type == LIGHT_SUN) {
@@ -198,6 +222,7 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
         wi = tq / dist;
         float cos_l = fabs(dot(wi, nt));                          /* mesh lights: both sides */
         E = F3(materials[as_int(e2.w)].emission) * (cos_l * 0.5f * area2 / dq2);
+        pdf_light = cos_l > 0.0f ? pmf * dq2 / (cos_l * 0.5f * area2) : 0.0f;
     } else {
         wi = sample_cosine_hemisphere(n, u1, u2);       /* pdf cos/pi: f L cos/pdf = f L pi */
         E = F3(info.world) * PPM_PI;
@@ -208,7 +233,39 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
     /* planar emitters: the ray ends just in front of the emitter, so it never reaches it */
     Hit h = bvh_intersect(o, wi, dist, VIS_SHADOW, true, BVH_PASS);
     if (h.leaf >= 0) return (float3)(0.0f);
-    return E * ((cosine_included ? 1.0f : cos_s) / pmf);
+    float w = mis && pdf_light > 0.0f ? mis_power(pdf_light, cos_s * (1.0f / PPM_PI)) : 1.0f;
+    return E * (w * (cosine_included ? 1.0f : cos_s) / pmf);
+}
+
+/* The BSDF half of direct light at a diffuse point: one cosine-distributed ray; when it meets
+ * an emissive triangle first, its emission weighted against sample_direct's pdf for it (power
+ * heuristic).  Near a large emitter (a ceiling 1 cm above a lamp, a filament inside its
+ * bulb) next-event estimation alone has unbounded variance (1/d^2); the BSDF sample covers
+ * it.  Returns E as sample_direct does (pixel contribution = beta * f * E). */
+inline float3 direct_bsdf(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng) {
+    float u1 = rnd(rng), u2 = rnd(rng);
+    if (emitter_info->n_emissive == 0) return (float3)(0.0f);
+    float3 wi = sample_cosine_hemisphere(n, u1, u2);
+    float cos_s = dot(wi, n);
+    if (cos_s <= 0.0f || dot(wi, ngf) <= 0.0f) return (float3)(0.0f);
+    Hit h = bvh_intersect(offset_ray(p, ngf), wi, PPM_INF, VIS_SHADOW, false, BVH_PASS);
+    if (h.leaf < 0) return (float3)(0.0f);
+    float4 e1 = tri_e1[h.leaf], e2 = tri_e2[h.leaf];
+    __global const Material *m = materials + as_int(e2.w);
+    if (!(m->flags & MAT_EMISSIVE)) return (float3)(0.0f);
+    float pmf = emissive_leaf_pmf(h.leaf, SCENE_PASS);
+    float3 c = cross(e1.xyz, e2.xyz);
+    float area2 = length(c);
+    float cos_l = area2 > 0.0f ? fabs(dot(wi, c)) / area2 : 0.0f;
+    if (!(pmf > 0.0f && cos_l > 0.0f)) return (float3)(0.0f);   /* NEE never picks it: 0 power */
+    float pdf_light = pmf * h.t * h.t / (cos_l * 0.5f * area2);
+    /* f Le cos / pdf_bsdf = (rho/pi) Le pi: in E units (times f) that is Le pi */
+    return F3(m->emission) * (PPM_PI * mis_power(cos_s * (1.0f / PPM_PI), pdf_light));
+}
+
+/* Direct light at a diffuse point: next-event estimation and the BSDF sample, combined. */
+inline float3 direct_lighting(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng) {
+    return sample_direct(p, n, ngf, SCENE_PASS, rng, true) + direct_bsdf(p, n, ngf, SCENE_PASS, rng);
 }
 
 /* Emit one photon: origin, direction and flux (already divided by all sampling pdfs). */
