@@ -134,6 +134,18 @@ def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
     return (scene.replace(**changes) if changes else scene), warnings
 
 
+def offset_scale(scene: SceneArrays) -> float:
+    """A power of two near half the scene's largest extent (1 for the 2 m Cornell box): the
+    scale of the absolute ray offsets near the axis planes (kernels/geometry.h offset_ray)."""
+    pos = scene.positions.reshape(-1, 3)
+    if pos.shape[0] == 0:
+        return 1.0
+    extent = float((pos.max(axis=0).astype(np.float64) - pos.min(axis=0)).max())
+    if not (extent > 0 and np.isfinite(extent)):
+        return 1.0
+    return float(2.0 ** int(np.clip(np.round(np.log2(extent / 2)), -60, 60)))
+
+
 class Renderer:
     # initial radius when options.initial_radius == 0: this many pixel footprints at the point
     AUTO_RADIUS_PIXELS = 2.0
@@ -156,8 +168,10 @@ class Renderer:
         self._upload_scene(scene, prepared)
 
         P = dev.programs
-        self.k_eye = P.get("eye_pass.cl").eye_pass
-        self.k_photon = P.get("photon_pass.cl").photon_pass
+        # the only scene-dependent define: one more build for a scene far from 1 m in size
+        self.defines = {"PPM_OFFSET_SCALE": float(offset_scale(prepared)).hex() + "f"}
+        self.k_eye = P.get("eye_pass.cl", self.defines).eye_pass
+        self.k_photon = P.get("photon_pass.cl", self.defines).photon_pass
 
         self.film = Film(dev, w, h)
         self._allocate_pixels()
