@@ -1,5 +1,5 @@
-/* Gather: each visible point visits every cell its sphere overlaps (at most 2 per axis with
- * the default cell = 2 r_max, 3 with the paper's cell = r_max), one photon fetch per cell.
+/* Gather: each visible point visits every cell its gather disc overlaps (up to 5 per axis with
+ * the default cell = r_max / 2; photon_map.py CELL_SCALE), one photon fetch per cell.
  * The entry's photon stands for all n photons of the entry (flux x n) and is accepted only
  * in its own cell: two cells that share an entry are then never counted twice, and the
  * estimate is unbiased (each photon of the entry is chosen with probability 1/n and counted
@@ -18,6 +18,26 @@
 /* guard for absurd radius/cell ratios (the grid setup keeps cell >= r_max / 2: <= 5^3) */
 #define MAX_CELLS_PER_AXIS 5
 
+/* The cells the gather disc can touch: the disc's own bounding box (half extent along axis k
+ * r sqrt(1 - n_k^2) + t |n_k|, t the half thickness), not the sphere's.  On a floor with cells
+ * of r_max / 2 that is 5 x 5 x 2 cells instead of 5^3. */
+inline void disc_cells(float3 x, float3 n, float r, const Grid *g, long3 *lo, long3 *hi) {
+    float3 an = fabs(n);
+    float3 h = fmin((float3)(r), r * sqrt(fmax(1.0f - an * an, 0.0f))
+                                 + (DISC_HALF_THICKNESS * r) * an);
+    *lo = cell_of(x - h, g);
+    *hi = min(cell_of(x + h, g), *lo + (long)(MAX_CELLS_PER_AXIS - 1));
+}
+
+/* squared distance from x to cell c's box (0 inside), the box grown by a margin that covers
+ * the rounding of cell_of (so a cell is only ever skipped when the disc surely misses it) */
+inline float cell_dist2(float3 x, long3 c, const Grid *g) {
+    float3 b0 = F3(g->bmin) + convert_float3(c) * g->cell_size;
+    float3 margin = 1e-3f * g->cell_size + 5e-7f * (fabs(x) + fabs(F3(g->bmin)));
+    float3 dd = fmax(fmax(b0 - x, x - (b0 + g->cell_size)) - margin, (float3)(0.0f));
+    return dot(dd, dd);
+}
+
 __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nrm,
                      __global const float *radius, __global const Grid *grid,
                      __global const ulong *table, uint table_mask,
@@ -30,14 +50,15 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     float3 x = vp.xyz, nrm = vp_nrm[id].xyz;
     float r = radius[id], r2 = r * r;
-    long3 lo = cell_of(x - r, &g), hi = cell_of(x + r, &g);
-    hi = min(hi, lo + (long)(MAX_CELLS_PER_AXIS - 1));
+    long3 lo, hi;
+    disc_cells(x, nrm, r, &g, &lo, &hi);
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
     for (long cz = lo.z; cz <= hi.z; cz++)
     for (long cy = lo.y; cy <= hi.y; cy++)
     for (long cx = lo.x; cx <= hi.x; cx++) {
         long3 c = (long3)(cx, cy, cz);
+        if (cell_dist2(x, c, &g) > r2) continue;          /* a corner cell the disc misses */
         uint h = cell_hash(c, table_mask);
         uint cnt = ENTRY_COUNT(table, h);
         if (cnt == 0u) continue;
@@ -70,13 +91,14 @@ __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     float3 x = vp.xyz, nrm = vp_nrm[id].xyz;
     float r = radius[id], r2 = r * r;
-    long3 lo = cell_of(x - r, &g), hi = cell_of(x + r, &g);
-    hi = min(hi, lo + (long)(MAX_CELLS_PER_AXIS - 1));
+    long3 lo, hi;
+    disc_cells(x, nrm, r, &g, &lo, &hi);
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
     for (long cz = lo.z; cz <= hi.z; cz++)
     for (long cy = lo.y; cy <= hi.y; cy++)
     for (long cx = lo.x; cx <= hi.x; cx++) {
+        if (cell_dist2(x, (long3)(cx, cy, cz), &g) > r2) continue;
         uint h = cell_hash((long3)(cx, cy, cz), table_mask);
         uint end = ranges[2 * h + 1];
         for (uint s = ranges[2 * h]; s < end; s++) {
