@@ -66,7 +66,8 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--time-limit", type=float, help="stop after this many seconds (0 = no limit)")
     r.add_argument("--resolution", type=_parse_resolution, metavar="WxH", help="image size (at 100%%)")
     r.add_argument("--device", help="OpenCL device: a key from 'devices', part of its name, or DEFAULT")
-    r.add_argument("--photons", type=int, help="photons per pass")
+    r.add_argument("--photons", type=int, help="photons per pass (default: the file's setting, "
+                   "normally automatic: one per pixel)")
     r.add_argument("--seed", type=int, help="random seed")
 
     sub.add_parser("devices", help="list the OpenCL devices")
@@ -301,6 +302,8 @@ def _apply_settings(scene, overrides: dict, device: str | None) -> None:
     settings = scene.ppm
     stored = {f.name: getattr(settings, f.name) for f in dataclasses.fields(RenderOptions)
               if f.name not in ("device", "exact_gather")}
+    if settings.auto_photons:
+        stored["photons_per_pass"] = None
     RenderOptions(**stored).replace(**overrides).validate()
     for name, value in overrides.items():
         setattr(settings, name, value)

@@ -20,7 +20,8 @@ LIMITS = {
     "passes": (1, 1_000_000, 64, "Maximum number of SPPM passes (eye pass, photon pass, gather)"),
     "time_limit": (0.0, 1e7, 0.0, "Stop after this many seconds (0 = no limit)"),
     "photons_per_pass": (1, 1 << 26, 1 << 18,
-                         "Photons emitted per pass (the paper uses 512x512 = 262144)"),
+                         "Photons emitted per pass when the automatic count is off (the paper "
+                         "uses 512x512 = 262144)"),
     "initial_radius": (0.0, 1e9, 0.0,
                        "Initial gather radius in scene units (0 = automatic, from the pixel "
                        "footprint at each visible point)"),
@@ -31,11 +32,21 @@ LIMITS = {
 }
 
 
+# The automatic photon count (RenderOptions.photons_per_pass = None, the default): one photon
+# per pixel of the render region per pass -- the paper's 512^2 photons at 512 x 512 pixels --
+# within these bounds.  Chosen from the error-against-time curves (docs/BENCHMARKS.md): at a
+# fixed budget the error is flat between 1/2 and 1 photon per pixel per pass and grows on both
+# sides (2^18 photons per pass at 128 x 128 pixels: 3x the Cornell box's error at 16 s), because
+# the eye pass (direct light, anti-aliasing, the radius shrinking) and the photon pass must
+# progress together.
+AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
+
+
 @dataclasses.dataclass
 class RenderOptions:
     passes: int = LIMITS["passes"][2]
     time_limit: float = LIMITS["time_limit"][2]
-    photons_per_pass: int = LIMITS["photons_per_pass"][2]
+    photons_per_pass: int | None = None   # None: automatic (photons_for)
     initial_radius: float = LIMITS["initial_radius"][2]
     alpha: float = LIMITS["alpha"][2]
     max_bounces: int = LIMITS["max_bounces"][2]
@@ -46,6 +57,8 @@ class RenderOptions:
     def validate(self) -> "RenderOptions":
         for name, (lo, hi, _default, _desc) in LIMITS.items():
             v = getattr(self, name)
+            if name == "photons_per_pass" and v is None:
+                continue
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise SettingsError(f"{name} must be a number, got {v!r}")
             if v != v or not (lo <= v <= hi):
@@ -53,6 +66,12 @@ class RenderOptions:
         if not (0.0 < self.alpha < 1.0):
             raise SettingsError(f"alpha = {self.alpha!r} must lie strictly between 0 and 1")
         return self
+
+    def photons_for(self, pixels: int) -> int:
+        """Photons emitted per pass for a render region of ``pixels`` pixels."""
+        if self.photons_per_pass is not None:
+            return int(self.photons_per_pass)
+        return int(min(max(pixels, AUTO_PHOTONS_MIN), AUTO_PHOTONS_MAX))
 
     def replace(self, **changes) -> "RenderOptions":
         return dataclasses.replace(self, **changes)

@@ -5,9 +5,9 @@ import sys
 import zlib
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
-from .options import LIMITS, RenderOptions
+from .options import AUTO_PHOTONS_MAX, AUTO_PHOTONS_MIN, LIMITS, RenderOptions
 
 DEFAULT_DEVICE = "DEFAULT"
 
@@ -54,12 +54,26 @@ def _float(name: str, **kw):
                          **kw)
 
 
+def _photons_set_by_hand(self, context):
+    """Typing a photon count (in the UI or from Python) means that count: automatic off."""
+    if self.auto_photons:
+        self.auto_photons = False
+
+
 class PPMSettings(bpy.types.PropertyGroup):
     passes: _int("passes", label="Passes", soft_max=4096)
     time_limit: _float("time_limit", label="Time Limit", subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE",
                        soft_max=3600.0, step=100)
+    auto_photons: BoolProperty(
+        name="Automatic Photon Count",
+        description=(f"Emit one photon per pixel of the image each pass (the paper's 512x512 "
+                     f"photons at 512x512 pixels), at least {AUTO_PHOTONS_MIN:,} and at most "
+                     f"{AUTO_PHOTONS_MAX:,}; off: Photons per Pass. Setting Photons per Pass "
+                     f"turns it off"),
+        default=True,
+    )
     photons_per_pass: _int("photons_per_pass", label="Photons per Pass", soft_min=1024,
-                           soft_max=1 << 22)
+                           soft_max=1 << 22, update=_photons_set_by_hand)
     initial_radius: _float("initial_radius", label="Initial Radius", subtype="DISTANCE",
                            soft_max=10.0, precision=4)
     # validate() wants 0 < alpha < 1; the soft limits keep the slider inside that
@@ -79,7 +93,7 @@ def to_options(settings) -> RenderOptions:
     return RenderOptions(
         passes=int(settings.passes),
         time_limit=float(settings.time_limit),
-        photons_per_pass=int(settings.photons_per_pass),
+        photons_per_pass=None if settings.auto_photons else int(settings.photons_per_pass),
         initial_radius=float(settings.initial_radius),
         alpha=float(settings.alpha),
         max_bounces=int(settings.max_bounces),

@@ -177,7 +177,8 @@ class Renderer:
         self._allocate_pixels()
         self.counters = dev.buffer(4 * N_COUNTERS, "counters")
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
-        self.photon_map = PhotonMap(dev, self.STORE_FACTOR * options.photons_per_pass,
+        self.photons_per_pass = options.photons_for(self.n_pixels)
+        self.photon_map = PhotonMap(dev, self.STORE_FACTOR * self.photons_per_pass,
                                     exact=options.exact_gather)
 
         # skip what the scene cannot use
@@ -232,13 +233,13 @@ class Renderer:
         if scene is not None and scene is not self.scene:
             self._upload_scene(scene)
         w, h = self.scene.resolution
-        o = self.options
-        if ((w, h) != (self.width, self.height)
-                or options.photons_per_pass != o.photons_per_pass
-                or options.exact_gather != o.exact_gather):
+        photons = options.photons_for(w * h)
+        if ((w, h) != (self.width, self.height) or photons != self.photons_per_pass
+                or options.exact_gather != self.options.exact_gather):
             self.width, self.height, self.n_pixels = w, h, w * h
             self._allocate_pixels()
-            self.photon_map = PhotonMap(self.device, self.STORE_FACTOR * options.photons_per_pass,
+            self.photons_per_pass = photons
+            self.photon_map = PhotonMap(self.device, self.STORE_FACTOR * photons,
                                         exact=options.exact_gather)
         self.options = options
         self.film = Film(self.device, w, h)
@@ -287,7 +288,7 @@ class Renderer:
         events += pm.enqueue_grid(q, self.vp_pos, self.film.radius, n)
         emitted = 0
         if self.photons_needed:
-            P = o.photons_per_pass
+            P = self.photons_per_pass
             run("photon", self.k_photon, _round(P), *self._scene_args(), pass_id, seed,
                 np.int32(o.max_bounces), np.uint32(P), pm.grid, np.uint32(pm.capacity),
                 pm.ph_pos, pm.ph_flux, self.counters)

@@ -31,6 +31,7 @@ def _draw_props(layout, settings, names):
     col = layout.column()
     for name in names:
         col.prop(settings, name)
+    return col
 
 
 class PPM_PT_sampling(PPMPanel, bpy.types.Panel):
@@ -44,8 +45,12 @@ class PPM_PT_photons(PPMPanel, bpy.types.Panel):
     bl_label = "Photons"
 
     def draw(self, context):
-        _draw_props(self.layout, context.scene.ppm,
-                    ("photons_per_pass", "initial_radius", "alpha", "max_bounces"))
+        settings = context.scene.ppm
+        col = _draw_props(self.layout, settings, ("auto_photons",))
+        row = col.row()
+        row.active = not settings.auto_photons
+        row.prop(settings, "photons_per_pass")
+        _draw_props(self.layout, settings, ("initial_radius", "alpha", "max_bounces"))
 
 
 class PPM_PT_device(PPMPanel, bpy.types.Panel):

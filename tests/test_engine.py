@@ -47,6 +47,21 @@ def test_settings_carry_the_limits(bpy):
     assert "exact_gather" not in props
 
 
+def test_photon_count_is_automatic_until_one_is_typed(bpy):
+    from ppm_engine.properties import to_options
+    scene = bpy.data.scenes.new("photon-count")
+    try:
+        s = scene.ppm
+        assert s.auto_photons is True and s.photons_per_pass == 1 << 18   # the paper's 512^2
+        assert to_options(s).photons_per_pass is None                    # automatic
+        s.photons_per_pass = 5000                       # typed (UI or Python): that count
+        assert s.auto_photons is False and to_options(s).photons_per_pass == 5000
+        s.auto_photons = True
+        assert to_options(s).photons_per_pass is None and s.photons_per_pass == 5000
+    finally:
+        bpy.data.scenes.remove(scene)
+
+
 def test_device_enum_lists_default_and_pocl(bpy, pocl_key):
     from ppm_engine.properties import refresh_devices
     keys = [item[0] for item in refresh_devices()]
@@ -209,6 +224,7 @@ def fake_render(bpy, pocl_key, monkeypatch):
         monkeypatch.setitem(sys.modules, "ppm_engine.export",
                             types.SimpleNamespace(export_scene=export))
         settings = types.SimpleNamespace(passes=passes, time_limit=0.0, photons_per_pass=4096,
+                                         auto_photons=False,
                                          initial_radius=0.0, alpha=0.7, max_bounces=8, seed=0,
                                          device=pocl_key)
         depsgraph = types.SimpleNamespace(

@@ -18,6 +18,23 @@ def test_invalid_settings_are_refused_with_the_name(bad):
         RenderOptions(**bad).validate()
 
 
+def test_automatic_photon_count_is_one_per_pixel_within_bounds():
+    from ppm_engine.options import AUTO_PHOTONS_MAX, AUTO_PHOTONS_MIN
+    auto = RenderOptions()
+    assert auto.photons_per_pass is None
+    assert auto.photons_for(512 * 512) == 1 << 18          # the paper's count at 512 x 512
+    assert auto.photons_for(128 * 128) == 128 * 128
+    assert auto.photons_for(1) == AUTO_PHOTONS_MIN
+    assert auto.photons_for(8192 * 8192) == AUTO_PHOTONS_MAX
+    assert RenderOptions(photons_per_pass=777).photons_for(128 * 128) == 777
+    r = Renderer(cornell_box(80, 80), auto)                # 6400 pixels: 6400 photons a pass
+    s = r.iterate()
+    assert r.photons_per_pass == 6400 and s.photons_emitted == 6400
+    r.reset(RenderOptions(photons_per_pass=1000))
+    assert r.iterate().photons_emitted == 1000
+    r.close()
+
+
 def test_unknown_device_lists_the_available_ones():
     with pytest.raises(DeviceError, match="available"):
         Renderer(cornell_box(8, 8), RenderOptions(device="no-such-device-xyz"))
