@@ -105,6 +105,35 @@ def test_bvh_closest_hit_equals_brute_force(device, n_tris):
     assert ((t_any >= 0) == (t_ref >= 0)).mean() > 0.999
 
 
+def test_bvh_axis_parallel_rays_equal_brute_force(device):
+    """Rays with zero direction components (orthographic cameras, axis-aligned walls), some with
+    zero origin components too, against boxes that are flat along an axis (a floor, a quad)."""
+    rng = np.random.default_rng(5)
+    mb = MeshBuilder()
+    m = mb.material("m")
+    mb.quad((0, 0, 0), (1, 0, 0), (0, 1, 0), m)              # flat in z: a zero-height box
+    mb.quad((0, 0, 1), (0.5, 0, 0), (0, 0, 0.5), m)          # flat in y
+    mb.add(rng.uniform(-1, 1, (200, 3, 3)) * [1, 1, 0.2] + [0, 0, 2], m)
+    scene = mb.build(camera=make_camera(width=4, height=4, to_world=np.eye(4)[:3], extent=(1, 1)))
+    bvh = BVH(device, scene)
+    n = 3000
+    axis = rng.integers(0, 3, n)
+    d = np.zeros((n, 3))
+    d[np.arange(n), axis] = rng.choice([-1.0, 1.0], n)
+    o = rng.uniform(-1.0, 1.0, (n, 3))
+    o[np.arange(n), axis] = -3.0 * d[np.arange(n), axis]     # start outside, look inwards
+    zero = rng.random((n, 3)) < 0.2                          # exact zeros off the ray's axis
+    zero[np.arange(n), axis] = False
+    o[zero] = 0.0
+    tmax = np.full(n, 1e30)
+    t, idx = _trace(device, bvh, o, d, tmax)
+    t_ref, i_ref = ref.closest_hits(o, d, tmax, scene.positions)
+    assert (t_ref >= 0).sum() > n // 4
+    assert ((t < 0) == (t_ref < 0)).mean() > 0.999
+    both = (t >= 0) & (t_ref >= 0)
+    np.testing.assert_allclose(t[both], t_ref[both], atol=1e-5)
+
+
 def test_bvh_visibility_mask(device):
     rng = np.random.default_rng(7)
     scene = _random_scene(rng, 500)
