@@ -394,7 +394,7 @@ def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
         ref_seconds = max(2.0 * max(times), 1.0)
     result = {"times": list(times), "resolution": resolution, "equal_time": EQUAL_TIME,
               "ref_seconds_per_half": ref_seconds, "machine": machine_info(device),
-              "photons_per_pass": photons or "default",
+              "photons_per_pass": photons or "automatic (one per pixel)",
               "started": time.strftime("%Y-%m-%d %H:%M:%S"), "scenes": {}}
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="ppm-bench-") as tmp:
@@ -530,7 +530,7 @@ def run_phases(scene_name: str, resolution: int = 256, passes: int = 8, warmup: 
     opts = RenderOptions(device=device) if not photons else \
         RenderOptions(device=device, photons_per_pass=photons)
     r = Renderer(arrays, opts)
-    progress(f"phases: {scene_name} {resolution}x{resolution}, {opts.photons_per_pass} photons "
+    progress(f"phases: {scene_name} {resolution}x{resolution}, {r.photons_per_pass} photons "
              f"per pass, {warmup} warm-up + {passes} timed passes on {r.device.info.name}")
     for _ in range(warmup):
         r.iterate()
@@ -540,7 +540,7 @@ def run_phases(scene_name: str, resolution: int = 256, passes: int = 8, warmup: 
     mean = {k: float(np.mean([s.phase_ms.get(k, 0.0) for s in rows])) for k in labels}
     total = sum(mean.values())
     return {"scene": scene_name, "resolution": resolution, "passes": passes, "warmup": warmup,
-            "photons_per_pass": opts.photons_per_pass, "device": r.device.info.name,
+            "photons_per_pass": r.photons_per_pass, "device": r.device.info.name,
             "phase_ms": mean, "device_ms": total,
             "wall_ms": float(np.mean([s.seconds for s in rows]) * 1e3),
             "photons_stored": float(np.mean([s.photons_stored for s in rows])),

@@ -14,7 +14,7 @@ import numpy as np
 from .bvh import BVH
 from .device import get_device
 from .options import RenderOptions
-from .photon_map import GRID_DTYPE, N_COUNTERS, PhotonMap
+from .photon_map import CNT_OCCUPIED, GRID_DTYPE, N_COUNTERS, PhotonMap
 from .procedural import MeshBuilder, cornell_box, look_at
 from .renderer import Renderer
 from .scene_arrays import make_camera
@@ -69,10 +69,12 @@ def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
     rng = np.random.default_rng(seed)
     pm, counters, (vp_pos, vp_nrm, radius, gathered) = _synthetic_photons(device, n_photons,
                                                                           n_vp, rng)
+    import pyopencl as cl
     q = device.queue
     it = iter(range(10 ** 9))
 
     def build():
+        cl.enqueue_fill_buffer(q, counters, np.uint32(0), 4 * CNT_OCCUPIED, 4)
         evs = pm.enqueue_build(q, counters, next(it), 0)
         q.finish()
         return _events_ms([e for _, e in evs])
@@ -84,7 +86,6 @@ def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
 
     build_ms = _median(build)
     gather_ms = _median(gather)
-    import pyopencl as cl
     c = np.empty(N_COUNTERS, np.uint32)
     cl.enqueue_copy(q, c, counters)
     g = np.empty(1, GRID_DTYPE)

@@ -12,7 +12,8 @@ GRID_DTYPE = np.dtype([
     ("valid", np.uint32), ("pad", np.uint32),
 ])
 
-# counters shared by the passes (kernels/photon_pass.cl CNT_*, hash_build.cl [4])
+# counters shared by the passes (kernels/photon_pass.cl CNT_*, hash_build.cl [4]; [7] is the
+# hash build's prefetch sink, never read)
 CNT_NAN, CNT_STORED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_OCCUPIED = range(5)
 N_COUNTERS = 8
 
@@ -38,7 +39,10 @@ class PhotonMap:
         self.device = device
         self.exact = exact
         defines = {"PPM_INT64_ATOMICS": True} if device.int64_atomics else {}
-        hp = device.programs.get("hash_build.cl", defines)
+        # photons per work-item of the build (kernels/hash_build.cl PPM_BUILD_BATCH)
+        self.build_batch = 8 if device.info.type == "CPU" else 1
+        hp = device.programs.get("hash_build.cl",
+                                 {**defines, "PPM_BUILD_BATCH": self.build_batch})
         self.k_bounds_init, self.k_bounds, self.k_grid = hp.bounds_init, hp.vp_bounds, hp.grid_setup
         self.k_clear, self.k_hash = hp.clear_table, hp.hash_build
         self.k_pick = None if device.int64_atomics else hp.hash_pick
@@ -79,9 +83,9 @@ class PhotonMap:
         cap = np.uint32(self.capacity)
         ev = [("hash", self.k_clear(q, (_round(self.table_size),), None, self.table,
                                     np.uint32(self.table_size))),
-              ("hash", self.k_hash(q, (_round(self.capacity),), None, self.ph_pos, counters, cap,
-                                   self.grid, mask, np.uint32(pass_id), np.uint32(seed),
-                                   self.table))]
+              ("hash", self.k_hash(q, (_round(-(-self.capacity // self.build_batch)),), None,
+                                   self.ph_pos, counters, cap, self.grid, mask,
+                                   np.uint32(pass_id), np.uint32(seed), self.table))]
         if self.k_pick is not None:
             ev.append(("hash", self.k_pick(q, (_round(self.capacity),), None, self.ph_pos,
                                            counters, cap, self.grid, mask, np.uint32(pass_id),

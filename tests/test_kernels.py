@@ -196,8 +196,9 @@ def test_grid_bounds_cover_visible_points(device):
     assert g["valid"] == s["n_vp"]
 
 
-def test_hash_counts_and_selected_photons(device):
-    s = _photon_setup(device, np.random.default_rng(2))
+@pytest.mark.parametrize("n_ph", [20000, 9999])     # 9999: the build's last batch is partial
+def test_hash_counts_and_selected_photons(device, n_ph):
+    s = _photon_setup(device, np.random.default_rng(2), n_ph=n_ph)
     pm, q = s["pm"], device.queue
     pm.enqueue_build(q, s["counters"], pass_id=0, seed=1)
     counts, idx = pm.read_table()
