@@ -24,8 +24,10 @@ inline float fresnel_dielectric(float cos_i, float eta) {
 }
 
 inline int choose_lobe(__global const Material *m, float u) {
+#ifdef PPM_SPECULAR
     if (u < m->p_metal) return LOBE_MIRROR;
     if (u < m->p_metal + m->p_glass) return LOBE_GLASS_REFLECT;   /* resolved by Fresnel */
+#endif
     return (m->flags & MAT_DIFFUSE) ? LOBE_DIFFUSE : LOBE_ABSORBED;
 }
 
@@ -52,6 +54,9 @@ inline int scatter_specular(int lobe, __global const Material *m, float3 ng, flo
         *leave_n = ngf;
         return LOBE_MIRROR;
     }
+#ifndef PPM_GLASS
+    return LOBE_ABSORBED;            /* never reached: no material of the scene has glass */
+#else
     /* smooth dielectric: ng points outside the object */
     float eta = front ? m->ior : 1.0f / m->ior;
     float cos_i = clamp(-dot(*d, n), 0.0f, 1.0f);
@@ -72,5 +77,6 @@ inline int scatter_specular(int lobe, __global const Material *m, float3 ng, flo
     if (!radiance_mode) *weight *= 1.0f / (eta * eta);
     *leave_n = -ngf;
     return LOBE_GLASS_TRANSMIT;
+#endif
 }
 #endif

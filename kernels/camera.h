@@ -17,6 +17,7 @@ inline void camera_ray(__global const Camera *cam, float px, float py, float u1,
         oc = (float3)(0.0f);
         dc = (float3)(xc, yc, -1.0f);
     }
+#ifdef PPM_DOF
     if (cam->aperture_radius > 0.0f) {
         float2 lens;
         int blades = cam->aperture_blades;
@@ -37,6 +38,7 @@ inline void camera_ray(__global const Camera *cam, float px, float py, float u1,
         oc += (float3)(lens.x, lens.y, 0.0f);
         dc = focus - oc;
     }
+#endif
     float len = length(dc);
     dc /= len;
     depth_scale = -dc.z;

@@ -45,8 +45,10 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
     float4 vp = (float4)(0.0f);
     for (int depth = 0;; depth++) {
         Hit h = bvh_intersect(o, d, tmax, mask, false, BVH_PASS);
+#ifdef PPM_LIGHTS_SEEN
         L += beta * lights_seen(o, d, h.leaf < 0 ? tmax : h.t, lights, emitter_info->n_lights,
                                   mask);
+#endif
         if (h.leaf < 0) {
             L += beta * F3(emitter_info->world);
             break;
@@ -75,6 +77,9 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
             }
             break;
         }
+#ifndef PPM_SPECULAR
+        break;                       /* no mirror or glass in the scene: no specular bounce */
+#else
         if (depth >= max_bounces) break;
         float3 leave_n;
         lobe = scatter_specular(lobe, m, s.ng, s.ns, rnd(&rng), true, &d, &beta, &leave_n);
@@ -82,6 +87,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
         tmax = PPM_INF;
         mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;
         if (!(max3(beta) > 0.0f)) break;
+#endif
     }
     vp_pos[id] = vp;
     /* this pass's sample (the film adds it to its sums, progressive.cl film_add_direct);

@@ -65,7 +65,9 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *
         Light l = lights[i];
         if (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT)) continue;
         float3 c = F3(l.position);
-        if (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE) {
+        if (false) {}
+#ifdef PPM_LIGHT_AREA
+        else if (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE) {
             float3 nl = F3(l.direction);
             float denom = dot(d, nl);
             if (denom >= 0.0f) continue;                      /* emits along its -Z only */
@@ -77,7 +79,10 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *
             bool inside = l.type == LIGHT_AREA_RECT ? (fabs(u) <= 0.5f && fabs(v) <= 0.5f)
                                                     : (u * u + v * v <= 0.25f);
             if (inside) { best = t; L = F3(l.emit); }
-        } else if (l.type == LIGHT_POINT && l.radius > 0.0f && (l.flags & LIGHT_FLAG_SOFT_FALLOFF)) {
+        }
+#endif
+#ifdef PPM_LIGHT_POINT
+        else if (l.type == LIGHT_POINT && l.radius > 0.0f && (l.flags & LIGHT_FLAG_SOFT_FALLOFF)) {
             /* soft falloff (Blender's default): Cycles sees the light as a disk of the light's
              * radius facing the ray's origin, not as a sphere (d^2 / (d^2 + r^2) of the sphere's
              * solid angle: -8 % for a light 1 m from a mirror at r = 0.3 m) */
@@ -103,6 +108,7 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *
             best = t;
             L = F3(l.emit) / (PPM_PI * l.radius * l.radius);
         }
+#endif
     }
     return L;
 }
@@ -150,7 +156,9 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
     float pdf_light = 0.0f;          /* solid-angle pdf of an emissive triangle's sample */
     if (e < info.n_lights) {
         Light L = lights[e];
-        if (L.type == LIGHT_SUN) {
+        if (false) {}
+#ifdef PPM_LIGHT_SUN
+        else if (L.type == LIGHT_SUN) {
             float3 to_sun = -F3(L.direction);
             if (L.radius > 0.0f) {
                 float sh = sin(0.5f * L.radius), ch = cos(0.5f * L.radius);
@@ -162,7 +170,10 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
                 wi = to_sun;
                 E = F3(L.emit);
             }
-        } else if (L.type == LIGHT_POINT || L.type == LIGHT_SPOT) {
+        }
+#endif
+#ifdef PPM_LIGHT_POINT
+        else if (L.type == LIGHT_POINT || L.type == LIGHT_SPOT) {
             float3 to = F3(L.position) - o;
             float d2 = dot(to, to), d = sqrt(d2);
             if (!(d > 0.0f)) return (float3)(0.0f);
@@ -193,7 +204,10 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
                 dist = d;
                 E = I / d2;
             }
-        } else {
+        }
+#endif
+#ifdef PPM_LIGHT_AREA
+        else if (L.type == LIGHT_AREA_RECT || L.type == LIGHT_AREA_ELLIPSE) {
             float3 nl = F3(L.direction);
             float3 q = offset_ray(area_light_point(&L, u1, u2), nl);   /* in front of it */
             float3 tq = q - o;
@@ -205,7 +219,11 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
             if (cos_l <= 0.0f) return (float3)(0.0f);
             E = F3(L.emit) * (cos_l * area_light_area(&L) / dq2);
         }
-    } else if (e < info.n_lights + info.n_emissive) {
+#endif
+        else return (float3)(0.0f);
+    }
+#ifdef PPM_EMISSIVE
+    else if (e < info.n_lights + info.n_emissive) {
         int k = emissive[e - info.n_lights];
         float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
         float2 b = sample_triangle(u1, u2);
@@ -223,11 +241,16 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
         float cos_l = fabs(dot(wi, nt));                          /* mesh lights: both sides */
         E = F3(materials[as_int(e2.w)].emission) * (cos_l * 0.5f * area2 / dq2);
         pdf_light = cos_l > 0.0f ? pmf * dq2 / (cos_l * 0.5f * area2) : 0.0f;
-    } else {
+    }
+#endif
+#ifdef PPM_WORLD
+    else if (info.has_world) {
         wi = sample_cosine_hemisphere(n, u1, u2);       /* pdf cos/pi: f L cos/pdf = f L pi */
         E = F3(info.world) * PPM_PI;
         cosine_included = true;
     }
+#endif
+    else return (float3)(0.0f);
     float cos_s = dot(wi, n);
     if (cos_s <= 0.0f || dot(wi, ngf) <= 0.0f) return (float3)(0.0f);
     /* planar emitters: the ray ends just in front of the emitter, so it never reaches it */
@@ -244,6 +267,9 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
  * it.  Returns E as sample_direct does (pixel contribution = beta * f * E). */
 inline float3 direct_bsdf(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng) {
     float u1 = rnd(rng), u2 = rnd(rng);
+#ifndef PPM_EMISSIVE
+    return (float3)(0.0f);           /* no emissive triangle: nothing for this sample to find */
+#else
     if (emitter_info->n_emissive == 0) return (float3)(0.0f);
     float3 wi = sample_cosine_hemisphere(n, u1, u2);
     float cos_s = dot(wi, n);
@@ -261,6 +287,7 @@ inline float3 direct_bsdf(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng)
     float pdf_light = pmf * h.t * h.t / (cos_l * 0.5f * area2);
     /* f Le cos / pdf_bsdf = (rho/pi) Le pi: in E units (times f) that is Le pi */
     return F3(m->emission) * (PPM_PI * mis_power(cos_s * (1.0f / PPM_PI), pdf_light));
+#endif
 }
 
 /* Direct light at a diffuse point: next-event estimation and the BSDF sample, combined. */
@@ -280,7 +307,9 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
     float R = info.scene_radius;
     if (e < info.n_lights) {
         Light L = lights[e];
-        if (L.type == LIGHT_SUN) {
+        if (false) {}
+#ifdef PPM_LIGHT_SUN
+        else if (L.type == LIGHT_SUN) {
             float3 dir = F3(L.direction);
             float sh = sin(0.5f * L.radius);
             *d = L.radius > 0.0f ? sample_cone(dir, 2.0f * sh * sh, u3, u4) : dir;
@@ -289,7 +318,10 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
             make_frame(dir, &t, &b);
             *o = c - R * dir + q.x * t + q.y * b;
             *flux = F3(L.emit) * (PPM_PI * R * R / pmf);
-        } else if (L.type == LIGHT_POINT || L.type == LIGHT_SPOT) {
+        }
+#endif
+#ifdef PPM_LIGHT_POINT
+        else if (L.type == LIGHT_POINT || L.type == LIGHT_SPOT) {
             float3 I = F3(L.emit);
             if (L.type == LIGHT_SPOT) {
                 float cm = spot_sample_cos(&L);
@@ -306,14 +338,21 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
                 *d = sample_cosine_hemisphere(ns, u3, u4);
                 *o = offset_ray(F3(L.position) + L.radius * ns, ns);
             }
-        } else {
+        }
+#endif
+#ifdef PPM_LIGHT_AREA
+        else if (L.type == LIGHT_AREA_RECT || L.type == LIGHT_AREA_ELLIPSE) {
             float3 q = area_light_point(&L, u1, u2);
             float3 nl = F3(L.direction);
             *d = sample_cosine_hemisphere(nl, u3, u4);
             *o = offset_ray(q, nl);
             *flux = F3(L.emit) * (PPM_PI * area_light_area(&L) / pmf);
         }
-    } else if (e < info.n_lights + info.n_emissive) {
+#endif
+        else return false;
+    }
+#ifdef PPM_EMISSIVE
+    else if (e < info.n_lights + info.n_emissive) {
         int k = emissive[e - info.n_lights];
         float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
         float2 b = sample_triangle(u1, u2);
@@ -329,7 +368,10 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
         *d = sample_cosine_hemisphere(nt, uu, u4);
         *o = offset_ray(q, nt);
         *flux = F3(materials[as_int(e2.w)].emission) * (2.0f * PPM_PI * 0.5f * area2 / pmf);
-    } else {
+    }
+#endif
+#ifdef PPM_WORLD
+    else if (info.has_world) {
         float3 dir = sample_uniform_sphere(u3, u4);
         float2 q = sample_disk(u1, u2) * R;
         float3 t, b;
@@ -338,6 +380,8 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
         *o = c - R * dir + q.x * t + q.y * b;
         *flux = F3(info.world) * (4.0f * PPM_PI * PPM_PI * R * R / pmf);
     }
+#endif
+    else return false;
     return max3(*flux) > 0.0f && isfinite(max3(*flux));
 }
 #endif

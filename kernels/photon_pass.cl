@@ -56,10 +56,12 @@ __kernel void photon_pass(SCENE_ARGS, uint pass, uint seed, int max_bounces, uin
             o = offset_ray(s.p, ngf);
             mask = VIS_DIFFUSE;
         } else {
+#ifdef PPM_SPECULAR
             float3 leave_n;
             lobe = scatter_specular(lobe, m, s.ng, s.ns, rnd(&rng), false, &d, &flux, &leave_n);
             o = offset_ray(s.p, leave_n);
             mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;
+#endif
         }
         /* Russian roulette keeps photon power roughly constant */
         float q = fmin(1.0f, max3(flux) / max3(before));

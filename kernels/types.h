@@ -2,6 +2,7 @@
  * scalars and arrays of them, so there is no padding (tests/test_types.py checks the sizes). */
 #ifndef PPM_TYPES_H
 #define PPM_TYPES_H
+#include "features.h"
 
 /* visibility bits: ppm_engine/scene_arrays.py VIS_* */
 #define VIS_CAMERA 1u

@@ -53,6 +53,7 @@ class RenderOptions:
     seed: int = LIMITS["seed"][2]
     device: str = ""               # OpenCL device name (substring); "" = default choice
     exact_gather: bool = False     # debug/reference mode: gather every photon, not the stochastic map
+    specialize: bool = True        # kernels built for the scene's features (False: all; benchmark)
 
     def validate(self) -> "RenderOptions":
         for name, (lo, hi, _default, _desc) in LIMITS.items():

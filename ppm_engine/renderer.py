@@ -16,6 +16,7 @@ import numpy as np
 from .bvh import BVH
 from .device import get_device
 from .emitters import build_emitters
+from .features import defines as feature_defines, scene_features
 from .film import Film, filter_table
 from .materials import kernel_materials
 from .options import RenderOptions
@@ -167,11 +168,9 @@ class Renderer:
         self.bvh = BVH(dev, prepared)
         self._upload_scene(scene, prepared)
 
-        P = dev.programs
-        # the only scene-dependent define: one more build for a scene far from 1 m in size
-        self.defines = {"PPM_OFFSET_SCALE": float(offset_scale(prepared)).hex() + "f"}
-        self.k_eye = P.get("eye_pass.cl", self.defines).eye_pass
-        self.k_photon = P.get("photon_pass.cl", self.defines).photon_pass
+        # one more build for a scene far from 1 m in size
+        self.offset_define = {"PPM_OFFSET_SCALE": float(offset_scale(prepared)).hex() + "f"}
+        self._fetch_kernels(prepared)
 
         self.film = Film(dev, w, h)
         self._allocate_pixels()
@@ -195,7 +194,7 @@ class Renderer:
         self.scene = scene
         if prepared is None:
             prepared, self.warnings = prepare_scene(scene)
-        scene = prepared                     # the BVH's triangles, moved as the BVH's
+        self._prepared = scene = prepared    # the BVH's triangles, moved as the BVH's
         self.kmaterials = kernel_materials(scene.materials)
         self.emitters = build_emitters(scene, self.kmaterials, self.bvh.leaf_order)
         self.normals = up(scene.normals, "shading normals")
@@ -210,6 +209,16 @@ class Renderer:
         self.camera = up(scene.camera, "camera")
         self.filter_table = up(filter_table(float(scene.camera["filter_width"][0])),
                                "pixel filter")
+
+    def _fetch_kernels(self, prepared: SceneArrays):
+        """The eye and photon passes built for the scene's features (features.py; each feature
+        set is built once per device and cached)."""
+        self.features = (scene_features(prepared, self.kmaterials, self.emitters)
+                         if self.options.specialize else None)
+        self.defines = {**self.offset_define, **feature_defines(self.features)}
+        P = self.device.programs
+        self.k_eye = P.get("eye_pass.cl", self.defines).eye_pass
+        self.k_photon = P.get("photon_pass.cl", self.defines).photon_pass
 
     @staticmethod
     def same_geometry(a: SceneArrays, b: SceneArrays) -> bool:
@@ -230,18 +239,19 @@ class Renderer:
         options = options.validate()
         if not self.can_reuse(options, scene):
             raise ValueError("reset() needs the same device and geometry; build a new Renderer")
+        old, self.options = self.options, options
         if scene is not None and scene is not self.scene:
             self._upload_scene(scene)
+        self._fetch_kernels(self._prepared)
         w, h = self.scene.resolution
         photons = options.photons_for(w * h)
         if ((w, h) != (self.width, self.height) or photons != self.photons_per_pass
-                or options.exact_gather != self.options.exact_gather):
+                or options.exact_gather != old.exact_gather):
             self.width, self.height, self.n_pixels = w, h, w * h
             self._allocate_pixels()
             self.photons_per_pass = photons
             self.photon_map = PhotonMap(self.device, self.STORE_FACTOR * photons,
                                         exact=options.exact_gather)
-        self.options = options
         self.film = Film(self.device, w, h)
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
         self.photons_needed = (self.emitters.info["n_emitters"][0] > 0 and options.max_bounces > 0)

@@ -1,0 +1,67 @@
+"""Which features a scene needs, as -D flags for the eye and photon passes (kernels/features.h).
+
+The programs are cached per device by (file, defines), so each feature set is built once; a
+scene without glass runs kernels without refraction code, a diffuse-only scene an eye pass with
+no specular loop, a scene lit by one point light kernels with no sun, area, mesh-light or world
+sampling (docs/BENCHMARKS.md, "Skip what a scene doesn't need").
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHIFT, LIGHT_POINT,
+                           LIGHT_SPOT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION,
+                           SceneArrays)
+
+# every flag of kernels/features.h, in its order
+ALL = ("PPM_SPECULAR", "PPM_GLASS", "PPM_LIGHT_POINT", "PPM_LIGHT_SUN", "PPM_LIGHT_AREA",
+       "PPM_EMISSIVE", "PPM_WORLD", "PPM_LIGHTS_SEEN", "PPM_DOF")
+
+
+def scene_features(scene: SceneArrays, kmaterials: np.ndarray, emitters) -> frozenset:
+    """The features of kernels/features.h that ``scene`` uses.
+
+    ``kmaterials`` are the kernel materials (materials.kernel_materials) and ``emitters`` the
+    emitter table (emitters.build_emitters): a light of zero power is never sampled, so its type
+    needs no code; only materials some triangle uses count."""
+    used = np.unique(scene.material) if scene.material.size else np.zeros(0, np.int64)
+    used = used[(used >= 0) & (used < kmaterials.shape[0])]
+    m = kmaterials[used]
+    f = set()
+    if (m["p_glass"] > 0).any():
+        f.update(("PPM_SPECULAR", "PPM_GLASS"))
+    if (m["p_metal"] > 0).any():
+        f.add("PPM_SPECULAR")
+    lights = scene.lights
+    n_lights = lights.shape[0]
+    live = emitters.power[:n_lights] > 0 if int(emitters.info["n_emitters"][0]) else \
+        np.zeros(n_lights, bool)
+    t = lights["type"]
+    if (live & ((t == LIGHT_POINT) | (t == LIGHT_SPOT))).any():
+        f.add("PPM_LIGHT_POINT")
+    if (live & (t == LIGHT_SUN)).any():
+        f.add("PPM_LIGHT_SUN")
+    area = (t == LIGHT_AREA_RECT) | (t == LIGHT_AREA_ELLIPSE)
+    if (live & area).any():
+        f.add("PPM_LIGHT_AREA")
+    if int(emitters.info["n_emissive"][0]):
+        f.add("PPM_EMISSIVE")        # (emission seen by camera rays needs no flag)
+    if int(emitters.info["has_world"][0]):
+        f.add("PPM_WORLD")
+    # lights a camera or specular ray can see: area lights, point lights with a radius
+    # (kernels/lights.h lights_seen), unless hidden from every ray type that looks for them
+    hidden_all = (VIS_CAMERA | VIS_GLOSSY | VIS_TRANSMISSION) << LIGHT_HIDDEN_SHIFT
+    shown = (lights["flags"] & np.uint32(hidden_all)) != hidden_all
+    visible = area | ((t == LIGHT_POINT) & (lights["radius"] > 0))
+    if (live & visible & shown).any():
+        f.add("PPM_LIGHTS_SEEN")
+    if float(scene.camera["aperture_radius"][0]) > 0:
+        f.add("PPM_DOF")
+    return frozenset(f)
+
+
+def defines(features) -> dict:
+    """-D flags for a feature set; ``None``: every feature (unspecialised kernels)."""
+    if features is None:
+        return {}
+    return {"PPM_SPECIALIZED": True, **{name: True for name in features}}

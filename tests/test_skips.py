@@ -1,0 +1,111 @@
+"""Skip what a scene doesn't need (docs/BENCHMARKS.md "Skips"): each skip happens, and the
+image is the same as without it where the skip must not change it."""
+import numpy as np
+import pytest
+
+from ppm_engine import analytic
+from ppm_engine.options import RenderOptions
+from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.renderer import Renderer
+from ppm_engine.scene_arrays import (LIGHT_AREA_RECT, LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT,
+                                     LIGHT_POINT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY,
+                                     VIS_TRANSMISSION, make_camera, perspective_extent)
+
+
+def _light(kind, emit, position=(0, 0, 1.5), direction=(0, 0, -1), radius=0.0, size=0.3,
+           hidden=0):
+    L = np.zeros(1, LIGHT_DTYPE)
+    L["type"], L["emit"], L["position"], L["direction"] = kind, emit, position, direction
+    L["radius"] = radius
+    L["axis_x"], L["axis_y"] = (size, 0, 0), (0, size, 0)
+    L["flags"] = hidden << LIGHT_HIDDEN_SHIFT
+    return L
+
+
+def _room(lights=None, glass=False, mirror=False, world=(0, 0, 0), aperture=0.0, W=20):
+    mb = MeshBuilder()
+    white = mb.material("white", (0.7, 0.7, 0.7))
+    mb.quad((0, 0, 0), (1, 0, 0), (0, 1, 0), white)
+    mb.quad((0, 1, 1), (0, 0, 1), (1, 0, 0), white)
+    if glass:
+        mb.sphere((0.3, 0.2, 0.3), 0.3, mb.material("glass", (1, 1, 1), transmission=1.0,
+                                                    roughness=0.0), 16, 8)
+    if mirror:
+        mb.quad((-0.5, 0.5, 0.5), (0.3, 0, 0), (0, 0, 0.3),
+                mb.material("mirror", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.0))
+    ext = perspective_extent(W, W, 35.0, 36.0)
+    cam = make_camera(width=W, height=W, to_world=look_at((0, -2.9, 1), (0, 0, 0.5)),
+                      extent=ext[:2], clip=(0.1, 100), aperture_radius=aperture,
+                      focus_distance=3.0)
+    return mb.build(camera=cam, lights=lights, world=world)
+
+
+def _features(scene):
+    r = Renderer(scene, RenderOptions(photons_per_pass=256))
+    f = r.features
+    r.close()
+    return f
+
+
+def test_features_follow_the_scene():
+    point = _light(LIGHT_POINT, (10, 10, 10))
+    assert _features(_room(point)) == {"PPM_LIGHT_POINT"}
+    assert _features(_room(point, glass=True)) == {"PPM_LIGHT_POINT", "PPM_SPECULAR", "PPM_GLASS"}
+    assert _features(_room(point, mirror=True)) == {"PPM_LIGHT_POINT", "PPM_SPECULAR"}
+    assert _features(_room(point, aperture=0.05)) == {"PPM_LIGHT_POINT", "PPM_DOF"}
+    assert _features(_room(point, world=(0.2, 0.2, 0.2))) == {"PPM_LIGHT_POINT", "PPM_WORLD"}
+    sun = _light(LIGHT_SUN, (3, 3, 3), direction=(0.3, 0.2, -1))
+    assert _features(_room(sun)) == {"PPM_LIGHT_SUN"}
+    area = _light(LIGHT_AREA_RECT, (5, 5, 5))
+    assert _features(_room(area)) == {"PPM_LIGHT_AREA", "PPM_LIGHTS_SEEN"}
+    hidden = VIS_CAMERA | VIS_GLOSSY | VIS_TRANSMISSION
+    assert _features(_room(_light(LIGHT_AREA_RECT, (5, 5, 5), hidden=hidden))) == {"PPM_LIGHT_AREA"}
+    sphere = _light(LIGHT_POINT, (10, 10, 10), radius=0.1)
+    assert _features(_room(sphere)) == {"PPM_LIGHT_POINT", "PPM_LIGHTS_SEEN"}
+    # a zero-power light needs no code: it is never sampled
+    both = np.concatenate([point, _light(LIGHT_SUN, (0, 0, 0))])
+    assert _features(_room(both)) == {"PPM_LIGHT_POINT"}
+    assert _features(cornell_box(8, 8)) == {"PPM_EMISSIVE"}
+    assert _features(cornell_box(8, 8, bulb=True)) == {"PPM_EMISSIVE", "PPM_SPECULAR", "PPM_GLASS"}
+
+
+def test_specialised_kernels_are_separate_programs():
+    a = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=256))
+    b = Renderer(cornell_box(8, 8, bulb=True), RenderOptions(photons_per_pass=256))
+    c = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=256, specialize=False))
+    assert a.features != b.features and c.features is None
+    assert len({a.k_eye.program.int_ptr, b.k_eye.program.int_ptr, c.k_eye.program.int_ptr}) == 3
+    for r in (a, b, c):
+        r.close()
+
+
+SCENES = {
+    "cornell": lambda: cornell_box(20, 20),
+    "bulb": lambda: cornell_box(20, 20, bulb=True),
+    "point_glass_mirror": lambda: _room(_light(LIGHT_POINT, (10, 10, 10), radius=0.05),
+                                        glass=True, mirror=True),
+    "sun_dof": lambda: _room(_light(LIGHT_SUN, (3, 3, 3), direction=(0.3, 0.2, -1)),
+                             aperture=0.05),
+    "area_world": lambda: _room(_light(LIGHT_AREA_RECT, (5, 5, 5)), world=(0.1, 0.1, 0.2)),
+    "mirror_caustic": lambda: analytic.mirror_caustic(16),
+}
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_specialised_kernels_render_the_same_image(name):
+    """Specialisation removes code the scene cannot reach and nothing else: with the same seed
+    the random streams are the same, so the images agree to float rounding.  (The exact gather:
+    the stochastic map keeps one photon per entry by a key tied to the photon's slot, and the
+    photon pass fills the slots in whatever order its atomics run.)"""
+    scene = SCENES[name]()
+    imgs = []
+    for specialize in (True, False):
+        r = Renderer(scene, RenderOptions(photons_per_pass=2048, seed=4, specialize=specialize,
+                                          exact_gather=True))
+        for _ in range(4):
+            s = r.iterate()
+        assert s.nan_dropped == 0
+        imgs.append(r.image())
+        r.close()
+    assert imgs[0][..., :3].mean() > 0
+    np.testing.assert_allclose(imgs[0], imgs[1], rtol=1e-4, atol=1e-6)
