@@ -20,7 +20,9 @@ class BVH:
         q = device.queue
         n = scene.n_triangles
         self.n_triangles = n
-        prog = device.programs.get("bvh_build.cl")
+        prog = self.prog = device.programs.get("bvh_build.cl")
+        self._scene = scene
+        self.cost = self.built_cost = 1.0
         ntri = max(n, 1)
         f4 = 16
         self.tri_v0 = device.buffer(ntri * f4, "triangles")
@@ -34,8 +36,6 @@ class BVH:
             return
 
         pos = device.upload(scene.positions, "triangle positions")
-        mat = device.upload(scene.material, "triangle materials")
-        vis = device.upload(scene.visibility, "triangle visibility")
         p = scene.positions.reshape(-1, 3, 3).mean(axis=1)
         p = p[np.isfinite(p).all(axis=1)]
         lo = p.min(axis=0) if p.size else np.zeros(3, np.float32)
@@ -54,28 +54,76 @@ class BVH:
         sort = device.radix_sort_uint_pairs()
         (skeys, svals), ev = sort(keys_a, vals_a, key_bits=30)
         ev.wait()
-        left = device.buffer(4 * (n - 1), "BVH")
-        right = device.buffer(4 * (n - 1), "BVH")
-        parent_int = device.buffer(4 * (n - 1), "BVH")
-        parent_leaf = device.buffer(4 * n, "BVH")
-        prog.build_hierarchy(q, (_round(n - 1),), None, skeys.data, np.int32(n), left, right,
-                             parent_int, parent_leaf)
+        # the hierarchy (kept: refit() reuses it with new positions)
+        self.sorted_ids = svals
+        self.left = device.buffer(4 * (n - 1), "BVH")
+        self.right = device.buffer(4 * (n - 1), "BVH")
+        self.parent_int = device.buffer(4 * (n - 1), "BVH")
+        self.parent_leaf = device.buffer(4 * n, "BVH")
+        prog.build_hierarchy(q, (_round(n - 1),), None, skeys.data, np.int32(n), self.left,
+                             self.right, self.parent_int, self.parent_leaf)
+        self.cost = self._boxes(scene, pos)
+        self.built_cost = self.cost
+        self.leaf_order = svals.get().astype(np.int64)
+        q.finish()
+        self.build_seconds = time.perf_counter() - t0
+
+    def _boxes(self, scene: SceneArrays, pos) -> float:
+        """Boxes bottom-up over the hierarchy, packed nodes and leaf-ordered triangles from the
+        positions in ``pos``; returns the tree's cost for refit(): the summed surface area of
+        the internal nodes over that of the leaves (the SAH's traversal term up to a constant,
+        unchanged by moving the whole scene; it grows when a refit stretches nodes across the
+        old and new places of what moved)."""
+        import pyopencl as cl
+        device, q, n, prog = self.device, self.device.queue, self.n_triangles, self.prog
+        mat = device.upload(scene.material, "triangle materials")
+        vis = device.upload(scene.visibility, "triangle visibility")
         leaf_min = device.buffer(16 * n, "BVH")
         leaf_max = device.buffer(16 * n, "BVH")
         node_min = device.buffer(16 * (n - 1), "BVH")
         node_max = device.buffer(16 * (n - 1), "BVH")
         arrivals = device.buffer(4 * (n - 1), "BVH")
         cl.enqueue_fill_buffer(q, arrivals, np.uint32(0), 0, 4 * (n - 1))
-        prog.bottom_up_boxes(q, (_round(n),), None, pos, svals.data, np.int32(n), left, right,
-                             parent_int, parent_leaf, leaf_min, leaf_max, node_min, node_max,
-                             arrivals)
-        prog.pack_nodes(q, (_round(n - 1),), None, np.int32(n), left, right, leaf_min, leaf_max,
-                        node_min, node_max, self.nodes)
-        prog.reorder_triangles(q, (_round(n),), None, pos, svals.data, mat, vis, np.int32(n),
+        ids = self.sorted_ids.data
+        prog.bottom_up_boxes(q, (_round(n),), None, pos, ids, np.int32(n), self.left,
+                             self.right, self.parent_int, self.parent_leaf, leaf_min, leaf_max,
+                             node_min, node_max, arrivals)
+        prog.pack_nodes(q, (_round(n - 1),), None, np.int32(n), self.left, self.right, leaf_min,
+                        leaf_max, node_min, node_max, self.nodes)
+        prog.reorder_triangles(q, (_round(n),), None, pos, ids, mat, vis, np.int32(n),
                                self.tri_v0, self.tri_e1, self.tri_e2)
-        self.leaf_order = svals.get().astype(np.int64)
-        q.finish()
+        import pyopencl.array as cla
+        from pyopencl import cltypes
+
+        def area_sum(a, b, m):
+            return float(device.box_area_sum()(cla.Array(q, (m,), cltypes.float4, data=a),
+                                               cla.Array(q, (m,), cltypes.float4, data=b)).get())
+        leaves = area_sum(leaf_min, leaf_max, n)
+        return area_sum(node_min, node_max, n - 1) / leaves if leaves > 0 else float("inf")
+
+    # A refitted tree (the hierarchy of the first build, boxes from new positions) is used while
+    # its cost stays within this factor of a fresh build's; beyond it refit() says rebuild.
+    REFIT_MAX_COST = 1.5
+
+    def refit(self, scene: SceneArrays) -> bool:
+        """New positions (materials, visibility) for the same triangles: the boxes are
+        recomputed over the existing hierarchy -- no Morton codes, no sort.  Returns False (and
+        changes nothing) when the scene's triangle count differs, or the refitted tree costs
+        more than REFIT_MAX_COST x the first build's (objects moved too far: rebuild)."""
+        n = self.n_triangles
+        if scene.n_triangles != n or n < 2:
+            return False
+        t0 = time.perf_counter()
+        pos = self.device.upload(scene.positions, "triangle positions")
+        cost = self._boxes(scene, pos)
+        if not cost <= self.REFIT_MAX_COST * self.built_cost:
+            self._boxes(self._scene, self.device.upload(self._scene.positions,
+                                                        "triangle positions"))
+            return False
+        self.cost, self._scene = cost, scene
+        self.device.queue.finish()
         self.build_seconds = time.perf_counter() - t0
+        return True
 
     def _tiny(self, scene: SceneArrays):
         """0 or 1 triangles: one root whose missing children have empty (inverted) boxes."""

@@ -12,13 +12,12 @@ Errors print one line on stderr and exit with 1 (failed) or 2 (bad arguments or 
 """
 import argparse
 import importlib.util
-import dataclasses
 import sys
 import time
 from pathlib import Path
 
 from .errors import PPMError
-from .options import RenderOptions, SettingsError
+from .options import LIMITS, RenderOptions, SettingsError
 
 PROG = "ppm_engine"
 EXIT_FAILED = 1
@@ -300,8 +299,7 @@ def _apply_settings(scene, overrides: dict, device: str | None) -> None:
     (Validation comes first: Blender would silently clamp an out-of-range assignment.)"""
     from .properties import DEFAULT_DEVICE, refresh_devices
     settings = scene.ppm
-    stored = {f.name: getattr(settings, f.name) for f in dataclasses.fields(RenderOptions)
-              if f.name not in ("device", "exact_gather")}
+    stored = {name: getattr(settings, name) for name in LIMITS}
     if settings.auto_photons:
         stored["photons_per_pass"] = None
     RenderOptions(**stored).replace(**overrides).validate()

@@ -69,6 +69,26 @@ def light_power(lights: np.ndarray, scene_radius: float) -> np.ndarray:
     return np.where(np.isfinite(p) & (p > 0), p, 0.0)
 
 
+def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
+    """Whether anything in the scene emits: a light with power, an emissive triangle with area,
+    an emitting world (build_emitters' table is not empty).  Needs no BVH."""
+    _, radius = scene_bounds(scene.positions)
+    if (light_power(scene.lights, radius) > 0).any():
+        return True
+    world = np.nan_to_num(scene.world.astype(np.float64), nan=0.0, posinf=0.0)
+    if world.max(initial=0.0) > 0:
+        return True
+    emission = kmaterials["emission"].astype(np.float64).max(axis=1)
+    tri = scene.material[(scene.material >= 0) & (scene.material < emission.shape[0])]
+    if not (emission[tri] > 0).any():
+        return False
+    hot = (scene.material >= 0) & (scene.material < emission.shape[0])
+    hot[hot] = emission[scene.material[hot]] > 0
+    p = scene.positions[hot].astype(np.float64)
+    area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    return bool((np.isfinite(area) & (area > 0)).any())
+
+
 def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.ndarray) -> Emitters:
     """``leaf_order[k]`` = original index of the triangle in BVH leaf k."""
     center, radius = scene_bounds(scene.positions)

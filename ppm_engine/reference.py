@@ -31,8 +31,8 @@ def closest_hits(origins, dirs, tmax, tris, chunk=256):
             q = np.cross(sv, e1[None])
             v = np.einsum("rtk,rtk->rt", np.broadcast_to(d, q.shape), q) * inv
             t = np.einsum("tk,rtk->rt", e2, q) * inv
-        ok = (det != 0) & (u >= 0) & (u <= 1) & (v >= 0) & (u + v <= 1) & (t > 0) & \
-             (t < tmax[s:s + chunk, None])
+            ok = (det != 0) & (u >= 0) & (u <= 1) & (v >= 0) & (u + v <= 1) & (t > 0) & \
+                 (t < tmax[s:s + chunk, None])
         t = np.where(ok, t, np.inf)
         i = np.argmin(t, axis=1)
         tt = t[np.arange(t.shape[0]), i]

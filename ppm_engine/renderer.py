@@ -18,7 +18,7 @@ from .device import get_device
 from .emitters import build_emitters
 from .features import defines as feature_defines, scene_features
 from .film import Film, filter_table
-from .materials import kernel_materials
+from .materials import MAT_DIFFUSE, kernel_materials
 from .options import RenderOptions
 from .photon_map import (CNT_NAN, CNT_OCCUPIED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_STORED,
                          GRID_DTYPE, N_COUNTERS, PhotonMap)
@@ -168,8 +168,6 @@ class Renderer:
         self.bvh = BVH(dev, prepared)
         self._upload_scene(scene, prepared)
 
-        # one more build for a scene far from 1 m in size
-        self.offset_define = {"PPM_OFFSET_SCALE": float(offset_scale(prepared)).hex() + "f"}
         self._fetch_kernels(prepared)
 
         self.film = Film(dev, w, h)
@@ -180,8 +178,7 @@ class Renderer:
         self.photon_map = PhotonMap(dev, self.STORE_FACTOR * self.photons_per_pass,
                                     exact=options.exact_gather)
 
-        # skip what the scene cannot use
-        self.photons_needed = (self.emitters.info["n_emitters"][0] > 0 and options.max_bounces > 0)
+        self.photons_needed = self._photons_needed()
         self.passes_done = 0
         self.nan_dropped = 0
         self.setup_seconds = time.perf_counter() - t0
@@ -210,12 +207,24 @@ class Renderer:
         self.filter_table = up(filter_table(float(scene.camera["filter_width"][0])),
                                "pixel filter")
 
+    def _photons_needed(self) -> bool:
+        """Whether photon passes can add anything (else no photon pass, hash or gather runs):
+        something emits, paths may bounce (max_bounces > 0), and some surface is diffuse --
+        photons are stored, and visible points made, only on diffuse surfaces."""
+        used = np.unique(self._prepared.material)
+        used = used[(used >= 0) & (used < self.kmaterials.shape[0])]
+        diffuse = bool((self.kmaterials["flags"][used] & MAT_DIFFUSE).any())
+        return bool(self.emitters.info["n_emitters"][0] > 0 and self.options.max_bounces > 0
+                    and diffuse)
+
     def _fetch_kernels(self, prepared: SceneArrays):
         """The eye and photon passes built for the scene's features (features.py; each feature
         set is built once per device and cached)."""
         self.features = (scene_features(prepared, self.kmaterials, self.emitters)
                          if self.options.specialize else None)
-        self.defines = {**self.offset_define, **feature_defines(self.features)}
+        # (one more build for a scene far from 1 m in size)
+        self.defines = {"PPM_OFFSET_SCALE": float(offset_scale(prepared)).hex() + "f",
+                        **feature_defines(self.features)}
         P = self.device.programs
         self.k_eye = P.get("eye_pass.cl", self.defines).eye_pass
         self.k_photon = P.get("photon_pass.cl", self.defines).photon_pass
@@ -225,6 +234,20 @@ class Renderer:
         """True when the BVH of ``a`` serves ``b`` (same triangles, materials, visibility)."""
         return all(np.array_equal(getattr(a, k), getattr(b, k))
                    for k in ("positions", "material", "visibility"))
+
+    def refit(self, scene: SceneArrays) -> bool:
+        """The same triangles moved or deformed (an object's transform, an armature): the BVH is
+        refitted over its hierarchy instead of rebuilt, and the scene re-uploaded.  Returns
+        False (nothing changed) when the triangle count differs or the refitted tree would be
+        too slow (bvh.BVH.refit); then build a new Renderer.  Call reset() afterwards."""
+        if scene.n_triangles != self.bvh.n_triangles:
+            return False
+        prepared, warnings = prepare_scene(scene)
+        if prepared.n_triangles != self.bvh.n_triangles or not self.bvh.refit(prepared):
+            return False
+        self.warnings = warnings
+        self._upload_scene(scene, prepared)
+        return True
 
     def can_reuse(self, options: RenderOptions, scene: SceneArrays | None = None) -> bool:
         """Whether reset() can serve a render with these options and scene."""
@@ -254,7 +277,7 @@ class Renderer:
                                         exact=options.exact_gather)
         self.film = Film(self.device, w, h)
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
-        self.photons_needed = (self.emitters.info["n_emitters"][0] > 0 and options.max_bounces > 0)
+        self.photons_needed = self._photons_needed()
         self.passes_done = 0
         self.nan_dropped = 0
         self.queue.finish()

@@ -54,21 +54,32 @@ def _scene_changed(depsgraph) -> bool:
     return False
 
 
-def _render_key(depsgraph, options) -> tuple:
-    """What the depsgraph does not report: our settings, frame, resolution, border, layer."""
+def _render_key(depsgraph) -> tuple:
+    """What the depsgraph does not report and the export depends on: frame, resolution,
+    border, pixel filter, layer, camera.  (Our settings are not in it: changing them re-renders
+    without re-export.)"""
     scene, r = depsgraph.scene, depsgraph.scene.render
-    return (options, scene.frame_current, r.resolution_x, r.resolution_y,
+    return (scene.frame_current, r.resolution_x, r.resolution_y,
             r.resolution_percentage, r.pixel_aspect_x, r.pixel_aspect_y, r.use_border,
             r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y, r.filter_size,
             depsgraph.view_layer.name, scene.camera.name if scene.camera else None)
+
+
+def emits_nothing(arrays) -> bool:
+    """No light with power, no emissive triangle, a black world: the image is black."""
+    from .emitters import emits_light
+    from .materials import kernel_materials
+    return not emits_light(arrays, kernel_materials(arrays.materials))
 
 
 class Session:
     """Owns the Renderer of one engine instance.  Without persistent data every render builds
     a fresh one and frees it at the end.  With Blender's persistent data
     (render.use_persistent_data) the Renderer stays: an unchanged scene re-renders without
-    re-export, BVH build or program build; changed lights, materials or camera keep the BVH;
-    changed geometry builds anew."""
+    re-export, BVH build or program build (also when only our settings changed); changed
+    lights, materials or camera keep the BVH; moved or deformed geometry with the same
+    triangles refits it; other geometry changes build anew.  A scene that emits nothing gets a
+    black image and a warning, with no device work at all."""
 
     def __init__(self):
         self.renderer = None
@@ -77,30 +88,41 @@ class Session:
         self.written_passes = 0     # passes of the current renderer whose image is in the result
 
     def _prepare(self, engine, depsgraph, options):
-        """The SceneArrays and a Renderer ready for pass 1, reusing what persistent data may."""
+        """The SceneArrays and a Renderer ready for pass 1 (None for a scene that emits
+        nothing), reusing what persistent data may."""
         from .export import export_scene
         from .renderer import Renderer
         persistent = bool(depsgraph.scene.render.use_persistent_data)
-        key = _render_key(depsgraph, options) if persistent else None
-        log = {"persistent": persistent, "exported": True, "bvh_built": True}
+        key = _render_key(depsgraph) if persistent else None
+        log = {"persistent": persistent, "exported": True, "bvh_built": False,
+               "bvh_refit": False, "dark": False}
         t0 = time.perf_counter()
-        if persistent and self.renderer is not None and key == self.key \
-                and not _scene_changed(depsgraph) and self.renderer.can_reuse(options):
+        if persistent and self.arrays is not None and key == self.key \
+                and not _scene_changed(depsgraph):
             arrays = self.arrays
-            log["exported"] = log["bvh_built"] = False
-            self.renderer.reset(options)
+            log["exported"] = False
         else:
             engine.update_stats("", "Exporting scene")
             arrays = export_scene(depsgraph, engine)
-            if persistent and self.renderer is not None and self.renderer.can_reuse(options, arrays):
-                log["bvh_built"] = False
-                self.renderer.reset(options, arrays)
-            else:
-                engine.update_stats("", "Building kernels, uploading scene, building BVH")
-                self.free()
-                self.renderer = Renderer(arrays, options)
-                for w in self.renderer.warnings:     # what the device copy of the scene dropped
-                    engine.report({'WARNING'}, w)
+        r = self.renderer
+        if emits_nothing(arrays):
+            engine.report({'WARNING'}, "The scene emits no light (no light with power, no "
+                                       "emissive material, a black world): the image is black")
+            self.free()
+            log["dark"] = True
+        elif persistent and r is not None and r.can_reuse(options, arrays):
+            r.reset(options, None if arrays is self.arrays else arrays)
+        elif persistent and r is not None and options.device == r.options.device \
+                and r.refit(arrays):
+            log["bvh_refit"] = True
+            r.reset(options)
+        else:
+            engine.update_stats("", "Building kernels, uploading scene, building BVH")
+            self.free()
+            self.renderer = Renderer(arrays, options)
+            log["bvh_built"] = True
+            for w in self.renderer.warnings:     # what the device copy of the scene dropped
+                engine.report({'WARNING'}, w)
         self.arrays, self.key = arrays, key
         log["setup_s"] = time.perf_counter() - t0
         render_log.append(log)
@@ -129,7 +151,10 @@ class Session:
                                f"Blender's render result is {result.resolution_x}x"
                                f"{result.resolution_y}")
             self.written_passes = 0
-            self._passes(engine, result, options)
+            if self.renderer is None:         # emits nothing: black, no device work
+                self._write_black(engine, result, w, h)
+            else:
+                self._passes(engine, result, options)
         except PPMError as e:
             error = str(e)
         except Exception as e:  # a bug: say so briefly, keep the traceback for the console
@@ -189,6 +214,20 @@ class Session:
             render_log[-1]["passes"] = r.passes_done
         if cancelled:
             engine.update_stats("", f"Cancelled after pass {r.passes_done}")
+
+    def _write_black(self, engine, result, w: int, h: int) -> None:
+        """Combined black and opaque; the other passes zero."""
+        for name, channels, *_ in RENDER_PASSES:
+            p = result.layers[0].passes.get(name)
+            if p is None:
+                continue
+            a = np.zeros((w * h, channels), np.float32)
+            if name == "Combined":
+                a[:, 3] = 1.0
+            p.rect.foreach_set(a.ravel())
+        engine.update_result(result)
+        engine.update_progress(1.0)
+        engine.update_stats("", "The scene emits no light: black image")
 
     def _write(self, engine, result) -> None:
         passes = result.layers[0].passes

@@ -134,6 +134,33 @@ def test_bvh_axis_parallel_rays_equal_brute_force(device):
     np.testing.assert_allclose(t[both], t_ref[both], atol=1e-5)
 
 
+def test_bvh_refit_equals_a_fresh_build(device):
+    """A refitted BVH answers ray queries exactly as a BVH built from the moved triangles."""
+    from ppm_engine.procedural import cornell_box
+    dev = device
+    scene = cornell_box(8, 8)
+    bvh = BVH(dev, scene)
+    pos = scene.positions.copy()
+    pos[-24:] += np.float32([0.05, -0.1, 0.0])               # the short box moved
+    moved = scene.replace(positions=pos)
+    assert bvh.refit(moved)
+    assert 0.9 < bvh.cost / bvh.built_cost < BVH.REFIT_MAX_COST     # a small move: a tree as good
+    fresh = BVH(dev, moved)
+    rng = np.random.default_rng(1)
+    o = rng.uniform(-0.9, 0.9, (4000, 3)) + [0, 0, 1]
+    d = rng.normal(size=(4000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    t1, i1 = _trace(dev, bvh, o, d, np.full(4000, 1e30))
+    t2, i2 = _trace(dev, fresh, o, d, np.full(4000, 1e30))
+    np.testing.assert_allclose(t1, t2, rtol=1e-6)
+    assert (i1 == i2).mean() > 0.99         # the rest: ties on the shared edge of a quad's halves
+    far = pos.copy()
+    far[-24:] += np.float32([40.0, 0, 0])                   # the box 40 m away: refused
+    assert not bvh.refit(scene.replace(positions=far))
+    t3, _ = _trace(dev, bvh, o, d, np.full(4000, 1e30))     # and the BVH is left as it was
+    np.testing.assert_allclose(t3, t1, rtol=1e-6)
+
+
 def test_bvh_visibility_mask(device):
     rng = np.random.default_rng(7)
     scene = _random_scene(rng, 500)

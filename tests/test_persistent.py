@@ -26,14 +26,27 @@ def test_persistent_data_reuses_only_what_did_not_change(bpy, example_blend, tin
     assert log[2]["exported"] is True and log[2]["bvh_built"] is False
     assert brighter.mean() == pytest.approx(2 * first.mean(), rel=0.02)        # not the old one
 
-    scene.ppm.passes = 5                                                        # our settings
+    scene.ppm.passes = 5                                   # our settings: no re-export at all
     render_exr(tmp_path / "d.exr")
-    assert log[3]["exported"] is True and log[3]["bvh_built"] is False
+    assert log[3]["exported"] is False and log[3]["bvh_built"] is False
+    assert log[3]["passes"] == 5
 
-    bpy.data.objects["TallBox"].location.x += 0.1                               # geometry moved
-    render_exr(tmp_path / "e.exr")
-    assert log[4]["bvh_built"] is True
+    bpy.data.objects["TallBox"].location.x += 0.1          # moved: the same triangles, refitted
+    moved = render_exr(tmp_path / "e.exr")
+    assert log[4]["exported"] is True and log[4]["bvh_refit"] is True
+    assert log[4]["bvh_built"] is False
 
-    scene.render.use_persistent_data = False
-    render_exr(tmp_path / "f.exr")
+    scene.render.use_persistent_data = False               # the same scene, built from scratch
+    fresh = render_exr(tmp_path / "f.exr")
     assert log[5] == {**log[5], "persistent": False, "exported": True, "bvh_built": True}
+    assert moved.mean() == pytest.approx(fresh.mean(), rel=0.03)
+
+    scene.render.use_persistent_data = True
+    render_exr(tmp_path / "g.exr")
+    bpy.data.objects["TallBox"].location.x += 5.0          # far out of the box: refit too slow
+    render_exr(tmp_path / "h.exr")
+    assert log[7]["bvh_refit"] is False and log[7]["bvh_built"] is True
+    bpy.ops.mesh.primitive_cube_add(size=0.2, location=(0, 0, 1))   # new triangles: rebuild
+    render_exr(tmp_path / "i.exr")
+    assert log[8]["bvh_built"] is True
+

@@ -109,3 +109,49 @@ def test_specialised_kernels_render_the_same_image(name):
         r.close()
     assert imgs[0][..., :3].mean() > 0
     np.testing.assert_allclose(imgs[0], imgs[1], rtol=1e-4, atol=1e-6)
+
+
+def _phases(scene, passes=2, **opts):
+    r = Renderer(scene, RenderOptions(photons_per_pass=1024, **opts))
+    stats = [r.iterate() for _ in range(passes)]
+    img = r.image()
+    r.close()
+    return stats[-1], img
+
+
+def test_no_photon_pass_without_bounces_or_diffuse_surfaces():
+    s, _ = _phases(cornell_box(16, 16), max_bounces=0)        # direct light only
+    assert set(s.phase_ms) == {"eye", "grid"} and s.photons_emitted == 0
+    mb = MeshBuilder()                                        # only a mirror and glass
+    mb.quad((0, 0, 0), (1, 0, 0), (0, 1, 0),
+            mb.material("mirror", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.0))
+    mb.sphere((0, 0, 0.5), 0.3, mb.material("glass", (1, 1, 1), transmission=1.0,
+                                            roughness=0.0), 12, 6)
+    cam = make_camera(width=16, height=16, to_world=look_at((0, -3, 2), (0, 0, 0)),
+                      extent=perspective_extent(16, 16, 35, 36)[:2])
+    s, img = _phases(mb.build(camera=cam, lights=_light(LIGHT_POINT, (10, 10, 10)),
+                              world=(0.1, 0.1, 0.1)))
+    assert set(s.phase_ms) == {"eye", "grid"} and s.visible_points == 0
+    assert img[..., :3].mean() > 0                            # the world, seen in the mirror
+    s, _ = _phases(cornell_box(16, 16))                      # the normal case has them all
+    assert set(s.phase_ms) == {"eye", "grid", "photon", "hash", "gather", "update"}
+
+
+def test_photons_nobody_sees_are_not_stored():
+    """Photons landing outside the visible points' grid are counted, not stored or hashed."""
+    scene = _room(_light(LIGHT_POINT, (30, 30, 30), position=(0, 0, 0.5)))
+    cam = scene.camera.copy()                                # look at one corner of the floor
+    cam["to_world"] = look_at((0.6, 0.6, 0.6), (0.8, 0.8, 0.0))[:3]
+    s, _ = _phases(scene.replace(camera=cam))
+    assert s.photons_outside > 2 * s.photons_stored > 0
+
+
+def test_lights_without_power_are_never_sampled():
+    """A zero-power light takes no photons and no light samples: the image is exactly the one
+    without it (same random streams)."""
+    point = _light(LIGHT_POINT, (10, 10, 10))
+    dark = np.concatenate([_light(LIGHT_SUN, (0, 0, 0)), point, _light(LIGHT_AREA_RECT, (0, 0, 0))])
+    a = _phases(_room(point), passes=3, seed=2, exact_gather=True)[1]
+    b = _phases(_room(dark), passes=3, seed=2, exact_gather=True)[1]
+    assert a[..., :3].mean() > 0
+    np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)

@@ -134,6 +134,18 @@ class Device:
                               f"'{self.info.name}': {e}") from e
 
     # -- library primitives, built once per device -------------------------------------------------
+    def box_area_sum(self):
+        """pyopencl ReductionKernel: the summed surface area of boxes (lo[i], hi[i]) (float4)."""
+        if "box_area" not in self._algorithms:
+            from pyopencl.reduction import ReductionKernel
+            self._algorithms["box_area"] = ReductionKernel(
+                self.context, np.float32, neutral="0", reduce_expr="a+b",
+                map_expr="box_area(lo[i], hi[i])", arguments="__global const float4 *lo, "
+                "__global const float4 *hi",
+                preamble="float box_area(float4 a, float4 b) { float4 d = fmax(b - a, 0.0f); "
+                         "return 2.0f * (d.x * d.y + d.y * d.z + d.z * d.x); }")
+        return self._algorithms["box_area"]
+
     def radix_sort_uint_pairs(self):
         """pyopencl's RadixSort of (uint key, uint value) pairs."""
         if "radix_uu" not in self._algorithms:
