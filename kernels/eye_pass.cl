@@ -22,10 +22,14 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
                        __global float4 *direct, __global float *radius,
                        __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
                        __global uint *counters, __global float4 *aux_albedo,
-                       __global float4 *aux_normal) {
+                       __global float4 *aux_normal, __global const uint *active) {
     int id = get_global_id(0);
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;
+    if (!active[id]) {               /* converged (adaptive sampling): no visible point */
+        vp_pos[id] = (float4)(0.0f);
+        return;
+    }
     int i = id % rw, j = id / rw;
     uint rng = rng_seed(seed, pass, (uint)id, 1u);
     /* pixel jitter: the R2 sequence (Roberts 2018) over the passes, rotated per pixel
@@ -90,7 +94,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
 #endif
     }
     vp_pos[id] = vp;
-    /* this pass's sample (the film adds it to its sums, progressive.cl film_add_direct);
+    /* this pass's sample (the film adds it to its sums, progressive.cl film_add_sample);
      * NaN/Inf guard: drop the sample, count it (render stats) */
     bool ok = isfinite(L.x) && isfinite(L.y) && isfinite(L.z);
     direct[id] = ok ? (float4)(L, 1.0f) : (float4)(0.0f);

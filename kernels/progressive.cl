@@ -63,14 +63,16 @@ __kernel void progressive_update(__global const float4 *vp_pos, __global const f
 
 /* The renderer's update: N and R as above, S += Phi / R^2 (old R) into the accumulator.
  * A radius whose square underflows (or a contribution that overflows) leaves the pixel as it
- * is: nothing non-finite ever enters the sums. */
+ * is: nothing non-finite ever enters the sums.  gathered[id] is overwritten with this pass's
+ * photon term (Phi / R^2, 0 when none) for film_add_sample. */
 __kernel void film_update(__global const float4 *vp_pos, __global const float4 *vp_beta,
-                          __global const float4 *gathered, __global float *radius,
+                          __global float4 *gathered, __global float *radius,
                           __global float *nstat, __global float4 *photon_sum, float alpha,
                           uint n) {
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 g = gathered[id];
+    gathered[id] = (float4)(0.0f);
     if (vp_pos[id].w <= 0.0f || !(g.w > 0.0f)) return;
     float3 phi = vp_beta[id].xyz * g.xyz;
     float N = nstat[id], R = radius[id];
@@ -87,24 +89,68 @@ __kernel void film_update(__global const float4 *vp_pos, __global const float4 *
     nstat[id] = N;
     radius[id] = R;
     acc_add(photon_sum, id, (float4)(add, 0.0f));
+    gathered[id] = (float4)(add, 0.0f);
 }
 
-/* direct += this pass's (L, 1) (the eye pass writes (0, 0) for a dropped NaN/Inf sample) */
-__kernel void film_add_direct(__global const float4 *direct_pass, __global float4 *direct,
-                              uint n) {
+/* End of a pass, per active pixel: direct += this pass's (L, 1) (the eye pass writes (0, 0)
+ * for a dropped NaN/Inf sample) and moments += (y, y^2, photons, 1), y the luminance of this
+ * pass's sample of the pixel (direct + photon term / (pi photons)): the pixel's own photon
+ * count (for film_resolve) and its noise (film_error).  photons: emitted this pass (0: no
+ * photon pass, gathered is not read). */
+__kernel void film_add_sample(__global const float4 *direct_pass, __global const float4 *gathered,
+                              __global const uint *active, uint photons,
+                              __global float4 *direct, __global float4 *moments, uint n) {
     uint id = get_global_id(0);
-    if (id >= n) return;
+    if (id >= n || !active[id]) return;
     float4 v = direct_pass[id];
     if (v.w > 0.0f) acc_add(direct, id, v);
+    float y = luminance(v.xyz);
+    if (photons) y += luminance(gathered[id].xyz) * (1.0f / (PPM_PI * (float)photons));
+    acc_add(moments, id, (float4)(y, y * y, (float)photons, 1.0f));
 }
 
-/* inv_pi_emitted = 1 / (pi * photons emitted so far), computed in double on the host */
+/* The per-pixel image: direct mean + S / (pi x the photons emitted while the pixel was
+ * active), the latter in moments.z (a pixel that converged keeps its value). */
 __kernel void film_resolve(__global const float4 *direct, __global const float4 *photon_sum,
-                           float inv_pi_emitted, __global float4 *image, uint n) {
+                           __global const float4 *moments, __global float4 *image, uint n) {
     uint id = get_global_id(0);
     if (id >= n) return;
     acc4 d = acc_get(direct, id);
     acc4 c = d.w > 0 ? d / d.w : (acc4)(0);
-    if (inv_pi_emitted > 0.0f) c += acc_get(photon_sum, id) * inv_pi_emitted;
+    acc4 m = acc_get(moments, id);
+    if (m.z > 0) c += acc_get(photon_sum, id) / (m.z * PPM_PI);
     image[id] = (float4)(convert_float3(c.xyz), 1.0f);
+}
+
+/* Adaptive sampling, step 1: each pixel's estimated error, the standard error of its mean
+ * over passes relative to the square root of its brightness (as Cycles' adaptive sampling:
+ * dark pixels need less absolute precision), 0 before min_passes. */
+__kernel void film_error(__global const float4 *moments, uint min_passes,
+                         __global float *error, uint n) {
+    uint id = get_global_id(0);
+    if (id >= n) return;
+    acc4 m = acc_get(moments, id);
+    float k = (float)m.w;
+    if (k < (float)max(min_passes, 2u)) { error[id] = INFINITY; return; }
+    float mean = (float)(m.x / m.w);
+    float var = fmax((float)((m.y - m.x * m.x / m.w) / (m.w - 1)), 0.0f);
+    error[id] = sqrt(var / k) / sqrt(fmax(mean, 1e-4f));
+}
+
+/* Step 2: a pixel stays active while any pixel of its 3x3 neighbourhood is above the threshold
+ * (an isolated lucky pixel does not stop early); counts the active pixels. */
+__kernel void film_converge(__global const float *error, int width, int height, float threshold,
+                            __global uint *active, __global uint *counters, uint counter) {
+    int id = get_global_id(0);
+    if (id >= width * height) return;
+    if (!active[id]) return;
+    int x = id % width, y = id / width;
+    float e = 0.0f;
+    for (int dy = -1; dy <= 1; dy++)
+        for (int dx = -1; dx <= 1; dx++) {
+            int xx = clamp(x + dx, 0, width - 1), yy = clamp(y + dy, 0, height - 1);
+            e = fmax(e, error[yy * width + xx]);
+        }
+    if (e > threshold) atomic_inc(&counters[counter]);
+    else active[id] = 0u;
 }

@@ -536,8 +536,9 @@ def run_phases(scene_name: str, resolution: int = 256, passes: int = 8, warmup: 
         r.iterate()
     rows = [r.iterate() for _ in range(passes)]
     r.close()
-    labels = ["eye", "grid", "photon", "hash", "gather", "update"]
-    mean = {k: float(np.mean([s.phase_ms.get(k, 0.0) for s in rows])) for k in labels}
+    labels = ["eye", "grid", "photon", "hash", "gather", "update", "adaptive"]
+    mean = {k: float(np.mean([s.phase_ms.get(k, 0.0) for s in rows])) for k in labels
+            if any(k in s.phase_ms for s in rows)}
     total = sum(mean.values())
     return {"scene": scene_name, "resolution": resolution, "passes": passes, "warmup": warmup,
             "photons_per_pass": r.photons_per_pass, "device": r.device.info.name,

@@ -2,10 +2,11 @@
 
     python -m ppm_engine render SCENE.blend -o OUT.png|OUT.exr [--passes N] [--time-limit S]
                                 [--resolution WxH] [--device NAME] [--photons N] [--seed N]
+                                [--noise-threshold T]
     python -m ppm_engine devices
     python -m ppm_engine example NAME OUT.blend
     python -m ppm_engine bench [--quick] [--times S ...] [--resolution N] [--micro]
-                               [--phases SCENE] (docs/BENCHMARKS.md)
+                               [--phases SCENE] [--skips] (docs/BENCHMARKS.md)
 
 The .blend is treated as untrusted: it is opened without running its embedded scripts.
 Errors print one line on stderr and exit with 1 (failed) or 2 (bad arguments or settings).
@@ -68,6 +69,8 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--photons", type=int, help="photons per pass (default: the file's setting, "
                    "normally automatic: one per pixel)")
     r.add_argument("--seed", type=int, help="random seed")
+    r.add_argument("--noise-threshold", type=float, metavar="T",
+                   help="adaptive sampling: stop pixels whose noise is below T (0 = off)")
 
     sub.add_parser("devices", help="list the OpenCL devices")
 
@@ -87,6 +90,8 @@ def _build_parser() -> argparse.ArgumentParser:
     b.add_argument("--device", default="", help="OpenCL device for our engine")
     b.add_argument("--quick", action="store_true", help="tiny sizes (seconds): what CI runs")
     b.add_argument("--micro", action="store_true", help="the micro benchmarks instead")
+    b.add_argument("--skips", action="store_true",
+                   help="what each skip of work a scene does not need saves, with and without")
     b.add_argument("--phases", metavar="SCENE", help="per-phase breakdown of a pass of SCENE")
     b.add_argument("--passes", type=int, default=8, help="--phases: timed passes (default 8)")
     b.add_argument("--json", metavar="PATH", help="JSON output (default docs/bench/bench.json, "
@@ -156,7 +161,8 @@ def cmd_render(args) -> int:
         raise CLIError(f"output folder does not exist: {out.parent}")
     overrides = {name: value for name, value in (
         ("passes", args.passes), ("time_limit", args.time_limit),
-        ("photons_per_pass", args.photons), ("seed", args.seed)) if value is not None}
+        ("photons_per_pass", args.photons), ("seed", args.seed),
+        ("noise_threshold", args.noise_threshold)) if value is not None}
     RenderOptions().replace(**overrides).validate()      # refuse bad values before loading Blender
 
     import bpy
@@ -215,7 +221,7 @@ def _replace_block(path: Path, name: str, text: str) -> None:
 def cmd_bench(args) -> int:
     """python -m ppm_engine bench [--quick] [--micro | --phases SCENE] ..."""
     from . import bench
-    needed = ("OpenEXR", "matplotlib") if not (args.micro or args.phases) else ()
+    needed = ("OpenEXR", "matplotlib") if not (args.micro or args.phases or args.skips) else ()
     missing = [m for m in needed if importlib.util.find_spec(m) is None]
     if missing:
         raise CLIError(f"the benchmark needs {' and '.join(missing)}: pip install -e \".[bench]\" "
@@ -237,6 +243,17 @@ def cmd_bench(args) -> int:
         bench.write_json(m, args.json or _DOCS / "bench" / "micro.json")
         _replace_block(md_path, "micro", f"`{cmdline}`\n\n```\n{bench_micro.format_micro(m)}\n"
                                          f"```\n\n{bench_micro.targets_table(m)}")
+        return 0
+    if args.skips:
+        from . import bench_skips
+        _ensure_registered()
+        s = bench_skips.run_skips(args.device, quick=args.quick, progress=progress)
+        s["machine"] = bench.machine_info(args.device)
+        s["command"] = cmdline
+        text = bench_skips.format_skips(s)
+        print(text)
+        bench.write_json(s, args.json or _DOCS / "bench" / "skips.json")
+        _replace_block(md_path, "skips", f"`{cmdline}`\n\n{text}")
         return 0
     if args.phases:
         from .scenes import EXAMPLES

@@ -17,12 +17,16 @@ def has_fp64(device) -> bool:
 
 class Film:
     """Per pixel: the sums direct (rgb, sample count) and S = sum of Phi_i / R_i^2 (the paper's
-    tau / R^2), N and R; photons emitted on the host (a Python int, exact).
+    tau / R^2), N and R, the moments of its per-pass samples (for its own photon count and its
+    noise) and whether it is still sampled; photons emitted in all on the host (a Python int).
 
     The sums are 32 bytes per pixel: double4 where the device has cl_khr_fp64, else a float4
     sum and its Neumaier compensation (``fp64=False`` forces that path; kernels/progressive.cl).
     A float32 sum would lose ~1e-5 of a constant pixel in 2,000 passes and ~1e-4 in 10,000
-    (docs/STABILITY.md).  The eye pass writes each pass's sample to ``direct_pass``."""
+    (docs/STABILITY.md).  The eye pass writes each pass's sample to ``direct_pass``.
+
+    A pixel's photon term is S / (pi x the photons emitted while it was active), so a pixel
+    that adaptive sampling stopped keeps its value while the others go on."""
 
     def __init__(self, device, width: int, height: int, fp64: bool | None = None):
         import pyopencl as cl
@@ -36,37 +40,60 @@ class Film:
         self.nstat = device.buffer(4 * n, "film (N)")
         self.radius = device.buffer(4 * n, "film (radius)")
         self.image_buf = device.buffer(16 * n, "film (image)")
+        # per pixel: (sum y, sum y^2, photons emitted while active, passes) of its samples y
+        # (progressive.cl film_add_sample); 1 while the pixel is sampled (adaptive sampling)
+        self.moments = device.buffer(32 * n, "film (moments)")
+        self.active = device.buffer(4 * n, "film (active pixels)")
+        self.error = device.buffer(4 * n, "film (error)")
         # denoising passes (eye_pass.cl adds (value, 1) at each visible point)
         self.aux_albedo = device.buffer(16 * n, "film (denoising albedo)")
         self.aux_normal = device.buffer(16 * n, "film (denoising normal)")
         for b, size in ((self.direct_pass, 16), (self.direct, 32), (self.photon_sum, 32),
                         (self.nstat, 4), (self.radius, 4), (self.aux_albedo, 16),
-                        (self.aux_normal, 16)):
+                        (self.aux_normal, 16), (self.moments, 32)):
             cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
+        cl.enqueue_fill_buffer(device.queue, self.active, np.uint32(1), 0, 4 * n)
         self.photons_emitted = 0      # Python int: exact at any count
         self.prog = device.programs.get("progressive.cl", {"PPM_FP64": True} if self.fp64 else {})
 
-    def add_direct(self, q, wait_for=None):
-        """Enqueue direct += direct_pass (after each eye pass); returns the event."""
-        n = self.n_pixels
-        return self.prog.film_add_direct(q, (_round(n),), None, self.direct_pass, self.direct,
-                                         np.uint32(n), wait_for=wait_for)
-
     def update(self, q, vp_pos, vp_beta, gathered, alpha: float, wait_for=None):
-        """Enqueue the progressive update (N, R, S) from this pass's gather; returns the event."""
+        """Enqueue the progressive update (N, R, S) from this pass's gather; returns the event.
+        Leaves this pass's photon term in ``gathered`` for add_sample."""
         n = self.n_pixels
         return self.prog.film_update(q, (_round(n),), None, vp_pos, vp_beta, gathered,
                                      self.radius, self.nstat, self.photon_sum, np.float32(alpha),
                                      np.uint32(n), wait_for=wait_for)
 
+    def add_sample(self, q, gathered=None, photons: int = 0, wait_for=None):
+        """Enqueue the end of a pass: this pass's direct sample (``direct_pass``) into the sums
+        and the pass's sample (direct + photon term of ``gathered`` over ``photons`` emitted)
+        into the per-pixel moments, for active pixels; returns the event."""
+        n = self.n_pixels
+        self.photons_emitted += photons
+        return self.prog.film_add_sample(q, (_round(n),), None, self.direct_pass,
+                                         gathered if gathered is not None else self.direct_pass,
+                                         self.active, np.uint32(photons), self.direct,
+                                         self.moments, np.uint32(n), wait_for=wait_for)
+
+    def converge(self, q, threshold: float, min_passes: int, counters, counter: int,
+                 wait_for=None):
+        """Adaptive sampling: pixels whose 3x3 neighbourhood's estimated error is at most
+        ``threshold`` stop being sampled; counters[counter] += the pixels still active."""
+        n = self.n_pixels
+        e1 = self.prog.film_error(q, (_round(n),), None, self.moments, np.uint32(min_passes),
+                                  self.error, np.uint32(n), wait_for=wait_for)
+        return self.prog.film_converge(q, (_round(n),), None, self.error, np.int32(self.width),
+                                       np.int32(self.height), np.float32(threshold),
+                                       self.active, counters, np.uint32(counter),
+                                       wait_for=[e1])
+
     def resolve(self, wait_for=None):
         """Enqueue the resolve; returns (event, host array (h, w, 4) float32, row 0 = bottom)."""
         import pyopencl as cl
         q = self.device.queue
-        inv = 1.0 / (np.pi * self.photons_emitted) if self.photons_emitted else 0.0
         n = self.n_pixels
         ev = self.prog.film_resolve(q, (_round(n),), None, self.direct, self.photon_sum,
-                                    np.float32(inv), self.image_buf, np.uint32(n),
+                                    self.moments, self.image_buf, np.uint32(n),
                                     wait_for=wait_for)
         out = np.empty((self.height, self.width, 4), np.float32)
         ev2 = cl.enqueue_copy(q, out, self.image_buf, wait_for=[ev], is_blocking=False)

@@ -29,6 +29,9 @@ LIMITS = {
               "Fraction of new photons kept per pass; smaller shrinks the radius faster"),
     "max_bounces": (0, 1024, 12, "Maximum bounces of eye and photon paths"),
     "seed": (0, 2**31 - 1, 0, "Random seed"),
+    "noise_threshold": (0.0, 1.0, 0.0,
+                        "Stop sampling a pixel once its estimated noise is below this (as Cycles' "
+                        "adaptive sampling; 0 = off); the render ends when every pixel has"),
 }
 
 
@@ -51,6 +54,7 @@ class RenderOptions:
     alpha: float = LIMITS["alpha"][2]
     max_bounces: int = LIMITS["max_bounces"][2]
     seed: int = LIMITS["seed"][2]
+    noise_threshold: float = LIMITS["noise_threshold"][2]
     device: str = ""               # OpenCL device name (substring); "" = default choice
     exact_gather: bool = False     # debug/reference mode: gather every photon, not the stochastic map
     specialize: bool = True        # kernels built for the scene's features (False: all; benchmark)

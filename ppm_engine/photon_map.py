@@ -12,9 +12,9 @@ GRID_DTYPE = np.dtype([
     ("valid", np.uint32), ("pad", np.uint32),
 ])
 
-# counters shared by the passes (kernels/photon_pass.cl CNT_*, hash_build.cl [4]; [7] is the
-# hash build's prefetch sink, never read)
-CNT_NAN, CNT_STORED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_OCCUPIED = range(5)
+# counters shared by the passes (kernels/photon_pass.cl CNT_*, hash_build.cl [4], the film's
+# adaptive sampling [5]; [7] is the hash build's prefetch sink, never read)
+CNT_NAN, CNT_STORED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_OCCUPIED, CNT_ACTIVE = range(6)
 N_COUNTERS = 8
 
 

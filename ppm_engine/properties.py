@@ -80,6 +80,8 @@ class PPMSettings(bpy.types.PropertyGroup):
     alpha: _float("alpha", label="Alpha", subtype="FACTOR", soft_min=0.01, soft_max=0.99)
     max_bounces: _int("max_bounces", label="Max Bounces", soft_max=64)
     seed: _int("seed", label="Seed")
+    noise_threshold: _float("noise_threshold", label="Noise Threshold", soft_max=0.1,
+                            precision=4, step=0.1)
     device: EnumProperty(
         name="Device",
         description="OpenCL device that renders (Default: a GPU if present, else the PoCL CPU device)",
@@ -98,6 +100,7 @@ def to_options(settings) -> RenderOptions:
         alpha=float(settings.alpha),
         max_bounces=int(settings.max_bounces),
         seed=int(settings.seed),
+        noise_threshold=float(settings.noise_threshold),
         device="" if device in ("", DEFAULT_DEVICE) else device,
     ).validate()
 

@@ -20,7 +20,7 @@ from .features import defines as feature_defines, scene_features
 from .film import Film, filter_table
 from .materials import MAT_DIFFUSE, kernel_materials
 from .options import RenderOptions
-from .photon_map import (CNT_NAN, CNT_OCCUPIED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_STORED,
+from .photon_map import (CNT_ACTIVE, CNT_NAN, CNT_OCCUPIED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_STORED,
                          GRID_DTYPE, N_COUNTERS, PhotonMap)
 from .scene_arrays import LIGHT_DTYPE, SceneArrays
 
@@ -39,6 +39,13 @@ class PassStats:
     nan_dropped: int           # total NaN/Inf contributions dropped by the kernel guards
     seconds: float             # wall time of this pass
     phase_ms: dict             # device time per phase
+    active_pixels: int = 0     # pixels still sampled (adaptive sampling: 0 = all converged)
+    pixels: int = 0
+
+    @property
+    def converged(self) -> bool:
+        """Adaptive sampling stopped every pixel: more passes would change nothing."""
+        return self.pixels > 0 and self.active_pixels == 0
 
     @property
     def photons_per_entry(self) -> float:
@@ -62,6 +69,8 @@ class PassStats:
                 left.append(max(time_limit - elapsed, 0.0))
             if left:
                 s += f" · {min(left):.0f} s left"
+        if self.pixels and self.active_pixels < self.pixels:
+            s += f" · {100 * (1 - self.active_pixels / self.pixels):.0f} % converged"
         if self.nan_dropped:
             s += f" · {self.nan_dropped} NaN/Inf dropped"
         return s
@@ -152,6 +161,10 @@ class Renderer:
     AUTO_RADIUS_PIXELS = 2.0
     # photon buffer capacity per emitted photon (grows when a pass overflows)
     STORE_FACTOR = 2
+    # adaptive sampling (options.noise_threshold > 0): pixels are judged from this many passes
+    # on, every ADAPTIVE_EVERY passes
+    ADAPTIVE_MIN_PASSES = 32
+    ADAPTIVE_EVERY = 8
 
     def __init__(self, scene: SceneArrays, options: RenderOptions):
         import pyopencl as cl
@@ -181,6 +194,7 @@ class Renderer:
         self.photons_needed = self._photons_needed()
         self.passes_done = 0
         self.nan_dropped = 0
+        self.active_pixels = self.n_pixels
         self.setup_seconds = time.perf_counter() - t0
         self.queue.finish()
 
@@ -280,6 +294,7 @@ class Renderer:
         self.photons_needed = self._photons_needed()
         self.passes_done = 0
         self.nan_dropped = 0
+        self.active_pixels = self.n_pixels
         self.queue.finish()
 
     def _allocate_pixels(self):
@@ -315,8 +330,7 @@ class Renderer:
             np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct_pass,
             self.film.radius,
             self.vp_pos, self.vp_nrm, self.vp_beta, self.counters, self.film.aux_albedo,
-            self.film.aux_normal)
-        events.append(("eye", self.film.add_direct(q)))
+            self.film.aux_normal, self.film.active)
         pm = self.photon_map
         events += pm.enqueue_grid(q, self.vp_pos, self.film.radius, n)
         emitted = 0
@@ -331,14 +345,21 @@ class Renderer:
                                         self.gathered, n)
             events.append(("update", self.film.update(q, self.vp_pos, self.vp_beta,
                                                       self.gathered, o.alpha)))
+        events.append(("update", self.film.add_sample(q, self.gathered, emitted)))
+        converge = (o.noise_threshold > 0 and self.passes_done + 1 >= self.ADAPTIVE_MIN_PASSES
+                    and (self.passes_done + 1) % self.ADAPTIVE_EVERY == 0)
+        if converge:
+            events.append(("adaptive", self.film.converge(
+                q, o.noise_threshold, self.ADAPTIVE_MIN_PASSES, self.counters, CNT_ACTIVE)))
         counters = np.empty(N_COUNTERS, np.uint32)
         grid = np.empty(1, GRID_DTYPE)
         cl.enqueue_copy(q, counters, self.counters, is_blocking=False)
         cl.enqueue_copy(q, grid, pm.grid, is_blocking=False)
         q.finish()
 
-        self.film.photons_emitted += emitted
         self.passes_done += 1
+        if converge:
+            self.active_pixels = int(counters[CNT_ACTIVE])
         self.nan_dropped = int(counters[CNT_NAN])
         phase_ms: dict[str, float] = {}
         for label, ev in events:
@@ -351,7 +372,8 @@ class Renderer:
             occupied_entries=int(counters[CNT_OCCUPIED]),
             visible_points=int(grid["valid"][0]), radius_min=float(grid["r_min"][0]),
             radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
-            seconds=time.perf_counter() - t0, phase_ms=phase_ms)
+            seconds=time.perf_counter() - t0, phase_ms=phase_ms,
+            active_pixels=self.active_pixels, pixels=n)
         if overflow:     # this pass lost photons (counted); the next one has room
             pm.allocate(2 * pm.capacity)
         return stats

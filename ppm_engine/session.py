@@ -208,6 +208,8 @@ class Session:
             engine.update_stats("", text)
             for listener in progress_listeners:
                 listener(text)
+            if stats.converged:          # adaptive sampling: every pixel below the threshold
+                break
         if r.passes_done > self.written_passes:
             self._write(engine, result)
         if render_log:

@@ -38,7 +38,8 @@ class PPM_PT_sampling(PPMPanel, bpy.types.Panel):
     bl_label = "Sampling"
 
     def draw(self, context):
-        _draw_props(self.layout, context.scene.ppm, ("passes", "time_limit", "seed"))
+        _draw_props(self.layout, context.scene.ppm,
+                    ("passes", "time_limit", "noise_threshold", "seed"))
 
 
 class PPM_PT_photons(PPMPanel, bpy.types.Panel):

@@ -68,6 +68,21 @@ def test_bench_micro_and_phases_quick(cli, tmp_path):
     assert "<!-- bench:phases -->" in md.read_text()
 
 
+def test_bench_skips_quick(cli, tmp_path):
+    md = tmp_path / "B.md"
+    p = cli("bench", "--skips", "--quick", "--json", tmp_path / "s.json", "--markdown", md)
+    assert p.returncode == 0, p.stderr
+    rows = json.loads((tmp_path / "s.json").read_text())["rows"]
+    skips = {r["skip"] for r in rows}
+    for word in ("specialisation", "emits", "photon pass", "photons nobody", "converged",
+                 "nothing changed", "settings", "moved", "hidden"):
+        assert any(word in k for k in skips), word
+    assert all(r["with"] >= 0 and r["without"] > 0 for r in rows)
+    dark = next(r for r in rows if "emits" in r["skip"])
+    assert dark["with"] < 0.1 * dark["without"]          # no device work at all
+    assert "<!-- bench:skips -->" in md.read_text()
+
+
 def test_bench_refuses_bad_arguments(cli):
     p = cli("bench", "--scenes", "no_such_scene", "--quick")
     assert p.returncode == 2 and "no_such_scene" in p.stderr and "cornell_box" in p.stderr

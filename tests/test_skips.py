@@ -121,7 +121,7 @@ def _phases(scene, passes=2, **opts):
 
 def test_no_photon_pass_without_bounces_or_diffuse_surfaces():
     s, _ = _phases(cornell_box(16, 16), max_bounces=0)        # direct light only
-    assert set(s.phase_ms) == {"eye", "grid"} and s.photons_emitted == 0
+    assert set(s.phase_ms) == {"eye", "grid", "update"} and s.photons_emitted == 0
     mb = MeshBuilder()                                        # only a mirror and glass
     mb.quad((0, 0, 0), (1, 0, 0), (0, 1, 0),
             mb.material("mirror", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.0))
@@ -131,7 +131,7 @@ def test_no_photon_pass_without_bounces_or_diffuse_surfaces():
                       extent=perspective_extent(16, 16, 35, 36)[:2])
     s, img = _phases(mb.build(camera=cam, lights=_light(LIGHT_POINT, (10, 10, 10)),
                               world=(0.1, 0.1, 0.1)))
-    assert set(s.phase_ms) == {"eye", "grid"} and s.visible_points == 0
+    assert set(s.phase_ms) == {"eye", "grid", "update"} and s.visible_points == 0
     assert img[..., :3].mean() > 0                            # the world, seen in the mirror
     s, _ = _phases(cornell_box(16, 16))                      # the normal case has them all
     assert set(s.phase_ms) == {"eye", "grid", "photon", "hash", "gather", "update"}
@@ -155,3 +155,51 @@ def test_lights_without_power_are_never_sampled():
     b = _phases(_room(dark), passes=3, seed=2, exact_gather=True)[1]
     assert a[..., :3].mean() > 0
     np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)
+
+
+def test_adaptive_sampling_stops_converged_pixels_and_keeps_their_value():
+    scene = cornell_box(24, 24)
+    r = Renderer(scene, RenderOptions(photons_per_pass=4096, seed=3, noise_threshold=0.03))
+    active, imgs = [], []
+    for _ in range(400):
+        s = r.iterate()
+        active.append(s.active_pixels)
+        imgs.append((r.image(), r.film.read("active").astype(bool)))
+        if s.converged:
+            break
+    active = np.array(active)
+    assert (active[:Renderer.ADAPTIVE_MIN_PASSES - 1] == 24 * 24).all()   # none before 32 passes
+    assert (np.diff(active) <= 0).all() and active[-1] < 0.5 * 24 * 24     # most stop
+    assert "% converged" in s.line(400)
+    # a pixel that stopped keeps its value; the still active ones keep changing
+    (img_a, act_a), (img_b, act_b) = imgs[-9], imgs[-1]
+    stopped = ~act_a
+    assert stopped.any() and act_b.sum() <= act_a.sum()
+    np.testing.assert_array_equal(img_a[stopped], img_b[stopped])
+    # and the image is the non-adaptive one within noise (stopping pixels adds no bias)
+    full = Renderer(scene, RenderOptions(photons_per_pass=4096, seed=4))
+    for _ in range(len(active)):
+        full.iterate()
+    ref = full.image()[..., :3]
+    assert img_b[..., :3].mean() == pytest.approx(ref.mean(), rel=0.02)
+    r.close()
+    full.close()
+
+
+def test_noise_threshold_off_samples_every_pixel_every_pass():
+    r = Renderer(cornell_box(16, 16), RenderOptions(photons_per_pass=1024))
+    for _ in range(40):
+        s = r.iterate()
+        assert s.active_pixels == 256 and not s.converged and "adaptive" not in s.phase_ms
+    r.close()
+
+
+def test_render_ends_when_every_pixel_converged(bpy, example_blend, tiny, render_exr, tmp_path):
+    from ppm_engine import session
+    bpy.ops.wm.open_mainfile(filepath=str(example_blend("cornell_box")), load_ui=False)
+    scene = bpy.context.scene
+    tiny(scene, width=16, height=16, passes=100000)
+    scene.ppm.noise_threshold = 0.5                  # loose: everything converges quickly
+    img = render_exr(tmp_path / "adaptive.exr")
+    assert Renderer.ADAPTIVE_MIN_PASSES <= session.render_log[-1]["passes"] < 1000
+    assert np.isfinite(img).all() and img[..., :3].mean() > 0

@@ -52,9 +52,8 @@ def _run_direct(device, fp64, passes):
     v = _per_pass_values(passes, 16)
     for i in range(passes):
         cl.enqueue_copy(q, film.direct_pass, v[i], is_blocking=False)
-        film.add_direct(q)
+        film.add_sample(q)
     got = film.read_sum("direct").reshape(16, 4)
-    film.photons_emitted = 0
     img = film.resolve()[1]
     q.finish()
     return v, got, img.reshape(16, 4)
