@@ -33,7 +33,8 @@ inline int choose_lobe(__global const Material *m, float u) {
 
 inline float3 reflect3(float3 d, float3 n) { return d - 2.0f * dot(d, n) * n; }
 
-/* Scatter a ray arriving along d off a specular lobe.  ng, ns: the surface's normals as stored
+/* Scatter a ray arriving along d off a specular lobe (tint: the base colour texture's factor at
+ * the hit).  ng, ns: the surface's normals as stored
  * (ns on the side of ng).  Updates *d, *weight and returns the lobe taken; *leave_n is the
  * geometric normal on the side the new ray leaves to (for offset_ray).
  * Refraction follows Cycles' convention: camera paths (radiance_mode) carry no
@@ -41,8 +42,9 @@ inline float3 reflect3(float3 d, float3 n) { return d - 2.0f * dot(d, n) * n; }
  * flux, so both estimators agree with Cycles -- also for an emitter inside glass, where the
  * physical convention would be eta^2 darker than Cycles.  For paths that start and end in air
  * the factors cancel and the conventions agree. */
-inline int scatter_specular(int lobe, __global const Material *m, float3 ng, float3 ns, float u,
-                            bool radiance_mode, float3 *d, float3 *weight, float3 *leave_n) {
+inline int scatter_specular(int lobe, __global const Material *m, float3 tint, float3 ng,
+                            float3 ns, float u, bool radiance_mode, float3 *d, float3 *weight,
+                            float3 *leave_n) {
     bool front = dot(*d, ng) < 0.0f;           /* arriving on the side ng points to */
     float3 n = front ? ns : -ns;               /* shading normal facing the incoming ray */
     float3 ngf = front ? ng : -ng;
@@ -50,7 +52,7 @@ inline int scatter_specular(int lobe, __global const Material *m, float3 ng, flo
         float3 r = reflect3(*d, n);
         if (dot(r, ngf) <= 0.0f) r = reflect3(*d, ngf);
         *d = normalize(r);
-        *weight *= F3(m->specular);
+        *weight *= F3(m->specular) * tint;
         *leave_n = ngf;
         return LOBE_MIRROR;
     }
@@ -73,7 +75,7 @@ inline int scatter_specular(int lobe, __global const Material *m, float3 ng, flo
     float3 t = *d / eta + (cos_i / eta - cos_t) * n;
     if (dot(t, ngf) >= 0.0f) t = *d;           /* shading normal bent it back: pass straight */
     *d = normalize(t);
-    *weight *= F3(m->transmit);
+    *weight *= F3(m->transmit) * tint;
     if (!radiance_mode) *weight *= 1.0f / (eta * eta);
     *leave_n = -ngf;
     return LOBE_GLASS_TRANSMIT;

@@ -60,19 +60,21 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
         path_len += h.t;
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
         __global const Material *m = materials + s.material;
-        if (m->flags & MAT_EMISSIVE) L += beta * F3(m->emission);
+        if (m->flags & MAT_EMISSIVE)
+            L += beta * F3(m->emission) * emission_tint(m, s.tri, h.u, h.v, TEXTURE_PASS);
+        float3 tint = albedo_tint(m, s.tri, h.u, h.v, TEXTURE_PASS);
         int lobe = choose_lobe(m, rnd(&rng));
         if (lobe == LOBE_ABSORBED) break;
         if (lobe == LOBE_DIFFUSE) {
             bool front = dot(d, s.ng) < 0.0f;
             float3 ngf = front ? s.ng : -s.ng, nsf = front ? s.ns : -s.ns;
-            float3 bvp = beta * F3(m->diffuse) * (1.0f / PPM_PI);
+            float3 bvp = beta * F3(m->diffuse) * tint * (1.0f / PPM_PI);
             L += bvp * direct_lighting(s.p, nsf, ngf, SCENE_PASS, &rng);
             vp = (float4)(s.p, 1.0f);
             vp_nrm[id] = (float4)(nsf, 0.0f);
             vp_beta[id] = (float4)(bvp, 0.0f);
             /* denoising passes: albedo through the specular chain, world-space normal */
-            aux_albedo[id] += (float4)(beta * F3(m->diffuse), 1.0f);
+            aux_albedo[id] += (float4)(beta * F3(m->diffuse) * tint, 1.0f);
             aux_normal[id] += (float4)(nsf, 1.0f);
             if (radius[id] <= 0.0f) {
                 float foot = camera_pixel_size(cam) * (cam->type == CAMERA_ORTHO ? 1.0f : path_len);
@@ -86,7 +88,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
 #else
         if (depth >= max_bounces) break;
         float3 leave_n;
-        lobe = scatter_specular(lobe, m, s.ng, s.ns, rnd(&rng), true, &d, &beta, &leave_n);
+        lobe = scatter_specular(lobe, m, tint, s.ng, s.ns, rnd(&rng), true, &d, &beta, &leave_n);
         o = offset_ray(s.p, leave_n);
         tmax = PPM_INF;
         mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;

@@ -8,7 +8,7 @@
  *   PPM_LIGHT_POINT  point and spot lights      PPM_LIGHT_SUN   sun lights
  *   PPM_LIGHT_AREA   area lights                PPM_EMISSIVE    emissive triangles (and MIS)
  *   PPM_WORLD        an emitting world          PPM_LIGHTS_SEEN lights seen by camera rays
- *   PPM_DOF          depth of field
+ *   PPM_DOF          depth of field             PPM_TEXTURES    image textures
  */
 #ifndef PPM_SPECIALIZED
 #define PPM_SPECULAR 1
@@ -20,5 +20,6 @@
 #define PPM_WORLD 1
 #define PPM_LIGHTS_SEEN 1
 #define PPM_DOF 1
+#define PPM_TEXTURES 1
 #endif
 #endif

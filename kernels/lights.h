@@ -2,12 +2,16 @@
 #define PPM_LIGHTS_H
 #include "bvh.h"
 #include "bsdf.h"
+#include "textures.h"
 
-/* Everything a kernel needs to see the scene: BVH, shading normals, materials, emitters. */
+/* Everything a kernel needs to see the scene: BVH, shading normals, materials, emitters,
+ * textures and UVs. */
 #define SCENE_ARGS BVH_ARGS, __global const float *normals, __global const Material *materials, \
     __global const Light *lights, __global const float *emitter_cdf, __global const int *emissive, \
-    __global const EmitterInfo *emitter_info
-#define SCENE_PASS BVH_PASS, normals, materials, lights, emitter_cdf, emissive, emitter_info
+    __global const EmitterInfo *emitter_info, TEXTURE_ARGS
+#define SCENE_PASS BVH_PASS, normals, materials, lights, emitter_cdf, emissive, emitter_info, \
+    textures, texels, uvs
+#define TEXTURE_PASS textures, texels, uvs
 
 /* Emitter chosen in proportion to its power (cdf built by ppm_engine/emitters.py). */
 inline int pick_emitter(__global const float *cdf, int n, float u, float *pmf) {
@@ -239,7 +243,9 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
         if (!(dist > 0.0f)) return (float3)(0.0f);
         wi = tq / dist;
         float cos_l = fabs(dot(wi, nt));                          /* mesh lights: both sides */
-        E = F3(materials[as_int(e2.w)].emission) * (cos_l * 0.5f * area2 / dq2);
+        __global const Material *me = materials + as_int(e2.w);
+        E = F3(me->emission) * emission_tint(me, as_uint(v0.w), b.x, b.y, TEXTURE_PASS)
+            * (cos_l * 0.5f * area2 / dq2);
         pdf_light = cos_l > 0.0f ? pmf * dq2 / (cos_l * 0.5f * area2) : 0.0f;
     }
 #endif
@@ -286,7 +292,8 @@ inline float3 direct_bsdf(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng)
     if (!(pmf > 0.0f && cos_l > 0.0f)) return (float3)(0.0f);   /* NEE never picks it: 0 power */
     float pdf_light = pmf * h.t * h.t / (cos_l * 0.5f * area2);
     /* f Le cos / pdf_bsdf = (rho/pi) Le pi: in E units (times f) that is Le pi */
-    return F3(m->emission) * (PPM_PI * mis_power(cos_s * (1.0f / PPM_PI), pdf_light));
+    return F3(m->emission) * emission_tint(m, as_uint(tri_v0[h.leaf].w), h.u, h.v, TEXTURE_PASS)
+        * (PPM_PI * mis_power(cos_s * (1.0f / PPM_PI), pdf_light));
 #endif
 }
 
@@ -367,7 +374,9 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
         nt *= side;
         *d = sample_cosine_hemisphere(nt, uu, u4);
         *o = offset_ray(q, nt);
-        *flux = F3(materials[as_int(e2.w)].emission) * (2.0f * PPM_PI * 0.5f * area2 / pmf);
+        __global const Material *me = materials + as_int(e2.w);
+        *flux = F3(me->emission) * emission_tint(me, as_uint(v0.w), b.x, b.y, TEXTURE_PASS)
+                * (2.0f * PPM_PI * 0.5f * area2 / pmf);
     }
 #endif
 #ifdef PPM_WORLD

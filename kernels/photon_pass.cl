@@ -49,16 +49,18 @@ __kernel void photon_pass(SCENE_ARGS, uint pass, uint seed, int max_bounces, uin
         int lobe = choose_lobe(m, rnd(&rng));
         if (lobe == LOBE_ABSORBED) break;
         float3 before = flux;
+        float3 tint = albedo_tint(m, s.tri, h.u, h.v, TEXTURE_PASS);
         if (lobe == LOBE_DIFFUSE) {
             d = sample_cosine_hemisphere(nsf, rnd(&rng), rnd(&rng));
             if (dot(d, ngf) <= 0.0f) break;
-            flux *= F3(m->diffuse);
+            flux *= F3(m->diffuse) * tint;
             o = offset_ray(s.p, ngf);
             mask = VIS_DIFFUSE;
         } else {
 #ifdef PPM_SPECULAR
             float3 leave_n;
-            lobe = scatter_specular(lobe, m, s.ng, s.ns, rnd(&rng), false, &d, &flux, &leave_n);
+            lobe = scatter_specular(lobe, m, tint, s.ng, s.ns, rnd(&rng), false, &d, &flux,
+                                    &leave_n);
             o = offset_ray(s.p, leave_n);
             mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;
 #endif

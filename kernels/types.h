@@ -71,6 +71,8 @@ typedef struct {
     float p_metal;       /* lobe selection probability = mixture weight */
     float p_glass;
     uint flags;
+    int diffuse_tex;     /* 1-based texture of the base colour (kernels/textures.h), 0 = none */
+    int emission_tex;    /* 1-based texture of the emission colour, 0 = none */
 } Material;
 
 /* Emitters for photon emission and next-event estimation, indexed 0..n_emitters-1:

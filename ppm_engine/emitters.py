@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from .materials import mean_emission
 from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_POINT, LIGHT_SPOT,
                            LIGHT_SUN, SceneArrays)
 
@@ -78,7 +79,7 @@ def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
     world = np.nan_to_num(scene.world.astype(np.float64), nan=0.0, posinf=0.0)
     if world.max(initial=0.0) > 0:
         return True
-    emission = kmaterials["emission"].astype(np.float64).max(axis=1)
+    emission = mean_emission(kmaterials, scene.textures, scene.texels).max(axis=1)
     tri = scene.material[(scene.material >= 0) & (scene.material < emission.shape[0])]
     if not (emission[tri] > 0).any():
         return False
@@ -96,7 +97,7 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
 
     # emissive triangles, in leaf order
     mat_of_leaf = scene.material[leaf_order]
-    emission = kmaterials["emission"].astype(np.float64).mean(axis=1)
+    emission = mean_emission(kmaterials, scene.textures, scene.texels).mean(axis=1)
     leaf_em = emission[mat_of_leaf]
     cand = np.nonzero(leaf_em > 0)[0]
     p = scene.positions[leaf_order[cand]].astype(np.float64)

@@ -15,7 +15,7 @@ from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHI
 
 # every flag of kernels/features.h, in its order
 ALL = ("PPM_SPECULAR", "PPM_GLASS", "PPM_LIGHT_POINT", "PPM_LIGHT_SUN", "PPM_LIGHT_AREA",
-       "PPM_EMISSIVE", "PPM_WORLD", "PPM_LIGHTS_SEEN", "PPM_DOF")
+       "PPM_EMISSIVE", "PPM_WORLD", "PPM_LIGHTS_SEEN", "PPM_DOF", "PPM_TEXTURES")
 
 
 def scene_features(scene: SceneArrays, kmaterials: np.ndarray, emitters) -> frozenset:
@@ -57,6 +57,8 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, emitters) -> froz
         f.add("PPM_LIGHTS_SEEN")
     if float(scene.camera["aperture_radius"][0]) > 0:
         f.add("PPM_DOF")
+    if (m["diffuse_tex"] > 0).any() or (m["emission_tex"] > 0).any():
+        f.add("PPM_TEXTURES")
     return frozenset(f)
 
 

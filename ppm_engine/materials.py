@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .scene_arrays import TEX_FLAG_SRGB
+
 # mirrors kernels/types.h Material
 KMATERIAL_DTYPE = np.dtype([
     ("diffuse", np.float32, 3),
@@ -19,11 +21,29 @@ KMATERIAL_DTYPE = np.dtype([
     ("p_metal", np.float32),
     ("p_glass", np.float32),
     ("flags", np.uint32),
+    ("diffuse_tex", np.int32),
+    ("emission_tex", np.int32),
 ])
 MAT_EMISSIVE = 1
 MAT_DIFFUSE = 2
 
 SPECULAR_ROUGHNESS = 0.2
+
+
+def mean_emission(kmaterials: np.ndarray, textures: np.ndarray, texels: np.ndarray) -> np.ndarray:
+    """(M, 3) float64: each material's emitted radiance averaged over its emission texture (the
+    emitter table's power weights; the kernels use the texture per point)."""
+    em = kmaterials["emission"].astype(np.float64)
+    tex = kmaterials["emission_tex"]
+    for k in np.nonzero(tex > 0)[0]:
+        t = textures[tex[k] - 1]
+        n = int(t["width"]) * int(t["height"])
+        rgb = np.nan_to_num(texels[int(t["offset"]):int(t["offset"]) + n, :3].astype(np.float64),
+                            nan=0.0, posinf=0.0).clip(0)
+        if int(t["flags"]) & TEX_FLAG_SRGB:
+            rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((np.minimum(rgb, 1) + 0.055) / 1.055) ** 2.4)
+        em[k] *= rgb.mean(axis=0)
+    return em
 
 
 def kernel_materials(materials: np.ndarray) -> np.ndarray:
@@ -53,4 +73,6 @@ def kernel_materials(materials: np.ndarray) -> np.ndarray:
     flags |= np.where(emission.max(axis=1) > 0, MAT_EMISSIVE, 0).astype(np.uint32)
     flags |= np.where((p_diffuse > 1e-6) & (base.max(axis=1) > 0), MAT_DIFFUSE, 0).astype(np.uint32)
     k["flags"] = flags
+    k["diffuse_tex"] = m["base_color_texture"]
+    k["emission_tex"] = m["emission_texture"]
     return k

@@ -22,7 +22,7 @@ from .materials import MAT_DIFFUSE, kernel_materials
 from .options import RenderOptions
 from .photon_map import (CNT_ACTIVE, CNT_NAN, CNT_OCCUPIED, CNT_OUTSIDE, CNT_OVERFLOW, CNT_STORED,
                          GRID_DTYPE, N_COUNTERS, PhotonMap)
-from .scene_arrays import LIGHT_DTYPE, SceneArrays
+from .scene_arrays import LIGHT_DTYPE, TEXTURE_DTYPE, SceneArrays
 
 
 @dataclasses.dataclass
@@ -119,6 +119,9 @@ def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
         changes.update(positions=scene.positions[good], normals=scene.normals[good],
                        uvs=scene.uvs[good], material=scene.material[good],
                        visibility=scene.visibility[good])
+    uv = changes.get("uvs", scene.uvs)
+    if not np.isfinite(uv).all():
+        changes["uvs"] = np.where(np.isfinite(uv), uv, 0.0).astype(np.float32)
     nrm = changes.get("normals", scene.normals)
     if not np.isfinite(nrm).all():
         changes["normals"] = np.where(np.isfinite(nrm), nrm, 0.0).astype(np.float32)
@@ -209,6 +212,11 @@ class Renderer:
         self.kmaterials = kernel_materials(scene.materials)
         self.emitters = build_emitters(scene, self.kmaterials, self.bvh.leaf_order)
         self.normals = up(scene.normals, "shading normals")
+        self.uvs = up(scene.uvs, "UVs")
+        self.textures = up(scene.textures if scene.textures.size else np.zeros(1, TEXTURE_DTYPE),
+                           "textures")
+        self.texels = up(scene.texels if scene.texels.size else np.zeros((1, 4), np.float16),
+                         "image textures")
         self.materials = up(self.kmaterials, "materials")
         lights = scene.lights if scene.lights.shape[0] else np.zeros(1, LIGHT_DTYPE)
         self.lights = up(lights, "lights")
@@ -307,7 +315,7 @@ class Renderer:
     def _scene_args(self):
         b = self.bvh
         return (b.nodes, b.tri_v0, b.tri_e1, b.tri_e2, self.normals, self.materials, self.lights,
-                self.cdf, self.emissive, self.emitter_info)
+                self.cdf, self.emissive, self.emitter_info, self.textures, self.texels, self.uvs)
 
     # ------------------------------------------------------------------------------------------
     def iterate(self) -> PassStats:

@@ -45,6 +45,26 @@ MATERIAL_DTYPE = np.dtype([
     ("roughness", np.float32),
     ("transmission", np.float32),     # Principled "Transmission Weight"
     ("ior", np.float32),
+    # 1-based index into ``SceneArrays.textures`` (0 = none): the texture's linear RGB multiplies
+    # base_color (albedo, metal and glass tints), respectively emission, at the hit's UV
+    ("base_color_texture", np.int32),
+    ("emission_texture", np.int32),
+])
+
+# Image textures: texels of every texture one after another in ``SceneArrays.texels``, (N, 4)
+# float16 RGBA (linear, or sRGB-encoded with TEX_FLAG_SRGB), rows bottom-up as Blender stores
+# them (v = 0 is the bottom row).
+TEX_REPEAT, TEX_EXTEND, TEX_CLIP, TEX_MIRROR = 0, 1, 2, 3     # Image Texture node "extension"
+TEX_FLAG_CLOSEST = 16                                          # interpolation 'Closest'
+# texels hold sRGB-encoded values, decoded after interpolation (8-bit sRGB images, as Cycles'
+# byte textures: interpolating the encoded values is what makes our image match Cycles' at
+# texel edges)
+TEX_FLAG_SRGB = 32
+TEXTURE_DTYPE = np.dtype([
+    ("offset", np.int32),             # first texel in ``texels``
+    ("width", np.int32),
+    ("height", np.int32),
+    ("flags", np.uint32),             # TEX_REPEAT.. | TEX_FLAG_CLOSEST | TEX_FLAG_SRGB
 ])
 
 # ``emit`` depends on the type: POINT/SPOT radiant intensity in W/sr (Cycles: P/(4 pi)),
@@ -102,6 +122,8 @@ class SceneArrays:
     world: np.ndarray              # (3,) float32 background radiance (colour x strength)
     material_names: tuple = ()
     warnings: tuple = ()
+    textures: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, TEXTURE_DTYPE))
+    texels: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 4), np.float16))
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -147,6 +169,19 @@ class SceneArrays:
             raise ValueError("SceneArrays.camera must hold exactly one camera")
         if self.materials.shape[0] < 1:
             raise ValueError("SceneArrays.materials must hold at least one material")
+        if self.textures.dtype != TEXTURE_DTYPE or self.textures.ndim != 1:
+            raise ValueError("SceneArrays.textures: expected a 1-D array of TEXTURE_DTYPE")
+        if self.texels.dtype != np.float16 or self.texels.ndim != 2 or self.texels.shape[1] != 4:
+            raise ValueError("SceneArrays.texels: expected float16 (N, 4)")
+        tx = self.textures
+        if tx.size and ((tx["width"] < 1).any() or (tx["height"] < 1).any() or (tx["offset"] < 0).any()
+                        or (tx["offset"].astype(np.int64) + tx["width"].astype(np.int64)
+                            * tx["height"] > self.texels.shape[0]).any()):
+            raise ValueError("SceneArrays.textures: a texture lies outside the texels")
+        for field in ("base_color_texture", "emission_texture"):
+            k = self.materials[field]
+            if k.size and (k.min() < 0 or k.max() > tx.shape[0]):
+                raise ValueError(f"SceneArrays.materials['{field}'] names a missing texture")
         if t and (self.material.min() < 0 or self.material.max() >= self.materials.shape[0]):
             raise ValueError("SceneArrays.material indexes outside the material table")
         w, h = self.resolution

@@ -17,6 +17,7 @@ from .camera import export_camera
 from .lights import export_light
 from .materials import MaterialTable
 from .mesh import GEOMETRY_TYPES, MeshCache, transform_part
+from .textures import TextureTable
 from .world import export_world
 
 __all__ = ["export_scene", "Warnings"]
@@ -48,7 +49,8 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
     scene = depsgraph.scene
     warn = Warnings(engine)
     camera = export_camera(scene, depsgraph)
-    materials = MaterialTable(warn)
+    textures = TextureTable(warn)
+    materials = MaterialTable(warn, textures)
     meshes = MeshCache(warn)
     parts, lights = [], []
     for inst in depsgraph.object_instances:
@@ -82,10 +84,11 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                    normals=np.zeros((0, 3, 3), np.float32),
                    uvs=np.zeros((0, 3, 2), np.float32), material=np.zeros(0, np.int32),
                    visibility=np.zeros(0, np.uint32))
+    tex_table, texels = textures.arrays()
     try:
         return SceneArrays(**cat, materials=materials.array(), lights=light_arr, camera=camera,
                            world=world, material_names=tuple(materials.names),
-                           warnings=tuple(warn))
+                           warnings=tuple(warn), textures=tex_table, texels=texels)
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
 

@@ -1,4 +1,5 @@
-"""Principled BSDF and Emission node trees -> MATERIAL_DTYPE rows."""
+"""Principled BSDF and Emission node trees -> MATERIAL_DTYPE rows (image textures on the base
+and emission colours: textures.py)."""
 from __future__ import annotations
 
 import numpy as np
@@ -44,24 +45,39 @@ def default_row() -> np.ndarray:
     return row
 
 
-def read_material(material, warn) -> np.ndarray:
+def _color(node, socket_name, warn, mat_name, textures, field_row, texture_field):
+    """A colour input: an Image Texture node's texture (the colour becomes white and the texture
+    multiplies it) or the socket's value.  Returns the RGB to use."""
+    if textures is not None:
+        tex, constant = textures.from_socket(node.inputs.get(socket_name), socket_name, mat_name)
+        if tex:
+            field_row[texture_field] = tex
+            return (1.0, 1.0, 1.0)
+        if constant is not None:
+            return constant
+    return _value(node, socket_name, warn, mat_name, 3)
+
+
+def read_material(material, warn, textures=None) -> np.ndarray:
     row = default_row()
     node = _surface_node(material)
     name = material.name
     kind = node.bl_idname if node is not None else None
     if kind == "ShaderNodeBsdfPrincipled":
-        row["base_color"] = _value(node, "Base Color", warn, name, 3)
+        row["base_color"] = _color(node, "Base Color", warn, name, textures, row,
+                                   "base_color_texture")
         row["metallic"] = _value(node, "Metallic", warn, name)
         row["roughness"] = _value(node, "Roughness", warn, name)
         tw = _value(node, "Transmission Weight", warn, name)
         row["transmission"] = tw if tw is not None else 0.0
         row["ior"] = _value(node, "IOR", warn, name)
-        ec = _value(node, "Emission Color", warn, name, 3) or (0.0, 0.0, 0.0)
         es = _value(node, "Emission Strength", warn, name) or 0.0
+        ec = (_color(node, "Emission Color", warn, name, textures if es else None, row,
+                     "emission_texture") or (0.0, 0.0, 0.0))
         row["emission"] = np.asarray(ec, np.float32) * es
     elif kind == "ShaderNodeEmission":
-        c = _value(node, "Color", warn, name, 3)
         s = _value(node, "Strength", warn, name)
+        c = _color(node, "Color", warn, name, textures if s else None, row, "emission_texture")
         row["base_color"] = 0.0
         row["emission"] = np.asarray(c, np.float32) * s
     else:
@@ -74,8 +90,9 @@ def read_material(material, warn) -> np.ndarray:
 class MaterialTable:
     """Materials deduplicated by (full) name; index 0 is the default grey diffuse."""
 
-    def __init__(self, warn):
+    def __init__(self, warn, textures=None):
         self.warn = warn
+        self.textures = textures          # textures.TextureTable (None: textures not read)
         self.rows = [default_row()]
         self.names = [DEFAULT_NAME]
         self._index = {}
@@ -86,7 +103,7 @@ class MaterialTable:
         key = material.name_full
         if key not in self._index:
             self._index[key] = len(self.rows)
-            self.rows.append(read_material(material, self.warn))
+            self.rows.append(read_material(material, self.warn, self.textures))
             self.names.append(material.name)
         return self._index[key]
 

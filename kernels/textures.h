@@ -1,0 +1,102 @@
+#ifndef PPM_TEXTURES_H
+#define PPM_TEXTURES_H
+#include "types.h"
+
+/* Image textures (ppm_engine/export/textures.py): texels of all textures one after another as
+ * half4 linear RGBA, rows bottom-up (v = 0 is the first row); UVs per triangle corner.  The
+ * lookups compile to a constant 1 when no material of the scene has a texture (PPM_TEXTURES,
+ * kernels/features.h). */
+
+/* mirrors scene_arrays.TEXTURE_DTYPE */
+typedef struct {
+    int offset;
+    int width;
+    int height;
+    uint flags;
+} Texture;
+#define TEX_REPEAT 0u
+#define TEX_EXTEND 1u
+#define TEX_CLIP 2u
+#define TEX_MIRROR 3u
+#define TEX_FLAG_CLOSEST 16u
+#define TEX_FLAG_SRGB 32u
+
+inline float3 srgb_to_linear(float3 c) {
+    c = clamp(c, 0.0f, 1.0f);
+    return select(pow((c + 0.055f) * (1.0f / 1.055f), (float3)(2.4f)), c * (1.0f / 12.92f),
+                  islessequal(c, (float3)(0.04045f)));
+}
+
+#define TEXTURE_ARGS __global const Texture *textures, __global const half *texels, \
+                     __global const float *uvs
+
+/* texel column/row for an integer coordinate under the extension mode; -1 outside (CLIP) */
+inline int tex_wrap(int i, int n, uint mode) {
+    if (mode == TEX_EXTEND) return clamp(i, 0, n - 1);
+    if (mode == TEX_CLIP) return (i < 0 || i >= n) ? -1 : i;
+    if (mode == TEX_MIRROR) {
+        int m = i % (2 * n);
+        m = m < 0 ? m + 2 * n : m;
+        return m < n ? m : 2 * n - 1 - m;
+    }
+    int m = i % n;
+    return m < 0 ? m + n : m;
+}
+
+inline float3 tex_fetch(__global const half *texels, const Texture *t, int x, int y) {
+    int ix = tex_wrap(x, t->width, t->flags & 15u), iy = tex_wrap(y, t->height, t->flags & 15u);
+    if (ix < 0 || iy < 0) return (float3)(0.0f);
+    return vload_half4((size_t)t->offset + (size_t)iy * (size_t)t->width + (size_t)ix, texels).xyz;
+}
+
+/* linear RGB of texture tex1 (1-based) at uv: bilinear between texel centres (as Cycles'
+ * 'Linear' interpolation) or the nearest texel ('Closest'); sRGB texels decoded after the
+ * interpolation, as Cycles does for 8-bit sRGB images */
+inline float3 texture_rgb_encoded(__global const Texture *textures, __global const half *texels,
+                                  int tex1, float2 uv);
+inline float3 texture_rgb(__global const Texture *textures, __global const half *texels,
+                          int tex1, float2 uv) {
+    float3 c = texture_rgb_encoded(textures, texels, tex1, uv);
+    return (textures[tex1 - 1].flags & TEX_FLAG_SRGB) ? srgb_to_linear(c) : c;
+}
+inline float3 texture_rgb_encoded(__global const Texture *textures, __global const half *texels,
+                                  int tex1, float2 uv) {
+    Texture t = textures[tex1 - 1];
+    float x = uv.x * (float)t.width, y = uv.y * (float)t.height;
+    x = isfinite(x) ? clamp(x, -1.0e9f, 1.0e9f) : 0.0f;     /* int conversions stay defined */
+    y = isfinite(y) ? clamp(y, -1.0e9f, 1.0e9f) : 0.0f;
+    if (t.flags & TEX_FLAG_CLOSEST) return tex_fetch(texels, &t, (int)floor(x), (int)floor(y));
+    x -= 0.5f;
+    y -= 0.5f;
+    float fx = floor(x), fy = floor(y), ax = x - fx, ay = y - fy;
+    int x0 = (int)fx, y0 = (int)fy;
+    float3 a = mix(tex_fetch(texels, &t, x0, y0), tex_fetch(texels, &t, x0 + 1, y0), ax);
+    float3 b = mix(tex_fetch(texels, &t, x0, y0 + 1), tex_fetch(texels, &t, x0 + 1, y0 + 1), ax);
+    return mix(a, b, ay);
+}
+
+/* UV at barycentrics (u, v) of original triangle tri (p = p0 + u (p1 - p0) + v (p2 - p0)) */
+inline float2 surface_uv(__global const float *uvs, uint tri, float u, float v) {
+    __global const float *a = uvs + 6 * (size_t)tri;
+    float w = 1.0f - u - v;
+    return (float2)(w * a[0] + u * a[2] + v * a[4], w * a[1] + u * a[3] + v * a[5]);
+}
+
+/* the factor of a material's base colour (albedo, metal and glass tints) at a surface point */
+inline float3 albedo_tint(__global const Material *m, uint tri, float u, float v, TEXTURE_ARGS) {
+#ifdef PPM_TEXTURES
+    if (m->diffuse_tex > 0) return texture_rgb(textures, texels, m->diffuse_tex,
+                                               surface_uv(uvs, tri, u, v));
+#endif
+    return (float3)(1.0f);
+}
+
+/* the factor of a material's emission at a surface point */
+inline float3 emission_tint(__global const Material *m, uint tri, float u, float v, TEXTURE_ARGS) {
+#ifdef PPM_TEXTURES
+    if (m->emission_tex > 0) return texture_rgb(textures, texels, m->emission_tex,
+                                                surface_uv(uvs, tri, u, v));
+#endif
+    return (float3)(1.0f);
+}
+#endif

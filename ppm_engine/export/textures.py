@@ -1,0 +1,126 @@
+"""Image Texture nodes -> the texture table and texels of SceneArrays (kernels/textures.h).
+
+Images are read once each (deduplicated by datablock) with ``pixels.foreach_get`` into a
+float32 buffer (BLENDER_NOTES section 4: rows bottom-up, 8-bit images as stored bytes / 255)
+and stored as float16 RGBA: float images linear, 8-bit sRGB images still encoded and decoded
+by the kernel after interpolation (TEX_FLAG_SRGB, as Cycles' byte textures).  Packed and
+external images read the same way; an image that cannot be loaded (a missing file) renders
+magenta, as in Cycles, with a warning naming the material and the file.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene_arrays import (TEX_CLIP, TEX_EXTEND, TEX_FLAG_CLOSEST, TEX_FLAG_SRGB, TEX_MIRROR,
+                            TEX_REPEAT, TEXTURE_DTYPE)
+
+MISSING = (1.0, 0.0, 1.0)          # Cycles' colour for an image it cannot load
+_EXTENSION = {"REPEAT": TEX_REPEAT, "EXTEND": TEX_EXTEND, "CLIP": TEX_CLIP,
+              "MIRROR": TEX_MIRROR}
+# Vector inputs that mean "the UV map" (anything else is not evaluated: warned)
+_UV_SOURCES = {("ShaderNodeTexCoord", "UV"), ("ShaderNodeUVMap", "UV")}
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function, inverted (IEC 61966-2-1), on values in [0, 1]."""
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _follow(socket):
+    """(node, output socket) feeding ``socket``, through reroutes; (None, None) if unlinked."""
+    if socket is None or not socket.is_linked:
+        return None, None
+    link = socket.links[0]
+    node, out = link.from_node, link.from_socket
+    for _ in range(64):
+        if node.bl_idname != "NodeReroute" or not node.inputs[0].is_linked:
+            break
+        link = node.inputs[0].links[0]
+        node, out = link.from_node, link.from_socket
+    return node, out
+
+
+class TextureTable:
+    """The textures of one export, 1-based indices (0 = none), one entry per image datablock
+    and sampling mode."""
+
+    def __init__(self, warn):
+        self.warn = warn
+        self.rows: list[np.ndarray] = []
+        self.texels: list[np.ndarray] = []
+        self.count = 0
+        self._index: dict = {}
+
+    def from_socket(self, socket, what: str, material: str):
+        """For a colour input: (texture index, None) when an Image Texture node drives it,
+        (0, rgb) when it must take a constant instead (a missing image: magenta), (0, None)
+        when it is not linked to an image texture (the caller reads its value)."""
+        node, out = _follow(socket)
+        if node is None or node.bl_idname != "ShaderNodeTexImage":
+            return 0, None
+        if out is not None and out.name != "Color":
+            self.warn(f"Material '{material}': '{what}' uses the image's {out.name} output; "
+                      "only Color is evaluated")
+        vec, vec_out = _follow(node.inputs.get("Vector"))
+        if vec is not None and (vec.bl_idname, getattr(vec_out, "name", "")) not in _UV_SOURCES:
+            self.warn(f"Material '{material}': the texture coordinates of image node "
+                      f"'{node.name}' come from a '{vec.name}' node this engine does not "
+                      "evaluate; the UV map is used")
+        image = node.image
+        if image is None:
+            self.warn(f"Material '{material}': image node '{node.name}' has no image; it renders "
+                      "magenta, as in Cycles")
+            return 0, MISSING
+        flags = _EXTENSION.get(node.extension, TEX_REPEAT)
+        if node.interpolation == "Closest":
+            flags |= TEX_FLAG_CLOSEST
+        key = (image.name_full, flags)
+        if key not in self._index:
+            texels, srgb = self._read(image, material)
+            if texels is None:
+                return 0, MISSING
+            if srgb:
+                flags |= TEX_FLAG_SRGB
+            w, h = image.size
+            row = np.zeros(1, TEXTURE_DTYPE)
+            row["offset"], row["width"], row["height"], row["flags"] = self.count, w, h, flags
+            self.rows.append(row)
+            self.texels.append(texels)
+            self.count += texels.shape[0]
+            self._index[key] = len(self.rows)
+        return self._index[key], None
+
+    def _read(self, image, material: str):
+        w, h = image.size
+        if w == 0 or h == 0:
+            try:                           # not loaded yet (a render loads it lazily)
+                image.reload()
+            except RuntimeError:
+                pass
+            w, h = image.size
+        if w == 0 or h == 0 or not image.has_data:
+            where = f" ('{image.filepath}')" if image.filepath else ""
+            self.warn(f"Material '{material}': image '{image.name}'{where} cannot be loaded (a "
+                      "missing or unreadable file); it renders magenta, as in Cycles")
+            return None, False
+        px = np.empty(w * h * 4, np.float32)
+        image.pixels.foreach_get(px)
+        px = px.reshape(-1, 4)
+        cs = image.colorspace_settings
+        srgb = False
+        if not image.is_float and not cs.is_data:
+            name = cs.name
+            if not name.lower().startswith("srgb") and "linear" not in name.lower():
+                self.warn(f"Material '{material}': image '{image.name}' is in colour space "
+                          f"'{name}', which this engine reads as sRGB")
+            # 8-bit sRGB: kept encoded (float16 holds every byte value / 255 to 2e-4) and
+            # decoded after interpolation in the kernel (TEX_FLAG_SRGB), as Cycles does
+            srgb = "linear" not in name.lower()
+        px = np.nan_to_num(px, nan=0.0, posinf=65504.0, neginf=0.0)
+        return np.clip(px, 0.0, 65504.0).astype(np.float16), srgb
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        if not self.rows:
+            return np.zeros(0, TEXTURE_DTYPE), np.zeros((0, 4), np.float16)
+        return np.concatenate(self.rows), np.concatenate(self.texels)
