@@ -2,7 +2,7 @@
 
     python -m ppm_engine render SCENE.blend -o OUT.png|OUT.exr [--passes N] [--time-limit S]
                                 [--resolution WxH] [--device NAME] [--photons N] [--seed N]
-                                [--noise-threshold T]
+                                [--noise-threshold T] [--frame N | --frames A-B]
     python -m ppm_engine devices
     python -m ppm_engine example NAME OUT.blend
     python -m ppm_engine bench [--quick] [--times S ...] [--resolution N] [--micro]
@@ -55,6 +55,17 @@ def _parse_resolution(text: str) -> tuple[int, int]:
     return w, h
 
 
+def _parse_frames(text: str) -> tuple[int, int]:
+    try:
+        a, b = (int(v) for v in text.split("-", 1)) if "-" in text[1:] else (int(text),) * 2
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a frame range such as 1-24, got '{text}'") \
+            from None
+    if b < a:
+        raise argparse.ArgumentTypeError(f"frame range {a}-{b} ends before it starts")
+    return a, b
+
+
 def _build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=PROG, description="Progressive Photon Mapping for Blender")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -69,6 +80,12 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--photons", type=int, help="photons per pass (default: the file's setting, "
                    "normally automatic: one per pixel)")
     r.add_argument("--seed", type=int, help="random seed")
+    fr = r.add_mutually_exclusive_group()
+    fr.add_argument("-f", "--frame", type=int, metavar="N",
+                    help="the frame to render (default: the file's current frame)")
+    fr.add_argument("--frames", type=_parse_frames, metavar="A-B",
+                    help="render frames A to B (an animation); '#' in the output path is the "
+                         "frame number (out_####.png), else _#### goes before the extension")
     r.add_argument("--noise-threshold", type=float, metavar="T",
                    help="adaptive sampling: stop pixels whose noise is below T (0 = off)")
 
@@ -182,22 +199,41 @@ def cmd_render(args) -> int:
     if args.resolution:
         scene.render.resolution_x, scene.render.resolution_y = args.resolution
         scene.render.resolution_percentage = 100
-    _set_output(scene, out)
-
     from . import session
     listener = lambda text: _say(text)  # noqa: E731
     session.progress_listeners.append(listener)
     t0 = time.perf_counter()
     try:
-        bpy.ops.render.render(write_still=True)
+        if args.frames:                     # blender -b FILE -E PPM -s A -e B -a
+            scene.frame_start, scene.frame_end = args.frames
+            _set_output(scene, _frame_pattern(out))
+            bpy.ops.render.render(animation=True)
+            written = [Path(scene.render.frame_path(frame=f))
+                       for f in range(args.frames[0], args.frames[1] + 1)]
+        else:                               # blender -b FILE -E PPM -f N
+            scene.frame_set(args.frame if args.frame is not None else scene.frame_current)
+            _set_output(scene, out)
+            if "#" in out.name:             # write_still does not expand '#': frame_path does
+                scene.render.filepath = scene.render.frame_path(frame=scene.frame_current)
+            bpy.ops.render.render(write_still=True)
+            written = [Path(scene.render.filepath)]
     except RuntimeError as e:
         raise CLIError(f"render failed: {_blender_message(e)}") from None
     finally:
         session.progress_listeners.remove(listener)
-    if not out.is_file():
-        raise CLIError(f"render finished but {out} was not written")
-    _say(f"wrote {out} in {time.perf_counter() - t0:.1f} s")
+    missing = [str(p) for p in written if not p.is_file()]
+    if missing:
+        raise CLIError(f"render finished but {', '.join(missing)} was not written")
+    _say(f"wrote {', '.join(str(p) for p in written)} in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+def _frame_pattern(out: Path) -> Path:
+    """The output path of an animation: '#' runs are the frame number; without any, _####
+    goes before the extension (out.png -> out_0001.png)."""
+    if "#" in out.name:
+        return out
+    return out.with_name(f"{out.stem}_####{out.suffix}")
 
 
 _DOCS = Path(__file__).resolve().parents[1] / "docs"

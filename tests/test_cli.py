@@ -48,6 +48,35 @@ def test_render_cornell_box(cli, example_blend, pocl_key, exr, tmp_path, ext):
         assert np.isfinite(img).all() and img[..., :3].mean() > 1e-3
 
 
+def _animated_blend(bpy, path):
+    """The Cornell box with its tall box sliding 0.3 m over frames 1-3, persistent data on."""
+    bpy.ops.wm.open_mainfile(filepath=str(path[0]), load_ui=False)
+    box = bpy.data.objects["TallBox"]
+    for frame, dx in ((1, 0.0), (3, 0.3)):
+        box.location.x = box.location.x + dx if frame == 3 else box.location.x
+        box.keyframe_insert("location", frame=frame)
+    bpy.context.scene.render.use_persistent_data = True
+    bpy.ops.wm.save_as_mainfile(filepath=str(path[1]))
+
+
+def test_render_animation_and_frame_numbers(bpy, cli, example_blend, exr, tmp_path):
+    blend = tmp_path / "animated.blend"
+    _animated_blend(bpy, (example_blend("cornell_box"), blend))
+    proc = cli("render", blend, "-o", tmp_path / "anim_##.exr", "--frames", "1-3", "--passes",
+               "24", "--photons", "4096", "--resolution", "24x16")
+    assert proc.returncode == 0, proc.stderr
+    imgs = [exr.read(tmp_path / f"anim_{f:02d}.exr") for f in (1, 2, 3)]
+    assert all(np.isfinite(i).all() and i[..., :3].mean() > 1e-3 for i in imgs)
+    # the box moves on: frame 3 is farther from frame 1 than frame 2 is
+    assert np.abs(imgs[0] - imgs[2]).mean() > np.abs(imgs[0] - imgs[1]).mean() > 0
+    proc = cli("render", blend, "-o", tmp_path / "still.png", "--frames", "2-2", *RENDER_TINY)
+    assert proc.returncode == 0 and (tmp_path / "still_0002.png").is_file(), proc.stderr
+    proc = cli("render", blend, "-o", tmp_path / "one_###.png", "-f", "3", *RENDER_TINY)
+    assert proc.returncode == 0 and (tmp_path / "one_003.png").is_file(), proc.stderr
+    proc = cli("render", blend, "-o", tmp_path / "x.png", "--frames", "5-2")
+    assert proc.returncode == 2 and "ends before it starts" in proc.stderr
+
+
 def test_render_device_by_name_part(cli, example_blend, tmp_path):
     out = tmp_path / "default.png"
     proc = cli("render", example_blend("cornell_box"), "-o", out, *RENDER_TINY, "--device", "DEFAULT")

@@ -50,3 +50,26 @@ def test_persistent_data_reuses_only_what_did_not_change(bpy, example_blend, tin
     render_exr(tmp_path / "i.exr")
     assert log[8]["bvh_built"] is True
 
+
+
+def test_animation_with_persistent_data_refits_per_frame(bpy, example_blend, tiny, tmp_path):
+    """render(animation=True) over frames where an object moves: every frame is rendered and
+    written (Blender's '#' numbering), the BVH is built once and refitted for the others."""
+    from ppm_engine import session
+    bpy.ops.wm.open_mainfile(filepath=str(example_blend("cornell_box")), load_ui=False)
+    scene = bpy.context.scene
+    tiny(scene, width=16, height=16, passes=2)
+    box = bpy.data.objects["TallBox"]
+    box.keyframe_insert("location", frame=1)
+    box.location.x += 0.2
+    box.keyframe_insert("location", frame=3)
+    scene.frame_start, scene.frame_end = 1, 3
+    scene.render.use_persistent_data = True
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = str(tmp_path / "frame_####")
+    session.render_log.clear()
+    assert bpy.ops.render.render(animation=True) == {"FINISHED"}
+    assert [(tmp_path / f"frame_{f:04d}.png").is_file() for f in (1, 2, 3)] == [True] * 3
+    log = list(session.render_log)
+    assert len(log) == 3 and log[0]["bvh_built"] and not log[0]["bvh_refit"]
+    assert all(entry["bvh_refit"] and not entry["bvh_built"] for entry in log[1:])
