@@ -133,6 +133,61 @@ inline float emissive_leaf_pmf(int leaf, SCENE_ARGS) {
     return 0.0f;
 }
 
+/* --- emissive triangles seen under a large solid angle: sampled by solid angle ----------------
+ * Area sampling gives a sample at distance d the weight d^2 / cos: next to a large emitter (a
+ * ceiling 1 cm above a lamp, a filament's glass) that weight varies by orders of magnitude.
+ * Arvo's (1995) sampling of the spherical triangle is uniform in solid angle instead; it is used
+ * when the triangle subtends more than SPHERICAL_MIN_SOLID_ANGLE (area sampling is as good
+ * below and keeps full precision for far, small triangles).  The choice depends only on the
+ * point and the triangle, so sample_direct and direct_bsdf (its MIS pdf) always agree. */
+#define SPHERICAL_MIN_SOLID_ANGLE 0.02f
+
+/* angle between unit vectors, accurate near 0 and pi */
+inline float angle_between(float3 u, float3 v) {
+    return dot(u, v) < 0.0f ? PPM_PI - 2.0f * asin(fmin(length(u + v) * 0.5f, 1.0f))
+                            : 2.0f * asin(fmin(length(v - u) * 0.5f, 1.0f));
+}
+
+typedef struct {
+    float3 a, b, c;          /* unit directions to the corners */
+    float alpha;             /* the spherical triangle's angle at a */
+    float area;              /* its solid angle; 0: use area sampling */
+} SphTri;
+
+inline SphTri spherical_triangle(float3 o, float3 p0, float3 p1, float3 p2) {
+    SphTri t;
+    t.area = 0.0f;
+    t.a = normalize(p0 - o); t.b = normalize(p1 - o); t.c = normalize(p2 - o);
+    float3 n_ab = cross(t.a, t.b), n_bc = cross(t.b, t.c), n_ca = cross(t.c, t.a);
+    float l_ab = length(n_ab), l_bc = length(n_bc), l_ca = length(n_ca);
+    if (!(l_ab > 1e-7f && l_bc > 1e-7f && l_ca > 1e-7f)) return t;
+    n_ab /= l_ab; n_bc /= l_bc; n_ca /= l_ca;
+    t.alpha = angle_between(n_ab, -n_ca);
+    float A = t.alpha + angle_between(n_bc, -n_ab) + angle_between(n_ca, -n_bc) - PPM_PI;
+    t.area = (A > SPHERICAL_MIN_SOLID_ANGLE && A < 2.0f * PPM_PI && isfinite(A)) ? A : 0.0f;
+    return t;
+}
+
+/* a direction uniform over the spherical triangle t (t.area > 0), Arvo 1995 */
+inline float3 sample_spherical_triangle(const SphTri *t, float u0, float u1) {
+    float x = u0 * t->area;                          /* solid angle of the sub-triangle */
+    float ca = cos(t->alpha), sa = sin(t->alpha);
+    /* phi = Ap_pi - alpha with Ap_pi = pi + x: sin and cos of pi + x - alpha */
+    float sin_phi = -sin(x) * ca + cos(x) * sa;
+    float cos_phi = -cos(x) * ca - sin(x) * sa;
+    float k1 = cos_phi + ca, k2 = sin_phi - sa * dot(t->a, t->b);
+    float cos_bp = (k2 + (k2 * cos_phi - k1 * sin_phi) * ca) / ((k2 * sin_phi + k1 * cos_phi) * sa);
+    cos_bp = isfinite(cos_bp) ? clamp(cos_bp, -1.0f, 1.0f) : 1.0f;
+    float sin_bp = sqrt(fmax(0.0f, 1.0f - cos_bp * cos_bp));
+    float3 ca_perp = t->c - dot(t->c, t->a) * t->a;
+    float3 cp = cos_bp * t->a + sin_bp * normalize(ca_perp);
+    float cos_t = 1.0f - u1 * (1.0f - dot(cp, t->b));
+    float sin_t = sqrt(fmax(0.0f, 1.0f - cos_t * cos_t));
+    float3 cb_perp = cp - dot(cp, t->b) * t->b;
+    float lb = length(cb_perp);
+    return normalize(cos_t * t->b + (lb > 0.0f ? sin_t / lb : 0.0f) * cb_perp);
+}
+
 /* power heuristic weight of strategy a against b */
 inline float mis_power(float a, float b) {
     float a2 = a * a, b2 = b * b;
@@ -230,23 +285,44 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
     else if (e < info.n_lights + info.n_emissive) {
         int k = emissive[e - info.n_lights];
         float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
-        float2 b = sample_triangle(u1, u2);
         float3 c = cross(e1.xyz, e2.xyz);
         float area2 = length(c);
         if (!(area2 > 0.0f)) return (float3)(0.0f);
         float3 nt = c / area2;
-        float3 q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
+        __global const Material *me = materials + as_int(e2.w);
+        SphTri st = spherical_triangle(o, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
+        float2 b;
+        float3 q;
+        if (st.area > 0.0f) {              /* uniform in solid angle: weight = solid angle */
+            wi = sample_spherical_triangle(&st, u1, u2);
+            float denom = dot(wi, nt);
+            float t = dot(v0.xyz - o, nt) / denom;
+            if (!(t > 0.0f && isfinite(t))) return (float3)(0.0f);
+            q = o + t * wi;
+            /* barycentrics of q for the emission texture */
+            float3 dq = q - v0.xyz;
+            float d00 = dot(e1.xyz, e1.xyz), d01 = dot(e1.xyz, e2.xyz), d11 = dot(e2.xyz, e2.xyz);
+            float d20 = dot(dq, e1.xyz), d21 = dot(dq, e2.xyz), den = d00 * d11 - d01 * d01;
+            b = (float2)((d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den);
+            E = st.area;
+            pdf_light = pmf / st.area;
+        } else {                           /* uniform in area: weight = cos area / d^2 */
+            b = sample_triangle(u1, u2);
+            q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
+        }
         q = offset_ray(q, dot(o - q, nt) >= 0.0f ? nt : -nt);    /* on our side of it */
         float3 tq = q - o;
         float dq2 = dot(tq, tq);
         dist = sqrt(dq2);
         if (!(dist > 0.0f)) return (float3)(0.0f);
-        wi = tq / dist;
-        float cos_l = fabs(dot(wi, nt));                          /* mesh lights: both sides */
-        __global const Material *me = materials + as_int(e2.w);
-        E = F3(me->emission) * emission_tint(me, as_uint(v0.w), b.x, b.y, TEXTURE_PASS)
-            * (cos_l * 0.5f * area2 / dq2);
-        pdf_light = cos_l > 0.0f ? pmf * dq2 / (cos_l * 0.5f * area2) : 0.0f;
+        if (!(st.area > 0.0f)) {          /* (solid angle: wi stays the sampled direction,
+                                              q only ends the shadow ray) */
+            wi = tq / dist;
+            float cos_l = fabs(dot(wi, nt));                      /* mesh lights: both sides */
+            E = cos_l * 0.5f * area2 / dq2;
+            pdf_light = cos_l > 0.0f ? pmf * dq2 / (cos_l * 0.5f * area2) : 0.0f;
+        }
+        E = E * F3(me->emission) * emission_tint(me, as_uint(v0.w), b.x, b.y, TEXTURE_PASS);
     }
 #endif
 #ifdef PPM_WORLD
@@ -280,7 +356,8 @@ inline float3 direct_bsdf(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng)
     float3 wi = sample_cosine_hemisphere(n, u1, u2);
     float cos_s = dot(wi, n);
     if (cos_s <= 0.0f || dot(wi, ngf) <= 0.0f) return (float3)(0.0f);
-    Hit h = bvh_intersect(offset_ray(p, ngf), wi, PPM_INF, VIS_SHADOW, false, BVH_PASS);
+    float3 o = offset_ray(p, ngf);
+    Hit h = bvh_intersect(o, wi, PPM_INF, VIS_SHADOW, false, BVH_PASS);
     if (h.leaf < 0) return (float3)(0.0f);
     float4 e1 = tri_e1[h.leaf], e2 = tri_e2[h.leaf];
     __global const Material *m = materials + as_int(e2.w);
@@ -290,7 +367,10 @@ inline float3 direct_bsdf(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng)
     float area2 = length(c);
     float cos_l = area2 > 0.0f ? fabs(dot(wi, c)) / area2 : 0.0f;
     if (!(pmf > 0.0f && cos_l > 0.0f)) return (float3)(0.0f);   /* NEE never picks it: 0 power */
-    float pdf_light = pmf * h.t * h.t / (cos_l * 0.5f * area2);
+    /* the pdf of the strategy sample_direct uses for this triangle from this origin */
+    float3 v0 = tri_v0[h.leaf].xyz;
+    SphTri st = spherical_triangle(o, v0, v0 + e1.xyz, v0 + e2.xyz);
+    float pdf_light = st.area > 0.0f ? pmf / st.area : pmf * h.t * h.t / (cos_l * 0.5f * area2);
     /* f Le cos / pdf_bsdf = (rho/pi) Le pi: in E units (times f) that is Le pi */
     return F3(m->emission) * emission_tint(m, as_uint(tri_v0[h.leaf].w), h.u, h.v, TEXTURE_PASS)
         * (PPM_PI * mis_power(cos_s * (1.0f / PPM_PI), pdf_light));
