@@ -288,8 +288,8 @@ def test_direct_light_beside_a_large_emitter_has_bounded_variance():
     """The ceiling 1 cm above the Cornell box's lamp (0.5 m square, radiance 15, both sides
     emit): irradiance pi Le F with F the point-to-parallel-rectangle form factor (closed form).
     Next-event estimation alone has a per-sample spread of ~(a/h) times the mean here (1/d^2
-    near the lamp's centre); with the BSDF sample and MIS (lights.h direct_lighting) one
-    sample's standard deviation stays below the mean."""
+    near the lamp's centre); with solid-angle sampling of the lamp and MIS with the BSDF sample
+    (lights.h direct_lighting) one sample's standard deviation stays well below the mean."""
     import pyopencl as cl
     from ppm_engine.procedural import cornell_box
     r = Renderer(cornell_box(8, 8), RenderOptions(max_bounces=0))
@@ -318,4 +318,6 @@ def test_direct_light_beside_a_large_emitter_has_bounded_variance():
     assert np.isfinite(e).all()
     se = e.std(ddof=1) / np.sqrt(n)
     assert abs(e.mean() - 1) < 4 * se + 0.01, (e.mean(), se)
-    assert e.std() < 1.0, e.std()
+    # solid-angle sampling of the lamp's triangles (lights.h spherical_triangle): 0.27 measured
+    # (area sampling with MIS: 0.9)
+    assert e.std() < 0.4, e.std()
