@@ -122,31 +122,47 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
     Cycles' negative-scale flag does.  Triangles with NaN/Inf corners are dropped with a warning;
     non-finite or zero shading normals are replaced by the geometric normal."""
     m3, t = m[:3, :3], m[:3, 3]
-    p = mesh.positions.astype(np.float64) @ m3.T + t
-    det = np.linalg.det(m3)
+    det = float(np.linalg.det(m3))
+    # float32 arithmetic (as Cycles transforms): the result is float32 anyway, and 1M triangles
+    # transform in ~30 ms instead of ~150 ms in float64
+    p = mesh.positions.reshape(-1, 3) @ m3.T.astype(np.float32)
+    p += t.astype(np.float32)
+    p = p.reshape(-1, 3, 3)
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-        nm = np.linalg.inv(m3).T if abs(det) > 1e-300 else np.eye(3)
-        n = mesh.normals.astype(np.float64) @ nm.T
-        n /= np.linalg.norm(n, axis=2, keepdims=True)
-        good = np.isfinite(p).all(axis=(1, 2))
+        # normals by the inverse transpose; for a rotation times a uniform scale (the usual
+        # object transform) that is m3 / scale and unit normals stay unit
+        gram = m3.T @ m3
+        s2 = float(np.trace(gram)) / 3.0
+        similarity = s2 > 0 and np.allclose(gram, s2 * np.eye(3), rtol=1e-6, atol=1e-12 * s2)
+        if similarity:
+            nm = m3 / np.sqrt(s2)
+        else:
+            nm = np.linalg.inv(m3).T if abs(det) > 1e-300 else np.eye(3)
+        n = mesh.normals.reshape(-1, 3) @ nm.T.astype(np.float32)
+        len2 = np.einsum("ij,ij->i", n, n)
+        if not similarity:
+            n /= np.sqrt(len2)[:, None]
+        n = n.reshape(-1, 3, 3)
+        zero = ~(len2.reshape(-1, 3) > 1e-24)              # zero-length (or NaN) normals
+        good = np.isfinite(p.reshape(len(p), 9).sum(axis=1))
         if not good.all():
             warn(f"Object '{name}': {int((~good).sum())} triangles with NaN or infinite vertex "
                  "coordinates were skipped")
-            p, n = p[good], n[good]
+            p, n, zero = p[good], n[good], zero[good]
         uvs = mesh.uvs[good] if not good.all() else mesh.uvs
-        order = [0, 2, 1] if det < 0 else [0, 1, 2]
         if det < 0:
-            p, n, uvs = p[:, order], n[:, order], uvs[:, order]
-        bad = ~np.isfinite(n).all(axis=2)
-        if bad.any():
-            ng = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+            order = [0, 2, 1]
+            p, n, uvs, zero = p[:, order], n[:, order], uvs[:, order], zero[:, order]
+        if zero.any() or not np.isfinite(n.reshape(len(n), 9).sum(axis=1)).all():
+            bad = zero | ~np.isfinite(n).all(axis=2)
+            ng = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]).astype(np.float64)
             ng /= np.linalg.norm(ng, axis=1, keepdims=True)
             ng = np.where(np.isfinite(ng), ng, (0.0, 0.0, 1.0))
-            n = np.where(bad[:, :, None], ng[:, None, :], n)
+            n = np.where(bad[:, :, None], ng[:, None, :], n).astype(np.float32)
     slot = np.clip(mesh.slot, 0, len(slot_map) - 1)
     mat = slot_map[slot]
     if not good.all():
         mat = mat[good]
-    return dict(positions=p.astype(np.float32), normals=n.astype(np.float32),
+    return dict(positions=p.astype(np.float32, copy=False), normals=n.astype(np.float32, copy=False),
                 uvs=np.ascontiguousarray(uvs, np.float32), material=mat.astype(np.int32),
                 visibility=np.full(p.shape[0], visibility, np.uint32))
