@@ -119,3 +119,94 @@ __kernel void reorder_triangles(__global const float *pos, __global const uint *
     tri_e1[k] = (float4)(b - a, as_float(visibility[t]));
     tri_e2[k] = (float4)(c - a, as_float(material[t]));
 }
+
+/* --- PLOC: Parallel Locally-Ordered Clustering (Meister & Bittner, "Parallel Locally-Ordered
+ * Clustering for Bounding Volume Hierarchy Construction", TVCG 2018) ------------------------
+ * The clusters start as the Morton-sorted leaves.  Each round, every cluster finds the cluster
+ * within PLOC_RADIUS places of it (in Morton order) whose union box has the smallest surface
+ * area; mutual nearest neighbours merge into a new node; the survivors are compacted (a
+ * pyopencl scan on the host side) in order.  Near-SAH trees, built data-parallel: the Karras
+ * hierarchy above splits by Morton bits only and its boxes overlap badly around large
+ * triangles (a Cornell box: 17.9 nodes visited per ray against 10.5 for a SAH tree).
+ * Nodes are numbered from n - 2 down, so the last merge -- the root -- is node 0, and the
+ * left/right/parent arrays mean what build_hierarchy's do (bottom_up_boxes, refit). */
+#ifndef PLOC_RADIUS
+#define PLOC_RADIUS 16
+#endif
+
+inline float box_area(float4 lo, float4 hi) {
+    float4 d = fmax(hi - lo, (float4)(0.0f));
+    return 2.0f * (d.x * d.y + d.y * d.z + d.z * d.x);
+}
+
+__kernel void ploc_init(__global const float *pos, __global const uint *sorted_ids, int n,
+                        __global float4 *cl_min, __global float4 *cl_max, __global int *cl_id) {
+    int k = get_global_id(0);
+    if (k >= n) return;
+    __global const float *p = pos + 9 * (size_t)sorted_ids[k];
+    float3 a = (float3)(p[0], p[1], p[2]), b = (float3)(p[3], p[4], p[5]), c = (float3)(p[6], p[7], p[8]);
+    float3 lo = fmin(a, fmin(b, c)), hi = fmax(a, fmax(b, c));
+    /* a NaN corner (scenes are cleaned before, but stay safe) must not poison the areas */
+    cl_min[k] = (float4)(select(lo, (float3)(0.0f), isnan(lo)), 0.0f);
+    cl_max[k] = (float4)(select(hi, (float3)(0.0f), isnan(hi)), 0.0f);
+    cl_id[k] = ~k;
+}
+
+/* nn[i]: the cluster j != i, |i - j| <= PLOC_RADIUS, with the smallest union area; a tie keeps
+ * the first j found (ascending), which is the pair with the smaller (min, max) index -- a
+ * strict order on pairs, so the globally best pair is always mutual and every round merges */
+__kernel void ploc_nearest(__global const float4 *cl_min, __global const float4 *cl_max, int m,
+                           __global int *nn) {
+    int i = get_global_id(0);
+    if (i >= m) return;
+    float4 lo = cl_min[i], hi = cl_max[i];
+    float best = INFINITY;
+    int bj = -1;
+    int j0 = max(i - PLOC_RADIUS, 0), j1 = min(i + PLOC_RADIUS, m - 1);
+    for (int j = j0; j <= j1; j++) {
+        if (j == i) continue;
+        float a = box_area(fmin(lo, cl_min[j]), fmax(hi, cl_max[j]));
+        if (a < best) { best = a; bj = j; }
+    }
+    nn[i] = bj;
+}
+
+__kernel void ploc_merge(__global float4 *cl_min, __global float4 *cl_max, __global int *cl_id,
+                         __global const int *nn, int m, __global int *node_counter,
+                         __global int *left, __global int *right, __global int *parent_int,
+                         __global int *parent_leaf, __global uint *valid) {
+    int i = get_global_id(0);
+    if (i >= m) return;
+    int j = nn[i];
+    uint keep = 1u;
+    if (j >= 0 && nn[j] == i) {
+        if (i < j) {
+            int node = atomic_dec(node_counter) - 1;        /* n - 2, n - 3, ..., 0 (root) */
+            int a = cl_id[i], b = cl_id[j];
+            left[node] = a;
+            right[node] = b;
+            if (a < 0) parent_leaf[~a] = node; else parent_int[a] = node;
+            if (b < 0) parent_leaf[~b] = node; else parent_int[b] = node;
+            if (node == 0) parent_int[0] = -1;
+            cl_min[i] = fmin(cl_min[i], cl_min[j]);
+            cl_max[i] = fmax(cl_max[i], cl_max[j]);
+            cl_id[i] = node;
+        } else {
+            keep = 0u;                                       /* merged into cluster j */
+        }
+    }
+    valid[i] = keep;
+}
+
+/* the surviving clusters, in order, at their scanned positions */
+__kernel void ploc_compact(__global const float4 *cl_min, __global const float4 *cl_max,
+                           __global const int *cl_id, __global const uint *valid,
+                           __global const uint *position, int m, __global float4 *out_min,
+                           __global float4 *out_max, __global int *out_id) {
+    int i = get_global_id(0);
+    if (i >= m || !valid[i]) return;
+    uint k = position[i];
+    out_min[k] = cl_min[i];
+    out_max[k] = cl_max[i];
+    out_id[k] = cl_id[i];
+}

@@ -13,8 +13,11 @@ class BVH:
     """Device buffers ``nodes``, ``tri_v0``, ``tri_e1``, ``tri_e2`` (layout: kernels/bvh.h) and
     ``leaf_order`` (host copy: original triangle index of each leaf)."""
 
-    def __init__(self, device, scene: SceneArrays):
-        import pyopencl as cl
+    def __init__(self, device, scene: SceneArrays, method: str = "ploc"):
+        """``method``: "ploc" (default: near-SAH quality, docs/BENCHMARKS.md) or "lbvh" (Karras'
+        hierarchy from the Morton codes alone: faster to build, slower to trace)."""
+        if method not in ("ploc", "lbvh"):
+            raise ValueError(f"unknown BVH build method {method!r}")
         t0 = time.perf_counter()
         self.device = device
         q = device.queue
@@ -60,13 +63,52 @@ class BVH:
         self.right = device.buffer(4 * (n - 1), "BVH")
         self.parent_int = device.buffer(4 * (n - 1), "BVH")
         self.parent_leaf = device.buffer(4 * n, "BVH")
-        prog.build_hierarchy(q, (_round(n - 1),), None, skeys.data, np.int32(n), self.left,
-                             self.right, self.parent_int, self.parent_leaf)
+        self.method = method
+        if method == "ploc":
+            self._ploc(pos, n)
+        else:
+            prog.build_hierarchy(q, (_round(n - 1),), None, skeys.data, np.int32(n), self.left,
+                                 self.right, self.parent_int, self.parent_leaf)
         self.cost = self._boxes(scene, pos)
         self.built_cost = self.cost
         self.leaf_order = svals.get().astype(np.int64)
         q.finish()
         self.build_seconds = time.perf_counter() - t0
+
+    def _ploc(self, pos, n: int) -> None:
+        """PLOC over the Morton-sorted leaves (kernels/bvh_build.cl): rounds of nearest
+        neighbours in a window, mutual pairs merged, survivors compacted by a pyopencl scan."""
+        import pyopencl as cl
+        device, q, prog = self.device, self.device.queue, self.prog
+        a = [device.buffer(16 * n, "BVH build"), device.buffer(16 * n, "BVH build"),
+             device.buffer(4 * n, "BVH build")]
+        b = [device.buffer(16 * n, "BVH build"), device.buffer(16 * n, "BVH build"),
+             device.buffer(4 * n, "BVH build")]
+        nn = device.buffer(4 * n, "BVH build")
+        valid = device.buffer(4 * n, "BVH build")
+        position = device.buffer(4 * n, "BVH build")
+        counter = device.buffer(4, "BVH build")
+        cl.enqueue_copy(q, counter, np.array([n - 1], np.int32))
+        prog.ploc_init(q, (_round(n),), None, pos, self.sorted_ids.data, np.int32(n), *a)
+        scan = device.exclusive_scan_uint()
+        import pyopencl.array as cla
+        m = n
+        total = np.empty(2, np.uint32)
+        while m > 1:
+            prog.ploc_nearest(q, (_round(m),), None, a[0], a[1], np.int32(m), nn)
+            prog.ploc_merge(q, (_round(m),), None, *a, nn, np.int32(m), counter, self.left,
+                            self.right, self.parent_int, self.parent_leaf, valid)
+            v = cla.Array(q, (m,), np.uint32, data=valid)
+            p = cla.Array(q, (m,), np.uint32, data=position)
+            scan(v, p)
+            prog.ploc_compact(q, (_round(m),), None, *a, valid, position, np.int32(m), *b)
+            cl.enqueue_copy(q, total[:1], position, src_offset=4 * (m - 1))
+            cl.enqueue_copy(q, total[1:], valid, src_offset=4 * (m - 1))
+            merged_to = int(total[0]) + int(total[1])
+            if merged_to >= m:         # nothing merged (cannot happen for finite boxes)
+                raise RuntimeError("PLOC made no progress")
+            m = merged_to
+            a, b = b, a
 
     def _boxes(self, scene: SceneArrays, pos) -> float:
         """Boxes bottom-up over the hierarchy, packed nodes and leaf-ordered triangles from the

@@ -146,6 +146,13 @@ class Device:
                          "return 2.0f * (d.x * d.y + d.y * d.z + d.z * d.x); }")
         return self._algorithms["box_area"]
 
+    def exclusive_scan_uint(self):
+        """pyopencl ExclusiveScanKernel over uint (compaction positions)."""
+        if "scan_u" not in self._algorithms:
+            from pyopencl.scan import ExclusiveScanKernel
+            self._algorithms["scan_u"] = ExclusiveScanKernel(self.context, np.uint32, "a+b", "0")
+        return self._algorithms["scan_u"]
+
     def radix_sort_uint_pairs(self):
         """pyopencl's RadixSort of (uint key, uint value) pairs."""
         if "radix_uu" not in self._algorithms:
