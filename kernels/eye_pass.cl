@@ -19,7 +19,7 @@ inline float filter_offset(__global const float *table, uint bits) {
 __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint seed,
                        int max_bounces, float initial_radius, float auto_radius_pixels,
                        __global const float *filter_table,
-                       __global float4 *direct, __global float *radius,
+                       __global float4 *direct, __global float *radius, __global float *radius0,
                        __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
                        __global uint *counters, __global float4 *aux_albedo,
                        __global float4 *aux_normal, __global const uint *active) {
@@ -79,7 +79,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
             if (radius[id] <= 0.0f) {
                 float foot = camera_pixel_size(cam) * (cam->type == CAMERA_ORTHO ? 1.0f : path_len);
                 float r0 = initial_radius > 0.0f ? initial_radius : auto_radius_pixels * foot;
-                radius[id] = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
+                radius[id] = radius0[id] = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
             }
             break;
         }

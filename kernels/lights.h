@@ -313,7 +313,7 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
         q = offset_ray(q, dot(o - q, nt) >= 0.0f ? nt : -nt);    /* on our side of it */
         float3 tq = q - o;
         float dq2 = dot(tq, tq);
-        dist = sqrt(dq2);
+        dist = st.area > 0.0f ? dot(tq, wi) : sqrt(dq2);   /* along wi: short of the emitter */
         if (!(dist > 0.0f)) return (float3)(0.0f);
         if (!(st.area > 0.0f)) {          /* (solid angle: wi stays the sampled direction,
                                               q only ends the shadow ray) */
@@ -357,7 +357,9 @@ inline float3 direct_bsdf(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng)
     float cos_s = dot(wi, n);
     if (cos_s <= 0.0f || dot(wi, ngf) <= 0.0f) return (float3)(0.0f);
     float3 o = offset_ray(p, ngf);
-    Hit h = bvh_intersect(o, wi, PPM_INF, VIS_SHADOW, false, BVH_PASS);
+    /* a diffuse bounce's ray (it must find emitters that cast no shadow, which next-event
+     * estimation samples too) */
+    Hit h = bvh_intersect(o, wi, PPM_INF, VIS_DIFFUSE, false, BVH_PASS);
     if (h.leaf < 0) return (float3)(0.0f);
     float4 e1 = tri_e1[h.leaf], e2 = tri_e2[h.leaf];
     __global const Material *m = materials + as_int(e2.w);

@@ -124,14 +124,21 @@ __kernel void film_resolve(__global const float4 *direct, __global const float4 
 
 /* Adaptive sampling, step 1: each pixel's estimated error, the standard error of its mean
  * over passes relative to the square root of its brightness (as Cycles' adaptive sampling:
- * dark pixels need less absolute precision), 0 before min_passes. */
-__kernel void film_error(__global const float4 *moments, uint min_passes,
-                         __global float *error, uint n) {
+ * dark pixels need less absolute precision); infinite before min_passes, and while a pixel
+ * that gathers photons still has a radius above max_radius x its initial one (film.py
+ * ADAPTIVE_MAX_RADIUS: the spread does not show the radius' bias). */
+__kernel void film_error(__global const float4 *moments, __global const float *nstat,
+                         __global const float *radius, __global const float *radius0,
+                         float max_radius, uint min_passes, __global float *error, uint n) {
     uint id = get_global_id(0);
     if (id >= n) return;
     acc4 m = acc_get(moments, id);
     float k = (float)m.w;
-    if (k < (float)max(min_passes, 2u)) { error[id] = INFINITY; return; }
+    if (k < (float)max(min_passes, 2u)
+            || (nstat[id] > 0.0f && radius[id] > max_radius * radius0[id])) {
+        error[id] = INFINITY;
+        return;
+    }
     float mean = (float)(m.x / m.w);
     float var = fmax((float)((m.y - m.x * m.x / m.w) / (m.w - 1)), 0.0f);
     error[id] = sqrt(var / k) / sqrt(fmax(mean, 1e-4f));

@@ -241,6 +241,7 @@ def first_image(scene_name: str = "bulb_box", device: str = "", repeat: int = 3)
     import bpy
     from . import session
     from .cli import _ensure_registered
+    from .properties import to_options
     from .scenes import build_example
     _ensure_registered()
     scene = build_example(scene_name)
@@ -270,7 +271,8 @@ def first_image(scene_name: str = "bulb_box", device: str = "", repeat: int = 3)
                 setups.append(session.render_log[-1].get("setup_s", float("nan")))
     return {"scene": scene_name, "resolution": [scene.render.resolution_x,
                                                 scene.render.resolution_y],
-            "photons_per_pass": int(scene.ppm.photons_per_pass),
+            "photons_per_pass": to_options(scene.ppm).photons_for(
+                scene.render.resolution_x * scene.render.resolution_y),
             "first_image_s": float(np.median(firsts)), "first_image_s_all": firsts,
             "setup_s": float(np.median(setups)) if setups else None}
 

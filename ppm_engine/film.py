@@ -28,6 +28,11 @@ class Film:
     A pixel's photon term is S / (pi x the photons emitted while it was active), so a pixel
     that adaptive sampling stopped keeps its value while the others go on."""
 
+    # adaptive sampling stops a pixel with photons only once its radius has shrunk to this
+    # fraction of the initial one: the per-pass spread cannot see the radius' bias (a blurred
+    # caustic or contact shadow is smooth, not noisy), so a pixel must not stop while it is large
+    ADAPTIVE_MAX_RADIUS = 0.5
+
     def __init__(self, device, width: int, height: int, fp64: bool | None = None):
         import pyopencl as cl
         self.device = device
@@ -39,6 +44,7 @@ class Film:
         self.photon_sum = device.buffer(32 * n, "film (photon flux)")
         self.nstat = device.buffer(4 * n, "film (N)")
         self.radius = device.buffer(4 * n, "film (radius)")
+        self.radius0 = device.buffer(4 * n, "film (initial radius)")
         self.image_buf = device.buffer(16 * n, "film (image)")
         # per pixel: (sum y, sum y^2, photons emitted while active, passes) of its samples y
         # (progressive.cl film_add_sample); 1 while the pixel is sampled (adaptive sampling)
@@ -49,7 +55,7 @@ class Film:
         self.aux_albedo = device.buffer(16 * n, "film (denoising albedo)")
         self.aux_normal = device.buffer(16 * n, "film (denoising normal)")
         for b, size in ((self.direct_pass, 16), (self.direct, 32), (self.photon_sum, 32),
-                        (self.nstat, 4), (self.radius, 4), (self.aux_albedo, 16),
+                        (self.nstat, 4), (self.radius, 4), (self.radius0, 4), (self.aux_albedo, 16),
                         (self.aux_normal, 16), (self.moments, 32)):
             cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
         cl.enqueue_fill_buffer(device.queue, self.active, np.uint32(1), 0, 4 * n)
@@ -80,8 +86,10 @@ class Film:
         """Adaptive sampling: pixels whose 3x3 neighbourhood's estimated error is at most
         ``threshold`` stop being sampled; counters[counter] += the pixels still active."""
         n = self.n_pixels
-        e1 = self.prog.film_error(q, (_round(n),), None, self.moments, np.uint32(min_passes),
-                                  self.error, np.uint32(n), wait_for=wait_for)
+        e1 = self.prog.film_error(q, (_round(n),), None, self.moments, self.nstat, self.radius,
+                                  self.radius0, np.float32(self.ADAPTIVE_MAX_RADIUS),
+                                  np.uint32(min_passes), self.error, np.uint32(n),
+                                  wait_for=wait_for)
         return self.prog.film_converge(q, (_round(n),), None, self.error, np.int32(self.width),
                                        np.int32(self.height), np.float32(threshold),
                                        self.active, counters, np.uint32(counter),

@@ -105,11 +105,26 @@ def to_options(settings) -> RenderOptions:
     ).validate()
 
 
+@bpy.app.handlers.persistent
+def keep_typed_photon_counts(*_args):
+    """A file saved before the automatic photon count existed stored only Photons per Pass: if
+    it set one, that count stays in force (load_post)."""
+    for scene in bpy.data.scenes:
+        s = getattr(scene, "ppm", None)
+        if s is not None and not s.is_property_set("auto_photons") \
+                and s.is_property_set("photons_per_pass"):
+            s.auto_photons = False
+
+
 def register():
     bpy.utils.register_class(PPMSettings)
     bpy.types.Scene.ppm = PointerProperty(type=PPMSettings, name="Progressive Photon Mapping")
+    if keep_typed_photon_counts not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(keep_typed_photon_counts)
 
 
 def unregister():
+    if keep_typed_photon_counts in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(keep_typed_photon_counts)
     del bpy.types.Scene.ppm
     bpy.utils.unregister_class(PPMSettings)

@@ -87,17 +87,9 @@ def _round(n: int, wg: int = 64) -> int:
     return max(wg, (n + wg - 1) // wg * wg)
 
 
-def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
-    """The scene as the device renders it, and warnings (docs/STABILITY.md):
-      * triangles with a NaN/Inf corner are dropped (as the exporter does), NaN/Inf shading
-        normals fall back to the geometric normal, lights with NaN/Inf values are dropped;
-      * NaN/Inf in the camera, the world or a material is refused with a SceneError;
-      * a scene far from the origin (|centre| > 4 x its size) is moved to it, in float64:
-        the kernels' ULP-scaled ray offsets and float32 hit points then work at the
-        precision of the scene's size, not of its distance (a box 1e5 from the origin).
-    The shift depends on the positions only, so the same geometry always gets the same one."""
+def check_finite(scene: SceneArrays) -> None:
+    """Refuse NaN/Inf in the camera, a material or the world with a SceneError naming it."""
     from .errors import SceneError
-    warnings = []
     for name in ("camera", "materials"):
         a = getattr(scene, name)
         for field in a.dtype.names:
@@ -111,6 +103,19 @@ def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
                                  "them and render again")
     if not np.isfinite(scene.world).all():
         raise SceneError("the world colour has NaN or infinite values: fix its strength or colour")
+
+
+def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
+    """The scene as the device renders it, and warnings (docs/STABILITY.md):
+      * triangles with a NaN/Inf corner are dropped (as the exporter does), NaN/Inf shading
+        normals fall back to the geometric normal, lights with NaN/Inf values are dropped;
+      * NaN/Inf in the camera, the world or a material is refused with a SceneError;
+      * a scene far from the origin (|centre| > 4 x its size) is moved to it, in float64:
+        the kernels' ULP-scaled ray offsets and float32 hit points then work at the
+        precision of the scene's size, not of its distance (a box 1e5 from the origin).
+    The shift depends on the positions only, so the same geometry always gets the same one."""
+    check_finite(scene)
+    warnings = []
     changes = {}
     good = np.isfinite(scene.positions).all(axis=(1, 2))
     if not good.all():
@@ -262,13 +267,12 @@ class Renderer:
         refitted over its hierarchy instead of rebuilt, and the scene re-uploaded.  Returns
         False (nothing changed) when the triangle count differs or the refitted tree would be
         too slow (bvh.BVH.refit); then build a new Renderer.  Call reset() afterwards."""
-        if scene.n_triangles != self.bvh.n_triangles:
-            return False
         prepared, warnings = prepare_scene(scene)
         if prepared.n_triangles != self.bvh.n_triangles or not self.bvh.refit(prepared):
             return False
         self.warnings = warnings
         self._upload_scene(scene, prepared)
+        self._fetch_kernels(prepared)
         return True
 
     def can_reuse(self, options: RenderOptions, scene: SceneArrays | None = None) -> bool:
@@ -336,7 +340,7 @@ class Renderer:
         run("eye", self.k_eye, _round(n), self.camera, *self._scene_args(), pass_id, seed,
             np.int32(o.max_bounces), np.float32(o.initial_radius),
             np.float32(self.AUTO_RADIUS_PIXELS), self.filter_table, self.film.direct_pass,
-            self.film.radius,
+            self.film.radius, self.film.radius0,
             self.vp_pos, self.vp_nrm, self.vp_beta, self.counters, self.film.aux_albedo,
             self.film.aux_normal, self.film.active)
         pm = self.photon_map
@@ -399,6 +403,10 @@ class Renderer:
     def close(self):
         """Release this render's device buffers now (the device and its programs stay)."""
         import pyopencl as cl
+        ids = getattr(self.bvh, "sorted_ids", None)
+        if ids is not None:                      # a pyopencl Array, not a buffer
+            ids.data.release()
+            self.bvh.sorted_ids = None
         for obj in (self.bvh, self.film, self.photon_map, self):
             for name, value in list(vars(obj).items()):
                 if isinstance(value, cl.MemoryObjectHolder):

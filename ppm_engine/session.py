@@ -66,9 +66,12 @@ def _render_key(depsgraph) -> tuple:
 
 
 def emits_nothing(arrays) -> bool:
-    """No light with power, no emissive triangle, a black world: the image is black."""
+    """No light with power, no emissive triangle, a black world: the image is black.  (NaN in
+    the camera, the world or a material is refused first, as the renderer would.)"""
     from .emitters import emits_light
     from .materials import kernel_materials
+    from .renderer import check_finite
+    check_finite(arrays)
     return not emits_light(arrays, kernel_materials(arrays.materials))
 
 

@@ -321,3 +321,34 @@ def test_direct_light_beside_a_large_emitter_has_bounded_variance():
     # solid-angle sampling of the lamp's triangles (lights.h spherical_triangle): 0.27 measured
     # (area sampling with MIS: 0.9)
     assert e.std() < 0.4, e.std()
+
+
+def test_an_emitter_that_casts_no_shadow_lights_as_much():
+    """A mesh light with shadow visibility off is still found by the BSDF sample (a diffuse
+    ray), so NEE + MIS give the same direct light as with the flag on."""
+    import pyopencl as cl
+    from ppm_engine.procedural import cornell_box
+    from ppm_engine.scene_arrays import VIS_SHADOW
+    scene = cornell_box(8, 8)
+    lamp = scene.materials["emission"].max(axis=1)[scene.material] > 0
+    vis = scene.visibility.copy()
+    vis[lamp] &= ~np.uint32(VIS_SHADOW)
+    n = 4096
+    pts = np.tile(np.float32([0.0, 0.0, 1.99 - 0.05, 0]), (n, 1))    # 5 cm under the lamp
+    pts[:, 0] = np.linspace(-0.3, 0.3, n)
+    nrm = np.tile(np.float32([0, 0, 1, 0]), (n, 1))                    # facing it
+    means = []
+    for s in (scene, scene.replace(visibility=vis)):
+        r = Renderer(s, RenderOptions(max_bounces=0))
+        dev = r.device
+        out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * n)
+        dev.programs.get("debug.cl").direct_light(
+            dev.queue, (n,), None, *r._scene_args(), dev.upload(pts, "p"),
+            dev.upload(nrm, "n"), np.int32(64), out, np.uint32(n))
+        got = np.empty((n, 4), np.float32)
+        cl.enqueue_copy(dev.queue, got, out)
+        r.close()
+        means.append(got[:, 0].astype(np.float64))
+    a, b = means
+    assert a.mean() > 1.0
+    assert abs(b.mean() / a.mean() - 1) < 0.01, (a.mean(), b.mean())

@@ -62,6 +62,23 @@ def test_photon_count_is_automatic_until_one_is_typed(bpy):
         bpy.data.scenes.remove(scene)
 
 
+def test_a_file_from_before_the_automatic_photon_count_keeps_its_count(bpy, session_dir):
+    """A file whose scene stored only Photons per Pass (saved before Automatic existed) opens
+    with that count in force; a file that stored neither keeps the automatic count."""
+    from ppm_engine.properties import to_options
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    name = scene.name
+    scene.ppm["photons_per_pass"] = 5000          # as an older version stored it (no callback)
+    bpy.data.scenes.new("untouched")
+    path = session_dir / "old_photons.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
+    old = bpy.data.scenes[name]
+    assert old.ppm.auto_photons is False and to_options(old.ppm).photons_per_pass == 5000
+    assert bpy.data.scenes["untouched"].ppm.auto_photons is True
+
+
 def test_device_enum_lists_default_and_pocl(bpy, pocl_key):
     from ppm_engine.properties import refresh_devices
     keys = [item[0] for item in refresh_devices()]

@@ -174,6 +174,10 @@ def test_adaptive_sampling_stops_converged_pixels_and_keeps_their_value():
     # a pixel that stopped keeps its value; the still active ones keep changing
     (img_a, act_a), (img_b, act_b) = imgs[-9], imgs[-1]
     stopped = ~act_a
+    # no pixel that gathers photons stopped with a large radius (its bias is not noise)
+    from ppm_engine.film import Film
+    R, R0, N = (r.film.read(k) for k in ("radius", "radius0", "nstat"))
+    assert ((N[~act_b] == 0) | (R[~act_b] <= Film.ADAPTIVE_MAX_RADIUS * R0[~act_b])).all()
     assert stopped.any() and act_b.sum() <= act_a.sum()
     np.testing.assert_array_equal(img_a[stopped], img_b[stopped])
     # and the image is the non-adaptive one within noise (stopping pixels adds no bias)
@@ -203,3 +207,12 @@ def test_render_ends_when_every_pixel_converged(bpy, example_blend, tiny, render
     img = render_exr(tmp_path / "adaptive.exr")
     assert Renderer.ADAPTIVE_MIN_PASSES <= session.render_log[-1]["passes"] < 1000
     assert np.isfinite(img).all() and img[..., :3].mean() > 0
+
+
+def test_a_nan_world_is_refused_before_the_dark_scene_check():
+    from ppm_engine.errors import SceneError
+    from ppm_engine.session import emits_nothing
+    scene = cornell_box(8, 8, light_radiance=0.0)
+    assert emits_nothing(scene)
+    with pytest.raises(SceneError, match="world"):
+        emits_nothing(scene.replace(world=np.float32([np.nan, 0, 0])))

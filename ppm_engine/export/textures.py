@@ -104,9 +104,14 @@ class TextureTable:
             self.warn(f"Material '{material}': image '{image.name}'{where} cannot be loaded (a "
                       "missing or unreadable file); it renders magenta, as in Cycles")
             return None, False
-        px = np.empty(w * h * 4, np.float32)
-        image.pixels.foreach_get(px)
-        px = px.reshape(-1, 4)
+        c = int(image.channels) or 4
+        raw = np.empty(w * h * c, np.float32)
+        image.pixels.foreach_get(raw)
+        raw = raw.reshape(-1, c)
+        px = np.ones((w * h, 4), np.float32)             # RGBA; grey images fill RGB
+        px[:, :3] = raw[:, :3] if c >= 3 else raw[:, :1]
+        if c in (2, 4):
+            px[:, 3] = raw[:, c - 1]
         cs = image.colorspace_settings
         srgb = False
         if not image.is_float and not cs.is_data:
