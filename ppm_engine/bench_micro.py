@@ -114,19 +114,48 @@ def tracing(device, width=256, photons=1 << 18) -> dict:
             "eye_pass_ms": float(np.median(eye)), "photon_pass_ms": float(np.median(ph))}
 
 
+def _rays_per_second(device, bvh, n=1 << 16) -> float:
+    """Closest-hit rays per second (device time) of random rays from inside the unit sphere."""
+    rng = np.random.default_rng(0)
+    o = np.zeros((n, 4), np.float32)
+    o[:, :3] = rng.uniform(-0.5, 0.5, (n, 3))
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    dd = np.zeros((n, 4), np.float32)
+    dd[:, :3], dd[:, 3] = d, 1e30
+    ob, db = device.upload(o, "rays"), device.upload(dd, "rays")
+    hits = device.buffer(16 * n, "hits")
+    k = device.programs.get("debug.cl").trace_rays
+
+    def once():
+        ev = k(device.queue, (n,), None, bvh.nodes, bvh.tri_v0, bvh.tri_e1, bvh.tri_e2, ob, db,
+               np.uint32(0xFFFFFFFF), np.int32(0), hits, np.uint32(n))
+        ev.wait()
+        return n / ((ev.profile.end - ev.profile.start) * 1e-9)
+    return _median(once, repeat=5, warmup=1)
+
+
 def bvh_build(device, n_tris: int) -> dict:
+    """Build time (wall) and closest-hit rays per second of both builders on a sphere."""
     mb = MeshBuilder()
     m = mb.material("m")
     seg = int(np.sqrt(n_tris / 2))
     mb.sphere((0, 0, 0), 1.0, m, 2 * seg, max(seg // 2, 2))
     scene = mb.build(camera=make_camera(width=8, height=8, to_world=look_at((0, -3, 0), (0, 0, 0)),
                                         extent=(1, 1)))
+    out = {"triangles": scene.n_triangles}
+    for method in ("ploc", "lbvh"):
+        built = []
 
-    def once():
-        t = time.perf_counter()
-        BVH(device, scene)
-        return (time.perf_counter() - t) * 1e3
-    return {"triangles": scene.n_triangles, "bvh_build_ms_wall": _median(once, repeat=3, warmup=1)}
+        def once():
+            t = time.perf_counter()
+            built.append(BVH(device, scene, method=method))
+            return (time.perf_counter() - t) * 1e3
+        out[f"{method}_build_ms_wall"] = _median(once, repeat=3, warmup=1)
+        out[f"{method}_cost"] = built[-1].cost
+        out[f"{method}_rays_per_s"] = _rays_per_second(device, built[-1])
+    out["bvh_build_ms_wall"] = out["ploc_build_ms_wall"]
+    return out
 
 
 def run_micro(device_name: str = "", quick: bool = False, progress=print) -> dict:
@@ -159,7 +188,9 @@ def format_micro(m: dict) -> str:
     lines.append(f"eye rays: {t['eye_rays_per_s']:.3g}/s   photons traced: "
                  f"{t['photons_per_s']:.3g}/s")
     for b in m["bvh"]:
-        lines.append(f"BVH build {b['triangles']:>9,} triangles: {b['bvh_build_ms_wall']:.1f} ms (wall)")
+        lines.append(f"BVH build {b['triangles']:>9,} triangles: PLOC {b['ploc_build_ms_wall']:.1f} ms"
+                     f" (wall, {b['ploc_rays_per_s']:.3g} rays/s), LBVH "
+                     f"{b['lbvh_build_ms_wall']:.1f} ms ({b['lbvh_rays_per_s']:.3g} rays/s)")
     if "export" in m:
         e = m["export"]
         lines.append(f"export_scene {e['triangles']:>9,} triangles: {e['export_s_wall']:.3f} s (wall)")
