@@ -200,7 +200,15 @@ def cmd_render(args) -> int:
         scene.render.resolution_x, scene.render.resolution_y = args.resolution
         scene.render.resolution_percentage = 100
     from . import session
-    listener = lambda text: _say(text)  # noqa: E731
+    tty = sys.stderr.isatty()
+
+    def listener(text):                 # "[#####     ]  50 % Pass 32/64 · ..." per pass
+        f = session.progress_fraction
+        line = f"[{'#' * int(20 * f):<20}] {100 * f:3.0f} % {text}"
+        if tty:                         # one line, redrawn
+            print(f"\r{PROG}: {line}\033[K", end="", file=sys.stderr, flush=True)
+        else:
+            _say(line)
     session.progress_listeners.append(listener)
     t0 = time.perf_counter()
     try:
@@ -221,6 +229,8 @@ def cmd_render(args) -> int:
         raise CLIError(f"render failed: {_blender_message(e)}") from None
     finally:
         session.progress_listeners.remove(listener)
+        if tty:
+            print(file=sys.stderr)
     missing = [str(p) for p in written if not p.is_file()]
     if missing:
         raise CLIError(f"render finished but {', '.join(missing)} was not written")

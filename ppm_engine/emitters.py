@@ -72,14 +72,17 @@ def light_power(lights: np.ndarray, scene_radius: float) -> np.ndarray:
 
 def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
     """Whether anything in the scene emits: a light with power, an emissive triangle with area,
-    an emitting world (build_emitters' table is not empty).  Needs no BVH."""
-    _, radius = scene_bounds(scene.positions)
-    if (light_power(scene.lights, radius) > 0).any():
-        return True
+    an emitting world (build_emitters' table is not empty).  Needs no BVH, and no scene
+    bounds: a sun's power (irradiance x the scene's cross-section) is positive exactly when its
+    irradiance is."""
     world = np.nan_to_num(scene.world.astype(np.float64), nan=0.0, posinf=0.0)
     if world.max(initial=0.0) > 0:
         return True
+    if (light_power(scene.lights, 1.0) > 0).any():
+        return True
     emission = mean_emission(kmaterials, scene.textures, scene.texels).max(axis=1)
+    if not (emission > 0).any():
+        return False                    # (no emissive material at all: skip the triangles)
     tri = scene.material[(scene.material >= 0) & (scene.material < emission.shape[0])]
     if not (emission[tri] > 0).any():
         return False

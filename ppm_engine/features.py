@@ -18,14 +18,23 @@ ALL = ("PPM_SPECULAR", "PPM_GLASS", "PPM_LIGHT_POINT", "PPM_LIGHT_SUN", "PPM_LIG
        "PPM_EMISSIVE", "PPM_WORLD", "PPM_LIGHTS_SEEN", "PPM_DOF", "PPM_TEXTURES")
 
 
-def scene_features(scene: SceneArrays, kmaterials: np.ndarray, emitters) -> frozenset:
+def used_materials(scene: SceneArrays, n_materials: int) -> np.ndarray:
+    """Indices of the materials some triangle uses (a bincount: no sort of the triangles)."""
+    m = scene.material
+    m = m[(m >= 0) & (m < n_materials)] if m.size else m
+    return np.nonzero(np.bincount(m, minlength=n_materials))[0] if m.size else \
+        np.zeros(0, np.int64)
+
+
+def scene_features(scene: SceneArrays, kmaterials: np.ndarray, emitters,
+                   used: np.ndarray | None = None) -> frozenset:
     """The features of kernels/features.h that ``scene`` uses.
 
     ``kmaterials`` are the kernel materials (materials.kernel_materials) and ``emitters`` the
     emitter table (emitters.build_emitters): a light of zero power is never sampled, so its type
     needs no code; only materials some triangle uses count."""
-    used = np.unique(scene.material) if scene.material.size else np.zeros(0, np.int64)
-    used = used[(used >= 0) & (used < kmaterials.shape[0])]
+    if used is None:
+        used = used_materials(scene, kmaterials.shape[0])
     m = kmaterials[used]
     f = set()
     if (m["p_glass"] > 0).any():

@@ -16,7 +16,7 @@ import numpy as np
 from .bvh import BVH
 from .device import get_device
 from .emitters import build_emitters
-from .features import defines as feature_defines, scene_features
+from .features import defines as feature_defines, scene_features, used_materials
 from .film import Film, filter_table
 from .materials import MAT_DIFFUSE, kernel_materials
 from .options import RenderOptions
@@ -215,6 +215,8 @@ class Renderer:
             prepared, self.warnings = prepare_scene(scene)
         self._prepared = scene = prepared    # the BVH's triangles, moved as the BVH's
         self.kmaterials = kernel_materials(scene.materials)
+        self._used = used_materials(scene, self.kmaterials.shape[0])
+        self._offset_scale = offset_scale(scene)
         self.emitters = build_emitters(scene, self.kmaterials, self.bvh.leaf_order)
         self.normals = up(scene.normals, "shading normals")
         self.uvs = up(scene.uvs, "UVs")
@@ -238,19 +240,17 @@ class Renderer:
         """Whether photon passes can add anything (else no photon pass, hash or gather runs):
         something emits, paths may bounce (max_bounces > 0), and some surface is diffuse --
         photons are stored, and visible points made, only on diffuse surfaces."""
-        used = np.unique(self._prepared.material)
-        used = used[(used >= 0) & (used < self.kmaterials.shape[0])]
-        diffuse = bool((self.kmaterials["flags"][used] & MAT_DIFFUSE).any())
+        diffuse = bool((self.kmaterials["flags"][self._used] & MAT_DIFFUSE).any())
         return bool(self.emitters.info["n_emitters"][0] > 0 and self.options.max_bounces > 0
                     and diffuse)
 
     def _fetch_kernels(self, prepared: SceneArrays):
         """The eye and photon passes built for the scene's features (features.py; each feature
         set is built once per device and cached)."""
-        self.features = (scene_features(prepared, self.kmaterials, self.emitters)
+        self.features = (scene_features(prepared, self.kmaterials, self.emitters, self._used)
                          if self.options.specialize else None)
         # (one more build for a scene far from 1 m in size)
-        self.defines = {"PPM_OFFSET_SCALE": float(offset_scale(prepared)).hex() + "f",
+        self.defines = {"PPM_OFFSET_SCALE": float(self._offset_scale).hex() + "f",
                         **feature_defines(self.features)}
         P = self.device.programs
         self.k_eye = P.get("eye_pass.cl", self.defines).eye_pass

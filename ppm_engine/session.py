@@ -17,6 +17,8 @@ from .errors import PPMError
 # "Pass 12/64 · 3.1M photons · 2.4 s".  The CLI adds one that prints to stderr, because
 # update_stats() shows nothing in background mode.
 progress_listeners: list = []
+# the render's progress (0..1) when the listeners are called (the CLI draws its bar from it)
+progress_fraction = 0.0
 
 # With quick passes the image is written at most this often (seconds); the last pass always is.
 WRITE_INTERVAL = 0.25
@@ -87,6 +89,7 @@ class Session:
     def __init__(self):
         self.renderer = None
         self.arrays = None
+        self.dark = None            # emits_nothing(self.arrays)
         self.key = None
         self.written_passes = 0     # passes of the current renderer whose image is in the result
 
@@ -108,7 +111,11 @@ class Session:
             engine.update_stats("", "Exporting scene")
             arrays = export_scene(depsgraph, engine)
         r = self.renderer
-        if emits_nothing(arrays):
+        if arrays is self.arrays and self.dark is not None:
+            dark = self.dark
+        else:
+            dark = self.dark = emits_nothing(arrays)
+        if dark:
             engine.report({'WARNING'}, "The scene emits no light (no light with power, no "
                                        "emissive material, a black world): the image is black")
             self.free()
@@ -126,13 +133,14 @@ class Session:
             log["bvh_built"] = True
             for w in self.renderer.warnings:     # what the device copy of the scene dropped
                 engine.report({'WARNING'}, w)
-        self.arrays, self.key = arrays, key
+        self.arrays, self.key, self.dark = arrays, key, dark
         log["setup_s"] = time.perf_counter() - t0
         render_log.append(log)
         return arrays
 
     def free(self) -> None:
         r, self.renderer, self.arrays, self.key = self.renderer, None, None, None
+        self.dark = None
         if r is not None:
             r.close()
 
@@ -209,6 +217,8 @@ class Session:
             engine.update_progress(min(progress, 1.0))
             text = stats.line(options.passes, elapsed, options.time_limit)
             engine.update_stats("", text)
+            global progress_fraction
+            progress_fraction = min(progress, 1.0)
             for listener in progress_listeners:
                 listener(text)
             if stats.converged:          # adaptive sampling: every pixel below the threshold

@@ -39,7 +39,8 @@ def test_render_cornell_box(cli, example_blend, pocl_key, exr, tmp_path, ext):
                "--device", pocl_key, "--seed", "3")
     assert proc.returncode == 0, proc.stderr
     assert out.is_file()
-    assert "Pass 2/2" in proc.stderr               # a progress line per pass on stderr
+    assert "Pass 2/2" in proc.stderr               # a progress line per pass on stderr,
+    assert "[####################] 100 % Pass 2/2" in proc.stderr     # with its bar
     if ext == "png":
         assert _png_size(out) == (24, 16)
     else:
