@@ -61,8 +61,9 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
         __global const Material *m = materials + s.material;
         if (m->flags & MAT_EMISSIVE)
-            L += beta * F3(m->emission) * emission_tint(m, s.tri, h.u, h.v, TEXTURE_PASS);
-        float3 tint = albedo_tint(m, s.tri, h.u, h.v, TEXTURE_PASS);
+            L += beta * F3(m->emission)
+                 * texture_tint(m->emission_tex, s.tri, h.u, h.v, TEXTURE_PASS);
+        float3 tint = texture_tint(m->diffuse_tex, s.tri, h.u, h.v, TEXTURE_PASS);
         int lobe = choose_lobe(m, rnd(&rng));
         if (lobe == LOBE_ABSORBED) break;
         if (lobe == LOBE_DIFFUSE) {

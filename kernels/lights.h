@@ -322,7 +322,8 @@ inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rn
             E = cos_l * 0.5f * area2 / dq2;
             pdf_light = cos_l > 0.0f ? pmf * dq2 / (cos_l * 0.5f * area2) : 0.0f;
         }
-        E = E * F3(me->emission) * emission_tint(me, as_uint(v0.w), b.x, b.y, TEXTURE_PASS);
+        E = E * F3(me->emission)
+            * texture_tint(me->emission_tex, as_uint(v0.w), b.x, b.y, TEXTURE_PASS);
     }
 #endif
 #ifdef PPM_WORLD
@@ -370,11 +371,12 @@ inline float3 direct_bsdf(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng)
     float cos_l = area2 > 0.0f ? fabs(dot(wi, c)) / area2 : 0.0f;
     if (!(pmf > 0.0f && cos_l > 0.0f)) return (float3)(0.0f);   /* NEE never picks it: 0 power */
     /* the pdf of the strategy sample_direct uses for this triangle from this origin */
-    float3 v0 = tri_v0[h.leaf].xyz;
-    SphTri st = spherical_triangle(o, v0, v0 + e1.xyz, v0 + e2.xyz);
+    float4 v0 = tri_v0[h.leaf];
+    SphTri st = spherical_triangle(o, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
     float pdf_light = st.area > 0.0f ? pmf / st.area : pmf * h.t * h.t / (cos_l * 0.5f * area2);
     /* f Le cos / pdf_bsdf = (rho/pi) Le pi: in E units (times f) that is Le pi */
-    return F3(m->emission) * emission_tint(m, as_uint(tri_v0[h.leaf].w), h.u, h.v, TEXTURE_PASS)
+    return F3(m->emission)
+        * texture_tint(m->emission_tex, as_uint(v0.w), h.u, h.v, TEXTURE_PASS)
         * (PPM_PI * mis_power(cos_s * (1.0f / PPM_PI), pdf_light));
 #endif
 }
@@ -457,7 +459,8 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
         *d = sample_cosine_hemisphere(nt, uu, u4);
         *o = offset_ray(q, nt);
         __global const Material *me = materials + as_int(e2.w);
-        *flux = F3(me->emission) * emission_tint(me, as_uint(v0.w), b.x, b.y, TEXTURE_PASS)
+        *flux = F3(me->emission)
+                * texture_tint(me->emission_tex, as_uint(v0.w), b.x, b.y, TEXTURE_PASS)
                 * (2.0f * PPM_PI * 0.5f * area2 / pmf);
     }
 #endif

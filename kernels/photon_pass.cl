@@ -49,7 +49,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass, uint seed, int max_bounces, uin
         int lobe = choose_lobe(m, rnd(&rng));
         if (lobe == LOBE_ABSORBED) break;
         float3 before = flux;
-        float3 tint = albedo_tint(m, s.tri, h.u, h.v, TEXTURE_PASS);
+        float3 tint = texture_tint(m->diffuse_tex, s.tri, h.u, h.v, TEXTURE_PASS);
         if (lobe == LOBE_DIFFUSE) {
             d = sample_cosine_hemisphere(nsf, rnd(&rng), rnd(&rng));
             if (dot(d, ngf) <= 0.0f) break;

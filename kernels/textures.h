@@ -82,20 +82,12 @@ inline float2 surface_uv(__global const float *uvs, uint tri, float u, float v) 
     return (float2)(w * a[0] + u * a[2] + v * a[4], w * a[1] + u * a[3] + v * a[5]);
 }
 
-/* the factor of a material's base colour (albedo, metal and glass tints) at a surface point */
-inline float3 albedo_tint(__global const Material *m, uint tri, float u, float v, TEXTURE_ARGS) {
+/* the factor a material's texture tex1 (its diffuse_tex for the base colour: albedo, metal
+ * and glass tints; its emission_tex for the emission) puts on it at a surface point: the
+ * texture at the point's UV, 1 without a texture */
+inline float3 texture_tint(int tex1, uint tri, float u, float v, TEXTURE_ARGS) {
 #ifdef PPM_TEXTURES
-    if (m->diffuse_tex > 0) return texture_rgb(textures, texels, m->diffuse_tex,
-                                               surface_uv(uvs, tri, u, v));
-#endif
-    return (float3)(1.0f);
-}
-
-/* the factor of a material's emission at a surface point */
-inline float3 emission_tint(__global const Material *m, uint tri, float u, float v, TEXTURE_ARGS) {
-#ifdef PPM_TEXTURES
-    if (m->emission_tex > 0) return texture_rgb(textures, texels, m->emission_tex,
-                                                surface_uv(uvs, tri, u, v));
+    if (tex1 > 0) return texture_rgb(textures, texels, tex1, surface_uv(uvs, tri, u, v));
 #endif
     return (float3)(1.0f);
 }

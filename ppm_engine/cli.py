@@ -277,6 +277,14 @@ def cmd_bench(args) -> int:
     md_path = Path(args.markdown) if args.markdown else _DOCS / "BENCHMARKS.md"
     if args.photons is not None and args.photons < 1:
         raise CLIError("--photons must be at least 1", EXIT_USAGE)
+
+    def publish(name: str, data: dict, text: str, block: str | None = None) -> int:
+        """Print a result, write its JSON (--json or docs/bench/NAME.json) and its markdown
+        block (the command line, then ``block`` or ``text``)."""
+        print(text)
+        bench.write_json(data, args.json or _DOCS / "bench" / f"{name}.json")
+        _replace_block(md_path, name, f"`{cmdline}`\n\n{block or text}")
+        return 0
     if args.micro:
         from . import bench_micro
         m = bench_micro.run_micro(args.device, quick=args.quick, progress=progress)
@@ -284,23 +292,15 @@ def cmd_bench(args) -> int:
         m.update(bench_micro.run_micro_blender(args.device, quick=args.quick, progress=progress))
         m["machine"] = bench.machine_info(args.device)
         m["command"] = cmdline
-        text = bench_micro.format_micro(m) + "\n\n" + bench_micro.targets_table(m)
-        print(text)
-        bench.write_json(m, args.json or _DOCS / "bench" / "micro.json")
-        _replace_block(md_path, "micro", f"`{cmdline}`\n\n```\n{bench_micro.format_micro(m)}\n"
-                                         f"```\n\n{bench_micro.targets_table(m)}")
-        return 0
+        raw, table = bench_micro.format_micro(m), bench_micro.targets_table(m)
+        return publish("micro", m, f"{raw}\n\n{table}", f"```\n{raw}\n```\n\n{table}")
     if args.skips:
         from . import bench_skips
         _ensure_registered()
         s = bench_skips.run_skips(args.device, quick=args.quick, progress=progress)
         s["machine"] = bench.machine_info(args.device)
         s["command"] = cmdline
-        text = bench_skips.format_skips(s)
-        print(text)
-        bench.write_json(s, args.json or _DOCS / "bench" / "skips.json")
-        _replace_block(md_path, "skips", f"`{cmdline}`\n\n{text}")
-        return 0
+        return publish("skips", s, bench_skips.format_skips(s))
     if args.phases:
         from .scenes import EXAMPLES
         if args.phases not in EXAMPLES:
@@ -313,11 +313,7 @@ def cmd_bench(args) -> int:
                              photons=args.photons or (4096 if args.quick else None),
                              progress=progress)
         p["command"] = cmdline
-        text = bench.format_phases(p)
-        print(text)
-        bench.write_json(p, args.json or _DOCS / "bench" / "phases.json")
-        _replace_block(md_path, "phases", f"`{cmdline}`\n\n{text}")
-        return 0
+        return publish("phases", p, bench.format_phases(p))
     q = bench.QUICK if args.quick else {}
     times = tuple(args.times) if args.times else q.get("times", bench.DEFAULT_TIMES)
     if any(t <= 0 for t in times):

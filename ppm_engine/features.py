@@ -13,10 +13,6 @@ from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHI
                            LIGHT_SPOT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION,
                            SceneArrays)
 
-# every flag of kernels/features.h, in its order
-ALL = ("PPM_SPECULAR", "PPM_GLASS", "PPM_LIGHT_POINT", "PPM_LIGHT_SUN", "PPM_LIGHT_AREA",
-       "PPM_EMISSIVE", "PPM_WORLD", "PPM_LIGHTS_SEEN", "PPM_DOF", "PPM_TEXTURES")
-
 
 def used_materials(scene: SceneArrays, n_materials: int) -> np.ndarray:
     """Indices of the materials some triangle uses (a bincount: no sort of the triangles)."""

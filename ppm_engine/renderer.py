@@ -189,7 +189,7 @@ class Renderer:
         self.bvh = BVH(dev, prepared)
         self._upload_scene(scene, prepared)
 
-        self._fetch_kernels(prepared)
+        self._fetch_kernels()
 
         self.film = Film(dev, w, h)
         self._allocate_pixels()
@@ -244,10 +244,10 @@ class Renderer:
         return bool(self.emitters.info["n_emitters"][0] > 0 and self.options.max_bounces > 0
                     and diffuse)
 
-    def _fetch_kernels(self, prepared: SceneArrays):
+    def _fetch_kernels(self):
         """The eye and photon passes built for the scene's features (features.py; each feature
         set is built once per device and cached)."""
-        self.features = (scene_features(prepared, self.kmaterials, self.emitters, self._used)
+        self.features = (scene_features(self._prepared, self.kmaterials, self.emitters, self._used)
                          if self.options.specialize else None)
         # (one more build for a scene far from 1 m in size)
         self.defines = {"PPM_OFFSET_SCALE": float(self._offset_scale).hex() + "f",
@@ -272,7 +272,7 @@ class Renderer:
             return False
         self.warnings = warnings
         self._upload_scene(scene, prepared)
-        self._fetch_kernels(prepared)
+        self._fetch_kernels()
         return True
 
     def can_reuse(self, options: RenderOptions, scene: SceneArrays | None = None) -> bool:
@@ -291,7 +291,7 @@ class Renderer:
         old, self.options = self.options, options
         if scene is not None and scene is not self.scene:
             self._upload_scene(scene)
-        self._fetch_kernels(self._prepared)
+        self._fetch_kernels()
         w, h = self.scene.resolution
         photons = options.photons_for(w * h)
         if ((w, h) != (self.width, self.height) or photons != self.photons_per_pass

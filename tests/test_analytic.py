@@ -253,25 +253,33 @@ def test_lights_are_seen_by_the_camera_like_in_cycles():
     assert img[0, 0] == 0.0
 
 
+def direct_light(scene, pts, nrm, samples):
+    """The eye pass's direct-light estimate (debug.cl direct_light: NEE + BSDF sample with MIS,
+    averaged over ``samples``) at points pts with normals nrm, (n, 4) float32 each."""
+    import pyopencl as cl
+    r = Renderer(scene, RenderOptions(max_bounces=0))
+    dev, n = r.device, len(pts)
+    out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * n)
+    dev.programs.get("debug.cl").direct_light(
+        dev.queue, (n,), None, *r._scene_args(), dev.upload(pts, "p"),
+        dev.upload(nrm, "n"), np.int32(samples), out, np.uint32(n))
+    got = np.empty((n, 4), np.float32)
+    cl.enqueue_copy(dev.queue, got, out)
+    r.close()
+    return got
+
+
 def test_grazing_emitter_does_not_shadow_itself():
     """A ceiling point 2-65 cm beside a lamp hanging 1 cm below the ceiling sees the lamp's
     top at grazing angles; next-event estimation must not let the lamp shadow itself (the
     shadow ray is built from its offset origin).  Reference: quadrature over the lamp.  The
     ray offsets (~1e-4 of 1 cm) leave a bias of about 1 %, allowed for."""
-    import pyopencl as cl
     from ppm_engine.procedural import cornell_box
-    r = Renderer(cornell_box(8, 8), RenderOptions(max_bounces=0))
-    dev = r.device
     ys = np.array([0.27, 0.3, 0.4, 0.6, 0.9])
     copies = 16                                   # independent estimates per point
     pts = np.array([[0.1, y, 2.0, 0] for y in np.repeat(ys, copies)], np.float32)
     nrm = np.tile(np.float32([0, 0, -1, 0]), (len(pts), 1))
-    out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * len(pts))
-    dev.programs.get("debug.cl").direct_light(
-        dev.queue, (len(pts),), None, *r._scene_args(), dev.upload(pts, "p"),
-        dev.upload(nrm, "n"), np.int32(20000), out, np.uint32(len(pts)))
-    got = np.empty((len(pts), 4), np.float32)
-    cl.enqueue_copy(dev.queue, got, out)
+    got = direct_light(cornell_box(8, 8), pts, nrm, 20000)
     est = got[:, 0].reshape(len(ys), copies)
     g = (np.arange(1000) + 0.5) / 1000 * 0.5 - 0.25
     X, Y = np.meshgrid(g, g)
@@ -290,21 +298,12 @@ def test_direct_light_beside_a_large_emitter_has_bounded_variance():
     Next-event estimation alone has a per-sample spread of ~(a/h) times the mean here (1/d^2
     near the lamp's centre); with solid-angle sampling of the lamp and MIS with the BSDF sample
     (lights.h direct_lighting) one sample's standard deviation stays well below the mean."""
-    import pyopencl as cl
     from ppm_engine.procedural import cornell_box
-    r = Renderer(cornell_box(8, 8), RenderOptions(max_bounces=0))
-    dev = r.device
     n = 8192
     pts = np.tile(np.float32([0.0, 0.0, 2.0, 0]), (n, 1))          # above the lamp's centre
     pts[:, 0] = np.linspace(-0.1, 0.1, n)                            # (it is at z = 1.99)
     nrm = np.tile(np.float32([0, 0, -1, 0]), (n, 1))
-    out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * n)
-    dev.programs.get("debug.cl").direct_light(
-        dev.queue, (n,), None, *r._scene_args(), dev.upload(pts, "p"),
-        dev.upload(nrm, "n"), np.int32(1), out, np.uint32(n))
-    got = np.empty((n, 4), np.float32)
-    cl.enqueue_copy(dev.queue, got, out)
-    r.close()
+    got = direct_light(cornell_box(8, 8), pts, nrm, 1)
     h = 0.01
 
     def corner(a, b):        # form factor to an a x b rectangle with a corner above the point
@@ -326,7 +325,6 @@ def test_direct_light_beside_a_large_emitter_has_bounded_variance():
 def test_an_emitter_that_casts_no_shadow_lights_as_much():
     """A mesh light with shadow visibility off is still found by the BSDF sample (a diffuse
     ray), so NEE + MIS give the same direct light as with the flag on."""
-    import pyopencl as cl
     from ppm_engine.procedural import cornell_box
     from ppm_engine.scene_arrays import VIS_SHADOW
     scene = cornell_box(8, 8)
@@ -337,18 +335,7 @@ def test_an_emitter_that_casts_no_shadow_lights_as_much():
     pts = np.tile(np.float32([0.0, 0.0, 1.99 - 0.05, 0]), (n, 1))    # 5 cm under the lamp
     pts[:, 0] = np.linspace(-0.3, 0.3, n)
     nrm = np.tile(np.float32([0, 0, 1, 0]), (n, 1))                    # facing it
-    means = []
-    for s in (scene, scene.replace(visibility=vis)):
-        r = Renderer(s, RenderOptions(max_bounces=0))
-        dev = r.device
-        out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * n)
-        dev.programs.get("debug.cl").direct_light(
-            dev.queue, (n,), None, *r._scene_args(), dev.upload(pts, "p"),
-            dev.upload(nrm, "n"), np.int32(64), out, np.uint32(n))
-        got = np.empty((n, 4), np.float32)
-        cl.enqueue_copy(dev.queue, got, out)
-        r.close()
-        means.append(got[:, 0].astype(np.float64))
-    a, b = means
+    a, b = (direct_light(s, pts, nrm, 64)[:, 0].astype(np.float64)
+            for s in (scene, scene.replace(visibility=vis)))
     assert a.mean() > 1.0
     assert abs(b.mean() / a.mean() - 1) < 0.01, (a.mean(), b.mean())
