@@ -4,6 +4,7 @@
  * the pixel's direct sum. */
 #include "lights.h"
 #include "camera.h"
+#include "counters.h"
 
 #define FILTER_TABLE_SIZE 256      /* ppm_engine/film.py */
 
@@ -16,7 +17,7 @@ inline float filter_offset(__global const float *table, uint bits) {
     return mix(table[k], table[k + 1], t);
 }
 
-__kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint seed,
+__kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, uint seed,
                        int max_bounces, float initial_radius, float auto_radius_pixels,
                        __global const float *filter_table,
                        __global float4 *direct, __global float *radius, __global float *radius0,
@@ -31,12 +32,12 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
         return;
     }
     int i = id % rw, j = id / rw;
-    uint rng = rng_seed(seed, pass, (uint)id, 1u);
+    uint rng = rng_seed(seed, pass_index, (uint)id, 1u);
     /* pixel jitter: the R2 sequence (Roberts 2018) over the passes, rotated per pixel
      * (Cranley-Patterson): stratified over passes, so anti-aliasing converges ~1/N */
     uint prng = rng_seed(seed, 0u, (uint)id, 4u);
-    uint jx = rng_next(&prng) + pass * 3242174889u;     /* 0.7548776662 * 2^32, wraps = frac */
-    uint jy = rng_next(&prng) + pass * 2447445413u;     /* 0.5698402910 * 2^32 */
+    uint jx = rng_next(&prng) + pass_index * 3242174889u;     /* 0.7548776662 * 2^32, wraps = frac */
+    uint jy = rng_next(&prng) + pass_index * 2447445413u;     /* 0.5698402910 * 2^32 */
     /* pixel filter by importance sampling (as Cycles): offsets from the filter's inverse CDF */
     float px = (float)(cam->region[0] + i) + 0.5f + filter_offset(filter_table, jx);
     float py = (float)(cam->region[1] + j) + 0.5f + filter_offset(filter_table, jy);
@@ -101,5 +102,5 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass, uint s
      * NaN/Inf guard: drop the sample, count it (render stats) */
     bool ok = isfinite(L.x) && isfinite(L.y) && isfinite(L.z);
     direct[id] = ok ? (float4)(L, 1.0f) : (float4)(0.0f);
-    if (!ok) atomic_inc(&counters[0]);
+    if (!ok) atomic_inc(&counters[CNT_NAN]);
 }

@@ -7,6 +7,7 @@
  * Also here: the grid over this pass's visible points (bounds expanded by each point's
  * radius), computed on the device so no host round trip sits between the passes. */
 #include "hash.h"
+#include "counters.h"
 #include "geometry.h"
 
 /* floats as order-preserving uints, for atomic min/max */
@@ -15,8 +16,9 @@ inline float o2f(uint u) { return as_float((u & 0x80000000u) ? (u & 0x7fffffffu)
 
 #define BOUNDS_WG 64
 /* bounds[0..2] min, [3..5] max, [6] r_max, [7] r_min (ordered uints), [8] count */
-__kernel void bounds_init(__global uint *bounds) {
-    for (int k = 0; k < 3; k++) { bounds[k] = 0xffffffffu; bounds[3 + k] = 0u; }
+__kernel void bounds_init(__global uint *bounds, float4 init_lo, float4 init_hi) {
+    float lo[3] = {init_lo.x, init_lo.y, init_lo.z}, hi[3] = {init_hi.x, init_hi.y, init_hi.z};
+    for (int k = 0; k < 3; k++) { bounds[k] = f2o(lo[k]); bounds[3 + k] = f2o(hi[k]); }
     bounds[6] = 0u;
     bounds[7] = 0xffffffffu;
     bounds[8] = 0u;
@@ -91,9 +93,9 @@ inline uint photon_key(uint seed, uint pass, uint i) { return rng_seed(seed, pas
 #endif
 
 __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
-                         uint capacity, __global const Grid *grid, uint table_mask, uint pass,
+                         uint capacity, __global const Grid *grid, uint table_mask, uint pass_index,
                          uint seed, __global ulong *table) {
-    uint n = min(counters[1], capacity);
+    uint n = min(counters[CNT_STORED], capacity);
     uint i0 = get_global_id(0) * PPM_BUILD_BATCH;
     if (i0 >= n) return;
     Grid g = *grid;
@@ -112,30 +114,30 @@ __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
     for (uint k = 0; k < m; k++) {
         uint h = hs[k], i = i0 + k;
         if (atomic_inc(&ENTRY_COUNT(table, h)) == 0u) occupied++;
-        uint key = photon_key(seed, pass, i);
+        uint key = photon_key(seed, pass_index, i);
 #ifdef PPM_INT64_ATOMICS
         atom_max(&table[2 * h + 1], ((ulong)key << 32) | (ulong)i);
 #else
         atomic_max(&((__global uint *)table)[4 * h + 2], key);
 #endif
     }
-    if (occupied) atomic_add(&counters[4], occupied);
+    if (occupied) atomic_add(&counters[CNT_OCCUPIED], occupied);
 #if PPM_BUILD_BATCH > 1
-    if (touch == 0xffffffffu) counters[7] = 0u;     /* keeps the loads; practically never true */
+    if (touch == 0xffffffffu) counters[CNT_SINK] = 0u;     /* keeps the loads; practically never true */
 #endif
 }
 
 #ifndef PPM_INT64_ATOMICS
 /* second pass of the 32-bit fallback: the photon whose key won writes its index */
 __kernel void hash_pick(__global const float4 *ph_pos, __global const uint *counters,
-                        uint capacity, __global const Grid *grid, uint table_mask, uint pass,
+                        uint capacity, __global const Grid *grid, uint table_mask, uint pass_index,
                         uint seed, __global ulong *table) {
     uint i = get_global_id(0);
-    if (i >= min(counters[1], capacity)) return;
+    if (i >= min(counters[CNT_STORED], capacity)) return;
     Grid g = *grid;
     uint h = cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask);
     __global uint *t32 = (__global uint *)table;
-    if (t32[4 * h + 2] == photon_key(seed, pass, i)) t32[4 * h + 3] = i;
+    if (t32[4 * h + 2] == photon_key(seed, pass_index, i)) t32[4 * h + 3] = i;
 }
 #endif
 
@@ -147,7 +149,7 @@ __kernel void exact_keys(__global const float4 *ph_pos, __global const uint *cou
     uint i = get_global_id(0);
     if (i >= capacity) return;
     Grid g = *grid;
-    keys[i] = i < min(counters[1], capacity) ? cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask)
+    keys[i] = i < min(counters[CNT_STORED], capacity) ? cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask)
                                               : table_mask + 1u;
     ids[i] = i;
 }

@@ -5,19 +5,16 @@
 #include "lights.h"
 #include "hash.h"
 
-#define CNT_NAN 0
-#define CNT_STORED 1
-#define CNT_OUTSIDE 2
-#define CNT_OVERFLOW 3
+#include "counters.h"
 
-__kernel void photon_pass(SCENE_ARGS, uint pass, uint seed, int max_bounces, uint n_photons,
+__kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounces, uint n_photons,
                           __global const Grid *grid, uint capacity, __global float4 *ph_pos,
                           __global float4 *ph_flux, __global uint *counters) {
     uint id = get_global_id(0);
     if (id >= n_photons) return;
     Grid g = *grid;
     if (g.valid == 0u) return;
-    uint rng = rng_seed(seed, pass, id, 2u);
+    uint rng = rng_seed(seed, pass_index, id, 2u);
     float3 o, d, flux;
     if (!emit_photon(SCENE_PASS, &rng, &o, &d, &flux)) return;
     uint mask = VIS_SHADOW;    /* the light's own segment: objects that cast no shadow let it by */

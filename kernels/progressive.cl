@@ -10,6 +10,7 @@
  * way (docs/STABILITY.md: a float32 sum of a constant loses ~1e-5 in 2,000 passes, 1e-4 in
  * 10,000, and stops growing at 2^24 samples). */
 #include "geometry.h"
+#include "counters.h"
 
 #ifdef PPM_FP64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -147,7 +148,7 @@ __kernel void film_error(__global const float4 *moments, __global const float *n
 /* Step 2: a pixel stays active while any pixel of its 3x3 neighbourhood is above the threshold
  * (an isolated lucky pixel does not stop early); counts the active pixels. */
 __kernel void film_converge(__global const float *error, int width, int height, float threshold,
-                            __global uint *active, __global uint *counters, uint counter) {
+                            __global uint *active, __global uint *counters) {
     int id = get_global_id(0);
     if (id >= width * height) return;
     if (!active[id]) return;
@@ -158,6 +159,6 @@ __kernel void film_converge(__global const float *error, int width, int height, 
             int xx = clamp(x + dx, 0, width - 1), yy = clamp(y + dy, 0, height - 1);
             e = fmax(e, error[yy * width + xx]);
         }
-    if (e > threshold) atomic_inc(&counters[counter]);
+    if (e > threshold) atomic_inc(&counters[CNT_ACTIVE]);
     else active[id] = 0u;
 }

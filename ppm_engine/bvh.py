@@ -1,11 +1,14 @@
-"""LBVH over all triangles, built data-parallel on the device (kernels/bvh_build.cl):
-Morton codes, pyopencl's RadixSort, Karras' hierarchy, bottom-up boxes, packed nodes."""
+"""The BVH over all triangles, built data-parallel on the device (kernels/bvh_build.cl): Morton
+codes sorted with pyopencl's RadixSort, then PLOC (Meister & Bittner 2018, the default: nearest
+neighbours merged bottom-up) or Karras' LBVH hierarchy, bottom-up boxes, packed nodes; refitted
+in place when only positions change."""
 from __future__ import annotations
 
 import time
 
 import numpy as np
 
+from .device.program import global_size
 from .scene_arrays import SceneArrays
 
 
@@ -49,7 +52,7 @@ class BVH:
 
         codes = device.buffer(4 * n, "Morton codes")
         ids = device.buffer(4 * n, "triangle ids")
-        ev = prog.morton_codes(q, (_round(n),), None, pos, np.uint32(n), cmin, cscale, codes, ids)
+        ev = prog.morton_codes(q, (global_size(n),), None, pos, np.uint32(n), cmin, cscale, codes, ids)
         ev.wait()
         import pyopencl.array as cla
         keys_a = cla.Array(q, (n,), np.uint32, data=codes)
@@ -67,7 +70,7 @@ class BVH:
         if method == "ploc":
             self._ploc(pos, n)
         else:
-            prog.build_hierarchy(q, (_round(n - 1),), None, skeys.data, np.int32(n), self.left,
+            prog.build_hierarchy(q, (global_size(n - 1),), None, skeys.data, np.int32(n), self.left,
                                  self.right, self.parent_int, self.parent_leaf)
         self.cost = self._boxes(scene, pos)
         self.built_cost = self.cost
@@ -89,19 +92,19 @@ class BVH:
         position = device.buffer(4 * n, "BVH build")
         counter = device.buffer(4, "BVH build")
         cl.enqueue_copy(q, counter, np.array([n - 1], np.int32))
-        prog.ploc_init(q, (_round(n),), None, pos, self.sorted_ids.data, np.int32(n), *a)
+        prog.ploc_init(q, (global_size(n),), None, pos, self.sorted_ids.data, np.int32(n), *a)
         scan = device.exclusive_scan_uint()
         import pyopencl.array as cla
         m = n
         total = np.empty(2, np.uint32)
         while m > 1:
-            prog.ploc_nearest(q, (_round(m),), None, a[0], a[1], np.int32(m), nn)
-            prog.ploc_merge(q, (_round(m),), None, *a, nn, np.int32(m), counter, self.left,
+            prog.ploc_nearest(q, (global_size(m),), None, a[0], a[1], np.int32(m), nn)
+            prog.ploc_merge(q, (global_size(m),), None, *a, nn, np.int32(m), counter, self.left,
                             self.right, self.parent_int, self.parent_leaf, valid)
             v = cla.Array(q, (m,), np.uint32, data=valid)
             p = cla.Array(q, (m,), np.uint32, data=position)
             scan(v, p)
-            prog.ploc_compact(q, (_round(m),), None, *a, valid, position, np.int32(m), *b)
+            prog.ploc_compact(q, (global_size(m),), None, *a, valid, position, np.int32(m), *b)
             cl.enqueue_copy(q, total[:1], position, src_offset=4 * (m - 1))
             cl.enqueue_copy(q, total[1:], valid, src_offset=4 * (m - 1))
             merged_to = int(total[0]) + int(total[1])
@@ -127,12 +130,12 @@ class BVH:
         arrivals = device.buffer(4 * (n - 1), "BVH")
         cl.enqueue_fill_buffer(q, arrivals, np.uint32(0), 0, 4 * (n - 1))
         ids = self.sorted_ids.data
-        prog.bottom_up_boxes(q, (_round(n),), None, pos, ids, np.int32(n), self.left,
+        prog.bottom_up_boxes(q, (global_size(n),), None, pos, ids, np.int32(n), self.left,
                              self.right, self.parent_int, self.parent_leaf, leaf_min, leaf_max,
                              node_min, node_max, arrivals)
-        prog.pack_nodes(q, (_round(n - 1),), None, np.int32(n), self.left, self.right, leaf_min,
+        prog.pack_nodes(q, (global_size(n - 1),), None, np.int32(n), self.left, self.right, leaf_min,
                         leaf_max, node_min, node_max, self.nodes)
-        prog.reorder_triangles(q, (_round(n),), None, pos, ids, mat, vis, np.int32(n),
+        prog.reorder_triangles(q, (global_size(n),), None, pos, ids, mat, vis, np.int32(n),
                                self.tri_v0, self.tri_e1, self.tri_e2)
         import pyopencl.array as cla
         from pyopencl import cltypes
@@ -190,7 +193,3 @@ class BVH:
             cl.enqueue_copy(q, buf, np.ascontiguousarray(tri[row]))
         q.finish()
         self.leaf_order = np.arange(scene.n_triangles, dtype=np.int64)
-
-
-def _round(n: int, wg: int = 64) -> int:
-    return max(wg, (n + wg - 1) // wg * wg)

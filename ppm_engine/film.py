@@ -23,15 +23,11 @@ class Film:
     The sums are 32 bytes per pixel: double4 where the device has cl_khr_fp64, else a float4
     sum and its Neumaier compensation (``fp64=False`` forces that path; kernels/progressive.cl).
     A float32 sum would lose ~1e-5 of a constant pixel in 2,000 passes and ~1e-4 in 10,000
-    (docs/STABILITY.md).  The eye pass writes each pass's sample to ``direct_pass``.
+    (docs/STABILITY.md).  The eye pass writes each pass's sample to ``direct_pass``; the
+    progressive update (passes/update.py) adds it to the sums.
 
     A pixel's photon term is S / (pi x the photons emitted while it was active), so a pixel
     that adaptive sampling stopped keeps its value while the others go on."""
-
-    # adaptive sampling stops a pixel with photons only once its radius has shrunk to this
-    # fraction of the initial one: the per-pass spread cannot see the radius' bias (a blurred
-    # caustic or contact shadow is smooth, not noisy), so a pixel must not stop while it is large
-    ADAPTIVE_MAX_RADIUS = 0.5
 
     def __init__(self, device, width: int, height: int, fp64: bool | None = None):
         import pyopencl as cl
@@ -62,47 +58,14 @@ class Film:
         self.photons_emitted = 0      # Python int: exact at any count
         self.prog = device.programs.get("progressive.cl", {"PPM_FP64": True} if self.fp64 else {})
 
-    def update(self, q, vp_pos, vp_beta, gathered, alpha: float, wait_for=None):
-        """Enqueue the progressive update (N, R, S) from this pass's gather; returns the event.
-        Leaves this pass's photon term in ``gathered`` for add_sample."""
-        n = self.n_pixels
-        return self.prog.film_update(q, (_round(n),), None, vp_pos, vp_beta, gathered,
-                                     self.radius, self.nstat, self.photon_sum, np.float32(alpha),
-                                     np.uint32(n), wait_for=wait_for)
-
-    def add_sample(self, q, gathered=None, photons: int = 0, wait_for=None):
-        """Enqueue the end of a pass: this pass's direct sample (``direct_pass``) into the sums
-        and the pass's sample (direct + photon term of ``gathered`` over ``photons`` emitted)
-        into the per-pixel moments, for active pixels; returns the event."""
-        n = self.n_pixels
-        self.photons_emitted += photons
-        return self.prog.film_add_sample(q, (_round(n),), None, self.direct_pass,
-                                         gathered if gathered is not None else self.direct_pass,
-                                         self.active, np.uint32(photons), self.direct,
-                                         self.moments, np.uint32(n), wait_for=wait_for)
-
-    def converge(self, q, threshold: float, min_passes: int, counters, counter: int,
-                 wait_for=None):
-        """Adaptive sampling: pixels whose 3x3 neighbourhood's estimated error is at most
-        ``threshold`` stop being sampled; counters[counter] += the pixels still active."""
-        n = self.n_pixels
-        e1 = self.prog.film_error(q, (_round(n),), None, self.moments, self.nstat, self.radius,
-                                  self.radius0, np.float32(self.ADAPTIVE_MAX_RADIUS),
-                                  np.uint32(min_passes), self.error, np.uint32(n),
-                                  wait_for=wait_for)
-        return self.prog.film_converge(q, (_round(n),), None, self.error, np.int32(self.width),
-                                       np.int32(self.height), np.float32(threshold),
-                                       self.active, counters, np.uint32(counter),
-                                       wait_for=[e1])
-
     def resolve(self, wait_for=None):
         """Enqueue the resolve; returns (event, host array (h, w, 4) float32, row 0 = bottom)."""
         import pyopencl as cl
         q = self.device.queue
         n = self.n_pixels
-        ev = self.prog.film_resolve(q, (_round(n),), None, self.direct, self.photon_sum,
-                                    self.moments, self.image_buf, np.uint32(n),
-                                    wait_for=wait_for)
+        ev = self.prog.launch("film_resolve", "resolve")(
+            q, n, wait_for=wait_for, direct=self.direct, photon_sum=self.photon_sum,
+            moments=self.moments, image=self.image_buf, n=np.uint32(n))
         out = np.empty((self.height, self.width, 4), np.float32)
         ev2 = cl.enqueue_copy(q, out, self.image_buf, wait_for=[ev], is_blocking=False)
         return ev2, out
@@ -136,10 +99,6 @@ class Film:
             return self.read(name, np.float64, 4)
         raw = self.read(name, np.float32, 8).reshape(self.height, self.width, 2, 4)
         return raw.astype(np.float64).sum(axis=2)
-
-
-def _round(n: int, wg: int = 64) -> int:
-    return max(wg, (n + wg - 1) // wg * wg)
 
 
 FILTER_TABLE_SIZE = 256

@@ -57,7 +57,13 @@ class RenderOptions:
     noise_threshold: float = LIMITS["noise_threshold"][2]
     device: str = ""               # OpenCL device name (substring); "" = default choice
     exact_gather: bool = False     # debug/reference mode: gather every photon, not the stochastic map
-    specialize: bool = True        # kernels built for the scene's features (False: all; benchmark)
+    # Skips of work a scene does not need, each on by default; off only to measure what it saves
+    # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.
+    specialize: bool = True        # kernels built for the scene's features (False: every feature)
+    skip_unneeded_photon_pass: bool = True   # False: photon pass, hash and gather run even when
+                                             # they cannot add anything
+    skip_unseen_photons: bool = True   # False: the photon grid covers the whole scene, so photons
+                                       # outside the visible points' bounds are stored too
 
     def validate(self) -> "RenderOptions":
         for name, (lo, hi, _default, _desc) in LIMITS.items():

@@ -6,7 +6,8 @@ Blender; tests, the CLI and the benchmark can build a ``SceneArrays`` by hand or
 ``.npz``.
 
 Structured dtypes contain only 4-byte scalars (and fixed arrays of them) so that the C structs in
-``kernels/types.h`` that mirror them have no padding (checked by ``tests/test_types.py``).
+``kernels/types.h`` that mirror them have no padding (tests/test_kernels.py test_struct_layouts_match_dtypes checks the sizes
+on every device).
 """
 from __future__ import annotations
 
@@ -229,7 +230,9 @@ def make_camera(*, type=CAMERA_PERSP, width, height, to_world, extent, shift=(0.
 def perspective_extent(width: int, height: int, lens_mm: float, sensor_mm: float,
                        fit: str = "AUTO", sensor_height_mm: float | None = None,
                        pixel_aspect=(1.0, 1.0)) -> tuple[float, float, float]:
-    """Cycles' view plane: (w_ext, h_ext, fit) at distance 1 (BLENDER_NOTES section 6).
+    """Cycles' view plane: (w_ext, h_ext, fit) at distance 1, as Cycles' camera (sensor
+    fit AUTO: the larger image side gets the sensor width; tests/test_export.py checks it against Blender's
+    projection).
 
     ``fit`` is the fitted dimension's extent; the camera shift is ``shift * fit``."""
     return _fit_extent(width, height, None, lens_mm, sensor_mm, fit, sensor_height_mm, pixel_aspect)

@@ -38,7 +38,7 @@ RENDER_PASSES = (
 # the last 64 kept.
 render_log = collections.deque(maxlen=64)
 
-# depsgraph update types that change what we export (BLENDER_NOTES section 3: with persistent
+# depsgraph update types that change what we export (measured in bpy 5.0: with persistent
 # data and nothing changed, every object still reports a shading update and the scene
 # collection a geometry update, so those flags alone mean nothing)
 _EXPORTED_TYPES = {'MATERIAL', 'LIGHT', 'WORLD', 'CAMERA', 'NODETREE', 'IMAGE', 'TEXTURE'}
@@ -72,7 +72,7 @@ def emits_nothing(arrays) -> bool:
     the camera, the world or a material is refused first, as the renderer would.)"""
     from .emitters import emits_light
     from .materials import kernel_materials
-    from .renderer import check_finite
+    from .scene_prep import check_finite
     check_finite(arrays)
     return not emits_light(arrays, kernel_materials(arrays.materials))
 
@@ -155,7 +155,7 @@ class Session:
             options = to_options(depsgraph.scene.ppm)
             arrays = self._prepare(engine, depsgraph, options)
             w, h = arrays.resolution
-            # coordinates are relative to the border rectangle (BLENDER_NOTES section 1)
+            # coordinates are relative to the border rectangle (Blender clamps the result to it)
             result = engine.begin_result(0, 0, w, h, layer=layer)
             if (result.resolution_x, result.resolution_y) != (w, h):
                 raise PPMError(f"internal error: the exported render region is {w}x{h} but "

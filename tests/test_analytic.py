@@ -261,7 +261,7 @@ def direct_light(scene, pts, nrm, samples):
     dev, n = r.device, len(pts)
     out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * n)
     dev.programs.get("debug.cl").direct_light(
-        dev.queue, (n,), None, *r._scene_args(), dev.upload(pts, "p"),
+        dev.queue, (n,), None, *r.scene.args.values(), dev.upload(pts, "p"),
         dev.upload(nrm, "n"), np.int32(samples), out, np.uint32(n))
     got = np.empty((n, 4), np.float32)
     cl.enqueue_copy(dev.queue, got, out)

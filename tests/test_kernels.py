@@ -10,7 +10,9 @@ from ppm_engine.bvh import BVH  # noqa: E402
 from ppm_engine.device import get_device, list_devices  # noqa: E402
 from ppm_engine.emitters import EMITTER_INFO_DTYPE  # noqa: E402
 from ppm_engine.materials import KMATERIAL_DTYPE  # noqa: E402
-from ppm_engine.photon_map import CNT_STORED, GRID_DTYPE, PhotonMap  # noqa: E402
+from ppm_engine.counters import N_COUNTERS, Counter  # noqa: E402
+from ppm_engine.passes import Gather, HashBuild  # noqa: E402
+from ppm_engine.photon_map import GRID_DTYPE, PhotonMap  # noqa: E402
 from ppm_engine.procedural import MeshBuilder, look_at  # noqa: E402
 from ppm_engine.scene_arrays import CAMERA_DTYPE, LIGHT_DTYPE, make_camera  # noqa: E402
 
@@ -179,7 +181,15 @@ def test_bvh_visibility_mask(device):
 
 
 # --- stochastic hash ------------------------------------------------------------------------------
-def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None, exact=False):
+def _stored(n_ph):
+    """The counters after a photon pass that stored n_ph photons."""
+    c = np.zeros(N_COUNTERS, np.uint32)
+    c[Counter.STORED] = n_ph
+    return c
+
+
+def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None, exact=False,
+                  cell_scale=HashBuild.CELL_SCALE):
     """Photons on the plane z=0 sorted by x (order correlated with position, which breaks a
     last-writer selection), visible points on the same plane."""
     ph = np.c_[rng.uniform(0, 1, (n_ph, 2)), np.zeros(n_ph)]
@@ -202,12 +212,13 @@ def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None, exact=False):
     flux4.view(np.uint32)[:, 3] = ref.pack_unit(wi)
     cl.enqueue_copy(q, pm.ph_pos, pos4)
     cl.enqueue_copy(q, pm.ph_flux, flux4)
-    counters = _upload(device, np.array([0, n_ph, 0, 0, 0, 0, 0, 0], np.uint32))
+    counters = _upload(device, _stored(n_ph))
     vp_pos = _upload(device, np.c_[vp, np.ones(n_vp)].astype(np.float32))
     vp_nrm = _upload(device, np.tile([0, 0, 1, 0], (n_vp, 1)).astype(np.float32))
     rad = _upload(device, radius)
-    pm.enqueue_grid(q, vp_pos, rad, n_vp)
-    return dict(pm=pm, ph=ph, flux=flux, up=up, wi=wi, vp=vp, radius=radius, counters=counters,
+    hb = HashBuild(device, pm, counters, cell_scale=cell_scale)
+    hb.grid(q, vp_pos, rad, n_vp)
+    return dict(pm=pm, hb=hb, gather=Gather(device, pm), ph=ph, flux=flux, up=up, wi=wi, vp=vp, radius=radius, counters=counters,
                 vp_pos=vp_pos, vp_nrm=vp_nrm, rad=rad, n_vp=n_vp)
 
 
@@ -219,7 +230,7 @@ def test_grid_bounds_cover_visible_points(device):
     np.testing.assert_allclose(g["bmin"], lo, rtol=1e-6, atol=1e-7)
     np.testing.assert_allclose(g["bmax"], hi, rtol=1e-6, atol=1e-7)
     assert g["r_max"] == pytest.approx(s["radius"].max())
-    assert g["cell_size"] == pytest.approx(max(PhotonMap.CELL_SCALE, 0.5) * s["radius"].max())
+    assert g["cell_size"] == pytest.approx(max(HashBuild.CELL_SCALE, 0.5) * s["radius"].max())
     assert g["valid"] == s["n_vp"]
 
 
@@ -227,7 +238,7 @@ def test_grid_bounds_cover_visible_points(device):
 def test_hash_counts_and_selected_photons(device, n_ph):
     s = _photon_setup(device, np.random.default_rng(2), n_ph=n_ph)
     pm, q = s["pm"], device.queue
-    pm.enqueue_build(q, s["counters"], pass_id=0, seed=1)
+    s["hb"].build(q, 0, 1)
     counts, idx = pm.read_table()
     g = pm.read_grid()
     expect = ref.hash_counts(s["ph"], g["bmin"], g["inv_cell_size"], pm.table_size)
@@ -237,7 +248,7 @@ def test_hash_counts_and_selected_photons(device, n_ph):
     h_sel = ref.cell_hash(ref.cell_of(s["ph"][idx[occupied]], g["bmin"], g["inv_cell_size"]),
                           pm.table_size - 1)
     assert (h_sel == occupied).all()                             # photon really hashed there
-    assert _read(device, s["counters"], 8, np.uint32)[4] == occupied.size
+    assert _read(device, s["counters"], N_COUNTERS, np.uint32)[Counter.OCCUPIED] == occupied.size
 
 
 def test_selection_is_uniform_within_an_entry(device):
@@ -247,7 +258,7 @@ def test_selection_is_uniform_within_an_entry(device):
     trials = 300
     picks = []
     for t in range(trials):
-        pm.enqueue_build(q, s["counters"], pass_id=t, seed=5)
+        s["hb"].build(q, t, 5)
         counts, idx = pm.read_table()
         picks.append(idx.copy())
     picks = np.array(picks)
@@ -267,19 +278,19 @@ def test_selection_is_uniform_within_an_entry(device):
 
 
 @pytest.mark.parametrize("table,cell_scale", [(None, 0.5), (None, 2.0), (64, 0.5), (64, 1.0)])
-def test_stochastic_gather_is_unbiased(device, table, cell_scale, monkeypatch):
+def test_stochastic_gather_is_unbiased(device, table, cell_scale):
     """Mean over passes of the stochastic gather = the brute-force range sum (and it fails if
     an entry shared by two cells is counted twice, or the selection is not uniform)."""
-    monkeypatch.setattr(PhotonMap, "CELL_SCALE", cell_scale)
-    s = _photon_setup(device, np.random.default_rng(4 if table is None else 5), table=table)
+    s = _photon_setup(device, np.random.default_rng(4 if table is None else 5), table=table,
+                      cell_scale=cell_scale)
     pm, q = s["pm"], device.queue
     n_vp = s["n_vp"]
     gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
     trials = 200
     est = np.zeros((trials, n_vp, 4))
     for t in range(trials):
-        pm.enqueue_build(q, s["counters"], pass_id=t, seed=11)
-        pm.enqueue_gather(q, s["vp_pos"], s["vp_nrm"], s["rad"], gathered, n_vp)
+        s["hb"].build(q, t, 11)
+        s["gather"].enqueue(q, s["vp_pos"], s["vp_nrm"], s["rad"], gathered, n_vp)
         est[t] = _read(device, gathered, (n_vp, 4), np.float32)
     phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
                                       s["ph"], s["up"], s["wi"], s["flux"])
@@ -305,8 +316,8 @@ def test_exact_gather_equals_brute_force(device, table):
     s = _photon_setup(device, np.random.default_rng(6), n_ph=5000, table=table, exact=True)
     pm, q, n_vp = s["pm"], device.queue, s["n_vp"]
     gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
-    pm.enqueue_build(q, s["counters"], pass_id=0, seed=0)
-    pm.enqueue_gather(q, s["vp_pos"], s["vp_nrm"], s["rad"], gathered, n_vp)
+    s["hb"].build(q, 0, 0)
+    s["gather"].enqueue(q, s["vp_pos"], s["vp_nrm"], s["rad"], gathered, n_vp)
     got = _read(device, gathered, (n_vp, 4), np.float32)
     phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
                                       s["ph"], s["up"], s["wi"], s["flux"])
@@ -342,3 +353,13 @@ def test_progressive_update_equals_closed_form(device):
     np.testing.assert_allclose(_read(device, bufs["tau"], (n, 4), np.float32)[:, :3], tau_ref,
                                rtol=1e-5)
     assert (R_ref <= R + 1e-7).all() and (R_ref[M_eff > 0] < R[M_eff > 0]).all()
+
+
+def test_counter_table_matches_the_kernel_header():
+    """kernels/counters.h and ppm_engine/counters.py state the same indices."""
+    import re
+    from ppm_engine.device import kernel_dir
+    text = (kernel_dir() / "counters.h").read_text()
+    header = {m[1]: int(m[2]) for m in re.finditer(r"#define CNT_(\w+) (\d+)", text)}
+    assert header == {c.name: int(c) for c in Counter}
+    assert int(re.search(r"#define N_COUNTERS (\d+)", text)[1]) == N_COUNTERS

@@ -5,6 +5,7 @@ import pytest
 
 from ppm_engine import analytic
 from ppm_engine.options import RenderOptions
+from ppm_engine.passes import ProgressiveUpdate
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.renderer import Renderer
 from ppm_engine.scene_arrays import (LIGHT_AREA_RECT, LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT,
@@ -74,7 +75,7 @@ def test_specialised_kernels_are_separate_programs():
     b = Renderer(cornell_box(8, 8, bulb=True), RenderOptions(photons_per_pass=256))
     c = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=256, specialize=False))
     assert a.features != b.features and c.features is None
-    assert len({a.k_eye.program.int_ptr, b.k_eye.program.int_ptr, c.k_eye.program.int_ptr}) == 3
+    assert len({r.eye.kernel.kernel.program.int_ptr for r in (a, b, c)}) == 3
     for r in (a, b, c):
         r.close()
 
@@ -168,16 +169,15 @@ def test_adaptive_sampling_stops_converged_pixels_and_keeps_their_value():
         if s.converged:
             break
     active = np.array(active)
-    assert (active[:Renderer.ADAPTIVE_MIN_PASSES - 1] == 24 * 24).all()   # none before 32 passes
+    assert (active[:ProgressiveUpdate.ADAPTIVE_MIN_PASSES - 1] == 24 * 24).all()   # none before 32 passes
     assert (np.diff(active) <= 0).all() and active[-1] < 0.5 * 24 * 24     # most stop
     assert "% converged" in s.line(400)
     # a pixel that stopped keeps its value; the still active ones keep changing
     (img_a, act_a), (img_b, act_b) = imgs[-9], imgs[-1]
     stopped = ~act_a
     # no pixel that gathers photons stopped with a large radius (its bias is not noise)
-    from ppm_engine.film import Film
     R, R0, N = (r.film.read(k) for k in ("radius", "radius0", "nstat"))
-    assert ((N[~act_b] == 0) | (R[~act_b] <= Film.ADAPTIVE_MAX_RADIUS * R0[~act_b])).all()
+    assert ((N[~act_b] == 0) | (R[~act_b] <= ProgressiveUpdate.ADAPTIVE_MAX_RADIUS * R0[~act_b])).all()
     assert stopped.any() and act_b.sum() <= act_a.sum()
     np.testing.assert_array_equal(img_a[stopped], img_b[stopped])
     # and the image is the non-adaptive one within noise (stopping pixels adds no bias)
@@ -205,7 +205,7 @@ def test_render_ends_when_every_pixel_converged(bpy, example_blend, tiny, render
     tiny(scene, width=16, height=16, passes=100000)
     scene.ppm.noise_threshold = 0.5                  # loose: everything converges quickly
     img = render_exr(tmp_path / "adaptive.exr")
-    assert Renderer.ADAPTIVE_MIN_PASSES <= session.render_log[-1]["passes"] < 1000
+    assert ProgressiveUpdate.ADAPTIVE_MIN_PASSES <= session.render_log[-1]["passes"] < 1000
     assert np.isfinite(img).all() and img[..., :3].mean() > 0
 
 

@@ -12,9 +12,12 @@ from ppm_engine import reference as ref  # noqa: E402
 from ppm_engine.device import get_device  # noqa: E402
 from ppm_engine.errors import DeviceError  # noqa: E402
 from ppm_engine.options import RenderOptions  # noqa: E402
+from ppm_engine.counters import N_COUNTERS, Counter  # noqa: E402
+from ppm_engine.passes import Gather, HashBuild  # noqa: E402
 from ppm_engine.photon_map import PhotonMap  # noqa: E402
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at  # noqa: E402
-from ppm_engine.renderer import Renderer, prepare_scene  # noqa: E402
+from ppm_engine.renderer import Renderer  # noqa: E402
+from ppm_engine.scene_prep import prepare_scene  # noqa: E402
 from ppm_engine.scene_arrays import (CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT, LIGHT_SPOT,  # noqa: E402
                                      LIGHT_SUN, make_camera, perspective_extent)
 
@@ -168,14 +171,17 @@ def _map(device, ph, vp, radius, exact=False, wi=None):
     cl.enqueue_copy(q, pm.ph_flux, flux4)
     mk = lambda a: cl.Buffer(device.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,  # noqa: E731
                              hostbuf=np.ascontiguousarray(a))
-    counters = mk(np.array([0, n_ph, 0, 0, 0, 0, 0, 0], np.uint32))
+    counters = np.zeros(N_COUNTERS, np.uint32)
+    counters[Counter.STORED] = n_ph
+    counters = mk(counters)
     vp_pos = mk(np.c_[vp, np.ones(n_vp)].astype(np.float32))
     vp_nrm = mk(np.tile([0, 0, 1, 0], (n_vp, 1)).astype(np.float32))
     rad = mk(np.asarray(radius, np.float32))
     gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
-    pm.enqueue_grid(q, vp_pos, rad, n_vp)
-    pm.enqueue_build(q, counters, pass_id=0, seed=3)
-    pm.enqueue_gather(q, vp_pos, vp_nrm, rad, gathered, n_vp)
+    hb = HashBuild(device, pm, counters)
+    hb.grid(q, vp_pos, rad, n_vp)
+    hb.build(q, 0, 3)
+    Gather(device, pm).enqueue(q, vp_pos, vp_nrm, rad, gathered, n_vp)
     got = np.empty((n_vp, 4), np.float32)
     cl.enqueue_copy(q, got, gathered)
     M_ref = ref.gather_exact(vp, np.tile([0, 0, 1.0], (n_vp, 1)), np.asarray(radius, np.float32),

@@ -47,12 +47,14 @@ def _naive_float32_sum(v):
 def _run_direct(device, fp64, passes):
     import pyopencl as cl
     from ppm_engine.film import Film
+    from ppm_engine.passes import ProgressiveUpdate
     film = Film(device, 4, 4, fp64=fp64)
+    update = ProgressiveUpdate(device, film)
     q = device.queue
     v = _per_pass_values(passes, 16)
     for i in range(passes):
         cl.enqueue_copy(q, film.direct_pass, v[i], is_blocking=False)
-        film.add_sample(q)
+        update.add_sample(q)
     got = film.read_sum("direct").reshape(16, 4)
     img = film.resolve()[1]
     q.finish()
@@ -94,8 +96,10 @@ def _constant_density(device, fp64, passes, kernel):
     paper's tau update in float32, kept as the closed-form reference)."""
     import pyopencl as cl
     from ppm_engine.film import Film
+    from ppm_engine.passes import ProgressiveUpdate
     n, q = 16, device.queue
     film = Film(device, 4, 4, fp64=fp64)
+    update = ProgressiveUpdate(device, film)
     R0 = np.linspace(0.05, 0.4, n).astype(np.float32)
     rho = np.linspace(2e3, 3e4, n)          # photons per unit area per pass
     f = 0.01
@@ -112,7 +116,7 @@ def _constant_density(device, fp64, passes, kernel):
         g[:, :3] = (f * M)[:, None]
         cl.enqueue_copy(q, gathered, g)
         if kernel == "film_update":
-            film.update(q, vp_pos, vp_beta, gathered, 0.7)
+            update.update(q, vp_pos, vp_beta, gathered, 0.7)
         else:
             film.prog.progressive_update(q, (64,), None, vp_pos, vp_beta, gathered, film.radius,
                                          film.nstat, tau, np.float32(0.7), np.uint32(n))

@@ -1,5 +1,7 @@
-"""OpenCL devices: discovery, one context/queue per device (reused), programs built once."""
+"""OpenCL devices: discovery, one context/queue per device (reused), programs built once,
+kernels launched with arguments bound by name."""
 from .context import Device, DeviceInfo, get_device, list_devices
-from .program import KERNEL_DIR
+from .program import Launch, global_size, kernel_dir
 
-__all__ = ["Device", "DeviceInfo", "get_device", "list_devices", "KERNEL_DIR"]
+__all__ = ["Device", "DeviceInfo", "get_device", "list_devices", "Launch", "global_size",
+           "kernel_dir"]

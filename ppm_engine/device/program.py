@@ -1,18 +1,64 @@
-"""OpenCL programs: built once per (file, defines) from kernels/*.cl with -I kernels/, each
-kernel fetched once.  A failed build raises KernelBuildError carrying the compiler log."""
+"""OpenCL programs: built once per (file, defines) from the kernel sources with -I on their
+folder, each kernel fetched once and launched with its arguments bound by name.  A failed build
+raises KernelBuildError carrying the compiler log."""
 from __future__ import annotations
 
 from pathlib import Path
 
 from ..errors import KernelBuildError
 
-KERNEL_DIR = Path(__file__).resolve().parents[2] / "kernels"
+_PACKAGE = Path(__file__).resolve().parents[1]
+
+
+def kernel_dir() -> Path:
+    """The folder of the OpenCL sources, wherever the engine is installed: ``ppm_engine/kernels``
+    in a wheel (pyproject.toml maps the repository's top-level ``kernels/`` into the package),
+    or ``kernels/`` beside the package in a source checkout, an editable install and the
+    extension zip (which keep the repository's layout)."""
+    for folder in (_PACKAGE / "kernels", _PACKAGE.parent / "kernels"):
+        if (folder / "types.h").is_file():
+            return folder
+    raise KernelBuildError(f"the OpenCL kernel sources were not found next to {_PACKAGE}: the "
+                           "installation is incomplete; reinstall the add-on or the package")
+
+
+def global_size(n: int, wg: int = 64) -> int:
+    """``n`` work-items rounded up to whole work-groups of ``wg`` (at least one group)."""
+    return max(wg, (n + wg - 1) // wg * wg)
+
+
+class Launch:
+    """A kernel launched with its arguments bound by name: the names of its OpenCL signature
+    (programs are built with -cl-kernel-arg-info).  A missing or unknown name is refused with
+    both lists, so a signature change cannot silently shift positional arguments."""
+
+    def __init__(self, kernel, label: str):
+        import pyopencl as cl
+        self.kernel = kernel
+        self.label = label
+        self.names = tuple(kernel.get_arg_info(i, cl.kernel_arg_info.NAME)
+                           for i in range(kernel.num_args))
+
+    def __call__(self, queue, size: int, local: int | None = None, /, *, wait_for=None, **args):
+        """Enqueue over ``global_size(size)`` work-items (work-group ``local``, or the driver's
+        choice); returns the event.  (The first three are positional-only: kernels have
+        arguments named ``n``.)"""
+        import pyopencl as cl
+        if args.keys() != set(self.names):
+            missing = [k for k in self.names if k not in args]
+            unknown = sorted(set(args) - set(self.names))
+            raise TypeError(f"kernel {self.kernel.function_name}: missing {missing}, "
+                            f"unknown {unknown}")
+        self.kernel.set_args(*(args[k] for k in self.names))
+        return cl.enqueue_nd_range_kernel(queue, self.kernel, (global_size(size, local or 64),),
+                                          (local,) if local else None, wait_for=wait_for)
 
 
 class Program:
     def __init__(self, cl_program):
         self._program = cl_program
         self._kernels = {}
+        self._launches = {}
 
     def kernel(self, name: str):
         k = self._kernels.get(name)
@@ -20,6 +66,13 @@ class Program:
             import pyopencl as cl
             k = self._kernels[name] = cl.Kernel(self._program, name)
         return k
+
+    def launch(self, name: str, label: str) -> Launch:
+        """Kernel ``name`` with named arguments (one Launch per kernel and label)."""
+        key = (name, label)
+        if key not in self._launches:
+            self._launches[key] = Launch(self.kernel(name), label)
+        return self._launches[key]
 
     def __getattr__(self, name):
         if name.startswith("_"):
@@ -43,11 +96,13 @@ class ProgramCache:
 
     def _build(self, filename: str, defines: dict):
         import pyopencl as cl
-        path = KERNEL_DIR / filename
+        folder = kernel_dir()
+        path = folder / filename
         if not path.is_file():
             raise KernelBuildError(f"kernel source {path} is missing: the installation is "
                                    "incomplete; reinstall the add-on")
-        options = [f"-I{KERNEL_DIR}"]   # no fast-relaxed-math: the NaN/Inf guards need isfinite
+        # no fast-relaxed-math: the NaN/Inf guards need isfinite; argument names for Launch
+        options = [f"-I{folder}", "-cl-kernel-arg-info"]
         for k, v in defines.items():
             options.append(f"-D{k}" if v is True else f"-D{k}={v}")
         src = path.read_text()

@@ -1,4 +1,6 @@
-"""The scene camera -> CAMERA_DTYPE, exactly Cycles' rays (BLENDER_NOTES section 6)."""
+"""The scene camera -> CAMERA_DTYPE, exactly Cycles' rays (sensor fit, shift,
+clipping, depth of field; tests/test_export.py checks the projection against
+Blender's own)."""
 from __future__ import annotations
 
 import numpy as np

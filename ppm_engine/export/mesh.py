@@ -1,11 +1,13 @@
 """Triangles, shading normals and UVs of evaluated meshes, read once per mesh datablock and
 transformed per instance.  No per-vertex or per-triangle Python loops: attribute-API
-``foreach_get`` into buffers of the stored dtype, then NumPy (BLENDER_NOTES section 3)."""
+``foreach_get`` into buffers of the stored dtype, then NumPy."""
 from __future__ import annotations
 
 import dataclasses
 
 import numpy as np
+
+from ..scene_prep import finite_triangles
 
 # object types that can evaluate to a mesh (non-MESH types go through ``to_mesh()``)
 GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT', 'CURVES', 'POINTCLOUD', 'VOLUME'}
@@ -144,12 +146,11 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
             n /= np.sqrt(len2)[:, None]
         n = n.reshape(-1, 3, 3)
         zero = ~(len2.reshape(-1, 3) > 1e-24)              # zero-length (or NaN) normals
-        good = np.isfinite(p.reshape(len(p), 9).sum(axis=1))
-        if not good.all():
-            warn(f"Object '{name}': {int((~good).sum())} triangles with NaN or infinite vertex "
-                 "coordinates were skipped")
-            p, n, zero = p[good], n[good], zero[good]
-        uvs = mesh.uvs[good] if not good.all() else mesh.uvs
+        good, warning = finite_triangles(p, f"Object '{name}'")
+        uvs = mesh.uvs
+        if good is not None:
+            warn(warning)
+            p, n, zero, uvs = p[good], n[good], zero[good], uvs[good]
         if det < 0:
             order = [0, 2, 1]
             p, n, uvs, zero = p[:, order], n[:, order], uvs[:, order], zero[:, order]
@@ -161,7 +162,7 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
             n = np.where(bad[:, :, None], ng[:, None, :], n).astype(np.float32)
     slot = np.clip(mesh.slot, 0, len(slot_map) - 1)
     mat = slot_map[slot]
-    if not good.all():
+    if good is not None:
         mat = mat[good]
     return dict(positions=p.astype(np.float32, copy=False), normals=n.astype(np.float32, copy=False),
                 uvs=np.ascontiguousarray(uvs, np.float32), material=mat.astype(np.int32),

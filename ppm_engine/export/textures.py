@@ -1,7 +1,7 @@
 """Image Texture nodes -> the texture table and texels of SceneArrays (kernels/textures.h).
 
 Images are read once each (deduplicated by datablock) with ``pixels.foreach_get`` into a
-float32 buffer (BLENDER_NOTES section 4: rows bottom-up, 8-bit images as stored bytes / 255)
+float32 buffer (rows bottom-up; 8-bit images read as their stored bytes / 255)
 and stored as float16 RGBA: float images linear, 8-bit sRGB images still encoded and decoded
 by the kernel after interpolation (TEX_FLAG_SRGB, as Cycles' byte textures).  Packed and
 external images read the same way; an image that cannot be loaded (a missing file) renders

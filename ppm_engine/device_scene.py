@@ -1,0 +1,98 @@
+"""The scene on one device: the prepared arrays (scene_prep.py), the BVH, and the materials,
+emitters, lights, textures, camera and pixel filter as buffers; the feature flags the passes'
+kernels are specialised with (features.py); and ``args``, the scene arguments every pass kernel
+takes (kernels/scene.h SCENE_ARGS), by name."""
+from __future__ import annotations
+
+import numpy as np
+
+from .bvh import BVH
+from .emitters import build_emitters
+from .features import defines as feature_defines, scene_features, used_materials
+from .film import filter_table
+from .materials import MAT_DIFFUSE, kernel_materials
+from .scene_arrays import LIGHT_DTYPE, TEXTURE_DTYPE, SceneArrays
+from .scene_prep import offset_scale, prepare_scene
+
+
+class DeviceScene:
+    def __init__(self, device, scene: SceneArrays):
+        self.device = device
+        prepared, self.warnings = prepare_scene(scene)   # NaN/Inf dropped (docs/STABILITY.md)
+        self.bvh = BVH(device, prepared)
+        self.upload(scene, prepared)
+
+    def upload(self, scene: SceneArrays, prepared: SceneArrays | None = None) -> None:
+        """Everything but the BVH: materials, emitters, lights, camera, pixel filter."""
+        up = self.device.upload
+        self.scene = scene
+        if prepared is None:
+            prepared, self.warnings = prepare_scene(scene)
+        self.prepared = prepared = prepared    # the BVH's triangles, moved as the BVH's
+        self.kmaterials = kernel_materials(prepared.materials)
+        self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
+        self.offset_scale = offset_scale(prepared)
+        self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order)
+        b = self.bvh
+        lights = prepared.lights if prepared.lights.shape[0] else np.zeros(1, LIGHT_DTYPE)
+        # names and order: kernels/scene.h SCENE_ARGS (the BVH's own: kernels/bvh.h BVH_ARGS)
+        self.args = dict(
+            nodes=b.nodes, tri_v0=b.tri_v0, tri_e1=b.tri_e1, tri_e2=b.tri_e2,
+            normals=up(prepared.normals, "shading normals"),
+            materials=up(self.kmaterials, "materials"),
+            lights=up(lights, "lights"),
+            emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
+            emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),
+                        "emissive triangles"),
+            emitter_info=up(em.info, "emitters"),
+            textures=up(prepared.textures if prepared.textures.size
+                        else np.zeros(1, TEXTURE_DTYPE), "textures"),
+            texels=up(prepared.texels if prepared.texels.size
+                      else np.zeros((1, 4), np.float16), "image textures"),
+            uvs=up(prepared.uvs, "UVs"))
+        self.camera = up(prepared.camera, "camera")
+        self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0])),
+                               "pixel filter")
+
+    def kernel_defines(self, specialize: bool) -> tuple[frozenset | None, dict]:
+        """(features, -D flags) of the eye and photon passes: the scene's features, or every
+        feature (None) unspecialised; the ray offset scale of the scene's size either way."""
+        features = (scene_features(self.prepared, self.kmaterials, self.emitters,
+                                   self.used_materials) if specialize else None)
+        return features, {"PPM_OFFSET_SCALE": float(self.offset_scale).hex() + "f",
+                          **feature_defines(features)}
+
+    def photons_useful(self, max_bounces: int) -> bool:
+        """Whether photon passes can add anything: something emits, paths may bounce, and some
+        surface is diffuse (photons are stored, and visible points made, only there)."""
+        diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_DIFFUSE).any())
+        return bool(self.emitters.info["n_emitters"][0] > 0 and max_bounces > 0 and diffuse)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The prepared scene's bounding box (float32 corners, w = 0)."""
+        pos = self.prepared.positions.reshape(-1, 3)
+        lo, hi = np.zeros(4, np.float32), np.zeros(4, np.float32)
+        if pos.shape[0]:
+            lo[:3], hi[:3] = pos.min(axis=0), pos.max(axis=0)
+        return lo, hi
+
+    @staticmethod
+    def same_geometry(a: SceneArrays, b: SceneArrays) -> bool:
+        """True when the BVH of ``a`` serves ``b`` (same triangles, materials, visibility)."""
+        return all(np.array_equal(getattr(a, k), getattr(b, k))
+                   for k in ("positions", "material", "visibility"))
+
+    def refit(self, scene: SceneArrays) -> bool:
+        """The same triangles moved or deformed: the BVH refitted over its hierarchy and the
+        scene re-uploaded.  False (nothing changed) when the triangle count differs or the
+        refitted tree would be too slow (bvh.BVH.refit)."""
+        prepared, warnings = prepare_scene(scene)
+        if prepared.n_triangles != self.bvh.n_triangles or not self.bvh.refit(prepared):
+            return False
+        self.warnings = warnings
+        self.upload(scene, prepared)
+        return True
+
+    def buffers(self) -> list:
+        """The device buffers this object owns (BVH's included), for release."""
+        return [*self.args.values(), self.camera, self.filter_table]

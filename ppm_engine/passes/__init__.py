@@ -1,0 +1,22 @@
+"""The passes of one SPPM iteration, each a small object owning its kernels (arguments bound by
+name, device/program.py Launch) and its timing label.  Renderer.iterate() runs them in the
+paper's order (Hachisuka & Jensen 2010):
+
+    EyePass            "eye"     camera rays through specular bounces to visible points; direct
+                                 light by next-event estimation
+    HashBuild.grid     "grid"    the grid over this pass's visible points (before the photons,
+                                 so that photons outside it are not stored: departs from the
+                                 paper, which builds it after)
+    PhotonPass         "photon"  photons from the emitters, stored at diffuse hits
+    HashBuild.build    "hash"    the stochastic spatial hash: one photon and a count per entry
+    Gather             "gather"  each visible point reads the cells its disc overlaps
+    ProgressiveUpdate  "update"  N, R and the photon sum per pixel; the pass's sample into the
+                                 film ("adaptive": which pixels go on)
+"""
+from .eye import EyePass, VisiblePoints
+from .gather import Gather
+from .hash_build import HashBuild
+from .photons import PhotonPass
+from .update import ProgressiveUpdate
+
+__all__ = ["EyePass", "VisiblePoints", "PhotonPass", "HashBuild", "Gather", "ProgressiveUpdate"]

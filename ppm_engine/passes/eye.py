@@ -1,0 +1,40 @@
+"""The eye pass (kernels/eye_pass.cl): one jittered camera ray per pixel through specular
+bounces to the first diffuse hit, where it stores a visible point and adds direct light."""
+from __future__ import annotations
+
+import numpy as np
+
+
+class VisiblePoints:
+    """Per pixel, 16 bytes each: position (w = 1 when valid), shading normal, the path weight
+    times the BSDF (the photon term's factor), and the gather's result."""
+
+    def __init__(self, device, n: int):
+        self.n = n
+        self.pos = device.buffer(16 * n, "visible points")
+        self.nrm = device.buffer(16 * n, "visible points")
+        self.beta = device.buffer(16 * n, "visible points")
+        self.gathered = device.buffer(16 * n, "gather results")
+
+
+class EyePass:
+    # initial radius when options.initial_radius == 0: this many pixel footprints at the point
+    AUTO_RADIUS_PIXELS = 2.0
+
+    def __init__(self, scene, program, film, vps: VisiblePoints, counters):
+        """``scene``: the DeviceScene; ``program``: eye_pass.cl built for its features."""
+        self.scene, self.film, self.vps, self.counters = scene, film, vps, counters
+        self.kernel = program.launch("eye_pass", "eye")
+
+    def enqueue(self, q, pass_index: int, options) -> list:
+        f, v = self.film, self.vps
+        ev = self.kernel(
+            q, v.n, cam=self.scene.camera, **self.scene.args, pass_index=np.uint32(pass_index),
+            seed=np.uint32(options.seed), max_bounces=np.int32(options.max_bounces),
+            initial_radius=np.float32(options.initial_radius),
+            auto_radius_pixels=np.float32(self.AUTO_RADIUS_PIXELS),
+            filter_table=self.scene.filter_table, direct=f.direct_pass, radius=f.radius,
+            radius0=f.radius0, vp_pos=v.pos, vp_nrm=v.nrm, vp_beta=v.beta,
+            counters=self.counters, aux_albedo=f.aux_albedo, aux_normal=f.aux_normal,
+            active=f.active)
+        return [(self.kernel.label, ev)]

@@ -1,0 +1,21 @@
+"""The photon pass (kernels/photon_pass.cl): photons leave the emitters in proportion to their
+power and are stored at diffuse hits after the first, inside this pass's grid."""
+from __future__ import annotations
+
+import numpy as np
+
+
+class PhotonPass:
+    def __init__(self, scene, program, photon_map, counters):
+        """``scene``: the DeviceScene; ``program``: photon_pass.cl built for its features."""
+        self.scene, self.photon_map, self.counters = scene, photon_map, counters
+        self.kernel = program.launch("photon_pass", "photon")
+
+    def enqueue(self, q, pass_index: int, options, n_photons: int) -> list:
+        pm = self.photon_map
+        ev = self.kernel(
+            q, n_photons, **self.scene.args, pass_index=np.uint32(pass_index),
+            seed=np.uint32(options.seed), max_bounces=np.int32(options.max_bounces),
+            n_photons=np.uint32(n_photons), grid=pm.grid, capacity=np.uint32(pm.capacity),
+            ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, counters=self.counters)
+        return [(self.kernel.label, ev)]
