@@ -216,3 +216,25 @@ def test_a_nan_world_is_refused_before_the_dark_scene_check():
     assert emits_nothing(scene)
     with pytest.raises(SceneError, match="world"):
         emits_nothing(scene.replace(world=np.float32([np.nan, 0, 0])))
+
+
+def test_skip_switches_of_the_benchmark_change_the_work_not_the_image():
+    """RenderOptions.skip_unneeded_photon_pass / skip_unseen_photons off (bench --skips measures
+    each skip against them): the work the skip saves is done, and the image stays the same."""
+    scene = cornell_box(16, 16)
+    on, img_on = _phases(scene, max_bounces=0)
+    off, img_off = _phases(scene, max_bounces=0, skip_unneeded_photon_pass=False)
+    assert "photon" not in on.phase_ms and {"photon", "hash", "gather"} <= set(off.phase_ms)
+    assert off.photons_emitted == 2 * 1024 and off.photons_stored == 0   # no bounce: none kept
+    np.testing.assert_array_equal(img_on, img_off)       # the eye pass's streams are the same
+    corner = scene.camera.copy()                        # looking into one corner of the box
+    corner["to_world"] = look_at((0.5, 0.5, 0.5), (1.0, 1.0, 0.0))[:3]
+    scene = scene.replace(camera=corner)
+    seen, _ = _phases(scene, seed=2)
+    every, _ = _phases(scene, seed=2, skip_unseen_photons=False)
+    assert seen.photons_outside > 0 and every.photons_outside == 0
+    # the grid over the whole scene stores the photons the visible points' grid turned away
+    # (each photon pass's count varies by Russian roulette: 25 % margin)
+    total = seen.photons_stored + seen.photons_outside
+    assert every.photons_stored == pytest.approx(total, rel=0.25)
+    assert every.photons_stored > 2 * seen.photons_stored
