@@ -15,3 +15,7 @@ class DeviceError(PPMError):
 
 class KernelBuildError(DeviceError):
     """An OpenCL program failed to build; the message carries the compiler log."""
+
+
+class UsageError(PPMError):
+    """A command was given arguments it cannot use (the CLI exits with 2)."""

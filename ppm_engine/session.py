@@ -5,6 +5,8 @@ The render result is always begun and ended, also on errors (Blender can crash s
 whose engine wrote no result), and whatever was rendered stays in it.
 """
 import collections
+import collections.abc
+import contextlib
 import sys
 import time
 import traceback
@@ -12,13 +14,6 @@ import traceback
 import numpy as np
 
 from .errors import PPMError
-
-# Callables ``f(text)`` called after every pass with a one-line progress text such as
-# "Pass 12/64 · 3.1M photons · 2.4 s".  The CLI adds one that prints to stderr, because
-# update_stats() shows nothing in background mode.
-progress_listeners: list = []
-# the render's progress (0..1) when the listeners are called (the CLI draws its bar from it)
-progress_fraction = 0.0
 
 # With quick passes the image is written at most this often (seconds); the last pass always is.
 WRITE_INTERVAL = 0.25
@@ -34,9 +29,47 @@ RENDER_PASSES = (
     ("PPM Photons", 1, "X", 'VALUE'),
 )
 
-# What each render reused (diagnostics, and the persistent-data tests): one dict per render,
-# the last 64 kept.
-render_log = collections.deque(maxlen=64)
+
+# --- what renders tell the code that drives them (the CLI, the benchmark, tests) ---------------
+_listeners: list = []
+
+
+@contextlib.contextmanager
+def listening(callback):
+    """Within the block, ``callback(text, fraction)`` is called after every pass of every
+    render: a one-line progress text such as "Pass 12/64 · 3.1M photons · 2.4 s" and the
+    render's progress in [0, 1].  (update_stats() shows nothing in background mode: the CLI
+    draws its progress bar from this.)"""
+    _listeners.append(callback)
+    try:
+        yield
+    finally:
+        _listeners.remove(callback)
+
+
+class RenderRecords(collections.abc.Sequence):
+    """One record per render, the last 64, oldest first: what it reused ("persistent",
+    "exported", "bvh_built", "bvh_refit", "dark"), "setup_s" (export and setup before the first
+    pass) and "passes" (passes run)."""
+
+    def __init__(self, keep: int = 64):
+        self._records = collections.deque(maxlen=keep)
+
+    def __getitem__(self, k):
+        return self._records[k]
+
+    def __len__(self) -> int:
+        return len(self._records)
+
+    def clear(self) -> None:
+        self._records.clear()
+
+    def _add(self, record: dict) -> None:
+        self._records.append(record)
+
+
+renders = RenderRecords()
+
 
 # depsgraph update types that change what we export (measured in bpy 5.0: with persistent
 # data and nothing changed, every object still reports a shading update and the scene
@@ -135,7 +168,7 @@ class Session:
                 engine.report({'WARNING'}, w)
         self.arrays, self.key, self.dark = arrays, key, dark
         log["setup_s"] = time.perf_counter() - t0
-        render_log.append(log)
+        renders._add(log)
         return arrays
 
     def free(self) -> None:
@@ -217,16 +250,14 @@ class Session:
             engine.update_progress(min(progress, 1.0))
             text = stats.line(options.passes, elapsed, options.time_limit)
             engine.update_stats("", text)
-            global progress_fraction
-            progress_fraction = min(progress, 1.0)
-            for listener in progress_listeners:
-                listener(text)
+            for listener in tuple(_listeners):
+                listener(text, min(progress, 1.0))
             if stats.converged:          # adaptive sampling: every pixel below the threshold
                 break
         if r.passes_done > self.written_passes:
             self._write(engine, result)
-        if render_log:
-            render_log[-1]["passes"] = r.passes_done
+        if renders:
+            renders[-1]["passes"] = r.passes_done
         if cancelled:
             engine.update_stats("", f"Cancelled after pass {r.passes_done}")
 

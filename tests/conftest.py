@@ -23,9 +23,9 @@ def bpy():
     """bpy with the PPM engine registered (once per test session)."""
     bpy = pytest.importorskip("bpy")
     import ppm_engine
+    from ppm_engine.blender_io import ensure_registered
     from ppm_engine.engine import PPMRenderEngine
-    if not PPMRenderEngine.is_registered:
-        ppm_engine.register()
+    ensure_registered()
     yield bpy
     if PPMRenderEngine.is_registered:
         ppm_engine.unregister()
@@ -99,23 +99,17 @@ def configure_tiny(scene, pocl_key: str, *, width=TINY["width"], height=TINY["he
 
 
 def set_exr_output(scene, path: Path) -> None:
-    s = scene.render.image_settings
-    s.media_type = "IMAGE"
-    s.file_format = "OPEN_EXR"
-    s.color_mode = "RGBA"
-    s.color_depth = "32"
-    scene.render.filepath = str(path)
+    """32-bit EXR output to ``path`` (the extension must be .exr)."""
+    from ppm_engine.blender_io import set_output
+    assert Path(path).suffix == ".exr", path
+    set_output(scene, path)
 
 
 def read_exr(path: Path):
     """RGBA float32 (h, w, 4) of a single-part EXR, rows top-down (EXR order)."""
-    OpenEXR = pytest.importorskip("OpenEXR")
-    import numpy as np
-    with OpenEXR.File(str(path)) as f:
-        channels = f.parts[0].channels
-        rgba = [v.pixels for k, v in channels.items() if v.pixels.ndim == 3]
-        assert rgba, f"no RGBA layer in {path}: {list(channels)}"
-        return np.asarray(rgba[0], dtype=np.float32)
+    pytest.importorskip("OpenEXR")
+    from ppm_engine.blender_io import read_exr as read
+    return read(path)
 
 
 def run_cli(*args, timeout=600):
@@ -128,18 +122,10 @@ def run_cli(*args, timeout=600):
 
 
 def cycles_settings(scene, samples: int, width: int = 32) -> None:
-    """Cycles with the same light transport as ours (for comparisons): enough diffuse bounces,
-    no clamping, no denoising, caustics on, fixed seed, CPU."""
-    if scene.render.engine != "CYCLES":
-        scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device, c.samples = "CPU", samples
-    c.use_adaptive_sampling = c.use_denoising = False
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 12
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.blur_glossy = 0.0
-    c.caustics_reflective = c.caustics_refractive = True
-    c.seed = 1
+    """Cycles with the same light transport as ours (blender_io.cycles_reference), ``samples``
+    per pixel, a square image ``width`` pixels wide."""
+    from ppm_engine.blender_io import cycles_reference
+    cycles_reference(scene, samples=samples, seed=1)
     scene.render.resolution_x = scene.render.resolution_y = width
     scene.render.resolution_percentage = 100
 

@@ -177,7 +177,7 @@ def test_scene_without_light_renders_black_with_a_warning_and_no_device_work(
     monkeypatch.setattr(renderer.Renderer, "__init__", no_device)
     assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
     assert "emits no light" in capfd.readouterr().out      # report({'WARNING'}) reaches the log
-    assert session.render_log[-1]["dark"] is True
+    assert session.renders[-1]["dark"] is True
     img = exr.read(out)
     assert np.isfinite(img).all() and img.shape[:2] == (24, 24)          # conftest TINY
     assert np.abs(img[..., :3]).max() == 0 and (img[..., 3] == 1).all()

@@ -10,7 +10,7 @@ def test_persistent_data_reuses_only_what_did_not_change(bpy, example_blend, tin
     scene = bpy.context.scene
     tiny(scene, width=16, height=16, passes=4)
     scene.render.use_persistent_data = True
-    log = session.render_log
+    log = session.renders
     log.clear()
 
     first = render_exr(tmp_path / "a.exr")
@@ -67,9 +67,9 @@ def test_animation_with_persistent_data_refits_per_frame(bpy, example_blend, tin
     scene.render.use_persistent_data = True
     scene.render.image_settings.file_format = "PNG"
     scene.render.filepath = str(tmp_path / "frame_####")
-    session.render_log.clear()
+    session.renders.clear()
     assert bpy.ops.render.render(animation=True) == {"FINISHED"}
     assert [(tmp_path / f"frame_{f:04d}.png").is_file() for f in (1, 2, 3)] == [True] * 3
-    log = list(session.render_log)
+    log = list(session.renders)
     assert len(log) == 3 and log[0]["bvh_built"] and not log[0]["bvh_refit"]
     assert all(entry["bvh_refit"] and not entry["bvh_built"] for entry in log[1:])

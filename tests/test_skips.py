@@ -205,7 +205,7 @@ def test_render_ends_when_every_pixel_converged(bpy, example_blend, tiny, render
     tiny(scene, width=16, height=16, passes=100000)
     scene.ppm.noise_threshold = 0.5                  # loose: everything converges quickly
     img = render_exr(tmp_path / "adaptive.exr")
-    assert ProgressiveUpdate.ADAPTIVE_MIN_PASSES <= session.render_log[-1]["passes"] < 1000
+    assert ProgressiveUpdate.ADAPTIVE_MIN_PASSES <= session.renders[-1]["passes"] < 1000
     assert np.isfinite(img).all() and img[..., :3].mean() > 0
 
 

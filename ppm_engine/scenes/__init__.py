@@ -10,13 +10,13 @@ is.  The geometry matches ``ppm_engine.procedural.cornell_box`` (the arrays vers
 core tests and the benchmark)."""
 from __future__ import annotations
 
-from . import bench_scenes, bulb_box, cornell_box
+from . import bulb_box, caustics, cornell_box
 
 EXAMPLES = {
     "cornell_box": cornell_box.build,
     "bulb_box": bulb_box.build,
-    "glass_caustic": bench_scenes.glass_caustic,     # benchmark scenes (bench_scenes.py)
-    "mirror_caustic": bench_scenes.mirror_caustic,
+    "glass_caustic": caustics.glass_caustic,     # also the benchmark's caustic scenes
+    "mirror_caustic": caustics.mirror_caustic,
 }
 
 

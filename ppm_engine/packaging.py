@@ -2,6 +2,9 @@
 
     python -m ppm_engine package [-o dist] [--platforms linux-x64,windows-x64,macos-arm64,macos-x64]
 
+(Tooling, not part of the add-on: blender_manifest.toml's build excludes leave this module and
+the bench subpackage out of the zip.)
+
 Stages the add-on (root __init__.py, blender_manifest.toml, ppm_engine/, kernels/), downloads
 the wheels it needs for each platform with pip (pyopencl and what it imports; the PoCL CPU
 device for Linux, the only platform it has wheels for -- macOS brings its own OpenCL, Windows
@@ -11,12 +14,13 @@ numpy is not bundled: Blender ships it.
 """
 from __future__ import annotations
 
-import argparse
 import shutil
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from .errors import PPMError, UsageError
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -34,8 +38,8 @@ WHEELS = ["pyopencl", "pytools", "platformdirs", "siphash24", "typing_extensions
 WHEELS_LINUX = ["pocl-binary-distribution"]
 
 
-class PackageError(RuntimeError):
-    pass
+class PackageError(PPMError):
+    """The zip could not be built (the message says which step failed and why)."""
 
 
 def blender_ext_tool() -> Path:
@@ -105,48 +109,33 @@ def run_tool(*args) -> str:
     return out
 
 
-def build(output: Path, platforms: list[str], cache: Path | None = None, log=print) -> list[Path]:
+def build(output: Path, platforms: list[str] | None = None, cache: Path | None = None,
+          log=print, wheels: bool = True) -> list[Path]:
+    """The extension zips in ``output``, one per platform (default: all of PIP_PLATFORMS);
+    ``cache`` keeps downloaded wheels between builds.  ``wheels=False`` builds one zip of the
+    add-on alone, without downloading anything (what the default tests check)."""
+    platforms = list(platforms or PIP_PLATFORMS)
+    unknown = [p for p in platforms if p not in PIP_PLATFORMS]
+    if unknown:
+        raise UsageError(f"unknown platform {unknown[0]}; known: {', '.join(PIP_PLATFORMS)}")
     output = output.resolve()
     output.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="ppm-ext-") as tmp:
         stage_dir = Path(tmp) / "ppm_engine_ext"
         stage_dir.mkdir()
         stage(stage_dir)
-        wheels = []
-        for p in platforms:
-            log(f"downloading the {p} wheels")
-            wheels += download_wheels(p, stage_dir / "wheels", cache)
-        write_manifest(stage_dir, platforms, sorted(set(wheels), key=lambda w: w.name))
+        found = []
+        if wheels:
+            for p in platforms:
+                log(f"downloading the {p} wheels")
+                found += download_wheels(p, stage_dir / "wheels", cache)
+            write_manifest(stage_dir, platforms, sorted(set(found), key=lambda w: w.name))
         run_tool("validate", stage_dir)
         before = set(output.glob("*.zip"))
-        run_tool("build", "--source-dir", stage_dir, "--output-dir", output, "--split-platforms")
+        run_tool("build", "--source-dir", stage_dir, "--output-dir", output,
+                 *(["--split-platforms"] if wheels else []))
         zips = sorted(set(output.glob("*.zip")) - before) or sorted(output.glob("*.zip"))
         for z in zips:
             run_tool("validate", z)
             log(f"built {z} ({z.stat().st_size / 2**20:.1f} MiB)")
         return zips
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="ppm_engine package", description=__doc__.split("\n\n")[0])
-    ap.add_argument("-o", "--output", default="dist", help="output folder (default: dist)")
-    ap.add_argument("--platforms", default=",".join(PIP_PLATFORMS),
-                    help="comma-separated Blender platforms (default: all four)")
-    ap.add_argument("--wheel-cache", help="folder to keep downloaded wheels in between builds")
-    args = ap.parse_args(argv)
-    platforms = [p.strip() for p in args.platforms.split(",") if p.strip()]
-    unknown = [p for p in platforms if p not in PIP_PLATFORMS]
-    if unknown:
-        print(f"ppm_engine package: unknown platform {unknown[0]}; known: {', '.join(PIP_PLATFORMS)}",
-              file=sys.stderr)
-        return 2
-    try:
-        build(Path(args.output), platforms, Path(args.wheel_cache) if args.wheel_cache else None)
-    except PackageError as e:
-        print(f"ppm_engine package: error: {e}", file=sys.stderr)
-        return 1
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,4 +1,5 @@
-"""The benchmark's caustic scenes (``python -m ppm_engine bench``), built with bpy from nothing.
+"""Two caustic scenes (example scenes, and the benchmark's: ``python -m ppm_engine bench``),
+built with bpy from nothing.
 
 Both stand on the same stage: a 4 x 4 m white Lambertian floor (z = 0, x, y in [-2, 2]) and a
 back wall at y = 2, black world, the camera at the front looking down at the middle.  Lights
@@ -12,10 +13,7 @@ are small spheres (radius ``LIGHT_RADIUS``) kept out of view and invisible to ca
   roughness 0, base colour 1), a 0.8 x 0.6 m rectangle tilted towards the floor, which
   reflects the light onto a bright patch of floor in front of it.
 
-``CAUSTIC_MASKS`` describes, per benchmark scene, the floor region counted as "caustic pixels"
-(see ``ppm_engine.bench.caustic_mask``): a world-space disk on the floor, or the set of floor
-points that see the light's mirror image through the mirror rectangle (exact); pixels whose
-camera ray meets one of the listed spheres first (glass) are left out.
+The benchmark's data about them (caustic pixels, MNEE flags) is in ppm_engine/bench/scenes.py.
 """
 from __future__ import annotations
 
@@ -24,7 +22,6 @@ import math
 import bpy
 import numpy as np
 
-from .bulb_box import BALL_CENTER, BULB_CENTER
 from .cornell_box import glass, lambert, new_scene, quad, sphere
 
 RESOLUTION = 128
@@ -62,30 +59,9 @@ def mirror_corners() -> np.ndarray:
     return corners
 
 
-def _mirror_image(p) -> np.ndarray:
+def mirror_image(p) -> np.ndarray:
     p = np.asarray(p, float)
     return p - 2.0 * np.dot(p - MIRROR_CENTER, MIRROR_NORMAL) * MIRROR_NORMAL
-
-
-# scene name -> caustic mask description (used by ppm_engine.bench.caustic_mask)
-CAUSTIC_MASKS = {
-    # the Cornell box has no caustic: the whole floor counts (its indirect light)
-    "cornell_box": {"kind": "disk", "center": (0.0, 0.0, 0.0), "radius": 1.5,
-                    "occluders": [], "note": "the floor (no caustic in this scene)"},
-    # the floor beside and under the glass ball, where its caustic falls
-    "bulb_box": {"kind": "disk", "center": (BALL_CENTER[0] + 0.07, BALL_CENTER[1] + 0.05, 0.0),
-                 "radius": 0.45, "occluders": [(BALL_CENTER, 0.3), (BULB_CENTER, 0.15)],
-                 "note": "floor within 0.45 m of the point below the bulb-to-ball line, "
-                         "not hidden by the ball"},
-    "glass_caustic": {"kind": "disk", "center": (0.43, 0.0, 0.0), "radius": 0.35,
-                      "occluders": [BALL],
-                      "note": "floor within 0.35 m of where the ray from the spot through the "
-                              "ball centre meets the floor, not hidden by the ball"},
-    "mirror_caustic": {"kind": "mirror", "light": POINT_POS, "light_radius": LIGHT_RADIUS,
-                       "corners": None, "occluders": [],
-                       "note": "floor points that see the light's mirror image through the "
-                               "mirror (the reflected patch, exact)"},
-}
 
 
 def _stage(scene):
@@ -158,13 +134,3 @@ def mirror_caustic(scene=None):
     quad(scene, "Mirror", [tuple(c) for c in mirror_corners()], m)
     _light(scene, "Point", 'POINT', POINT_POS, POINT_POWER)
     return scene
-
-
-CAUSTIC_MASKS["mirror_caustic"]["corners"] = mirror_corners().tolist()
-CAUSTIC_MASKS["mirror_caustic"]["light_image"] = _mirror_image(POINT_POS).tolist()
-
-# objects Cycles' shadow caustics (MNEE) uses, per scene: (casters, receivers, lights)
-MNEE_OBJECTS = {
-    "glass_caustic": (["GlassBall"], ["Floor", "Back"], ["Spot"]),
-    "mirror_caustic": (["Mirror"], ["Floor", "Back"], ["Point"]),
-}

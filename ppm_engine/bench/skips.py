@@ -3,9 +3,9 @@ measured side by side with and without the skip in one run (docs/BENCHMARKS.md, 
 
 Each row renders or sets up the same scene twice, alternating the two variants so that the
 machine's load affects both alike, and reports medians.  The variants "without" switch the
-skip off by hand (an unspecialised program, a photon pass forced on, a grid over the whole
-scene, persistent data off, no noise threshold); the engine itself has no such switches except
-RenderOptions.specialize (a benchmark and test switch).
+skip off through the engine's public settings: RenderOptions.specialize,
+skip_unneeded_photon_pass and skip_unseen_photons, persistent data off, no noise threshold,
+an object shown instead of hidden.
 """
 from __future__ import annotations
 
@@ -13,9 +13,12 @@ import time
 
 import numpy as np
 
-from .options import RenderOptions
-from .procedural import cornell_box
-from .renderer import Renderer
+from .. import session
+from ..blender_io import ensure_registered
+from ..options import RenderOptions
+from ..procedural import MeshBuilder, cornell_box, look_at
+from ..renderer import Renderer
+from ..scene_arrays import LIGHT_DTYPE, LIGHT_POINT, make_camera, perspective_extent
 
 
 def _median_pass_ms(renderers: dict, passes: int, warmup: int = 3) -> dict:
@@ -40,8 +43,6 @@ def _row(name, scene, with_, without, unit, note) -> dict:
 def specialisation(res: int, passes: int, device: str) -> list[dict]:
     """Kernels built for the scene's features vs every feature compiled in."""
     rows = []
-    from .procedural import MeshBuilder, look_at
-    from .scene_arrays import LIGHT_DTYPE, LIGHT_POINT, make_camera, perspective_extent
     mb = MeshBuilder()                       # a diffuse room lit by one point light
     white = mb.material("white", (0.7, 0.7, 0.7))
     mb.box((-1, -1, 0), (1, 1, 2), white, inward=True)
@@ -66,11 +67,10 @@ def specialisation(res: int, passes: int, device: str) -> list[dict]:
 
 def dark_scene(res: int, device: str) -> dict:
     """A scene that emits nothing: the emission check vs building the renderer and passes."""
-    from .session import emits_nothing
     scene = cornell_box(res, res, light_radiance=0.0)
     t = time.perf_counter()
     for _ in range(10):
-        dark = emits_nothing(scene)
+        dark = session.emits_nothing(scene)
     skip_ms = (time.perf_counter() - t) * 100
     assert dark
     t = time.perf_counter()
@@ -88,9 +88,9 @@ def dark_scene(res: int, device: str) -> dict:
 def no_photon_pass(res: int, passes: int, device: str) -> dict:
     """max_bounces = 0: no photon pass, hash or gather vs running them anyway."""
     scene = cornell_box(res, res)
-    rs = {k: Renderer(scene, RenderOptions(max_bounces=0, device=device, seed=1))
-          for k in ("skip", "run")}
-    rs["run"].photons_needed = True          # "without": the passes run and add nothing
+    rs = {k: Renderer(scene, RenderOptions(max_bounces=0, device=device, seed=1,
+                                           skip_unneeded_photon_pass=(k == "skip")))
+          for k in ("skip", "run")}                 # "run": the passes run and add nothing
     ms = _median_pass_ms(rs, passes)
     for r in rs.values():
         r.close()
@@ -102,25 +102,13 @@ def no_photon_pass(res: int, passes: int, device: str) -> dict:
 def photons_outside(res: int, passes: int, device: str) -> dict:
     """Photons outside the visible points' grid are not stored or hashed vs a grid over the
     whole scene (every photon stored)."""
-    import pyopencl as cl
-    from .photon_map import GRID_DTYPE
-    from .procedural import look_at
     scene = cornell_box(res, res)
     cam = scene.camera.copy()                # looking into one corner: most photons unseen
     cam["to_world"] = look_at((0.5, 0.5, 0.5), (1.0, 1.0, 0.0))[:3]
     scene = scene.replace(camera=cam)
-    rs = {k: Renderer(scene, RenderOptions(device=device, seed=1)) for k in ("skip", "all")}
-    whole = rs["all"].photon_map
-    enqueue_grid = whole.enqueue_grid
-
-    def whole_scene_grid(q, vp_pos, radius, n):
-        evs = enqueue_grid(q, vp_pos, radius, n)
-        g = np.empty(1, GRID_DTYPE)
-        cl.enqueue_copy(q, g, whole.grid)
-        g["bmin"], g["bmax"] = (-1.01, -1.01, -0.01), (1.01, 1.01, 2.01)
-        cl.enqueue_copy(q, whole.grid, g)
-        return evs
-    whole.enqueue_grid = whole_scene_grid
+    rs = {k: Renderer(scene, RenderOptions(device=device, seed=1,
+                                           skip_unseen_photons=(k == "skip")))
+          for k in ("skip", "all")}                 # "all": a grid over the whole scene
     ms = _median_pass_ms(rs, passes)
     stats = {k: r.iterate() for k, r in rs.items()}
     hash_gather = {k: s.phase_ms.get("hash", 0) + s.phase_ms.get("gather", 0)
@@ -167,10 +155,9 @@ def persistent(device: str, quick: bool) -> list[dict]:
     import tempfile
 
     import bpy
-    from . import session
-    from .cli import _ensure_registered
-    from .scenes import build_example
-    _ensure_registered()
+
+    from ..scenes import build_example
+    ensure_registered()
     scene = build_example("bulb_box")
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=4 if quick else 8, radius=0.25,
                                           location=(-0.5, 0.3, 0.25))
@@ -181,7 +168,7 @@ def persistent(device: str, quick: bool) -> list[dict]:
     scene.ppm.passes, scene.ppm.time_limit = 1, 0.0
     if device:
         scene.ppm.device = device
-    log = session.render_log
+    log = session.renders
 
     def setup(change=None):
         if change:
@@ -221,10 +208,9 @@ def hidden_object(device: str, quick: bool) -> dict:
     (export, BVH, upload) with a heavy object hidden vs shown, through bpy.ops.render.render
     (the render depsgraph is what honours hide_render)."""
     import bpy
-    from . import session
-    from .cli import _ensure_registered
-    from .scenes import build_example
-    _ensure_registered()
+
+    from ..scenes import build_example
+    ensure_registered()
     scene = build_example("cornell_box")
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5 if quick else 8, radius=0.2,
                                           location=(0, 0, 1))
@@ -239,7 +225,7 @@ def hidden_object(device: str, quick: bool) -> dict:
 
     def setup_ms():
         bpy.ops.render.render(write_still=False)
-        return session.render_log[-1]["setup_s"] * 1e3
+        return session.renders[-1]["setup_s"] * 1e3
     times = {True: [], False: []}
     setup_ms()                                  # programs built
     for _ in range(3):

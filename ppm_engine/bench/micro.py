@@ -11,13 +11,18 @@ import time
 
 import numpy as np
 
-from .bvh import BVH
-from .device import get_device
-from .options import RenderOptions
-from .photon_map import CNT_OCCUPIED, GRID_DTYPE, N_COUNTERS, PhotonMap
-from .procedural import MeshBuilder, cornell_box, look_at
-from .renderer import Renderer
-from .scene_arrays import make_camera
+from .. import session
+from ..blender_io import ensure_registered
+from ..bvh import BVH
+from ..counters import N_COUNTERS, Counter
+from ..device import get_device
+from ..options import RenderOptions
+from ..passes import Gather, HashBuild
+from ..photon_map import GRID_DTYPE, PhotonMap
+from ..procedural import MeshBuilder, cornell_box, look_at
+from ..reference import pack_unit
+from ..renderer import Renderer
+from ..scene_arrays import make_camera
 
 PAPER = {
     "hash_build_200k_ms": (2.5, "Radeon HD 4850 (paper)"),
@@ -39,7 +44,6 @@ def _synthetic_photons(device, n, n_vp, rng):
     """n photons and n_vp visible points on the floor of a 2x2 room (the Cornell box floor
     density at 256x256), through the real kernels' buffers."""
     import pyopencl as cl
-    from .reference import pack_unit
     pm = PhotonMap(device, n)
     q = device.queue
     pos = np.zeros((n, 4), np.float32)
@@ -50,7 +54,7 @@ def _synthetic_photons(device, n, n_vp, rng):
     cl.enqueue_copy(q, pm.ph_pos, pos)
     cl.enqueue_copy(q, pm.ph_flux, flux)
     counters = np.zeros(N_COUNTERS, np.uint32)
-    counters[1] = n
+    counters[Counter.STORED] = n
     cbuf = device.upload(counters, "counters")
     vp = np.zeros((n_vp, 4), np.float32)
     vp[:, :2] = rng.uniform(-1, 1, (n_vp, 2))
@@ -60,27 +64,29 @@ def _synthetic_photons(device, n, n_vp, rng):
     # radius: ~1.5 pixels of a 256x256 view of the 2 m floor
     radius = device.upload(np.full(n_vp, 1.5 * 2.0 / 256, np.float32), "radius")
     gathered = device.buffer(16 * n_vp, "gathered")
-    pm.enqueue_grid(q, vp_pos, radius, n_vp)
+    hb = HashBuild(device, pm, cbuf)
+    hb.grid(q, vp_pos, radius, n_vp)
     q.finish()
-    return pm, cbuf, (vp_pos, vp_nrm, radius, gathered)
+    return pm, hb, cbuf, (vp_pos, vp_nrm, radius, gathered)
 
 
 def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
     rng = np.random.default_rng(seed)
-    pm, counters, (vp_pos, vp_nrm, radius, gathered) = _synthetic_photons(device, n_photons,
-                                                                          n_vp, rng)
+    pm, hb, counters, (vp_pos, vp_nrm, radius, gathered) = _synthetic_photons(
+        device, n_photons, n_vp, rng)
+    gather_pass = Gather(device, pm)
     import pyopencl as cl
     q = device.queue
     it = iter(range(10 ** 9))
 
     def build():
-        cl.enqueue_fill_buffer(q, counters, np.uint32(0), 4 * CNT_OCCUPIED, 4)
-        evs = pm.enqueue_build(q, counters, next(it), 0)
+        cl.enqueue_fill_buffer(q, counters, np.uint32(0), 4 * Counter.OCCUPIED, 4)
+        evs = hb.build(q, next(it), 0)
         q.finish()
         return _events_ms([e for _, e in evs])
 
     def gather():
-        evs = pm.enqueue_gather(q, vp_pos, vp_nrm, radius, gathered, n_vp)
+        evs = gather_pass.enqueue(q, vp_pos, vp_nrm, radius, gathered, n_vp)
         q.finish()
         return _events_ms([e for _, e in evs])
 
@@ -94,7 +100,7 @@ def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
             "hash_build_ns_per_photon": build_ms * 1e6 / n_photons,
             "gather_ms": gather_ms, "gather_ns_per_vp": gather_ms * 1e6 / n_vp,
             "visible_points": n_vp, "table_size": pm.table_size,
-            "photons_per_entry": n_photons / max(int(c[4]), 1)}
+            "photons_per_entry": n_photons / max(int(c[Counter.OCCUPIED]), 1)}
 
 
 def tracing(device, width=256, photons=1 << 18) -> dict:
@@ -236,8 +242,8 @@ def export_big_mesh(n_triangles: int = 1_000_000, repeat: int = 3) -> dict:
     """Wall time of ppm_engine.export.export_scene for one mesh of ~n_triangles (plus a camera
     and a light) in an otherwise empty file; median of ``repeat`` after one warm-up."""
     import bpy
-    from .export import export_scene
-    from .scenes.cornell_box import lambert, new_scene
+    from ..export import export_scene
+    from ..scenes.cornell_box import lambert, new_scene
     scene = new_scene(None)
     mesh = _big_mesh(int(round(math.sqrt(n_triangles / 2))) + 1)
     mesh.materials.append(lambert("Grey", (0.5, 0.5, 0.5)))
@@ -264,17 +270,14 @@ def export_big_mesh(n_triangles: int = 1_000_000, repeat: int = 3) -> dict:
 
 def first_image(scene_name: str = "bulb_box", device: str = "", repeat: int = 3) -> dict:
     """Wall time from the bpy.ops.render.render call to the first image written into the
-    render result (session.progress_listeners fire right after that write), with warm kernel
+    render result (session.listening's callbacks run right after that write), with warm kernel
     caches: one full render first, then ``repeat`` renders, median.  Default settings of the
-    example (256x256, 2^18 photons per pass), 2 passes per render."""
-    import tempfile
-
+    example (256x256, 2^18 photons per pass), 2 passes per render; no file is written."""
     import bpy
-    from . import session
-    from .cli import _ensure_registered
-    from .properties import to_options
-    from .scenes import build_example
-    _ensure_registered()
+
+    from ..properties import to_options
+    from ..scenes import build_example
+    ensure_registered()
     scene = build_example(scene_name)
     scene.render.engine = "PPM"
     scene.ppm.passes = 2
@@ -282,24 +285,15 @@ def first_image(scene_name: str = "bulb_box", device: str = "", repeat: int = 3)
     if device:
         scene.ppm.device = device
     firsts, setups = [], []
-    with tempfile.TemporaryDirectory(prefix="ppm-first-") as tmp:
-        s = scene.render.image_settings
-        s.file_format = "OPEN_EXR"
-        scene.render.filepath = str(tmp) + "/first"
-        for k in range(repeat + 1):
-            stamp = []
-            t0 = time.perf_counter()
-            listener = lambda text: stamp.append(time.perf_counter())  # noqa: E731
-            session.progress_listeners.append(listener)
-            try:
-                bpy.ops.render.render(write_still=False)
-            finally:
-                session.progress_listeners.remove(listener)
-            if k == 0:
-                continue                    # warm-up: programs built, caches filled
-            firsts.append(stamp[0] - t0)
-            if session.render_log:
-                setups.append(session.render_log[-1].get("setup_s", float("nan")))
+    for k in range(repeat + 1):
+        stamp = []
+        t0 = time.perf_counter()
+        with session.listening(lambda text, fraction: stamp.append(time.perf_counter())):
+            bpy.ops.render.render(write_still=False)
+        if k == 0:
+            continue                    # warm-up: programs built, caches filled
+        firsts.append(stamp[0] - t0)
+        setups.append(session.renders[-1]["setup_s"])
     return {"scene": scene_name, "resolution": [scene.render.resolution_x,
                                                 scene.render.resolution_y],
             "photons_per_pass": to_options(scene.ppm).photons_for(

@@ -1,6 +1,6 @@
 """Run time against error: this engine and Cycles on the same scenes (``python -m ppm_engine
-bench``), plus the micro benchmarks (``--micro``, bench_micro.py) and the per-phase breakdown
-of a pass (``--phases SCENE``).
+bench``; the micro benchmarks are micro.py, the per-phase breakdown phases.py, the skips
+skips.py).
 
 For every scene (built by script in bpy, ppm_engine.scenes) and time budget, the scene is
 rendered through ``bpy.ops.render.render`` to a 32-bit EXR in a temporary folder and read back
@@ -8,7 +8,7 @@ with the OpenEXR package:
 
 - ours: ``scene.ppm.time_limit`` = budget, passes unlimited (1e6), everything else default;
 - Cycles: CPU, ``scene.cycles.time_limit`` = budget, samples unlimited, adaptive sampling and
-  denoising off, the bounce settings of tests/conftest.py ``cycles_settings``;
+  denoising off, the bounce settings of ``blender_io.cycles_reference``;
 - Cycles + MNEE (caustic scenes only): the same with shadow caustics on (the glass ball or the
   mirror ``cycles.is_caustics_caster``, floor and wall ``is_caustics_receiver``, the light
   ``cycles.is_caustics_light``).
@@ -21,7 +21,7 @@ dominate the reference.  A reference by our engine cannot reveal our own bias, s
 records the mean brightness of Cycles' longest render over the reference's (``bias_check``).
 
 Errors: RMSE over RGB (linear radiance) against the reference, over the whole image and over
-the scene's caustic pixels (bench_scenes.CAUSTIC_MASKS), and the relative RMSE = RMSE / mean of
+the scene's caustic pixels (scenes.CAUSTIC_MASKS), and the relative RMSE = RMSE / mean of
 the reference over the same pixels.  ``rmse_corrected`` = sqrt(max(RMSE^2 - ref_noise^2, 0))
 removes the reference's own (independent) noise from the expected squared error.  In the bulb
 box the pixels that see the bulb (the filament and its glass, radiance ~120) are left out of
@@ -29,15 +29,19 @@ both: their anti-aliased edges would dominate every figure.
 """
 from __future__ import annotations
 
-import json
 import math
-import os
-import platform
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from .. import session
+from ..blender_io import cycles_reference, ensure_registered, read_exr, set_output
+from ..scenes import build_example
+from ..scenes.bulb_box import BULB_CENTER
+from .report import machine_info
+from .scenes import CAUSTIC_MASKS, MNEE_OBJECTS
 
 DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
@@ -52,50 +56,7 @@ TARGETS = {"bulb_box": 0.25, "cornell_box": 1.0}     # RMSE ours / Cycles at EQU
 QUICK = dict(times=(0.5, 1.0), resolution=16, ref_seconds=1.5, photons=1 << 13)
 
 
-# --- machine ----------------------------------------------------------------------------------
-def machine_info(device_name: str = "") -> dict:
-    cpu = platform.processor() or ""
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    info = {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version()}
-    try:
-        import bpy
-        info["blender"] = bpy.app.version_string
-    except ImportError:
-        pass
-    try:
-        import pyopencl as cl
-        from .device import get_device
-        dev = get_device(device_name)
-        info["opencl_device"] = dev.info.name
-        info["opencl_platform"] = dev.info.platform
-        info["pyopencl"] = cl.VERSION_TEXT
-        for p in cl.get_platforms():
-            if p.name == dev.info.platform:
-                info["opencl_platform_version"] = p.version
-    except Exception as e:          # noqa: BLE001 -- informational only
-        info["opencl_error"] = str(e)
-    return info
-
-
 # --- images and masks -------------------------------------------------------------------------
-def read_exr(path) -> np.ndarray:
-    """RGB float32 (h, w, 3) of a single-part EXR, rows top-down."""
-    import OpenEXR
-    with OpenEXR.File(str(path)) as f:
-        channels = f.parts[0].channels
-        rgba = [v.pixels for k, v in channels.items() if v.pixels.ndim == 3]
-        if not rgba:
-            raise RuntimeError(f"no RGBA layer in {path}: {list(channels)}")
-        return np.asarray(rgba[0], dtype=np.float32)[..., :3]
-
-
 def camera_rays(scene, w: int, h: int):
     """(origin (3,), directions (h, w, 3)) through the pixel centres, rows top-down."""
     cam = scene.camera
@@ -125,8 +86,7 @@ def _sphere_t(o, d, center, radius):
 
 
 def caustic_mask(scene, name: str, w: int, h: int) -> np.ndarray:
-    """Boolean (h, w): the scene's caustic pixels (bench_scenes.CAUSTIC_MASKS), top-down."""
-    from .scenes.bench_scenes import CAUSTIC_MASKS
+    """Boolean (h, w): the scene's caustic pixels (scenes.CAUSTIC_MASKS), top-down."""
     spec = CAUSTIC_MASKS[name]
     o, d = camera_rays(scene, w, h)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -167,7 +127,6 @@ def excluded_pixels(scene, name: str, w: int, h: int) -> np.ndarray:
     """Pixels left out of every figure: those that see the bulb of the bulb box."""
     if name != "bulb_box":
         return np.zeros((h, w), bool)
-    from .scenes.bulb_box import BULB_CENTER
     o, d = camera_rays(scene, w, h)
     # the bulb's radius is 0.15; a pixel margin keeps its anti-aliased edge out too
     return np.isfinite(_sphere_t(o, d, BULB_CENTER, 0.15 + 1.5 * 2.0 / w))
@@ -187,34 +146,6 @@ def errors(img, ref, pixels, ref_noise=0.0) -> dict:
 
 
 # --- rendering through bpy --------------------------------------------------------------------
-def _set_exr(scene, path):
-    s = scene.render.image_settings
-    if hasattr(s, "media_type"):
-        s.media_type = "IMAGE"
-    s.file_format = "OPEN_EXR"
-    s.color_mode = "RGBA"
-    s.color_depth = "32"
-    scene.render.use_file_extension = True
-    scene.render.filepath = str(path)
-
-
-def cycles_settings(scene, seconds: float, seed: int) -> None:
-    """tests/conftest.py cycles_settings, with a time limit instead of a sample count."""
-    if scene.render.engine != "CYCLES":
-        scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device = "CPU"
-    c.samples = 1 << 24
-    c.time_limit = seconds
-    c.use_adaptive_sampling = c.use_denoising = False
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 12
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.blur_glossy = 0.0
-    c.caustics_reflective = c.caustics_refractive = True
-    c.seed = seed
-    c.use_animated_seed = False
-
-
 def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | None) -> None:
     if scene.render.engine != "PPM":
         scene.render.engine = "PPM"
@@ -231,7 +162,6 @@ def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | N
 def set_mnee(name: str, on: bool) -> None:
     """Cycles' shadow caustics flags on the scene's casters, receivers and light."""
     import bpy
-    from .scenes.bench_scenes import MNEE_OBJECTS
     casters, receivers, lights = MNEE_OBJECTS[name]
     for n in casters:
         bpy.data.objects[n].cycles.is_caustics_caster = on
@@ -244,24 +174,16 @@ def set_mnee(name: str, on: bool) -> None:
 def render(scene, path) -> tuple[np.ndarray, float, dict]:
     """Render the scene to an EXR at ``path``; (RGB image, wall seconds, extra info)."""
     import bpy
-    _set_exr(scene, path)
+    set_output(scene, path)
     info = {}
-    listener = None
-    if scene.render.engine == "PPM":
-        from . import session
-        passes = []
-        listener = passes.append
-        session.progress_listeners.append(listener)
+    passes = []
     t = time.perf_counter()
-    try:
+    with session.listening(lambda text, fraction: passes.append(text)):
         bpy.ops.render.render(write_still=True)
-    finally:
-        if listener is not None:
-            session.progress_listeners.remove(listener)
     wall = time.perf_counter() - t
-    if listener is not None:
+    if scene.render.engine == "PPM":
         info["passes"] = len(passes)
-    img = read_exr(path)
+    img = read_exr(path)[..., :3]
     if not np.isfinite(img).all():
         raise RuntimeError(f"non-finite pixels in {path}")
     return img, wall, info
@@ -279,7 +201,6 @@ class Bench:
 
     def _scene(self, name):
         import bpy
-        from .scenes import build_example
         scene = build_example(name)
         scene.render.resolution_x = scene.render.resolution_y = self.res
         scene.render.resolution_percentage = 100
@@ -291,7 +212,7 @@ class Bench:
         if engine == "PPM":
             ppm_settings(scene, seconds, seed, self.device, self.photons)
         else:
-            cycles_settings(scene, seconds, seed)
+            cycles_reference(scene, seconds=seconds, seed=seed)
         return render(scene, self.folder / f"r{self.count:04d}.exr")
 
     def run_scene(self, name: str, times, ref_seconds: float) -> dict:
@@ -301,7 +222,6 @@ class Bench:
         cmask = caustic_mask(scene, name, w, h) & keep
         out = {"resolution": [w, h], "caustic_mask_pixels": int(cmask.sum()),
                "excluded_pixels": int((~keep).sum())}
-        from .scenes.bench_scenes import CAUSTIC_MASKS
         out["caustic_mask"] = CAUSTIC_MASKS[name]["note"]
 
         # reference: two independent halves
@@ -387,8 +307,7 @@ def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
               ref_seconds: float | None = None, device: str = "", photons: int | None = None,
               progress=print) -> dict:
     import bpy  # noqa: F401 -- fail early without Blender
-    from .cli import _ensure_registered
-    _ensure_registered()
+    ensure_registered()
     times = tuple(float(t) for t in times)
     if ref_seconds is None:
         ref_seconds = max(2.0 * max(times), 1.0)
@@ -408,157 +327,3 @@ def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
     return result
 
 
-# --- outputs ----------------------------------------------------------------------------------
-def plot(result: dict, path) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    names = list(result["scenes"])
-    fig, axes = plt.subplots(2, len(names), figsize=(4 * len(names), 7), squeeze=False)
-    style = {"ours": ("C0", "o", "ours (SPPM)"), "cycles": ("C1", "s", "Cycles"),
-             "cycles_mnee": ("C2", "^", "Cycles + MNEE")}
-    for j, name in enumerate(names):
-        s = result["scenes"][name]
-        for i, region in enumerate(("image", "caustic")):
-            ax = axes[i][j]
-            for curve, rows in s["curves"].items():
-                c, mk, label = style[curve]
-                x = [r["seconds"] for r in rows]
-                y = [r[region]["rmse"] for r in rows]
-                ax.loglog(x, y, color=c, marker=mk, label=label)
-            noise = s["reference"]["noise_rmse" if region == "image" else "noise_rmse_caustic"]
-            if noise == noise and noise > 0:
-                ax.axhline(noise, color="gray", ls=":", lw=1, label="reference noise")
-            ax.set_title(f"{name}: {'whole image' if region == 'image' else 'caustic pixels'}",
-                         fontsize=9)
-            ax.set_xlabel("render time (s)")
-            ax.set_ylabel("RMSE vs reference")
-            ax.grid(True, which="both", alpha=0.3)
-            if i == 0 and j == 0:
-                ax.legend(fontsize=7)
-    fig.suptitle(f"Error against time, {result['resolution']}x{result['resolution']}, "
-                 f"{result['machine'].get('cpu', '')}", fontsize=10)
-    fig.tight_layout()
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-
-
-def table(result: dict) -> str:
-    """Markdown: one row per scene and budget, RMSE (relative) per curve and region."""
-    lines = ["| scene | time (s) | ours RMSE (rel) | Cycles RMSE (rel) | Cycles+MNEE RMSE (rel) "
-             "| ours caustic RMSE (rel) | Cycles caustic RMSE (rel) | Cycles+MNEE caustic (rel) "
-             "| ours passes |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
-
-    def cell(row, region):
-        if row is None:
-            return "–"
-        e = row[region]
-        return f"{e['rmse']:.4f} ({e['rel_rmse']:.3f})"
-    for name, s in result["scenes"].items():
-        c = s["curves"]
-        for k, budget in enumerate(result["times"]):
-            o, cy = c["ours"][k], c["cycles"][k]
-            m = c["cycles_mnee"][k] if "cycles_mnee" in c else None
-            lines.append(f"| {name} | {budget:g} | {cell(o, 'image')} | {cell(cy, 'image')} | "
-                         f"{cell(m, 'image')} | {cell(o, 'caustic')} | {cell(cy, 'caustic')} | "
-                         f"{cell(m, 'caustic')} | {o.get('passes', '–')} |")
-    return "\n".join(lines)
-
-
-def reference_table(result: dict) -> str:
-    lines = ["| scene | reference engine | s per half | mean | reference noise RMSE (rel) "
-             "| caustic pixels | caustic noise RMSE | Cycles longest mean / ref | ours longest mean / ref |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
-    for name, s in result["scenes"].items():
-        r, b = s["reference"], s["bias_check"]
-        lines.append(f"| {name} | {r['engine']} | {r['seconds_per_half']:g} | {r['mean']:.4f} | "
-                     f"{r['noise_rmse']:.4f} ({r['noise_rel_rmse']:.3f}) | "
-                     f"{s['caustic_mask_pixels']} | {r['noise_rmse_caustic']:.4f} | "
-                     f"{b['cycles_longest_mean_over_reference']:.3f} | "
-                     f"{b['ours_longest_mean_over_reference']:.3f} |")
-    return "\n".join(lines)
-
-
-def ratio_table(result: dict) -> str:
-    eq = result["ratios_at"]
-    lines = [f"| scene | RMSE ours/Cycles at {eq:g} s | corrected for ref. noise "
-             "| caustic pixels | ours/(Cycles+MNEE) | target | met |",
-             "|---|---:|---:|---:|---:|---:|---|"]
-    for name, r in result["ratios"].items():
-        mn = f"{r['image_rmse_vs_mnee']:.3f}" if "image_rmse_vs_mnee" in r else "–"
-        tgt = f"≤ {r['target']:g}" if "target" in r else "–"
-        met = ("yes" if r["met"] else "no") if "met" in r else "–"
-        lines.append(f"| {name} | {r['image_rmse']:.3f} | {r['image_rmse_corrected']:.3f} | "
-                     f"{r['caustic_rmse']:.3f} | {mn} | {tgt} | {met} |")
-    return "\n".join(lines)
-
-
-def _finite_json(obj):
-    """NaN -> None so that the JSON is standard (json.dumps would write NaN)."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _finite_json(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite_json(v) for v in obj]
-    return obj
-
-
-def write_json(result: dict, path) -> None:
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w") as f:
-        json.dump(_finite_json(result), f, indent=1, allow_nan=False)
-
-
-# --- per-phase breakdown ----------------------------------------------------------------------
-def run_phases(scene_name: str, resolution: int = 256, passes: int = 8, warmup: int = 3,
-               device: str = "", photons: int | None = None, progress=print) -> dict:
-    """Mean device time per phase of a pass (after ``warmup`` passes) for an example scene,
-    exported from bpy and run through the Renderer directly."""
-    import bpy
-    from .export import export_scene
-    from .options import RenderOptions
-    from .renderer import Renderer
-    from .scenes import build_example
-    scene = build_example(scene_name)
-    scene.render.resolution_x = scene.render.resolution_y = resolution
-    scene.render.resolution_percentage = 100
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    arrays = export_scene(depsgraph)
-    opts = RenderOptions(device=device) if not photons else \
-        RenderOptions(device=device, photons_per_pass=photons)
-    r = Renderer(arrays, opts)
-    progress(f"phases: {scene_name} {resolution}x{resolution}, {r.photons_per_pass} photons "
-             f"per pass, {warmup} warm-up + {passes} timed passes on {r.device.info.name}")
-    for _ in range(warmup):
-        r.iterate()
-    rows = [r.iterate() for _ in range(passes)]
-    r.close()
-    labels = ["eye", "grid", "photon", "hash", "gather", "update", "adaptive"]
-    mean = {k: float(np.mean([s.phase_ms.get(k, 0.0) for s in rows])) for k in labels
-            if any(k in s.phase_ms for s in rows)}
-    total = sum(mean.values())
-    return {"scene": scene_name, "resolution": resolution, "passes": passes, "warmup": warmup,
-            "photons_per_pass": r.photons_per_pass, "device": r.device.info.name,
-            "phase_ms": mean, "device_ms": total,
-            "wall_ms": float(np.mean([s.seconds for s in rows]) * 1e3),
-            "photons_stored": float(np.mean([s.photons_stored for s in rows])),
-            "photons_per_entry": float(np.mean([s.photons_per_entry for s in rows])),
-            "visible_points": float(np.mean([s.visible_points for s in rows]))}
-
-
-def format_phases(p: dict) -> str:
-    lines = [f"{p['scene']} {p['resolution']}x{p['resolution']}, {p['photons_per_pass']} photons "
-             f"per pass, mean of {p['passes']} passes after {p['warmup']} warm-up "
-             f"({p['device']})",
-             "| phase | ms | share |", "|---|---:|---:|"]
-    for k, v in p["phase_ms"].items():
-        lines.append(f"| {k} | {v:.2f} | {100 * v / p['device_ms']:.1f} % |")
-    lines.append(f"| all (device) | {p['device_ms']:.2f} | 100 % |")
-    lines.append(f"| pass (wall) | {p['wall_ms']:.2f} | |")
-    lines.append(f"\nvisible points {p['visible_points']:.0f}, photons stored "
-                 f"{p['photons_stored']:.0f}, photons per occupied entry "
-                 f"{p['photons_per_entry']:.2f}")
-    return "\n".join(lines)

@@ -1,0 +1,160 @@
+"""The benchmark's outputs: the machine it ran on, JSON, the error-against-time plot, markdown
+tables, and the ``<!-- bench:NAME -->`` blocks it writes into docs/BENCHMARKS.md."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+from pathlib import Path
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+
+
+def machine_info(device_name: str = "") -> dict:
+    cpu = platform.processor() or ""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    info = {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version()}
+    try:
+        import bpy
+        info["blender"] = bpy.app.version_string
+    except ImportError:
+        pass
+    try:
+        import pyopencl as cl
+        from ..device import get_device
+        dev = get_device(device_name)
+        info["opencl_device"] = dev.info.name
+        info["opencl_platform"] = dev.info.platform
+        info["pyopencl"] = cl.VERSION_TEXT
+        for p in cl.get_platforms():
+            if p.name == dev.info.platform:
+                info["opencl_platform_version"] = p.version
+    except Exception as e:          # noqa: BLE001 -- informational only
+        info["opencl_error"] = str(e)
+    return info
+
+
+def plot(result: dict, path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    names = list(result["scenes"])
+    fig, axes = plt.subplots(2, len(names), figsize=(4 * len(names), 7), squeeze=False)
+    style = {"ours": ("C0", "o", "ours (SPPM)"), "cycles": ("C1", "s", "Cycles"),
+             "cycles_mnee": ("C2", "^", "Cycles + MNEE")}
+    for j, name in enumerate(names):
+        s = result["scenes"][name]
+        for i, region in enumerate(("image", "caustic")):
+            ax = axes[i][j]
+            for curve, rows in s["curves"].items():
+                c, mk, label = style[curve]
+                x = [r["seconds"] for r in rows]
+                y = [r[region]["rmse"] for r in rows]
+                ax.loglog(x, y, color=c, marker=mk, label=label)
+            noise = s["reference"]["noise_rmse" if region == "image" else "noise_rmse_caustic"]
+            if noise == noise and noise > 0:
+                ax.axhline(noise, color="gray", ls=":", lw=1, label="reference noise")
+            ax.set_title(f"{name}: {'whole image' if region == 'image' else 'caustic pixels'}",
+                         fontsize=9)
+            ax.set_xlabel("render time (s)")
+            ax.set_ylabel("RMSE vs reference")
+            ax.grid(True, which="both", alpha=0.3)
+            if i == 0 and j == 0:
+                ax.legend(fontsize=7)
+    fig.suptitle(f"Error against time, {result['resolution']}x{result['resolution']}, "
+                 f"{result['machine'].get('cpu', '')}", fontsize=10)
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def table(result: dict) -> str:
+    """Markdown: one row per scene and budget, RMSE (relative) per curve and region."""
+    lines = ["| scene | time (s) | ours RMSE (rel) | Cycles RMSE (rel) | Cycles+MNEE RMSE (rel) "
+             "| ours caustic RMSE (rel) | Cycles caustic RMSE (rel) | Cycles+MNEE caustic (rel) "
+             "| ours passes |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+
+    def cell(row, region):
+        if row is None:
+            return "–"
+        e = row[region]
+        return f"{e['rmse']:.4f} ({e['rel_rmse']:.3f})"
+    for name, s in result["scenes"].items():
+        c = s["curves"]
+        for k, budget in enumerate(result["times"]):
+            o, cy = c["ours"][k], c["cycles"][k]
+            m = c["cycles_mnee"][k] if "cycles_mnee" in c else None
+            lines.append(f"| {name} | {budget:g} | {cell(o, 'image')} | {cell(cy, 'image')} | "
+                         f"{cell(m, 'image')} | {cell(o, 'caustic')} | {cell(cy, 'caustic')} | "
+                         f"{cell(m, 'caustic')} | {o.get('passes', '–')} |")
+    return "\n".join(lines)
+
+
+def reference_table(result: dict) -> str:
+    lines = ["| scene | reference engine | s per half | mean | reference noise RMSE (rel) "
+             "| caustic pixels | caustic noise RMSE | Cycles longest mean / ref | ours longest mean / ref |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, s in result["scenes"].items():
+        r, b = s["reference"], s["bias_check"]
+        lines.append(f"| {name} | {r['engine']} | {r['seconds_per_half']:g} | {r['mean']:.4f} | "
+                     f"{r['noise_rmse']:.4f} ({r['noise_rel_rmse']:.3f}) | "
+                     f"{s['caustic_mask_pixels']} | {r['noise_rmse_caustic']:.4f} | "
+                     f"{b['cycles_longest_mean_over_reference']:.3f} | "
+                     f"{b['ours_longest_mean_over_reference']:.3f} |")
+    return "\n".join(lines)
+
+
+def ratio_table(result: dict) -> str:
+    eq = result["ratios_at"]
+    lines = [f"| scene | RMSE ours/Cycles at {eq:g} s | corrected for ref. noise "
+             "| caustic pixels | ours/(Cycles+MNEE) | target | met |",
+             "|---|---:|---:|---:|---:|---:|---|"]
+    for name, r in result["ratios"].items():
+        mn = f"{r['image_rmse_vs_mnee']:.3f}" if "image_rmse_vs_mnee" in r else "–"
+        tgt = f"≤ {r['target']:g}" if "target" in r else "–"
+        met = ("yes" if r["met"] else "no") if "met" in r else "–"
+        lines.append(f"| {name} | {r['image_rmse']:.3f} | {r['image_rmse_corrected']:.3f} | "
+                     f"{r['caustic_rmse']:.3f} | {mn} | {tgt} | {met} |")
+    return "\n".join(lines)
+
+
+def _finite_json(obj):
+    """NaN -> None so that the JSON is standard (json.dumps would write NaN)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite_json(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite_json(v) for v in obj]
+    return obj
+
+
+def write_json(result: dict, path) -> None:
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(_finite_json(result), f, indent=1, allow_nan=False)
+
+
+def replace_block(path: Path, name: str, text: str) -> None:
+    """Put ``text`` between <!-- bench:NAME --> and <!-- /bench:NAME --> in ``path`` (the block
+    is appended when the file or the markers do not exist yet)."""
+    begin, end = f"<!-- bench:{name} -->", f"<!-- /bench:{name} -->"
+    block = f"{begin}\n{text.strip()}\n{end}"
+    old = path.read_text() if path.is_file() else ""
+    if begin in old and end in old:
+        head, rest = old.split(begin, 1)
+        new = head + block + rest.split(end, 1)[1]
+    else:
+        new = (old.rstrip() + "\n\n" if old.strip() else "") + block + "\n"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(new)

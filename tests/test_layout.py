@@ -1,0 +1,87 @@
+"""The package's structure as the README's map draws it: no import cycle, a core that never
+imports bpy, the Blender layer on top of it, and the tooling (bench/, packaging.py) that nothing
+in the add-on imports."""
+import ast
+from pathlib import Path
+
+PKG = Path(__file__).resolve().parents[1] / "ppm_engine"
+
+# the core: runs in plain Python, without Blender (tests, the CLI's devices command, .npz scenes)
+CORE = {"counters", "device", "device.context", "device.program", "device_scene", "errors",
+        "features", "film", "materials", "emitters", "bvh", "options", "passes", "passes.eye",
+        "passes.gather", "passes.hash_build", "passes.photons", "passes.update", "photon_map",
+        "procedural", "analytic", "reference", "renderer", "scene_arrays", "scene_prep",
+        "stats"}
+TOOLING = ("bench", "packaging")
+
+
+def _modules() -> dict:
+    out = {}
+    for f in PKG.rglob("*.py"):
+        parts = f.relative_to(PKG).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        out[name] = f
+    return out
+
+
+def _imports(name: str, path: Path, modules: dict) -> set:
+    """The package modules ``name`` imports, at module level or inside functions."""
+    pkg = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg.split(".") if pkg else []
+                base = base[:len(base) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            elif (node.module or "").startswith("ppm_engine"):
+                target = node.module[len("ppm_engine."):] if "." in node.module else ""
+            else:
+                continue
+            for a in node.names:      # a submodule, else a name from the module itself
+                sub = f"{target}.{a.name}".strip(".")
+                cand = sub if sub in modules else target
+                if cand in modules and cand != name:
+                    found.add(cand)
+        elif isinstance(node, ast.Import):
+            found |= {a.name for a in node.names if a.name == "bpy"}
+    return found
+
+
+def test_core_modules_exist_and_never_import_bpy():
+    modules = _modules()
+    assert CORE <= set(modules), CORE - set(modules)
+    for name in CORE:
+        assert "bpy" not in _imports(name, modules[name], modules), name
+
+
+def test_no_import_cycle_and_nothing_imports_the_tooling():
+    modules = _modules()
+    graph = {m: {d for d in _imports(m, f, modules) if d != "bpy"} for m, f in modules.items()}
+    for m, deps in graph.items():
+        if not m.startswith(TOOLING):
+            assert not {d for d in deps if d.startswith(TOOLING)}, m
+    # a package's __init__ re-exporting its own submodules is not a cycle
+    graph = {m: {d for d in deps if not d.startswith(m + ".")} for m, deps in graph.items()}
+    state = {}
+
+    def visit(m, path):
+        state[m] = "open"
+        for d in graph[m]:
+            assert state.get(d) != "open", " -> ".join(path + [m, d])
+            if d not in state:
+                visit(d, path + [m])
+        state[m] = "done"
+    for m in graph:
+        if m not in state:
+            visit(m, [])
+
+
+def test_the_layout_test_sees_imports():
+    """The checks above can fail: they see relative, absolute and function-level imports."""
+    modules = _modules()
+    assert "passes" in _imports("renderer", modules["renderer"], modules)
+    assert {"session", "blender_io"} <= _imports("bench.curves", modules["bench.curves"],
+                                                 modules)
+    assert "bpy" in _imports("engine", modules["engine"], modules)
+    assert "renderer" in _imports("session", modules["session"], modules)   # inside a function
