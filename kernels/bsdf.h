@@ -24,7 +24,7 @@ inline float fresnel_dielectric(float cos_i, float eta) {
 }
 
 inline int choose_lobe(__global const Material *m, float u) {
-#ifdef PPM_SPECULAR
+#if PPM_SPECULAR
     if (u < m->p_metal) return LOBE_MIRROR;
     if (u < m->p_metal + m->p_glass) return LOBE_GLASS_REFLECT;   /* resolved by Fresnel */
 #endif
@@ -56,7 +56,7 @@ inline int scatter_specular(int lobe, __global const Material *m, float3 tint, f
         *leave_n = ngf;
         return LOBE_MIRROR;
     }
-#ifndef PPM_GLASS
+#if !PPM_GLASS
     return LOBE_ABSORBED;            /* never reached: no material of the scene has glass */
 #else
     /* smooth dielectric: ng points outside the object */

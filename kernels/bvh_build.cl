@@ -1,6 +1,7 @@
-/* Data-parallel LBVH build (Karras, "Maximizing Parallelism in the Construction of BVHs,
- * Octrees, and k-d Trees", HPG 2012): Morton codes -> pyopencl RadixSort (host side) ->
- * hierarchy -> bottom-up boxes -> packed nodes and leaf-ordered triangles (layout in bvh.h). */
+/* Data-parallel BVH build (ppm_engine/bvh.py): Morton codes -> pyopencl RadixSort (host side)
+ * -> a hierarchy, by PLOC (the default, below) or Karras' LBVH ("Maximizing Parallelism in the
+ * Construction of BVHs, Octrees, and k-d Trees", HPG 2012) -> bottom-up boxes -> packed nodes
+ * and leaf-ordered triangles (layout in bvh.h). */
 #include "geometry.h"
 
 inline uint expand_bits(uint v) {

@@ -23,7 +23,7 @@ __kernel void struct_sizes(__global uint *out) {
 
 /* direct light (the eye pass's estimate: next-event estimation and the BSDF sample with MIS,
  * averaged over n_samples) at given points */
-#include "lights.h"
+#include "direct_light.h"
 __kernel void direct_light(SCENE_ARGS, __global const float4 *points, __global const float4 *nrm,
                            int n_samples, __global float4 *out, uint n) {
     uint i = get_global_id(0);

@@ -2,7 +2,7 @@
  * bounces to the first diffuse hit, where it stores a visible point and adds direct light by
  * next-event estimation.  Emission and background seen directly or through mirrors/glass go to
  * the pixel's direct sum. */
-#include "lights.h"
+#include "direct_light.h"
 #include "camera.h"
 #include "counters.h"
 
@@ -50,7 +50,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
     float4 vp = (float4)(0.0f);
     for (int depth = 0;; depth++) {
         Hit h = bvh_intersect(o, d, tmax, mask, false, BVH_PASS);
-#ifdef PPM_LIGHTS_SEEN
+#if PPM_LIGHTS_SEEN
         L += beta * lights_seen(o, d, h.leaf < 0 ? tmax : h.t, lights, emitter_info->n_lights,
                                   mask);
 #endif
@@ -85,7 +85,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
             }
             break;
         }
-#ifndef PPM_SPECULAR
+#if !PPM_SPECULAR
         break;                       /* no mirror or glass in the scene: no specular bounce */
 #else
         if (depth >= max_bounces) break;

@@ -3,6 +3,8 @@
 /* The scene features the eye and photon passes compile (ppm_engine/features.py: built with
  * -D PPM_SPECIALIZED and one -D per feature the scene has).  A program built without
  * PPM_SPECIALIZED has every feature (tests, debug kernels, RenderOptions(specialize=False)).
+ * Each flag is 0 or 1 here, so code tests it with #if, or in a plain condition
+ * (if (PPM_LIGHT_SUN && ...)) whose dead branch the compiler drops.
  *   PPM_SPECULAR     mirrors or glass: the eye pass follows specular bounces
  *   PPM_GLASS        glass (refraction, Fresnel)
  *   PPM_LIGHT_POINT  point and spot lights      PPM_LIGHT_SUN   sun lights
@@ -11,15 +13,38 @@
  *   PPM_DOF          depth of field             PPM_TEXTURES    image textures
  */
 #ifndef PPM_SPECIALIZED
-#define PPM_SPECULAR 1
-#define PPM_GLASS 1
-#define PPM_LIGHT_POINT 1
-#define PPM_LIGHT_SUN 1
-#define PPM_LIGHT_AREA 1
-#define PPM_EMISSIVE 1
-#define PPM_WORLD 1
-#define PPM_LIGHTS_SEEN 1
-#define PPM_DOF 1
-#define PPM_TEXTURES 1
+#define PPM_ALL_FEATURES 1
+#else
+#define PPM_ALL_FEATURES 0
+#endif
+#ifndef PPM_SPECULAR
+#define PPM_SPECULAR PPM_ALL_FEATURES
+#endif
+#ifndef PPM_GLASS
+#define PPM_GLASS PPM_ALL_FEATURES
+#endif
+#ifndef PPM_LIGHT_POINT
+#define PPM_LIGHT_POINT PPM_ALL_FEATURES
+#endif
+#ifndef PPM_LIGHT_SUN
+#define PPM_LIGHT_SUN PPM_ALL_FEATURES
+#endif
+#ifndef PPM_LIGHT_AREA
+#define PPM_LIGHT_AREA PPM_ALL_FEATURES
+#endif
+#ifndef PPM_EMISSIVE
+#define PPM_EMISSIVE PPM_ALL_FEATURES
+#endif
+#ifndef PPM_WORLD
+#define PPM_WORLD PPM_ALL_FEATURES
+#endif
+#ifndef PPM_LIGHTS_SEEN
+#define PPM_LIGHTS_SEEN PPM_ALL_FEATURES
+#endif
+#ifndef PPM_DOF
+#define PPM_DOF PPM_ALL_FEATURES
+#endif
+#ifndef PPM_TEXTURES
+#define PPM_TEXTURES PPM_ALL_FEATURES
 #endif
 #endif

@@ -1,5 +1,5 @@
 /* Gather: each visible point visits every cell its gather disc overlaps (up to 5 per axis with
- * the default cell = r_max / 2; photon_map.py CELL_SCALE), one photon fetch per cell.
+ * the default cell = r_max / 2; passes/hash_build.py CELL_SCALE), one photon fetch per cell.
  * The entry's photon stands for all n photons of the entry (flux x n) and is accepted only
  * in its own cell: two cells that share an entry are then never counted twice, and the
  * estimate is unbiased (each photon of the entry is chosen with probability 1/n and counted

@@ -8,7 +8,7 @@
 inline float max3(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
 inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
-/* The scene's size, a power of two (ppm_engine/renderer.py offset_scale): the absolute part
+/* The scene's size, a power of two (ppm_engine/scene_prep.py offset_scale): the absolute part
  * of offset_ray (coordinates near 0) is tuned for scenes of size ~1; a 2 mm scene would be
  * offset by 1 % of its size and a 10 km one too little near its axis planes. */
 #ifndef PPM_OFFSET_SCALE

@@ -83,7 +83,7 @@ __kernel void clear_table(__global ulong2 *table, uint n) {
 
 inline uint photon_key(uint seed, uint pass, uint i) { return rng_seed(seed, pass, i, 3u) | 1u; }
 
-/* Photons per work-item (photon_map.py build_batch: 8 on CPUs, 1 on GPUs).  An atomic on x86 is
+/* Photons per work-item (passes/hash_build.py HashBuild.batch: 8 on CPUs, 1 on GPUs).  An atomic on x86 is
  * a full barrier, so one photon after another waits for each entry's cache miss in turn; a
  * work-item first hashes its batch and touches the entries with plain loads (misses overlap),
  * then does the atomics on lines already in cache: 1.4-1.5x faster on a 2-core CPU (200K and 1M

@@ -2,7 +2,7 @@
  * specular and diffuse bounces with Russian roulette, stored at diffuse hits after the first
  * (direct light is counted by next-event estimation in the eye pass).  Photons outside this
  * pass's grid (visible points' bounds) cannot be gathered and are only counted. */
-#include "lights.h"
+#include "photon_emission.h"
 #include "hash.h"
 
 #include "counters.h"
@@ -54,7 +54,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             o = offset_ray(s.p, ngf);
             mask = VIS_DIFFUSE;
         } else {
-#ifdef PPM_SPECULAR
+#if PPM_SPECULAR
             float3 leave_n;
             lobe = scatter_specular(lobe, m, tint, s.ng, s.ns, rnd(&rng), false, &d, &flux,
                                     &leave_n);

@@ -126,8 +126,8 @@ __kernel void film_resolve(__global const float4 *direct, __global const float4 
 /* Adaptive sampling, step 1: each pixel's estimated error, the standard error of its mean
  * over passes relative to the square root of its brightness (as Cycles' adaptive sampling:
  * dark pixels need less absolute precision); infinite before min_passes, and while a pixel
- * that gathers photons still has a radius above max_radius x its initial one (film.py
- * ADAPTIVE_MAX_RADIUS: the spread does not show the radius' bias). */
+ * that gathers photons still has a radius above max_radius x its initial one (passes/update.py
+ * ProgressiveUpdate.ADAPTIVE_MAX_RADIUS: the spread does not show the radius' bias). */
 __kernel void film_error(__global const float4 *moments, __global const float *nstat,
                          __global const float *radius, __global const float *radius0,
                          float max_radius, uint min_passes, __global float *error, uint n) {

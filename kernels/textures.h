@@ -86,7 +86,7 @@ inline float2 surface_uv(__global const float *uvs, uint tri, float u, float v) 
  * and glass tints; its emission_tex for the emission) puts on it at a surface point: the
  * texture at the point's UV, 1 without a texture */
 inline float3 texture_tint(int tex1, uint tri, float u, float v, TEXTURE_ARGS) {
-#ifdef PPM_TEXTURES
+#if PPM_TEXTURES
     if (tex1 > 0) return texture_rgb(textures, texels, tex1, surface_uv(uvs, tri, u, v));
 #endif
     return (float3)(1.0f);

@@ -1,5 +1,6 @@
 /* Structs shared by the kernels.  Each mirrors a NumPy dtype field for field; only 4-byte
- * scalars and arrays of them, so there is no padding (tests/test_types.py checks the sizes). */
+ * scalars and arrays of them, so there is no padding (tests/test_kernels.py test_struct_layouts_match_dtypes checks the
+ * sizes on every device). */
 #ifndef PPM_TYPES_H
 #define PPM_TYPES_H
 #include "features.h"
@@ -58,7 +59,7 @@ typedef struct {
     float filter_width;     /* 0: box; > 0: Blackman-Harris over +-filter_width pixels */
 } Camera;
 
-/* mirrors renderer.KMATERIAL_DTYPE: the lobes the kernels sample, derived from
+/* mirrors materials.KMATERIAL_DTYPE: the lobes the kernels sample, derived from
  * scene_arrays.MATERIAL_DTYPE by ppm_engine/materials.py */
 #define MAT_EMISSIVE 1u
 #define MAT_DIFFUSE 2u

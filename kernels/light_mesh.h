@@ -1,0 +1,145 @@
+#ifndef PPM_LIGHT_MESH_H
+#define PPM_LIGHT_MESH_H
+/* --- emissive triangles (mesh lights; part of light_types.h) ---------------------------------
+ * Both sides emit.  Seen by rays as the surfaces they are (the passes add their emission). */
+
+/* The probability of picking emissive BVH leaf k as the emitter (0 when it is not one):
+ * emissive[] holds the emissive leaves in ascending order (ppm_engine/emitters.py). */
+inline float emissive_leaf_pmf(int leaf, SCENE_ARGS) {
+    int n_lights = emitter_info->n_lights;
+    int lo = 0, hi = emitter_info->n_emissive - 1;
+    while (lo <= hi) {
+        int mid = (lo + hi) >> 1, v = emissive[mid];
+        if (v == leaf) {
+            int e = n_lights + mid;
+            return emitter_cdf[e] - (e > 0 ? emitter_cdf[e - 1] : 0.0f);
+        }
+        if (v < leaf) lo = mid + 1; else hi = mid - 1;
+    }
+    return 0.0f;
+}
+
+/* Emissive triangles seen under a large solid angle are sampled by solid angle.  Area sampling
+ * gives a sample at distance d the weight d^2 / cos: next to a large emitter (a ceiling 1 cm
+ * above a lamp, a filament's glass) that weight varies by orders of magnitude.  Arvo's (1995)
+ * sampling of the spherical triangle is uniform in solid angle instead; it is used when the
+ * triangle subtends more than SPHERICAL_MIN_SOLID_ANGLE (area sampling is as good below and
+ * keeps full precision for far, small triangles).  The choice depends only on the point and the
+ * triangle, so mesh_direct and direct_bsdf (its MIS pdf) always agree. */
+#define SPHERICAL_MIN_SOLID_ANGLE 0.02f
+
+/* angle between unit vectors, accurate near 0 and pi */
+inline float angle_between(float3 u, float3 v) {
+    return dot(u, v) < 0.0f ? PPM_PI - 2.0f * asin(fmin(length(u + v) * 0.5f, 1.0f))
+                            : 2.0f * asin(fmin(length(v - u) * 0.5f, 1.0f));
+}
+
+typedef struct {
+    float3 a, b, c;          /* unit directions to the corners */
+    float alpha;             /* the spherical triangle's angle at a */
+    float area;              /* its solid angle; 0: use area sampling */
+} SphTri;
+
+inline SphTri spherical_triangle(float3 o, float3 p0, float3 p1, float3 p2) {
+    SphTri t;
+    t.area = 0.0f;
+    t.a = normalize(p0 - o); t.b = normalize(p1 - o); t.c = normalize(p2 - o);
+    float3 n_ab = cross(t.a, t.b), n_bc = cross(t.b, t.c), n_ca = cross(t.c, t.a);
+    float l_ab = length(n_ab), l_bc = length(n_bc), l_ca = length(n_ca);
+    if (!(l_ab > 1e-7f && l_bc > 1e-7f && l_ca > 1e-7f)) return t;
+    n_ab /= l_ab; n_bc /= l_bc; n_ca /= l_ca;
+    t.alpha = angle_between(n_ab, -n_ca);
+    float A = t.alpha + angle_between(n_bc, -n_ab) + angle_between(n_ca, -n_bc) - PPM_PI;
+    t.area = (A > SPHERICAL_MIN_SOLID_ANGLE && A < 2.0f * PPM_PI && isfinite(A)) ? A : 0.0f;
+    return t;
+}
+
+/* a direction uniform over the spherical triangle t (t.area > 0), Arvo 1995 */
+inline float3 sample_spherical_triangle(const SphTri *t, float u0, float u1) {
+    float x = u0 * t->area;                          /* solid angle of the sub-triangle */
+    float ca = cos(t->alpha), sa = sin(t->alpha);
+    /* phi = Ap_pi - alpha with Ap_pi = pi + x: sin and cos of pi + x - alpha */
+    float sin_phi = -sin(x) * ca + cos(x) * sa;
+    float cos_phi = -cos(x) * ca - sin(x) * sa;
+    float k1 = cos_phi + ca, k2 = sin_phi - sa * dot(t->a, t->b);
+    float cos_bp = (k2 + (k2 * cos_phi - k1 * sin_phi) * ca) / ((k2 * sin_phi + k1 * cos_phi) * sa);
+    cos_bp = isfinite(cos_bp) ? clamp(cos_bp, -1.0f, 1.0f) : 1.0f;
+    float sin_bp = sqrt(fmax(0.0f, 1.0f - cos_bp * cos_bp));
+    float3 ca_perp = t->c - dot(t->c, t->a) * t->a;
+    float3 cp = cos_bp * t->a + sin_bp * normalize(ca_perp);
+    float cos_t = 1.0f - u1 * (1.0f - dot(cp, t->b));
+    float sin_t = sqrt(fmax(0.0f, 1.0f - cos_t * cos_t));
+    float3 cb_perp = cp - dot(cp, t->b) * t->b;
+    float lb = length(cb_perp);
+    return normalize(cos_t * t->b + (lb > 0.0f ? sin_t / lb : 0.0f) * cb_perp);
+}
+
+/* Next-event sample of emissive BVH leaf k (picked with probability pmf) from origin o. */
+inline bool mesh_direct(int k, float pmf, float3 o, float u1, float u2, SCENE_ARGS,
+                        LightSample *s) {
+    float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
+    float3 c = cross(e1.xyz, e2.xyz);
+    float area2 = length(c);
+    if (!(area2 > 0.0f)) return false;
+    float3 nt = c / area2;
+    __global const Material *me = materials + as_int(e2.w);
+    SphTri st = spherical_triangle(o, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
+    float2 b;
+    float3 q;
+    if (st.area > 0.0f) {              /* uniform in solid angle: weight = solid angle */
+        s->wi = sample_spherical_triangle(&st, u1, u2);
+        float denom = dot(s->wi, nt);
+        float t = dot(v0.xyz - o, nt) / denom;
+        if (!(t > 0.0f && isfinite(t))) return false;
+        q = o + t * s->wi;
+        /* barycentrics of q for the emission texture */
+        float3 dq = q - v0.xyz;
+        float d00 = dot(e1.xyz, e1.xyz), d01 = dot(e1.xyz, e2.xyz), d11 = dot(e2.xyz, e2.xyz);
+        float d20 = dot(dq, e1.xyz), d21 = dot(dq, e2.xyz), den = d00 * d11 - d01 * d01;
+        b = (float2)((d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den);
+        s->E = st.area;
+        s->pdf_light = pmf / st.area;
+    } else {                           /* uniform in area: weight = cos area / d^2 */
+        b = sample_triangle(u1, u2);
+        q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
+    }
+    q = offset_ray(q, dot(o - q, nt) >= 0.0f ? nt : -nt);    /* on our side of it */
+    float3 tq = q - o;
+    float dq2 = dot(tq, tq);
+    s->dist = st.area > 0.0f ? dot(tq, s->wi) : sqrt(dq2);   /* along wi: short of the emitter */
+    if (!(s->dist > 0.0f)) return false;
+    if (!(st.area > 0.0f)) {          /* (solid angle: wi stays the sampled direction,
+                                          q only ends the shadow ray) */
+        s->wi = tq / s->dist;
+        float cos_l = fabs(dot(s->wi, nt));                   /* mesh lights: both sides */
+        s->E = cos_l * 0.5f * area2 / dq2;
+        s->pdf_light = cos_l > 0.0f ? pmf * dq2 / (cos_l * 0.5f * area2) : 0.0f;
+    }
+    s->E = s->E * F3(me->emission)
+           * texture_tint(me->emission_tex, as_uint(v0.w), b.x, b.y, TEXTURE_PASS);
+    return true;
+}
+
+/* A photon from emissive BVH leaf k: a uniform point, a side with probability 1/2 each, a
+ * cosine-weighted direction. */
+inline bool mesh_emit(int k, float pmf, float u1, float u2, float u3, float u4, SCENE_ARGS,
+                      float3 *o, float3 *d, float3 *flux) {
+    float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
+    float2 b = sample_triangle(u1, u2);
+    float3 q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
+    float3 cr = cross(e1.xyz, e2.xyz);
+    float area2 = length(cr);
+    if (!(area2 > 0.0f)) return false;
+    float3 nt = cr / area2;
+    float side = u3 < 0.5f ? 1.0f : -1.0f;
+    float uu = u3 < 0.5f ? 2.0f * u3 : 2.0f * u3 - 1.0f;
+    nt *= side;
+    *d = sample_cosine_hemisphere(nt, uu, u4);
+    *o = offset_ray(q, nt);
+    __global const Material *me = materials + as_int(e2.w);
+    *flux = F3(me->emission)
+            * texture_tint(me->emission_tex, as_uint(v0.w), b.x, b.y, TEXTURE_PASS)
+            * (2.0f * PPM_PI * 0.5f * area2 / pmf);
+    return true;
+}
+#endif

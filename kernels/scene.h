@@ -1,0 +1,27 @@
+#ifndef PPM_SCENE_H
+#define PPM_SCENE_H
+#include "bvh.h"
+#include "bsdf.h"
+#include "textures.h"
+
+/* Everything a pass kernel needs to see the scene: BVH, shading normals, materials, emitters,
+ * textures and UVs (ppm_engine/device_scene.py binds them by these names). */
+#define SCENE_ARGS BVH_ARGS, __global const float *normals, __global const Material *materials, \
+    __global const Light *lights, __global const float *emitter_cdf, __global const int *emissive, \
+    __global const EmitterInfo *emitter_info, TEXTURE_ARGS
+#define SCENE_PASS BVH_PASS, normals, materials, lights, emitter_cdf, emissive, emitter_info, \
+    textures, texels, uvs
+#define TEXTURE_PASS textures, texels, uvs
+
+/* Emitter chosen in proportion to its power (cdf built by ppm_engine/emitters.py): the lights
+ * first, then the emissive triangles, then the world. */
+inline int pick_emitter(__global const float *cdf, int n, float u, float *pmf) {
+    int lo = 0, hi = n - 1;
+    while (lo < hi) {
+        int mid = (lo + hi) >> 1;
+        if (u < cdf[mid]) hi = mid; else lo = mid + 1;
+    }
+    *pmf = cdf[lo] - (lo > 0 ? cdf[lo - 1] : 0.0f);
+    return lo;
+}
+#endif
