@@ -3,6 +3,7 @@ time run, the micro benchmarks and the phase breakdown run end to end and write 
 JSON, the plot and the markdown tables.  The full run is not part of CI (docs/BENCHMARKS.md)."""
 import json
 import math
+import re
 
 import pytest
 
@@ -32,12 +33,20 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
     for name, s in res["scenes"].items():
         curves = {"ours", "cycles"} | ({"cycles_mnee"} if "caustic" in name else set())
         assert set(s["curves"]) == curves
+        ref = s["reference"]
         for rows in s["curves"].values():
             assert [r["seconds"] for r in rows] == res["times"]
             for r in rows:
-                assert r["image"]["rmse"] >= 0 and r["image"]["pixels"] > 0
+                e = r["image"]
+                assert e["rmse"] > 0 and e["pixels"] > 0        # no render equals the reference
+                # the derived figures follow from the measured ones
+                assert e["rel_rmse"] == pytest.approx(e["rmse"] / ref["mean"], rel=1e-6)
+                assert e["rmse_corrected"] == pytest.approx(
+                    math.sqrt(max(e["rmse"] ** 2 - ref["noise_rmse"] ** 2, 0.0)), abs=1e-9)
                 assert r["wall_s"] >= r["seconds"] * 0.5
-        assert s["reference"]["noise_rmse"] >= 0 and s["reference"]["mean"] > 0
+        # two halves rendered with different seeds differ: the reference has measured noise
+        assert ref["noise_rmse"] > 0 and ref["mean"] > 0
+        assert ref["noise_rel_rmse"] == pytest.approx(ref["noise_rmse"] / ref["mean"], rel=1e-6)
         # the references agree with each other: Cycles' longest render is no more than a few
         # tens of percent off ours in mean, even at 16x16 and one second
         assert 0.7 < s["bias_check"]["cycles_longest_mean_over_reference"] < 1.3
@@ -45,6 +54,14 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         assert ours[-1]["passes"] >= ours[0]["passes"] >= 1
     assert all(math.isfinite(x) for x in _finite_numbers(res))
     assert set(res["ratios"]["bulb_box"]) >= {"image_rmse", "target", "met"}
+    eq = res["ratios_at"]
+    for name, r in res["ratios"].items():          # ours / Cycles at the equal-time budget
+        c = res["scenes"][name]["curves"]
+        at = res["times"].index(eq)
+        assert r["image_rmse"] == pytest.approx(
+            c["ours"][at]["image"]["rmse"] / c["cycles"][at]["image"]["rmse"], rel=1e-6)
+        if "met" in r:
+            assert r["met"] == (r["image_rmse"] <= r["target"])
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     text = md.read_text()
     assert text.startswith("# head") and text.rstrip().endswith("tail") and "old" not in text
@@ -59,6 +76,10 @@ def test_bench_micro_and_phases_quick(cli, tmp_path):
     text = md.read_text()
     assert "<!-- bench:micro -->" in text and "hash build" in text and "paper" in text
     assert all(math.isfinite(x) and x >= 0 for x in _finite_numbers(m))
+    for h in m["hash"]:               # every occupied entry holds at least one photon
+        assert h["photons_per_entry"] >= 1 and h["hash_build_ms"] > 0 and h["gather_ms"] > 0
+        assert h["hash_build_ns_per_photon"] == pytest.approx(
+            h["hash_build_ms"] * 1e6 / h["photons"], rel=1e-9)
     p = cli("bench", "--phases", "bulb_box", "--quick", "--json", tmp_path / "ph.json",
             "--markdown", md)
     assert p.returncode == 0, p.stderr
@@ -78,6 +99,10 @@ def test_bench_skips_quick(cli, tmp_path):
                  "nothing changed", "settings", "moved", "hidden"):
         assert any(word in k for k in skips), word
     assert all(r["with"] >= 0 and r["without"] > 0 for r in rows)
+    assert all(r["saving"] == pytest.approx(1 - r["with"] / r["without"]) for r in rows)
+    outside = next(r for r in rows if "photons nobody" in r["skip"])
+    share = int(re.match(r"(\d+) % of the photons land outside", outside["note"])[1])
+    assert share > 50                  # the corner view: most photons are not stored
     dark = next(r for r in rows if "emits" in r["skip"])
     assert dark["with"] < 0.1 * dark["without"]          # no device work at all
     assert "<!-- bench:skips -->" in md.read_text()

@@ -1,4 +1,6 @@
 """The renderer as a whole, without Blender: settings, statistics, buffers, edge cases."""
+import re
+
 import numpy as np
 import pytest
 
@@ -59,9 +61,19 @@ def test_cornell_box_statistics_and_monotone_radii():
     img = r.image()
     assert img.shape == (32, 32, 4) and np.isfinite(img).all() and (img[..., 3] == 1).all()
     assert img[..., :3].mean() > 0.05
-    r_txt = f"r {s.radius_min:.3g}–{s.radius_max:.3g}"
-    assert s.line(64, 1.25) == f"Pass 8/64 · 65.5K photons · {r_txt} · 1.2 s · 9 s left"
-    assert s.line(64, 1.25, time_limit=2.0).endswith("· 1 s left")     # the limit comes first
+    # the status line states these statistics: its numbers, read back
+    line = re.fullmatch(r"Pass (\d+)/(\d+) · ([\d.]+)([KMG]?) photons · r ([\d.e+-]+)–([\d.e+-]+)"
+                        r" · ([\d.]+) s · (\d+) s left", s.line(64, 1.25))
+    assert line, s.line(64, 1.25)
+    assert (int(line[1]), int(line[2])) == (s.pass_index, 64)
+    shown = float(line[3]) * {"": 1, "K": 1e3, "M": 1e6, "G": 1e9}[line[4]]
+    assert shown == pytest.approx(s.photons_emitted, rel=1e-3)          # 3 significant digits
+    assert float(line[5]) == pytest.approx(s.radius_min, rel=5e-3)
+    assert float(line[6]) == pytest.approx(s.radius_max, rel=5e-3)
+    assert float(line[7]) == pytest.approx(1.25, abs=0.051)
+    assert int(line[8]) == round(1.25 / 8 * (64 - 8))                   # at the pass rate
+    left = re.search(r"· (\d+) s left$", s.line(64, 1.25, time_limit=2.0))
+    assert int(left[1]) == round(2.0 - 1.25)                             # the limit comes first
 
 
 def test_photon_buffer_overflow_is_counted_then_grows():
