@@ -2,6 +2,7 @@
 the OpenCL sources as package data, and renders from a fresh virtual environment that has no
 source tree on its path."""
 import os
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -21,9 +22,17 @@ def _run(args, cwd, timeout=600):
 
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
+    """The wheel pip builds from a copy of what the build reads (setuptools writes build/ and
+    *.egg-info/ next to the sources: not into the checkout)."""
     out = tmp_path_factory.mktemp("wheel")
+    src = out / "src"
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
+    for name in ("ppm_engine", "kernels"):
+        shutil.copytree(REPO / name, src / name, ignore=ignore)
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy2(REPO / name, src / name)
     p = _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q",
-              "-w", out, REPO], cwd=out)
+              "-w", out, src], cwd=out)
     assert p.returncode == 0, p.stdout + p.stderr
     (whl,) = out.glob("ppm_engine-*.whl")
     return whl
