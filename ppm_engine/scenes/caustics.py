@@ -22,7 +22,7 @@ import math
 import bpy
 import numpy as np
 
-from .cornell_box import glass, lambert, new_scene, quad, sphere
+from .cornell_box import camera_world_render, glass, lambert, new_scene, quad, sphere
 
 RESOLUTION = 128
 LIGHT_RADIUS = 0.02
@@ -68,30 +68,11 @@ def _stage(scene):
     white = lambert("Floor", FLOOR)
     quad(scene, "Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], white)
     quad(scene, "Back", [(-2, 2, 0), (2, 2, 0), (2, 2, 2.5), (-2, 2, 2.5)], white)
-    cam_data = bpy.data.cameras.new("Camera")
-    cam_data.lens, cam_data.sensor_width = 35.0, 36.0
-    cam_data.clip_start, cam_data.clip_end = 0.1, 100.0
-    cam = bpy.data.objects.new("Camera", cam_data)
-    scene.collection.objects.link(cam)
     eye, target = np.array([0.1, -2.8, 1.7]), np.array([0.2, 0.2, 0.25])
     d = target - eye
-    cam.rotation_euler = (math.atan2(math.hypot(d[0], d[1]), -d[2]), 0.0,
-                          math.atan2(d[0], d[1]) * -1.0)
-    cam.location = tuple(eye)
-    scene.camera = cam
-    world = bpy.data.worlds.new("World")
-    bg = world.node_tree.nodes["Background"]
-    bg.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-    world.color = (0.0, 0.0, 0.0)
-    scene.world = world
-    r = scene.render
-    r.resolution_x = r.resolution_y = RESOLUTION
-    r.resolution_percentage = 100
-    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
-    r.use_border = False
-    r.dither_intensity = 0.0
-    r.film_transparent = False
-    scene.frame_set(1)
+    camera_world_render(scene, tuple(eye),
+                        (math.atan2(math.hypot(d[0], d[1]), -d[2]), 0.0,
+                         math.atan2(d[0], d[1]) * -1.0), RESOLUTION)
 
 
 def _light(scene, name, kind, location, power, direction=None):

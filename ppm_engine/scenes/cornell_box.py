@@ -118,16 +118,18 @@ def room(scene):
     return white
 
 
-def camera_world_render(scene):
-    """35 mm lens on a 36 mm sensor at (0, -2.9, 1) looking along +y; black world; 256 x 256
-    at 100 %, no dithering, opaque film.  The render engine is left to the caller."""
+def camera_world_render(scene, location=(0.0, -2.9, 1.0), rotation=(math.pi / 2, 0.0, 0.0),
+                        resolution=RESOLUTION):
+    """A 35 mm lens on a 36 mm sensor (by default at (0, -2.9, 1) looking along +y); black
+    world; ``resolution`` squared at 100 %, no dithering, opaque film.  The render engine is
+    left to the caller."""
     cam_data = bpy.data.cameras.new("Camera")
     cam_data.lens, cam_data.sensor_width = 35.0, 36.0
     cam_data.clip_start, cam_data.clip_end = 0.1, 100.0
     cam = bpy.data.objects.new("Camera", cam_data)
     scene.collection.objects.link(cam)
-    cam.location = (0.0, -2.9, 1.0)
-    cam.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    cam.location = location
+    cam.rotation_euler = rotation
     scene.camera = cam
 
     world = bpy.data.worlds.new("World")
@@ -137,7 +139,7 @@ def camera_world_render(scene):
     world.color = (0.0, 0.0, 0.0)
     scene.world = world
     r = scene.render
-    r.resolution_x = r.resolution_y = RESOLUTION
+    r.resolution_x = r.resolution_y = resolution
     r.resolution_percentage = 100
     r.pixel_aspect_x = r.pixel_aspect_y = 1.0
     r.use_border = False
