@@ -6,7 +6,8 @@
 #include "camera.h"
 #include "counters.h"
 
-#define FILTER_TABLE_SIZE 256      /* ppm_engine/film.py */
+/* entries of the pixel filter's table: -D PPM_FILTER_TABLE_SIZE from ppm_engine/film.py */
+#define FILTER_TABLE_SIZE PPM_FILTER_TABLE_SIZE
 
 /* offset from the pixel centre: the filter table (inverse CDF) at u = bits / 2^32, lerped */
 inline float filter_offset(__global const float *table, uint bits) {

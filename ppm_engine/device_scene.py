@@ -9,7 +9,7 @@ import numpy as np
 from .bvh import BVH
 from .emitters import build_emitters
 from .features import defines as feature_defines, scene_features, used_materials
-from .film import filter_table
+from .film import FILTER_TABLE_SIZE, filter_table
 from .materials import MAT_DIFFUSE, kernel_materials
 from .scene_arrays import LIGHT_DTYPE, TEXTURE_DTYPE, SceneArrays
 from .scene_prep import offset_scale, prepare_scene
@@ -60,6 +60,7 @@ class DeviceScene:
         features = (scene_features(self.prepared, self.kmaterials, self.emitters,
                                    self.used_materials) if specialize else None)
         return features, {"PPM_OFFSET_SCALE": float(self.offset_scale).hex() + "f",
+                          "PPM_FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
                           **feature_defines(features)}
 
     def photons_useful(self, max_bounces: int) -> bool:
