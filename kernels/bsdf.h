@@ -41,10 +41,12 @@ inline float3 reflect3(float3 d, float3 n) { return d - 2.0f * dot(d, n) * n; }
  * (eta_i/eta_t)^2 radiance compression, and photons carry the matching (eta_i/eta_t)^2 on their
  * flux, so both estimators agree with Cycles -- also for an emitter inside glass, where the
  * physical convention would be eta^2 darker than Cycles.  For paths that start and end in air
- * the factors cancel and the conventions agree. */
+ * the factors cancel and the conventions agree.  *measure is that factor (1 for camera paths and
+ * reflections): a change of measure, not a loss, which Russian roulette must not act on. */
 inline int scatter_specular(int lobe, __global const Material *m, float3 tint, float3 ng,
                             float3 ns, float u, bool radiance_mode, float3 *d, float3 *weight,
-                            float3 *leave_n) {
+                            float3 *leave_n, float *measure) {
+    *measure = 1.0f;
     bool front = dot(*d, ng) < 0.0f;           /* arriving on the side ng points to */
     float3 n = front ? ns : -ns;               /* shading normal facing the incoming ray */
     float3 ngf = front ? ng : -ng;
@@ -76,7 +78,10 @@ inline int scatter_specular(int lobe, __global const Material *m, float3 tint, f
     if (dot(t, ngf) >= 0.0f) t = *d;           /* shading normal bent it back: pass straight */
     *d = normalize(t);
     *weight *= F3(m->transmit) * tint;
-    if (!radiance_mode) *weight *= 1.0f / (eta * eta);
+    if (!radiance_mode) {
+        *measure = 1.0f / (eta * eta);
+        *weight *= *measure;
+    }
     *leave_n = -ngf;
     return LOBE_GLASS_TRANSMIT;
 #endif

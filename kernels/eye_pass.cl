@@ -91,7 +91,9 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
 #else
         if (depth >= max_bounces) break;
         float3 leave_n;
-        lobe = scatter_specular(lobe, m, tint, s.ng, s.ns, rnd(&rng), true, &d, &beta, &leave_n);
+        float measure;                /* 1: camera paths carry no radiance compression */
+        lobe = scatter_specular(lobe, m, tint, s.ng, s.ns, rnd(&rng), true, &d, &beta, &leave_n,
+                                &measure);
         o = offset_ray(s.p, leave_n);
         tmax = PPM_INF;
         mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;

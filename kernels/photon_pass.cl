@@ -46,6 +46,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         int lobe = choose_lobe(m, rnd(&rng));
         if (lobe == LOBE_ABSORBED) break;
         float3 before = flux;
+        float measure = 1.0f;             /* refraction's (eta_i/eta_t)^2 on the flux */
         float3 tint = texture_tint(m->diffuse_tex, s.tri, h.u, h.v, TEXTURE_PASS);
         if (lobe == LOBE_DIFFUSE) {
             d = sample_cosine_hemisphere(nsf, rnd(&rng), rnd(&rng));
@@ -57,13 +58,17 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
 #if PPM_SPECULAR
             float3 leave_n;
             lobe = scatter_specular(lobe, m, tint, s.ng, s.ns, rnd(&rng), false, &d, &flux,
-                                    &leave_n);
+                                    &leave_n, &measure);
             o = offset_ray(s.p, leave_n);
             mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;
 #endif
         }
-        /* Russian roulette keeps photon power roughly constant */
-        float q = fmin(1.0f, max3(flux) / max3(before));
+        /* Russian roulette keeps photon power roughly constant: survival is the scattering's
+         * albedo.  The change of measure of refraction is left out of it: a photon entering
+         * glass (flux x 1/eta^2) survived with probability 1/eta^2 = 0.44, and one leaving it
+         * got x eta^2 back, so behind n panes 0.44^n of the photons carried 2.25^n of the flux:
+         * the same mean, and no photon at all behind 20 panes in a pass. */
+        float q = fmin(1.0f, max3(flux) / (max3(before) * measure));
         if (!(q > 0.0f) || rnd(&rng) >= q) break;
         flux /= q;
     }
