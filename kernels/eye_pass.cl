@@ -5,6 +5,7 @@
 #include "direct_light.h"
 #include "camera.h"
 #include "counters.h"
+#include "medium.h"
 
 /* entries of the pixel filter's table: -D PPM_FILTER_TABLE_SIZE from ppm_engine/film.py */
 #define FILTER_TABLE_SIZE PPM_FILTER_TABLE_SIZE
@@ -49,8 +50,16 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
     float path_len = 0.0f;
     uint mask = VIS_CAMERA;
     float4 vp = (float4)(0.0f);
+#if PPM_ABSORPTION
+    Media media;
+    media_init(&media);
+#endif
     for (int depth = 0;; depth++) {
         Hit h = bvh_intersect(o, d, tmax, mask, false, BVH_PASS);
+#if PPM_ABSORPTION
+        /* the segment inside a medium (lights seen inside one: attenuated as far as the hit) */
+        if (h.leaf >= 0) beta *= media_transmittance(&media, materials, h.t);
+#endif
 #if PPM_LIGHTS_SEEN
         L += beta * lights_seen(o, d, h.leaf < 0 ? tmax : h.t, lights, emitter_info->n_lights,
                                   mask);
@@ -92,8 +101,14 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         if (depth >= max_bounces) break;
         float3 leave_n;
         float measure;                /* 1: camera paths carry no radiance compression */
+#if PPM_ABSORPTION
+        bool entering = dot(d, s.ng) < 0.0f;
+#endif
         lobe = scatter_specular(lobe, m, tint, s.ng, s.ns, rnd(&rng), true, &d, &beta, &leave_n,
                                 &measure);
+#if PPM_ABSORPTION
+        if (lobe == LOBE_GLASS_TRANSMIT) media_cross(&media, s.material, entering);
+#endif
         o = offset_ray(s.p, leave_n);
         tmax = PPM_INF;
         mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;

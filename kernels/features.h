@@ -11,6 +11,7 @@
  *   PPM_LIGHT_AREA   area lights                PPM_EMISSIVE    emissive triangles (and MIS)
  *   PPM_WORLD        an emitting world          PPM_LIGHTS_SEEN lights seen by camera rays
  *   PPM_DOF          depth of field             PPM_TEXTURES    image textures
+ *   PPM_ABSORPTION   glass with absorption inside (medium.h)
  */
 #ifndef PPM_SPECIALIZED
 #define PPM_ALL_FEATURES 1
@@ -46,5 +47,8 @@
 #endif
 #ifndef PPM_TEXTURES
 #define PPM_TEXTURES PPM_ALL_FEATURES
+#endif
+#ifndef PPM_ABSORPTION
+#define PPM_ABSORPTION PPM_ALL_FEATURES
 #endif
 #endif

@@ -74,6 +74,7 @@ typedef struct {
     uint flags;
     int diffuse_tex;     /* 1-based texture of the base colour (kernels/textures.h), 0 = none */
     int emission_tex;    /* 1-based texture of the emission colour, 0 = none */
+    float absorption[3]; /* absorption coefficient inside (per metre; glass only: medium.h) */
 } Material;
 
 /* Emitters for photon emission and next-event estimation, indexed 0..n_emitters-1:

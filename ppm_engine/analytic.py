@@ -83,14 +83,16 @@ SLAB = dict(P=100.0, light=(0.0, 0.0, 1.5), ior=1.5, bottom=0.3, thickness=0.4,
             view=(-0.8, 0.8, -0.8, 0.8))
 
 
-def glass_slab(W=24):
+def glass_slab(W=24, absorption=(0.0, 0.0, 0.0)):
     """A point light above a glass slab over a diffuse floor.  Render with max_bounces=2: the
     light reaches the floor only by refraction through both faces (no internal reflections,
-    no light back from the floor), the camera sees the floor through both faces."""
+    no light back from the floor), the camera sees the floor through both faces.
+    ``absorption``: the glass's absorption coefficient per metre, RGB."""
     c = SLAB
     mb = MeshBuilder()
     floor = mb.material("floor", (ALBEDO,) * 3)
-    glass = mb.material("glass", (1, 1, 1), transmission=1.0, roughness=0.0, ior=c["ior"])
+    glass = mb.material("glass", (1, 1, 1), transmission=1.0, roughness=0.0, ior=c["ior"],
+                        absorption=absorption)
     mb.quad((0, 0, 0), (20, 0, 0), (0, 20, 0), floor)
     b, t = c["bottom"], c["thickness"]
     mb.box((-3, -3, b), (3, 3, b + t), glass)
@@ -107,12 +109,14 @@ def fresnel(cos_i, eta):
     return np.where(sin2_t >= 1, 1.0, 0.5 * (rs ** 2 + rp ** 2))
 
 
-def glass_slab_radiance(W=24):
+def glass_slab_radiance(W=24, absorption=(0.0, 0.0, 0.0)):
     """Floor radiance seen through the slab, float64: for each floor distance rho from below
     the light, the incidence angle theta solves rho = (h_above + h_below) tan(theta) +
     t tan(theta_t); E = I T(theta) sin(theta) dtheta / (rho drho) (power per floor area in a
     ray tube), T = (1 - F_top)(1 - F_bottom); the camera looks straight down through both faces:
-    another (1 - F0)^2."""
+    another (1 - F0)^2.  With ``absorption`` sigma (RGB, per metre), Beer-Lambert along both
+    paths inside the slab: exp(-sigma t / cos(theta_t)) for the light, exp(-sigma t) for the
+    camera's; returns (W, W, 3) then, else (W, W)."""
     c = SLAB
     n, b, t = c["ior"], c["bottom"], c["thickness"]
     lx, ly, lz = c["light"]
@@ -137,4 +141,8 @@ def glass_slab_radiance(W=24):
         E = np.where(rho > 1e-9, I * T * np.sin(th) / (rho * drho),
                      I * T / ((h_above + h_below + t / n) ** 2))   # on axis: the limit
     T_cam = (1 - fresnel(np.ones(1), n)[0]) ** 2
-    return T_cam * ALBEDO / np.pi * E
+    L = T_cam * ALBEDO / np.pi * E
+    sigma = np.asarray(absorption, np.float64)
+    if not sigma.any():
+        return L
+    return L[..., None] * np.exp(-sigma * t / cos_t[..., None]) * np.exp(-sigma * t)

@@ -64,6 +64,8 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, emitters,
         f.add("PPM_DOF")
     if (m["diffuse_tex"] > 0).any() or (m["emission_tex"] > 0).any():
         f.add("PPM_TEXTURES")
+    if (m["absorption"] > 0).any():       # (kernel_materials keeps it on glass only)
+        f.add("PPM_ABSORPTION")
     return frozenset(f)
 
 

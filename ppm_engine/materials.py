@@ -23,6 +23,7 @@ KMATERIAL_DTYPE = np.dtype([
     ("flags", np.uint32),
     ("diffuse_tex", np.int32),
     ("emission_tex", np.int32),
+    ("absorption", np.float32, 3),
 ])
 MAT_EMISSIVE = 1
 MAT_DIFFUSE = 2
@@ -75,4 +76,7 @@ def kernel_materials(materials: np.ndarray) -> np.ndarray:
     k["flags"] = flags
     k["diffuse_tex"] = m["base_color_texture"]
     k["emission_tex"] = m["emission_texture"]
+    # inside glass only: the medium is entered and left by refraction
+    sigma = np.nan_to_num(m["absorption"], nan=0.0, posinf=0.0).clip(0.0, 1e30)
+    k["absorption"] = np.where(p_glass[:, None] > 0, sigma, 0.0)
     return k

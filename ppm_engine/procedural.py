@@ -17,11 +17,12 @@ class MeshBuilder:
         self.names = []
 
     def material(self, name, base=(0.8, 0.8, 0.8), emission=(0, 0, 0), metallic=0.0,
-                 roughness=1.0, transmission=0.0, ior=1.5) -> int:
+                 roughness=1.0, transmission=0.0, ior=1.5, absorption=(0, 0, 0)) -> int:
         m = np.zeros(1, MATERIAL_DTYPE)
         m["base_color"], m["emission"] = base, emission
         m["metallic"], m["roughness"] = metallic, roughness
         m["transmission"], m["ior"] = transmission, ior
+        m["absorption"] = absorption
         self.materials.append(m)
         self.names.append(name)
         return len(self.materials) - 1

@@ -50,6 +50,10 @@ MATERIAL_DTYPE = np.dtype([
     # base_color (albedo, metal and glass tints), respectively emission, at the hit's UV
     ("base_color_texture", np.int32),
     ("emission_texture", np.int32),
+    # the material's Volume: homogeneous absorption inside the closed mesh, per metre (world
+    # units), RGB; entered and left by refraction (Cycles' Volume Absorption: (1 - colour) x
+    # density)
+    ("absorption", np.float32, 3),
 ])
 
 # Image textures: texels of every texture one after another in ``SceneArrays.texels``, (N, 4)
@@ -201,6 +205,16 @@ class SceneArrays:
     def load(cls, path: str | Path) -> "SceneArrays":
         with np.load(path, allow_pickle=False) as z:
             kw = {k: z[k] for k in z.files}
+        # files written before a field existed: the missing fields are zero (their default)
+        for name, dt in (("materials", MATERIAL_DTYPE), ("lights", LIGHT_DTYPE),
+                         ("camera", CAMERA_DTYPE)):
+            a = kw.get(name)
+            if a is not None and a.dtype.names and a.dtype != dt \
+                    and set(a.dtype.names) < set(dt.names):
+                new = np.zeros(a.shape, dt)
+                for field in a.dtype.names:
+                    new[field] = a[field]
+                kw[name] = new
         kw["material_names"] = tuple(str(s) for s in kw.get("material_names", ()))
         kw["warnings"] = tuple(str(s) for s in kw.get("warnings", ()))
         return cls(**kw)

@@ -1,5 +1,6 @@
 """Principled BSDF and Emission node trees -> MATERIAL_DTYPE rows (image textures on the base
-and emission colours: textures.py)."""
+and emission colours: textures.py); the Volume output's absorption (Volume Absorption, the
+absorbing part of Principled Volume) -> the row's absorption coefficient."""
 from __future__ import annotations
 
 import numpy as np
@@ -20,14 +21,15 @@ def _value(node, name, warn, mat_name, n=None):
     return tuple(v)[:n] if n else float(v)
 
 
-def _surface_node(material):
+def _surface_node(material, socket="Surface"):
+    """The shader node linked to the Cycles material output's ``socket`` (through reroutes)."""
     tree = material.node_tree
     if tree is None:
         return None
     out = tree.get_output_node('CYCLES') or tree.get_output_node('ALL')
     if out is None:
         return None
-    sock = out.inputs.get("Surface")
+    sock = out.inputs.get(socket)
     if sock is None or not sock.is_linked:
         return None
     node = sock.links[0].from_node
@@ -58,8 +60,35 @@ def _color(node, socket_name, warn, mat_name, textures, field_row, texture_field
     return _value(node, socket_name, warn, mat_name, 3)
 
 
+def read_absorption(material, warn) -> tuple:
+    """The absorption coefficient (per metre, RGB) of the material's Volume output, as Cycles
+    computes it: Volume Absorption (1 - colour) x density; Principled Volume the absorbing part
+    of its extinction, (1 - colour)(1 - sqrt(absorption colour)) x density.  Scattering is not
+    rendered (a warning says so); the medium applies inside glass (entered by refraction)."""
+    node = _surface_node(material, "Volume")
+    if node is None:
+        return (0.0, 0.0, 0.0)
+    name, kind = material.name, node.bl_idname
+    if kind == "ShaderNodeVolumeAbsorption":
+        color = np.maximum(_value(node, "Color", warn, name, 3), 0.0)
+        density = max(_value(node, "Density", warn, name), 0.0)
+        return tuple((1.0 - color) * density)
+    if kind == "ShaderNodeVolumePrincipled":
+        color = np.asarray(_value(node, "Color", warn, name, 3), np.float64)
+        density = max(_value(node, "Density", warn, name), 0.0)
+        absorbing = np.sqrt(np.maximum(_value(node, "Absorption Color", warn, name, 3), 0.0))
+        if density > 0 and color.max() > 0:
+            warn(f"Material '{name}': the Principled Volume scatters light, which this engine "
+                 "does not render: only its absorption is used")
+        return tuple(np.maximum(1.0 - color, 0.0) * np.maximum(1.0 - absorbing, 0.0) * density)
+    warn(f"Material '{name}': the volume shader '{node.name}' is not rendered (this engine "
+         "renders Volume Absorption and Principled Volume's absorption); the inside is clear")
+    return (0.0, 0.0, 0.0)
+
+
 def read_material(material, warn, textures=None) -> np.ndarray:
     row = default_row()
+    row["absorption"] = read_absorption(material, warn)
     node = _surface_node(material)
     name = material.name
     kind = node.bl_idname if node is not None else None
