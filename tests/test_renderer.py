@@ -165,3 +165,19 @@ def test_pixel_filter_table_samples_cycles_blackman_harris():
     f = 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
     var = (f * x * x).sum() / f.sum()
     assert t.var() == pytest.approx(var, rel=0.02)
+
+
+def test_scene_arrays_from_before_a_material_field_existed(tmp_path):
+    """A .npz written before MATERIAL_DTYPE had 'absorption' loads with it zero."""
+    s = cornell_box(8, 8)
+    s.save(tmp_path / "new.npz")
+    with np.load(tmp_path / "new.npz") as z:
+        arrays = {k: z[k] for k in z.files}
+    old = arrays["materials"]
+    names = [n for n in old.dtype.names if n != "absorption"]
+    arrays["materials"] = np.array([tuple(row[n] for n in names) for row in old],
+                                   dtype=[(n, old.dtype[n]) for n in names])
+    np.savez(tmp_path / "old.npz", **arrays)
+    t = SceneArrays.load(tmp_path / "old.npz")
+    assert t.materials.dtype == s.materials.dtype and (t.materials["absorption"] == 0).all()
+    np.testing.assert_array_equal(t.materials["base_color"], s.materials["base_color"])
