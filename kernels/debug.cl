@@ -19,18 +19,28 @@ __kernel void struct_sizes(__global uint *out) {
     out[2] = sizeof(Material);
     out[3] = sizeof(EmitterInfo);
     out[4] = sizeof(Grid);
+    out[5] = sizeof(ShaderNode);
 }
 
 /* direct light (the eye pass's estimate: next-event estimation and the BSDF sample with MIS,
- * averaged over n_samples) at given points */
+ * averaged over n_samples) at given points, as irradiance: a white Lambert closure times pi */
 #include "direct_light.h"
-__kernel void direct_light(SCENE_ARGS, __global const float4 *points, __global const float4 *nrm,
+__kernel void direct_light_at(SCENE_ARGS, __global const float4 *points, __global const float4 *nrm,
                            int n_samples, __global float4 *out, uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
     uint rng = rng_seed(1u, 0u, i, 9u);
+    ShaderData sd;
+    float3 N = nrm[i].xyz;
+    sd.n = 0;
+    sd.N = sd.Ng = sd.wi = N;
+    sd.backfacing = sd.gather_transmits = sd.continue_glossy = false;
+    int k = shader_alloc(&sd, CLOSURE_DIFFUSE, (float3)(PPM_PI), N);
+    sd.c[k].gather = 1;
+    sd.sw_gather = sd.c[k].sample_weight;
+    sd.sw_continue = 0.0f;
     float3 E = (float3)(0.0f);
-    for (int k = 0; k < n_samples; k++)
-        E += direct_lighting(points[i].xyz, nrm[i].xyz, nrm[i].xyz, SCENE_PASS, &rng);
+    for (int s = 0; s < n_samples; s++)
+        E += direct_light(&sd, points[i].xyz, MASK_GATHER, SCENE_PASS, &rng);
     out[i] = (float4)(E / (float)n_samples, 0.0f);
 }

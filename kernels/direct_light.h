@@ -1,119 +1,208 @@
 #ifndef PPM_DIRECT_LIGHT_H
 #define PPM_DIRECT_LIGHT_H
 #include "light_types.h"
+#include "shader.h"
 
-/* Direct light at a diffuse point: next-event estimation (one emitter picked by power) and a
- * BSDF sample, combined by multiple importance sampling for mesh lights; and the radiance of
- * the lights camera and specular rays see.  The emitter types a program has are the feature
- * flags of features.h (0/1): a type without its flag is never dispatched to. */
-
-/* Radiance of the scene lights seen directly along o + t d, t < tmax (camera rays and their
- * specular chains; Cycles shows area lights from the front and point lights as spheres).
- * Lights do not block rays: only the nearest one in front of the surface hit counts.
- * ray_type: VIS_CAMERA, VIS_GLOSSY or VIS_TRANSMISSION; lights hidden from it are skipped. */
-inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *lights,
-                          int n_lights, uint ray_type) {
-    float3 L = (float3)(0.0f);
-    float best = tmax;
-    for (int i = 0; i < n_lights; i++) {
-        Light l = lights[i];
-        if (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT)) continue;
-        if (PPM_LIGHT_AREA && (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE))
-            area_seen(&l, o, d, &best, &L);
-        else if (PPM_LIGHT_POINT)
-            point_seen(&l, o, d, &best, &L);
-    }
-    return L;
-}
+/* Direct light at a shading point: next-event estimation (one emitter picked by power, a
+ * shadow ray) and a sample of the closures, combined by multiple importance sampling (power
+ * heuristic); and what rays see of the emitters, with the MIS weight of the sample that found
+ * them.  The emitter types a program has are the feature flags of features.h (0/1): a type
+ * without its flag is never dispatched to. */
 
 /* power heuristic weight of strategy a against b */
 inline float mis_power(float a, float b) {
+    if (isinf(a)) return 1.0f;
     float a2 = a * a, b2 = b * b;
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-/* Next-event estimation at a diffuse point p (shading normal n and geometric normal ngf both on
- * the side the light must come from).  Returns E with the pixel contribution = beta * f * E,
- * f the Lambert BSDF; one emitter sample, shadow ray through the BVH.  With mis, an emissive
- * triangle's sample is weighted against the BSDF sample of direct_bsdf (power heuristic). */
-inline float3 sample_direct(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng, bool mis) {
+inline float emitter_pmf(__global const float *cdf, int e) {
+    return cdf[e] - (e > 0 ? cdf[e - 1] : 0.0f);
+}
+
+/* Radiance of the scene lights seen along o + t d, t < tmax (camera, glossy and transmission
+ * rays; Cycles shows area lights from the front and point lights as disks or spheres).  Lights
+ * do not block rays: only the nearest one in front of the surface hit counts.  ray_type:
+ * VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY or VIS_TRANSMISSION; lights hidden from it are skipped.
+ * *pdf_light: the density next-event estimation gives d from o for that light (pmf
+ * included), for MIS. */
+inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *lights,
+                          int n_lights, uint ray_type, __global const float *emitter_cdf,
+                          float *pdf_light) {
+    float3 L = (float3)(0.0f);
+    float best = tmax, pdf = 0.0f;
+    int seen = -1;
+    for (int i = 0; i < n_lights; i++) {
+        Light l = lights[i];
+        if (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT)) continue;
+        float before = best;
+        if (PPM_LIGHT_AREA && (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE))
+            area_seen(&l, o, d, &best, &L, &pdf);
+        else if (PPM_LIGHT_POINT)
+            point_seen(&l, o, d, &best, &L, &pdf);
+        if (best != before) seen = i;
+    }
+    *pdf_light = seen >= 0 ? pdf * emitter_pmf(emitter_cdf, seen) : 0.0f;
+    return L;
+}
+
+/* The emission of emissive BVH leaf `leaf` hit at (u, v) from o along d at distance t, and the
+ * density next-event estimation gives that direction (pmf included). */
+inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v, SCENE_ARGS,
+                        float *pdf_light) {
+    *pdf_light = 0.0f;
+    float4 v0 = tri_v0[leaf], e1 = tri_e1[leaf], e2 = tri_e2[leaf];
+    __global const Material *m = materials + as_int(e2.w);
+    if (!(m->flags & MAT_EMISSIVE)) return (float3)(0.0f);
+#if PPM_EMISSIVE
+    float pmf = emissive_leaf_pmf(leaf, SCENE_PASS);
+    float3 c = cross(e1.xyz, e2.xyz);
+    float area2 = length(c), cos_l = area2 > 0.0f ? fabs(dot(d, c)) / area2 : 0.0f;
+    if (pmf > 0.0f && cos_l > 0.0f) {
+        SphTri st = spherical_triangle(o, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
+        *pdf_light = st.area > 0.0f ? pmf / st.area : pmf * t * t / (cos_l * 0.5f * area2);
+    }
+#endif
+    return F3(m->emission) * texture_tint(m->emission_tex, as_uint(v0.w), u, v, TEXTURE_PASS);
+}
+
+/* The fraction of light a shadow ray from o along d lets through over dist: 0 at an opaque
+ * surface; partly transparent surfaces (alpha, Transparent BSDF) attenuate it (at most
+ * SHADOW_MAX_TRANSPARENT of them, as Cycles' transparent bounces). */
+#define SHADOW_MAX_TRANSPARENT 8
+inline float3 shadow_transmittance(float3 o, float3 d, float dist, SCENE_ARGS) {
+#if PPM_TRANSPARENT
+    float3 T = (float3)(1.0f);
+    for (int i = 0; i <= SHADOW_MAX_TRANSPARENT; i++) {
+        Hit h = bvh_intersect(o, d, dist, VIS_SHADOW, false, BVH_PASS);
+        if (h.leaf < 0) return T;
+        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        if (i == SHADOW_MAX_TRANSPARENT || !(materials[s.material].flags & MAT_TRANSPARENT))
+            return (float3)(0.0f);
+        T *= material_transparency(s.material, s.tri, h.u, h.v, SHADING_PASS);
+        if (!(max3(T) > 0.0f)) return (float3)(0.0f);
+        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng);
+        dist -= dot(o2 - o, d);
+        o = o2;
+        if (!(dist > 0.0f)) return T;
+    }
+    return (float3)(0.0f);
+#else
+    Hit h = bvh_intersect(o, d, dist, VIS_SHADOW, true, BVH_PASS);
+    return (float3)(h.leaf < 0 ? 1.0f : 0.0f);
+#endif
+}
+
+/* One next-event sample from p (n: the shading normal the world is sampled around, ngf the
+ * geometric normal on the side the light must come from); false when there is none. */
+inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng,
+                           LightSample *s, float *pmf) {
     EmitterInfo info = *emitter_info;
-    if (info.n_emitters == 0) return (float3)(0.0f);
-    float pmf;
-    int e = pick_emitter(emitter_cdf, info.n_emitters, rnd(rng), &pmf);
-    if (!(pmf > 0.0f)) return (float3)(0.0f);
+    if (info.n_emitters == 0) return false;
+    int e = pick_emitter(emitter_cdf, info.n_emitters, rnd(rng), pmf);
+    if (!(*pmf > 0.0f)) return false;
     float u1 = rnd(rng), u2 = rnd(rng);
     /* All geometry from the shadow ray's own origin: a direction computed from p but traced
      * from the offset origin would meet a planar emitter's own plane early at grazing angles
      * (the offset over cos) and the light would shadow itself. */
     float3 o = offset_ray(p, ngf);
-    LightSample s;
-    s.dist = PPM_INF;
-    s.pdf_light = 0.0f;
-    s.cosine_included = false;
+    s->dist = PPM_INF;
+    s->pdf_dir = 0.0f;
     if (e < info.n_lights) {
         Light L = lights[e];
-        if (PPM_LIGHT_SUN && L.type == LIGHT_SUN) sun_direct(&L, u1, u2, &s);
+        if (PPM_LIGHT_SUN && L.type == LIGHT_SUN) sun_direct(&L, u1, u2, s);
         else if (PPM_LIGHT_POINT && (L.type == LIGHT_POINT || L.type == LIGHT_SPOT)) {
-            if (!point_direct(&L, o, u1, u2, &s)) return (float3)(0.0f);
+            if (!point_direct(&L, o, u1, u2, s)) return false;
         } else if (PPM_LIGHT_AREA && (L.type == LIGHT_AREA_RECT || L.type == LIGHT_AREA_ELLIPSE)) {
-            if (!area_direct(&L, o, u1, u2, &s)) return (float3)(0.0f);
-        } else return (float3)(0.0f);
+            if (!area_direct(&L, o, u1, u2, s)) return false;
+        } else return false;
     } else if (PPM_EMISSIVE && e < info.n_lights + info.n_emissive) {
-        if (!mesh_direct(emissive[e - info.n_lights], pmf, o, u1, u2, SCENE_PASS, &s))
-            return (float3)(0.0f);
+        if (!mesh_direct(emissive[e - info.n_lights], o, u1, u2, SCENE_PASS, s)) return false;
     } else if (PPM_WORLD && info.has_world) {
-        world_direct(F3(info.world), n, u1, u2, &s);
-    } else return (float3)(0.0f);
-    float cos_s = dot(s.wi, n);
-    if (cos_s <= 0.0f || dot(s.wi, ngf) <= 0.0f) return (float3)(0.0f);
-    /* planar emitters: the ray ends just in front of the emitter, so it never reaches it */
-    Hit h = bvh_intersect(o, s.wi, s.dist, VIS_SHADOW, true, BVH_PASS);
-    if (h.leaf >= 0) return (float3)(0.0f);
-    float w = mis && s.pdf_light > 0.0f ? mis_power(s.pdf_light, cos_s * (1.0f / PPM_PI)) : 1.0f;
-    return s.E * (w * (s.cosine_included ? 1.0f : cos_s) / pmf);
+        if (!world_direct(F3(info.world), n, u1, u2, s)) return false;
+    } else return false;
+    return true;
 }
 
-/* The BSDF half of direct light at a diffuse point: one cosine-distributed ray; when it meets
- * an emissive triangle first, its emission weighted against sample_direct's pdf for it (power
- * heuristic).  Near a large emitter (a ceiling 1 cm above a lamp, a filament inside its
- * bulb) next-event estimation alone has unbounded variance (1/d^2); the BSDF sample covers
- * it.  Returns E as sample_direct does (pixel contribution = beta * f * E). */
-inline float3 direct_bsdf(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng) {
-    float u1 = rnd(rng), u2 = rnd(rng);
-#if !PPM_EMISSIVE
-    return (float3)(0.0f);           /* no emissive triangle: nothing for this sample to find */
+/* Whether a BSDF-sampled ray can find an emitter next-event estimation also samples: emissive
+ * triangles, lights rays see, the world. */
+#define EMITTERS_HITTABLE (PPM_EMISSIVE || PPM_LIGHTS_SEEN || PPM_WORLD)
+
+/* Next-event estimation at shading point p for the closures in mask, weighted against their
+ * sample (power heuristic).  Returns the radiance reflected towards sd->wi. */
+inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, uint *rng) {
+    LightSample s;
+    float pmf;
+    if (!sample_emitter(p, sd->N, sd->Ng, SCENE_PASS, rng, &s, &pmf)) return (float3)(0.0f);
+    float pdf_b;
+    float3 f = shader_eval(sd, s.wi, mask, &pdf_b);
+    bool transmit = dot(s.wi, sd->Ng) < 0.0f;
+    if (!(max3(f) > 0.0f)) return (float3)(0.0f);
+    float3 T = shadow_transmittance(offset_ray(p, transmit ? -sd->Ng : sd->Ng), s.wi, s.dist,
+                                    SCENE_PASS);
+    float w = s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
+    return f * T * s.E * (w / pmf);
+}
+
+/* Whether a BSDF-sampled ray can find an emitter next-event estimation also samples: emissive
+ * triangles, lights rays see, the world. */
+#define EMITTERS_HITTABLE (PPM_EMISSIVE || PPM_LIGHTS_SEEN || PPM_WORLD)
+
+/* What a ray from o along d finds of the emitters (ray_type: VIS_*): the radiance of the
+ * first emitter (through partly transparent surfaces, attenuated) and the density
+ * next-event estimation gives d for it; n: the normal the world was sampled around. */
+inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_ARGS,
+                            float *pdf_l) {
+    float3 T = (float3)(1.0f);
+    *pdf_l = 0.0f;
+    for (int i = 0; i <= SHADOW_MAX_TRANSPARENT; i++) {
+        Hit h = bvh_intersect(o, d, PPM_INF, ray_type, false, BVH_PASS);
+#if PPM_LIGHTS_SEEN
+        float3 Le = lights_seen(o, d, h.leaf < 0 ? PPM_INF : h.t, lights, emitter_info->n_lights,
+                                ray_type, emitter_cdf, pdf_l);
+        if (max3(Le) > 0.0f) return T * Le;
+#endif
+        if (h.leaf < 0) {
+            if (!(PPM_WORLD && emitter_info->has_world)) return (float3)(0.0f);
+            *pdf_l = fmax(dot(d, n), 0.0f) * (1.0f / PPM_PI)
+                     * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1);
+            return T * F3(emitter_info->world);
+        }
+        int mat = as_int(tri_e2[h.leaf].w);
+        if (PPM_EMISSIVE && (materials[mat].flags & MAT_EMISSIVE))
+            return T * mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, pdf_l);
+        if (!PPM_TRANSPARENT || !(materials[mat].flags & MAT_TRANSPARENT)) return (float3)(0.0f);
+        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        T *= material_transparency(mat, s.tri, h.u, h.v, SHADING_PASS);
+        if (!(max3(T) > 0.0f)) return (float3)(0.0f);
+        o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng);
+    }
+    return (float3)(0.0f);
+}
+
+/* The sample half of direct light at p: one direction from the closures in mask, its emitter
+ * weighted against next-event estimation's density (power heuristic).  Near a large emitter
+ * (a ceiling 1 cm above a lamp, a filament inside its bulb) and for glossy lobes next-event
+ * estimation alone has large variance; this sample covers it. */
+inline float3 direct_bsdf(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, uint *rng) {
+    float3 rand = (float3)(rnd(rng), rnd(rng), rnd(rng));
+#if EMITTERS_HITTABLE
+    BsdfSample b;
+    if (!shader_sample(sd, mask, rand, &b) || (b.label & LABEL_SINGULAR)) return (float3)(0.0f);
+    bool transmit = (b.label & LABEL_TRANSMIT) != 0;
+    uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
+    float pdf_l;
+    float3 Le = emitter_along(offset_ray(p, transmit ? -sd->Ng : sd->Ng), b.wo, ray, sd->N,
+                              SCENE_PASS, &pdf_l);
+    return b.weight * Le * mis_power(b.pdf, pdf_l);
 #else
-    if (emitter_info->n_emissive == 0) return (float3)(0.0f);
-    float3 wi = sample_cosine_hemisphere(n, u1, u2);
-    float cos_s = dot(wi, n);
-    if (cos_s <= 0.0f || dot(wi, ngf) <= 0.0f) return (float3)(0.0f);
-    float3 o = offset_ray(p, ngf);
-    /* a diffuse bounce's ray (it must find emitters that cast no shadow, which next-event
-     * estimation samples too) */
-    Hit h = bvh_intersect(o, wi, PPM_INF, VIS_DIFFUSE, false, BVH_PASS);
-    if (h.leaf < 0) return (float3)(0.0f);
-    float4 e1 = tri_e1[h.leaf], e2 = tri_e2[h.leaf];
-    __global const Material *m = materials + as_int(e2.w);
-    if (!(m->flags & MAT_EMISSIVE)) return (float3)(0.0f);
-    float pmf = emissive_leaf_pmf(h.leaf, SCENE_PASS);
-    float3 c = cross(e1.xyz, e2.xyz);
-    float area2 = length(c);
-    float cos_l = area2 > 0.0f ? fabs(dot(wi, c)) / area2 : 0.0f;
-    if (!(pmf > 0.0f && cos_l > 0.0f)) return (float3)(0.0f);   /* NEE never picks it: 0 power */
-    /* the pdf of the strategy sample_direct uses for this triangle from this origin */
-    float4 v0 = tri_v0[h.leaf];
-    SphTri st = spherical_triangle(o, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
-    float pdf_light = st.area > 0.0f ? pmf / st.area : pmf * h.t * h.t / (cos_l * 0.5f * area2);
-    /* f Le cos / pdf_bsdf = (rho/pi) Le pi: in E units (times f) that is Le pi */
-    return F3(m->emission)
-        * texture_tint(m->emission_tex, as_uint(v0.w), h.u, h.v, TEXTURE_PASS)
-        * (PPM_PI * mis_power(cos_s * (1.0f / PPM_PI), pdf_light));
+    return (float3)(0.0f);       /* nothing for the sample to find but what NEE samples */
 #endif
 }
 
-/* Direct light at a diffuse point: next-event estimation and the BSDF sample, combined. */
-inline float3 direct_lighting(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng) {
-    return sample_direct(p, n, ngf, SCENE_PASS, rng, true) + direct_bsdf(p, n, ngf, SCENE_PASS, rng);
+/* Direct light at shading point p for the closures in mask: next-event estimation and one
+ * sample of those closures, combined by MIS.  Returns the radiance towards sd->wi. */
+inline float3 direct_light(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, uint *rng) {
+    return direct_nee(sd, p, mask, SCENE_PASS, rng) + direct_bsdf(sd, p, mask, SCENE_PASS, rng);
 }
 #endif

@@ -1,7 +1,9 @@
-/* Eye pass (the paper's first phase): one jittered camera ray per pixel, through specular
- * bounces to the first diffuse hit, where it stores a visible point and adds direct light by
- * next-event estimation.  Emission and background seen directly or through mirrors/glass go to
- * the pixel's direct sum. */
+/* Eye pass (the paper's first phase): one jittered camera ray per pixel, through the closures
+ * paths follow (mirrors, glass, smooth glossy lobes, transparency) to a hit whose closures the
+ * gather evaluates, where it stores a visible point and adds direct light by next-event
+ * estimation and a sample of those closures (MIS).  At each vertex one of the two is chosen in
+ * proportion to the closures' sample weights.  Emission and background seen along the way go
+ * to the pixel's direct sum. */
 #include "direct_light.h"
 #include "camera.h"
 #include "counters.h"
@@ -19,13 +21,20 @@ inline float filter_offset(__global const float *table, uint bits) {
     return mix(table[k], table[k + 1], t);
 }
 
+/* the MIS weight of an emitter found by a path's sample of density prev_pdf (INFINITY: a camera
+ * ray or a singular lobe, which next-event estimation cannot sample) */
+inline float path_mis(float prev_pdf, float pdf_light) {
+    return isinf(prev_pdf) ? 1.0f : mis_power(prev_pdf, pdf_light);
+}
+
 __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, uint seed,
                        int max_bounces, float initial_radius, float auto_radius_pixels,
                        __global const float *filter_table,
                        __global float4 *direct, __global float *radius, __global float *radius0,
                        __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
-                       __global uint *counters, __global float4 *aux_albedo,
-                       __global float4 *aux_normal, __global const uint *active) {
+                       __global float4 *vp_shade, __global uint *counters,
+                       __global float4 *aux_albedo, __global float4 *aux_normal,
+                       __global const uint *active) {
     int id = get_global_id(0);
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;
@@ -49,7 +58,12 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
     float3 beta = (float3)(1.0f), L = (float3)(0.0f);
     float path_len = 0.0f;
     uint mask = VIS_CAMERA;
+    /* the density of the sample that made this ray, and the normal its vertex sampled the world
+     * around, for the MIS weight of the emitter it finds */
+    float prev_pdf = INFINITY;
+    float3 prev_n = (float3)(0.0f, 0.0f, 1.0f);
     float4 vp = (float4)(0.0f);
+    ShaderData sd;
 #if PPM_ABSORPTION
     Media media;
     media_init(&media);
@@ -60,34 +74,46 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         /* the segment inside a medium (lights seen inside one: attenuated as far as the hit) */
         if (h.leaf >= 0) beta *= media_transmittance(&media, materials, h.t);
 #endif
+        float pdf_l = 0.0f;
 #if PPM_LIGHTS_SEEN
-        L += beta * lights_seen(o, d, h.leaf < 0 ? tmax : h.t, lights, emitter_info->n_lights,
-                                  mask);
+        float3 Ls = lights_seen(o, d, h.leaf < 0 ? tmax : h.t, lights, emitter_info->n_lights,
+                                mask, emitter_cdf, &pdf_l);
+        L += beta * Ls * path_mis(prev_pdf, pdf_l);
 #endif
         if (h.leaf < 0) {
-            L += beta * F3(emitter_info->world);
+            pdf_l = PPM_WORLD && emitter_info->has_world
+                ? fmax(dot(d, prev_n), 0.0f) * (1.0f / PPM_PI)
+                  * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1) : 0.0f;
+            L += beta * F3(emitter_info->world) * path_mis(prev_pdf, pdf_l);
             break;
         }
         path_len += h.t;
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        __global const Material *m = materials + s.material;
-        if (m->flags & MAT_EMISSIVE)
-            L += beta * F3(m->emission)
-                 * texture_tint(m->emission_tex, s.tri, h.u, h.v, TEXTURE_PASS);
-        float3 tint = texture_tint(m->diffuse_tex, s.tri, h.u, h.v, TEXTURE_PASS);
-        int lobe = choose_lobe(m, rnd(&rng));
-        if (lobe == LOBE_ABSORBED) break;
-        if (lobe == LOBE_DIFFUSE) {
-            bool front = dot(d, s.ng) < 0.0f;
-            float3 ngf = front ? s.ng : -s.ng, nsf = front ? s.ns : -s.ns;
-            float3 bvp = beta * F3(m->diffuse) * tint * (1.0f / PPM_PI);
-            L += bvp * direct_lighting(s.p, nsf, ngf, SCENE_PASS, &rng);
-            vp = (float4)(s.p, 1.0f);
-            vp_nrm[id] = (float4)(nsf, 0.0f);
+        shader_setup(&sd, s.material, s.tri, h.u, h.v, s.ng, s.ns, -d, (float3)(0.0f),
+                     SHADING_PASS);
+        if (max3(sd.emission) > 0.0f) {
+            if (PPM_EMISSIVE && !isinf(prev_pdf))
+                mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, &pdf_l);
+            else
+                pdf_l = 0.0f;
+            L += beta * sd.emission * path_mis(prev_pdf, pdf_l);
+        }
+        float sw = sd.sw_gather + sd.sw_continue;
+        if (!(sw > 0.0f)) break;
+        if (rnd(&rng) * sw < sd.sw_gather) {
+            /* a visible point: the gather's closures, weighted by 1 / their probability */
+            float3 bvp = beta * (sw / sd.sw_gather);
+            L += bvp * direct_light(&sd, s.p, MASK_GATHER, SCENE_PASS, &rng);
+            vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
+            vp_nrm[id] = (float4)(sd.N, 0.0f);
             vp_beta[id] = (float4)(bvp, 0.0f);
+            vp_shade[id] = (float4)(h.u, h.v, as_float(h.leaf), as_float(pack_unit(sd.wi)));
             /* denoising passes: albedo through the specular chain, world-space normal */
-            aux_albedo[id] += (float4)(beta * F3(m->diffuse) * tint, 1.0f);
-            aux_normal[id] += (float4)(nsf, 1.0f);
+            float3 albedo = (float3)(0.0f);
+            for (int k = 0; k < sd.n; k++)
+                if (sd.c[k].gather) albedo += sd.c[k].weight;
+            aux_albedo[id] += (float4)(beta * albedo, 1.0f);
+            aux_normal[id] += (float4)(sd.N, 1.0f);
             if (radius[id] <= 0.0f) {
                 float foot = camera_pixel_size(cam) * (cam->type == CAMERA_ORTHO ? 1.0f : path_len);
                 float r0 = initial_radius > 0.0f ? initial_radius : auto_radius_pixels * foot;
@@ -95,25 +121,28 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
             }
             break;
         }
-#if !PPM_SPECULAR
-        break;                       /* no mirror or glass in the scene: no specular bounce */
-#else
+        /* the path goes on through the other closures (mirrors, glass, smooth glossy lobes,
+         * transparency), weighted by 1 / their probability */
+        beta *= sw / sd.sw_continue;
         if (depth >= max_bounces) break;
-        float3 leave_n;
-        float measure;                /* 1: camera paths carry no radiance compression */
+        if (sd.continue_glossy) L += beta * direct_nee(&sd, s.p, MASK_CONTINUE, SCENE_PASS, &rng);
+        BsdfSample b;
+        float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
+        if (!shader_sample(&sd, MASK_CONTINUE, rand, &b)) break;
+        beta *= b.weight;
+        bool transmit = (b.label & LABEL_TRANSMIT) != 0;
+        if (!(b.label & LABEL_TRANSPARENT)) {          /* straight through keeps the ray's type */
+            prev_pdf = sd.continue_glossy ? b.pdf : INFINITY;
+            prev_n = sd.N;
+            mask = transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
 #if PPM_ABSORPTION
-        bool entering = dot(d, s.ng) < 0.0f;
+            if (transmit) media_cross(&media, s.material, !sd.backfacing);
 #endif
-        lobe = scatter_specular(lobe, m, tint, s.ng, s.ns, rnd(&rng), true, &d, &beta, &leave_n,
-                                &measure);
-#if PPM_ABSORPTION
-        if (lobe == LOBE_GLASS_TRANSMIT) media_cross(&media, s.material, entering);
-#endif
-        o = offset_ray(s.p, leave_n);
+        }
+        o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng);
+        d = b.wo;
         tmax = PPM_INF;
-        mask = lobe == LOBE_GLASS_TRANSMIT ? VIS_TRANSMISSION : VIS_GLOSSY;
         if (!(max3(beta) > 0.0f)) break;
-#endif
     }
     vp_pos[id] = vp;
     /* this pass's sample (the film adds it to its sums, progressive.cl film_add_sample);

@@ -5,8 +5,9 @@
  * PPM_SPECIALIZED has every feature (tests, debug kernels, RenderOptions(specialize=False)).
  * Each flag is 0 or 1 here, so code tests it with #if, or in a plain condition
  * (if (PPM_LIGHT_SUN && ...)) whose dead branch the compiler drops.
- *   PPM_SPECULAR     mirrors or glass: the eye pass follows specular bounces
- *   PPM_GLASS        glass (refraction, Fresnel)
+ *   PPM_MICROFACET   GGX lobes (metals, glass, specular layers, coats)
+ *   PPM_SHEEN        sheen                      PPM_OREN_NAYAR  rough diffuse
+ *   PPM_TRANSLUCENT  translucency               PPM_TRANSPARENT alpha, Transparent BSDF
  *   PPM_LIGHT_POINT  point and spot lights      PPM_LIGHT_SUN   sun lights
  *   PPM_LIGHT_AREA   area lights                PPM_EMISSIVE    emissive triangles (and MIS)
  *   PPM_WORLD        an emitting world          PPM_LIGHTS_SEEN lights seen by camera rays
@@ -18,11 +19,20 @@
 #else
 #define PPM_ALL_FEATURES 0
 #endif
-#ifndef PPM_SPECULAR
-#define PPM_SPECULAR PPM_ALL_FEATURES
+#ifndef PPM_MICROFACET
+#define PPM_MICROFACET PPM_ALL_FEATURES
 #endif
-#ifndef PPM_GLASS
-#define PPM_GLASS PPM_ALL_FEATURES
+#ifndef PPM_SHEEN
+#define PPM_SHEEN PPM_ALL_FEATURES
+#endif
+#ifndef PPM_OREN_NAYAR
+#define PPM_OREN_NAYAR PPM_ALL_FEATURES
+#endif
+#ifndef PPM_TRANSLUCENT
+#define PPM_TRANSLUCENT PPM_ALL_FEATURES
+#endif
+#ifndef PPM_TRANSPARENT
+#define PPM_TRANSPARENT PPM_ALL_FEATURES
 #endif
 #ifndef PPM_LIGHT_POINT
 #define PPM_LIGHT_POINT PPM_ALL_FEATURES

@@ -3,9 +3,12 @@
  * The entry's photon stands for all n photons of the entry (flux x n) and is accepted only
  * in its own cell: two cells that share an entry are then never counted twice, and the
  * estimate is unbiased (each photon of the entry is chosen with probability 1/n and counted
- * only from its own cell, within the radius). */
+ * only from its own cell, within the radius).  Each photon's flux is weighted by the visible
+ * point's BSDF for the photon's incoming direction: the point's closures are set up again here
+ * from its hit (kernels/shader.h), so a visible point is 64 bytes (passes/eye.py). */
 #include "hash.h"
-#include "geometry.h"
+#include "shader.h"
+#include "bvh.h"
 
 /* photons on a surface facing another way (thin walls, corners) are not this point's */
 #define NORMAL_COS_MIN 0.5f
@@ -38,20 +41,80 @@ inline float cell_dist2(float3 x, long3 c, const Grid *g) {
     return dot(dd, dd);
 }
 
+/* the scene arguments the gather needs to shade a visible point again */
+#define GATHER_SCENE_ARGS __global const float4 *tri_v0, __global const float4 *tri_e1, \
+    __global const float4 *tri_e2, __global const float *normals, SHADING_ARGS
+
+/* A visible point's shading for the gather: its closures, and whether they are all Lambert
+ * (then f is one constant, lambert_f). */
+typedef struct {
+    ShaderData sd;
+    float3 nrm;
+    float3 lambert_f;
+    bool lambert;
+    bool transmits;
+} GatherPoint;
+
+inline void gather_point(float4 vp, float4 nrm, float4 shade, GatherPoint *gp,
+                         GATHER_SCENE_ARGS) {
+    gp->nrm = nrm.xyz;
+    gp->transmits = vp.w > 1.5f;
+    gp->lambert = true;
+    gp->lambert_f = (float3)(1.0f);
+    if (as_int(shade.z) < 0) return;       /* no hit to shade (kernel tests): f = 1 */
+    Hit h;
+    h.leaf = as_int(shade.z);
+    h.u = shade.x;
+    h.v = shade.y;
+    h.t = 0.0f;
+    Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+    shader_setup(&gp->sd, s.material, s.tri, h.u, h.v, s.ng, s.ns, unpack_unit(as_uint(shade.w)),
+                 (float3)(0.0f), SHADING_PASS);
+    gp->lambert_f = (float3)(0.0f);
+    for (int k = 0; k < gp->sd.n; k++) {
+        const Closure *c = &gp->sd.c[k];
+        if (!c->gather) continue;
+        gp->lambert &= c->type == CLOSURE_DIFFUSE;
+        gp->lambert_f += c->weight * (1.0f / PPM_PI);
+    }
+}
+
+/* photon pi's contribution to the point at x (0 when it is not the point's own): its flux
+ * times the BSDF for its direction; *accepted set when it counts */
+inline float3 photon_term(const GatherPoint *gp, float3 x, float r2, float r, float4 pp,
+                          float4 pf, bool *accepted) {
+    *accepted = false;
+    float3 dd = pp.xyz - x;
+    if (dot(dd, dd) > r2) return (float3)(0.0f);
+    if (fabs(dot(dd, gp->nrm)) > DISC_HALF_THICKNESS * r) return (float3)(0.0f);
+    float nn = dot(unpack_unit(as_uint(pp.w)), gp->nrm);
+    if ((gp->transmits ? fabs(nn) : nn) < NORMAL_COS_MIN) return (float3)(0.0f);
+    float3 wl = unpack_unit(as_uint(pf.w));       /* towards where the photon came from */
+    float cos_l = dot(wl, gp->nrm);
+    if (gp->transmits ? fabs(cos_l) < 1e-6f : cos_l <= 0.0f) return (float3)(0.0f);
+    *accepted = true;
+    if (gp->lambert) return cos_l > 0.0f ? pf.xyz * gp->lambert_f : (float3)(0.0f);
+    float pdf;
+    return pf.xyz * shader_eval(&gp->sd, wl, MASK_GATHER, &pdf) * (1.0f / fabs(cos_l));
+}
+
 __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nrm,
-                     __global const float *radius, __global const Grid *grid,
-                     __global const ulong *table, uint table_mask,
+                     __global const float4 *vp_shade, __global const float *radius,
+                     __global const Grid *grid, __global const ulong *table, uint table_mask,
                      __global const float4 *ph_pos, __global const float4 *ph_flux,
-                     __global float4 *gathered, uint n) {
+                     __global float4 *gathered, uint n, GATHER_SCENE_ARGS) {
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 vp = vp_pos[id];
     Grid g = *grid;
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
-    float3 x = vp.xyz, nrm = vp_nrm[id].xyz;
+    GatherPoint gp;
+    gather_point(vp, vp_nrm[id], vp_shade[id], &gp, tri_v0, tri_e1, tri_e2, normals,
+                 SHADING_PASS);
+    float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
-    disc_cells(x, nrm, r, &g, &lo, &hi);
+    disc_cells(x, gp.nrm, r, &g, &lo, &hi);
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
     for (long cz = lo.z; cz <= hi.z; cz++)
@@ -64,35 +127,36 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
         if (cnt == 0u) continue;
         uint pi = ENTRY_INDEX(table, h);
         float4 pp = ph_pos[pi];
-        float3 dd = pp.xyz - x;
-        if (dot(dd, dd) > r2) continue;
-        if (fabs(dot(dd, nrm)) > DISC_HALF_THICKNESS * r) continue;
         long3 pc = cell_of(pp.xyz, &g);
         if (pc.x != cx || pc.y != cy || pc.z != cz) continue;     /* not this cell's photon */
-        if (dot(unpack_unit(as_uint(pp.w)), nrm) < NORMAL_COS_MIN) continue;
-        float4 pf = ph_flux[pi];
-        if (dot(unpack_unit(as_uint(pf.w)), nrm) <= 0.0f) continue;
+        bool ok;
+        float3 t = photon_term(&gp, x, r2, r, pp, ph_flux[pi], &ok);
+        if (!ok) continue;
         M += (float)cnt;
-        phi += (float)cnt * pf.xyz;
+        phi += (float)cnt * t;
     }
     gathered[id] = (float4)(phi, M);
 }
 
-/* Exact gather (reference mode): every photon of every cell the sphere overlaps. */
+/* Exact gather (reference mode): every photon of every cell the disc overlaps. */
 __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 *vp_nrm,
-                           __global const float *radius, __global const Grid *grid,
-                           __global const uint *ranges, __global const uint *sorted_ids,
-                           uint table_mask, __global const float4 *ph_pos,
-                           __global const float4 *ph_flux, __global float4 *gathered, uint n) {
+                           __global const float4 *vp_shade, __global const float *radius,
+                           __global const Grid *grid, __global const uint *ranges,
+                           __global const uint *sorted_ids, uint table_mask,
+                           __global const float4 *ph_pos, __global const float4 *ph_flux,
+                           __global float4 *gathered, uint n, GATHER_SCENE_ARGS) {
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 vp = vp_pos[id];
     Grid g = *grid;
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
-    float3 x = vp.xyz, nrm = vp_nrm[id].xyz;
+    GatherPoint gp;
+    gather_point(vp, vp_nrm[id], vp_shade[id], &gp, tri_v0, tri_e1, tri_e2, normals,
+                 SHADING_PASS);
+    float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
-    disc_cells(x, nrm, r, &g, &lo, &hi);
+    disc_cells(x, gp.nrm, r, &g, &lo, &hi);
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
     for (long cz = lo.z; cz <= hi.z; cz++)
@@ -104,16 +168,13 @@ __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 
         for (uint s = ranges[2 * h]; s < end; s++) {
             uint pi = sorted_ids[s];
             float4 pp = ph_pos[pi];
-            float3 dd = pp.xyz - x;
-            if (dot(dd, dd) > r2) continue;
-            if (fabs(dot(dd, nrm)) > DISC_HALF_THICKNESS * r) continue;
             long3 pc = cell_of(pp.xyz, &g);
             if (pc.x != cx || pc.y != cy || pc.z != cz) continue;
-            if (dot(unpack_unit(as_uint(pp.w)), nrm) < NORMAL_COS_MIN) continue;
-            float4 pf = ph_flux[pi];
-            if (dot(unpack_unit(as_uint(pf.w)), nrm) <= 0.0f) continue;
+            bool ok;
+            float3 t = photon_term(&gp, x, r2, r, pp, ph_flux[pi], &ok);
+            if (!ok) continue;
             M += 1.0f;
-            phi += pf.xyz;
+            phi += t;
         }
     }
     gathered[id] = (float4)(phi, M);

@@ -74,8 +74,8 @@ inline float3 sample_spherical_triangle(const SphTri *t, float u0, float u1) {
     return normalize(cos_t * t->b + (lb > 0.0f ? sin_t / lb : 0.0f) * cb_perp);
 }
 
-/* Next-event sample of emissive BVH leaf k (picked with probability pmf) from origin o. */
-inline bool mesh_direct(int k, float pmf, float3 o, float u1, float u2, SCENE_ARGS,
+/* Next-event sample of emissive BVH leaf k from origin o. */
+inline bool mesh_direct(int k, float3 o, float u1, float u2, SCENE_ARGS,
                         LightSample *s) {
     float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
     float3 c = cross(e1.xyz, e2.xyz);
@@ -98,7 +98,7 @@ inline bool mesh_direct(int k, float pmf, float3 o, float u1, float u2, SCENE_AR
         float d20 = dot(dq, e1.xyz), d21 = dot(dq, e2.xyz), den = d00 * d11 - d01 * d01;
         b = (float2)((d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den);
         s->E = st.area;
-        s->pdf_light = pmf / st.area;
+        s->pdf_dir = 1.0f / st.area;
     } else {                           /* uniform in area: weight = cos area / d^2 */
         b = sample_triangle(u1, u2);
         q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
@@ -113,7 +113,7 @@ inline bool mesh_direct(int k, float pmf, float3 o, float u1, float u2, SCENE_AR
         s->wi = tq / s->dist;
         float cos_l = fabs(dot(s->wi, nt));                   /* mesh lights: both sides */
         s->E = cos_l * 0.5f * area2 / dq2;
-        s->pdf_light = cos_l > 0.0f ? pmf * dq2 / (cos_l * 0.5f * area2) : 0.0f;
+        s->pdf_dir = cos_l > 0.0f ? dq2 / (cos_l * 0.5f * area2) : 0.0f;
     }
     s->E = s->E * F3(me->emission)
            * texture_tint(me->emission_tex, as_uint(v0.w), b.x, b.y, TEXTURE_PASS);

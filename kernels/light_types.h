@@ -7,14 +7,15 @@
  * compiles is decided once, in the dispatchers (direct_light.h, photon_emission.h), by the
  * 0/1 feature flags of features.h; the compiler drops the functions no dispatcher reaches. */
 
-/* A sample toward an emitter for next-event estimation: the pixel contribution is
- * beta * f * E * cos / pmf (E already includes the cosine when cosine_included). */
+/* A sample toward an emitter for next-event estimation: the contribution is
+ * beta x (f cos) x E / pmf, E = the radiance arriving along wi over the density of wi (for a
+ * point or a sun without size, its irradiance on a surface facing it). */
 typedef struct {
     float3 wi;               /* unit direction from the shading point's offset origin */
     float3 E;
     float dist;              /* shadow ray length: ends just short of the emitter (PPM_INF: none) */
-    float pdf_light;         /* solid-angle pdf of an emissive triangle's sample (MIS), else 0 */
-    bool cosine_included;
+    float pdf_dir;           /* solid-angle density of wi (MIS against the BSDF sample); 0 for
+                                emitters no ray can hit (points, suns) */
 } LightSample;
 
 /* --- sun: a disc of angular diameter L->radius in direction -L->direction ------------------- */
@@ -71,7 +72,7 @@ inline float spot_sample_cos(const Light *L) {
  * nearer.  Soft falloff (Blender's default): Cycles sees the light as a disk of the light's
  * radius facing the ray's origin, not as a sphere (d^2 / (d^2 + r^2) of the sphere's solid
  * angle: -8 % for a light 1 m from a mirror at r = 0.3 m).  Spot lights are never seen. */
-inline void point_seen(const Light *l, float3 o, float3 d, float *best, float3 *Le) {
+inline void point_seen(const Light *l, float3 o, float3 d, float *best, float3 *Le, float *pdf) {
     if (l->type != LIGHT_POINT || !(l->radius > 0.0f)) return;
     float3 c = F3(l->position);
     if (l->flags & LIGHT_FLAG_SOFT_FALLOFF) {
@@ -87,6 +88,7 @@ inline void point_seen(const Light *l, float3 o, float3 d, float *best, float3 *
         if (dot(q, q) > l->radius * l->radius) return;
         *best = t;
         *Le = F3(l->emit) / (PPM_PI * l->radius * l->radius);
+        *pdf = t * t / (-denom * PPM_PI * l->radius * l->radius);    /* point_direct's disk */
     } else {
         float3 oc = o - c;
         float b = dot(oc, d), cc = dot(oc, oc) - l->radius * l->radius;
@@ -96,6 +98,8 @@ inline void point_seen(const Light *l, float3 o, float3 d, float *best, float3 *
         if (!(t > 0.0f && t < *best)) return;
         *best = t;
         *Le = F3(l->emit) / (PPM_PI * l->radius * l->radius);
+        float x = l->radius * l->radius / (cc + l->radius * l->radius);  /* sin^2 of the cone */
+        *pdf = (1.0f + sqrt(fmax(0.0f, 1.0f - x))) / (2.0f * PPM_PI * x); /* 1 / (2 pi (1 - cos)) */
     }
 }
 
@@ -116,7 +120,9 @@ inline bool point_direct(const Light *L, float3 o, float u1, float u2, LightSamp
         float dq2 = dot(tq, tq);
         s->dist = sqrt(dq2);
         s->wi = tq / s->dist;
-        s->E = I * (dot(s->wi, w0) / dq2);
+        float cos_d = dot(s->wi, w0);
+        s->E = I * (cos_d / dq2);
+        s->pdf_dir = cos_d > 0.0f ? dq2 / (cos_d * PPM_PI * r * r) : 0.0f;
     } else if (r > 0.0f && d > r) {
         /* sphere of radius r, radiance I/(pi r^2): sample its cone of directions */
         /* 1 - cos = x / (1 + sqrt(1 - x)), x = sin^2 = r^2/d^2: no cancellation */
@@ -125,6 +131,7 @@ inline bool point_direct(const Light *L, float3 o, float u1, float u2, LightSamp
         float bb = dot(s->wi, to);
         s->dist = bb - sqrt(fmax(0.0f, bb * bb - (d2 - r * r)));
         s->E = I * (2.0f / (d2 * (1.0f + root)));   /* I 2 pi (1 - cos) / (pi r^2) */
+        s->pdf_dir = (1.0f + root) / (2.0f * PPM_PI * x);
     } else {
         s->wi = w0;
         s->dist = d;
@@ -167,7 +174,7 @@ inline float3 area_light_point(const Light *L, float u1, float u2) {
 }
 
 /* seen from the front only (as Cycles shows area lights) */
-inline void area_seen(const Light *l, float3 o, float3 d, float *best, float3 *Le) {
+inline void area_seen(const Light *l, float3 o, float3 d, float *best, float3 *Le, float *pdf) {
     float3 c = F3(l->position), nl = F3(l->direction);
     float denom = dot(d, nl);
     if (denom >= 0.0f) return;                             /* emits along its -Z only */
@@ -178,7 +185,11 @@ inline void area_seen(const Light *l, float3 o, float3 d, float *best, float3 *L
     float u = dot(q, ax) / dot(ax, ax), v = dot(q, ay) / dot(ay, ay);
     bool inside = l->type == LIGHT_AREA_RECT ? (fabs(u) <= 0.5f && fabs(v) <= 0.5f)
                                              : (u * u + v * v <= 0.25f);
-    if (inside) { *best = t; *Le = F3(l->emit); }
+    if (inside) {
+        *best = t;
+        *Le = F3(l->emit);
+        *pdf = t * t / (-denom * area_light_area(l));          /* area_direct's density */
+    }
 }
 
 inline bool area_direct(const Light *L, float3 o, float u1, float u2, LightSample *s) {
@@ -192,6 +203,7 @@ inline bool area_direct(const Light *L, float3 o, float u1, float u2, LightSampl
     float cos_l = -dot(s->wi, nl);
     if (cos_l <= 0.0f) return false;
     s->E = F3(L->emit) * (cos_l * area_light_area(L) / dq2);
+    s->pdf_dir = dq2 / (cos_l * area_light_area(L));
     return true;
 }
 
@@ -207,10 +219,11 @@ inline void area_emit(const Light *L, float pmf, float u1, float u2, float u3, f
 #include "light_mesh.h"
 
 /* --- the world: a constant colour all around -------------------------------------------- */
-inline void world_direct(float3 world, float3 n, float u1, float u2, LightSample *s) {
-    s->wi = sample_cosine_hemisphere(n, u1, u2);       /* pdf cos/pi: f L cos/pdf = f L pi */
-    s->E = world * PPM_PI;
-    s->cosine_included = true;
+inline bool world_direct(float3 world, float3 n, float u1, float u2, LightSample *s) {
+    s->wi = sample_cosine_hemisphere(n, u1, u2);       /* density cos / pi */
+    s->pdf_dir = fmax(dot(s->wi, n), 0.0f) * (1.0f / PPM_PI);
+    s->E = world / s->pdf_dir;
+    return s->pdf_dir > 0.0f;
 }
 
 /* photons from a disc of the scene's bounding radius R, in a uniform direction */

@@ -1,17 +1,16 @@
 #ifndef PPM_SCENE_H
 #define PPM_SCENE_H
 #include "bvh.h"
-#include "bsdf.h"
-#include "textures.h"
+#include "rng.h"
+#include "shader.h"
 
-/* Everything a pass kernel needs to see the scene: BVH, shading normals, materials, emitters,
- * textures and UVs (ppm_engine/device_scene.py binds them by these names). */
-#define SCENE_ARGS BVH_ARGS, __global const float *normals, __global const Material *materials, \
+/* Everything a pass kernel needs to see the scene: BVH, shading normals, materials with their
+ * BSDF nodes and the shading tables, emitters, textures and UVs (ppm_engine/device_scene.py
+ * binds them by these names). */
+#define SCENE_ARGS BVH_ARGS, __global const float *normals, SHADING_ARGS, \
     __global const Light *lights, __global const float *emitter_cdf, __global const int *emissive, \
-    __global const EmitterInfo *emitter_info, TEXTURE_ARGS
-#define SCENE_PASS BVH_PASS, normals, materials, lights, emitter_cdf, emissive, emitter_info, \
-    textures, texels, uvs
-#define TEXTURE_PASS textures, texels, uvs
+    __global const EmitterInfo *emitter_info
+#define SCENE_PASS BVH_PASS, normals, SHADING_PASS, lights, emitter_cdf, emissive, emitter_info
 
 /* Emitter chosen in proportion to its power (cdf built by ppm_engine/emitters.py): the lights
  * first, then the emissive triangles, then the world. */

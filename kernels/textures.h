@@ -29,6 +29,7 @@ inline float3 srgb_to_linear(float3 c) {
 
 #define TEXTURE_ARGS __global const Texture *textures, __global const half *texels, \
                      __global const float *uvs
+#define TEXTURE_PASS textures, texels, uvs
 
 /* texel column/row for an integer coordinate under the extension mode; -1 outside (CLIP) */
 inline int tex_wrap(int i, int n, uint mode) {
@@ -43,24 +44,17 @@ inline int tex_wrap(int i, int n, uint mode) {
     return m < 0 ? m + n : m;
 }
 
-inline float3 tex_fetch(__global const half *texels, const Texture *t, int x, int y) {
+inline float4 tex_fetch(__global const half *texels, const Texture *t, int x, int y) {
     int ix = tex_wrap(x, t->width, t->flags & 15u), iy = tex_wrap(y, t->height, t->flags & 15u);
-    if (ix < 0 || iy < 0) return (float3)(0.0f);
-    return vload_half4((size_t)t->offset + (size_t)iy * (size_t)t->width + (size_t)ix, texels).xyz;
+    if (ix < 0 || iy < 0) return (float4)(0.0f);
+    return vload_half4((size_t)t->offset + (size_t)iy * (size_t)t->width + (size_t)ix, texels);
 }
 
-/* linear RGB of texture tex1 (1-based) at uv: bilinear between texel centres (as Cycles'
- * 'Linear' interpolation) or the nearest texel ('Closest'); sRGB texels decoded after the
- * interpolation, as Cycles does for 8-bit sRGB images */
-inline float3 texture_rgb_encoded(__global const Texture *textures, __global const half *texels,
-                                  int tex1, float2 uv);
-inline float3 texture_rgb(__global const Texture *textures, __global const half *texels,
-                          int tex1, float2 uv) {
-    float3 c = texture_rgb_encoded(textures, texels, tex1, uv);
-    return (textures[tex1 - 1].flags & TEX_FLAG_SRGB) ? srgb_to_linear(c) : c;
-}
-inline float3 texture_rgb_encoded(__global const Texture *textures, __global const half *texels,
-                                  int tex1, float2 uv) {
+/* RGBA of texture tex1 (1-based) at uv as stored (sRGB-encoded colour for TEX_FLAG_SRGB):
+ * bilinear between texel centres (as Cycles' 'Linear' interpolation) or the nearest texel
+ * ('Closest') */
+inline float4 texture_rgba_encoded(__global const Texture *textures, __global const half *texels,
+                                   int tex1, float2 uv) {
     Texture t = textures[tex1 - 1];
     float x = uv.x * (float)t.width, y = uv.y * (float)t.height;
     x = isfinite(x) ? clamp(x, -1.0e9f, 1.0e9f) : 0.0f;     /* int conversions stay defined */
@@ -70,9 +64,22 @@ inline float3 texture_rgb_encoded(__global const Texture *textures, __global con
     y -= 0.5f;
     float fx = floor(x), fy = floor(y), ax = x - fx, ay = y - fy;
     int x0 = (int)fx, y0 = (int)fy;
-    float3 a = mix(tex_fetch(texels, &t, x0, y0), tex_fetch(texels, &t, x0 + 1, y0), ax);
-    float3 b = mix(tex_fetch(texels, &t, x0, y0 + 1), tex_fetch(texels, &t, x0 + 1, y0 + 1), ax);
+    float4 a = mix(tex_fetch(texels, &t, x0, y0), tex_fetch(texels, &t, x0 + 1, y0), ax);
+    float4 b = mix(tex_fetch(texels, &t, x0, y0 + 1), tex_fetch(texels, &t, x0 + 1, y0 + 1), ax);
     return mix(a, b, ay);
+}
+
+/* linear RGB and alpha: sRGB texels decoded after the interpolation, as Cycles does for 8-bit
+ * sRGB images */
+inline float4 texture_rgba(__global const Texture *textures, __global const half *texels,
+                           int tex1, float2 uv) {
+    float4 c = texture_rgba_encoded(textures, texels, tex1, uv);
+    if (textures[tex1 - 1].flags & TEX_FLAG_SRGB) c.xyz = srgb_to_linear(c.xyz);
+    return c;
+}
+inline float3 texture_rgb(__global const Texture *textures, __global const half *texels,
+                          int tex1, float2 uv) {
+    return texture_rgba(textures, texels, tex1, uv).xyz;
 }
 
 /* UV at barycentrics (u, v) of original triangle tri (p = p0 + u (p1 - p0) + v (p2 - p0)) */
@@ -82,13 +89,23 @@ inline float2 surface_uv(__global const float *uvs, uint tri, float u, float v) 
     return (float2)(w * a[0] + u * a[2] + v * a[4], w * a[1] + u * a[3] + v * a[5]);
 }
 
-/* the factor a material's texture tex1 (its diffuse_tex for the base colour: albedo, metal
- * and glass tints; its emission_tex for the emission) puts on it at a surface point: the
- * texture at the point's UV, 1 without a texture */
+/* the factor a texture tex1 (a BSDF node's colour or emission texture) puts on its input at a
+ * surface point: the texture at the point's UV, 1 without a texture */
 inline float3 texture_tint(int tex1, uint tri, float u, float v, TEXTURE_ARGS) {
 #if PPM_TEXTURES
     if (tex1 > 0) return texture_rgb(textures, texels, tex1, surface_uv(uvs, tri, u, v));
 #endif
     return (float3)(1.0f);
+}
+
+/* the alpha channel of texture tex1 at a surface point (an Image Texture's Alpha output on a
+ * BSDF's Alpha input), 1 without a texture */
+inline float texture_alpha(int tex1, uint tri, float u, float v, TEXTURE_ARGS) {
+#if PPM_TEXTURES
+    if (tex1 > 0)
+        return clamp(texture_rgba(textures, texels, tex1, surface_uv(uvs, tri, u, v)).w, 0.0f,
+                     1.0f);
+#endif
+    return 1.0f;
 }
 #endif

@@ -59,23 +59,66 @@ typedef struct {
     float filter_width;     /* 0: box; > 0: Blackman-Harris over +-filter_width pixels */
 } Camera;
 
-/* mirrors materials.KMATERIAL_DTYPE: the lobes the kernels sample, derived from
- * scene_arrays.MATERIAL_DTYPE by ppm_engine/materials.py */
-#define MAT_EMISSIVE 1u
-#define MAT_DIFFUSE 2u
+/* mirrors materials.KMATERIAL_DTYPE (ppm_engine/materials.py derives it from the scene's
+ * materials): what a pass needs of a material before it shades a hit */
+#define MAT_EMISSIVE 1u       /* constant emission > 0: an emitter (emitters.py) */
+#define MAT_GATHER 2u         /* some closure can hold a visible point and photons */
+#define MAT_TRANSPARENT 4u    /* partly transparent (alpha, Transparent BSDF): shadow rays pass */
 typedef struct {
-    float diffuse[3];    /* Lambert albedo */
-    float specular[3];   /* mirror (metal) reflectance */
-    float transmit[3];   /* glass transmission tint */
-    float emission[3];   /* radiance, both sides */
-    float ior;
-    float p_metal;       /* lobe selection probability = mixture weight */
-    float p_glass;
+    float emission[3];   /* emitted radiance of its emission closures, before textures */
     uint flags;
-    int diffuse_tex;     /* 1-based texture of the base colour (kernels/textures.h), 0 = none */
-    int emission_tex;    /* 1-based texture of the emission colour, 0 = none */
+    int emission_tex;    /* 1-based texture of the emission (kernels/textures.h), 0 = none */
+    int node_first;      /* its BSDF nodes: shader_nodes[node_first, + node_count) */
+    int node_count;
     float absorption[3]; /* absorption coefficient inside (per metre; glass only: medium.h) */
 } Material;
+
+/* BSDF node types: scene_arrays.py NODE_* */
+#define NODE_PRINCIPLED 0
+#define NODE_DIFFUSE 1
+#define NODE_GLOSSY 2
+#define NODE_METALLIC 3
+#define NODE_GLASS 4
+#define NODE_REFRACTION 5
+#define NODE_TRANSLUCENT 6
+#define NODE_TRANSPARENT 7
+#define NODE_SHEEN 8
+#define NODE_EMISSION 9
+#define NODE_HOLDOUT 10
+#define NODE_FLAG_MULTI_GGX 1u      /* multiple scattering compensated (Multiscatter GGX) */
+#define NODE_FLAG_CONDUCTOR 2u      /* Metallic BSDF, Physical Conductor: color = n, edge_tint = k */
+
+/* mirrors scene_arrays.SHADER_NODE_DTYPE: one BSDF node of a material with its constant
+ * inputs (kernels/shader.h turns it into closures at a hit) */
+typedef struct {
+    int material;
+    int type;
+    uint flags;
+    float weight;             /* mix weight: the Mix/Add Shader factors on its way to the output */
+    float color[3];           /* Base Color / Color */
+    float edge_tint[3];       /* Principled Specular Tint; Metallic Edge Tint */
+    float emission[3];        /* emission colour x strength */
+    float coat_tint[3];
+    float sheen_tint[3];
+    float roughness;
+    float metallic;
+    float ior;
+    float alpha;
+    float transmission;
+    float specular_ior_level;
+    float anisotropic;
+    float anisotropic_rotation;
+    float coat_weight;
+    float coat_roughness;
+    float coat_ior;
+    float sheen_weight;
+    float sheen_roughness;
+    float subsurface_weight;
+    float diffuse_roughness;
+    int color_texture;        /* 1-based textures multiplying color / emission / alpha */
+    int emission_texture;
+    int alpha_texture;
+} ShaderNode;
 
 /* Emitters for photon emission and next-event estimation, indexed 0..n_emitters-1:
  * [0, n_lights) scene lights, then emissive triangles, then the world (if it emits). */

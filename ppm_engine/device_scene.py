@@ -10,7 +10,8 @@ from .bvh import BVH
 from .emitters import build_emitters
 from .features import defines as feature_defines, scene_features, used_materials
 from .film import FILTER_TABLE_SIZE, filter_table
-from .materials import MAT_DIFFUSE, kernel_materials
+from .materials import MAT_GATHER, kernel_materials, kernel_nodes, max_closures
+from .shading_tables import load as shading_tables
 from .scene_arrays import LIGHT_DTYPE, TEXTURE_DTYPE, SceneArrays
 from .scene_prep import offset_scale, prepare_scene
 
@@ -29,7 +30,8 @@ class DeviceScene:
         if prepared is None:
             prepared, self.warnings = prepare_scene(scene)
         self.prepared = prepared = prepared    # the BVH's triangles, moved as the BVH's
-        self.kmaterials = kernel_materials(prepared.materials)
+        self.knodes = kernel_nodes(prepared.shader_nodes)
+        self.kmaterials = kernel_materials(prepared.materials, self.knodes)
         self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
         self.offset_scale = offset_scale(prepared)
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order)
@@ -40,6 +42,9 @@ class DeviceScene:
             nodes=b.nodes, tri_v0=b.tri_v0, tri_e1=b.tri_e1, tri_e2=b.tri_e2,
             normals=up(prepared.normals, "shading normals"),
             materials=up(self.kmaterials, "materials"),
+            shader_nodes=up(self.knodes if self.knodes.size else np.zeros(1, self.knodes.dtype),
+                            "shader nodes"),
+            shading_tables=up(shading_tables(), "shading tables"),
             lights=up(lights, "lights"),
             emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
             emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),
@@ -57,16 +62,18 @@ class DeviceScene:
     def kernel_defines(self, specialize: bool) -> tuple[frozenset | None, dict]:
         """(features, -D flags) of the eye and photon passes: the scene's features, or every
         feature (None) unspecialised; the ray offset scale of the scene's size either way."""
-        features = (scene_features(self.prepared, self.kmaterials, self.emitters,
+        features = (scene_features(self.prepared, self.kmaterials, self.knodes, self.emitters,
                                    self.used_materials) if specialize else None)
         return features, {"PPM_OFFSET_SCALE": float(self.offset_scale).hex() + "f",
                           "PPM_FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
-                          **feature_defines(features)}
+                          **feature_defines(features, max_closures(self.knodes,
+                                                                   self.used_materials))}
 
     def photons_useful(self, max_bounces: int) -> bool:
         """Whether photon passes can add anything: something emits, paths may bounce, and some
-        surface is diffuse (photons are stored, and visible points made, only there)."""
-        diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_DIFFUSE).any())
+        surface has a closure the gather evaluates (photons are stored, and visible points
+        made, only there)."""
+        diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_GATHER).any())
         return bool(self.emitters.info["n_emitters"][0] > 0 and max_bounces > 0 and diffuse)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:

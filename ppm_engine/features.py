@@ -1,14 +1,16 @@
 """Which features a scene needs, as -D flags for the eye and photon passes (kernels/features.h).
 
 The programs are cached per device by (file, defines), so each feature set is built once; a
-scene without glass runs kernels without refraction code, a diffuse-only scene an eye pass with
-no specular loop, a scene lit by one point light kernels with no sun, area, mesh-light or world
-sampling (docs/BENCHMARKS.md, "Skip what a scene doesn't need").
+scene without microfacet lobes runs kernels without their code (likewise sheen, Oren-Nayar,
+translucency, transparency), its closure lists as long as its materials need, a scene lit by one
+point light kernels with no sun, area, mesh-light or world sampling (docs/BENCHMARKS.md, "Skip
+what a scene doesn't need").
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .materials import node_features
 from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHIFT, LIGHT_POINT,
                            LIGHT_SPOT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION,
                            SceneArrays)
@@ -22,21 +24,17 @@ def used_materials(scene: SceneArrays, n_materials: int) -> np.ndarray:
         np.zeros(0, np.int64)
 
 
-def scene_features(scene: SceneArrays, kmaterials: np.ndarray, emitters,
+def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarray, emitters,
                    used: np.ndarray | None = None) -> frozenset:
     """The features of kernels/features.h that ``scene`` uses.
 
-    ``kmaterials`` are the kernel materials (materials.kernel_materials) and ``emitters`` the
-    emitter table (emitters.build_emitters): a light of zero power is never sampled, so its type
-    needs no code; only materials some triangle uses count."""
+    ``kmaterials`` and ``knodes`` are the kernel materials and BSDF nodes (materials.py) and
+    ``emitters`` the emitter table (emitters.build_emitters): a light of zero power is never
+    sampled, so its type needs no code; only materials some triangle uses count."""
     if used is None:
         used = used_materials(scene, kmaterials.shape[0])
     m = kmaterials[used]
-    f = set()
-    if (m["p_glass"] > 0).any():
-        f.update(("PPM_SPECULAR", "PPM_GLASS"))
-    if (m["p_metal"] > 0).any():
-        f.add("PPM_SPECULAR")
+    f = node_features(knodes[np.isin(knodes["material"], used)])
     lights = scene.lights
     n_lights = lights.shape[0]
     live = emitters.power[:n_lights] > 0 if int(emitters.info["n_emitters"][0]) else \
@@ -62,15 +60,17 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, emitters,
         f.add("PPM_LIGHTS_SEEN")
     if float(scene.camera["aperture_radius"][0]) > 0:
         f.add("PPM_DOF")
-    if (m["diffuse_tex"] > 0).any() or (m["emission_tex"] > 0).any():
+    if (m["emission_tex"] > 0).any():
         f.add("PPM_TEXTURES")
     if (m["absorption"] > 0).any():       # (kernel_materials keeps it on glass only)
         f.add("PPM_ABSORPTION")
     return frozenset(f)
 
 
-def defines(features) -> dict:
-    """-D flags for a feature set; ``None``: every feature (unspecialised kernels)."""
+def defines(features, closures: int | None = None) -> dict:
+    """-D flags for a feature set; ``None``: every feature (unspecialised kernels).
+    ``closures``: the most closures a material of the scene makes (materials.max_closures)."""
     if features is None:
         return {}
-    return {"PPM_SPECIALIZED": True, **{name: True for name in features}}
+    return {"PPM_SPECIALIZED": True, **{name: True for name in features},
+            **({"PPM_MAX_CLOSURES": int(closures)} if closures else {})}

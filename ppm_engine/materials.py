@@ -1,34 +1,185 @@
-"""Principled parameters (scene_arrays.MATERIAL_DTYPE) -> the lobes the kernels sample.
+"""The scene's materials (scene_arrays.MATERIAL_DTYPE and SHADER_NODE_DTYPE) as the kernels read
+them: one header per material (its nodes, its constant emission for the emitter table, what a
+pass must know before shading a hit) and the BSDF nodes with every input made finite; and what
+the nodes need of the kernels (features.py), e.g. the most closures one material can make.
 
-The kernels know three lobes: Lambert, a perfect mirror and a smooth dielectric.  Departures
-from Cycles' Principled BSDF, on purpose and documented: metals rougher than
-``SPECULAR_ROUGHNESS`` are treated as diffuse with the base colour; glass of any roughness is
-smooth; the dielectric specular layer on top of diffuse (Specular IOR Level) is not modelled.
+The closures themselves are made at each hit by kernels/shader.h, as Cycles makes them.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .scene_arrays import TEX_FLAG_SRGB
+from .scene_arrays import (NODE_DIFFUSE, NODE_EMISSION, NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT,
+                           NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN,
+                           NODE_TRANSLUCENT, NODE_TRANSPARENT, SHADER_NODE_DTYPE, TEX_FLAG_SRGB)
 
 # mirrors kernels/types.h Material
 KMATERIAL_DTYPE = np.dtype([
-    ("diffuse", np.float32, 3),
-    ("specular", np.float32, 3),
-    ("transmit", np.float32, 3),
     ("emission", np.float32, 3),
-    ("ior", np.float32),
-    ("p_metal", np.float32),
-    ("p_glass", np.float32),
     ("flags", np.uint32),
-    ("diffuse_tex", np.int32),
     ("emission_tex", np.int32),
+    ("node_first", np.int32),
+    ("node_count", np.int32),
     ("absorption", np.float32, 3),
 ])
-MAT_EMISSIVE = 1
-MAT_DIFFUSE = 2
+MAT_EMISSIVE = 1          # constant emission > 0: an emitter
+MAT_GATHER = 2            # some closure can hold a visible point and photons
+MAT_TRANSPARENT = 4       # partly transparent: shadow rays pass
 
-SPECULAR_ROUGHNESS = 0.2
+# a microfacet lobe smoother than this is a perfect mirror or a smooth refraction (Cycles:
+# alpha_x alpha_y <= 2e-10): such a lobe can only be followed, never evaluated
+SINGULAR_ROUGHNESS = 2e-10 ** 0.25
+# closures of one material beyond this are dropped (kernels/shader_data.h PPM_MAX_CLOSURES)
+MAX_CLOSURES = 16
+
+_FLOAT_DEFAULTS = {"weight": 0.0, "alpha": 1.0, "ior": 1.5, "coat_ior": 1.5,
+                   "specular_ior_level": 0.5}
+
+
+def kernel_nodes(nodes: np.ndarray) -> np.ndarray:
+    """The nodes with NaN and infinite inputs replaced (defaults for IORs and alpha, 0 else)
+    and negative mix weights dropped: the kernels never see a non-finite input."""
+    k = nodes.copy()
+    for name in SHADER_NODE_DTYPE.names:
+        if k.dtype[name].base.kind == "f":
+            d = _FLOAT_DEFAULTS.get(name, 0.0)
+            k[name] = np.nan_to_num(k[name], nan=d, posinf=d if name != "emission" else 0.0,
+                                    neginf=d if name != "emission" else 0.0)
+    k["weight"] = np.maximum(k["weight"], 0.0)
+    return k
+
+
+def _principled_parts(n: np.ndarray) -> dict:
+    """Which closures each Principled node can make (boolean arrays)."""
+    ior, level = n["ior"], n["specular_ior_level"]
+    rough = np.clip(n["roughness"], 0, 1)
+    return {
+        "sheen": n["sheen_weight"] > 1e-5,
+        "coat": n["coat_weight"] > 1e-5,
+        "metal": np.clip(n["metallic"], 0, 1) > 1e-5,
+        "glass": np.clip(n["transmission"], 0, 1) > 1e-5,
+        "specular": (level > 0) & (ior != 1.0),
+        "diffuse": (np.clip(n["metallic"], 0, 1) < 1) & (np.clip(n["transmission"], 0, 1) < 1),
+        "transparent": (n["alpha"] < 1) | (n["alpha_texture"] > 0),
+        "rough": rough > SINGULAR_ROUGHNESS,
+        "rough_coat": np.clip(n["coat_roughness"], 0, 1) > SINGULAR_ROUGHNESS,
+    }
+
+
+def closures_per_node(nodes: np.ndarray) -> np.ndarray:
+    """The most closures each node can make at a hit."""
+    count = np.ones(nodes.shape[0], np.int64)
+    count[np.isin(nodes["type"], (NODE_EMISSION, NODE_HOLDOUT))] = 0
+    p = nodes["type"] == NODE_PRINCIPLED
+    if p.any():
+        parts = _principled_parts(nodes[p])
+        count[p] = sum(parts[k].astype(np.int64) for k in
+                       ("sheen", "coat", "metal", "glass", "specular", "transparent")) + 1
+    return count
+
+
+def max_closures(nodes: np.ndarray, used: np.ndarray | None = None) -> int:
+    """The most closures a material (of ``used``, all when None) can make, 1..MAX_CLOSURES."""
+    if not nodes.size:
+        return 1
+    sel = np.ones(nodes.shape[0], bool) if used is None else np.isin(nodes["material"], used)
+    if not sel.any():
+        return 1
+    per = np.bincount(nodes["material"][sel], weights=closures_per_node(nodes[sel]))
+    return int(min(max(per.max(), 1), MAX_CLOSURES))
+
+
+def gather_capable(nodes: np.ndarray) -> np.ndarray:
+    """Per node: whether it can make a closure that is not singular (one the gather, or
+    next-event estimation, can evaluate)."""
+    t = nodes["type"]
+    out = np.isin(t, (NODE_DIFFUSE, NODE_TRANSLUCENT, NODE_SHEEN))
+    rough = np.clip(nodes["roughness"], 0, 1) > SINGULAR_ROUGHNESS
+    out |= np.isin(t, (NODE_GLOSSY, NODE_METALLIC, NODE_GLASS, NODE_REFRACTION)) & rough
+    p = t == NODE_PRINCIPLED
+    if p.any():
+        parts = _principled_parts(nodes[p])
+        out[p] = (parts["diffuse"] | parts["sheen"] | (parts["coat"] & parts["rough_coat"])
+                  | ((parts["metal"] | parts["glass"] | parts["specular"]) & parts["rough"]))
+    return out & (nodes["weight"] > 0)
+
+
+def node_features(nodes: np.ndarray) -> set:
+    """The closure features (kernels/features.h) these nodes need."""
+    f = set()
+    if not nodes.size:
+        return f
+    nodes = nodes[nodes["weight"] > 0]
+    t = nodes["type"]
+    p = nodes[t == NODE_PRINCIPLED]
+    parts = _principled_parts(p) if p.size else None
+    if np.isin(t, (NODE_GLOSSY, NODE_METALLIC, NODE_GLASS, NODE_REFRACTION)).any() or (
+            parts is not None and (parts["coat"] | parts["metal"] | parts["glass"]
+                                   | parts["specular"]).any()):
+        f.add("PPM_MICROFACET")
+    if (t == NODE_SHEEN).any() or (parts is not None and parts["sheen"].any()):
+        f.add("PPM_SHEEN")
+    rough_diffuse = ((t == NODE_DIFFUSE) & (nodes["roughness"] >= 1e-5)).any() or (
+        parts is not None and ((p["diffuse_roughness"] >= 1e-5) & parts["diffuse"]).any())
+    if rough_diffuse:
+        f.add("PPM_OREN_NAYAR")
+    if (t == NODE_TRANSLUCENT).any():
+        f.add("PPM_TRANSLUCENT")
+    if (t == NODE_TRANSPARENT).any() or (parts is not None and parts["transparent"].any()):
+        f.add("PPM_TRANSPARENT")
+    if (nodes["color_texture"] > 0).any() or (nodes["emission_texture"] > 0).any() \
+            or (nodes["alpha_texture"] > 0).any():
+        f.add("PPM_TEXTURES")
+    return f
+
+
+def node_emission(nodes: np.ndarray) -> np.ndarray:
+    """(K, 3) each node's constant emitted radiance: Emission nodes, and the Principled's
+    emission under its alpha (the sheen and coat above it depend on the view: left out)."""
+    em = np.maximum(nodes["emission"].astype(np.float64), 0.0) * nodes["weight"][:, None]
+    t = nodes["type"]
+    alpha = np.where(t == NODE_PRINCIPLED, np.clip(nodes["alpha"], 0, 1), 1.0)
+    keep = np.isin(t, (NODE_PRINCIPLED, NODE_EMISSION))
+    return np.where(keep[:, None], em * alpha[:, None], 0.0)
+
+
+def kernel_materials(materials: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """KMATERIAL_DTYPE rows for the scene's materials; ``nodes`` as kernel_nodes returns
+    them (ordered by material)."""
+    m = materials.shape[0]
+    k = np.zeros(m, KMATERIAL_DTYPE)
+    owner = nodes["material"]
+    k["node_first"] = np.searchsorted(owner, np.arange(m), side="left")
+    k["node_count"] = np.searchsorted(owner, np.arange(m), side="right") - k["node_first"]
+    em = np.zeros((m, 3))
+    np.add.at(em, owner, node_emission(nodes))
+    k["emission"] = em
+    # the emission texture of the material's first textured emitting node
+    tex = np.where((nodes["emission_texture"] > 0) & (node_emission(nodes).max(axis=1) > 0),
+                   nodes["emission_texture"], 0)
+    first_tex = np.zeros(m, np.int32)
+    for i in np.nonzero(tex)[0][::-1]:
+        first_tex[owner[i]] = tex[i]
+    k["emission_tex"] = first_tex
+    flags = np.where(em.max(axis=1) > 0, MAT_EMISSIVE, 0).astype(np.uint32)
+    gather = np.zeros(m, bool)
+    np.logical_or.at(gather, owner, gather_capable(nodes))
+    flags |= np.where(gather, MAT_GATHER, 0).astype(np.uint32)
+    t = nodes["type"]
+    transp = (t == NODE_TRANSPARENT) & (nodes["weight"] > 0)
+    pr = t == NODE_PRINCIPLED
+    transp[pr] |= _principled_parts(nodes[pr])["transparent"] & (nodes["weight"][pr] > 0)
+    tr = np.zeros(m, bool)
+    np.logical_or.at(tr, owner, transp)
+    flags |= np.where(tr, MAT_TRANSPARENT, 0).astype(np.uint32)
+    k["flags"] = flags
+    # the medium inside: entered and left by refraction, so only materials that refract
+    refracts = np.isin(t, (NODE_GLASS, NODE_REFRACTION)) | (pr & (nodes["transmission"] > 0))
+    glass = np.zeros(m, bool)
+    np.logical_or.at(glass, owner, refracts & (nodes["weight"] > 0))
+    sigma = np.nan_to_num(materials["absorption"], nan=0.0, posinf=0.0).clip(0.0, 1e30)
+    k["absorption"] = np.where(glass[:, None], sigma, 0.0)
+    return k
 
 
 def mean_emission(kmaterials: np.ndarray, textures: np.ndarray, texels: np.ndarray) -> np.ndarray:
@@ -45,38 +196,3 @@ def mean_emission(kmaterials: np.ndarray, textures: np.ndarray, texels: np.ndarr
             rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((np.minimum(rgb, 1) + 0.055) / 1.055) ** 2.4)
         em[k] *= rgb.mean(axis=0)
     return em
-
-
-def kernel_materials(materials: np.ndarray) -> np.ndarray:
-    m = materials
-    base = np.clip(np.nan_to_num(m["base_color"], nan=0.0), 0.0, 1.0)
-    metallic = np.clip(np.nan_to_num(m["metallic"], nan=0.0), 0.0, 1.0)
-    transmission = np.clip(np.nan_to_num(m["transmission"], nan=0.0), 0.0, 1.0)
-    rough = np.nan_to_num(m["roughness"], nan=0.5)
-    emission = np.maximum(np.nan_to_num(m["emission"], nan=0.0, posinf=0.0), 0.0)
-    ior = np.nan_to_num(m["ior"], nan=1.5)
-    ior = np.where(np.abs(ior - 1.0) < 1e-4, 1.0001, np.clip(ior, 1e-3, 1e3))
-
-    mirror_metal = rough < SPECULAR_ROUGHNESS
-    p_metal = np.where(mirror_metal, metallic, 0.0)
-    p_glass = (1.0 - metallic) * transmission
-    p_diffuse = 1.0 - p_metal - p_glass
-
-    k = np.zeros(m.shape[0], KMATERIAL_DTYPE)
-    k["diffuse"] = base
-    k["specular"] = base
-    k["transmit"] = base
-    k["emission"] = emission
-    k["ior"] = ior
-    k["p_metal"] = p_metal
-    k["p_glass"] = p_glass
-    flags = np.zeros(m.shape[0], np.uint32)
-    flags |= np.where(emission.max(axis=1) > 0, MAT_EMISSIVE, 0).astype(np.uint32)
-    flags |= np.where((p_diffuse > 1e-6) & (base.max(axis=1) > 0), MAT_DIFFUSE, 0).astype(np.uint32)
-    k["flags"] = flags
-    k["diffuse_tex"] = m["base_color_texture"]
-    k["emission_tex"] = m["emission_texture"]
-    # inside glass only: the medium is entered and left by refraction
-    sigma = np.nan_to_num(m["absorption"], nan=0.0, posinf=0.0).clip(0.0, 1e30)
-    k["absorption"] = np.where(p_glass[:, None] > 0, sigma, 0.0)
-    return k

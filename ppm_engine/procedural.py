@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .scene_arrays import (CAMERA_PERSP, LIGHT_DTYPE, MATERIAL_DTYPE, VIS_ALL, SceneArrays,
-                           make_camera, perspective_extent)
+from .scene_arrays import (CAMERA_PERSP, LIGHT_DTYPE, MATERIAL_DTYPE, NODE_DIFFUSE,
+                           NODE_PRINCIPLED, SHADER_NODE_DTYPE, VIS_ALL, SceneArrays, make_camera,
+                           perspective_extent, shader_node)
 
 
 class MeshBuilder:
@@ -14,18 +15,32 @@ class MeshBuilder:
     def __init__(self):
         self.pos, self.nrm, self.mat = [], [], []
         self.materials = []
+        self.nodes = []
         self.names = []
 
     def material(self, name, base=(0.8, 0.8, 0.8), emission=(0, 0, 0), metallic=0.0,
                  roughness=1.0, transmission=0.0, ior=1.5, absorption=(0, 0, 0)) -> int:
+        """A Principled BSDF without its specular layer (IOR Level 0): a Lambert base of colour
+        ``base``, a metal of reflectance ``base`` (metallic), glass (transmission) and
+        emission."""
+        return self.shader(name, [dict(type=NODE_PRINCIPLED, color=base, emission=emission,
+                                       metallic=metallic, roughness=roughness,
+                                       transmission=transmission, ior=ior,
+                                       specular_ior_level=0.0)], absorption)
+
+    def diffuse(self, name, color=(0.8, 0.8, 0.8)) -> int:
+        return self.shader(name, [dict(type=NODE_DIFFUSE, color=color)])
+
+    def shader(self, name, nodes, absorption=(0, 0, 0)) -> int:
+        """A material of BSDF nodes: dicts of SHADER_NODE_DTYPE fields (type required, Blender's
+        defaults for the rest; scene_arrays.shader_node)."""
+        k = len(self.materials)
         m = np.zeros(1, MATERIAL_DTYPE)
-        m["base_color"], m["emission"] = base, emission
-        m["metallic"], m["roughness"] = metallic, roughness
-        m["transmission"], m["ior"] = transmission, ior
         m["absorption"] = absorption
         self.materials.append(m)
+        self.nodes.extend(shader_node(material=k, **n) for n in nodes)
         self.names.append(name)
-        return len(self.materials) - 1
+        return k
 
     def add(self, tris, mat, normals=None):
         tris = np.asarray(tris, np.float32).reshape(-1, 3, 3)
@@ -77,11 +92,15 @@ class MeshBuilder:
         pos = np.concatenate(self.pos) if self.pos else np.zeros((0, 3, 3), np.float32)
         nrm = np.concatenate(self.nrm) if self.nrm else np.zeros((0, 3, 3), np.float32)
         mat = np.concatenate(self.mat) if self.mat else np.zeros(0, np.int32)
-        mats = np.concatenate(self.materials) if self.materials else np.zeros(1, MATERIAL_DTYPE)
+        if self.materials:
+            mats = np.concatenate(self.materials)
+            nodes = np.concatenate(self.nodes) if self.nodes else np.zeros(0, SHADER_NODE_DTYPE)
+        else:
+            mats, nodes = np.zeros(1, MATERIAL_DTYPE), shader_node(NODE_DIFFUSE)
         t = pos.shape[0]
         return SceneArrays(positions=pos, normals=nrm, uvs=np.zeros((t, 3, 2), np.float32),
                            material=mat, visibility=np.full(t, VIS_ALL, np.uint32),
-                           materials=mats, lights=lights if lights is not None
+                           materials=mats, shader_nodes=nodes, lights=lights if lights is not None
                            else np.zeros(0, LIGHT_DTYPE), camera=camera,
                            world=np.asarray(world, np.float32),
                            material_names=tuple(self.names))

@@ -70,7 +70,7 @@ class Renderer:
         self.photons = PhotonPass(self.scene, programs.get("photon_pass.cl", self.defines),
                                   self.photon_map, self.counters)
         self.hash_build = HashBuild(dev, self.photon_map, self.counters)
-        self.gather = Gather(dev, self.photon_map)
+        self.gather = Gather(dev, self.photon_map, self.scene, self.defines)
         self.update = ProgressiveUpdate(dev, self.film)
         self.photons_needed = (self.scene.photons_useful(o.max_bounces)
                                or not o.skip_unneeded_photon_pass)
@@ -126,7 +126,7 @@ class Renderer:
             emitted = self.photons_per_pass
             events += self.photons.enqueue(q, pass_index, o, emitted)
             events += self.hash_build.build(q, pass_index, o.seed)
-            events += self.gather.enqueue(q, v.pos, v.nrm, film.radius, v.gathered, n)
+            events += self.gather.enqueue(q, v.pos, v.nrm, v.shade, film.radius, v.gathered, n)
             events += self.update.update(q, v.pos, v.beta, v.gathered, o.alpha)
         events += self.update.add_sample(q, v.gathered, emitted)
         converge = self.update.due(pass_index + 1, o.noise_threshold)

@@ -39,22 +39,115 @@ LIGHT_HIDDEN_SHIFT = 8
 CAMERA_PERSP = 0
 CAMERA_ORTHO = 1
 
+# A material: its BSDF nodes are rows of ``SceneArrays.shader_nodes`` (material = its index);
+# what belongs to the material as a whole is here.
 MATERIAL_DTYPE = np.dtype([
-    ("base_color", np.float32, 3),    # linear RGB albedo
-    ("emission", np.float32, 3),      # emitted radiance (colour x strength), W/(m^2 sr)
-    ("metallic", np.float32),
-    ("roughness", np.float32),
-    ("transmission", np.float32),     # Principled "Transmission Weight"
-    ("ior", np.float32),
-    # 1-based index into ``SceneArrays.textures`` (0 = none): the texture's linear RGB multiplies
-    # base_color (albedo, metal and glass tints), respectively emission, at the hit's UV
-    ("base_color_texture", np.int32),
-    ("emission_texture", np.int32),
     # the material's Volume: homogeneous absorption inside the closed mesh, per metre (world
     # units), RGB; entered and left by refraction (Cycles' Volume Absorption: (1 - colour) x
     # density)
     ("absorption", np.float32, 3),
 ])
+
+# BSDF node types (kernels/types.h NODE_*)
+NODE_PRINCIPLED = 0
+NODE_DIFFUSE = 1
+NODE_GLOSSY = 2         # Glossy BSDF (GGX or Multiscatter GGX; anisotropy in [-1, 1])
+NODE_METALLIC = 3       # Metallic BSDF (F82 tint, or a physical conductor)
+NODE_GLASS = 4
+NODE_REFRACTION = 5
+NODE_TRANSLUCENT = 6
+NODE_TRANSPARENT = 7
+NODE_SHEEN = 8
+NODE_EMISSION = 9
+NODE_HOLDOUT = 10
+NODE_TYPES = ("principled", "diffuse", "glossy", "metallic", "glass", "refraction", "translucent",
+              "transparent", "sheen", "emission", "holdout")
+NODE_FLAG_MULTI_GGX = 1     # multiple scattering compensated ("Multiscatter GGX")
+NODE_FLAG_CONDUCTOR = 2     # Metallic BSDF, Physical Conductor: color = n, edge_tint = k
+
+# One BSDF node of a material, its inputs constant (textures: 1-based into ``textures``, the
+# texture's value multiplies the input).  The Mix and Add Shader nodes on its way to the output
+# are folded into ``weight``.  Fields a node type has no input for are ignored.
+SHADER_NODE_DTYPE = np.dtype([
+    ("material", np.int32),
+    ("type", np.int32),                 # NODE_*
+    ("flags", np.uint32),               # NODE_FLAG_*
+    ("weight", np.float32),             # mix weight
+    ("color", np.float32, 3),           # Base Color / Color (linear RGB); conductor: n
+    ("edge_tint", np.float32, 3),       # Principled Specular Tint, Metallic Edge Tint; conductor: k
+    ("emission", np.float32, 3),        # emission colour x strength, W/(m^2 sr)
+    ("coat_tint", np.float32, 3),
+    ("sheen_tint", np.float32, 3),
+    ("roughness", np.float32),
+    ("metallic", np.float32),
+    ("ior", np.float32),
+    ("alpha", np.float32),
+    ("transmission", np.float32),       # Principled "Transmission Weight"
+    ("specular_ior_level", np.float32),
+    ("anisotropic", np.float32),
+    ("anisotropic_rotation", np.float32),
+    ("coat_weight", np.float32),
+    ("coat_roughness", np.float32),
+    ("coat_ior", np.float32),
+    ("sheen_weight", np.float32),
+    ("sheen_roughness", np.float32),
+    ("subsurface_weight", np.float32),
+    ("diffuse_roughness", np.float32),
+    ("color_texture", np.int32),
+    ("emission_texture", np.int32),
+    ("alpha_texture", np.int32),        # the texture's alpha channel multiplies ``alpha``
+])
+
+
+# Blender 4.x/5.0's defaults of the inputs that differ from shader_node's base values, per type
+_NODE_DEFAULTS = {
+    NODE_PRINCIPLED: dict(roughness=0.5, flags=NODE_FLAG_MULTI_GGX),
+    NODE_GLOSSY: dict(roughness=0.5, flags=NODE_FLAG_MULTI_GGX),
+    NODE_METALLIC: dict(roughness=0.5, flags=NODE_FLAG_MULTI_GGX, color=(0.617, 0.577, 0.54),
+                        edge_tint=(0.695, 0.726, 0.77)),
+    NODE_GLASS: dict(color=1.0, flags=NODE_FLAG_MULTI_GGX),
+    NODE_REFRACTION: dict(color=1.0, ior=1.45),
+    NODE_TRANSPARENT: dict(color=1.0),
+    NODE_SHEEN: dict(roughness=0.5),
+    NODE_EMISSION: dict(color=1.0),
+}
+
+
+def shader_node(type: int, material: int = 0, weight: float = 1.0, **inputs) -> np.ndarray:
+    """One SHADER_NODE_DTYPE row with Blender's defaults for the inputs not given (each node
+    as it is added in Blender 4.x/5.0)."""
+    n = np.zeros(1, SHADER_NODE_DTYPE)
+    n["material"], n["type"], n["weight"] = material, type, weight
+    n["color"] = 0.8
+    n["edge_tint"] = n["coat_tint"] = n["sheen_tint"] = 1.0
+    n["ior"] = 1.5
+    n["alpha"] = 1.0
+    n["specular_ior_level"] = 0.5
+    n["coat_roughness"] = 0.03
+    n["coat_ior"] = 1.5
+    n["sheen_roughness"] = 0.5
+    for k, v in {**_NODE_DEFAULTS.get(type, {}), **inputs}.items():
+        n[k] = v
+    return n
+
+
+# The material fields of files written before the shader nodes (a Principled BSDF's inputs);
+# SceneArrays.load turns them into one Principled node each, without its specular layer (the
+# model those files were rendered with).
+_LEGACY_MATERIAL_FIELDS = ("base_color", "emission", "metallic", "roughness", "transmission",
+                           "ior", "base_color_texture", "emission_texture")
+
+
+def legacy_nodes(materials: np.ndarray) -> np.ndarray:
+    rows = []
+    for i, m in enumerate(materials):
+        rows.append(shader_node(
+            NODE_PRINCIPLED, i, color=m["base_color"], emission=m["emission"],
+            metallic=m["metallic"], roughness=m["roughness"], transmission=m["transmission"],
+            ior=m["ior"], specular_ior_level=0.0, color_texture=m["base_color_texture"],
+            emission_texture=m["emission_texture"]))
+    return np.concatenate(rows) if rows else np.zeros(0, SHADER_NODE_DTYPE)
+
 
 # Image textures: texels of every texture one after another in ``SceneArrays.texels``, (N, 4)
 # float16 RGBA (linear, or sRGB-encoded with TEX_FLAG_SRGB), rows bottom-up as Blender stores
@@ -122,6 +215,7 @@ class SceneArrays:
     material: np.ndarray           # (T,) int32 index into ``materials``
     visibility: np.ndarray         # (T,) uint32 VIS_* bits
     materials: np.ndarray          # (M,) MATERIAL_DTYPE, M >= 1
+    shader_nodes: np.ndarray       # (K,) SHADER_NODE_DTYPE, ordered by material
     lights: np.ndarray             # (L,) LIGHT_DTYPE
     camera: np.ndarray             # (1,) CAMERA_DTYPE
     world: np.ndarray              # (3,) float32 background radiance (colour x strength)
@@ -165,8 +259,8 @@ class SceneArrays:
             if a.shape != shape or a.dtype != dtype:
                 raise ValueError(f"SceneArrays.{name}: expected {dtype.__name__}{shape}, "
                                  f"got {a.dtype}{a.shape}")
-        for name, dt in (("materials", MATERIAL_DTYPE), ("lights", LIGHT_DTYPE),
-                         ("camera", CAMERA_DTYPE)):
+        for name, dt in (("materials", MATERIAL_DTYPE), ("shader_nodes", SHADER_NODE_DTYPE),
+                         ("lights", LIGHT_DTYPE), ("camera", CAMERA_DTYPE)):
             a = getattr(self, name)
             if a.dtype != dt or a.ndim != 1:
                 raise ValueError(f"SceneArrays.{name}: expected a 1-D array of its dtype")
@@ -183,10 +277,16 @@ class SceneArrays:
                         or (tx["offset"].astype(np.int64) + tx["width"].astype(np.int64)
                             * tx["height"] > self.texels.shape[0]).any()):
             raise ValueError("SceneArrays.textures: a texture lies outside the texels")
-        for field in ("base_color_texture", "emission_texture"):
-            k = self.materials[field]
+        nodes = self.shader_nodes
+        for field in ("color_texture", "emission_texture", "alpha_texture"):
+            k = nodes[field]
             if k.size and (k.min() < 0 or k.max() > tx.shape[0]):
-                raise ValueError(f"SceneArrays.materials['{field}'] names a missing texture")
+                raise ValueError(f"SceneArrays.shader_nodes['{field}'] names a missing texture")
+        m = nodes["material"]
+        if m.size and (m.min() < 0 or m.max() >= self.materials.shape[0]
+                       or (np.diff(m) < 0).any()):
+            raise ValueError("SceneArrays.shader_nodes: material indexes outside the material "
+                             "table or out of order")
         if t and (self.material.min() < 0 or self.material.max() >= self.materials.shape[0]):
             raise ValueError("SceneArrays.material indexes outside the material table")
         w, h = self.resolution
@@ -205,22 +305,37 @@ class SceneArrays:
     def load(cls, path: str | Path) -> "SceneArrays":
         with np.load(path, allow_pickle=False) as z:
             kw = {k: z[k] for k in z.files}
+        mats = kw.get("materials")
+        if "shader_nodes" not in kw and mats is not None and mats.dtype.names \
+                and set(_LEGACY_MATERIAL_FIELDS) <= set(mats.dtype.names):
+            kw["shader_nodes"] = legacy_nodes(mats)
+            kw["materials"] = _with_fields(mats, MATERIAL_DTYPE)
         # files written before a field existed: the missing fields are zero (their default)
         for name, dt in (("materials", MATERIAL_DTYPE), ("lights", LIGHT_DTYPE),
                          ("camera", CAMERA_DTYPE)):
             a = kw.get(name)
             if a is not None and a.dtype.names and a.dtype != dt \
                     and set(a.dtype.names) < set(dt.names):
-                new = np.zeros(a.shape, dt)
-                for field in a.dtype.names:
-                    new[field] = a[field]
-                kw[name] = new
+                kw[name] = _with_fields(a, dt)
         kw["material_names"] = tuple(str(s) for s in kw.get("material_names", ()))
         kw["warnings"] = tuple(str(s) for s in kw.get("warnings", ()))
         return cls(**kw)
 
     def replace(self, **changes) -> "SceneArrays":
         return dataclasses.replace(self, **changes)
+
+    def nodes_of(self, material: int | str) -> np.ndarray:
+        """The BSDF nodes of a material (its index or name)."""
+        k = self.material_names.index(material) if isinstance(material, str) else material
+        return self.shader_nodes[self.shader_nodes["material"] == k]
+
+
+def _with_fields(a: np.ndarray, dt: np.dtype) -> np.ndarray:
+    """``a`` as dtype ``dt``: the fields both have copied, the others zero."""
+    new = np.zeros(a.shape, dt)
+    for field in set(a.dtype.names) & set(dt.names):
+        new[field] = a[field]
+    return new
 
 
 def make_camera(*, type=CAMERA_PERSP, width, height, to_world, extent, shift=(0.0, 0.0),

@@ -11,13 +11,18 @@ from .scene_arrays import SceneArrays
 
 
 def check_finite(scene: SceneArrays) -> None:
-    """Refuse NaN/Inf in the camera, a material or the world with a SceneError naming it."""
-    for name in ("camera", "materials"):
+    """Refuse NaN/Inf in the camera, a material (its BSDF nodes' inputs included) or the world
+    with a SceneError naming it."""
+    for name in ("camera", "materials", "shader_nodes"):
         a = getattr(scene, name)
         for field in a.dtype.names:
+            if a.dtype[field].base.kind != "f":
+                continue
             bad = ~np.isfinite(a[field]).reshape(len(a), -1).all(axis=1)
-            if a.dtype[field].kind == "f" and bad.any():
+            if bad.any():
                 k = int(np.nonzero(bad)[0][0])
+                if name == "shader_nodes":
+                    k = int(a["material"][k])
                 what = "camera" if name == "camera" else (
                     f"material '{scene.material_names[k]}'" if k < len(scene.material_names)
                     else f"material {k}")

@@ -104,10 +104,11 @@ def emits_nothing(arrays) -> bool:
     """No light with power, no emissive triangle, a black world: the image is black.  (NaN in
     the camera, the world or a material is refused first, as the renderer would.)"""
     from .emitters import emits_light
-    from .materials import kernel_materials
+    from .materials import kernel_materials, kernel_nodes
     from .scene_prep import check_finite
     check_finite(arrays)
-    return not emits_light(arrays, kernel_materials(arrays.materials))
+    return not emits_light(arrays, kernel_materials(arrays.materials,
+                                                    kernel_nodes(arrays.shader_nodes)))
 
 
 class Session:

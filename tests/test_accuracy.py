@@ -91,7 +91,7 @@ def test_absorbing_glass_slab_matches_beer_lambert():
                  RenderOptions(photons_per_pass=1 << 15, max_bounces=2, seed=1))
     assert "PPM_ABSORPTION" in r.features
     clear = Renderer(A.glass_slab(W), RenderOptions(photons_per_pass=1024))
-    assert "PPM_GLASS" in clear.features and "PPM_ABSORPTION" not in clear.features
+    assert "PPM_MICROFACET" in clear.features and "PPM_ABSORPTION" not in clear.features
     clear.close()
     for _ in range(150):
         s = r.iterate()

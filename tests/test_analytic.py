@@ -5,6 +5,7 @@ standard error of the mean."""
 import numpy as np
 import pytest
 
+from ppm_engine.device import SHADING_GROUP, global_size
 from ppm_engine.options import RenderOptions
 from ppm_engine.procedural import MeshBuilder, look_at
 from ppm_engine.renderer import Renderer
@@ -254,14 +255,15 @@ def test_lights_are_seen_by_the_camera_like_in_cycles():
 
 
 def direct_light(scene, pts, nrm, samples):
-    """The eye pass's direct-light estimate (debug.cl direct_light: NEE + BSDF sample with MIS,
+    """The eye pass's direct-light estimate (debug.cl direct_light_at: NEE + BSDF sample with MIS,
     averaged over ``samples``) at points pts with normals nrm, (n, 4) float32 each."""
     import pyopencl as cl
     r = Renderer(scene, RenderOptions(max_bounces=0))
     dev, n = r.device, len(pts)
     out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * n)
-    dev.programs.get("debug.cl").direct_light(
-        dev.queue, (n,), None, *r.scene.args.values(), dev.upload(pts, "p"),
+    dev.programs.get("debug.cl").direct_light_at(
+        dev.queue, (global_size(n, SHADING_GROUP),), (SHADING_GROUP,), *r.scene.args.values(),
+        dev.upload(pts, "p"),
         dev.upload(nrm, "n"), np.int32(samples), out, np.uint32(n))
     got = np.empty((n, 4), np.float32)
     cl.enqueue_copy(dev.queue, got, out)
@@ -328,7 +330,9 @@ def test_an_emitter_that_casts_no_shadow_lights_as_much():
     from ppm_engine.procedural import cornell_box
     from ppm_engine.scene_arrays import VIS_SHADOW
     scene = cornell_box(8, 8)
-    lamp = scene.materials["emission"].max(axis=1)[scene.material] > 0
+    emits = np.zeros(scene.materials.shape[0])
+    np.maximum.at(emits, scene.shader_nodes["material"], scene.shader_nodes["emission"].max(axis=1))
+    lamp = emits[scene.material] > 0
     vis = scene.visibility.copy()
     vis[lamp] &= ~np.uint32(VIS_SHADOW)
     n = 4096

@@ -11,7 +11,11 @@ from ppm_engine.errors import SceneError  # noqa: E402
 from ppm_engine.export import export_scene  # noqa: E402
 from ppm_engine.scene_arrays import (CAMERA_ORTHO, LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT,  # noqa: E402
                                      LIGHT_FLAG_SOFT_FALLOFF, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN,
-                                     VIS_CAMERA, VIS_SHADOW, SceneArrays)
+                                     NODE_DIFFUSE, NODE_EMISSION, NODE_FLAG_CONDUCTOR,
+                                     NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT, NODE_METALLIC,
+                                     NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN,
+                                     NODE_TRANSLUCENT, NODE_TRANSPARENT, VIS_CAMERA, VIS_SHADOW,
+                                     SceneArrays)
 
 
 @pytest.fixture
@@ -122,19 +126,123 @@ def test_principled_emission_and_fallback_materials(empty):
     for i, m in enumerate((p, e, d)):
         add_plane(f"P{i}", m, loc=(3 * i, 0, 0))
     s = export()
-    mats = dict(zip(s.material_names, s.materials))
-    g = mats["Gold"]
-    np.testing.assert_allclose(g["base_color"], (0.9, 0.6, 0.2), rtol=1e-6)
+    (g,) = s.nodes_of("Gold")
+    assert g["type"] == NODE_PRINCIPLED
+    np.testing.assert_allclose(g["color"], (0.9, 0.6, 0.2), rtol=1e-6)
     assert g["metallic"] == 1.0 and g["roughness"] == pytest.approx(0.1)
     np.testing.assert_allclose(g["emission"], (2, 0, 0))
-    np.testing.assert_allclose(mats["Glow"]["emission"], (2.5, 5, 5))
-    np.testing.assert_allclose(mats["Glow"]["base_color"], 0)
-    np.testing.assert_allclose(mats["Toon"]["base_color"], 0.8)
+    (glow,) = s.nodes_of("Glow")
+    assert glow["type"] == NODE_EMISSION
+    np.testing.assert_allclose(glow["emission"], (2.5, 5, 5))
+    (toon,) = s.nodes_of("Toon")
+    assert toon["type"] == NODE_DIFFUSE
+    np.testing.assert_allclose(toon["color"], 0.8)
     assert sum("Toon" in w for w in s.warnings) == 1
     # per-triangle material follows the object
     for i, name in enumerate(("Gold", "Glow", "Toon")):
         tris = np.abs(s.positions[:, :, 0].mean(1) - 3 * i) < 1.5
         assert (np.array(s.material_names)[s.material[tris]] == name).all()
+
+
+def _node_material(name, build):
+    """A material whose surface is what build(tree, output_socket) links into it."""
+    m = bpy.data.materials.new(name)
+    t = m.node_tree
+    t.nodes.remove(t.nodes["Principled BSDF"])
+    build(t, t.nodes["Material Output"].inputs["Surface"])
+    return m
+
+
+def test_mix_and_add_shaders_fold_into_node_weights(empty):
+    """Mix Shader weights (1 - fac, fac) and Add Shader sums propagate into every BSDF node's
+    weight, through reroutes and nested mixes, as Cycles propagates them into closures."""
+    def build(t, out):
+        d = t.nodes.new("ShaderNodeBsdfDiffuse")
+        d.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1)
+        d.inputs["Roughness"].default_value = 0.3
+        g = t.nodes.new("ShaderNodeBsdfAnisotropic")
+        g.inputs["Roughness"].default_value = 0.25
+        g.distribution = "GGX"
+        e = t.nodes.new("ShaderNodeEmission")
+        e.inputs["Strength"].default_value = 4.0
+        mix = t.nodes.new("ShaderNodeMixShader")
+        mix.inputs[0].default_value = 0.3
+        add = t.nodes.new("ShaderNodeAddShader")
+        r = t.nodes.new("NodeReroute")
+        t.links.new(d.outputs[0], mix.inputs[1])
+        t.links.new(g.outputs[0], r.inputs[0])
+        t.links.new(r.outputs[0], mix.inputs[2])
+        t.links.new(mix.outputs[0], add.inputs[0])
+        t.links.new(e.outputs[0], add.inputs[1])
+        t.links.new(add.outputs[0], out)
+    add_plane("P", _node_material("Mixed", build))
+    s = export()
+    nodes = s.nodes_of("Mixed")
+    assert [int(n["type"]) for n in nodes] == [NODE_DIFFUSE, NODE_GLOSSY, NODE_EMISSION]
+    np.testing.assert_allclose(nodes["weight"], (0.7, 0.3, 1.0), rtol=1e-6)
+    np.testing.assert_allclose(nodes[0]["color"], (0.2, 0.4, 0.6), rtol=1e-6)
+    assert nodes[0]["roughness"] == pytest.approx(0.3)
+    assert nodes[1]["roughness"] == pytest.approx(0.25) and nodes[1]["flags"] == 0
+    np.testing.assert_allclose(nodes[2]["emission"], 4.0)
+    assert not [w for w in s.warnings if "Mixed" in w]
+
+
+def test_every_bsdf_node_is_read(empty):
+    kinds = {}
+
+    def one(idname, **inputs):
+        def build(t, out):
+            n = t.nodes.new(idname)
+            for k, v in inputs.items():
+                if k == "fresnel_type":
+                    n.fresnel_type = v
+                else:
+                    n.inputs[k].default_value = v
+            t.links.new(n.outputs[0], out)
+        return build
+    specs = {
+        "Glass": (one("ShaderNodeBsdfGlass", IOR=1.33, Roughness=0.2), NODE_GLASS),
+        "Refr": (one("ShaderNodeBsdfRefraction", IOR=1.2, Roughness=0.0), NODE_REFRACTION),
+        "Transl": (one("ShaderNodeBsdfTranslucent"), NODE_TRANSLUCENT),
+        "Transp": (one("ShaderNodeBsdfTransparent"), NODE_TRANSPARENT),
+        "Sheen": (one("ShaderNodeBsdfSheen", Roughness=0.3), NODE_SHEEN),
+        "Hold": (one("ShaderNodeHoldout"), NODE_HOLDOUT),
+        "Metal": (one("ShaderNodeBsdfMetallic", fresnel_type="PHYSICAL_CONDUCTOR"), NODE_METALLIC),
+        "F82": (one("ShaderNodeBsdfMetallic"), NODE_METALLIC),
+        "SSS": (one("ShaderNodeSubsurfaceScattering"), NODE_DIFFUSE),
+    }
+    for i, (name, (build, kind)) in enumerate(specs.items()):
+        add_plane(name, _node_material(name, build), loc=(3 * i, 0, 0))
+        kinds[name] = kind
+    s = export()
+    for name, kind in kinds.items():
+        (n,) = s.nodes_of(name)
+        assert n["type"] == kind, name
+    assert s.nodes_of("Glass")[0]["ior"] == pytest.approx(1.33)
+    assert s.nodes_of("Refr")[0]["ior"] == pytest.approx(1.2)
+    metal = s.nodes_of("Metal")[0]
+    assert metal["flags"] & NODE_FLAG_CONDUCTOR
+    np.testing.assert_allclose(metal["color"], (2.757, 2.513, 2.231), rtol=1e-3)   # n
+    np.testing.assert_allclose(metal["edge_tint"], (3.867, 3.404, 3.009), rtol=1e-3)  # k
+    f82 = s.nodes_of("F82")[0]
+    assert not f82["flags"] & NODE_FLAG_CONDUCTOR
+    np.testing.assert_allclose(f82["edge_tint"], (0.695, 0.726, 0.77), rtol=1e-3)
+    assert sum("SSS" in w and "diffuse" in w for w in s.warnings) == 1
+
+
+def test_principled_alpha_from_an_image_alpha(empty):
+    img = bpy.data.images.new("A", 2, 2, alpha=True)
+    img.pixels = [1, 1, 1, 0.25] * 4
+    m = bpy.data.materials.new("Leaf")
+    t = m.node_tree
+    tex = t.nodes.new("ShaderNodeTexImage")
+    tex.image = img
+    t.links.new(tex.outputs["Alpha"], t.nodes["Principled BSDF"].inputs["Alpha"])
+    add_plane("P", m)
+    s = export()
+    (n,) = s.nodes_of("Leaf")
+    assert n["alpha_texture"] == 1 and n["alpha"] == 1.0 and n["color_texture"] == 0
+    np.testing.assert_allclose(s.texels[:, 3].astype(np.float32), 0.25, atol=1e-3)
 
 
 def test_material_slots_and_out_of_range_index(empty):
@@ -357,13 +465,15 @@ def test_glass_linked_input_dedup_and_empty_slots(empty):
     c.data.materials.append(None)                     # empty slot -> default grey
     s = export()
     assert s.material_names.count("Glass") == 1 and s.materials.shape[0] == 2
-    m = s.materials[s.material_names.index("Glass")]
+    (m,) = s.nodes_of("Glass")
     assert m["transmission"] == 1.0 and m["ior"] == pytest.approx(1.33) and m["roughness"] == 0.0
-    np.testing.assert_allclose(m["base_color"], 0.8)  # the unlinked default value
+    np.testing.assert_allclose(m["color"], 0.8)       # the unlinked default value
     assert sum("Glass" in w and "Base Color" in w for w in s.warnings) == 1
     cx = s.positions[:, :, 0].mean(1)
     assert (s.material[cx > 5] == 0).all() and (s.material[cx < 5] == 1).all()
-    np.testing.assert_allclose(s.materials[0]["base_color"], 0.8)
+    (d,) = s.nodes_of(0)                              # Cycles' default surface: grey diffuse
+    assert d["type"] == NODE_DIFFUSE
+    np.testing.assert_allclose(d["color"], 0.8)
     assert a.name == "A"
 
 

@@ -11,7 +11,7 @@ from ppm_engine.device import get_device, list_devices  # noqa: E402
 from ppm_engine.emitters import EMITTER_INFO_DTYPE  # noqa: E402
 from ppm_engine.materials import KMATERIAL_DTYPE  # noqa: E402
 from ppm_engine.counters import N_COUNTERS, Counter  # noqa: E402
-from ppm_engine.passes import Gather, HashBuild  # noqa: E402
+from ppm_engine.passes import Gather, HashBuild, unshaded  # noqa: E402
 from ppm_engine.photon_map import GRID_DTYPE, PhotonMap  # noqa: E402
 from ppm_engine.procedural import MeshBuilder, look_at  # noqa: E402
 from ppm_engine.scene_arrays import CAMERA_DTYPE, LIGHT_DTYPE, make_camera  # noqa: E402
@@ -219,7 +219,8 @@ def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None, exact=False,
     hb = HashBuild(device, pm, counters, cell_scale=cell_scale)
     hb.grid(q, vp_pos, rad, n_vp)
     return dict(pm=pm, hb=hb, gather=Gather(device, pm), ph=ph, flux=flux, up=up, wi=wi, vp=vp, radius=radius, counters=counters,
-                vp_pos=vp_pos, vp_nrm=vp_nrm, rad=rad, n_vp=n_vp)
+                vp_pos=vp_pos, vp_nrm=vp_nrm, vp_shade=unshaded(device, n_vp), rad=rad,
+                n_vp=n_vp)
 
 
 def test_grid_bounds_cover_visible_points(device):
@@ -290,7 +291,7 @@ def test_stochastic_gather_is_unbiased(device, table, cell_scale):
     est = np.zeros((trials, n_vp, 4))
     for t in range(trials):
         s["hb"].build(q, t, 11)
-        s["gather"].enqueue(q, s["vp_pos"], s["vp_nrm"], s["rad"], gathered, n_vp)
+        s["gather"].enqueue(q, s["vp_pos"], s["vp_nrm"], s["vp_shade"], s["rad"], gathered, n_vp)
         est[t] = _read(device, gathered, (n_vp, 4), np.float32)
     phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
                                       s["ph"], s["up"], s["wi"], s["flux"])
@@ -317,7 +318,7 @@ def test_exact_gather_equals_brute_force(device, table):
     pm, q, n_vp = s["pm"], device.queue, s["n_vp"]
     gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
     s["hb"].build(q, 0, 0)
-    s["gather"].enqueue(q, s["vp_pos"], s["vp_nrm"], s["rad"], gathered, n_vp)
+    s["gather"].enqueue(q, s["vp_pos"], s["vp_nrm"], s["vp_shade"], s["rad"], gathered, n_vp)
     got = _read(device, gathered, (n_vp, 4), np.float32)
     phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
                                       s["ph"], s["up"], s["wi"], s["flux"])

@@ -8,7 +8,7 @@ from ppm_engine.errors import DeviceError
 from ppm_engine.options import RenderOptions, SettingsError
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import SceneArrays, make_camera
+from ppm_engine.scene_arrays import NODE_PRINCIPLED, SceneArrays, make_camera
 
 
 @pytest.mark.parametrize("bad", [dict(passes=-1), dict(passes=0), dict(alpha=0.0),
@@ -167,17 +167,28 @@ def test_pixel_filter_table_samples_cycles_blackman_harris():
     assert t.var() == pytest.approx(var, rel=0.02)
 
 
-def test_scene_arrays_from_before_a_material_field_existed(tmp_path):
-    """A .npz written before MATERIAL_DTYPE had 'absorption' loads with it zero."""
+def test_scene_arrays_from_before_the_shader_nodes(tmp_path):
+    """A .npz written before the BSDF nodes (one Principled's inputs per material, no
+    absorption) loads as one Principled node per material without its specular layer (the
+    model it was rendered with) and no absorption."""
     s = cornell_box(8, 8)
     s.save(tmp_path / "new.npz")
     with np.load(tmp_path / "new.npz") as z:
-        arrays = {k: z[k] for k in z.files}
-    old = arrays["materials"]
-    names = [n for n in old.dtype.names if n != "absorption"]
-    arrays["materials"] = np.array([tuple(row[n] for n in names) for row in old],
-                                   dtype=[(n, old.dtype[n]) for n in names])
+        arrays = {k: z[k] for k in z.files if k != "shader_nodes"}
+    old_dt = [("base_color", np.float32, 3), ("emission", np.float32, 3),
+              ("metallic", np.float32), ("roughness", np.float32), ("transmission", np.float32),
+              ("ior", np.float32), ("base_color_texture", np.int32),
+              ("emission_texture", np.int32)]
+    old = np.zeros(s.materials.shape[0], old_dt)
+    for k in range(old.shape[0]):
+        (n,) = s.nodes_of(k)
+        old[k] = (n["color"], n["emission"], n["metallic"], n["roughness"], n["transmission"],
+                  n["ior"], 0, 0)
+    arrays["materials"] = old
     np.savez(tmp_path / "old.npz", **arrays)
     t = SceneArrays.load(tmp_path / "old.npz")
     assert t.materials.dtype == s.materials.dtype and (t.materials["absorption"] == 0).all()
-    np.testing.assert_array_equal(t.materials["base_color"], s.materials["base_color"])
+    assert (t.shader_nodes["type"] == NODE_PRINCIPLED).all()
+    assert (t.shader_nodes["specular_ior_level"] == 0).all()
+    for f in ("material", "color", "emission", "metallic", "roughness", "transmission", "ior"):
+        np.testing.assert_array_equal(t.shader_nodes[f], s.shader_nodes[f])

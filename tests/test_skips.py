@@ -51,8 +51,8 @@ def _features(scene):
 def test_features_follow_the_scene():
     point = _light(LIGHT_POINT, (10, 10, 10))
     assert _features(_room(point)) == {"PPM_LIGHT_POINT"}
-    assert _features(_room(point, glass=True)) == {"PPM_LIGHT_POINT", "PPM_SPECULAR", "PPM_GLASS"}
-    assert _features(_room(point, mirror=True)) == {"PPM_LIGHT_POINT", "PPM_SPECULAR"}
+    assert _features(_room(point, glass=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET"}
+    assert _features(_room(point, mirror=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET"}
     assert _features(_room(point, aperture=0.05)) == {"PPM_LIGHT_POINT", "PPM_DOF"}
     assert _features(_room(point, world=(0.2, 0.2, 0.2))) == {"PPM_LIGHT_POINT", "PPM_WORLD"}
     sun = _light(LIGHT_SUN, (3, 3, 3), direction=(0.3, 0.2, -1))
@@ -67,7 +67,7 @@ def test_features_follow_the_scene():
     both = np.concatenate([point, _light(LIGHT_SUN, (0, 0, 0))])
     assert _features(_room(both)) == {"PPM_LIGHT_POINT"}
     assert _features(cornell_box(8, 8)) == {"PPM_EMISSIVE"}
-    assert _features(cornell_box(8, 8, bulb=True)) == {"PPM_EMISSIVE", "PPM_SPECULAR", "PPM_GLASS"}
+    assert _features(cornell_box(8, 8, bulb=True)) == {"PPM_EMISSIVE", "PPM_MICROFACET"}
 
 
 def test_specialised_kernels_are_separate_programs():

@@ -13,7 +13,7 @@ from ppm_engine.device import get_device  # noqa: E402
 from ppm_engine.errors import DeviceError  # noqa: E402
 from ppm_engine.options import RenderOptions  # noqa: E402
 from ppm_engine.counters import N_COUNTERS, Counter  # noqa: E402
-from ppm_engine.passes import Gather, HashBuild  # noqa: E402
+from ppm_engine.passes import Gather, HashBuild, unshaded  # noqa: E402
 from ppm_engine.photon_map import PhotonMap  # noqa: E402
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at  # noqa: E402
 from ppm_engine.renderer import Renderer  # noqa: E402
@@ -181,7 +181,7 @@ def _map(device, ph, vp, radius, exact=False, wi=None):
     hb = HashBuild(device, pm, counters)
     hb.grid(q, vp_pos, rad, n_vp)
     hb.build(q, 0, 3)
-    Gather(device, pm).enqueue(q, vp_pos, vp_nrm, rad, gathered, n_vp)
+    Gather(device, pm).enqueue(q, vp_pos, vp_nrm, unshaded(device, n_vp), rad, gathered, n_vp)
     got = np.empty((n_vp, 4), np.float32)
     cl.enqueue_copy(q, got, gathered)
     M_ref = ref.gather_exact(vp, np.tile([0, 0, 1.0], (n_vp, 1)), np.asarray(radius, np.float32),

@@ -56,8 +56,8 @@ def _export():
 def test_srgb_image_on_base_color_is_kept_encoded_and_flagged():
     _scene_with_texture()
     a = _export()
-    mat = a.materials[a.material_names.index("Textured")]
-    assert mat["base_color_texture"] == 1 and tuple(mat["base_color"]) == (1, 1, 1)
+    (mat,) = a.nodes_of("Textured")
+    assert mat["color_texture"] == 1 and tuple(mat["color"]) == (1, 1, 1)
     t = a.textures[0]
     assert (t["width"], t["height"], t["offset"]) == (4, 2, 0)
     assert t["flags"] == TEX_REPEAT | TEX_FLAG_SRGB          # decoded by the kernel
@@ -70,8 +70,8 @@ def test_float_image_on_emission_is_linear_and_modes_are_kept():
     _scene_with_texture("Emission Color", float_image=True, extension="CLIP",
                         interpolation="Closest")
     a = _export()
-    mat = a.materials[a.material_names.index("Textured")]
-    assert mat["emission_texture"] == 1 and mat["base_color_texture"] == 0
+    (mat,) = a.nodes_of("Textured")
+    assert mat["emission_texture"] == 1 and mat["color_texture"] == 0
     np.testing.assert_allclose(mat["emission"], 3.0)                  # strength x white
     assert a.textures[0]["flags"] == TEX_CLIP | TEX_FLAG_CLOSEST
     np.testing.assert_allclose(a.texels.astype(np.float32).reshape(2, 4, 4), PIXELS, rtol=1e-3)
@@ -101,8 +101,8 @@ def test_external_image_file_and_a_missing_one(tmp_path):
     a = _export()
     assert any("Textured" in w and "no-such-file.png" in w and "magenta" in w
                for w in a.warnings), a.warnings
-    mat = a.materials[a.material_names.index("Textured")]
-    assert mat["base_color_texture"] == 0 and tuple(mat["base_color"]) == (1, 0, 1)
+    (mat,) = a.nodes_of("Textured")
+    assert mat["color_texture"] == 0 and tuple(mat["color"]) == (1, 0, 1)
 
 
 def _bilinear(tex, uv):
@@ -133,11 +133,11 @@ def test_kernel_lookup_equals_bilinear_reference():
     scene = mb.build(camera=cam)
     # corners (-1,-1), (1,-1), (1,1) and (-1,-1), (1,1), (-1,1) -> uv = 0.75 (p + 1)
     uv = 0.75 * (scene.positions[..., :2] + 1)
-    mats = scene.materials.copy()
-    mats["emission_texture"] = 1
+    nodes = scene.shader_nodes.copy()
+    nodes["emission_texture"] = 1
     tx = np.zeros(1, TEXTURE_DTYPE)
     tx["width"], tx["height"] = 5, 3
-    scene = scene.replace(uvs=uv.astype(np.float32), materials=mats, textures=tx,
+    scene = scene.replace(uvs=uv.astype(np.float32), shader_nodes=nodes, textures=tx,
                           texels=tex.reshape(-1, 4))
     r = Renderer(scene, RenderOptions(photons_per_pass=64, max_bounces=0))
     assert "PPM_TEXTURES" in r.features

@@ -45,6 +45,7 @@ def test_wheel_holds_every_subpackage_and_the_kernels(wheel):
         assert rel in names, f"{rel} is missing from the wheel (pyproject.toml packages)"
     kernels = sorted(p.name for p in (REPO / "kernels").iterdir() if p.suffix in (".cl", ".h"))
     assert kernels and all(f"ppm_engine/kernels/{k}" in names for k in kernels)
+    assert "ppm_engine/data/shading_tables.npz" in names         # the closures' tables
     assert not any(n.startswith(("tests/", "docs/", "kernels/")) for n in names)
 
 

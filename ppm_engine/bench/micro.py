@@ -17,7 +17,7 @@ from ..bvh import BVH
 from ..counters import N_COUNTERS, Counter
 from ..device import get_device
 from ..options import RenderOptions
-from ..passes import Gather, HashBuild
+from ..passes import Gather, HashBuild, unshaded
 from ..photon_map import GRID_DTYPE, PhotonMap
 from ..procedural import MeshBuilder, cornell_box, look_at
 from ..reference import pack_unit
@@ -75,6 +75,7 @@ def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
     pm, hb, counters, (vp_pos, vp_nrm, radius, gathered) = _synthetic_photons(
         device, n_photons, n_vp, rng)
     gather_pass = Gather(device, pm)
+    shade = unshaded(device, n_vp)
     import pyopencl as cl
     q = device.queue
     it = iter(range(10 ** 9))
@@ -86,7 +87,7 @@ def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
         return _events_ms([e for _, e in evs])
 
     def gather():
-        evs = gather_pass.enqueue(q, vp_pos, vp_nrm, radius, gathered, n_vp)
+        evs = gather_pass.enqueue(q, vp_pos, vp_nrm, shade, radius, gathered, n_vp)
         q.finish()
         return _events_ms([e for _, e in evs])
 

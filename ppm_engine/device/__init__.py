@@ -1,7 +1,7 @@
 """OpenCL devices: discovery, one context/queue per device (reused), programs built once,
 kernels launched with arguments bound by name."""
 from .context import Device, DeviceInfo, get_device, list_devices
-from .program import Launch, global_size, kernel_dir
+from .program import SHADING_GROUP, Launch, global_size, kernel_dir
 
 __all__ = ["Device", "DeviceInfo", "get_device", "list_devices", "Launch", "global_size",
-           "kernel_dir"]
+           "SHADING_GROUP", "kernel_dir"]

@@ -22,6 +22,12 @@ def kernel_dir() -> Path:
                            "installation is incomplete; reinstall the add-on or the package")
 
 
+# Work-group size of the kernels that shade hits (eye, photon, gather): their closure lists
+# are large private arrays, and PoCL keeps one per work-item of a group on a thread's stack, so
+# a group of the driver's choice (up to 4096) overflows it; 64 suits GPUs as well.
+SHADING_GROUP = 64
+
+
 def global_size(n: int, wg: int = 64) -> int:
     """``n`` work-items rounded up to whole work-groups of ``wg`` (at least one group)."""
     return max(wg, (n + wg - 1) // wg * wg)

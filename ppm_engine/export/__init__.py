@@ -86,7 +86,8 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                    visibility=np.zeros(0, np.uint32))
     tex_table, texels = textures.arrays()
     try:
-        return SceneArrays(**cat, materials=materials.array(), lights=light_arr, camera=camera,
+        return SceneArrays(**cat, materials=materials.array(),
+                           shader_nodes=materials.node_array(), lights=light_arr, camera=camera,
                            world=world, material_names=tuple(materials.names),
                            warnings=tuple(warn), textures=tex_table, texels=texels)
     except ValueError as e:

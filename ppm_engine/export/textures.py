@@ -52,16 +52,17 @@ class TextureTable:
         self.count = 0
         self._index: dict = {}
 
-    def from_socket(self, socket, what: str, material: str):
-        """For a colour input: (texture index, None) when an Image Texture node drives it,
-        (0, rgb) when it must take a constant instead (a missing image: magenta), (0, None)
-        when it is not linked to an image texture (the caller reads its value)."""
+    def from_socket(self, socket, what: str, material: str, output: str = "Color"):
+        """For a colour input (``output`` "Color") or an alpha input ("Alpha"): (texture index,
+        None) when an Image Texture node drives it, (0, rgb) when it must take a constant
+        instead (a missing image: magenta), (0, None) when it is not linked to an image
+        texture (the caller reads its value)."""
         node, out = _follow(socket)
         if node is None or node.bl_idname != "ShaderNodeTexImage":
             return 0, None
-        if out is not None and out.name != "Color":
+        if out is not None and out.name != output:
             self.warn(f"Material '{material}': '{what}' uses the image's {out.name} output; "
-                      "only Color is evaluated")
+                      f"only {output} is evaluated there")
         vec, vec_out = _follow(node.inputs.get("Vector"))
         if vec is not None and (vec.bl_idname, getattr(vec_out, "name", "")) not in _UV_SOURCES:
             self.warn(f"Material '{material}': the texture coordinates of image node "

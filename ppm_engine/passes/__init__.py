@@ -14,9 +14,10 @@ paper's order (Hachisuka & Jensen 2010):
                                  film ("adaptive": which pixels go on)
 """
 from .eye import EyePass, VisiblePoints
-from .gather import Gather
+from .gather import Gather, unshaded
 from .hash_build import HashBuild
 from .photons import PhotonPass
 from .update import ProgressiveUpdate
 
-__all__ = ["EyePass", "VisiblePoints", "PhotonPass", "HashBuild", "Gather", "ProgressiveUpdate"]
+__all__ = ["EyePass", "VisiblePoints", "PhotonPass", "HashBuild", "Gather", "ProgressiveUpdate",
+           "unshaded"]

@@ -1,19 +1,26 @@
-"""The eye pass (kernels/eye_pass.cl): one jittered camera ray per pixel through specular
-bounces to the first diffuse hit, where it stores a visible point and adds direct light."""
+"""The eye pass (kernels/eye_pass.cl): one jittered camera ray per pixel through the closures
+paths follow to a hit whose closures the gather evaluates, where it stores a visible point and
+adds direct light."""
 from __future__ import annotations
 
 import numpy as np
 
+from ..device import SHADING_GROUP
+
 
 class VisiblePoints:
-    """Per pixel, 16 bytes each: position (w = 1 when valid), shading normal, the path weight
-    times the BSDF (the photon term's factor), and the gather's result."""
+    """Per pixel, 64 bytes, what the gather needs (kernels/gather.cl): position (w: 0 none, 1 a
+    visible point, 2 one whose closures transmit), shading normal, the path weight (the photon
+    term's factor), and the hit it shades again (barycentrics, BVH leaf, the view direction
+    packed); and 16 bytes of the gather's result."""
+    BYTES = 64
 
     def __init__(self, device, n: int):
         self.n = n
         self.pos = device.buffer(16 * n, "visible points")
         self.nrm = device.buffer(16 * n, "visible points")
         self.beta = device.buffer(16 * n, "visible points")
+        self.shade = device.buffer(16 * n, "visible points")
         self.gathered = device.buffer(16 * n, "gather results")
 
 
@@ -29,12 +36,12 @@ class EyePass:
     def enqueue(self, q, pass_index: int, options) -> list:
         f, v = self.film, self.vps
         ev = self.kernel(
-            q, v.n, cam=self.scene.camera, **self.scene.args, pass_index=np.uint32(pass_index),
+            q, v.n, SHADING_GROUP, cam=self.scene.camera, **self.scene.args, pass_index=np.uint32(pass_index),
             seed=np.uint32(options.seed), max_bounces=np.int32(options.max_bounces),
             initial_radius=np.float32(options.initial_radius),
             auto_radius_pixels=np.float32(self.AUTO_RADIUS_PIXELS),
             filter_table=self.scene.filter_table, direct=f.direct_pass, radius=f.radius,
-            radius0=f.radius0, vp_pos=v.pos, vp_nrm=v.nrm, vp_beta=v.beta,
+            radius0=f.radius0, vp_pos=v.pos, vp_nrm=v.nrm, vp_beta=v.beta, vp_shade=v.shade,
             counters=self.counters, aux_albedo=f.aux_albedo, aux_normal=f.aux_normal,
             active=f.active)
         return [(self.kernel.label, ev)]

@@ -1,27 +1,54 @@
 """The gather (kernels/gather.cl): each visible point reads the cells its disc overlaps, one
 photon per cell (the entry's photon stands for its n photons), or every photon of the entry in
-the exact reference mode."""
+the exact reference mode; each photon weighted by the point's BSDF for its direction."""
 from __future__ import annotations
 
 import numpy as np
 
+from ..device import SHADING_GROUP
+
+
+def unshaded(device, n: int):
+    """A vp_shade buffer of n visible points with no hit to shade: their f is 1, so the gather
+    sums plain flux (kernel tests, micro benchmarks)."""
+    shade = np.zeros((n, 4), np.float32)
+    shade.view(np.int32)[:, 2] = -1
+    return device.upload(shade, "visible points")
+
+
+# the gather's own arguments (the rest are the scene's: kernels/gather.cl GATHER_SCENE_ARGS)
+_OWN = {"vp_pos", "vp_nrm", "vp_shade", "radius", "grid", "table", "ranges", "sorted_ids",
+        "table_mask", "ph_pos", "ph_flux", "gathered", "n"}
+
 
 class Gather:
-    def __init__(self, device, photon_map):
+    def __init__(self, device, photon_map, scene=None, defines: dict | None = None):
+        """``scene``: the DeviceScene (the gather shades its visible points again) and
+        ``defines`` its kernel flags (DeviceScene.kernel_defines); without a scene (kernel
+        tests, micro benchmarks) every visible point's f is 1: a plain flux sum."""
         self.photon_map = photon_map
-        defines = {"PPM_INT64_ATOMICS": True} if device.int64_atomics else {}
+        defines = {**(defines or {}),
+                   **({"PPM_INT64_ATOMICS": True} if device.int64_atomics else {})}
         p = device.programs.get("gather.cl", defines)
         self.k_gather = p.launch("gather", "gather")
         self.k_exact = p.launch("gather_exact", "gather")
-
-    def enqueue(self, q, vp_pos, vp_nrm, radius, gathered, n: int) -> list:
-        """gathered[i] = (sum of n x flux, sum of n) over the accepted entries."""
-        pm = self.photon_map
-        common = dict(vp_pos=vp_pos, vp_nrm=vp_nrm, radius=radius, grid=pm.grid,
-                      table_mask=pm.table_mask, ph_pos=pm.ph_pos, ph_flux=pm.ph_flux,
-                      gathered=gathered, n=np.uint32(n))
-        if pm.exact:
-            ev = self.k_exact(q, n, **common, ranges=pm.ranges, sorted_ids=pm.sorted[1].data)
+        names = set(self.k_gather.names) - _OWN
+        if scene is not None:
+            self.scene_args = {k: scene.args[k] for k in names}
         else:
-            ev = self.k_gather(q, n, **common, table=pm.table)
+            self._dummy = device.buffer(64, "gather without a scene")
+            self.scene_args = dict.fromkeys(names, self._dummy)
+
+    def enqueue(self, q, vp_pos, vp_nrm, vp_shade, radius, gathered, n: int) -> list:
+        """gathered[i] = (sum of n x flux x f, sum of n) over the accepted entries, f the
+        visible point's BSDF for the photon's direction."""
+        pm = self.photon_map
+        common = dict(vp_pos=vp_pos, vp_nrm=vp_nrm, vp_shade=vp_shade, radius=radius,
+                      grid=pm.grid, table_mask=pm.table_mask, ph_pos=pm.ph_pos,
+                      ph_flux=pm.ph_flux, gathered=gathered, n=np.uint32(n),
+                      **self.scene_args)
+        if pm.exact:
+            ev = self.k_exact(q, n, SHADING_GROUP, **common, ranges=pm.ranges, sorted_ids=pm.sorted[1].data)
+        else:
+            ev = self.k_gather(q, n, SHADING_GROUP, **common, table=pm.table)
         return [("gather", ev)]

@@ -1,0 +1,327 @@
+#ifndef PPM_SHADER_H
+#define PPM_SHADER_H
+#include "shader_data.h"
+
+/* The shader: a hit's closures from its material's BSDF nodes (scene_arrays.SHADER_NODE_DTYPE,
+ * weights already propagated through Mix and Add Shader nodes), each node set up as Cycles sets
+ * it up (kernel/svm/closure.h there; docs/SHADING.md lists what differs), then each closure
+ * marked for the gather or for the path (PPM_GATHER_ROUGHNESS).  One set of functions samples
+ * and evaluates the mixture for every pass. */
+
+/* microfacet lobes at least this rough (sqrt of alpha) hold visible points and photons like
+ * diffuse ones; smoother ones are followed by the eye path (-D from RenderOptions) */
+#ifndef PPM_GATHER_ROUGHNESS
+#define PPM_GATHER_ROUGHNESS 0.5f
+#endif
+
+/* alphas of a roughness with Cycles' anisotropy (aspect sqrt(1 - 0.9 aniso)) */
+inline float2 aniso_alphas(float roughness, float aniso, bool tangent) {
+    float a = roughness * roughness;
+    if (!(aniso > 0.0f) || !tangent) return (float2)(a, a);
+    float aspect = sqrt(1.0f - 0.9f * aniso);
+    return (float2)(a / aspect, a * aspect);
+}
+
+/* the tangent rotated by rotation x 2 pi about N, made orthogonal to N */
+inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
+    if (rotation != 0.0f) {
+        float a = rotation * 2.0f * PPM_PI, c = cos(a), s = sin(a);
+        T = c * T + s * cross(N, T) + (1.0f - c) * dot(N, T) * N;
+    }
+    return T;
+}
+
+inline void principled_setup(ShaderData *sd, __global const ShaderNode *nd, float3 base,
+                             float alpha, float3 emission, float3 tangent, TABLES_ARG) {
+    float w1 = nd->weight;
+    float3 w = (float3)(w1), N = sd->N, cbase = fmin(base, (float3)(1.0f));
+    float ior = fmax(nd->ior, 1e-5f), rough = clamp(nd->roughness, 0.0f, 1.0f);
+    float metallic = clamp(nd->metallic, 0.0f, 1.0f);
+    float3 spec_tint = fmax(F3(nd->edge_tint), (float3)(0.0f));
+    float tw = clamp(nd->transmission, 0.0f, 1.0f), ss = clamp(nd->subsurface_weight, 0.0f, 1.0f);
+    float coat = fmax(nd->coat_weight, 0.0f), sheen = fmax(nd->sheen_weight, 0.0f);
+    bool multi = (nd->flags & NODE_FLAG_MULTI_GGX) != 0;
+    bool has_t = dot(tangent, tangent) > 0.0f;
+    float2 al = aniso_alphas(rough, clamp(nd->anisotropic, 0.0f, 1.0f), has_t);
+    float3 T = has_t ? rotate_tangent(tangent, N, nd->anisotropic_rotation) : (float3)(0.0f);
+    if (alpha < 1.0f) {
+        shader_transparent(sd, w * (1.0f - alpha));
+        w *= alpha;
+    }
+    if (sheen > CLOSURE_WEIGHT_CUTOFF) {
+        float3 tint = fmax(F3(nd->sheen_tint), (float3)(0.0f));
+        int k = shader_sheen(sd, sheen * tint * w, N, clamp(nd->sheen_roughness, 0.0f, 1.0f),
+                             shading_tables);
+        if (k >= 0) w = layering_weight(sd->c[k].weight, w);
+    }
+    if (PPM_MICROFACET && coat > CLOSURE_WEIGHT_CUTOFF) {
+        float cr = clamp(nd->coat_roughness, 0.0f, 1.0f), cior = fmax(nd->coat_ior, 1.0f);
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, coat * w, N, cr * cr, cr * cr, cior);
+        if (k >= 0) {
+            Closure *c = &sd->c[k];
+            c->fresnel = FRESNEL_DIELECTRIC;
+            microfacet_sample_weight(sd, k, shading_tables);
+            microfacet_preserve_energy(c, sd->wi, (float3)(fresnel_dielectric_fss(cior)),
+                                       shading_tables);
+            w = layering_weight(c->weight * microfacet_albedo(c, sd->wi, true, false,
+                                                              shading_tables), w);
+        }
+        float3 tint = fmax(F3(nd->coat_tint), (float3)(0.0f));
+        if (tint.x != 1.0f || tint.y != 1.0f || tint.z != 1.0f) {
+            float cos_ni = dot(sd->wi, N);
+            float cos_nt = sqrt(1.0f - sqr(1.0f / cior) * (1.0f - cos_ni * cos_ni));
+            w *= mix((float3)(1.0f), pow(tint, 1.0f / cos_nt), coat);
+        }
+    }
+    sd->emission += emission * w;
+    if (PPM_MICROFACET && metallic > CLOSURE_WEIGHT_CUTOFF) {
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, metallic * w, N, al.x, al.y, 1.0f);
+        if (k >= 0) {
+            sd->c[k].T = T;
+            f82_setup(sd, k, cbase, fmin(spec_tint, (float3)(1.0f)), multi, shading_tables);
+        }
+        w *= 1.0f - metallic;
+    }
+    if (PPM_MICROFACET && tw > CLOSURE_WEIGHT_CUTOFF) {
+        int k = shader_microfacet(sd, CLOSURE_GGX_GLASS, tw * w, N, rough * rough, rough * rough,
+                                  sd->backfacing ? 1.0f / ior : ior);
+        if (k >= 0)
+            schlick_ior_setup(sd, k, f0_from_ior(ior) * spec_tint, (float3)(1.0f), sqrt(cbase),
+                              multi, shading_tables);
+        w *= 1.0f - tw;
+    }
+    float eta = ior, f0 = f0_from_ior(eta);
+    if (nd->specular_ior_level != 0.5f) {
+        f0 *= 2.0f * fmax(nd->specular_ior_level, 0.0f);
+        eta = ior_from_f0(f0);
+        if (ior < 1.0f) eta = 1.0f / eta;
+    }
+    if (PPM_MICROFACET && eta != 1.0f) {
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, w, N, al.x, al.y, eta);
+        if (k >= 0) {
+            sd->c[k].T = T;
+            schlick_ior_setup(sd, k, f0 * spec_tint, (float3)(1.0f), (float3)(0.0f), multi,
+                              shading_tables);
+            w = layering_weight(sd->c[k].weight * microfacet_albedo(&sd->c[k], sd->wi, true,
+                                                                   false, shading_tables), w);
+        }
+    }
+    /* subsurface scattering renders as diffuse with the (clamped) base colour */
+    float3 wd = cbase * ss * w + base * (1.0f - ss) * w;
+    shader_diffuse(sd, wd, N, clamp(nd->diffuse_roughness, 0.0f, 1.0f), base);
+}
+
+/* the BSDF nodes other than the Principled */
+inline void bsdf_node_setup(ShaderData *sd, __global const ShaderNode *nd, float3 color,
+                            float3 emission, float3 tangent, TABLES_ARG) {
+    float w1 = nd->weight, rough = clamp(nd->roughness, 0.0f, 1.0f);
+    float3 N = sd->N, w = (float3)(w1);
+    bool multi = (nd->flags & NODE_FLAG_MULTI_GGX) != 0, has_t = dot(tangent, tangent) > 0.0f;
+    int t = nd->type;
+    if (t == NODE_DIFFUSE) {
+        shader_diffuse(sd, color * w1, N, nd->roughness < 1e-5f ? 0.0f : rough, color);
+    } else if (t == NODE_TRANSLUCENT) {
+        if (PPM_TRANSLUCENT) shader_alloc(sd, CLOSURE_TRANSLUCENT, color * w1, N);
+    } else if (t == NODE_TRANSPARENT) {
+        shader_transparent(sd, color * w1);
+    } else if (t == NODE_SHEEN) {
+        shader_sheen(sd, color * w1, N, rough, shading_tables);
+    } else if (t == NODE_EMISSION) {
+        sd->emission += emission * w1;
+    } else if (t == NODE_HOLDOUT) {
+        sd->holdout += w;
+    } else if (t == NODE_GLOSSY) {                 /* Glossy BSDF: anisotropy in [-1, 1] */
+        float a = rough * rough, an = clamp(nd->anisotropic, -0.99f, 0.99f), ax = a, ay = a;
+        if (has_t && fabs(an) > 1e-4f) {
+            ax = an < 0.0f ? a / (1.0f + an) : a * (1.0f - an);
+            ay = an < 0.0f ? a * (1.0f + an) : a / (1.0f - an);
+        }
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, color * w1, N, ax, ay, 1.0f);
+        if (k >= 0) {
+            sd->c[k].T = has_t ? rotate_tangent(tangent, N, nd->anisotropic_rotation)
+                               : (float3)(0.0f);
+            if (multi) microfacet_preserve_energy(&sd->c[k], sd->wi, fmax(color, 0.0f),
+                                                  shading_tables);
+        }
+    } else if (t == NODE_METALLIC) {
+        float2 al = aniso_alphas(rough, clamp(nd->anisotropic, 0.0f, 1.0f), has_t);
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, w, N, al.x, al.y, 1.0f);
+        if (k < 0) return;
+        Closure *c = &sd->c[k];
+        c->T = has_t ? rotate_tangent(tangent, N, nd->anisotropic_rotation) : (float3)(0.0f);
+        if (nd->flags & NODE_FLAG_CONDUCTOR) {
+            float3 n = fmax(color, 0.0f), kk = fmax(F3(nd->edge_tint), (float3)(0.0f));
+            c->fresnel = FRESNEL_CONDUCTOR;
+            c->f0 = n;
+            c->f90 = kk;
+            microfacet_sample_weight(sd, k, shading_tables);
+            float3 F0 = fresnel_conductor(1.0f, n, kk), F82 = fresnel_conductor(1.0f / 7.0f, n, kk);
+            if (multi) microfacet_preserve_energy(c, sd->wi, sat3(fresnel_f82_fss(F0,
+                                                  fresnel_f82_b_from_f82(F0, F82))), shading_tables);
+        } else {
+            f82_setup(sd, k, sat3(color), sat3(F3(nd->edge_tint)), multi, shading_tables);
+        }
+    } else if (t == NODE_GLASS || t == NODE_REFRACTION) {
+        float ior = fmax(nd->ior, 1e-5f);
+        bool glass = t == NODE_GLASS;
+        int k = shader_microfacet(sd, glass ? CLOSURE_GGX_GLASS : CLOSURE_GGX_REFRACT,
+                                  glass ? w : color * w1, N, rough * rough, rough * rough,
+                                  sd->backfacing ? 1.0f / ior : ior);
+        if (k >= 0 && glass) {
+            float3 c3 = fmax(color, 0.0f);
+            schlick_ior_setup(sd, k, (float3)(f0_from_ior(ior)), c3, c3, multi, shading_tables);
+        }
+    }
+}
+
+/* Closures at a hit of material mat: triangle tri at barycentrics (u, v), stored normals ng and
+ * ns (ns on ng's side), wi towards the viewer; tangent: 0 or the surface's tangent. */
+inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, float3 ng,
+                         float3 ns, float3 wi, float3 tangent, SHADING_ARGS) {
+    sd->n = 0;
+    sd->emission = sd->transparent = sd->holdout = (float3)(0.0f);
+    sd->wi = wi;
+    sd->backfacing = dot(wi, ng) < 0.0f;
+    sd->Ng = sd->backfacing ? -ng : ng;
+    sd->N = sd->backfacing ? -ns : ns;
+    Material m = materials[mat];
+    for (int i = 0; i < m.node_count; i++) {
+        __global const ShaderNode *nd = shader_nodes + m.node_first + i;
+        if (!(nd->weight > 0.0f)) continue;
+        float3 color = F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS);
+        float3 emission = F3(nd->emission)
+                          * texture_tint(nd->emission_texture, tri, u, v, TEXTURE_PASS);
+        if (nd->type == NODE_PRINCIPLED) {
+            float alpha = clamp(nd->alpha * texture_alpha(nd->alpha_texture, tri, u, v,
+                                                          TEXTURE_PASS), 0.0f, 1.0f);
+            principled_setup(sd, nd, fmax(color, 0.0f), alpha, emission, tangent,
+                             shading_tables);
+        } else {
+            bsdf_node_setup(sd, nd, color, emission, tangent, shading_tables);
+        }
+    }
+    sd->sw_gather = sd->sw_continue = 0.0f;
+    sd->gather_transmits = sd->continue_glossy = false;
+    for (int k = 0; k < sd->n; k++) {
+        Closure *c = &sd->c[k];
+        bool micro = c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS;
+        c->gather = c->type == CLOSURE_TRANSPARENT ? 0
+                  : !micro || (!microfacet_singular(c)
+                               && microfacet_rough(c) >= PPM_GATHER_ROUGHNESS);
+        if (c->gather) {
+            sd->sw_gather += c->sample_weight;
+            sd->gather_transmits |= c->type == CLOSURE_TRANSLUCENT
+                                    || c->type == CLOSURE_GGX_GLASS
+                                    || c->type == CLOSURE_GGX_REFRACT;
+        } else {
+            sd->sw_continue += c->sample_weight;
+            sd->continue_glossy |= micro && !microfacet_singular(c);
+        }
+    }
+}
+
+/* The transparency (1 - alpha) of material mat at a surface point, without the closures: what
+ * shadow rays are let through (Principled Alpha, Transparent BSDF; view-independent). */
+inline float3 material_transparency(int mat, uint tri, float u, float v, SHADING_ARGS) {
+    float3 T = (float3)(0.0f);
+    Material m = materials[mat];
+    for (int i = 0; i < m.node_count; i++) {
+        __global const ShaderNode *nd = shader_nodes + m.node_first + i;
+        if (!(nd->weight > 0.0f)) continue;
+        if (nd->type == NODE_PRINCIPLED) {
+            float a = clamp(nd->alpha * texture_alpha(nd->alpha_texture, tri, u, v, TEXTURE_PASS),
+                            0.0f, 1.0f);
+            T += (float3)(nd->weight * (1.0f - a));
+        } else if (nd->type == NODE_TRANSPARENT) {
+            T += fmax(F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS)
+                      * nd->weight, (float3)(0.0f));
+        }
+    }
+    return T;
+}
+
+/* which closures a mixture function looks at */
+#define MASK_GATHER 1
+#define MASK_CONTINUE 2
+#define MASK_ALL 3
+inline bool closure_in(const Closure *c, int mask) {
+    return (mask & (c->gather ? MASK_GATHER : MASK_CONTINUE)) != 0;
+}
+
+/* Sum of weight x eval (f cos) over the closures in mask, for light from wo; *pdf: the
+ * density shader_sample gives wo (Veach's one-sample model). */
+inline float3 shader_eval(const ShaderData *sd, float3 wo, int mask, float *pdf) {
+    float3 f = (float3)(0.0f);
+    float sum_pdf = 0.0f, sum_sw = 0.0f;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        if (!closure_in(c, mask)) continue;
+        float p;
+        float3 e = closure_eval(c, sd->wi, wo, &p);
+        if (p != 0.0f) {
+            f += c->weight * e;
+            sum_pdf += p * c->sample_weight;
+        }
+        sum_sw += c->sample_weight;
+    }
+    *pdf = sum_sw > 0.0f ? sum_pdf / sum_sw : 0.0f;
+    return f;
+}
+
+typedef struct {
+    float3 wo;
+    float3 weight;       /* f cos / pdf of the mixture: the path's throughput factor */
+    float pdf;           /* the mixture's density (INFINITY: a singular lobe) */
+    float eta;           /* relative index crossed (1 unless refracted) */
+    int label;
+} BsdfSample;
+
+/* A direction from the closures in mask, picked in proportion to their sample weights. */
+inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSample *s) {
+    float sum_sw = 0.0f;
+    for (int k = 0; k < sd->n; k++)
+        if (closure_in(&sd->c[k], mask)) sum_sw += sd->c[k].sample_weight;
+    if (!(sum_sw > 0.0f)) return false;
+    float r = rand.z * sum_sw, partial = 0.0f;
+    int pick = -1, last = -1;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        if (!closure_in(c, mask)) continue;
+        last = k;
+        if (pick < 0 && r < partial + c->sample_weight) {
+            pick = k;
+            rand.z = clamp((r - partial) / c->sample_weight, 0.0f, 0.99999994f);
+        }
+        partial += c->sample_weight;
+    }
+    if (pick < 0) {                  /* r rounded up to the sum */
+        pick = last;
+        rand.z = 0.99999994f;
+    }
+    const Closure *c = &sd->c[pick];
+    float3 eval;
+    float pdf;
+    s->label = closure_sample(c, sd->Ng, sd->wi, rand, &eval, &s->wo, &pdf, &s->eta);
+    if (s->label == LABEL_NONE || !(pdf > 0.0f)) return false;
+    if (s->label & LABEL_SINGULAR) {
+        s->pdf = INFINITY;
+        s->weight = c->weight * eval * (sum_sw / (pdf * c->sample_weight));
+        return true;
+    }
+    float3 f = c->weight * eval;
+    float sum_pdf = pdf * c->sample_weight;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *o = &sd->c[k];
+        if (k == pick || !closure_in(o, mask)) continue;
+        float p;
+        float3 e = closure_eval(o, sd->wi, s->wo, &p);
+        if (p != 0.0f) {
+            f += o->weight * e;
+            sum_pdf += p * o->sample_weight;
+        }
+    }
+    s->pdf = sum_pdf / sum_sw;
+    s->weight = f / s->pdf;
+    return true;
+}
+#endif
