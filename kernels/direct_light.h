@@ -68,16 +68,15 @@ inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v,
 
 /* The fraction of light a shadow ray from o along d lets through over dist: 0 at an opaque
  * surface; partly transparent surfaces (alpha, Transparent BSDF) attenuate it (at most
- * SHADOW_MAX_TRANSPARENT of them, as Cycles' transparent bounces). */
-#define SHADOW_MAX_TRANSPARENT 8
+ * TRANSPARENT_MAX_BOUNCES of them). */
 inline float3 shadow_transmittance(float3 o, float3 d, float dist, SCENE_ARGS) {
 #if PPM_TRANSPARENT
     float3 T = (float3)(1.0f);
-    for (int i = 0; i <= SHADOW_MAX_TRANSPARENT; i++) {
+    for (int i = 0; i <= TRANSPARENT_MAX_BOUNCES; i++) {
         Hit h = bvh_intersect(o, d, dist, VIS_SHADOW, false, BVH_PASS);
         if (h.leaf < 0) return T;
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        if (i == SHADOW_MAX_TRANSPARENT || !(materials[s.material].flags & MAT_TRANSPARENT))
+        if (i == TRANSPARENT_MAX_BOUNCES || !(materials[s.material].flags & MAT_TRANSPARENT))
             return (float3)(0.0f);
         T *= material_transparency(s.material, s.tri, h.u, h.v, SHADING_PASS);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
@@ -155,7 +154,7 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_A
                             float *pdf_l) {
     float3 T = (float3)(1.0f);
     *pdf_l = 0.0f;
-    for (int i = 0; i <= SHADOW_MAX_TRANSPARENT; i++) {
+    for (int i = 0; i <= TRANSPARENT_MAX_BOUNCES; i++) {
         Hit h = bvh_intersect(o, d, PPM_INF, ray_type, false, BVH_PASS);
 #if PPM_LIGHTS_SEEN
         float3 Le = lights_seen(o, d, h.leaf < 0 ? PPM_INF : h.t, lights, emitter_info->n_lights,
@@ -181,14 +180,14 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_A
 }
 
 /* The sample half of direct light at p: one direction from the closures in mask, its emitter
- * weighted against next-event estimation's density (power heuristic).  Near a large emitter
- * (a ceiling 1 cm above a lamp, a filament inside its bulb) and for glossy lobes next-event
- * estimation alone has large variance; this sample covers it. */
+ * weighted against next-event estimation's density (power heuristic; a singular lobe's fully).
+ * Near a large emitter (a ceiling 1 cm above a lamp, a filament inside its bulb) and for glossy
+ * lobes next-event estimation alone has large variance; this sample covers it. */
 inline float3 direct_bsdf(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, uint *rng) {
     float3 rand = (float3)(rnd(rng), rnd(rng), rnd(rng));
 #if EMITTERS_HITTABLE
     BsdfSample b;
-    if (!shader_sample(sd, mask, rand, &b) || (b.label & LABEL_SINGULAR)) return (float3)(0.0f);
+    if (!shader_sample(sd, mask, rand, &b)) return (float3)(0.0f);
     bool transmit = (b.label & LABEL_TRANSMIT) != 0;
     uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
     float pdf_l;

@@ -68,7 +68,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
     Media media;
     media_init(&media);
 #endif
-    for (int depth = 0;; depth++) {
+    for (int depth = 0, transparent = 0;;) {
         Hit h = bvh_intersect(o, d, tmax, mask, false, BVH_PASS);
 #if PPM_ABSORPTION
         /* the segment inside a medium (lights seen inside one: attenuated as far as the hit) */
@@ -124,25 +124,38 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         /* the path goes on through the other closures (mirrors, glass, smooth glossy lobes,
          * transparency), weighted by 1 / their probability */
         beta *= sw / sd.sw_continue;
-        if (depth >= max_bounces) break;
         if (sd.continue_glossy) L += beta * direct_nee(&sd, s.p, MASK_CONTINUE, SCENE_PASS, &rng);
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
         if (!shader_sample(&sd, MASK_CONTINUE, rand, &b)) break;
         beta *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
-        if (!(b.label & LABEL_TRANSPARENT)) {          /* straight through keeps the ray's type */
-            prev_pdf = sd.continue_glossy ? b.pdf : INFINITY;
-            prev_n = sd.N;
-            mask = transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
-#if PPM_ABSORPTION
-            if (transmit) media_cross(&media, s.material, !sd.backfacing);
-#endif
-        }
         o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng);
         d = b.wo;
         tmax = PPM_INF;
         if (!(max3(beta) > 0.0f)) break;
+        if (b.label & LABEL_TRANSPARENT) {
+            /* straight through: not a bounce (as Cycles' transparent bounces), the ray keeps
+             * its type and its MIS state */
+            if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
+            continue;
+        }
+        if (depth >= max_bounces) {
+            /* the last bounce: the emitter this sample finds, and no further (Cycles ends a
+             * path at the surface after its last bounce) */
+            float pdf_e;
+            float3 Le = emitter_along(o, d, transmit ? VIS_TRANSMISSION : VIS_GLOSSY, sd.N,
+                                      SCENE_PASS, &pdf_e);
+            L += beta * Le * (sd.continue_glossy ? mis_power(b.pdf, pdf_e) : 1.0f);
+            break;
+        }
+        depth++;
+        prev_pdf = sd.continue_glossy ? b.pdf : INFINITY;
+        prev_n = sd.N;
+        mask = transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
+#if PPM_ABSORPTION
+        if (transmit) media_cross(&media, s.material, !sd.backfacing);
+#endif
     }
     vp_pos[id] = vp;
     /* this pass's sample (the film adds it to its sums, progressive.cl film_add_sample);

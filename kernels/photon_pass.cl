@@ -28,7 +28,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
 #endif
     ShaderData sd;
     bool direct = true;       /* nothing but transparent surfaces crossed yet */
-    for (int bounce = 0; bounce <= max_bounces; bounce++) {
+    for (int bounce = 0, transparent = 0; bounce <= max_bounces;) {
         Hit h = bvh_intersect(o, d, PPM_INF, mask, false, BVH_PASS);
         if (h.leaf < 0) break;
         float3 before = flux;             /* Russian roulette below: this bounce's albedo */
@@ -68,7 +68,10 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             measure = 1.0f / (b.eta * b.eta);
             flux *= measure;
         }
-        if (!(b.label & LABEL_TRANSPARENT)) {
+        if (b.label & LABEL_TRANSPARENT) {      /* not a bounce (Cycles' transparent bounces) */
+            if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
+        } else {
+            bounce++;
             direct = false;
             mask = transmit ? VIS_TRANSMISSION : (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE
                                                                             : VIS_GLOSSY;

@@ -10,6 +10,9 @@
 #ifndef PPM_MAX_CLOSURES
 #define PPM_MAX_CLOSURES 16
 #endif
+/* partly transparent surfaces a ray crosses at most (straight through, not a bounce): Cycles'
+ * default Transparent Max Bounces */
+#define TRANSPARENT_MAX_BOUNCES 8
 
 typedef struct {
     Closure c[PPM_MAX_CLOSURES];
