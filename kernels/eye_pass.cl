@@ -106,12 +106,22 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
             L += bvp * direct_light(&sd, s.p, MASK_GATHER, SCENE_PASS, &rng);
             vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
             vp_nrm[id] = (float4)(sd.N, 0.0f);
-            vp_beta[id] = (float4)(bvp, 0.0f);
-            vp_shade[id] = (float4)(h.u, h.v, as_float(h.leaf), as_float(pack_unit(sd.wi)));
-            /* denoising passes: albedo through the specular chain, world-space normal */
             float3 albedo = (float3)(0.0f);
-            for (int k = 0; k < sd.n; k++)
-                if (sd.c[k].gather) albedo += sd.c[k].weight;
+            bool lambert = true;
+            for (int k = 0; k < sd.n; k++) {
+                if (!sd.c[k].gather) continue;
+                albedo += sd.c[k].weight;
+                lambert &= sd.c[k].type == CLOSURE_DIFFUSE;
+            }
+            if (lambert) {
+                /* f is one constant: it goes into the path weight, the gather sums flux */
+                vp_beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), 0.0f);
+                vp_shade[id] = (float4)(0.0f, 0.0f, as_float(-1), 0.0f);
+            } else {
+                vp_beta[id] = (float4)(bvp, 0.0f);
+                vp_shade[id] = (float4)(h.u, h.v, as_float(h.leaf), as_float(pack_unit(sd.wi)));
+            }
+            /* denoising passes: albedo through the specular chain, world-space normal */
             aux_albedo[id] += (float4)(beta * albedo, 1.0f);
             aux_normal[id] += (float4)(sd.N, 1.0f);
             if (radius[id] <= 0.0f) {

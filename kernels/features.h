@@ -5,6 +5,8 @@
  * PPM_SPECIALIZED has every feature (tests, debug kernels, RenderOptions(specialize=False)).
  * Each flag is 0 or 1 here, so code tests it with #if, or in a plain condition
  * (if (PPM_LIGHT_SUN && ...)) whose dead branch the compiler drops.
+ *   PPM_SHADER       a material that is not one Lambert closure (else shader.h's short path only)
+ *   PPM_GATHER_SHADE a visible point whose closures are not one Lambert (the gather shades it)
  *   PPM_MICROFACET   GGX lobes (metals, glass, specular layers, coats)
  *   PPM_SHEEN        sheen                      PPM_OREN_NAYAR  rough diffuse
  *   PPM_TRANSLUCENT  translucency               PPM_TRANSPARENT alpha, Transparent BSDF
@@ -18,6 +20,12 @@
 #define PPM_ALL_FEATURES 1
 #else
 #define PPM_ALL_FEATURES 0
+#endif
+#ifndef PPM_SHADER
+#define PPM_SHADER PPM_ALL_FEATURES
+#endif
+#ifndef PPM_GATHER_SHADE
+#define PPM_GATHER_SHADE PPM_ALL_FEATURES
 #endif
 #ifndef PPM_MICROFACET
 #define PPM_MICROFACET PPM_ALL_FEATURES

@@ -48,7 +48,9 @@ inline float cell_dist2(float3 x, long3 c, const Grid *g) {
 /* A visible point's shading for the gather: its closures, and whether they are all Lambert
  * (then f is one constant, lambert_f). */
 typedef struct {
+#if PPM_GATHER_SHADE
     ShaderData sd;
+#endif
     float3 nrm;
     float3 lambert_f;
     bool lambert;
@@ -61,7 +63,9 @@ inline void gather_point(float4 vp, float4 nrm, float4 shade, GatherPoint *gp,
     gp->transmits = vp.w > 1.5f;
     gp->lambert = true;
     gp->lambert_f = (float3)(1.0f);
-    if (as_int(shade.z) < 0) return;       /* no hit to shade (kernel tests): f = 1 */
+    if (!PPM_GATHER_SHADE || as_int(shade.z) < 0)
+        return;             /* f = 1: a Lambert point's f is in its path weight (eye_pass.cl) */
+#if PPM_GATHER_SHADE
     Hit h;
     h.leaf = as_int(shade.z);
     h.u = shade.x;
@@ -77,25 +81,37 @@ inline void gather_point(float4 vp, float4 nrm, float4 shade, GatherPoint *gp,
         gp->lambert &= c->type == CLOSURE_DIFFUSE;
         gp->lambert_f += c->weight * (1.0f / PPM_PI);
     }
+#endif
 }
 
-/* photon pi's contribution to the point at x (0 when it is not the point's own): its flux
- * times the BSDF for its direction; *accepted set when it counts */
-inline float3 photon_term(const GatherPoint *gp, float3 x, float r2, float r, float4 pp,
-                          float4 pf, bool *accepted) {
-    *accepted = false;
+/* Whether photon pi (at pp) counts for the point at x of normal nrm, in cell c: the cheap tests
+ * first (distance, disc), then the cell it belongs to, then the normals; *pf its flux, *cos_l
+ * the cosine of its direction. */
+inline bool photon_accepted(float3 x, float3 nrm, bool transmits, float r2, float r, float4 pp,
+                            __global const float4 *ph_flux, uint pi, long3 c, const Grid *g,
+                            float4 *pf, float *cos_l) {
     float3 dd = pp.xyz - x;
-    if (dot(dd, dd) > r2) return (float3)(0.0f);
-    if (fabs(dot(dd, gp->nrm)) > DISC_HALF_THICKNESS * r) return (float3)(0.0f);
-    float nn = dot(unpack_unit(as_uint(pp.w)), gp->nrm);
-    if ((gp->transmits ? fabs(nn) : nn) < NORMAL_COS_MIN) return (float3)(0.0f);
-    float3 wl = unpack_unit(as_uint(pf.w));       /* towards where the photon came from */
-    float cos_l = dot(wl, gp->nrm);
-    if (gp->transmits ? fabs(cos_l) < 1e-6f : cos_l <= 0.0f) return (float3)(0.0f);
-    *accepted = true;
-    if (gp->lambert) return cos_l > 0.0f ? pf.xyz * gp->lambert_f : (float3)(0.0f);
-    float pdf;
-    return pf.xyz * shader_eval(&gp->sd, wl, MASK_GATHER, &pdf) * (1.0f / fabs(cos_l));
+    if (dot(dd, dd) > r2) return false;
+    if (fabs(dot(dd, nrm)) > DISC_HALF_THICKNESS * r) return false;
+    long3 pc = cell_of(pp.xyz, g);
+    if (pc.x != c.x || pc.y != c.y || pc.z != c.z) return false;      /* not this cell's */
+    float nn = dot(unpack_unit(as_uint(pp.w)), nrm);
+    if ((transmits ? fabs(nn) : nn) < NORMAL_COS_MIN) return false;
+    *pf = ph_flux[pi];
+    *cos_l = dot(unpack_unit(as_uint(pf->w)), nrm);    /* towards where the photon came from */
+    return transmits ? fabs(*cos_l) >= 1e-6f : *cos_l > 0.0f;
+}
+
+/* an accepted photon's flux times the point's BSDF for its direction */
+inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l) {
+#if PPM_GATHER_SHADE
+    if (!gp->lambert) {
+        float pdf;
+        return pf.xyz * shader_eval(&gp->sd, unpack_unit(as_uint(pf.w)), MASK_GATHER, &pdf)
+               * (1.0f / fabs(cos_l));
+    }
+#endif
+    return cos_l > 0.0f ? pf.xyz * gp->lambert_f : (float3)(0.0f);
 }
 
 __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nrm,
@@ -126,14 +142,13 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
         uint cnt = ENTRY_COUNT(table, h);
         if (cnt == 0u) continue;
         uint pi = ENTRY_INDEX(table, h);
-        float4 pp = ph_pos[pi];
-        long3 pc = cell_of(pp.xyz, &g);
-        if (pc.x != cx || pc.y != cy || pc.z != cz) continue;     /* not this cell's photon */
-        bool ok;
-        float3 t = photon_term(&gp, x, r2, r, pp, ph_flux[pi], &ok);
-        if (!ok) continue;
+        float4 pf;
+        float cos_l;
+        if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi, c, &g,
+                             &pf, &cos_l))
+            continue;
         M += (float)cnt;
-        phi += (float)cnt * t;
+        phi += (float)cnt * photon_term(&gp, pf, cos_l);
     }
     gathered[id] = (float4)(phi, M);
 }
@@ -167,14 +182,13 @@ __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 
         uint end = ranges[2 * h + 1];
         for (uint s = ranges[2 * h]; s < end; s++) {
             uint pi = sorted_ids[s];
-            float4 pp = ph_pos[pi];
-            long3 pc = cell_of(pp.xyz, &g);
-            if (pc.x != cx || pc.y != cy || pc.z != cz) continue;
-            bool ok;
-            float3 t = photon_term(&gp, x, r2, r, pp, ph_flux[pi], &ok);
-            if (!ok) continue;
+            float4 pf;
+            float cos_l;
+            if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi,
+                                 (long3)(cx, cy, cz), &g, &pf, &cos_l))
+                continue;
             M += 1.0f;
-            phi += t;
+            phi += photon_term(&gp, pf, cos_l);
         }
     }
     gathered[id] = (float4)(phi, M);

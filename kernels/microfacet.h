@@ -211,6 +211,7 @@ inline float3 microfacet_albedo(const Closure *c, float3 wi, bool reflection, bo
 /* Multiple scattering: scale by 1 / E(view) and darken by Kulla & Conty's term for a coloured
  * average Fresnel fss. */
 inline void microfacet_preserve_energy(Closure *c, float3 wi, float3 fss, TABLES_ARG) {
+    if (microfacet_singular(c)) return;          /* a smooth lobe keeps all: E = 1 */
     float mu = dot(wi, c->N), rough = microfacet_rough(c), E, Eavg;
     if (c->type == CLOSURE_GGX_REFLECT) {
         E = table_2d(shading_tables, TAB_GGX_E, rough, mu, 32, 32);

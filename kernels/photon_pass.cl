@@ -36,9 +36,26 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         flux *= media_transmittance(&media, materials, h.t);      /* the segment's medium */
 #endif
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        shader_setup(&sd, s.material, s.tri, h.u, h.v, s.ng, s.ns, -d, (float3)(0.0f),
-                     SHADING_PASS);
-        if (!direct && sd.sw_gather > 0.0f) {
+        Material mt = materials[s.material];
+        /* a Lambert material's one closure without the closure list (shader.h's short path:
+         * the same closure, sampled the same way) */
+        bool lambert = !PPM_SHADER || (mt.flags & MAT_LAMBERT) != 0;
+        float3 color = (float3)(0.0f), N, Ng;
+        bool gather;
+        if (lambert) {
+            color = lambert_weight(shader_nodes + mt.node_first, s.tri, h.u, h.v, TEXTURE_PASS);
+            bool back = dot(d, s.ng) > 0.0f;
+            N = back ? -s.ns : s.ns;
+            Ng = back ? -s.ng : s.ng;
+            gather = fabs(avg3(color)) >= CLOSURE_WEIGHT_CUTOFF;
+        } else {
+            shader_setup(&sd, s.material, s.tri, h.u, h.v, s.ng, s.ns, -d, (float3)(0.0f),
+                         SHADING_PASS);
+            N = sd.N;
+            Ng = sd.Ng;
+            gather = sd.sw_gather > 0.0f;
+        }
+        if (!direct && gather) {
             if (!(isfinite(flux.x) && isfinite(flux.y) && isfinite(flux.z))) {
                 atomic_inc(&counters[CNT_NAN]);
                 break;
@@ -46,7 +63,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             if (in_grid(s.p, &g)) {
                 uint k = atomic_inc(&counters[CNT_STORED]);
                 if (k < capacity) {
-                    ph_pos[k] = (float4)(s.p, as_float(pack_unit(sd.N)));
+                    ph_pos[k] = (float4)(s.p, as_float(pack_unit(N)));
                     ph_flux[k] = (float4)(flux, as_float(pack_unit(-d)));
                 } else {
                     atomic_inc(&counters[CNT_OVERFLOW]);
@@ -58,7 +75,16 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         if (bounce == max_bounces) break;
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
-        if (!shader_sample(&sd, MASK_ALL, rand, &b)) break;
+        if (lambert) {
+            if (!gather) break;
+            b.wo = sample_cosine_hemisphere(N, rand.x, rand.y);
+            if (dot(b.wo, Ng) <= 0.0f) break;
+            b.weight = color;
+            b.label = LABEL_REFLECT | LABEL_DIFFUSE;
+            b.eta = 1.0f;
+        } else if (!shader_sample(&sd, MASK_ALL, rand, &b)) {
+            break;
+        }
         flux *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
         /* refraction's (eta_i / eta_t)^2 on the flux (kernels/closure.h: camera paths carry
@@ -76,10 +102,10 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             mask = transmit ? VIS_TRANSMISSION : (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE
                                                                             : VIS_GLOSSY;
 #if PPM_ABSORPTION
-            if (transmit) media_cross(&media, s.material, !sd.backfacing);
+            if (transmit) media_cross(&media, s.material, dot(d, s.ng) < 0.0f);
 #endif
         }
-        o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng);
+        o = offset_ray(s.p, transmit ? -Ng : Ng);
         d = b.wo;
         /* Russian roulette keeps photon power roughly constant: survival is the scattering's
          * albedo (times the medium's transmittance).  The change of measure of refraction is

@@ -174,6 +174,13 @@ inline void bsdf_node_setup(ShaderData *sd, __global const ShaderNode *nd, float
     }
 }
 
+/* the weight of the one Lambert closure of a MAT_LAMBERT material's node */
+inline float3 lambert_weight(__global const ShaderNode *nd, uint tri, float u, float v,
+                             TEXTURE_ARGS) {
+    return fmax(F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS), 0.0f)
+           * nd->weight;
+}
+
 /* Closures at a hit of material mat: triangle tri at barycentrics (u, v), stored normals ng and
  * ns (ns on ng's side), wi towards the viewer; tangent: 0 or the surface's tangent. */
 inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, float3 ng,
@@ -185,6 +192,19 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
     sd->Ng = sd->backfacing ? -ng : ng;
     sd->N = sd->backfacing ? -ns : ns;
     Material m = materials[mat];
+    if (!PPM_SHADER || (m.flags & MAT_LAMBERT)) {
+        /* the short path for the commonest material: what the loop below makes of it */
+        __global const ShaderNode *nd = shader_nodes + m.node_first;
+        sd->emission = F3(nd->emission) * nd->weight
+                       * texture_tint(nd->emission_texture, tri, u, v, TEXTURE_PASS);
+        int k = shader_alloc(sd, CLOSURE_DIFFUSE, lambert_weight(nd, tri, u, v, TEXTURE_PASS),
+                             sd->N);
+        sd->sw_gather = k >= 0 ? sd->c[k].sample_weight : 0.0f;
+        if (k >= 0) sd->c[k].gather = 1;
+        sd->sw_continue = 0.0f;
+        sd->gather_transmits = sd->continue_glossy = false;
+        return;
+    }
     for (int i = 0; i < m.node_count; i++) {
         __global const ShaderNode *nd = shader_nodes + m.node_first + i;
         if (!(nd->weight > 0.0f)) continue;
@@ -278,6 +298,17 @@ typedef struct {
 
 /* A direction from the closures in mask, picked in proportion to their sample weights. */
 inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSample *s) {
+    if (sd->n == 1) {                       /* one closure: no pick, no mixture */
+        const Closure *c = &sd->c[0];
+        if (!closure_in(c, mask)) return false;
+        float3 eval;
+        float pdf;
+        s->label = closure_sample(c, sd->Ng, sd->wi, rand, &eval, &s->wo, &pdf, &s->eta);
+        if (s->label == LABEL_NONE || !(pdf > 0.0f)) return false;
+        s->pdf = (s->label & LABEL_SINGULAR) ? INFINITY : pdf;
+        s->weight = c->weight * eval / pdf;
+        return true;
+    }
     float sum_sw = 0.0f;
     for (int k = 0; k < sd->n; k++)
         if (closure_in(&sd->c[k], mask)) sum_sw += sd->c[k].sample_weight;

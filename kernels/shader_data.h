@@ -88,10 +88,20 @@ inline int shader_microfacet(ShaderData *sd, int type, float3 w, float3 N, float
     return k;
 }
 
-/* the sample weight scaled by the Fresnel albedo (Cycles: the closure's expected share) */
+/* the sample weight scaled by the Fresnel albedo (Cycles: the closure's expected share; for a
+ * smooth lobe the Fresnel term at the view, which its table row holds) */
 inline void microfacet_sample_weight(ShaderData *sd, int k, TABLES_ARG) {
     Closure *c = &sd->c[k];
-    c->sample_weight *= avg3(microfacet_albedo(c, sd->wi, true, true, shading_tables));
+    float3 a;
+    if (microfacet_singular(c)) {
+        float ct;
+        float3 T;
+        microfacet_fresnel(c, dot(sd->wi, c->N), &ct, &a, &T);
+        a += T;
+    } else {
+        a = microfacet_albedo(c, sd->wi, true, true, shading_tables);
+    }
+    c->sample_weight *= avg3(a);
 }
 
 /* the generalised-Schlick closure of the Principled and Glass BSDFs: the real Fresnel

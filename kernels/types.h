@@ -64,6 +64,8 @@ typedef struct {
 #define MAT_EMISSIVE 1u       /* constant emission > 0: an emitter (emitters.py) */
 #define MAT_GATHER 2u         /* some closure can hold a visible point and photons */
 #define MAT_TRANSPARENT 4u    /* partly transparent (alpha, Transparent BSDF): shadow rays pass */
+#define MAT_LAMBERT 8u        /* one node that makes one Lambert closure (and maybe emission):
+                                 shader.h's short path */
 typedef struct {
     float emission[3];   /* emitted radiance of its emission closures, before textures */
     uint flags;

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .materials import node_features
+from .materials import MAT_GATHER, MAT_LAMBERT, node_features
 from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHIFT, LIGHT_POINT,
                            LIGHT_SPOT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION,
                            SceneArrays)
@@ -35,6 +35,11 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarra
         used = used_materials(scene, kmaterials.shape[0])
     m = kmaterials[used]
     f = node_features(knodes[np.isin(knodes["material"], used)])
+    not_lambert = (m["flags"] & MAT_LAMBERT) == 0
+    if not_lambert.any():
+        f.add("PPM_SHADER")
+    if (not_lambert & ((m["flags"] & MAT_GATHER) != 0)).any():
+        f.add("PPM_GATHER_SHADE")          # a visible point's f may need its closures
     lights = scene.lights
     n_lights = lights.shape[0]
     live = emitters.power[:n_lights] > 0 if int(emitters.info["n_emitters"][0]) else \

@@ -25,6 +25,7 @@ KMATERIAL_DTYPE = np.dtype([
 MAT_EMISSIVE = 1          # constant emission > 0: an emitter
 MAT_GATHER = 2            # some closure can hold a visible point and photons
 MAT_TRANSPARENT = 4       # partly transparent: shadow rays pass
+MAT_LAMBERT = 8           # one node making one Lambert closure: the shader's short path
 
 # a microfacet lobe smoother than this is a perfect mirror or a smooth refraction (Cycles:
 # alpha_x alpha_y <= 2e-10): such a lobe can only be followed, never evaluated
@@ -104,6 +105,22 @@ def gather_capable(nodes: np.ndarray) -> np.ndarray:
     return out & (nodes["weight"] > 0)
 
 
+def lambert_node(nodes: np.ndarray) -> np.ndarray:
+    """Per node: whether it makes exactly one Lambert closure (weight colour x mix weight) and
+    at most emission: a Diffuse BSDF of roughness 0, a Principled BSDF with nothing but its
+    diffuse base (no specular layer, metal, glass, coat, sheen, subsurface, transparency)."""
+    t = nodes["type"]
+    out = (t == NODE_DIFFUSE) & (nodes["roughness"] < 1e-5)
+    p = t == NODE_PRINCIPLED
+    if p.any():
+        parts = _principled_parts(nodes[p])
+        n = nodes[p]
+        out[p] = ~(parts["sheen"] | parts["coat"] | parts["metal"] | parts["glass"]
+                   | parts["specular"] | parts["transparent"]) \
+            & (n["subsurface_weight"] <= 0) & (n["diffuse_roughness"] < 1e-5)
+    return out
+
+
 def node_features(nodes: np.ndarray) -> set:
     """The closure features (kernels/features.h) these nodes need."""
     f = set()
@@ -172,6 +189,11 @@ def kernel_materials(materials: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     tr = np.zeros(m, bool)
     np.logical_or.at(tr, owner, transp)
     flags |= np.where(tr, MAT_TRANSPARENT, 0).astype(np.uint32)
+    one = k["node_count"] == 1
+    first = nodes[np.minimum(k["node_first"], max(nodes.shape[0] - 1, 0))] if nodes.size \
+        else None
+    if first is not None:
+        flags |= np.where(one & lambert_node(first), MAT_LAMBERT, 0).astype(np.uint32)
     k["flags"] = flags
     # the medium inside: entered and left by refraction, so only materials that refract
     refracts = np.isin(t, (NODE_GLASS, NODE_REFRACTION)) | (pr & (nodes["transmission"] > 0))

@@ -9,7 +9,8 @@ from ppm_engine.passes import ProgressiveUpdate
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.renderer import Renderer
 from ppm_engine.scene_arrays import (LIGHT_AREA_RECT, LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT,
-                                     LIGHT_POINT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY,
+                                     LIGHT_POINT, LIGHT_SUN, NODE_DIFFUSE, NODE_PRINCIPLED,
+                                     NODE_SHEEN, NODE_TRANSLUCENT, VIS_CAMERA, VIS_GLOSSY,
                                      VIS_TRANSMISSION, make_camera, perspective_extent)
 
 
@@ -51,8 +52,12 @@ def _features(scene):
 def test_features_follow_the_scene():
     point = _light(LIGHT_POINT, (10, 10, 10))
     assert _features(_room(point)) == {"PPM_LIGHT_POINT"}
-    assert _features(_room(point, glass=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET"}
-    assert _features(_room(point, mirror=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET"}
+    # glass and a mirror are not one Lambert closure (the shader's full path), and have no
+    # closure a visible point evaluates (the gather does not shade)
+    assert _features(_room(point, glass=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET",
+                                                   "PPM_SHADER"}
+    assert _features(_room(point, mirror=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET",
+                                                    "PPM_SHADER"}
     assert _features(_room(point, aperture=0.05)) == {"PPM_LIGHT_POINT", "PPM_DOF"}
     assert _features(_room(point, world=(0.2, 0.2, 0.2))) == {"PPM_LIGHT_POINT", "PPM_WORLD"}
     sun = _light(LIGHT_SUN, (3, 3, 3), direction=(0.3, 0.2, -1))
@@ -67,7 +72,37 @@ def test_features_follow_the_scene():
     both = np.concatenate([point, _light(LIGHT_SUN, (0, 0, 0))])
     assert _features(_room(both)) == {"PPM_LIGHT_POINT"}
     assert _features(cornell_box(8, 8)) == {"PPM_EMISSIVE"}
-    assert _features(cornell_box(8, 8, bulb=True)) == {"PPM_EMISSIVE", "PPM_MICROFACET"}
+    assert _features(cornell_box(8, 8, bulb=True)) == {"PPM_EMISSIVE", "PPM_MICROFACET",
+                                                       "PPM_SHADER"}
+
+
+def _materials_room(**node):
+    """The room with a sphere of one BSDF node's material, lit by a point light."""
+    mb = MeshBuilder()
+    white = mb.material("white", (0.7, 0.7, 0.7))
+    mb.quad((0, 0, 0), (1, 0, 0), (0, 1, 0), white)
+    mb.sphere((0.3, 0.2, 0.3), 0.3, mb.shader("s", [node]), 16, 8)
+    ext = perspective_extent(20, 20, 35.0, 36.0)
+    cam = make_camera(width=20, height=20, to_world=look_at((0, -2.9, 1), (0, 0, 0.5)),
+                      extent=ext[:2], clip=(0.1, 100))
+    return mb.build(camera=cam, lights=_light(LIGHT_POINT, (10, 10, 10)))
+
+
+def test_closure_features_follow_the_materials():
+    """Each closure's code is compiled only for scenes whose materials make it; a plastic (a
+    rough specular layer over diffuse) is shaded by the gather, a mirror is not."""
+    base = {"PPM_LIGHT_POINT"}
+    f = lambda **n: _features(_materials_room(**n)) - base      # noqa: E731
+    assert f(type=NODE_DIFFUSE) == set()                        # one Lambert: the short path
+    assert f(type=NODE_DIFFUSE, roughness=0.5) == {"PPM_SHADER", "PPM_GATHER_SHADE",
+                                                   "PPM_OREN_NAYAR"}
+    assert f(type=NODE_SHEEN) == {"PPM_SHADER", "PPM_GATHER_SHADE", "PPM_SHEEN"}
+    assert f(type=NODE_TRANSLUCENT) == {"PPM_SHADER", "PPM_GATHER_SHADE", "PPM_TRANSLUCENT"}
+    assert f(type=NODE_PRINCIPLED) == {"PPM_SHADER", "PPM_GATHER_SHADE", "PPM_MICROFACET"}
+    assert f(type=NODE_PRINCIPLED, alpha=0.5) == {"PPM_SHADER", "PPM_GATHER_SHADE",
+                                                  "PPM_MICROFACET", "PPM_TRANSPARENT"}
+    assert f(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.0) == {"PPM_SHADER",
+                                                                    "PPM_MICROFACET"}
 
 
 def test_specialised_kernels_are_separate_programs():
@@ -89,6 +124,8 @@ SCENES = {
                              aperture=0.05),
     "area_world": lambda: _room(_light(LIGHT_AREA_RECT, (5, 5, 5)), world=(0.1, 0.1, 0.2)),
     "mirror_caustic": lambda: analytic.mirror_caustic(16),
+    "plastic_sheen": lambda: _materials_room(type=NODE_PRINCIPLED, sheen_weight=1.0,
+                                             alpha=0.8, diffuse_roughness=0.5),
 }
 
 

@@ -12,7 +12,8 @@ class VisiblePoints:
     """Per pixel, 64 bytes, what the gather needs (kernels/gather.cl): position (w: 0 none, 1 a
     visible point, 2 one whose closures transmit), shading normal, the path weight (the photon
     term's factor), and the hit it shades again (barycentrics, BVH leaf, the view direction
-    packed); and 16 bytes of the gather's result."""
+    packed; leaf -1 for a Lambert point, whose constant f is in the path weight); and 16 bytes
+    of the gather's result."""
     BYTES = 64
 
     def __init__(self, device, n: int):
