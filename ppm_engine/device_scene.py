@@ -59,13 +59,16 @@ class DeviceScene:
         self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0])),
                                "pixel filter")
 
-    def kernel_defines(self, specialize: bool) -> tuple[frozenset | None, dict]:
+    def kernel_defines(self, specialize: bool, gather_roughness: float = 0.5
+                       ) -> tuple[frozenset | None, dict]:
         """(features, -D flags) of the eye and photon passes: the scene's features, or every
-        feature (None) unspecialised; the ray offset scale of the scene's size either way."""
+        feature (None) unspecialised; the ray offset scale of the scene's size and the
+        roughness from which lobes are gathered either way."""
         features = (scene_features(self.prepared, self.kmaterials, self.knodes, self.emitters,
                                    self.used_materials) if specialize else None)
         return features, {"PPM_OFFSET_SCALE": float(self.offset_scale).hex() + "f",
                           "PPM_FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
+                          "PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
                           **feature_defines(features, max_closures(self.knodes,
                                                                    self.used_materials))}
 

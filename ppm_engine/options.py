@@ -57,6 +57,10 @@ class RenderOptions:
     noise_threshold: float = LIMITS["noise_threshold"][2]
     device: str = ""               # OpenCL device name (substring); "" = default choice
     exact_gather: bool = False     # debug/reference mode: gather every photon, not the stochastic map
+    # microfacet lobes at least this rough hold visible points and photons (the gather evaluates
+    # them); smoother ones are followed by the eye path.  Chosen by measurement
+    # (docs/BENCHMARKS.md, "Glossy surfaces"); a setting to measure with, not in the UI.
+    gather_roughness: float = 0.5
     # Skips of work a scene does not need, each on by default; off only to measure what it saves
     # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.
     specialize: bool = True        # kernels built for the scene's features (False: every feature)
@@ -76,6 +80,9 @@ class RenderOptions:
                 raise SettingsError(f"{name} = {v!r} is outside [{lo}, {hi}]")
         if not (0.0 < self.alpha < 1.0):
             raise SettingsError(f"alpha = {self.alpha!r} must lie strictly between 0 and 1")
+        if not (0.0 <= self.gather_roughness <= 2.0):
+            raise SettingsError(f"gather_roughness = {self.gather_roughness!r} is outside "
+                                "[0, 2] (above 1: no microfacet lobe is gathered)")
         return self
 
     def photons_for(self, pixels: int) -> int:

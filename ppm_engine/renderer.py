@@ -54,7 +54,7 @@ class Renderer:
         changed)."""
         import pyopencl as cl
         dev, o = self.device, options
-        self.features, self.defines = self.scene.kernel_defines(o.specialize)
+        self.features, self.defines = self.scene.kernel_defines(o.specialize, o.gather_roughness)
         w, h = self.scene.scene.resolution
         if new_pixels:
             self.width, self.height, self.n_pixels = w, h, w * h

@@ -188,3 +188,55 @@ def test_white_furnace_as_cycles(material, cycles, render_exr, tmp_path, tiny):
                       bounces=8, photons=4096)
     assert ref.mean() == pytest.approx(ours.mean(), rel=0.01)
     _compare(ours, ref, 0.03, 0.003)
+
+
+def _caustic_scene(floor_material):
+    """A glass ball above a floor of the given material, lit by a small area light above: the
+    ball focuses a caustic onto the floor."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.4,
+                                         location=(0, 0, 0.6))
+    bpy.ops.object.shade_smooth()
+    glass = bpy.data.materials.new("Glass")
+    _principled(glass, **{"Transmission Weight": 1.0, "Roughness": 0.0})
+    bpy.context.active_object.data.materials.append(glass)
+    bpy.ops.mesh.primitive_plane_add(size=6, location=(0, 0, 0))
+    floor = bpy.data.materials.new("Floor")
+    MATERIALS[floor_material](floor)
+    bpy.context.active_object.data.materials.append(floor)
+    ld = bpy.data.lights.new("Area", "AREA")
+    ld.energy, ld.size = 60.0, 0.25
+    lo = bpy.data.objects.new("Area", ld)
+    lo.location = (0.0, 0.0, 2.4)
+    scene.collection.objects.link(lo)
+    scene.world = bpy.data.worlds.new("W")
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    cam.location = (0.0, -2.6, 1.7)
+    cam.rotation_euler = (0.95, 0.0, 0.0)
+    cam.data.lens = 50
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.dither_intensity = 0.0
+    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
+    scene.render.filter_size = 0.0
+    return scene
+
+
+@pytest.mark.parametrize("floor", ["rough_metal", pytest.param("plastic", marks=pytest.mark.slow)])
+def test_caustic_on_a_glossy_floor_where_cycles_shows_it(floor, cycles, render_exr, tmp_path,
+                                                         tiny):
+    """A glass ball's caustic on a rough metal floor (its lobe is gathered: photons land on it)
+    and on a plastic floor (a glossy layer over diffuse): where Cycles shows it and as bright
+    (within 10 %: Cycles' own noise there is a few %), the floor around it as Cycles'."""
+    scene = _caustic_scene(floor)
+    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=512,
+                      bounces=8, photons=16384)
+    a, b = _blocks(ours).mean(-1), _blocks(ref).mean(-1)
+    # the caustic: the two blocks under the ball, inside its shadow (rows 16-24 of the image),
+    # several times brighter than the shadow beside them
+    caustic, shadow = b[2, 2:4], b[1, 2:4]
+    assert caustic.min() > 3 * shadow.max(), b
+    assert a[2, 2:4].sum() == pytest.approx(caustic.sum(), rel=0.10)
+    np.testing.assert_allclose(a[1:], b[1:], rtol=0.1, atol=0.01)
