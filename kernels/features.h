@@ -10,6 +10,7 @@
  *   PPM_MICROFACET   GGX lobes (metals, glass, specular layers, coats)
  *   PPM_SHEEN        sheen                      PPM_OREN_NAYAR  rough diffuse
  *   PPM_TRANSLUCENT  translucency               PPM_TRANSPARENT alpha, Transparent BSDF
+ *   PPM_ANISOTROPY   anisotropic lobes (the surface's tangents)
  *   PPM_LIGHT_POINT  point and spot lights      PPM_LIGHT_SUN   sun lights
  *   PPM_LIGHT_AREA   area lights                PPM_EMISSIVE    emissive triangles (and MIS)
  *   PPM_WORLD        an emitting world          PPM_LIGHTS_SEEN lights seen by camera rays
@@ -41,6 +42,9 @@
 #endif
 #ifndef PPM_TRANSPARENT
 #define PPM_TRANSPARENT PPM_ALL_FEATURES
+#endif
+#ifndef PPM_ANISOTROPY
+#define PPM_ANISOTROPY PPM_ALL_FEATURES
 #endif
 #ifndef PPM_LIGHT_POINT
 #define PPM_LIGHT_POINT PPM_ALL_FEATURES

@@ -181,10 +181,28 @@ inline float3 lambert_weight(__global const ShaderNode *nd, uint tri, float u, f
            * nd->weight;
 }
 
+/* The default tangent of anisotropic closures at barycentrics (u, v) of triangle tri: the
+ * exported radial tangent (scene_arrays.SceneArrays.tangents) made orthogonal to N, as Cycles'
+ * Tangent node; 0 without anisotropy (PPM_ANISOTROPY) */
+inline float3 surface_tangent(uint tri, float u, float v, float3 N,
+                              __global const float *tangents) {
+#if PPM_ANISOTROPY
+    __global const float *t = tangents + 9 * (size_t)tri;
+    float w = 1.0f - u - v;
+    float3 r = w * (float3)(t[0], t[1], t[2]) + u * (float3)(t[3], t[4], t[5])
+             + v * (float3)(t[6], t[7], t[8]);
+    float3 c = cross(r, N);
+    float l = length(c);
+    return l > 1e-12f ? cross(N, c / l) : (float3)(0.0f);
+#else
+    return (float3)(0.0f);
+#endif
+}
+
 /* Closures at a hit of material mat: triangle tri at barycentrics (u, v), stored normals ng and
- * ns (ns on ng's side), wi towards the viewer; tangent: 0 or the surface's tangent. */
+ * ns (ns on ng's side), wi towards the viewer. */
 inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, float3 ng,
-                         float3 ns, float3 wi, float3 tangent, SHADING_ARGS) {
+                         float3 ns, float3 wi, SHADING_ARGS) {
     sd->n = 0;
     sd->emission = sd->transparent = sd->holdout = (float3)(0.0f);
     sd->wi = wi;
@@ -205,6 +223,7 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
         sd->gather_transmits = sd->continue_glossy = false;
         return;
     }
+    float3 tangent = surface_tangent(tri, u, v, sd->N, tangents);
     for (int i = 0; i < m.node_count; i++) {
         __global const ShaderNode *nd = shader_nodes + m.node_first + i;
         if (!(nd->weight > 0.0f)) continue;

@@ -32,8 +32,8 @@ typedef struct {
 } ShaderData;
 
 #define SHADING_ARGS __global const Material *materials, __global const ShaderNode *shader_nodes, \
-    TABLES_ARG, TEXTURE_ARGS
-#define SHADING_PASS materials, shader_nodes, shading_tables, TEXTURE_PASS
+    TABLES_ARG, TEXTURE_ARGS, __global const float *tangents
+#define SHADING_PASS materials, shader_nodes, shading_tables, TEXTURE_PASS, tangents
 
 /* A new closure of weight w (negative parts dropped), or -1 when its weight is below the
  * cutoff or the list is full (as Cycles' bsdf_alloc). */

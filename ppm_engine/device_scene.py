@@ -54,7 +54,9 @@ class DeviceScene:
                         else np.zeros(1, TEXTURE_DTYPE), "textures"),
             texels=up(prepared.texels if prepared.texels.size
                       else np.zeros((1, 4), np.float16), "image textures"),
-            uvs=up(prepared.uvs, "UVs"))
+            uvs=up(prepared.uvs, "UVs"),
+            tangents=up(prepared.tangents if prepared.tangents.size
+                        else np.zeros(9, np.float32), "tangents"))
         self.camera = up(prepared.camera, "camera")
         self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0])),
                                "pixel filter")

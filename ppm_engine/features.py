@@ -13,7 +13,7 @@ import numpy as np
 from .materials import MAT_GATHER, MAT_LAMBERT, node_features
 from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHIFT, LIGHT_POINT,
                            LIGHT_SPOT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION,
-                           SceneArrays)
+                           SceneArrays, anisotropic_nodes)
 
 
 def used_materials(scene: SceneArrays, n_materials: int) -> np.ndarray:
@@ -67,6 +67,9 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarra
         f.add("PPM_DOF")
     if (m["emission_tex"] > 0).any():
         f.add("PPM_TEXTURES")
+    if scene.tangents.shape[0] and anisotropic_nodes(
+            knodes[np.isin(knodes["material"], used)]).any():
+        f.add("PPM_ANISOTROPY")
     if (m["absorption"] > 0).any():       # (kernel_materials keeps it on glass only)
         f.add("PPM_ABSORPTION")
     return frozenset(f)

@@ -65,6 +65,14 @@ NODE_TYPES = ("principled", "diffuse", "glossy", "metallic", "glass", "refractio
 NODE_FLAG_MULTI_GGX = 1     # multiple scattering compensated ("Multiscatter GGX")
 NODE_FLAG_CONDUCTOR = 2     # Metallic BSDF, Physical Conductor: color = n, edge_tint = k
 
+
+def anisotropic_nodes(nodes: np.ndarray) -> np.ndarray:
+    """Per node: whether it is anisotropic (it needs the surface's tangent)."""
+    t = nodes["type"]
+    a = nodes["anisotropic"]
+    return ((t == NODE_GLOSSY) & (np.abs(a) > 1e-4)) | (
+        np.isin(t, (NODE_PRINCIPLED, NODE_METALLIC)) & (a > 0))
+
 # One BSDF node of a material, its inputs constant (textures: 1-based into ``textures``, the
 # texture's value multiplies the input).  The Mix and Add Shader nodes on its way to the output
 # are folded into ``weight``.  Fields a node type has no input for are ignored.
@@ -223,6 +231,11 @@ class SceneArrays:
     warnings: tuple = ()
     textures: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, TEXTURE_DTYPE))
     texels: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 4), np.float16))
+    # (T, 3, 3) float32 per-corner tangent directions, or (0, 3, 3) when no material is
+    # anisotropic: the default tangent of anisotropic closures, Cycles' radial tangent around
+    # the object's Z axis (kernels/shader.h makes it orthogonal to the normal)
+    tangents: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros((0, 3, 3), np.float32))
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -268,6 +281,9 @@ class SceneArrays:
             raise ValueError("SceneArrays.camera must hold exactly one camera")
         if self.materials.shape[0] < 1:
             raise ValueError("SceneArrays.materials must hold at least one material")
+        if self.tangents.dtype != np.float32 or self.tangents.shape not in ((0, 3, 3), (t, 3, 3)):
+            raise ValueError(f"SceneArrays.tangents: expected float32 (0, 3, 3) or ({t}, 3, 3), "
+                             f"got {self.tangents.dtype}{self.tangents.shape}")
         if self.textures.dtype != TEXTURE_DTYPE or self.textures.ndim != 1:
             raise ValueError("SceneArrays.textures: expected a 1-D array of TEXTURE_DTYPE")
         if self.texels.dtype != np.float16 or self.texels.ndim != 2 or self.texels.shape[1] != 4:

@@ -41,9 +41,10 @@ class Shading:
         nodes = kernel_nodes(np.concatenate(rows))
         kmat = kernel_materials(np.zeros(len(materials), MATERIAL_DTYPE), nodes)
         up = device.upload
+        tangent = np.tile(np.float32([1, 0, 0]), 3)       # the surface's tangent: +x
         self.args = [up(kmat, "m"), up(nodes, "n"), up(st.load(), "t"),
                      up(np.zeros(4, np.int32), "tx"), up(np.zeros((1, 4), np.float16), "tl"),
-                     up(np.zeros(6, np.float32), "uv")]
+                     up(np.zeros(6, np.float32), "uv"), up(tangent, "tangents")]
         self.prog = device.programs.get("closure_test.cl")
 
     def sample(self, mat, wi, n, seed=1, mask=MASK_ALL):
@@ -153,6 +154,10 @@ MATERIALS = {
                                diffuse_roughness=0.5)],
     "principled_glass": [dict(type=NODE_PRINCIPLED, color=(0.9, 0.9, 0.7), transmission=1.0,
                               roughness=0.3)],
+    "glossy_aniso": [dict(type=NODE_GLOSSY, roughness=0.5, anisotropic=0.8, flags=0,
+                          anisotropic_rotation=0.1)],
+    "principled_aniso": [dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.5,
+                              anisotropic=0.7)],
     "mix": [dict(type=NODE_DIFFUSE, color=(0.9, 0.9, 0.9), weight=0.4),
             dict(type=NODE_GLOSSY, color=(1, 1, 1), roughness=0.2, weight=0.6)],
 }
@@ -337,3 +342,24 @@ def test_mix_weights_scale_closures(device):
     got = s.closures(0, view(0.7))
     assert [c["type"] for c in got] == ["diffuse", "ggx_reflect"]
     np.testing.assert_allclose(got[0]["weight"], 0.36, rtol=1e-6)
+
+
+def test_anisotropy_stretches_the_lobe_as_cycles_defines_it(device):
+    """At normal incidence, tangent +x: the Principled BSDF's anisotropy 0.8 stretches the lobe
+    along the tangent (alpha_x = alpha / sqrt(1 - 0.9 x 0.8)), the Glossy BSDF's across it
+    (alpha_x = alpha (1 - 0.8), alpha_y = alpha / (1 - 0.8)); rotation 0.25 turns the tangent
+    to +y; no anisotropy is round."""
+    s = Shading(device, [[dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.4,
+                               anisotropic=0.8)],
+                         [dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.4,
+                               anisotropic=0.8, anisotropic_rotation=0.25)],
+                         [dict(type=NODE_GLOSSY, roughness=0.4, anisotropic=0.8, flags=0)],
+                         [dict(type=NODE_GLOSSY, roughness=0.4, flags=0)]])
+    spread = []
+    for mat in range(4):
+        wo, _ = s.sample(mat, (0.0, 0.0, 1.0), 1 << 16)
+        ok = wo[:, 3] > 0
+        spread.append(np.abs(wo[ok, 0]).mean() / np.abs(wo[ok, 1]).mean())
+    principled, rotated, glossy, round_ = spread
+    assert principled > 1.5 and rotated < 1 / 1.5 and glossy < 1 / 3
+    assert round_ == pytest.approx(1.0, abs=0.03)

@@ -245,6 +245,33 @@ def test_principled_alpha_from_an_image_alpha(empty):
     np.testing.assert_allclose(s.texels[:, 3].astype(np.float32), 0.25, atol=1e-3)
 
 
+def test_anisotropic_materials_get_radial_tangents(empty):
+    """Tangents only when a material is anisotropic: Cycles' radial tangent around the
+    object's Z axis, (-(g.y - 1/2), g.x - 1/2, 0) of the Generated coordinates, in world space
+    (here an object rotated 90 degrees about Z); none otherwise."""
+    plain = bpy.data.materials.new("Plain")
+    add_plane("A", plain)
+    s = export()
+    assert s.tangents.shape == (0, 3, 3)
+    aniso = bpy.data.materials.new("Brushed")
+    _principled = aniso.node_tree.nodes["Principled BSDF"]
+    _principled.inputs["Anisotropic"].default_value = 0.5
+    b = add_plane("B", aniso, loc=(5, 0, 0))
+    b.rotation_euler = (0, 0, math.pi / 2)
+    s = export()
+    assert s.tangents.shape == s.positions.shape
+    mine = s.material == s.material_names.index("Brushed")
+    assert not s.tangents[~mine].any()
+    # the corners in the plane's own space are (+-1, +-1, 0), Generated (0 or 1): g - 1/2 is
+    # (+-1/2, +-1/2) and the tangent (-y, x) / 2 of it, turned with the object: horizontal,
+    # at right angles to the corner's radius from the object's centre, of length sqrt(1/2)
+    t = s.tangents[mine].reshape(-1, 3)
+    p = (s.positions[mine].reshape(-1, 3) - (5, 0, 0))
+    np.testing.assert_allclose(t[:, 2], 0, atol=1e-6)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", t, p), 0, atol=1e-5)   # around Z
+    np.testing.assert_allclose(np.linalg.norm(t, axis=1), np.sqrt(0.5), rtol=1e-5)
+
+
 def test_material_slots_and_out_of_range_index(empty):
     a, b = bpy.data.materials.new("A"), bpy.data.materials.new("B")
     bpy.ops.mesh.primitive_cube_add()

@@ -61,6 +61,8 @@ MATERIALS = {
     "plastic": lambda m: _principled(m, **{"Base Color": (0.7, 0.2, 0.1), "Roughness": 0.3}),
     "rough_metal": lambda m: _principled(m, **{"Base Color": (0.9, 0.6, 0.3), "Metallic": 1.0,
                                                "Roughness": 0.45}),
+    "aniso_metal": lambda m: _principled(m, **{"Base Color": (0.9, 0.9, 0.9), "Metallic": 1.0,
+                                               "Roughness": 0.4, "Anisotropic": 0.8}),
     "glossy_metal": lambda m: _principled(m, **{"Base Color": (0.8, 0.8, 0.85),
                                                 "Metallic": 1.0, "Roughness": 0.15}),
     "rough_glass": lambda m: _principled(m, **{"Transmission Weight": 1.0, "Roughness": 0.3}),

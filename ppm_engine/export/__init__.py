@@ -71,14 +71,17 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
             mesh = meshes.get(obj)
             if mesh is None or mesh.n_triangles == 0:
                 continue
-            parts.append(transform_part(mesh, m, materials.slot_map(obj), visibility_bits(obj),
-                                        obj.name, warn))
+            slots = materials.slot_map(obj)
+            parts.append(transform_part(mesh, m, slots, visibility_bits(obj), obj.name, warn,
+                                        tangents=materials.anisotropic(slots)))
     meshes.clear()
     world = export_world(scene.world, warn)
 
     light_arr = np.concatenate(lights) if lights else np.zeros(0, LIGHT_DTYPE)
     if parts:
         cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        if not cat["tangents"].any():              # no anisotropic material: no tangents
+            cat["tangents"] = np.zeros((0, 3, 3), np.float32)
     else:
         cat = dict(positions=np.zeros((0, 3, 3), np.float32),
                    normals=np.zeros((0, 3, 3), np.float32),

@@ -15,7 +15,8 @@ import numpy as np
 from ..scene_arrays import (MATERIAL_DTYPE, NODE_DIFFUSE, NODE_EMISSION, NODE_FLAG_CONDUCTOR,
                             NODE_FLAG_MULTI_GGX, NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT,
                             NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN,
-                            NODE_TRANSLUCENT, NODE_TRANSPARENT, SHADER_NODE_DTYPE, shader_node)
+                            NODE_TRANSLUCENT, NODE_TRANSPARENT, SHADER_NODE_DTYPE,
+                            anisotropic_nodes, shader_node)
 
 DEFAULT_NAME = "(default grey)"
 _MAX_DEPTH = 64
@@ -31,9 +32,13 @@ _PRINCIPLED_SCALARS = {
 }
 _PRINCIPLED_COLORS = {"Specular Tint": "edge_tint", "Coat Tint": "coat_tint",
                       "Sheen Tint": "sheen_tint"}
-# inputs read nowhere else that change the image when linked or set (warned about)
-_UNSUPPORTED_INPUTS = {"Normal": "normal maps and bump", "Coat Normal": "normal maps and bump",
-                       "Tangent": "tangents"}
+# inputs read nowhere else that change the image when linked (warned about)
+_UNSUPPORTED_INPUTS = {"Normal": "normal maps and bump come with the node graphs; the surface's "
+                                 "own normal is used",
+                       "Coat Normal": "normal maps and bump come with the node graphs; the "
+                                      "surface's own normal is used",
+                       "Tangent": "tangents come with the node graphs; Cycles' default, the "
+                                  "radial tangent around the object's Z axis, is used"}
 
 
 def default_row() -> tuple[np.ndarray, list]:
@@ -117,8 +122,7 @@ class _Reader:
         for name, what in _UNSUPPORTED_INPUTS.items():
             sock = node.inputs.get(name)
             if sock is not None and sock.is_linked and _from(sock) is not None:
-                self.warn(f"'{name}' of '{node.name}' is not evaluated ({what} come with the "
-                          "node graphs); the surface's own normal is used")
+                self.warn(f"'{name}' of '{node.name}' is not evaluated ({what})")
 
     # --- one BSDF node ------------------------------------------------------------------------
     def node_row(self, node, weight: float) -> dict | None:
@@ -355,6 +359,14 @@ class MaterialTable:
         """Global material index for each of the object's slots (at least one entry)."""
         slots = [self.index(s.material) if s is not None else 0 for s in obj.material_slots]
         return np.array(slots or [0], np.int32)
+
+    def anisotropic(self, slots: np.ndarray) -> bool:
+        """Whether a material of these (global) slots is anisotropic: it needs tangents."""
+        for k in set(int(i) for i in slots):
+            rows = [shader_node(**n) if isinstance(n, dict) else n for n in self.nodes[k]]
+            if rows and anisotropic_nodes(np.concatenate(rows)).any():
+                return True
+        return False
 
     def array(self) -> np.ndarray:
         return np.concatenate(self.rows)

@@ -19,6 +19,8 @@ class LocalMesh:
     normals: np.ndarray        # (T, 3, 3) float32
     uvs: np.ndarray            # (T, 3, 2) float32
     slot: np.ndarray           # (T,) int32 material slot index
+    # the mesh's texture space (location, size): where "Generated" coordinates are 0..1
+    texspace: tuple = ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
 
     @property
     def n_triangles(self) -> int:
@@ -76,8 +78,10 @@ def read_mesh(mesh) -> LocalMesh:
         uvs = np.zeros((n_tri, 3, 2), np.float32)
     mat = _attr(mesh, "material_index", n_polys, 1, np.int32, "value")
     slot = mat[tri_poly] if mat is not None else np.zeros(n_tri, np.int32)
+    texspace = (tuple(getattr(mesh, "texspace_location", (0.0, 0.0, 0.0))),
+                tuple(getattr(mesh, "texspace_size", (1.0, 1.0, 1.0))))
     return LocalMesh(positions, normals.astype(np.float32, copy=False), uvs,
-                     slot.astype(np.int32, copy=False))
+                     slot.astype(np.int32, copy=False), texspace)
 
 
 class MeshCache:
@@ -114,15 +118,30 @@ class MeshCache:
         self._cache.clear()
 
 
+def radial_tangents(mesh: LocalMesh) -> np.ndarray:
+    """(T, 3, 3) object-space radial tangents around Z at the corners, Cycles' default tangent
+    (its Tangent node, Radial, Z): (-(g.y - 1/2), g.x - 1/2, 0) of the Generated coordinates
+    g, which map the mesh's texture space to 0..1.  Linear in the position, so interpolating
+    the corners' is exact."""
+    loc, size = (np.asarray(v, np.float64) for v in mesh.texspace)
+    size = np.where(np.abs(size) > 1e-30, size, 1.0)
+    g = (mesh.positions.astype(np.float64) - loc) / (2.0 * size)        # g - 1/2
+    t = np.zeros(mesh.positions.shape, np.float32)
+    t[..., 0], t[..., 1] = -g[..., 1], g[..., 0]
+    return t
+
+
 def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibility: int,
-                   name: str, warn) -> dict:
+                   name: str, warn, tangents: bool = False) -> dict:
     """World-space arrays of one instance.
 
     Positions by the world matrix, normals by its inverse transpose (renormalised).  A mirroring
     matrix (negative determinant) also reverses the winding (corners 1 and 2 swapped) so that
     the geometric normal from the winding keeps its side relative to the shading normals, as
     Cycles' negative-scale flag does.  Triangles with NaN/Inf corners are dropped with a warning;
-    non-finite or zero shading normals are replaced by the geometric normal."""
+    non-finite or zero shading normals are replaced by the geometric normal.  With
+    ``tangents``, the radial tangents (radial_tangents) transformed as normals are (Cycles'
+    object_normal_transform), else zeros."""
     m3, t = m[:3, :3], m[:3, 3]
     det = float(np.linalg.det(m3))
     # float32 arithmetic (as Cycles transforms): the result is float32 anyway, and 1M triangles
@@ -146,14 +165,17 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
             n /= np.sqrt(len2)[:, None]
         n = n.reshape(-1, 3, 3)
         zero = ~(len2.reshape(-1, 3) > 1e-24)              # zero-length (or NaN) normals
+        tg = ((radial_tangents(mesh).reshape(-1, 3) @ nm.T.astype(np.float32)).reshape(-1, 3, 3)
+              if tangents else np.zeros(p.shape, np.float32))
         good, warning = finite_triangles(p, f"Object '{name}'")
         uvs = mesh.uvs
         if good is not None:
             warn(warning)
-            p, n, zero, uvs = p[good], n[good], zero[good], uvs[good]
+            p, n, zero, uvs, tg = p[good], n[good], zero[good], uvs[good], tg[good]
         if det < 0:
             order = [0, 2, 1]
             p, n, uvs, zero = p[:, order], n[:, order], uvs[:, order], zero[:, order]
+            tg = tg[:, order]
         if zero.any() or not np.isfinite(n.reshape(len(n), 9).sum(axis=1)).all():
             bad = zero | ~np.isfinite(n).all(axis=2)
             ng = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]).astype(np.float64)
@@ -166,4 +188,5 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
         mat = mat[good]
     return dict(positions=p.astype(np.float32, copy=False), normals=n.astype(np.float32, copy=False),
                 uvs=np.ascontiguousarray(uvs, np.float32), material=mat.astype(np.int32),
-                visibility=np.full(p.shape[0], visibility, np.uint32))
+                visibility=np.full(p.shape[0], visibility, np.uint32),
+                tangents=np.ascontiguousarray(tg, np.float32))
