@@ -80,7 +80,7 @@ inline float3 shadow_transmittance(float3 o, float3 d, float dist, SCENE_ARGS) {
             return (float3)(0.0f);
         T *= material_transparency(s.material, s.tri, h.u, h.v, SHADING_PASS);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
-        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng);
+        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, emitter_info->offset_scale);
         dist -= dot(o2 - o, d);
         o = o2;
         if (!(dist > 0.0f)) return T;
@@ -104,7 +104,7 @@ inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng
     /* All geometry from the shadow ray's own origin: a direction computed from p but traced
      * from the offset origin would meet a planar emitter's own plane early at grazing angles
      * (the offset over cos) and the light would shadow itself. */
-    float3 o = offset_ray(p, ngf);
+    float3 o = offset_ray(p, ngf, info.offset_scale);
     s->dist = PPM_INF;
     s->pdf_dir = 0.0f;
     if (e < info.n_lights) {
@@ -113,7 +113,7 @@ inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng
         else if (PPM_LIGHT_POINT && (L.type == LIGHT_POINT || L.type == LIGHT_SPOT)) {
             if (!point_direct(&L, o, u1, u2, s)) return false;
         } else if (PPM_LIGHT_AREA && (L.type == LIGHT_AREA_RECT || L.type == LIGHT_AREA_ELLIPSE)) {
-            if (!area_direct(&L, o, u1, u2, s)) return false;
+            if (!area_direct(&L, o, u1, u2, info.offset_scale, s)) return false;
         } else return false;
     } else if (PPM_EMISSIVE && e < info.n_lights + info.n_emissive) {
         if (!mesh_direct(emissive[e - info.n_lights], o, u1, u2, SCENE_PASS, s)) return false;
@@ -137,7 +137,8 @@ inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, u
     float3 f = shader_eval(sd, s.wi, mask, &pdf_b);
     bool transmit = dot(s.wi, sd->Ng) < 0.0f;
     if (!(max3(f) > 0.0f)) return (float3)(0.0f);
-    float3 T = shadow_transmittance(offset_ray(p, transmit ? -sd->Ng : sd->Ng), s.wi, s.dist,
+    float3 T = shadow_transmittance(offset_ray(p, transmit ? -sd->Ng : sd->Ng, emitter_info->offset_scale), s.wi,
+                                    s.dist,
                                     SCENE_PASS);
     float w = s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
     return f * T * s.E * (w / pmf);
@@ -174,7 +175,7 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_A
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
         T *= material_transparency(mat, s.tri, h.u, h.v, SHADING_PASS);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
-        o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng);
+        o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, emitter_info->offset_scale);
     }
     return (float3)(0.0f);
 }
@@ -191,7 +192,8 @@ inline float3 direct_bsdf(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, 
     bool transmit = (b.label & LABEL_TRANSMIT) != 0;
     uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
     float pdf_l;
-    float3 Le = emitter_along(offset_ray(p, transmit ? -sd->Ng : sd->Ng), b.wo, ray, sd->N,
+    float3 Le = emitter_along(offset_ray(p, transmit ? -sd->Ng : sd->Ng, emitter_info->offset_scale), b.wo, ray,
+                              sd->N,
                               SCENE_PASS, &pdf_l);
     return b.weight * Le * mis_power(b.pdf, pdf_l);
 #else

@@ -139,7 +139,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         if (!shader_sample(&sd, MASK_CONTINUE, rand, &b)) break;
         beta *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
-        o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng);
+        o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng, emitter_info->offset_scale);
         d = b.wo;
         tmax = PPM_INF;
         if (!(max3(beta) > 0.0f)) break;

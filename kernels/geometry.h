@@ -8,20 +8,15 @@
 inline float max3(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
 inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
-/* The scene's size, a power of two (ppm_engine/scene_prep.py offset_scale): the absolute part
- * of offset_ray (coordinates near 0) is tuned for scenes of size ~1; a 2 mm scene would be
- * offset by 1 % of its size and a 10 km one too little near its axis planes. */
-#ifndef PPM_OFFSET_SCALE
-#define PPM_OFFSET_SCALE 1.0f
-#endif
-
 /* Offset a ray origin off a surface along n (pointing to the side the ray leaves to), by a
  * number of ULPs that scales with |p| (Waechter & Binder, Ray Tracing Gems ch. 6), and near
  * the axis planes by an absolute amount that scales with the scene: robust at any scale and
- * distance from the origin, unlike one fixed epsilon. */
-inline float3 offset_ray(float3 p, float3 n) {
-    const float origin = PPM_OFFSET_SCALE / 32.0f, float_scale = PPM_OFFSET_SCALE / 65536.0f,
-                int_scale = 256.0f;
+ * distance from the origin, unlike one fixed epsilon.  scale: the scene's size, a power of two
+ * (ppm_engine/scene_prep.py offset_scale, EmitterInfo.offset_scale): the absolute part is
+ * tuned for scenes of size ~1; a 2 mm scene would be offset by 1 % of its size and a 10 km one
+ * too little near its axis planes. */
+inline float3 offset_ray(float3 p, float3 n, float scale) {
+    const float origin = scale / 32.0f, float_scale = scale / 65536.0f, int_scale = 256.0f;
     int3 oi = convert_int3(int_scale * n);
     float3 pi = (float3)(as_float(as_int(p.x) + (p.x < 0.0f ? -oi.x : oi.x)),
                          as_float(as_int(p.y) + (p.y < 0.0f ? -oi.y : oi.y)),

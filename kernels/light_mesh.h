@@ -103,7 +103,7 @@ inline bool mesh_direct(int k, float3 o, float u1, float u2, SCENE_ARGS,
         b = sample_triangle(u1, u2);
         q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
     }
-    q = offset_ray(q, dot(o - q, nt) >= 0.0f ? nt : -nt);    /* on our side of it */
+    q = offset_ray(q, dot(o - q, nt) >= 0.0f ? nt : -nt, emitter_info->offset_scale);    /* on our side of it */
     float3 tq = q - o;
     float dq2 = dot(tq, tq);
     s->dist = st.area > 0.0f ? dot(tq, s->wi) : sqrt(dq2);   /* along wi: short of the emitter */
@@ -135,7 +135,7 @@ inline bool mesh_emit(int k, float pmf, float u1, float u2, float u3, float u4, 
     float uu = u3 < 0.5f ? 2.0f * u3 : 2.0f * u3 - 1.0f;
     nt *= side;
     *d = sample_cosine_hemisphere(nt, uu, u4);
-    *o = offset_ray(q, nt);
+    *o = offset_ray(q, nt, emitter_info->offset_scale);
     __global const Material *me = materials + as_int(e2.w);
     *flux = F3(me->emission)
             * texture_tint(me->emission_tex, as_uint(v0.w), b.x, b.y, TEXTURE_PASS)

@@ -141,7 +141,7 @@ inline bool point_direct(const Light *L, float3 o, float u1, float u2, LightSamp
 }
 
 inline void point_emit(const Light *L, float pmf, float u1, float u2, float u3, float u4,
-                       float3 *o, float3 *d, float3 *flux) {
+                       float scale, float3 *o, float3 *d, float3 *flux) {
     float3 I = F3(L->emit);
     if (L->type == LIGHT_SPOT) {
         float cm = spot_sample_cos(L);
@@ -156,7 +156,7 @@ inline void point_emit(const Light *L, float pmf, float u1, float u2, float u3, 
         /* sphere light: uniform point, cosine-weighted direction; same total power */
         float3 ns = sample_uniform_sphere(u1, u2);
         *d = sample_cosine_hemisphere(ns, u3, u4);
-        *o = offset_ray(F3(L->position) + L->radius * ns, ns);
+        *o = offset_ray(F3(L->position) + L->radius * ns, ns, scale);
     }
 }
 
@@ -192,9 +192,10 @@ inline void area_seen(const Light *l, float3 o, float3 d, float *best, float3 *L
     }
 }
 
-inline bool area_direct(const Light *L, float3 o, float u1, float u2, LightSample *s) {
+inline bool area_direct(const Light *L, float3 o, float u1, float u2, float scale,
+                        LightSample *s) {
     float3 nl = F3(L->direction);
-    float3 q = offset_ray(area_light_point(L, u1, u2), nl);   /* in front of it */
+    float3 q = offset_ray(area_light_point(L, u1, u2), nl, scale);   /* in front of it */
     float3 tq = q - o;
     float dq2 = dot(tq, tq);
     s->dist = sqrt(dq2);
@@ -208,11 +209,11 @@ inline bool area_direct(const Light *L, float3 o, float u1, float u2, LightSampl
 }
 
 inline void area_emit(const Light *L, float pmf, float u1, float u2, float u3, float u4,
-                      float3 *o, float3 *d, float3 *flux) {
+                      float scale, float3 *o, float3 *d, float3 *flux) {
     float3 q = area_light_point(L, u1, u2);
     float3 nl = F3(L->direction);
     *d = sample_cosine_hemisphere(nl, u3, u4);
-    *o = offset_ray(q, nl);
+    *o = offset_ray(q, nl, scale);
     *flux = F3(L->emit) * (PPM_PI * area_light_area(L) / pmf);
 }
 

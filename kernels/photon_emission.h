@@ -19,9 +19,9 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
         if (PPM_LIGHT_SUN && L.type == LIGHT_SUN)
             sun_emit(&L, c, R, pmf, u1, u2, u3, u4, o, d, flux);
         else if (PPM_LIGHT_POINT && (L.type == LIGHT_POINT || L.type == LIGHT_SPOT))
-            point_emit(&L, pmf, u1, u2, u3, u4, o, d, flux);
+            point_emit(&L, pmf, u1, u2, u3, u4, info.offset_scale, o, d, flux);
         else if (PPM_LIGHT_AREA && (L.type == LIGHT_AREA_RECT || L.type == LIGHT_AREA_ELLIPSE))
-            area_emit(&L, pmf, u1, u2, u3, u4, o, d, flux);
+            area_emit(&L, pmf, u1, u2, u3, u4, info.offset_scale, o, d, flux);
         else return false;
     } else if (PPM_EMISSIVE && e < info.n_lights + info.n_emissive) {
         if (!mesh_emit(emissive[e - info.n_lights], pmf, u1, u2, u3, u4, SCENE_PASS, o, d, flux))

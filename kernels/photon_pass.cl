@@ -104,7 +104,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             if (transmit) media_cross(&media, s.material, dot(d, s.ng) < 0.0f);
 #endif
         }
-        o = offset_ray(s.p, transmit ? -Ng : Ng);
+        o = offset_ray(s.p, transmit ? -Ng : Ng, emitter_info->offset_scale);
         d = b.wo;
         /* Russian roulette keeps photon power roughly constant: survival is the scattering's
          * albedo (times the medium's transmittance).  The change of measure of refraction is

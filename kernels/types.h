@@ -123,7 +123,8 @@ typedef struct {
 } ShaderNode;
 
 /* Emitters for photon emission and next-event estimation, indexed 0..n_emitters-1:
- * [0, n_lights) scene lights, then emissive triangles, then the world (if it emits). */
+ * [0, n_lights) scene lights, then emissive triangles, then the world (if it emits); and the
+ * scene's size (mirrors emitters.EMITTER_INFO_DTYPE). */
 typedef struct {
     int n_lights;
     int n_emissive;
@@ -132,6 +133,7 @@ typedef struct {
     float world[3];
     float scene_center[3];
     float scene_radius;
+    float offset_scale;  /* the scene's size for the ray offsets (geometry.h offset_ray) */
 } EmitterInfo;
 
 /* grid of the stochastic hash; written on the device by grid_setup (hash_build.cl) */

@@ -35,6 +35,7 @@ class DeviceScene:
         self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
         self.offset_scale = offset_scale(prepared)
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order)
+        em.info["offset_scale"] = self.offset_scale
         b = self.bvh
         lights = prepared.lights if prepared.lights.shape[0] else np.zeros(1, LIGHT_DTYPE)
         # names and order: kernels/scene.h SCENE_ARGS (the BVH's own: kernels/bvh.h BVH_ARGS)
@@ -64,12 +65,12 @@ class DeviceScene:
     def kernel_defines(self, specialize: bool, gather_roughness: float = 0.5
                        ) -> tuple[frozenset | None, dict]:
         """(features, -D flags) of the eye and photon passes: the scene's features, or every
-        feature (None) unspecialised; the ray offset scale of the scene's size and the
-        roughness from which lobes are gathered either way."""
+        feature (None) unspecialised; the roughness from which lobes are gathered either way.
+        (The ray offsets' scale is the scene's EmitterInfo.offset_scale, not a flag: scenes of
+        any size share their programs.)"""
         features = (scene_features(self.prepared, self.kmaterials, self.knodes, self.emitters,
                                    self.used_materials) if specialize else None)
-        return features, {"PPM_OFFSET_SCALE": float(self.offset_scale).hex() + "f",
-                          "PPM_FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
+        return features, {"PPM_FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
                           "PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
                           **feature_defines(features, max_closures(self.knodes,
                                                                    self.used_materials))}

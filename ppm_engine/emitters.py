@@ -20,6 +20,8 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("world", np.float32, 3),
     ("scene_center", np.float32, 3),
     ("scene_radius", np.float32),
+    # the scale of the ray offsets (scene_prep.offset_scale; kernels/geometry.h offset_ray)
+    ("offset_scale", np.float32),
 ])
 
 

@@ -81,7 +81,8 @@ MATERIALS = {
     "alpha": lambda m: _principled(m, **{"Base Color": (0.2, 0.3, 0.8), "Alpha": 0.5}),
     "translucent": lambda m: _replace(m, "ShaderNodeBsdfTranslucent", Color=(0.8, 0.7, 0.5)),
 }
-DEFAULT_RUN = {"plastic", "rough_glass", "sheen", "mix"}
+DEFAULT_DIRECT = {"plastic", "mix"}         # the rest with -m slow
+DEFAULT_FULL = {"rough_glass", "sheen"}
 
 
 def _scene(material: str, floor: bool, world: float, light: bool):
@@ -145,12 +146,11 @@ def _compare(ours, ref, rtol, atol):
                            f"{np.min(a / np.maximum(b, 1e-6)):.3f}")
 
 
-def _cases(slow_rest):
-    return [pytest.param(m, marks=() if m in DEFAULT_RUN else pytest.mark.slow)
-            for m in MATERIALS]
+def _cases(default):
+    return [pytest.param(m, marks=() if m in default else pytest.mark.slow) for m in MATERIALS]
 
 
-@pytest.mark.parametrize("material", _cases(True))
+@pytest.mark.parametrize("material", _cases(DEFAULT_DIRECT))
 def test_direct_light_per_block_as_cycles(material, cycles, render_exr, tmp_path, tiny):
     """Direct light only (no bounce): the closures' evaluation with next-event estimation and
     the BSDF sample, per 8 x 8 block within 3 %."""
@@ -160,7 +160,7 @@ def test_direct_light_per_block_as_cycles(material, cycles, render_exr, tmp_path
     _compare(ours, ref, 0.03, 0.002)
 
 
-@pytest.mark.parametrize("material", _cases(True))
+@pytest.mark.parametrize("material", _cases(DEFAULT_FULL))
 def test_full_transport_per_block_as_cycles(material, cycles, render_exr, tmp_path, tiny):
     """All bounces (photons for the light between the sphere and the floor, caustics under
     glass), per 8 x 8 block within 3 %."""
@@ -177,7 +177,7 @@ FURNACE = {
 }
 
 
-@pytest.mark.parametrize("material", [pytest.param(m, marks=() if m in ("rough_glass", "coat")
+@pytest.mark.parametrize("material", [pytest.param(m, marks=() if m == "coat"
                                                    else pytest.mark.slow) for m in FURNACE])
 def test_white_furnace_as_cycles(material, cycles, render_exr, tmp_path, tiny):
     """The sphere alone in a white world (strength 1): what it reflects and transmits, as
@@ -233,7 +233,7 @@ def test_caustic_on_a_glossy_floor_where_cycles_shows_it(floor, cycles, render_e
     and on a plastic floor (a glossy layer over diffuse): where Cycles shows it and as bright
     (within 10 %: Cycles' own noise there is a few %), the floor around it as Cycles'."""
     scene = _caustic_scene(floor)
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=512,
+    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=2048, passes=256,
                       bounces=8, photons=16384)
     a, b = _blocks(ours).mean(-1), _blocks(ref).mean(-1)
     # the caustic: the two blocks under the ball, inside its shadow (rows 16-24 of the image),

@@ -53,7 +53,7 @@ REFERENCE_ENGINE = {"cornell_box": "CYCLES", "bulb_box": "PPM", "glass_caustic":
 REF_SEEDS = (1001, 2002)
 EQUAL_TIME = 16.0
 TARGETS = {"bulb_box": 0.25, "cornell_box": 1.0}     # RMSE ours / Cycles at EQUAL_TIME
-QUICK = dict(times=(0.5, 1.0), resolution=16, ref_seconds=1.5, photons=1 << 13)
+QUICK = dict(times=(0.25, 0.5), resolution=16, ref_seconds=1.0, photons=1 << 13)
 
 
 # --- images and masks -------------------------------------------------------------------------

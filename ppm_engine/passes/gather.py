@@ -8,6 +8,22 @@ import numpy as np
 from ..device import SHADING_GROUP
 
 
+# the flags that change the gather: its shading of a visible point (the rest, lights, camera,
+# ray offsets, are the eye and photon passes'); fewer programs to build
+_SHADING_DEFINES = {"PPM_SPECIALIZED", "PPM_SHADER", "PPM_GATHER_SHADE", "PPM_MICROFACET",
+                    "PPM_SHEEN", "PPM_OREN_NAYAR", "PPM_TRANSLUCENT", "PPM_TRANSPARENT",
+                    "PPM_TEXTURES", "PPM_ANISOTROPY", "PPM_MAX_CLOSURES", "PPM_GATHER_ROUGHNESS"}
+
+
+def gather_defines(defines: dict | None) -> dict:
+    """The scene's kernel flags the gather needs: none but PPM_SPECIALIZED when no visible
+    point is shaded (PPM_GATHER_SHADE), else its shading ones."""
+    defines = defines or {}
+    if defines.get("PPM_SPECIALIZED") and not defines.get("PPM_GATHER_SHADE"):
+        return {"PPM_SPECIALIZED": True}
+    return {k: v for k, v in defines.items() if k in _SHADING_DEFINES}
+
+
 def unshaded(device, n: int):
     """A vp_shade buffer of n visible points with no hit to shade: their f is 1, so the gather
     sums plain flux (kernel tests, micro benchmarks)."""
@@ -27,7 +43,7 @@ class Gather:
         ``defines`` its kernel flags (DeviceScene.kernel_defines); without a scene (kernel
         tests, micro benchmarks) every visible point's f is 1: a plain flux sum."""
         self.photon_map = photon_map
-        defines = {**(defines or {}),
+        defines = {**gather_defines(defines),
                    **({"PPM_INT64_ATOMICS": True} if device.int64_atomics else {})}
         p = device.programs.get("gather.cl", defines)
         self.k_gather = p.launch("gather", "gather")
