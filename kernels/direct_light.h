@@ -128,8 +128,10 @@ inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng
 #define EMITTERS_HITTABLE (PPM_EMISSIVE || PPM_LIGHTS_SEEN || PPM_WORLD)
 
 /* Next-event estimation at shading point p for the closures in mask, weighted against their
- * sample (power heuristic).  Returns the radiance reflected towards sd->wi. */
-inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, uint *rng) {
+ * sample (power heuristic; mis false: alone, when no sample of the closures looks for
+ * emitters).  Returns the radiance reflected towards sd->wi. */
+inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, bool mis, SCENE_ARGS,
+                         uint *rng) {
     LightSample s;
     float pmf;
     if (!sample_emitter(p, sd->N, sd->Ng, SCENE_PASS, rng, &s, &pmf)) return (float3)(0.0f);
@@ -140,7 +142,7 @@ inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, u
     float3 T = shadow_transmittance(offset_ray(p, transmit ? -sd->Ng : sd->Ng, emitter_info->offset_scale), s.wi,
                                     s.dist,
                                     SCENE_PASS);
-    float w = s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
+    float w = mis && s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
     return f * T * s.E * (w / pmf);
 }
 
@@ -202,8 +204,16 @@ inline float3 direct_bsdf(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, 
 }
 
 /* Direct light at shading point p for the closures in mask: next-event estimation and one
- * sample of those closures, combined by MIS.  Returns the radiance towards sd->wi. */
+ * sample of those closures, combined by MIS.  For Lambert closures the sample only pays where
+ * next-event estimation is poor, next to large emissive meshes (a ceiling 1 cm above a lamp);
+ * with lights and the world alone next-event estimation works alone (the sample's ray would
+ * mostly find nothing).  Returns the radiance towards sd->wi. */
 inline float3 direct_light(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, uint *rng) {
-    return direct_nee(sd, p, mask, SCENE_PASS, rng) + direct_bsdf(sd, p, mask, SCENE_PASS, rng);
+    bool lambert = true;
+    for (int k = 0; k < sd->n; k++)
+        lambert &= !closure_in(&sd->c[k], mask) || sd->c[k].type == CLOSURE_DIFFUSE;
+    bool sample = !lambert || (PPM_EMISSIVE && emitter_info->n_emissive > 0);
+    float3 L = direct_nee(sd, p, mask, sample, SCENE_PASS, rng);
+    return sample ? L + direct_bsdf(sd, p, mask, SCENE_PASS, rng) : L;
 }
 #endif

@@ -133,7 +133,8 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         /* the path goes on through the other closures (mirrors, glass, smooth glossy lobes,
          * transparency), weighted by 1 / their probability */
         beta *= sw / sd.sw_continue;
-        if (sd.continue_glossy) L += beta * direct_nee(&sd, s.p, MASK_CONTINUE, SCENE_PASS, &rng);
+        if (sd.continue_glossy)
+            L += beta * direct_nee(&sd, s.p, MASK_CONTINUE, true, SCENE_PASS, &rng);
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
         if (!shader_sample(&sd, MASK_CONTINUE, rand, &b)) break;

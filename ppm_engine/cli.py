@@ -104,6 +104,9 @@ def _build_parser() -> argparse.ArgumentParser:
     b.add_argument("--skips", action="store_true",
                    help="what each skip of work a scene does not need saves, with and without")
     b.add_argument("--phases", metavar="SCENE", help="per-phase breakdown of a pass of SCENE")
+    b.add_argument("--glossy", action="store_true",
+                   help="which glossy lobes to gather: error at equal time per gather roughness "
+                        "(the budget: --times S, default 8)")
     b.add_argument("--passes", type=int, default=8, help="--phases: timed passes (default 8)")
     b.add_argument("--json", metavar="PATH", help="JSON output (default docs/bench/bench.json, "
                    "micro.json or phases.json)")

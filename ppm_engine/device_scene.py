@@ -42,22 +42,23 @@ class DeviceScene:
         self.args = dict(
             nodes=b.nodes, tri_v0=b.tri_v0, tri_e1=b.tri_e1, tri_e2=b.tri_e2,
             normals=up(prepared.normals, "shading normals"),
+            # kernels/shader_data.h SHADING_ARGS
             materials=up(self.kmaterials, "materials"),
             shader_nodes=up(self.knodes if self.knodes.size else np.zeros(1, self.knodes.dtype),
                             "shader nodes"),
             shading_tables=up(shading_tables(), "shading tables"),
-            lights=up(lights, "lights"),
-            emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
-            emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),
-                        "emissive triangles"),
-            emitter_info=up(em.info, "emitters"),
             textures=up(prepared.textures if prepared.textures.size
                         else np.zeros(1, TEXTURE_DTYPE), "textures"),
             texels=up(prepared.texels if prepared.texels.size
                       else np.zeros((1, 4), np.float16), "image textures"),
             uvs=up(prepared.uvs, "UVs"),
             tangents=up(prepared.tangents if prepared.tangents.size
-                        else np.zeros(9, np.float32), "tangents"))
+                        else np.zeros(9, np.float32), "tangents"),
+            lights=up(lights, "lights"),
+            emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
+            emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),
+                        "emissive triangles"),
+            emitter_info=up(em.info, "emitters"))
         self.camera = up(prepared.camera, "camera")
         self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0])),
                                "pixel filter")

@@ -5,7 +5,7 @@ standard error of the mean."""
 import numpy as np
 import pytest
 
-from ppm_engine.device import SHADING_GROUP, global_size
+from ppm_engine.device import SHADING_GROUP
 from ppm_engine.options import RenderOptions
 from ppm_engine.procedural import MeshBuilder, look_at
 from ppm_engine.renderer import Renderer
@@ -261,10 +261,9 @@ def direct_light(scene, pts, nrm, samples):
     r = Renderer(scene, RenderOptions(max_bounces=0))
     dev, n = r.device, len(pts)
     out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * n)
-    dev.programs.get("debug.cl").direct_light_at(
-        dev.queue, (global_size(n, SHADING_GROUP),), (SHADING_GROUP,), *r.scene.args.values(),
-        dev.upload(pts, "p"),
-        dev.upload(nrm, "n"), np.int32(samples), out, np.uint32(n))
+    k = dev.programs.get("debug.cl").launch("direct_light_at", "test")
+    k(dev.queue, n, SHADING_GROUP, **r.scene.args, points=dev.upload(pts, "p"),
+      nrm=dev.upload(nrm, "n"), n_samples=np.int32(samples), out=out, n=np.uint32(n))
     got = np.empty((n, 4), np.float32)
     cl.enqueue_copy(dev.queue, got, out)
     r.close()

@@ -34,6 +34,8 @@ def _replace(mat, idname, **inputs):
 
 
 def _mix(mat, fac, a, b):
+    """A Mix Shader of factor fac over nodes a and b ((idname, inputs)); fac None: an Add
+    Shader."""
     t = mat.node_tree
     t.nodes.remove(t.nodes["Principled BSDF"])
     na = t.nodes.new(a[0])
@@ -41,10 +43,15 @@ def _mix(mat, fac, a, b):
     for n, spec in ((na, a[1]), (nb, b[1])):
         for k, v in spec.items():
             n.inputs[k].default_value = (*v, 1.0) if isinstance(v, tuple) and len(v) == 3 else v
-    m = t.nodes.new("ShaderNodeMixShader")
-    m.inputs[0].default_value = fac
-    t.links.new(na.outputs[0], m.inputs[1])
-    t.links.new(nb.outputs[0], m.inputs[2])
+    if fac is None:
+        m = t.nodes.new("ShaderNodeAddShader")
+        t.links.new(na.outputs[0], m.inputs[0])
+        t.links.new(nb.outputs[0], m.inputs[1])
+    else:
+        m = t.nodes.new("ShaderNodeMixShader")
+        m.inputs[0].default_value = fac
+        t.links.new(na.outputs[0], m.inputs[1])
+        t.links.new(nb.outputs[0], m.inputs[2])
     t.links.new(m.outputs[0], t.nodes["Material Output"].inputs["Surface"])
 
 
@@ -78,6 +85,9 @@ MATERIALS = {
     "mix": lambda m: _mix(m, 0.5, ("ShaderNodeBsdfDiffuse", {"Color": (0.2, 0.5, 0.2)}),
                           ("ShaderNodeBsdfAnisotropic", {"Roughness": 0.25})),
     "glossy": lambda m: _replace(m, "ShaderNodeBsdfAnisotropic", Roughness=0.25),
+    "add": lambda m: _mix(m, None, ("ShaderNodeBsdfDiffuse", {"Color": (0.3, 0.1, 0.1)}),
+                          ("ShaderNodeBsdfAnisotropic", {"Roughness": 0.3,
+                                                         "Color": (0.5, 0.5, 0.5)})),
     "alpha": lambda m: _principled(m, **{"Base Color": (0.2, 0.3, 0.8), "Alpha": 0.5}),
     "translucent": lambda m: _replace(m, "ShaderNodeBsdfTranslucent", Color=(0.8, 0.7, 0.5)),
 }

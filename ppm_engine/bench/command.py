@@ -6,13 +6,14 @@ import importlib.util
 from pathlib import Path
 
 from ..errors import UsageError
-from . import curves, micro, phases, report, skips
+from . import curves, glossy, micro, phases, report, skips
 
 
 def run(args, cmdline: str, progress=print) -> int:
     """Run the benchmark the arguments ask for; outputs go to --json/--plot/--markdown or
     docs/bench/ and docs/BENCHMARKS.md."""
-    needed = ("OpenEXR", "matplotlib") if not (args.micro or args.phases or args.skips) else ()
+    needed = (("OpenEXR", "matplotlib") if not (args.micro or args.phases or args.skips)
+              else ())
     missing = [m for m in needed if importlib.util.find_spec(m) is None]
     if missing:
         raise UsageError(f"the benchmark needs {' and '.join(missing)}: pip install -e "
@@ -40,6 +41,16 @@ def run(args, cmdline: str, progress=print) -> int:
         s = skips.run_skips(args.device, quick=args.quick, progress=progress)
         s["machine"] = report.machine_info(args.device)
         return publish("skips", s, skips.format_skips(s))
+    if args.glossy:
+        from ..blender_io import ensure_registered
+        ensure_registered()
+        seconds = args.times[0] if args.times else (0.5 if args.quick else 8.0)
+        g = glossy.run_glossy(seconds, args.resolution or (24 if args.quick else 96),
+                              64 if args.quick else 6000,
+                              (0.35, 1.5) if args.quick else glossy.DEFAULT_VALUES,
+                              args.device, progress)
+        g["machine"] = report.machine_info(args.device)
+        return publish("glossy", g, glossy.format_glossy(g))
     if args.phases:
         from ..scenes import EXAMPLES
         if args.phases not in EXAMPLES:
