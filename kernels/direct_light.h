@@ -146,9 +146,6 @@ inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, bool mis, SCE
     return f * T * s.E * (w / pmf);
 }
 
-/* Whether a BSDF-sampled ray can find an emitter next-event estimation also samples: emissive
- * triangles, lights rays see, the world. */
-#define EMITTERS_HITTABLE (PPM_EMISSIVE || PPM_LIGHTS_SEEN || PPM_WORLD)
 
 /* What a ray from o along d finds of the emitters (ray_type: VIS_*): the radiance of the
  * first emitter (through partly transparent surfaces, attenuated) and the density
@@ -173,7 +170,10 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_A
         int mat = as_int(tri_e2[h.leaf].w);
         if (PPM_EMISSIVE && (materials[mat].flags & MAT_EMISSIVE))
             return T * mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, pdf_l);
-        if (!PPM_TRANSPARENT || !(materials[mat].flags & MAT_TRANSPARENT)) return (float3)(0.0f);
+#if !PPM_TRANSPARENT
+        return (float3)(0.0f);          /* an opaque surface: no emitter behind it counts */
+#endif
+        if (!(materials[mat].flags & MAT_TRANSPARENT)) return (float3)(0.0f);
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
         T *= material_transparency(mat, s.tri, h.u, h.v, SHADING_PASS);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
@@ -212,7 +212,10 @@ inline float3 direct_light(const ShaderData *sd, float3 p, int mask, SCENE_ARGS,
     bool lambert = true;
     for (int k = 0; k < sd->n; k++)
         lambert &= !closure_in(&sd->c[k], mask) || sd->c[k].type == CLOSURE_DIFFUSE;
-    bool sample = !lambert || (PPM_EMISSIVE && emitter_info->n_emissive > 0);
+    bool sample = !lambert;
+#if PPM_EMISSIVE
+    sample = sample || emitter_info->n_emissive > 0;
+#endif
     float3 L = direct_nee(sd, p, mask, sample, SCENE_PASS, rng);
     return sample ? L + direct_bsdf(sd, p, mask, SCENE_PASS, rng) : L;
 }

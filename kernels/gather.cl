@@ -63,9 +63,9 @@ inline void gather_point(float4 vp, float4 nrm, float4 shade, GatherPoint *gp,
     gp->transmits = vp.w > 1.5f;
     gp->lambert = true;
     gp->lambert_f = (float3)(1.0f);
-    if (!PPM_GATHER_SHADE || as_int(shade.z) < 0)
-        return;             /* f = 1: a Lambert point's f is in its path weight (eye_pass.cl) */
 #if PPM_GATHER_SHADE
+    if (as_int(shade.z) < 0)
+        return;             /* f = 1: a Lambert point's f is in its path weight (eye_pass.cl) */
     Hit h;
     h.leaf = as_int(shade.z);
     h.u = shade.x;

@@ -39,7 +39,11 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         Material mt = materials[s.material];
         /* a Lambert material's one closure without the closure list (shader.h's short path:
          * the same closure, sampled the same way) */
-        bool lambert = !PPM_SHADER || (mt.flags & MAT_LAMBERT) != 0;
+#if PPM_SHADER
+        bool lambert = (mt.flags & MAT_LAMBERT) != 0;
+#else
+        bool lambert = true;              /* every material is one Lambert closure */
+#endif
         float3 color = (float3)(0.0f), N, Ng;
         bool gather;
         if (lambert) {

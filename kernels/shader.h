@@ -210,7 +210,11 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
     sd->Ng = sd->backfacing ? -ng : ng;
     sd->N = sd->backfacing ? -ns : ns;
     Material m = materials[mat];
-    if (!PPM_SHADER || (m.flags & MAT_LAMBERT)) {
+#if PPM_SHADER
+    if (m.flags & MAT_LAMBERT) {
+#else
+    {                                   /* every material is one Lambert closure */
+#endif
         /* the short path for the commonest material: what the loop below makes of it */
         __global const ShaderNode *nd = shader_nodes + m.node_first;
         sd->emission = F3(nd->emission) * nd->weight

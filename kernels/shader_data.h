@@ -63,7 +63,10 @@ inline float3 layering_weight(float3 a, float3 w) {
 }
 
 inline void shader_transparent(ShaderData *sd, float3 w) {
-    if (!PPM_TRANSPARENT || !(fabs(avg3(w)) >= CLOSURE_WEIGHT_CUTOFF)) return;
+#if !PPM_TRANSPARENT
+    return;                              /* no material of the scene is transparent */
+#endif
+    if (!(fabs(avg3(w)) >= CLOSURE_WEIGHT_CUTOFF)) return;
     sd->transparent += w;
     for (int k = 0; k < sd->n; k++) {
         if (sd->c[k].type == CLOSURE_TRANSPARENT) {
