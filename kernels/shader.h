@@ -11,7 +11,7 @@
 /* microfacet lobes at least this rough (sqrt of alpha) hold visible points and photons like
  * diffuse ones; smoother ones are followed by the eye path (-D from RenderOptions) */
 #ifndef PPM_GATHER_ROUGHNESS
-#define PPM_GATHER_ROUGHNESS 0.5f
+#define PPM_GATHER_ROUGHNESS 0.7f
 #endif
 
 /* alphas of a roughness with Cycles' anisotropy (aspect sqrt(1 - 0.9 aniso)) */

@@ -63,7 +63,7 @@ class DeviceScene:
         self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0])),
                                "pixel filter")
 
-    def kernel_defines(self, specialize: bool, gather_roughness: float = 0.5
+    def kernel_defines(self, specialize: bool, gather_roughness: float = 0.7
                        ) -> tuple[frozenset | None, dict]:
         """(features, -D flags) of the eye and photon passes: the scene's features, or every
         feature (None) unspecialised; the roughness from which lobes are gathered either way.

@@ -60,7 +60,7 @@ class RenderOptions:
     # microfacet lobes at least this rough hold visible points and photons (the gather evaluates
     # them); smoother ones are followed by the eye path.  Chosen by measurement
     # (docs/BENCHMARKS.md, "Glossy surfaces"); a setting to measure with, not in the UI.
-    gather_roughness: float = 0.5
+    gather_roughness: float = 0.7
     # Skips of work a scene does not need, each on by default; off only to measure what it saves
     # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.
     specialize: bool = True        # kernels built for the scene's features (False: every feature)

@@ -108,6 +108,24 @@ def test_bench_skips_quick(cli, tmp_path):
     assert "<!-- bench:skips -->" in md.read_text()
 
 
+def test_bench_glossy_quick(cli, tmp_path):
+    """bench --glossy: ours per gather roughness (two seeds) and Cycles at the same budget,
+    against a longer Cycles render; the table follows from the JSON."""
+    md = tmp_path / "B.md"
+    p = cli("bench", "--glossy", "--quick", "--json", tmp_path / "g.json", "--markdown", md)
+    assert p.returncode == 0, p.stderr
+    g = json.loads((tmp_path / "g.json").read_text())
+    assert [r["gather_roughness"] for r in g["ours"]] == [0.35, 1.5]
+    assert g["cycles"] > 0 and g["mean"] > 0
+    for r in g["ours"]:
+        assert len(r["rmse"]) == 2 and all(0 < e < 2 * g["mean"] for e in r["rmse"])
+        assert all(n >= 2 for n in r["passes"])
+    text = md.read_text()
+    assert "<!-- bench:glossy -->" in text
+    for r in g["ours"]:
+        assert f"| {r['gather_roughness']:g} | {r['rmse'][0]:.4f}, {r['rmse'][1]:.4f} |" in text
+
+
 def test_bench_refuses_bad_arguments(cli):
     p = cli("bench", "--scenes", "no_such_scene", "--quick")
     assert p.returncode == 2 and "no_such_scene" in p.stderr and "cornell_box" in p.stderr
