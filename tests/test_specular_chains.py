@@ -36,7 +36,10 @@ def _panes(bpy, n, gap=0.005, thickness=0.001):
 def _ratio(bpy, tiny, cycles, render_exr, tmp_path, n, passes):
     scene = _panes(bpy, n)
     cycles(scene, 256, W)
-    scene.cycles.max_bounces = scene.cycles.transmission_bounces = 256
+    # every bounce kind at 256: a reflection inside a pane is a glossy bounce to Cycles, and the
+    # light that goes back and forth between the panes is most of what passes 20 of them
+    c = scene.cycles
+    c.max_bounces = c.transmission_bounces = c.glossy_bounces = c.diffuse_bounces = 256
     ref = render_exr(tmp_path / f"cycles{n}.exr").mean()
     tiny(scene, width=W, height=W, passes=passes, photons=1 << 15)
     scene.ppm.max_bounces = 256
