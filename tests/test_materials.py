@@ -110,26 +110,33 @@ def _scene(material: str, floor: bool, world: float, light: bool):
         _principled(g, **{"Base Color": (0.5, 0.5, 0.5), "Roughness": 1.0,
                           "Specular IOR Level": 0.0})
         bpy.context.active_object.data.materials.append(g)
-    if light:
+    _light_world_camera(scene, light=((40.0, 1.0), (1.2, -1.0, 2.0), (0.5, 0.45, 0.0))
+                        if light else None, world=world,
+                        camera=((0.0, -3.2, 0.9), (1.32, 0.0, 0.0), 60))
+    return scene
+
+
+def _light_world_camera(scene, *, light, world, camera):
+    """An area light ((energy, size), location, rotation) or none, a constant grey world and a
+    camera (location, rotation, lens) with a 1-pixel box filter."""
+    if light is not None:
+        (energy, size), location, rotation = light
         ld = bpy.data.lights.new("Area", "AREA")
-        ld.energy, ld.size = 40.0, 1.0
+        ld.energy, ld.size = energy, size
         lo = bpy.data.objects.new("Area", ld)
-        lo.location = (1.2, -1.0, 2.0)
-        lo.rotation_euler = (0.5, 0.45, 0.0)
+        lo.location, lo.rotation_euler = location, rotation
         scene.collection.objects.link(lo)
-    w = bpy.data.worlds.new("W")
-    w.node_tree.nodes["Background"].inputs["Color"].default_value = (world, world, world, 1)
-    scene.world = w
+    scene.world = bpy.data.worlds.new("W")
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (world, world,
+                                                                               world, 1)
+    location, rotation, lens = camera
     cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    cam.location = (0.0, -3.2, 0.9)
-    cam.rotation_euler = (1.32, 0.0, 0.0)
-    cam.data.lens = 60
+    cam.location, cam.rotation_euler, cam.data.lens = location, rotation, lens
     scene.collection.objects.link(cam)
     scene.camera = cam
     scene.render.dither_intensity = 0.0
     scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
     scene.render.filter_size = 0.0
-    return scene
 
 
 def _both(scene, cycles, render_exr, tmp_path, tiny, *, samples, passes, bounces, photons):
@@ -218,22 +225,8 @@ def _caustic_scene(floor_material):
     floor = bpy.data.materials.new("Floor")
     MATERIALS[floor_material](floor)
     bpy.context.active_object.data.materials.append(floor)
-    ld = bpy.data.lights.new("Area", "AREA")
-    ld.energy, ld.size = 60.0, 0.25
-    lo = bpy.data.objects.new("Area", ld)
-    lo.location = (0.0, 0.0, 2.4)
-    scene.collection.objects.link(lo)
-    scene.world = bpy.data.worlds.new("W")
-    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    cam.location = (0.0, -2.6, 1.7)
-    cam.rotation_euler = (0.95, 0.0, 0.0)
-    cam.data.lens = 50
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    scene.render.dither_intensity = 0.0
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    scene.render.filter_size = 0.0
+    _light_world_camera(scene, light=((60.0, 0.25), (0.0, 0.0, 2.4), (0.0, 0.0, 0.0)),
+                        world=0.0, camera=((0.0, -2.6, 1.7), (0.95, 0.0, 0.0), 50))
     return scene
 
 
