@@ -63,7 +63,7 @@ inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v,
         *pdf_light = st.area > 0.0f ? pmf / st.area : pmf * t * t / (cos_l * 0.5f * area2);
     }
 #endif
-    return F3(m->emission) * texture_tint(m->emission_tex, as_uint(v0.w), u, v, TEXTURE_PASS);
+    return material_emission(m, as_uint(v0.w), u, v, SHADING_PASS);
 }
 
 /* The fraction of light a shadow ray from o along d lets through over dist: 0 at an opaque

@@ -16,6 +16,7 @@
  *   PPM_WORLD        an emitting world          PPM_LIGHTS_SEEN lights seen by camera rays
  *   PPM_DOF          depth of field             PPM_TEXTURES    image textures
  *   PPM_ABSORPTION   glass with absorption inside (medium.h)
+ *   PPM_SVM          shader programs (svm.h; with PPM_SVM_OPS and PPM_SVM_STACK)
  */
 #ifndef PPM_SPECIALIZED
 #define PPM_ALL_FEATURES 1
@@ -72,5 +73,8 @@
 #endif
 #ifndef PPM_ABSORPTION
 #define PPM_ABSORPTION PPM_ALL_FEATURES
+#endif
+#ifndef PPM_SVM
+#define PPM_SVM PPM_ALL_FEATURES
 #endif
 #endif

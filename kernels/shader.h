@@ -31,7 +31,7 @@ inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
     return T;
 }
 
-inline void principled_setup(ShaderData *sd, __global const ShaderNode *nd, float3 base,
+inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
                              float alpha, float3 emission, float3 tangent, TABLES_ARG) {
     float w1 = nd->weight;
     float3 w = (float3)(w1), N = sd->N, cbase = fmin(base, (float3)(1.0f));
@@ -112,7 +112,7 @@ inline void principled_setup(ShaderData *sd, __global const ShaderNode *nd, floa
 }
 
 /* the BSDF nodes other than the Principled */
-inline void bsdf_node_setup(ShaderData *sd, __global const ShaderNode *nd, float3 color,
+inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
                             float3 emission, float3 tangent, TABLES_ARG) {
     float w1 = nd->weight, rough = clamp(nd->roughness, 0.0f, 1.0f);
     float3 N = sd->N, w = (float3)(w1);
@@ -228,8 +228,22 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
         return;
     }
     float3 tangent = surface_tangent(tri, u, v, sd->N, tangents);
+#if PPM_SVM
+    float stack[PPM_SVM_STACK];
+    if (m.program > 0) {
+        SvmContext cx = {surface_uv(uvs, tri, u, v), sd->N, sd->Ng, wi,
+                         sd->backfacing ? 1.0f : 0.0f};
+        svm_eval(svm, m.program, stack, &cx, TEXTURE_PASS);
+    }
+#endif
     for (int i = 0; i < m.node_count; i++) {
-        __global const ShaderNode *nd = shader_nodes + m.node_first + i;
+#if PPM_SVM
+        ShaderNode node = shader_nodes[m.node_first + i];
+        if (m.program > 0) svm_bind(svm, m.program, i, &node, stack);
+        NODE_PTR nd = &node;
+#else
+        NODE_PTR nd = shader_nodes + m.node_first + i;
+#endif
         if (!(nd->weight > 0.0f)) continue;
         float3 color = F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS);
         float3 emission = F3(nd->emission)
@@ -268,8 +282,22 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
 inline float3 material_transparency(int mat, uint tri, float u, float v, SHADING_ARGS) {
     float3 T = (float3)(0.0f);
     Material m = materials[mat];
+#if PPM_SVM
+    float stack[PPM_SVM_STACK];
+    if (m.program > 0) {                  /* (no view direction or normal for a shadow ray) */
+        SvmContext cx = {surface_uv(uvs, tri, u, v), (float3)(0.0f), (float3)(0.0f),
+                         (float3)(0.0f), 0.0f};
+        svm_eval(svm, m.program, stack, &cx, TEXTURE_PASS);
+    }
+#endif
     for (int i = 0; i < m.node_count; i++) {
-        __global const ShaderNode *nd = shader_nodes + m.node_first + i;
+#if PPM_SVM
+        ShaderNode node = shader_nodes[m.node_first + i];
+        if (m.program > 0) svm_bind(svm, m.program, i, &node, stack);
+        NODE_PTR nd = &node;
+#else
+        NODE_PTR nd = shader_nodes + m.node_first + i;
+#endif
         if (!(nd->weight > 0.0f)) continue;
         if (nd->type == NODE_PRINCIPLED) {
             float a = clamp(nd->alpha * texture_alpha(nd->alpha_texture, tri, u, v, TEXTURE_PASS),
@@ -281,6 +309,37 @@ inline float3 material_transparency(int mat, uint tri, float u, float v, SHADING
         }
     }
     return T;
+}
+
+/* The radiance material m emits at a surface point, as the emitter table and the light
+ * samples see it: its constant emission times its emission texture, or, when its shader program
+ * drives an emission (PROGRAM_EMISSION), the emission nodes evaluated there (the Principled's
+ * under its alpha; the view-dependent sheen and coat left out, as materials.node_emission). */
+inline float3 material_emission(__global const Material *m, uint tri, float u, float v,
+                                SHADING_ARGS) {
+#if PPM_SVM
+    if (m->program > 0 && (svm[m->program].w & 1)) {
+        float stack[PPM_SVM_STACK];
+        SvmContext cx = {surface_uv(uvs, tri, u, v), (float3)(0.0f), (float3)(0.0f),
+                         (float3)(0.0f), 0.0f};
+        svm_eval(svm, m->program, stack, &cx, TEXTURE_PASS);
+        float3 E = (float3)(0.0f);
+        for (int i = 0; i < m->node_count; i++) {
+            ShaderNode nd = shader_nodes[m->node_first + i];
+            svm_bind(svm, m->program, i, &nd, stack);
+            if (!(nd.weight > 0.0f) || (nd.type != NODE_EMISSION && nd.type != NODE_PRINCIPLED))
+                continue;
+            float3 e = fmax(F3(nd.emission), 0.0f) * nd.weight
+                       * texture_tint(nd.emission_texture, tri, u, v, TEXTURE_PASS);
+            if (nd.type == NODE_PRINCIPLED)
+                e *= clamp(nd.alpha * texture_alpha(nd.alpha_texture, tri, u, v, TEXTURE_PASS),
+                           0.0f, 1.0f);
+            E += e;
+        }
+        return E;
+    }
+#endif
+    return F3(m->emission) * texture_tint(m->emission_tex, tri, u, v, TEXTURE_PASS);
 }
 
 /* which closures a mixture function looks at */

@@ -2,6 +2,7 @@
 #define PPM_SHADER_DATA_H
 #include "closure.h"
 #include "textures.h"
+#include "svm.h"
 
 /* The closures at one shading point (kernels/shader.h fills it in from the material's BSDF
  * nodes), with the emission, transparency and holdout that are not lobes.  At most
@@ -32,8 +33,16 @@ typedef struct {
 } ShaderData;
 
 #define SHADING_ARGS __global const Material *materials, __global const ShaderNode *shader_nodes, \
-    TABLES_ARG, TEXTURE_ARGS, __global const float *tangents
-#define SHADING_PASS materials, shader_nodes, shading_tables, TEXTURE_PASS, tangents
+    TABLES_ARG, TEXTURE_ARGS, __global const float *tangents, __global const int4 *svm
+#define SHADING_PASS materials, shader_nodes, shading_tables, TEXTURE_PASS, tangents, svm
+
+/* the BSDF node the setup functions read: a private copy with the program's inputs written in
+ * (kernels/svm.h) when the scene has shader programs, else the buffer's row */
+#if PPM_SVM
+#define NODE_PTR const ShaderNode *
+#else
+#define NODE_PTR __global const ShaderNode *
+#endif
 
 /* A new closure of weight w (negative parts dropped), or -1 when its weight is below the
  * cutoff or the list is full (as Cycles' bsdf_alloc). */

@@ -73,6 +73,7 @@ typedef struct {
     int node_first;      /* its BSDF nodes: shader_nodes[node_first, + node_count) */
     int node_count;
     float absorption[3]; /* absorption coefficient inside (per metre; glass only: medium.h) */
+    int program;         /* first word of its shader program in svm[] (kernels/svm.h), 0 = none */
 } Material;
 
 /* BSDF node types: scene_arrays.py NODE_* */
@@ -120,6 +121,7 @@ typedef struct {
     int color_texture;        /* 1-based textures multiplying color / emission / alpha */
     int emission_texture;
     int alpha_texture;
+    uint bound;               /* inputs its material's program drives (shader_program.BOUND) */
 } ShaderNode;
 
 /* Emitters for photon emission and next-event estimation, indexed 0..n_emitters-1:

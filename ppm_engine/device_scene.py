@@ -11,6 +11,7 @@ from .emitters import build_emitters
 from .features import defines as feature_defines, scene_features, used_materials
 from .film import FILTER_TABLE_SIZE, filter_table
 from .materials import MAT_GATHER, kernel_materials, kernel_nodes, max_closures
+from .shader_program import ops_used, stack_used
 from .shading_tables import load as shading_tables
 from .scene_arrays import LIGHT_DTYPE, TEXTURE_DTYPE, SceneArrays
 from .scene_prep import offset_scale, prepare_scene
@@ -54,6 +55,7 @@ class DeviceScene:
             uvs=up(prepared.uvs, "UVs"),
             tangents=up(prepared.tangents if prepared.tangents.size
                         else np.zeros(9, np.float32), "tangents"),
+            svm=up(prepared.svm, "shader programs"),
             lights=up(lights, "lights"),
             emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
             emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),
@@ -71,10 +73,16 @@ class DeviceScene:
         any size share their programs.)"""
         features = (scene_features(self.prepared, self.kmaterials, self.knodes, self.emitters,
                                    self.used_materials) if specialize else None)
+        svm = {}
+        if features is not None and "PPM_SVM" in features:
+            starts = self.kmaterials["program"][self.used_materials]
+            svm = {"PPM_SVM_OPS": ops_used(self.prepared.svm, starts),
+                   "PPM_SVM_STACK": max(stack_used(self.prepared.svm, starts), 1)}
         return features, {"PPM_FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
                           "PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
                           **feature_defines(features, max_closures(self.knodes,
-                                                                   self.used_materials))}
+                                                                   self.used_materials)),
+                          **svm}
 
     def photons_useful(self, max_bounces: int) -> bool:
         """Whether photon passes can add anything: something emits, paths may bounce, and some

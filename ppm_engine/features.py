@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .materials import MAT_GATHER, MAT_LAMBERT, node_features
+from .shader_program import SVM_IMAGE, ops_used
 from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHIFT, LIGHT_POINT,
                            LIGHT_SPOT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION,
                            SceneArrays, anisotropic_nodes)
@@ -72,6 +73,10 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarra
         f.add("PPM_ANISOTROPY")
     if (m["absorption"] > 0).any():       # (kernel_materials keeps it on glass only)
         f.add("PPM_ABSORPTION")
+    if (m["program"] > 0).any():
+        f.add("PPM_SVM")
+        if ops_used(scene.svm, m["program"]) & (1 << SVM_IMAGE):
+            f.add("PPM_TEXTURES")
     return frozenset(f)
 
 

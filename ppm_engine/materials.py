@@ -11,7 +11,8 @@ import numpy as np
 
 from .scene_arrays import (NODE_DIFFUSE, NODE_EMISSION, NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT,
                            NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN,
-                           NODE_TRANSLUCENT, NODE_TRANSPARENT, SHADER_NODE_DTYPE, TEX_FLAG_SRGB)
+                           NODE_TRANSLUCENT, NODE_TRANSPARENT, SHADER_NODE_DTYPE, TEX_FLAG_SRGB,
+                           BOUND)
 
 # mirrors kernels/types.h Material
 KMATERIAL_DTYPE = np.dtype([
@@ -21,6 +22,7 @@ KMATERIAL_DTYPE = np.dtype([
     ("node_first", np.int32),
     ("node_count", np.int32),
     ("absorption", np.float32, 3),
+    ("program", np.int32),
 ])
 MAT_EMISSIVE = 1          # constant emission > 0: an emitter
 MAT_GATHER = 2            # some closure can hold a visible point and photons
@@ -50,20 +52,31 @@ def kernel_nodes(nodes: np.ndarray) -> np.ndarray:
     return k
 
 
+def bound(n: np.ndarray, field: str) -> np.ndarray:
+    """Per node: whether its shader program drives ``field`` (any value is possible)."""
+    return (n["bound"] & BOUND[field]) != 0
+
+
 def _principled_parts(n: np.ndarray) -> dict:
-    """Which closures each Principled node can make (boolean arrays)."""
+    """Which closures each Principled node can make (boolean arrays; an input the program
+    drives can take any value)."""
     ior, level = n["ior"], n["specular_ior_level"]
     rough = np.clip(n["roughness"], 0, 1)
+    b = {f: bound(n, f) for f in ("metallic", "transmission", "ior", "specular_ior_level",
+                                  "sheen_weight", "coat_weight", "alpha", "roughness",
+                                  "coat_roughness")}
     return {
-        "sheen": n["sheen_weight"] > 1e-5,
-        "coat": n["coat_weight"] > 1e-5,
-        "metal": np.clip(n["metallic"], 0, 1) > 1e-5,
-        "glass": np.clip(n["transmission"], 0, 1) > 1e-5,
-        "specular": (level > 0) & (ior != 1.0),
-        "diffuse": (np.clip(n["metallic"], 0, 1) < 1) & (np.clip(n["transmission"], 0, 1) < 1),
-        "transparent": (n["alpha"] < 1) | (n["alpha_texture"] > 0),
-        "rough": rough > SINGULAR_ROUGHNESS,
-        "rough_coat": np.clip(n["coat_roughness"], 0, 1) > SINGULAR_ROUGHNESS,
+        "sheen": (n["sheen_weight"] > 1e-5) | b["sheen_weight"],
+        "coat": (n["coat_weight"] > 1e-5) | b["coat_weight"],
+        "metal": (np.clip(n["metallic"], 0, 1) > 1e-5) | b["metallic"],
+        "glass": (np.clip(n["transmission"], 0, 1) > 1e-5) | b["transmission"],
+        "specular": ((level > 0) | b["specular_ior_level"]) & ((ior != 1.0) | b["ior"]),
+        "diffuse": ((np.clip(n["metallic"], 0, 1) < 1) | b["metallic"])
+                   & ((np.clip(n["transmission"], 0, 1) < 1) | b["transmission"]),
+        "transparent": (n["alpha"] < 1) | (n["alpha_texture"] > 0) | b["alpha"],
+        "rough": (rough > SINGULAR_ROUGHNESS) | b["roughness"],
+        "rough_coat": (np.clip(n["coat_roughness"], 0, 1) > SINGULAR_ROUGHNESS)
+                      | b["coat_roughness"],
     }
 
 
@@ -95,7 +108,7 @@ def gather_capable(nodes: np.ndarray) -> np.ndarray:
     next-event estimation, can evaluate)."""
     t = nodes["type"]
     out = np.isin(t, (NODE_DIFFUSE, NODE_TRANSLUCENT, NODE_SHEEN))
-    rough = np.clip(nodes["roughness"], 0, 1) > SINGULAR_ROUGHNESS
+    rough = (np.clip(nodes["roughness"], 0, 1) > SINGULAR_ROUGHNESS) | bound(nodes, "roughness")
     out |= np.isin(t, (NODE_GLOSSY, NODE_METALLIC, NODE_GLASS, NODE_REFRACTION)) & rough
     p = t == NODE_PRINCIPLED
     if p.any():
@@ -110,14 +123,15 @@ def lambert_node(nodes: np.ndarray) -> np.ndarray:
     at most emission: a Diffuse BSDF of roughness 0, a Principled BSDF with nothing but its
     diffuse base (no specular layer, metal, glass, coat, sheen, subsurface, transparency)."""
     t = nodes["type"]
-    out = (t == NODE_DIFFUSE) & (nodes["roughness"] < 1e-5)
+    out = (t == NODE_DIFFUSE) & (nodes["roughness"] < 1e-5) & ~bound(nodes, "roughness")
     p = t == NODE_PRINCIPLED
     if p.any():
         parts = _principled_parts(nodes[p])
         n = nodes[p]
         out[p] = ~(parts["sheen"] | parts["coat"] | parts["metal"] | parts["glass"]
                    | parts["specular"] | parts["transparent"]) \
-            & (n["subsurface_weight"] <= 0) & (n["diffuse_roughness"] < 1e-5)
+            & (n["subsurface_weight"] <= 0) & (n["diffuse_roughness"] < 1e-5) \
+            & ~bound(n, "subsurface_weight") & ~bound(n, "diffuse_roughness")
     return out
 
 
@@ -136,8 +150,10 @@ def node_features(nodes: np.ndarray) -> set:
         f.add("PPM_MICROFACET")
     if (t == NODE_SHEEN).any() or (parts is not None and parts["sheen"].any()):
         f.add("PPM_SHEEN")
-    rough_diffuse = ((t == NODE_DIFFUSE) & (nodes["roughness"] >= 1e-5)).any() or (
-        parts is not None and ((p["diffuse_roughness"] >= 1e-5) & parts["diffuse"]).any())
+    rough_diffuse = ((t == NODE_DIFFUSE) & ((nodes["roughness"] >= 1e-5)
+                                            | bound(nodes, "roughness"))).any() or (
+        parts is not None and (((p["diffuse_roughness"] >= 1e-5) | bound(p, "diffuse_roughness"))
+                               & parts["diffuse"]).any())
     if rough_diffuse:
         f.add("PPM_OREN_NAYAR")
     if (t == NODE_TRANSLUCENT).any():
@@ -196,11 +212,16 @@ def kernel_materials(materials: np.ndarray, nodes: np.ndarray) -> np.ndarray:
         flags |= np.where(one & lambert_node(first), MAT_LAMBERT, 0).astype(np.uint32)
     k["flags"] = flags
     # the medium inside: entered and left by refraction, so only materials that refract
-    refracts = np.isin(t, (NODE_GLASS, NODE_REFRACTION)) | (pr & (nodes["transmission"] > 0))
+    refracts = np.isin(t, (NODE_GLASS, NODE_REFRACTION)) | (
+        pr & ((nodes["transmission"] > 0) | bound(nodes, "transmission")))
     glass = np.zeros(m, bool)
     np.logical_or.at(glass, owner, refracts & (nodes["weight"] > 0))
     sigma = np.nan_to_num(materials["absorption"], nan=0.0, posinf=0.0).clip(0.0, 1e30)
     k["absorption"] = np.where(glass[:, None], sigma, 0.0)
+    # a material with a shader program never takes the Lambert short path (it skips programs)
+    k["program"] = materials["program"]
+    k["flags"] &= np.where(k["program"] > 0, ~np.uint32(MAT_LAMBERT), ~np.uint32(0)).astype(
+        np.uint32)
     return k
 
 

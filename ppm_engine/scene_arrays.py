@@ -46,6 +46,7 @@ MATERIAL_DTYPE = np.dtype([
     # units), RGB; entered and left by refraction (Cycles' Volume Absorption: (1 - colour) x
     # density)
     ("absorption", np.float32, 3),
+    ("program", np.int32),    # first word of its shader program in SceneArrays.svm, 0 = none
 ])
 
 # BSDF node types (kernels/types.h NODE_*)
@@ -66,10 +67,19 @@ NODE_FLAG_MULTI_GGX = 1     # multiple scattering compensated ("Multiscatter GGX
 NODE_FLAG_CONDUCTOR = 2     # Metallic BSDF, Physical Conductor: color = n, edge_tint = k
 
 
+# BSDF node inputs a shader program may drive: bit i of a node's ``bound`` is BINDABLE[i]
+BINDABLE = ("weight", "color", "edge_tint", "emission", "coat_tint", "sheen_tint", "roughness",
+            "metallic", "ior", "alpha", "transmission", "specular_ior_level", "anisotropic",
+            "anisotropic_rotation", "coat_weight", "coat_roughness", "coat_ior", "sheen_weight",
+            "sheen_roughness", "subsurface_weight", "diffuse_roughness")
+BOUND = {name: 1 << i for i, name in enumerate(BINDABLE)}
+
+
 def anisotropic_nodes(nodes: np.ndarray) -> np.ndarray:
-    """Per node: whether it is anisotropic (it needs the surface's tangent)."""
+    """Per node: whether it is (or its program may make it) anisotropic: it needs tangents."""
     t = nodes["type"]
     a = nodes["anisotropic"]
+    a = np.where((nodes["bound"] & BOUND["anisotropic"]) != 0, 1.0, a)
     return ((t == NODE_GLOSSY) & (np.abs(a) > 1e-4)) | (
         np.isin(t, (NODE_PRINCIPLED, NODE_METALLIC)) & (a > 0))
 
@@ -104,6 +114,7 @@ SHADER_NODE_DTYPE = np.dtype([
     ("color_texture", np.int32),
     ("emission_texture", np.int32),
     ("alpha_texture", np.int32),        # the texture's alpha channel multiplies ``alpha``
+    ("bound", np.uint32),               # inputs its material's program drives (shader_program)
 ])
 
 
@@ -236,6 +247,8 @@ class SceneArrays:
     # the object's Z axis (kernels/shader.h makes it orthogonal to the normal)
     tangents: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros((0, 3, 3), np.float32))
+    # (W, 4) int32 shader programs (ppm_engine/shader_program.py); word 0 is never one
+    svm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((1, 4), np.int32))
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -284,6 +297,10 @@ class SceneArrays:
         if self.tangents.dtype != np.float32 or self.tangents.shape not in ((0, 3, 3), (t, 3, 3)):
             raise ValueError(f"SceneArrays.tangents: expected float32 (0, 3, 3) or ({t}, 3, 3), "
                              f"got {self.tangents.dtype}{self.tangents.shape}")
+        if self.svm.dtype != np.int32 or self.svm.ndim != 2 or self.svm.shape[1] != 4 \
+                or not (0 <= self.materials["program"]).all() \
+                or (self.materials["program"] >= self.svm.shape[0]).any():
+            raise ValueError("SceneArrays.svm: expected int32 (W, 4) holding every program")
         if self.textures.dtype != TEXTURE_DTYPE or self.textures.ndim != 1:
             raise ValueError("SceneArrays.textures: expected a 1-D array of TEXTURE_DTYPE")
         if self.texels.dtype != np.float16 or self.texels.ndim != 2 or self.texels.shape[1] != 4:
@@ -328,7 +345,7 @@ class SceneArrays:
             kw["materials"] = _with_fields(mats, MATERIAL_DTYPE)
         # files written before a field existed: the missing fields are zero (their default)
         for name, dt in (("materials", MATERIAL_DTYPE), ("lights", LIGHT_DTYPE),
-                         ("camera", CAMERA_DTYPE)):
+                         ("camera", CAMERA_DTYPE), ("shader_nodes", SHADER_NODE_DTYPE)):
             a = kw.get(name)
             if a is not None and a.dtype.names and a.dtype != dt \
                     and set(a.dtype.names) < set(dt.names):

@@ -44,7 +44,8 @@ class Shading:
         tangent = np.tile(np.float32([1, 0, 0]), 3)       # the surface's tangent: +x
         self.args = [up(kmat, "m"), up(nodes, "n"), up(st.load(), "t"),
                      up(np.zeros(4, np.int32), "tx"), up(np.zeros((1, 4), np.float16), "tl"),
-                     up(np.zeros(6, np.float32), "uv"), up(tangent, "tangents")]
+                     up(np.zeros(6, np.float32), "uv"), up(tangent, "tangents"),
+                     up(np.zeros((1, 4), np.int32), "no shader programs")]
         self.prog = device.programs.get("closure_test.cl")
 
     def sample(self, mat, wi, n, seed=1, mask=MASK_ALL):

@@ -1,7 +1,7 @@
 """Materials against Cycles, rendered by both engines in the same test (Filter Glossy 0, no
 clamping, no denoising: blender_io.cycles_reference): a sphere of each material under an area
 light and a constant world, on a grey floor, per 8 x 8 block (mean within 3 %), direct light
-only and full transport; and white furnaces (the sphere alone in a white world), whose mean
+only and full transport (one material's inputs come from a node graph: the shader program); and white furnaces (the sphere alone in a white world), whose mean
 must match Cycles' within 1 %."""
 import numpy as np
 import pytest
@@ -64,6 +64,42 @@ def _tinted_glass(mat):
     t.links.new(v.outputs[0], t.nodes["Material Output"].inputs["Volume"])
 
 
+def _node_graph(mat):
+    """A Principled whose inputs come from value nodes (the shader program): metal where the
+    UV's u > 0.5, roughness from the normal's height, colour through a Color Ramp of the facing
+    weight, and a Mix Shader with a glossy coat by Layer Weight's Fresnel."""
+    t = mat.node_tree
+    p = t.nodes["Principled BSDF"]
+    uv = t.nodes.new("ShaderNodeTexCoord")
+    sep = t.nodes.new("ShaderNodeSeparateXYZ")
+    t.links.new(uv.outputs["UV"], sep.inputs[0])
+    gt = t.nodes.new("ShaderNodeMath")
+    gt.operation, gt.inputs[1].default_value = "GREATER_THAN", 0.5
+    t.links.new(sep.outputs[0], gt.inputs[0])
+    t.links.new(gt.outputs[0], p.inputs["Metallic"])
+    geo = t.nodes.new("ShaderNodeNewGeometry")
+    nz = t.nodes.new("ShaderNodeSeparateXYZ")
+    t.links.new(geo.outputs["Normal"], nz.inputs[0])
+    rng = t.nodes.new("ShaderNodeMapRange")
+    rng.inputs["From Min"].default_value, rng.inputs["To Min"].default_value = -1.0, 0.15
+    rng.inputs["To Max"].default_value = 0.8
+    t.links.new(nz.outputs[2], rng.inputs["Value"])
+    t.links.new(rng.outputs[0], p.inputs["Roughness"])
+    lw = t.nodes.new("ShaderNodeLayerWeight")
+    ramp = t.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (0.8, 0.3, 0.1, 1.0)
+    ramp.color_ramp.elements[1].color = (0.1, 0.3, 0.8, 1.0)
+    t.links.new(lw.outputs["Facing"], ramp.inputs[0])
+    t.links.new(ramp.outputs[0], p.inputs["Base Color"])
+    glossy = t.nodes.new("ShaderNodeBsdfAnisotropic")
+    glossy.inputs["Roughness"].default_value = 0.3
+    mix = t.nodes.new("ShaderNodeMixShader")
+    t.links.new(lw.outputs["Fresnel"], mix.inputs[0])
+    t.links.new(p.outputs[0], mix.inputs[1])
+    t.links.new(glossy.outputs[0], mix.inputs[2])
+    t.links.new(mix.outputs[0], t.nodes["Material Output"].inputs["Surface"])
+
+
 MATERIALS = {
     "plastic": lambda m: _principled(m, **{"Base Color": (0.7, 0.2, 0.1), "Roughness": 0.3}),
     "rough_metal": lambda m: _principled(m, **{"Base Color": (0.9, 0.6, 0.3), "Metallic": 1.0,
@@ -90,8 +126,9 @@ MATERIALS = {
                                                          "Color": (0.5, 0.5, 0.5)})),
     "alpha": lambda m: _principled(m, **{"Base Color": (0.2, 0.3, 0.8), "Alpha": 0.5}),
     "translucent": lambda m: _replace(m, "ShaderNodeBsdfTranslucent", Color=(0.8, 0.7, 0.5)),
+    "node_graph": _node_graph,
 }
-DEFAULT_DIRECT = {"plastic", "mix"}         # the rest with -m slow
+DEFAULT_DIRECT = {"plastic", "mix", "node_graph"}         # the rest with -m slow
 DEFAULT_FULL = {"rough_glass", "sheen"}
 
 

@@ -92,7 +92,8 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
         return SceneArrays(**cat, materials=materials.array(),
                            shader_nodes=materials.node_array(), lights=light_arr, camera=camera,
                            world=world, material_names=tuple(materials.names),
-                           warnings=tuple(warn), textures=tex_table, texels=texels)
+                           warnings=tuple(warn), textures=tex_table, texels=texels,
+                           svm=materials.svm())
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
 

@@ -1,17 +1,21 @@
-"""Material node trees -> MATERIAL_DTYPE rows and their BSDF nodes (SHADER_NODE_DTYPE).
+"""Material node trees -> MATERIAL_DTYPE rows, their BSDF nodes (SHADER_NODE_DTYPE) and their
+shader programs (shader_graph.py).
 
 The Surface output is walked from the Cycles material output: Mix Shader and Add Shader nodes
-fold into each BSDF node's weight (as Cycles propagates them into its closures), reroutes and
-muted nodes pass through, and each BSDF node's inputs are read as constants; an Image Texture
-on a colour input (Base Color, Color, Emission Color) or its Alpha on Principled's Alpha
-becomes a texture of the node (textures.py).  Anything else linked into an input is warned
-about once and its unlinked value used; a shader node this engine has no closure for is warned
-about and rendered as the nearest one.  The Volume output's absorption (Volume Absorption, the
-absorbing part of Principled Volume) -> the row's absorption coefficient."""
+fold into each BSDF node's weight (as Cycles propagates them into its closures), through
+reroutes, muted nodes and node groups.  Each BSDF input is a constant, an Image Texture on the
+UV map (a colour input's texture, or its Alpha on Principled's Alpha: the short path of
+textures.py), or whatever the value nodes feeding it compute: the shader program drives it (a
+linked Mix Shader factor drives the weights).  A shader node this engine has no closure for is
+warned about and rendered as the nearest one.  The Volume output's absorption (Volume
+Absorption, the absorbing part of Principled Volume; constant inputs) -> the row's absorption
+coefficient."""
 from __future__ import annotations
 
 import numpy as np
 
+from .shader_graph import Compiler, Graph
+from ..shader_program import MAX_STACK
 from ..scene_arrays import (MATERIAL_DTYPE, NODE_DIFFUSE, NODE_EMISSION, NODE_FLAG_CONDUCTOR,
                             NODE_FLAG_MULTI_GGX, NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT,
                             NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN,
@@ -54,65 +58,75 @@ def _output_socket(material, socket="Surface"):
     return out.inputs.get(socket) if out is not None else None
 
 
-def _from(socket):
-    """The node feeding ``socket`` through reroutes and muted nodes, or None."""
-    for _ in range(_MAX_DEPTH):
-        if socket is None or not socket.is_linked:
-            return None
-        link = socket.links[0]
-        if not link.is_valid or link.is_muted:
-            return None
-        node = link.from_node
-        if node.bl_idname == "NodeReroute":
-            socket = node.inputs[0]
-        elif node.mute:
-            # a muted node passes its first input of the output's type through
-            socket = next((s for s in node.inputs if s.type == link.from_socket.type), None)
-        else:
-            return node
-    return None
-
-
 class _Reader:
-    """Reads one material's BSDF nodes, warning once per problem."""
+    """Reads one material's BSDF nodes, warning once per problem; inputs driven by value nodes
+    are compiled into the material's shader program (shader_graph.Compiler)."""
 
     def __init__(self, material, warn, textures):
         self.name = material.name
         self.warn_fn = warn
         self.textures = textures
-        self.said = set()
+        self.graph = Graph(warn)
+        self.compiler = Compiler(material.name, warn, textures, self.graph)
+        self.said = self.compiler.said
+        self.ctx = ()                     # group nodes around the node being read
+        self.index = 0                    # the node's index among the material's BSDF nodes
 
     def warn(self, text):
-        if text not in self.said:
-            self.said.add(text)
-            self.warn_fn(f"Material '{self.name}': {text}")
+        self.compiler.warn(text)
 
     def value(self, node, name, n=None, default=None):
+        """A constant input (the Volume output's nodes): linked ones warned about."""
         sock = node.inputs.get(name)
         if sock is None or not getattr(sock, "enabled", True):
             return default
-        if sock.is_linked and _from(sock) is not None:
+        if self.graph.source(sock) is not None:
             self.warn(f"'{name}' of '{node.name}' is driven by a node link this engine does not "
-                      "evaluate; its unlinked value is used")
+                      "evaluate there; its unlinked value is used")
         v = sock.default_value
         return tuple(v)[:n] if n else float(v)
 
-    def color(self, node, name, row, field, texture_field, default=(0.8, 0.8, 0.8)):
-        """A colour input: an Image Texture becomes the node's texture (white constant)."""
-        sock = node.inputs.get(name)
-        if self.textures is not None and sock is not None:
+    def val(self, node, name, n=1):
+        """The input's value in the program (constant or stack slots), None when absent."""
+        sock = next((s for s in node.inputs if s.name == name and s.enabled), None)
+        return None if sock is None else self.compiler.input(node, sock, self.ctx, n)
+
+    def field(self, row, node, name, field, default=None):
+        v = self.val(node, name, 3 if row.dtype[field].shape else 1)
+        if v is None:
+            if default is not None:
+                row[field] = default
+            return
+        self.compiler.bind(row, self.index, field, v)
+
+    def color(self, node, name, row, field, texture_field, default=(0.8, 0.8, 0.8), scale=None):
+        """A colour input: an Image Texture on the UV map becomes the node's texture (white
+        constant), anything else the program's; ``scale`` (a Val) multiplies it."""
+        sock = next((s for s in node.inputs if s.name == name and s.enabled), None)
+        if sock is None:
+            row[field] = default
+            return
+        if self.textures is not None and not self.ctx:
             tex, constant = self.textures.from_socket(sock, name, self.name)
-            if tex:
+            if tex and (scale is None or scale.is_const):
                 row[field], row[texture_field] = (1.0, 1.0, 1.0), tex
+                if scale is not None:
+                    row[field] = np.asarray(row[field]) * scale.const[0]
                 return
-            if constant is not None:
-                row[field] = constant
-                return
-        row[field] = self.value(node, name, 3, default)
+        v = self.compiler.input(node, sock, self.ctx, 3)
+        if scale is not None:
+            v = self.compiler.scale(v, scale)
+        self.compiler.bind(row, self.index, field, v)
+        if field == "emission" and not v.is_const:
+            # the emitter table's estimate of driven emission (as Cycles': white, times a
+            # constant strength); the kernels evaluate the program where they sample it
+            s = scale.const[0] if scale is not None and scale.is_const else 1.0
+            row[field] = (abs(s),) * 3
 
     def distribution(self, node, row):
         d = getattr(node, "distribution", "GGX")
-        rough = self.value(node, "Roughness", default=0.0) or 0.0
+        r = self.val(node, "Roughness")
+        rough = r.const[0] if r is not None and r.is_const else 1.0
         if d in ("BECKMANN", "ASHIKHMIN_SHIRLEY") and rough > 0.0:
             self.warn(f"'{node.name}' uses the {d.replace('_', '-').title()} distribution; "
                       "this engine renders GGX")
@@ -121,22 +135,24 @@ class _Reader:
     def unsupported_inputs(self, node):
         for name, what in _UNSUPPORTED_INPUTS.items():
             sock = node.inputs.get(name)
-            if sock is not None and sock.is_linked and _from(sock) is not None:
+            if sock is not None and self.graph.source(sock, self.ctx) is not None:
                 self.warn(f"'{name}' of '{node.name}' is not evaluated ({what})")
 
     # --- one BSDF node ------------------------------------------------------------------------
-    def node_row(self, node, weight: float) -> dict | None:
+    def node_row(self, node, weight, out: list):
         kind = node.bl_idname
         row = shader_node(NODE_DIFFUSE)
+        self.index = len(out)
         make = _READERS.get(kind)
         if make is None:
-            return self.fallback(node, weight)
-        make(self, node, row)
-        row["weight"] = weight
-        self.unsupported_inputs(node)
-        return row
+            self.fallback(node, row)
+        else:
+            make(self, node, row)
+            self.unsupported_inputs(node)
+        self.compiler.bind(row, self.index, "weight", weight)
+        out.append(row)
 
-    def fallback(self, node, weight):
+    def fallback(self, node, row):
         """Shader nodes without a closure here: the nearest one, warned about."""
         kind = node.bl_idname
         near = {"ShaderNodeSubsurfaceScattering": "Diffuse BSDF (subsurface scattering is "
@@ -148,81 +164,70 @@ class _Reader:
         if near is None:
             self.warn(f"the shader node '{node.name}' ({node.bl_label}) has no counterpart in "
                       "this engine; it renders as grey diffuse")
-            return dict(type=NODE_DIFFUSE, color=(0.8, 0.8, 0.8), weight=weight)
+            row["color"] = (0.8, 0.8, 0.8)
+            return
         self.warn(f"'{node.name}' ({node.bl_label}) renders as {near}")
-        row = shader_node(NODE_DIFFUSE)
         if kind == "ShaderNodeBsdfRayPortal":
             row["type"] = NODE_TRANSPARENT
             self.color(node, "Color", row, "color", "color_texture", (1.0, 1.0, 1.0))
         elif kind == "ShaderNodeBackground":
-            row["type"] = NODE_EMISSION
-            row["emission"] = (np.asarray(self.value(node, "Color", 3, (1, 1, 1)), np.float32)
-                               * (self.value(node, "Strength", default=1.0) or 0.0))
+            _emission(self, node, row)
         else:
             self.color(node, "Color", row, "color", "color_texture")
-        row["weight"] = weight
-        return row
 
     # --- the tree -----------------------------------------------------------------------------
-    def walk(self, socket, weight: float, out: list, depth: int = 0) -> None:
-        node = _from(socket)
-        if node is None or weight <= 0.0:
+    def walk(self, socket, weight, out: list, ctx=(), depth: int = 0) -> None:
+        src = self.graph.source(socket, ctx)
+        if src is None or (weight.is_const and weight.const[0] <= 0.0):
             return
+        node, _, ctx = src
         if depth > _MAX_DEPTH:
             self.warn("its shader tree is too deep; the rest is not rendered")
             return
+        c = self.compiler
         kind = node.bl_idname
         if kind == "ShaderNodeMixShader":
-            fac = self.value(node, "Fac", default=None)
-            if fac is None:
-                fac = float(node.inputs[0].default_value)
-                if node.inputs[0].is_linked:
-                    self.warn(f"the factor of '{node.name}' is driven by a node link this engine "
-                              "does not evaluate; its unlinked value is used")
-            fac = min(max(fac, 0.0), 1.0)
-            self.walk(node.inputs[1], weight * (1.0 - fac), out, depth + 1)
-            self.walk(node.inputs[2], weight * fac, out, depth + 1)
+            fac = c.math("ADD", c.input(node, node.inputs[0], ctx, 1), c.const(0.0, 1),
+                         clamp=True)
+            self.walk(node.inputs[1], c.math("MULTIPLY", weight,
+                                             c.math("SUBTRACT", c.const(1.0, 1), fac)),
+                      out, ctx, depth + 1)
+            self.walk(node.inputs[2], c.math("MULTIPLY", weight, fac), out, ctx, depth + 1)
         elif kind == "ShaderNodeAddShader":
-            self.walk(node.inputs[0], weight, out, depth + 1)
-            self.walk(node.inputs[1], weight, out, depth + 1)
-        elif kind == "ShaderNodeGroup":
-            self.warn(f"the node group '{node.name}' on the surface is not evaluated (node groups "
-                      "come with the node graphs); it renders as grey diffuse")
-            out.append(dict(type=NODE_DIFFUSE, color=(0.8, 0.8, 0.8), weight=weight))
+            self.walk(node.inputs[0], weight, out, ctx, depth + 1)
+            self.walk(node.inputs[1], weight, out, ctx, depth + 1)
         else:
-            row = self.node_row(node, weight)
-            if row is not None:
-                out.append(row)
+            self.ctx = ctx
+            self.node_row(node, weight, out)
+            self.ctx = ()
 
 
 def _principled(r: _Reader, node, row):
     row["type"] = NODE_PRINCIPLED
     r.color(node, "Base Color", row, "color", "color_texture")
     for name, field in _PRINCIPLED_SCALARS.items():
-        v = r.value(node, name)
-        if v is not None:
-            row[field] = v
+        r.field(row, node, name, field)
     for name, field in _PRINCIPLED_COLORS.items():
-        v = r.value(node, name, 3)
-        if v is not None:
-            row[field] = v
+        r.field(row, node, name, field)
     alpha = node.inputs.get("Alpha")
     tex, _ = (r.textures.from_socket(alpha, "Alpha", r.name, output="Alpha")
-              if r.textures is not None and alpha is not None else (0, None))
+              if r.textures is not None and alpha is not None and not r.ctx else (0, None))
     if tex:
         row["alpha"], row["alpha_texture"] = 1.0, tex
     else:
-        row["alpha"] = r.value(node, "Alpha", default=1.0)
-    strength = r.value(node, "Emission Strength", default=0.0) or 0.0
-    if strength:
-        r.color(node, "Emission Color", row, "emission", "emission_texture", (1.0, 1.0, 1.0))
-        row["emission"] *= strength
+        r.field(row, node, "Alpha", "alpha", 1.0)
+    strength = r.val(node, "Emission Strength") or r.compiler.const(0.0, 1)
+    if not strength.is_const or strength.const[0] != 0.0:
+        r.color(node, "Emission Color", row, "emission", "emission_texture", (1.0, 1.0, 1.0),
+                scale=strength)
     else:
         row["emission"] = 0.0
     r.distribution(node, row)
-    if (r.value(node, "Subsurface Weight", default=0.0) or 0.0) > 0.0:
+    ss = r.val(node, "Subsurface Weight")
+    if ss is not None and (not ss.is_const or ss.const[0] > 0.0):
         r.warn("subsurface scattering renders as diffuse (its radius and scale are ignored)")
-    if (r.value(node, "Thin Film Thickness", default=0.0) or 0.0) > 0.1:
+    tf = r.val(node, "Thin Film Thickness")
+    if tf is not None and (not tf.is_const or tf.const[0] > 0.1):
         r.warn("thin-film iridescence is not rendered")
 
 
@@ -231,41 +236,42 @@ def _simple(kind, color_default=(0.8, 0.8, 0.8)):
         row["type"] = kind
         r.color(node, "Color", row, "color", "color_texture", color_default)
         if kind in (NODE_DIFFUSE, NODE_SHEEN, NODE_GLOSSY, NODE_GLASS, NODE_REFRACTION):
-            row["roughness"] = r.value(node, "Roughness", default=0.0)
+            r.field(row, node, "Roughness", "roughness", 0.0)
         if kind in (NODE_GLASS, NODE_REFRACTION):
-            row["ior"] = r.value(node, "IOR", default=1.5)
+            r.field(row, node, "IOR", "ior", 1.5)
         if kind == NODE_GLOSSY:
-            row["anisotropic"] = r.value(node, "Anisotropy", default=0.0)
-            row["anisotropic_rotation"] = r.value(node, "Rotation", default=0.0)
+            r.field(row, node, "Anisotropy", "anisotropic", 0.0)
+            r.field(row, node, "Rotation", "anisotropic_rotation", 0.0)
         if kind in (NODE_GLOSSY, NODE_GLASS, NODE_REFRACTION):
             r.distribution(node, row)
         if kind == NODE_SHEEN and getattr(node, "distribution", "MICROFIBER") != "MICROFIBER":
             r.warn(f"'{node.name}' uses the Ashikhmin sheen; this engine renders Microfiber")
-        if kind == NODE_GLASS and (r.value(node, "Thin Film Thickness", default=0.0) or 0) > 0.1:
+        tf = r.val(node, "Thin Film Thickness") if kind == NODE_GLASS else None
+        if tf is not None and (not tf.is_const or tf.const[0] > 0.1):
             r.warn("thin-film iridescence is not rendered")
     return read
 
 
 def _metallic(r: _Reader, node, row):
     row["type"] = NODE_METALLIC
-    row["roughness"] = r.value(node, "Roughness", default=0.5)
-    row["anisotropic"] = r.value(node, "Anisotropy", default=0.0)
-    row["anisotropic_rotation"] = r.value(node, "Rotation", default=0.0)
+    r.field(row, node, "Roughness", "roughness", 0.5)
+    r.field(row, node, "Anisotropy", "anisotropic", 0.0)
+    r.field(row, node, "Rotation", "anisotropic_rotation", 0.0)
     r.distribution(node, row)
     if getattr(node, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR":
         row["flags"] |= NODE_FLAG_CONDUCTOR
-        row["color"] = r.value(node, "IOR", 3, (2.757, 2.513, 2.231))
-        row["edge_tint"] = r.value(node, "Extinction", 3, (3.867, 3.404, 3.009))
+        r.field(row, node, "IOR", "color", (2.757, 2.513, 2.231))
+        r.field(row, node, "Extinction", "edge_tint", (3.867, 3.404, 3.009))
     else:
         r.color(node, "Base Color", row, "color", "color_texture")
-        row["edge_tint"] = r.value(node, "Edge Tint", 3, (1.0, 1.0, 1.0))
+        r.field(row, node, "Edge Tint", "edge_tint", (1.0, 1.0, 1.0))
 
 
 def _emission(r: _Reader, node, row):
     row["type"] = NODE_EMISSION
-    strength = r.value(node, "Strength", default=1.0) or 0.0
-    r.color(node, "Color", row, "emission", "emission_texture", (1.0, 1.0, 1.0))
-    row["emission"] *= strength
+    strength = r.val(node, "Strength") or r.compiler.const(1.0, 1)
+    r.color(node, "Color", row, "emission", "emission_texture", (1.0, 1.0, 1.0),
+            scale=strength)
     row["color"] = 0.0
 
 
@@ -295,7 +301,8 @@ def read_absorption(material, reader: _Reader) -> tuple:
     computes it: Volume Absorption (1 - colour) x density; Principled Volume the absorbing part
     of its extinction, (1 - colour)(1 - sqrt(absorption colour)) x density.  Scattering is not
     rendered (a warning says so); the medium applies inside glass (entered by refraction)."""
-    node = _from(_output_socket(material, "Volume"))
+    src = reader.graph.source(_output_socket(material, "Volume"))
+    node = src[0] if src is not None else None
     if node is None:
         return (0.0, 0.0, 0.0)
     kind = node.bl_idname
@@ -316,19 +323,27 @@ def read_absorption(material, reader: _Reader) -> tuple:
     return (0.0, 0.0, 0.0)
 
 
-def read_material(material, warn, textures=None) -> tuple[np.ndarray, list]:
-    """(MATERIAL_DTYPE row, its BSDF nodes as SHADER_NODE_DTYPE rows or dicts)."""
+def read_material(material, warn, textures=None) -> tuple[np.ndarray, list, np.ndarray | None]:
+    """(MATERIAL_DTYPE row, its BSDF nodes as SHADER_NODE_DTYPE rows or dicts, its shader
+    program's words or None)."""
     reader = _Reader(material, warn, textures)
     row = np.zeros(1, MATERIAL_DTYPE)
     row["absorption"] = read_absorption(material, reader)
     nodes: list = []
     surface = _output_socket(material)
-    if _from(surface) is None:
+    if reader.graph.source(surface) is None:
         reader.warn("no shader is connected to the material output; it renders black, as in "
                     "Cycles")
-        return row, nodes
-    reader.walk(surface, 1.0, nodes)
-    return row, nodes
+        return row, nodes, None
+    reader.walk(surface, reader.compiler.const(1.0, 1), nodes)
+    if reader.compiler.overflow:          # a graph too large: the BSDFs' unlinked inputs
+        reader.warn(f"its node graph needs more than {MAX_STACK} values at once; the graph is "
+                    "not evaluated (its unlinked inputs are used)")
+        reader = _Reader(material, lambda text: None, textures)
+        reader.compiler.constants_only = True
+        nodes = []
+        reader.walk(surface, reader.compiler.const(1.0, 1), nodes)
+    return row, nodes, reader.compiler.program()
 
 
 class MaterialTable:
@@ -340,6 +355,8 @@ class MaterialTable:
         row, nodes = default_row()
         self.rows = [row]
         self.nodes = [nodes]
+        self.programs = [np.zeros((1, 4), np.int32)]    # word 0: never a program
+        self.words = 1
         self.names = [DEFAULT_NAME]
         self._index = {}
 
@@ -349,7 +366,11 @@ class MaterialTable:
         key = material.name_full
         if key not in self._index:
             self._index[key] = len(self.rows)
-            row, nodes = read_material(material, self.warn, self.textures)
+            row, nodes, program = read_material(material, self.warn, self.textures)
+            if program is not None:
+                row["program"] = self.words
+                self.programs.append(program)
+                self.words += program.shape[0]
             self.rows.append(row)
             self.nodes.append(nodes)
             self.names.append(material.name)
@@ -370,6 +391,10 @@ class MaterialTable:
 
     def array(self) -> np.ndarray:
         return np.concatenate(self.rows)
+
+    def svm(self) -> np.ndarray:
+        """Every material's shader program, one after another (SceneArrays.svm)."""
+        return np.concatenate(self.programs)
 
     def node_array(self) -> np.ndarray:
         """Every material's BSDF nodes, ordered by material."""

@@ -41,6 +41,18 @@ def _follow(socket):
     return node, out
 
 
+def _premultiplied(node) -> bool:
+    """Whether Cycles' Color output of this Image Texture is the colour times alpha: it is
+    unless the Alpha output is linked, the image is data or its alpha is channel-packed or
+    ignored (Cycles stores images with associated alpha)."""
+    image = node.image
+    if image is None or node.outputs["Alpha"].is_linked:
+        return False
+    if image.colorspace_settings.is_data or image.alpha_mode in ("CHANNEL_PACKED", "NONE"):
+        return False
+    return int(image.channels) in (2, 4)
+
+
 class TextureTable:
     """The textures of one export, 1-based indices (0 = none), one entry per image datablock
     and sampling mode."""
@@ -50,6 +62,7 @@ class TextureTable:
         self.rows: list[np.ndarray] = []
         self.texels: list[np.ndarray] = []
         self.count = 0
+        self.opaque: list[bool] = []       # per texture: every alpha is 1
         self._index: dict = {}
 
     def from_socket(self, socket, what: str, material: str, output: str = "Color"):
@@ -61,13 +74,24 @@ class TextureTable:
         if node is None or node.bl_idname != "ShaderNodeTexImage":
             return 0, None
         if out is not None and out.name != output:
-            self.warn(f"Material '{material}': '{what}' uses the image's {out.name} output; "
-                      f"only {output} is evaluated there")
+            return 0, None                 # the other output: the shader program's
         vec, vec_out = _follow(node.inputs.get("Vector"))
-        if vec is not None and (vec.bl_idname, getattr(vec_out, "name", "")) not in _UV_SOURCES:
-            self.warn(f"Material '{material}': the texture coordinates of image node "
-                      f"'{node.name}' come from a '{vec.name}' node this engine does not "
-                      "evaluate; the UV map is used")
+        if vec is not None and ((vec.bl_idname, getattr(vec_out, "name", "")) not in _UV_SOURCES
+                                or getattr(vec, "uv_map", "")):
+            return 0, None                 # other coordinates: the shader program's
+        tex, missing = self.image_index(node, material)
+        if tex and output == "Color" and self.premultiplied(node, tex):
+            return 0, None                 # a colour under alpha: the shader program's
+        return tex, missing
+
+    def premultiplied(self, node, tex: int) -> bool:
+        """Whether texture ``tex`` of this node has partial alpha that Cycles' Color output
+        carries (the colour times alpha, _premultiplied)."""
+        return _premultiplied(node) and not self.opaque[tex - 1]
+
+    def image_index(self, node, material: str):
+        """(texture index, None) for an Image Texture node's image and sampling mode, or
+        (0, MISSING) when it has no image or the image cannot be loaded."""
         image = node.image
         if image is None:
             self.warn(f"Material '{material}': image node '{node.name}' has no image; it renders "
@@ -88,6 +112,7 @@ class TextureTable:
             row["offset"], row["width"], row["height"], row["flags"] = self.count, w, h, flags
             self.rows.append(row)
             self.texels.append(texels)
+            self.opaque.append(bool((texels[:, 3] >= 1.0).all()))
             self.count += texels.shape[0]
             self._index[key] = len(self.rows)
         return self._index[key], None

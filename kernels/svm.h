@@ -1,0 +1,236 @@
+#ifndef PPM_SVM_H
+#define PPM_SVM_H
+#include "svm_nodes.h"
+#include "textures.h"
+
+/* The shader program interpreter (ppm_engine/shader_program.py has the layout; the exporter's
+ * export/shader_graph.py compiles a material's node graph into it): value nodes evaluated into a
+ * private stack of floats, then the BSDF nodes' inputs read from it (svm_bind).  Built only for
+ * scenes with a program (PPM_SVM), with the op codes the scene's programs use (PPM_SVM_OPS:
+ * bit per op) and the stack they need (PPM_SVM_STACK floats). */
+#ifndef PPM_SVM_OPS
+#define PPM_SVM_OPS 0x7fffffff
+#endif
+#ifndef PPM_SVM_STACK
+#define PPM_SVM_STACK 96
+#endif
+#define SVM_HAS(op) ((PPM_SVM_OPS >> (op)) & 1)
+
+#define SVM_END 0
+#define SVM_CONST 1
+#define SVM_GEOMETRY 2
+#define SVM_IMAGE 3
+#define SVM_MAPPING 4
+#define SVM_MATH 5
+#define SVM_VECTOR_MATH 6
+#define SVM_MIX 7
+#define SVM_COMBINE 8
+#define SVM_COLOR_CONVERT 9
+#define SVM_INVERT 10
+#define SVM_GAMMA 11
+#define SVM_BRIGHT_CONTRAST 12
+#define SVM_RGB_TO_BW 13
+#define SVM_CLAMP 14
+#define SVM_MAP_RANGE 15
+#define SVM_TABLE 16
+#define SVM_HSV 17
+#define SVM_FRESNEL 18
+#define SVM_LAYER_WEIGHT 19
+#define MIXF_CLAMP_FACTOR 1
+#define MIXF_CLAMP_RESULT 2
+#define MIXF_SCALAR 4
+#define MIXF_VECTOR_FACTOR 8
+
+/* what a program may read of the shading point */
+typedef struct {
+    float2 uv;
+    float3 N;            /* shading normal, on the viewer's side */
+    float3 Ng;
+    float3 I;            /* towards the viewer (0 for shadow rays and emitter samples) */
+    float backfacing;
+} SvmContext;
+
+inline float3 svm_get3(const float *s, int k) { return (float3)(s[k], s[k + 1], s[k + 2]); }
+inline void svm_put3(float *s, int k, float3 v) { s[k] = v.x; s[k + 1] = v.y; s[k + 2] = v.z; }
+
+/* Cycles' fresnel_dielectric_cos: the Fresnel reflectance at cosine c for relative index eta
+ * (1 under total internal reflection) */
+inline float svm_fresnel_cos(float c, float eta) {
+    c = fabs(c);
+    float g2 = eta * eta - 1.0f + c * c;
+    if (!(g2 > 0.0f)) return 1.0f;
+    float g = sqrt(g2), A = (g - c) / (g + c), B = (c * (g + c) - 1.0f) / (c * (g - c) + 1.0f);
+    return 0.5f * A * A * (1.0f + B * B);
+}
+
+/* a baked ramp or curve at x in [lo, hi] (linear between entries, or the entry below) */
+inline float4 svm_table(__global const int4 *t, int n, float x, float lo, float hi, int interp) {
+    float f = hi > lo ? (x - lo) / (hi - lo) : 0.0f;
+    f = clamp(isfinite(f) ? f : 0.0f, 0.0f, 1.0f) * (float)(n - 1);
+    int i = min((int)f, n - 1);
+    float4 a = as_float4(t[i]);
+    if (!interp || i >= n - 1) return a;
+    return mix(a, as_float4(t[i + 1]), f - (float)i);
+}
+
+/* Runs the value ops of the program at word p into stack */
+inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmContext *ctx,
+                     TEXTURE_ARGS) {
+    int4 h = svm[p];
+    int i = p + 1 + h.x, end = p + h.y;
+    while (i < end) {
+        int4 w = svm[i++];
+        int op = w.x;
+        if (op == SVM_END) return;
+        if (SVM_HAS(SVM_CONST) && op == SVM_CONST) {
+            float4 c = as_float4(svm[i++]);
+            stack[w.y] = c.x;
+            if (w.z > 1) { stack[w.y + 1] = c.y; stack[w.y + 2] = c.z; }
+        } else if (SVM_HAS(SVM_GEOMETRY) && op == SVM_GEOMETRY) {
+            float3 v = w.z == 0 ? (float3)(ctx->uv, 0.0f) : w.z == 1 ? ctx->N
+                     : w.z == 2 ? ctx->Ng : w.z == 3 ? ctx->I : (float3)(ctx->backfacing);
+            if (w.z == 4) stack[w.y] = ctx->backfacing; else svm_put3(stack, w.y, v);
+        } else if (SVM_HAS(SVM_IMAGE) && op == SVM_IMAGE) {
+            int4 e = svm[i++];
+            float4 c = (float4)(1.0f);
+#if PPM_TEXTURES
+            float3 uvw = svm_get3(stack, w.w);
+            c = texture_rgba(textures, texels, e.x, uvw.xy);
+            if (e.y) c.xyz *= c.w;             /* Cycles' Color under unlinked alpha */
+#endif
+            svm_put3(stack, w.y, c.xyz);
+            stack[w.z] = c.w;
+        } else if (SVM_HAS(SVM_MAPPING) && op == SVM_MAPPING) {
+            float4 r0 = as_float4(svm[i]), r1 = as_float4(svm[i + 1]), r2 = as_float4(svm[i + 2]);
+            i += 3;
+            float4 v = (float4)(svm_get3(stack, w.z), w.w == 0 ? 1.0f : 0.0f);
+            if (w.w == 1) v.w = 1.0f;
+            float3 o = (float3)(dot(r0, v), dot(r1, v), dot(r2, v));
+            if (w.w == 3) o = svm_safe_normalize(o);
+            svm_put3(stack, w.y, o);
+        } else if (SVM_HAS(SVM_MATH) && op == SVM_MATH) {
+            int4 e = svm[i++];
+            float r = svm_math(e.y, stack[w.z], stack[w.w], stack[e.x]);
+            stack[w.y] = e.z ? clamp(r, 0.0f, 1.0f) : r;
+        } else if (SVM_HAS(SVM_VECTOR_MATH) && op == SVM_VECTOR_MATH) {
+            int4 e = svm[i++];
+            float value;
+            float3 r = svm_vector_math(e.y, svm_get3(stack, w.z), svm_get3(stack, w.w),
+                                       svm_get3(stack, e.x), stack[e.w], &value);
+            svm_put3(stack, w.y, r);
+            stack[e.z] = value;
+        } else if (SVM_HAS(SVM_MIX) && op == SVM_MIX) {
+            int4 e = svm[i++];
+            int flags = e.z;
+            if (flags & MIXF_SCALAR) {
+                float t = stack[e.x];
+                if (flags & MIXF_CLAMP_FACTOR) t = clamp(t, 0.0f, 1.0f);
+                stack[w.y] = mix(stack[w.z], stack[w.w], t);
+            } else if (flags & MIXF_VECTOR_FACTOR) {
+                float3 t = svm_get3(stack, e.x);
+                if (flags & MIXF_CLAMP_FACTOR) t = clamp(t, 0.0f, 1.0f);
+                svm_put3(stack, w.y, mix(svm_get3(stack, w.z), svm_get3(stack, w.w), t));
+            } else {
+                float t = stack[e.x];
+                if (flags & MIXF_CLAMP_FACTOR) t = clamp(t, 0.0f, 1.0f);
+                float3 r = svm_mix_color(e.y, t, svm_get3(stack, w.z), svm_get3(stack, w.w));
+                if (flags & MIXF_CLAMP_RESULT) r = clamp(r, 0.0f, 1.0f);
+                svm_put3(stack, w.y, r);
+            }
+        } else if (SVM_HAS(SVM_COMBINE) && op == SVM_COMBINE) {
+            int z = svm[i++].x;
+            float3 r = (float3)(stack[w.z], stack[w.w], stack[z]);
+            svm_put3(stack, w.y, r);
+        } else if (SVM_HAS(SVM_COLOR_CONVERT) && op == SVM_COLOR_CONVERT) {
+            float3 c = svm_get3(stack, w.z);
+            c = w.w == 0 ? rgb_to_hsv(c) : w.w == 1 ? hsv_to_rgb(c)
+              : w.w == 2 ? rgb_to_hsl(c) : hsl_to_rgb(c);
+            svm_put3(stack, w.y, c);
+        } else if (SVM_HAS(SVM_INVERT) && op == SVM_INVERT) {
+            float3 c = svm_get3(stack, w.w);
+            svm_put3(stack, w.y, mix(c, 1.0f - c, stack[w.z]));
+        } else if (SVM_HAS(SVM_GAMMA) && op == SVM_GAMMA) {
+            float3 c = svm_get3(stack, w.z);
+            float g = stack[w.w];
+            if (g == 0.0f) c = (float3)(1.0f);
+            if (c.x > 0.0f) c.x = pow(c.x, g);
+            if (c.y > 0.0f) c.y = pow(c.y, g);
+            if (c.z > 0.0f) c.z = pow(c.z, g);
+            svm_put3(stack, w.y, c);
+        } else if (SVM_HAS(SVM_BRIGHT_CONTRAST) && op == SVM_BRIGHT_CONTRAST) {
+            float contrast = stack[svm[i++].x], bright = stack[w.w];
+            float a = 1.0f + contrast, b = bright - contrast * 0.5f;
+            svm_put3(stack, w.y, fmax(a * svm_get3(stack, w.z) + b, 0.0f));
+        } else if (SVM_HAS(SVM_RGB_TO_BW) && op == SVM_RGB_TO_BW) {
+            stack[w.y] = dot(svm_get3(stack, w.z), (float3)(0.2126729f, 0.7151522f, 0.0721750f));
+        } else if (SVM_HAS(SVM_CLAMP) && op == SVM_CLAMP) {
+            int4 e = svm[i++];
+            float lo = stack[w.w], hi = stack[e.x];
+            if (e.y == 1 && lo > hi) { float t = lo; lo = hi; hi = t; }
+            stack[w.y] = fmin(fmax(stack[w.z], lo), hi);
+        } else if (SVM_HAS(SVM_MAP_RANGE) && op == SVM_MAP_RANGE) {
+            int4 e = svm[i], f = svm[i + 1];
+            i += 2;
+            stack[w.y] = svm_map_range(f.x, f.y != 0, stack[w.z], stack[w.w], stack[e.x],
+                                       stack[e.y], stack[e.z], stack[e.w]);
+        } else if (SVM_HAS(SVM_TABLE) && op == SVM_TABLE) {
+            int4 e = svm[i], g = svm[i + 1];
+            __global const int4 *t = svm + i + 2;
+            i += 2 + w.w;
+            float lo = as_float(e.z), hi = as_float(e.w), fac = stack[g.x];
+            if (e.x == 0) {                                 /* ramp, float curve */
+                float4 r = svm_table(t, w.w, stack[w.z], lo, hi, e.y);
+                svm_put3(stack, w.y, r.xyz);
+                if (fac != 1.0f) stack[w.y] = mix(stack[w.z], r.x, fac);
+            } else {                                        /* RGB, vector curves */
+                float3 c = svm_get3(stack, w.z);
+                float3 r = (float3)(svm_table(t, w.w, c.x, lo, hi, 1).x,
+                                    svm_table(t, w.w, c.y, lo, hi, 1).y,
+                                    svm_table(t, w.w, c.z, lo, hi, 1).z);
+                svm_put3(stack, w.y, mix(c, r, fac));
+            }
+        } else if (SVM_HAS(SVM_HSV) && op == SVM_HSV) {
+            int4 e = svm[i++];
+            float3 c = svm_get3(stack, w.z), hsv = rgb_to_hsv(c);
+            hsv.x = hsv.x + stack[e.x] + 0.5f;
+            hsv.x -= floor(hsv.x);
+            hsv.y = clamp(hsv.y * stack[e.y], 0.0f, 1.0f);
+            hsv.z *= stack[e.z];
+            float3 r = mix(c, hsv_to_rgb(hsv), stack[w.w]);
+            svm_put3(stack, w.y, fmax(r, 0.0f));
+        } else if (SVM_HAS(SVM_FRESNEL) && op == SVM_FRESNEL) {
+            float eta = fmax(stack[w.z], 1e-5f);
+            eta = ctx->backfacing > 0.0f ? 1.0f / eta : eta;
+            stack[w.y] = svm_fresnel_cos(dot(ctx->I, ctx->N), eta);
+        } else if (SVM_HAS(SVM_LAYER_WEIGHT) && op == SVM_LAYER_WEIGHT) {
+            float blend = stack[w.z], c = dot(ctx->I, ctx->N);
+            float eta = fmax(1.0f - blend, 1e-5f);
+            stack[w.y] = svm_fresnel_cos(c, ctx->backfacing > 0.0f ? eta : 1.0f / eta);
+            float f = fabs(c);
+            if (blend != 0.5f) {
+                float b = clamp(blend, 0.0f, 1.0f - 1e-5f);
+                f = pow(f, b < 0.5f ? 2.0f * b : 0.5f / (1.0f - b));
+            }
+            stack[w.w] = 1.0f - f;
+        } else {
+            return;                           /* an op this build lacks: stop safely */
+        }
+    }
+}
+
+/* The inputs of BSDF node `node` (counted in its material) that the program drives, written
+ * into the node's private copy (as floats: SHADER_NODE_DTYPE's word layout) */
+inline void svm_bind(__global const int4 *svm, int p, int node, ShaderNode *nd,
+                     const float *stack) {
+    int n_binds = svm[p].x;
+    float *words = (float *)nd;
+    for (int k = 0; k < n_binds; k++) {
+        int4 b = svm[p + 1 + k];
+        if (b.x != node) continue;
+        for (int c = 0; c < b.z; c++) {
+            float v = stack[b.w + c];
+            words[b.y + c] = isfinite(v) ? v : 0.0f;
+        }
+    }
+}
+#endif

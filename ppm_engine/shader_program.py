@@ -1,0 +1,214 @@
+"""Shader programs: a material's node graph as a short list of instructions the kernels run at
+every hit (kernels/svm.h; the design Cycles calls SVM).  The exporter
+(export/shader_graph.py) compiles each material's graph; this module holds what the exporter,
+the core and the kernels share: the op codes, the encoding, the BSDF node fields a program may
+drive, and the ops' arithmetic for constant folding (the same formulas as kernels/svm_nodes.h).
+
+A program is a run of int4 words in ``SceneArrays.svm``; a material names its first word
+(MATERIAL_DTYPE ``program``, 0 = none: word 0 is never a program).  Layout::
+
+    header       (n_binds, n_words, stack_floats, flags)
+    n_binds x    (node, field_word, n_components, stack_slot)   a BSDF node's input from the stack
+    ops ...      (op, a, b, c) [+ parameter words], then (SVM_END, 0, 0, 0)
+
+The stack is private floats; a colour or vector takes three consecutive slots.  ``node`` counts
+the material's BSDF nodes from 0, ``field_word`` is the float's index in SHADER_NODE_DTYPE.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .scene_arrays import BINDABLE, SHADER_NODE_DTYPE
+
+# --- op codes (kernels/svm.h SVM_*) -----------------------------------------------------------
+SVM_END = 0
+SVM_CONST = 1          # (op, slot, n, 0) + (x, y, z, w) as float bits
+SVM_GEOMETRY = 2       # (op, slot, what, 0): GEOM_*
+SVM_IMAGE = 3          # (op, color_slot, alpha_slot, vector_slot) + (texture, 0, 0, 0)
+SVM_MAPPING = 4        # (op, out, vector, type) + 3 words: the 3x4 matrix rows (float bits)
+SVM_MATH = 5           # (op, out, a, b) + (c, MATH_*, clamp, 0)
+SVM_VECTOR_MATH = 6    # (op, out_vector, a, b) + (c, VMATH_*, out_value, scale)
+SVM_MIX = 7            # (op, out, a, b) + (fac, MIX_*, flags, 0); flags MIXF_*
+SVM_COMBINE = 8        # (op, out, x, y) + (z, 0, 0, 0): three floats into a vector
+SVM_COLOR_CONVERT = 9  # (op, out, in, mode): COLOR_RGB_TO_HSV ... (Separate/Combine Color)
+SVM_INVERT = 10        # (op, out, fac, color)
+SVM_GAMMA = 11         # (op, out, color, gamma)
+SVM_BRIGHT_CONTRAST = 12  # (op, out, color, bright) + (contrast, 0, 0, 0)
+SVM_RGB_TO_BW = 13     # (op, out, color, 0)
+SVM_CLAMP = 14         # (op, out, value, min) + (max, type, 0, 0)
+SVM_MAP_RANGE = 15     # (op, out, value, from_min) + (from_max, to_min, to_max, steps) + (type, clamp, 0, 0)
+SVM_TABLE = 16         # (op, out, in, n) + (mode, interp, 0, 0) + n words (r, g, b, a): ramps, curves
+SVM_HSV = 17           # (op, out, color, fac) + (hue, saturation, value, 0)
+SVM_FRESNEL = 18       # (op, out, ior, 0)
+SVM_LAYER_WEIGHT = 19  # (op, out_fresnel, blend, out_facing)
+SVM_OPS = 20
+
+OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
+            "combine", "color_convert", "invert", "gamma", "bright_contrast", "rgb_to_bw",
+            "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight")
+# parameter words after each op's first word
+OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 1, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
+            SVM_MIX: 1, SVM_COMBINE: 1, SVM_BRIGHT_CONTRAST: 1, SVM_CLAMP: 1, SVM_MAP_RANGE: 2,
+            SVM_HSV: 1, SVM_TABLE: 2}   # (a table's n entries follow its parameters)
+
+GEOM_UV = 0            # (u, v, 0) of the render UV map
+GEOM_NORMAL = 1        # shading normal (world, facing the viewer)
+GEOM_TRUE_NORMAL = 2
+GEOM_INCOMING = 3      # towards the viewer
+GEOM_BACKFACING = 4    # 1 when the ray hit the back
+
+COLOR_RGB_TO_HSV, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL, COLOR_HSL_TO_RGB = 0, 1, 2, 3
+
+MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT, MIXF_SCALAR, MIXF_VECTOR_FACTOR = 1, 2, 4, 8
+TABLE_SCALAR, TABLE_RGB, TABLE_VECTOR = 0, 1, 2   # ramp/float curve, RGB curves, vector curves
+TABLE_SIZE = 256                                  # entries of a baked ramp or curve (Cycles')
+
+# Math node operations (Blender's enum names; kernels/svm_nodes.h MATH_*)
+MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM",
+            "SQRT", "INVERSE_SQRT", "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN",
+            "GREATER_THAN", "SIGN", "COMPARE", "SMOOTH_MIN", "SMOOTH_MAX", "ROUND", "FLOOR",
+            "CEIL", "TRUNC", "FRACT", "MODULO", "FLOORED_MODULO", "WRAP", "SNAP", "PINGPONG",
+            "SINE", "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE", "ARCTANGENT", "ARCTAN2", "SINH",
+            "COSH", "TANH", "RADIANS", "DEGREES")
+MATH = {name: i for i, name in enumerate(MATH_OPS)}
+VMATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "CROSS_PRODUCT", "PROJECT",
+             "REFLECT", "REFRACT", "FACEFORWARD", "DOT_PRODUCT", "DISTANCE", "LENGTH", "SCALE",
+             "NORMALIZE", "ABSOLUTE", "POWER", "SIGN", "MINIMUM", "MAXIMUM", "FLOOR", "CEIL",
+             "FRACTION", "MODULO", "WRAP", "SNAP", "SINE", "COSINE", "TANGENT")
+VMATH = {name: i for i, name in enumerate(VMATH_OPS)}
+MIX_OPS = ("MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN", "DIVIDE", "DIFFERENCE", "EXCLUSION",
+           "DARKEN", "LIGHTEN", "OVERLAY", "DODGE", "BURN", "HUE", "SATURATION", "VALUE",
+           "COLOR", "SOFT_LIGHT", "LINEAR_LIGHT")
+MIX = {name: i for i, name in enumerate(MIX_OPS)}
+MAP_RANGE_TYPES = {"LINEAR": 0, "STEPPED": 1, "SMOOTHSTEP": 2, "SMOOTHERSTEP": 3}
+MAPPING_TYPES = {"POINT": 0, "TEXTURE": 1, "VECTOR": 2, "NORMAL": 3}
+
+# the BSDF node fields a program may drive (scene_arrays.BINDABLE), as float word indexes
+FIELD_WORD = {name: SHADER_NODE_DTYPE.fields[name][1] // 4 for name in BINDABLE}
+
+PROGRAM_EMISSION = 1   # header flags: the program drives an emission input (or a weight)
+MAX_STACK = 96         # floats of stack a program may use (kernels: PPM_SVM_STACK)
+
+
+def f2i(x: float) -> int:
+    """A float's bits as an int32 (parameters share the program's int words)."""
+    return int(np.array([x], np.float32).view(np.int32)[0])
+
+
+def i2f(i) -> float:
+    return float(np.array([i], np.int32).view(np.float32)[0])
+
+
+def ops_used(svm: np.ndarray, starts) -> int:
+    """Bitmask of the op codes in the programs starting at ``starts`` (-D PPM_SVM_OPS)."""
+    mask = 0
+    for p in starts:
+        p = int(p)
+        if p <= 0:
+            continue
+        n_binds, n_words = int(svm[p, 0]), int(svm[p, 1])
+        i, end = p + 1 + n_binds, p + n_words
+        while i < end:
+            op = int(svm[i, 0])
+            if op == SVM_END:
+                break
+            if not 0 < op < SVM_OPS:
+                raise ValueError(f"shader program at word {p}: unknown op {op} at word {i}")
+            mask |= 1 << op
+            i += 1 + OP_EXTRA.get(op, 0) + (int(svm[i, 3]) if op == SVM_TABLE else 0)
+    return mask
+
+
+def stack_used(svm: np.ndarray, starts) -> int:
+    return max([int(svm[int(p), 2]) for p in starts if int(p) > 0] or [0])
+
+
+# --- the ops' arithmetic, for constant folding (float32 like the kernels) --------------------
+def _safe_div(a, b):
+    return a / b if b != 0.0 else 0.0
+
+
+def _fmod(a, b):
+    return math.fmod(a, b) if b != 0.0 else 0.0
+
+
+def _pow(a, b):
+    if a < 0.0 and b != float(int(b)):
+        return 0.0
+    if a == 0.0 and b < 0.0:
+        return 0.0
+    try:
+        return math.pow(a, b)
+    except OverflowError:
+        return math.inf
+
+
+def _wrap(v, hi, lo):
+    r = hi - lo
+    return v - r * math.floor((v - lo) / r) if r != 0.0 else lo
+
+
+def _smoothmin(a, b, c):
+    if c != 0.0:
+        h = max(c - abs(a - b), 0.0) / c
+        return min(a, b) - h * h * h * c * (1.0 / 6.0)
+    return min(a, b)
+
+
+def _pingpong(a, b):
+    if b == 0.0:
+        return 0.0
+    x = (a - b) / (b * 2.0)
+    return abs((x - math.floor(x)) * b * 2.0 - b)
+
+
+def _guard(f):
+    def g(*args):
+        try:
+            return f(*args)
+        except (ValueError, OverflowError, ZeroDivisionError):
+            return 0.0
+    return g
+
+
+MATH_FN = {
+    "ADD": lambda a, b, c: a + b, "SUBTRACT": lambda a, b, c: a - b,
+    "MULTIPLY": lambda a, b, c: a * b, "DIVIDE": lambda a, b, c: _safe_div(a, b),
+    "MULTIPLY_ADD": lambda a, b, c: a * b + c, "POWER": lambda a, b, c: _pow(a, b),
+    "LOGARITHM": lambda a, b, c: (math.log(a) / math.log(b)
+                                  if a > 0.0 and b > 0.0 and b != 1.0 else 0.0),
+    "SQRT": lambda a, b, c: math.sqrt(a) if a > 0.0 else 0.0,
+    "INVERSE_SQRT": lambda a, b, c: 1.0 / math.sqrt(a) if a > 0.0 else 0.0,
+    "ABSOLUTE": lambda a, b, c: abs(a), "EXPONENT": lambda a, b, c: math.exp(a),
+    "MINIMUM": lambda a, b, c: min(a, b), "MAXIMUM": lambda a, b, c: max(a, b),
+    "LESS_THAN": lambda a, b, c: float(a < b), "GREATER_THAN": lambda a, b, c: float(a > b),
+    "SIGN": lambda a, b, c: 0.0 if a == 0.0 else math.copysign(1.0, a),
+    "COMPARE": lambda a, b, c: float(a == b or abs(a - b) <= max(c, 1.1920929e-7)),
+    "SMOOTH_MIN": lambda a, b, c: _smoothmin(a, b, c),
+    "SMOOTH_MAX": lambda a, b, c: -_smoothmin(-a, -b, c),
+    "ROUND": lambda a, b, c: math.floor(a + 0.5), "FLOOR": lambda a, b, c: math.floor(a),
+    "CEIL": lambda a, b, c: math.ceil(a), "TRUNC": lambda a, b, c: float(math.trunc(a)),
+    "FRACT": lambda a, b, c: a - math.floor(a), "MODULO": lambda a, b, c: _fmod(a, b),
+    "FLOORED_MODULO": lambda a, b, c: a - math.floor(a / b) * b if b != 0.0 else 0.0,
+    "WRAP": lambda a, b, c: _wrap(a, b, c),
+    "SNAP": lambda a, b, c: math.floor(_safe_div(a, b)) * b,
+    "PINGPONG": lambda a, b, c: _pingpong(a, b),
+    "SINE": lambda a, b, c: math.sin(a), "COSINE": lambda a, b, c: math.cos(a),
+    "TANGENT": lambda a, b, c: math.tan(a),
+    "ARCSINE": lambda a, b, c: math.asin(min(max(a, -1.0), 1.0)),
+    "ARCCOSINE": lambda a, b, c: math.acos(min(max(a, -1.0), 1.0)),
+    "ARCTANGENT": lambda a, b, c: math.atan(a),
+    "ARCTAN2": lambda a, b, c: 0.0 if a == 0.0 and b == 0.0 else math.atan2(a, b),
+    "SINH": lambda a, b, c: math.sinh(a), "COSH": lambda a, b, c: math.cosh(a),
+    "TANH": lambda a, b, c: math.tanh(a), "RADIANS": lambda a, b, c: math.radians(a),
+    "DEGREES": lambda a, b, c: math.degrees(a),
+}
+MATH_FN = {k: _guard(f) for k, f in MATH_FN.items()}
+assert set(MATH_FN) == set(MATH_OPS)
+
+
+def fold_math(op: str, a: float, b: float, c: float, clamp: bool) -> float:
+    r = float(np.float32(MATH_FN[op](float(a), float(b), float(c))))
+    return min(max(r, 0.0), 1.0) if clamp else r
