@@ -1,6 +1,6 @@
 #ifndef PPM_SHADER_H
 #define PPM_SHADER_H
-#include "shader_data.h"
+#include "shader_inputs.h"
 
 /* The shader: a hit's closures from its material's BSDF nodes (scene_arrays.SHADER_NODE_DTYPE,
  * weights already propagated through Mix and Add Shader nodes), each node set up as Cycles sets
@@ -14,27 +14,11 @@
 #define PPM_GATHER_ROUGHNESS 0.7f
 #endif
 
-/* alphas of a roughness with Cycles' anisotropy (aspect sqrt(1 - 0.9 aniso)) */
-inline float2 aniso_alphas(float roughness, float aniso, bool tangent) {
-    float a = roughness * roughness;
-    if (!(aniso > 0.0f) || !tangent) return (float2)(a, a);
-    float aspect = sqrt(1.0f - 0.9f * aniso);
-    return (float2)(a / aspect, a * aspect);
-}
-
-/* the tangent rotated by rotation x 2 pi about N, made orthogonal to N */
-inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
-    if (rotation != 0.0f) {
-        float a = rotation * 2.0f * PPM_PI, c = cos(a), s = sin(a);
-        T = c * T + s * cross(N, T) + (1.0f - c) * dot(N, T) * N;
-    }
-    return T;
-}
-
 inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
                              float alpha, float3 emission, float3 tangent, TABLES_ARG) {
     float w1 = nd->weight;
-    float3 w = (float3)(w1), N = sd->N, cbase = fmin(base, (float3)(1.0f));
+    float3 w = (float3)(w1), N = node_normal(sd, F3(nd->normal)),
+           cbase = fmin(base, (float3)(1.0f));
     float ior = fmax(nd->ior, 1e-5f), rough = clamp(nd->roughness, 0.0f, 1.0f);
     float metallic = clamp(nd->metallic, 0.0f, 1.0f);
     float3 spec_tint = fmax(F3(nd->edge_tint), (float3)(0.0f));
@@ -56,7 +40,8 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
     }
     if (PPM_MICROFACET && coat > CLOSURE_WEIGHT_CUTOFF) {
         float cr = clamp(nd->coat_roughness, 0.0f, 1.0f), cior = fmax(nd->coat_ior, 1.0f);
-        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, coat * w, N, cr * cr, cr * cr, cior);
+        float3 Nc = node_normal(sd, F3(nd->coat_normal));
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, coat * w, Nc, cr * cr, cr * cr, cior);
         if (k >= 0) {
             Closure *c = &sd->c[k];
             c->fresnel = FRESNEL_DIELECTRIC;
@@ -68,7 +53,7 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
         }
         float3 tint = fmax(F3(nd->coat_tint), (float3)(0.0f));
         if (tint.x != 1.0f || tint.y != 1.0f || tint.z != 1.0f) {
-            float cos_ni = dot(sd->wi, N);
+            float cos_ni = dot(sd->wi, Nc);
             float cos_nt = sqrt(1.0f - sqr(1.0f / cior) * (1.0f - cos_ni * cos_ni));
             w *= mix((float3)(1.0f), pow(tint, 1.0f / cos_nt), coat);
         }
@@ -115,7 +100,7 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
 inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
                             float3 emission, float3 tangent, TABLES_ARG) {
     float w1 = nd->weight, rough = clamp(nd->roughness, 0.0f, 1.0f);
-    float3 N = sd->N, w = (float3)(w1);
+    float3 N = node_normal(sd, F3(nd->normal)), w = (float3)(w1);
     bool multi = (nd->flags & NODE_FLAG_MULTI_GGX) != 0, has_t = dot(tangent, tangent) > 0.0f;
     int t = nd->type;
     if (t == NODE_DIFFUSE) {
@@ -174,31 +159,6 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
     }
 }
 
-/* the weight of the one Lambert closure of a MAT_LAMBERT material's node */
-inline float3 lambert_weight(__global const ShaderNode *nd, uint tri, float u, float v,
-                             TEXTURE_ARGS) {
-    return fmax(F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS), 0.0f)
-           * nd->weight;
-}
-
-/* The default tangent of anisotropic closures at barycentrics (u, v) of triangle tri: the
- * exported radial tangent (scene_arrays.SceneArrays.tangents) made orthogonal to N, as Cycles'
- * Tangent node; 0 without anisotropy (PPM_ANISOTROPY) */
-inline float3 surface_tangent(uint tri, float u, float v, float3 N,
-                              __global const float *tangents) {
-#if PPM_ANISOTROPY
-    __global const float *t = tangents + 9 * (size_t)tri;
-    float w = 1.0f - u - v;
-    float3 r = w * (float3)(t[0], t[1], t[2]) + u * (float3)(t[3], t[4], t[5])
-             + v * (float3)(t[6], t[7], t[8]);
-    float3 c = cross(r, N);
-    float l = length(c);
-    return l > 1e-12f ? cross(N, c / l) : (float3)(0.0f);
-#else
-    return (float3)(0.0f);
-#endif
-}
-
 /* Closures at a hit of material mat: triangle tri at barycentrics (u, v), stored normals ng and
  * ns (ns on ng's side), wi towards the viewer. */
 inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, float3 ng,
@@ -228,22 +188,9 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
         return;
     }
     float3 tangent = surface_tangent(tri, u, v, sd->N, tangents);
-#if PPM_SVM
-    float stack[PPM_SVM_STACK];
-    if (m.program > 0) {
-        SvmContext cx = {surface_uv(uvs, tri, u, v), sd->N, sd->Ng, wi,
-                         sd->backfacing ? 1.0f : 0.0f};
-        svm_eval(svm, m.program, stack, &cx, TEXTURE_PASS);
-    }
-#endif
+    MATERIAL_PROGRAM(m, stack, sd->N, sd->Ng, wi, sd->backfacing);
     for (int i = 0; i < m.node_count; i++) {
-#if PPM_SVM
-        ShaderNode node = shader_nodes[m.node_first + i];
-        if (m.program > 0) svm_bind(svm, m.program, i, &node, stack);
-        NODE_PTR nd = &node;
-#else
-        NODE_PTR nd = shader_nodes + m.node_first + i;
-#endif
+        MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;
         float3 color = F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS);
         float3 emission = F3(nd->emission)
@@ -277,71 +224,6 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
     }
 }
 
-/* The transparency (1 - alpha) of material mat at a surface point, without the closures: what
- * shadow rays are let through (Principled Alpha, Transparent BSDF; view-independent). */
-inline float3 material_transparency(int mat, uint tri, float u, float v, SHADING_ARGS) {
-    float3 T = (float3)(0.0f);
-    Material m = materials[mat];
-#if PPM_SVM
-    float stack[PPM_SVM_STACK];
-    if (m.program > 0) {                  /* (no view direction or normal for a shadow ray) */
-        SvmContext cx = {surface_uv(uvs, tri, u, v), (float3)(0.0f), (float3)(0.0f),
-                         (float3)(0.0f), 0.0f};
-        svm_eval(svm, m.program, stack, &cx, TEXTURE_PASS);
-    }
-#endif
-    for (int i = 0; i < m.node_count; i++) {
-#if PPM_SVM
-        ShaderNode node = shader_nodes[m.node_first + i];
-        if (m.program > 0) svm_bind(svm, m.program, i, &node, stack);
-        NODE_PTR nd = &node;
-#else
-        NODE_PTR nd = shader_nodes + m.node_first + i;
-#endif
-        if (!(nd->weight > 0.0f)) continue;
-        if (nd->type == NODE_PRINCIPLED) {
-            float a = clamp(nd->alpha * texture_alpha(nd->alpha_texture, tri, u, v, TEXTURE_PASS),
-                            0.0f, 1.0f);
-            T += (float3)(nd->weight * (1.0f - a));
-        } else if (nd->type == NODE_TRANSPARENT) {
-            T += fmax(F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS)
-                      * nd->weight, (float3)(0.0f));
-        }
-    }
-    return T;
-}
-
-/* The radiance material m emits at a surface point, as the emitter table and the light
- * samples see it: its constant emission times its emission texture, or, when its shader program
- * drives an emission (PROGRAM_EMISSION), the emission nodes evaluated there (the Principled's
- * under its alpha; the view-dependent sheen and coat left out, as materials.node_emission). */
-inline float3 material_emission(__global const Material *m, uint tri, float u, float v,
-                                SHADING_ARGS) {
-#if PPM_SVM
-    if (m->program > 0 && (svm[m->program].w & 1)) {
-        float stack[PPM_SVM_STACK];
-        SvmContext cx = {surface_uv(uvs, tri, u, v), (float3)(0.0f), (float3)(0.0f),
-                         (float3)(0.0f), 0.0f};
-        svm_eval(svm, m->program, stack, &cx, TEXTURE_PASS);
-        float3 E = (float3)(0.0f);
-        for (int i = 0; i < m->node_count; i++) {
-            ShaderNode nd = shader_nodes[m->node_first + i];
-            svm_bind(svm, m->program, i, &nd, stack);
-            if (!(nd.weight > 0.0f) || (nd.type != NODE_EMISSION && nd.type != NODE_PRINCIPLED))
-                continue;
-            float3 e = fmax(F3(nd.emission), 0.0f) * nd.weight
-                       * texture_tint(nd.emission_texture, tri, u, v, TEXTURE_PASS);
-            if (nd.type == NODE_PRINCIPLED)
-                e *= clamp(nd.alpha * texture_alpha(nd.alpha_texture, tri, u, v, TEXTURE_PASS),
-                           0.0f, 1.0f);
-            E += e;
-        }
-        return E;
-    }
-#endif
-    return F3(m->emission) * texture_tint(m->emission_tex, tri, u, v, TEXTURE_PASS);
-}
-
 /* which closures a mixture function looks at */
 #define MASK_GATHER 1
 #define MASK_CONTINUE 2
@@ -352,6 +234,32 @@ inline bool closure_in(const Closure *c, int mask) {
 
 /* Sum of weight x eval (f cos) over the closures in mask, for light from wo; *pdf: the
  * density shader_sample gives wo (Veach's one-sample model). */
+/* Cycles' bump shadowing term (learnt from its bsdf.h: Conty Estevez et al.'s microfacet-based
+ * term), for a closure whose normal differs from the smooth normal sd->N (a Normal input):
+ * directions on the wrong side of the smooth surface get nothing when evaluated (sampled:
+ * diffuse closures only), and diffuse closures are softened near their terminator by a GGX
+ * shadowing of the normals' deviation. */
+inline float bump_shadowing(const ShaderData *sd, const Closure *c, float3 wo, bool is_eval) {
+    if (all(isequal(c->N, sd->N))) return 1.0f;
+    float cos_si = dot(sd->N, wo), cos_sn = dot(sd->N, c->N), cos_ni = dot(c->N, wo);
+    bool diffuse = c->type >= CLOSURE_DIFFUSE && c->type <= CLOSURE_SHEEN;
+    if (cos_si * cos_sn * cos_ni < 0.0f && (is_eval || diffuse)) return 0.0f;
+    if (!diffuse) return 1.0f;
+    float ci = fabs(cos_si), cd = fabs(cos_sn);
+    if (cd >= 1.0f || ci >= 1.0f) return 1.0f;
+    if (ci < 1e-6f) return 0.0f;
+    float a2 = clamp(0.125f * (1.0f / (cd * cd) - 1.0f), 0.0f, 1.0f);
+    return 2.0f / (1.0f + sqrt(1.0f + a2 * (1.0f - ci * ci) / (ci * ci)));    /* 1/(1+lambda) */
+}
+
+/* closure c's f cos at wo with its bump shadowing; *p its density (0 where shadowed) */
+inline float3 closure_eval_bumped(const ShaderData *sd, const Closure *c, float3 wo, float *p) {
+    float3 e = closure_eval(c, sd->wi, wo, p);
+    float b = bump_shadowing(sd, c, wo, true);
+    if (b == 0.0f) *p = 0.0f;
+    return e * b;
+}
+
 inline float3 shader_eval(const ShaderData *sd, float3 wo, int mask, float *pdf) {
     float3 f = (float3)(0.0f);
     float sum_pdf = 0.0f, sum_sw = 0.0f;
@@ -359,7 +267,7 @@ inline float3 shader_eval(const ShaderData *sd, float3 wo, int mask, float *pdf)
         const Closure *c = &sd->c[k];
         if (!closure_in(c, mask)) continue;
         float p;
-        float3 e = closure_eval(c, sd->wi, wo, &p);
+        float3 e = closure_eval_bumped(sd, c, wo, &p);
         if (p != 0.0f) {
             f += c->weight * e;
             sum_pdf += p * c->sample_weight;
@@ -387,6 +295,7 @@ inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSampl
         float pdf;
         s->label = closure_sample(c, sd->Ng, sd->wi, rand, &eval, &s->wo, &pdf, &s->eta);
         if (s->label == LABEL_NONE || !(pdf > 0.0f)) return false;
+        if (!(s->label & LABEL_TRANSMIT)) eval *= bump_shadowing(sd, c, s->wo, false);
         s->pdf = (s->label & LABEL_SINGULAR) ? INFINITY : pdf;
         s->weight = c->weight * eval / pdf;
         return true;
@@ -416,6 +325,7 @@ inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSampl
     float pdf;
     s->label = closure_sample(c, sd->Ng, sd->wi, rand, &eval, &s->wo, &pdf, &s->eta);
     if (s->label == LABEL_NONE || !(pdf > 0.0f)) return false;
+    if (!(s->label & LABEL_TRANSMIT)) eval *= bump_shadowing(sd, c, s->wo, false);
     if (s->label & LABEL_SINGULAR) {
         s->pdf = INFINITY;
         s->weight = c->weight * eval * (sum_sw / (pdf * c->sample_weight));
@@ -427,7 +337,7 @@ inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSampl
         const Closure *o = &sd->c[k];
         if (k == pick || !closure_in(o, mask)) continue;
         float p;
-        float3 e = closure_eval(o, sd->wi, s->wo, &p);
+        float3 e = closure_eval_bumped(sd, o, s->wo, &p);
         if (p != 0.0f) {
             f += o->weight * e;
             sum_pdf += p * o->sample_weight;

@@ -36,6 +36,9 @@
 #define SVM_HSV 17
 #define SVM_FRESNEL 18
 #define SVM_LAYER_WEIGHT 19
+#define SVM_NORMAL_MAP 20
+#define PROGRAM_TANGENTS 2            /* header flags: a tangent-space Normal Map reads them */
+#define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
 #define MIXF_CLAMP_FACTOR 1
 #define MIXF_CLAMP_RESULT 2
 #define MIXF_SCALAR 4
@@ -48,7 +51,59 @@ typedef struct {
     float3 Ng;
     float3 I;            /* towards the viewer (0 for shadow rays and emitter samples) */
     float backfacing;
+    float4 tangent;      /* the UV map's tangent (world) and bitangent sign; 0 when not read */
+    float3 generated;    /* Generated coordinates (0..1 over the mesh's texture space) */
 } SvmContext;
+
+/* The context of a shading point of triangle tri at barycentrics (u, v) for the program at word
+ * p: N and Ng on the viewer's side, I towards the viewer (all 0 where no direction is known:
+ * shadow rays, emitter samples); the UV tangent only when the program reads it. */
+inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u, float v,
+                              float3 N, float3 Ng, float3 I, bool backfacing,
+                              __global const float *uvs, __global const float4 *uv_tangents,
+                              __global const float *generated) {
+    SvmContext cx = {surface_uv(uvs, tri, u, v), N, Ng, I, backfacing ? 1.0f : 0.0f,
+                     (float4)(0.0f), (float3)(0.0f)};
+    float w = 1.0f - u - v;
+    if (SVM_HAS(SVM_NORMAL_MAP) && p > 0 && (svm[p].w & PROGRAM_TANGENTS)) {
+        __global const float4 *t = uv_tangents + 3 * (size_t)tri;
+        cx.tangent = w * t[0] + u * t[1] + v * t[2];
+    }
+    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_GENERATED)) {
+        __global const float *g = generated + 9 * (size_t)tri;
+        cx.generated = w * (float3)(g[0], g[1], g[2]) + u * (float3)(g[3], g[4], g[5])
+                       + v * (float3)(g[6], g[7], g[8]);
+    }
+    return cx;
+}
+
+/* Cycles' Normal Map node (learnt from its svm_node_normal_map): the colour's tangent-space
+ * normal (space 0) in the frame of the UV tangent, the interpolated normal and their
+ * bitangent, the strength applied in tangent space; or a world-space normal (spaces 1-4:
+ * object and world, Blender's object and world with y and z negated; object space is taken
+ * as world space, warned about at export) interpolated from N by the strength.  On the
+ * viewer's side; N itself where the result is degenerate or no tangent exists. */
+inline float3 svm_normal_map(const SvmContext *cx, int space, float3 color, float strength) {
+    float3 c = 2.0f * color - 1.0f, N;
+    bool back = cx->backfacing > 0.0f;
+    if (space == 0) {
+        float3 T = cx->tangent.xyz;
+        if (!(dot(T, T) > 0.0f)) return cx->N;
+        float3 n = back ? -cx->N : cx->N;
+        c.x *= strength;
+        c.y *= strength;
+        c.z = mix(1.0f, c.z, clamp(strength, 0.0f, 1.0f));
+        float3 B = (cx->tangent.w < 0.0f ? -1.0f : 1.0f) * cross(n, T);
+        N = svm_safe_normalize(c.x * T + c.y * B + c.z * n);
+    } else {
+        if (space >= 3) c.yz = -c.yz;
+        N = svm_safe_normalize(c);
+    }
+    if (back) N = -N;
+    if (space != 0 && strength != 1.0f)
+        N = svm_safe_normalize(cx->N + (N - cx->N) * fmax(strength, 0.0f));
+    return (dot(N, N) > 0.0f && all(isfinite(N))) ? N : cx->N;
+}
 
 inline float3 svm_get3(const float *s, int k) { return (float3)(s[k], s[k + 1], s[k + 2]); }
 inline void svm_put3(float *s, int k, float3 v) { s[k] = v.x; s[k + 1] = v.y; s[k + 2] = v.z; }
@@ -88,7 +143,8 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
             if (w.z > 1) { stack[w.y + 1] = c.y; stack[w.y + 2] = c.z; }
         } else if (SVM_HAS(SVM_GEOMETRY) && op == SVM_GEOMETRY) {
             float3 v = w.z == 0 ? (float3)(ctx->uv, 0.0f) : w.z == 1 ? ctx->N
-                     : w.z == 2 ? ctx->Ng : w.z == 3 ? ctx->I : (float3)(ctx->backfacing);
+                     : w.z == 2 ? ctx->Ng : w.z == 3 ? ctx->I
+                     : w.z == 5 ? ctx->generated : (float3)(ctx->backfacing);
             if (w.z == 4) stack[w.y] = ctx->backfacing; else svm_put3(stack, w.y, v);
         } else if (SVM_HAS(SVM_IMAGE) && op == SVM_IMAGE) {
             int4 e = svm[i++];
@@ -212,6 +268,9 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
                 f = pow(f, b < 0.5f ? 2.0f * b : 0.5f / (1.0f - b));
             }
             stack[w.w] = 1.0f - f;
+        } else if (SVM_HAS(SVM_NORMAL_MAP) && op == SVM_NORMAL_MAP) {
+            int space = svm[i++].x;
+            svm_put3(stack, w.y, svm_normal_map(ctx, space, svm_get3(stack, w.z), stack[w.w]));
         } else {
             return;                           /* an op this build lacks: stop safely */
         }

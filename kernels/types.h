@@ -122,6 +122,8 @@ typedef struct {
     int emission_texture;
     int alpha_texture;
     uint bound;               /* inputs its material's program drives (shader_program.BOUND) */
+    float normal[3];          /* Normal, Coat Normal (world, viewer's side); 0 = the surface's */
+    float coat_normal[3];
 } ShaderNode;
 
 /* Emitters for photon emission and next-event estimation, indexed 0..n_emitters-1:

@@ -56,6 +56,10 @@ class DeviceScene:
             tangents=up(prepared.tangents if prepared.tangents.size
                         else np.zeros(9, np.float32), "tangents"),
             svm=up(prepared.svm, "shader programs"),
+            uv_tangents=up(prepared.uv_tangents if prepared.uv_tangents.size
+                           else np.zeros(4, np.float32), "UV tangents"),
+            generated=up(prepared.generated if prepared.generated.size
+                         else np.zeros(3, np.float32), "Generated coordinates"),
             lights=up(lights, "lights"),
             emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
             emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),

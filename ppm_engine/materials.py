@@ -132,7 +132,7 @@ def lambert_node(nodes: np.ndarray) -> np.ndarray:
                    | parts["specular"] | parts["transparent"]) \
             & (n["subsurface_weight"] <= 0) & (n["diffuse_roughness"] < 1e-5) \
             & ~bound(n, "subsurface_weight") & ~bound(n, "diffuse_roughness")
-    return out
+    return out & ~nodes["normal"].any(axis=1)      # (the short path shades with N)
 
 
 def node_features(nodes: np.ndarray) -> set:

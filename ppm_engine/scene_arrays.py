@@ -71,7 +71,7 @@ NODE_FLAG_CONDUCTOR = 2     # Metallic BSDF, Physical Conductor: color = n, edge
 BINDABLE = ("weight", "color", "edge_tint", "emission", "coat_tint", "sheen_tint", "roughness",
             "metallic", "ior", "alpha", "transmission", "specular_ior_level", "anisotropic",
             "anisotropic_rotation", "coat_weight", "coat_roughness", "coat_ior", "sheen_weight",
-            "sheen_roughness", "subsurface_weight", "diffuse_roughness")
+            "sheen_roughness", "subsurface_weight", "diffuse_roughness", "normal", "coat_normal")
 BOUND = {name: 1 << i for i, name in enumerate(BINDABLE)}
 
 
@@ -115,6 +115,10 @@ SHADER_NODE_DTYPE = np.dtype([
     ("emission_texture", np.int32),
     ("alpha_texture", np.int32),        # the texture's alpha channel multiplies ``alpha``
     ("bound", np.uint32),               # inputs its material's program drives (shader_program)
+    # the Normal and Coat Normal inputs (world space, on the viewer's side as Cycles' N): zero
+    # when unlinked, the surface's shading normal then
+    ("normal", np.float32, 3),
+    ("coat_normal", np.float32, 3),
 ])
 
 
@@ -247,6 +251,14 @@ class SceneArrays:
     # the object's Z axis (kernels/shader.h makes it orthogonal to the normal)
     tangents: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros((0, 3, 3), np.float32))
+    # (T, 3, 4) float32 per-corner tangents of the UV map (Blender's MikkTSpace: direction and
+    # bitangent sign), or (0, 3, 4) when no material has a tangent-space Normal Map
+    uv_tangents: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros((0, 3, 4), np.float32))
+    # (T, 3, 3) float32 Generated texture coordinates at the corners, or (0, 3, 3) when no
+    # material reads them
+    generated: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros((0, 3, 3), np.float32))
     # (W, 4) int32 shader programs (ppm_engine/shader_program.py); word 0 is never one
     svm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((1, 4), np.int32))
 
@@ -294,9 +306,11 @@ class SceneArrays:
             raise ValueError("SceneArrays.camera must hold exactly one camera")
         if self.materials.shape[0] < 1:
             raise ValueError("SceneArrays.materials must hold at least one material")
-        if self.tangents.dtype != np.float32 or self.tangents.shape not in ((0, 3, 3), (t, 3, 3)):
-            raise ValueError(f"SceneArrays.tangents: expected float32 (0, 3, 3) or ({t}, 3, 3), "
-                             f"got {self.tangents.dtype}{self.tangents.shape}")
+        for name, k in (("tangents", 3), ("uv_tangents", 4), ("generated", 3)):
+            a = getattr(self, name)
+            if a.dtype != np.float32 or a.shape not in ((0, 3, k), (t, 3, k)):
+                raise ValueError(f"SceneArrays.{name}: expected float32 (0, 3, {k}) or "
+                                 f"({t}, 3, {k}), got {a.dtype}{a.shape}")
         if self.svm.dtype != np.int32 or self.svm.ndim != 2 or self.svm.shape[1] != 4 \
                 or not (0 <= self.materials["program"]).all() \
                 or (self.materials["program"] >= self.svm.shape[0]).any():

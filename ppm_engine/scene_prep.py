@@ -62,11 +62,13 @@ def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
         changes.update(positions=scene.positions[good], normals=scene.normals[good],
                        uvs=scene.uvs[good], material=scene.material[good],
                        visibility=scene.visibility[good])
-        if scene.tangents.shape[0]:
-            changes["tangents"] = scene.tangents[good]
-    tg = changes.get("tangents", scene.tangents)
-    if not np.isfinite(tg).all():
-        changes["tangents"] = np.where(np.isfinite(tg), tg, 0.0).astype(np.float32)
+        for name in ("tangents", "uv_tangents", "generated"):
+            if getattr(scene, name).shape[0]:
+                changes[name] = getattr(scene, name)[good]
+    for name in ("tangents", "uv_tangents", "generated"):
+        tg = changes.get(name, getattr(scene, name))
+        if not np.isfinite(tg).all():
+            changes[name] = np.where(np.isfinite(tg), tg, 0.0).astype(np.float32)
     uv = changes.get("uvs", scene.uvs)
     if not np.isfinite(uv).all():
         changes["uvs"] = np.where(np.isfinite(uv), uv, 0.0).astype(np.float32)

@@ -43,21 +43,23 @@ SVM_TABLE = 16         # (op, out, in, n) + (mode, interp, 0, 0) + n words (r, g
 SVM_HSV = 17           # (op, out, color, fac) + (hue, saturation, value, 0)
 SVM_FRESNEL = 18       # (op, out, ior, 0)
 SVM_LAYER_WEIGHT = 19  # (op, out_fresnel, blend, out_facing)
-SVM_OPS = 20
+SVM_NORMAL_MAP = 20    # (op, out, color, strength) + (NORMAL_MAP_SPACES, 0, 0, 0)
+SVM_OPS = 21
 
 OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
             "combine", "color_convert", "invert", "gamma", "bright_contrast", "rgb_to_bw",
-            "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight")
+            "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight", "normal_map")
 # parameter words after each op's first word
 OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 1, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
             SVM_MIX: 1, SVM_COMBINE: 1, SVM_BRIGHT_CONTRAST: 1, SVM_CLAMP: 1, SVM_MAP_RANGE: 2,
-            SVM_HSV: 1, SVM_TABLE: 2}   # (a table's n entries follow its parameters)
+            SVM_HSV: 1, SVM_TABLE: 2, SVM_NORMAL_MAP: 1}   # (a table's n entries follow its parameters)
 
 GEOM_UV = 0            # (u, v, 0) of the render UV map
 GEOM_NORMAL = 1        # shading normal (world, facing the viewer)
 GEOM_TRUE_NORMAL = 2
 GEOM_INCOMING = 3      # towards the viewer
 GEOM_BACKFACING = 4    # 1 when the ray hit the back
+GEOM_GENERATED = 5     # Generated coordinates (SceneArrays.generated)
 
 COLOR_RGB_TO_HSV, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL, COLOR_HSL_TO_RGB = 0, 1, 2, 3
 
@@ -84,11 +86,15 @@ MIX_OPS = ("MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN", "DIVIDE", "DIFFERENCE
 MIX = {name: i for i, name in enumerate(MIX_OPS)}
 MAP_RANGE_TYPES = {"LINEAR": 0, "STEPPED": 1, "SMOOTHSTEP": 2, "SMOOTHERSTEP": 3}
 MAPPING_TYPES = {"POINT": 0, "TEXTURE": 1, "VECTOR": 2, "NORMAL": 3}
+NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
+                     "BLENDER_WORLD": 4}
 
 # the BSDF node fields a program may drive (scene_arrays.BINDABLE), as float word indexes
 FIELD_WORD = {name: SHADER_NODE_DTYPE.fields[name][1] // 4 for name in BINDABLE}
 
 PROGRAM_EMISSION = 1   # header flags: the program drives an emission input (or a weight)
+PROGRAM_TANGENTS = 2   # a tangent-space Normal Map reads the UV map's tangents (uv_tangents)
+PROGRAM_GENERATED = 4  # Generated coordinates are read (SceneArrays.generated)
 MAX_STACK = 96         # floats of stack a program may use (kernels: PPM_SVM_STACK)
 
 

@@ -723,3 +723,32 @@ def test_light_ray_visibility_flags(empty):
     assert hidden[LIGHT_POINT] == VIS_CAMERA
     assert hidden[LIGHT_AREA_RECT] == VIS_GLOSSY
     assert not any(h & VIS_TRANSMISSION for h in hidden.values())
+
+
+def test_uv_tangents_only_for_tangent_space_normal_maps(empty):
+    """The UV map's MikkTSpace tangents are exported (direction by the world matrix, sign flipped
+    by a mirror) only when a material has a tangent-space Normal Map."""
+    bpy.ops.mesh.primitive_plane_add(size=2)
+    s = export()
+    assert s.uv_tangents.shape == (0, 3, 4)
+    mat = bpy.data.materials.new("bumpy")
+    t = mat.node_tree
+    nm = t.nodes.new("ShaderNodeNormalMap")
+    t.links.new(nm.outputs[0], t.nodes["Principled BSDF"].inputs["Normal"])
+    bpy.ops.mesh.primitive_plane_add(size=2, location=(3, 0, 0))
+    obj = bpy.context.active_object
+    obj.data.materials.append(mat)
+    obj.rotation_euler.z, obj.scale.x = math.pi / 6, -2.0
+    s = export()
+    assert s.uv_tangents.shape == s.positions.shape[:2] + (4,)
+    mine = s.material == s.material_names.index("bumpy")
+    assert mine.any() and not s.uv_tangents[~mine].any()
+    me = obj.data
+    me.calc_tangents()
+    t0 = np.array(me.loops[0].tangent)
+    m3 = np.array(obj.matrix_world)[:3, :3]
+    want = m3 @ t0
+    want /= np.linalg.norm(want)
+    got = s.uv_tangents[mine][..., :3].reshape(-1, 3)
+    assert np.isclose(np.abs(got @ want), 1.0, atol=1e-5).all()      # one tangent everywhere
+    np.testing.assert_allclose(s.uv_tangents[mine][..., 3], -me.loops[0].bitangent_sign)

@@ -100,6 +100,26 @@ def _node_graph(mat):
     t.links.new(mix.outputs[0], t.nodes["Material Output"].inputs["Surface"])
 
 
+def _normal_mapped(mat):
+    """A glossy plastic whose Normal comes from a tangent-space Normal Map of a wavy height
+    field (a float image, Non-Color): the UV map's tangents and the driven normal shade it."""
+    n = 64
+    y, x = np.mgrid[0:n, 0:n] / n
+    gx, gy = 0.6 * np.cos(6 * np.pi * x), 0.4 * np.cos(4 * np.pi * y)
+    nrm = np.stack([-gx, -gy, np.ones_like(gx)], -1)
+    nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
+    px = np.concatenate([0.5 * nrm + 0.5, np.ones((n, n, 1))], -1).astype(np.float32)
+    img = bpy.data.images.new("waves", n, n, float_buffer=True)
+    img.colorspace_settings.name = "Non-Color"
+    img.pixels.foreach_set(px.ravel())
+    _principled(mat, **{"Base Color": (0.7, 0.5, 0.2), "Roughness": 0.35})
+    t = mat.node_tree
+    tex, nm = t.nodes.new("ShaderNodeTexImage"), t.nodes.new("ShaderNodeNormalMap")
+    tex.image = img
+    t.links.new(tex.outputs["Color"], nm.inputs["Color"])
+    t.links.new(nm.outputs[0], t.nodes["Principled BSDF"].inputs["Normal"])
+
+
 MATERIALS = {
     "plastic": lambda m: _principled(m, **{"Base Color": (0.7, 0.2, 0.1), "Roughness": 0.3}),
     "rough_metal": lambda m: _principled(m, **{"Base Color": (0.9, 0.6, 0.3), "Metallic": 1.0,
@@ -127,8 +147,9 @@ MATERIALS = {
     "alpha": lambda m: _principled(m, **{"Base Color": (0.2, 0.3, 0.8), "Alpha": 0.5}),
     "translucent": lambda m: _replace(m, "ShaderNodeBsdfTranslucent", Color=(0.8, 0.7, 0.5)),
     "node_graph": _node_graph,
+    "normal_map": _normal_mapped,
 }
-DEFAULT_DIRECT = {"plastic", "mix", "node_graph"}         # the rest with -m slow
+DEFAULT_DIRECT = {"plastic", "mix", "node_graph", "normal_map"}         # the rest with -m slow
 DEFAULT_FULL = {"rough_glass", "sheen"}
 
 

@@ -97,6 +97,9 @@ def _grid(cases):
     for k, case in enumerate(cases):
         r, c = divmod(k, cols)
         bpy.ops.mesh.primitive_plane_add(size=2, location=(2 * c - cols + 1, rows - 1 - 2 * r, 0))
+        obj = bpy.context.active_object          # a case may turn or mirror its plane
+        obj.rotation_euler = (getattr(case, "rx", 0.0), 0.0, getattr(case, "rz", 0.0))
+        obj.scale.x = getattr(case, "sx", 1.0)
         mat = bpy.data.materials.new(f"case{k}")
         t = mat.node_tree
         t.nodes.remove(t.nodes["Principled BSDF"])
@@ -296,4 +299,57 @@ def test_ramps_curves_and_mapping_as_cycles(cycles, render_exr, tmp_path, tiny):
                                                       [(0, i.x)]).outputs[0],
              "layer weight facing": lambda i: i.node("ShaderNodeLayerWeight",
                                                      [(0, i.x)]).outputs[1]}
+    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def test_normal_map_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """The Normal Map node's output (tangent space from the UV map's tangents on planes turned,
+    mirrored and seen from the back; world and Blender's spaces; object space on planes that
+    are not rotated, the one case where this engine's reading (as world space) is exact)."""
+    import math
+
+    def nmap(space="TANGENT", strength=1.0, **plane):
+        def build(i):
+            n = i.node("ShaderNodeNormalMap", [("Color", i.A)], space=space)
+            n.inputs["Strength"].default_value = strength
+            return n.outputs[0]
+        for k, v in plane.items():
+            setattr(build, k, v)
+        return build
+    cases = {"tangent": nmap(), "tangent turned": nmap(rz=math.pi / 2),
+             "tangent mirrored": nmap(sx=-1.0), "tangent back": nmap(rx=math.pi),
+             "tangent 0.4": nmap(strength=0.4), "tangent 1.7": nmap(strength=1.7),
+             "world": nmap("WORLD"), "world 0.5": nmap("WORLD", 0.5),
+             "blender world": nmap("BLENDER_WORLD"), "object": nmap("OBJECT"),
+             "blender object": nmap("BLENDER_OBJECT"),
+             "blender world back": nmap("BLENDER_WORLD", rx=math.pi)}
+    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def test_coordinates_and_geometry_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Texture Coordinate (Generated on planes turned, mirrored and seen from the back; UV) and
+    Geometry (normal, true normal, incoming, backfacing) outputs.  Coordinates that vary inside
+    a pixel are snapped to the pixel's (1/T steps: one value per pixel whatever its samples)."""
+    import math
+
+    def out(idname, name, **plane):
+        def build(i):
+            o = i.node(idname).outputs[name]
+            if name in ("Generated", "UV"):      # (z, 0 or 1/2 on a plane, off a step edge)
+                o = i.node("ShaderNodeVectorMath", [(0, o)], operation="ADD",
+                           in_1=(0.0, 0.0, 0.5 / T)).outputs[0]
+                snap = i.node("ShaderNodeVectorMath", [(0, o)], operation="SNAP")
+                snap.inputs[1].default_value = (1.0 / T,) * 3
+                o = snap.outputs[0]
+            return o
+        for k, v in plane.items():
+            setattr(build, k, v)
+        return build
+    tc, geo = "ShaderNodeTexCoord", "ShaderNodeNewGeometry"
+    cases = {"generated": out(tc, "Generated"),
+             "generated turned": out(tc, "Generated", rz=math.pi / 2),
+             "generated mirrored": out(tc, "Generated", sx=-1.0),
+             "generated back": out(tc, "Generated", rx=math.pi), "uv": out(tc, "UV", rz=math.pi),
+             "normal": out(geo, "Normal", rx=math.pi), "true normal": out(geo, "True Normal"),
+             "incoming": out(geo, "Incoming"), "backfacing": out(geo, "Backfacing", rx=math.pi)}
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

@@ -15,6 +15,7 @@ from ..scene_arrays import (LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT, VIS_CAMERA, VIS_DIF
                             VIS_TRANSMISSION, SceneArrays)
 from .camera import export_camera
 from .lights import export_light
+from ..shader_program import PROGRAM_GENERATED, PROGRAM_TANGENTS
 from .materials import MaterialTable
 from .mesh import GEOMETRY_TYPES, MeshCache, transform_part
 from .textures import TextureTable
@@ -53,6 +54,7 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
     materials = MaterialTable(warn, textures)
     meshes = MeshCache(warn)
     parts, lights = [], []
+    uv_tangents = generated = False
     for inst in depsgraph.object_instances:
         obj = inst.object
         kind = obj.type
@@ -72,8 +74,14 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
             if mesh is None or mesh.n_triangles == 0:
                 continue
             slots = materials.slot_map(obj)
+            mapped = materials.reads(slots, PROGRAM_TANGENTS)
+            gen = materials.reads(slots, PROGRAM_GENERATED)
             parts.append(transform_part(mesh, m, slots, visibility_bits(obj), obj.name, warn,
-                                        tangents=materials.anisotropic(slots)))
+                                        tangents=materials.anisotropic(slots),
+                                        uv_tangents=meshes.uv_tangents(obj) if mapped else None,
+                                        generated=gen))
+            uv_tangents |= mapped
+            generated |= gen
     meshes.clear()
     world = export_world(scene.world, warn)
 
@@ -82,6 +90,10 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
         cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
         if not cat["tangents"].any():              # no anisotropic material: no tangents
             cat["tangents"] = np.zeros((0, 3, 3), np.float32)
+        if not uv_tangents:                        # no tangent-space normal map
+            cat["uv_tangents"] = np.zeros((0, 3, 4), np.float32)
+        if not generated:                          # no Generated coordinates read
+            cat["generated"] = np.zeros((0, 3, 3), np.float32)
     else:
         cat = dict(positions=np.zeros((0, 3, 3), np.float32),
                    normals=np.zeros((0, 3, 3), np.float32),

@@ -37,11 +37,7 @@ _PRINCIPLED_SCALARS = {
 _PRINCIPLED_COLORS = {"Specular Tint": "edge_tint", "Coat Tint": "coat_tint",
                       "Sheen Tint": "sheen_tint"}
 # inputs read nowhere else that change the image when linked (warned about)
-_UNSUPPORTED_INPUTS = {"Normal": "normal maps and bump come with the node graphs; the surface's "
-                                 "own normal is used",
-                       "Coat Normal": "normal maps and bump come with the node graphs; the "
-                                      "surface's own normal is used",
-                       "Tangent": "tangents come with the node graphs; Cycles' default, the "
+_UNSUPPORTED_INPUTS = {"Tangent": "tangents come with the node graphs; Cycles' default, the "
                                   "radial tangent around the object's Z axis, is used"}
 
 
@@ -67,7 +63,7 @@ class _Reader:
         self.warn_fn = warn
         self.textures = textures
         self.graph = Graph(warn)
-        self.compiler = Compiler(material.name, warn, textures, self.graph)
+        self.compiler = Compiler(material.name, warn, textures, self.graph, material)
         self.said = self.compiler.said
         self.ctx = ()                     # group nodes around the node being read
         self.index = 0                    # the node's index among the material's BSDF nodes
@@ -149,6 +145,9 @@ class _Reader:
         else:
             make(self, node, row)
             self.unsupported_inputs(node)
+            for name, field in (("Normal", "normal"), ("Coat Normal", "coat_normal")):
+                if self.graph.source(node.inputs.get(name), self.ctx) is not None:
+                    self.field(row, node, name, field)   # unlinked: 0, the surface's normal
         self.compiler.bind(row, self.index, "weight", weight)
         out.append(row)
 
@@ -357,6 +356,7 @@ class MaterialTable:
         self.nodes = [nodes]
         self.programs = [np.zeros((1, 4), np.int32)]    # word 0: never a program
         self.words = 1
+        self.program_flags: dict = {}                   # material -> its header's flags
         self.names = [DEFAULT_NAME]
         self._index = {}
 
@@ -371,6 +371,7 @@ class MaterialTable:
                 row["program"] = self.words
                 self.programs.append(program)
                 self.words += program.shape[0]
+                self.program_flags[len(self.rows)] = int(program[0, 3])
             self.rows.append(row)
             self.nodes.append(nodes)
             self.names.append(material.name)
@@ -380,6 +381,12 @@ class MaterialTable:
         """Global material index for each of the object's slots (at least one entry)."""
         slots = [self.index(s.material) if s is not None else 0 for s in obj.material_slots]
         return np.array(slots or [0], np.int32)
+
+    def reads(self, slots: np.ndarray, flag: int) -> bool:
+        """Whether the program of a material of these (global) slots has header flag ``flag``
+        (PROGRAM_TANGENTS: a tangent-space Normal Map; PROGRAM_GENERATED: Generated
+        coordinates): the object's mesh must export what it reads."""
+        return any(self.program_flags.get(int(k), 0) & flag for k in slots)
 
     def anisotropic(self, slots: np.ndarray) -> bool:
         """Whether a material of these (global) slots is anisotropic: it needs tangents."""

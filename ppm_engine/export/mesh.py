@@ -21,6 +21,7 @@ class LocalMesh:
     slot: np.ndarray           # (T,) int32 material slot index
     # the mesh's texture space (location, size): where "Generated" coordinates are 0..1
     texspace: tuple = ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    tri_loops: np.ndarray | None = None     # (3T,) the corners' loop indexes
 
     @property
     def n_triangles(self) -> int:
@@ -81,7 +82,33 @@ def read_mesh(mesh) -> LocalMesh:
     texspace = (tuple(getattr(mesh, "texspace_location", (0.0, 0.0, 0.0))),
                 tuple(getattr(mesh, "texspace_size", (1.0, 1.0, 1.0))))
     return LocalMesh(positions, normals.astype(np.float32, copy=False), uvs,
-                     slot.astype(np.int32, copy=False), texspace)
+                     slot.astype(np.int32, copy=False), texspace, tri_loops)
+
+
+def read_uv_tangents(mesh, local: LocalMesh, warn) -> np.ndarray:
+    """(T, 3, 4) object-space tangents of the active UV map at the corners and their bitangent
+    signs: Blender's MikkTSpace (``calc_tangents``), the tangent attribute Cycles' Normal Map
+    reads; zeros (the normal map then leaves the normal alone, as Cycles without tangents)
+    where they cannot be computed."""
+    out = np.zeros((local.n_triangles, 3, 4), np.float32)
+    uv = mesh.uv_layers.active
+    if uv is None or local.tri_loops is None:
+        warn(f"Mesh '{mesh.name}' has no UV map: its tangent-space normal maps are not applied")
+        return out
+    try:
+        mesh.calc_tangents(uvmap=uv.name)
+    except RuntimeError as e:
+        warn(f"Mesh '{mesh.name}': its tangents could not be computed ({e}); its "
+             "tangent-space normal maps are not applied")
+        return out
+    n = len(mesh.loops)
+    t, sign = np.empty(3 * n, np.float32), np.empty(n, np.float32)
+    mesh.loops.foreach_get("tangent", t)
+    mesh.loops.foreach_get("bitangent_sign", sign)
+    mesh.free_tangents()
+    out[..., :3] = t.reshape(-1, 3)[local.tri_loops].reshape(-1, 3, 3)
+    out[..., 3] = sign[local.tri_loops].reshape(-1, 3)
+    return out
 
 
 class MeshCache:
@@ -90,6 +117,19 @@ class MeshCache:
     def __init__(self, warn):
         self.warn = warn
         self._cache: dict = {}
+        self._tangents: dict = {}
+
+    def uv_tangents(self, obj) -> np.ndarray | None:
+        """read_uv_tangents of a mesh object's data (once per datablock); None for other
+        geometry (no tangents: warned)."""
+        if obj.type != 'MESH':
+            self.warn(f"Object '{obj.name}' is not a mesh: its tangent-space normal maps are "
+                      "not applied")
+            return None
+        key = obj.data.as_pointer()
+        if key not in self._tangents:
+            self._tangents[key] = read_uv_tangents(obj.data, self.get(obj), self.warn)
+        return self._tangents[key]
 
     def get(self, obj) -> LocalMesh | None:
         data = obj.data
@@ -116,6 +156,7 @@ class MeshCache:
 
     def clear(self):
         self._cache.clear()
+        self._tangents.clear()
 
 
 def radial_tangents(mesh: LocalMesh) -> np.ndarray:
@@ -131,8 +172,17 @@ def radial_tangents(mesh: LocalMesh) -> np.ndarray:
     return t
 
 
+def generated_coords(mesh: LocalMesh) -> np.ndarray:
+    """(T, 3, 3) Generated coordinates at the corners: the object-space position mapped from
+    the mesh's texture space to 0..1 (Cycles' "generated" attribute)."""
+    loc, size = (np.asarray(v, np.float64) for v in mesh.texspace)
+    size = np.where(np.abs(size) > 1e-30, size, 1.0)
+    return ((mesh.positions.astype(np.float64) - loc) / (2.0 * size) + 0.5).astype(np.float32)
+
+
 def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibility: int,
-                   name: str, warn, tangents: bool = False) -> dict:
+                   name: str, warn, tangents: bool = False,
+                   uv_tangents: np.ndarray | None = None, generated: bool = False) -> dict:
     """World-space arrays of one instance.
 
     Positions by the world matrix, normals by its inverse transpose (renormalised).  A mirroring
@@ -141,7 +191,10 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
     Cycles' negative-scale flag does.  Triangles with NaN/Inf corners are dropped with a warning;
     non-finite or zero shading normals are replaced by the geometric normal.  With
     ``tangents``, the radial tangents (radial_tangents) transformed as normals are (Cycles'
-    object_normal_transform), else zeros."""
+    object_normal_transform), else zeros; ``uv_tangents`` (read_uv_tangents) as directions,
+    renormalised, their signs flipped by a mirroring matrix (the bitangent is the normal
+    crossed with the tangent), else zeros; with ``generated`` the Generated coordinates
+    (generated_coords), else zeros."""
     m3, t = m[:3, :3], m[:3, 3]
     det = float(np.linalg.det(m3))
     # float32 arithmetic (as Cycles transforms): the result is float32 anyway, and 1M triangles
@@ -167,15 +220,24 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
         zero = ~(len2.reshape(-1, 3) > 1e-24)              # zero-length (or NaN) normals
         tg = ((radial_tangents(mesh).reshape(-1, 3) @ nm.T.astype(np.float32)).reshape(-1, 3, 3)
               if tangents else np.zeros(p.shape, np.float32))
+        ut = np.zeros(p.shape[:2] + (4,), np.float32)
+        if uv_tangents is not None:
+            d = uv_tangents[..., :3].reshape(-1, 3) @ m3.T.astype(np.float32)
+            length = np.linalg.norm(d, axis=1, keepdims=True)
+            ut[..., :3] = np.where(length > 0, d / np.where(length > 0, length, 1), 0).reshape(
+                -1, 3, 3)
+            ut[..., 3] = uv_tangents[..., 3] * (1.0 if det >= 0 else -1.0)
+        gen = generated_coords(mesh) if generated else np.zeros(p.shape, np.float32)
         good, warning = finite_triangles(p, f"Object '{name}'")
         uvs = mesh.uvs
         if good is not None:
             warn(warning)
-            p, n, zero, uvs, tg = p[good], n[good], zero[good], uvs[good], tg[good]
+            p, n, zero, uvs, tg, ut = p[good], n[good], zero[good], uvs[good], tg[good], ut[good]
+            gen = gen[good]
         if det < 0:
             order = [0, 2, 1]
             p, n, uvs, zero = p[:, order], n[:, order], uvs[:, order], zero[:, order]
-            tg = tg[:, order]
+            tg, ut, gen = tg[:, order], ut[:, order], gen[:, order]
         if zero.any() or not np.isfinite(n.reshape(len(n), 9).sum(axis=1)).all():
             bad = zero | ~np.isfinite(n).all(axis=2)
             ng = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]).astype(np.float64)
@@ -189,4 +251,6 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
     return dict(positions=p.astype(np.float32, copy=False), normals=n.astype(np.float32, copy=False),
                 uvs=np.ascontiguousarray(uvs, np.float32), material=mat.astype(np.int32),
                 visibility=np.full(p.shape[0], visibility, np.uint32),
-                tangents=np.ascontiguousarray(tg, np.float32))
+                tangents=np.ascontiguousarray(tg, np.float32),
+                uv_tangents=np.ascontiguousarray(np.nan_to_num(ut), np.float32),
+                generated=np.ascontiguousarray(np.nan_to_num(gen), np.float32))

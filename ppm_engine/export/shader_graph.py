@@ -15,9 +15,11 @@ import numpy as np
 
 from ..scene_arrays import BOUND
 from ..shader_program import (COLOR_HSL_TO_RGB, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL,
-                              COLOR_RGB_TO_HSV, FIELD_WORD, GEOM_BACKFACING, GEOM_INCOMING,
+                              COLOR_RGB_TO_HSV, FIELD_WORD, GEOM_BACKFACING, GEOM_GENERATED,
+                              GEOM_INCOMING, PROGRAM_GENERATED,
                               GEOM_NORMAL, GEOM_TRUE_NORMAL, GEOM_UV, MAP_RANGE_TYPES,
                               MAPPING_TYPES, MATH, MAX_STACK, MIX, MIXF_CLAMP_FACTOR,
+                              NORMAL_MAP_SPACES, PROGRAM_TANGENTS, SVM_NORMAL_MAP,
                               MIXF_CLAMP_RESULT, MIXF_SCALAR, MIXF_VECTOR_FACTOR,
                               PROGRAM_EMISSION, SVM_BRIGHT_CONTRAST, SVM_CLAMP, SVM_COLOR_CONVERT,
                               SVM_COMBINE, SVM_CONST, SVM_END, SVM_FRESNEL, SVM_GAMMA,
@@ -96,8 +98,9 @@ class Graph:
 class Compiler:
     """Compiles one material's value nodes; ``binds`` and ``ops`` become its program."""
 
-    def __init__(self, material: str, warn, textures, graph: Graph):
+    def __init__(self, material: str, warn, textures, graph: Graph, datablock=None):
         self.material = material
+        self.datablock = datablock        # the bpy material (which meshes use it: UV names)
         self.warn_fn = warn
         self.textures = textures
         self.graph = graph
@@ -293,7 +296,24 @@ def _geometry(what):
     return f
 
 
+def generated(c: Compiler) -> Val:
+    """The Generated texture coordinates (0..1 over the mesh's texture space)."""
+    c.flags |= PROGRAM_GENERATED
+    return _geometry(GEOM_GENERATED)(c, None, None, ())
+
+
+def texture_vector(c: Compiler, node, ctx) -> Val:
+    """A texture node's Vector input: what is linked to it, else the Generated coordinates
+    (Cycles' default for procedural textures)."""
+    sock = node.inputs.get("Vector")
+    if sock is not None and c.graph.source(sock, ctx) is not None:
+        return c.input(node, sock, ctx, 3)
+    return generated(c)
+
+
 def _tex_coord(c: Compiler, node, out, ctx):
+    if out.name == "Generated":
+        return generated(c)
     what = {"UV": GEOM_UV, "Normal": GEOM_NORMAL}.get(out.name)
     if out.name == "Normal":
         c.warn(f"'{node.name}': the Normal coordinate is in world space here (Cycles: object "
@@ -305,11 +325,46 @@ def _tex_coord(c: Compiler, node, out, ctx):
     return _geometry(what)(c, node, out, ctx)
 
 
+def _named_uv_map(c: Compiler, node, name: str) -> None:
+    """Warns when a node names a UV map other than the one exported (the mesh's active map)
+    on a mesh that uses the material and has both."""
+    if not name or c.datablock is None:
+        return
+    key = ("uv name", name)
+    if key in c.memo:
+        return
+    c.memo[key] = True
+    import bpy
+    for me in bpy.data.meshes:
+        active = me.uv_layers.active
+        if (active is not None and active.name != name and name in me.uv_layers
+                and c.datablock.name in me.materials):
+            c.warn(f"'{node.name}' names the UV map '{name}' of mesh '{me.name}'; this engine "
+                   f"reads its active UV map '{active.name}'")
+            return
+
+
 def _uv_map(c: Compiler, node, out, ctx):
-    if getattr(node, "uv_map", ""):
-        c.warn(f"'{node.name}' names the UV map '{node.uv_map}'; this engine reads the render "
-               "UV map")
+    _named_uv_map(c, node, getattr(node, "uv_map", ""))
     return _geometry(GEOM_UV)(c, node, out, ctx)
+
+
+def _normal_map(c: Compiler, node, out, ctx):
+    """Cycles' Normal Map: a colour to a shading normal (kernels/svm.h svm_normal_map); the
+    tangent space's frame from the UV map's MikkTSpace tangents (SceneArrays.uv_tangents)."""
+    space = NORMAL_MAP_SPACES.get(node.space, 0)
+    if node.space in ("OBJECT", "BLENDER_OBJECT"):
+        c.warn(f"'{node.name}' maps normals in object space; this engine takes them as world "
+               "space (exact for objects that are not rotated)")
+    if space == 0:
+        _named_uv_map(c, node, getattr(node, "uv_map", ""))
+        c.flags |= PROGRAM_TANGENTS
+    col, strength = c.inp(node, "Color", ctx, 3), c.inp(node, "Strength", ctx, 1)
+    sc, ss = c.slot(col), c.slot(strength)
+    o = c.alloc(3)
+    c.ops.append((SVM_NORMAL_MAP, o, sc, ss))
+    c.ops.append((space, 0, 0, 0))
+    return Val(3, slot=o)
 
 
 def _geometry_node(c: Compiler, node, out, ctx):
@@ -624,5 +679,5 @@ NODES = {
     "ShaderNodeClamp": _clamp, "ShaderNodeMapRange": _map_range,
     "ShaderNodeValToRGB": _table, "ShaderNodeRGBCurve": _table,
     "ShaderNodeVectorCurve": _table, "ShaderNodeFloatCurve": _table,
-    "ShaderNodeLayerWeight": _layer_weight,
+    "ShaderNodeLayerWeight": _layer_weight, "ShaderNodeNormalMap": _normal_map,
 }
