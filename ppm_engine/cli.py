@@ -107,7 +107,11 @@ def _build_parser() -> argparse.ArgumentParser:
     b.add_argument("--glossy", action="store_true",
                    help="which glossy lobes to gather: error at equal time per gather roughness "
                         "(the budget: --times S, default 8)")
-    b.add_argument("--passes", type=int, default=8, help="--phases: timed passes (default 8)")
+    b.add_argument("--shader", metavar="SCENE",
+                   help="what the shader programs cost per pass of SCENE (its colours computed "
+                        "by a node graph against the same constants)")
+    b.add_argument("--passes", type=int, default=8,
+                   help="--phases, --shader: timed passes (default 8)")
     b.add_argument("--json", metavar="PATH", help="JSON output (default docs/bench/bench.json, "
                    "micro.json or phases.json)")
     b.add_argument("--plot", metavar="PATH", help="plot (default docs/bench/error_vs_time.png)")

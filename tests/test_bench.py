@@ -131,3 +131,21 @@ def test_bench_refuses_bad_arguments(cli):
     assert p.returncode == 2 and "no_such_scene" in p.stderr and "cornell_box" in p.stderr
     p = cli("bench", "--times", "0", "--quick")
     assert p.returncode == 2 and "positive" in p.stderr
+
+
+def test_bench_shader_quick(cli, tmp_path):
+    """bench --shader: the same scene with its colours from a shader program renders the same
+    image; the cost per phase and per hit follow from the measured times."""
+    md = tmp_path / "B.md"
+    p = cli("bench", "--shader", "cornell_box", "--quick", "--json", tmp_path / "s.json",
+            "--markdown", md)
+    assert p.returncode == 0, p.stderr
+    d = json.loads((tmp_path / "s.json").read_text())
+    assert d["materials_driven"] >= 3 and d["image_max_rel_diff"] < 1e-5
+    for lab in ("eye", "photon", "gather"):
+        assert d["phase_ms"]["constant"][lab] > 0 and d["phase_ms"]["program"][lab] > 0
+        assert d["delta_ms"][lab] == pytest.approx(
+            d["phase_ms"]["program"][lab] - d["phase_ms"]["constant"][lab], rel=1e-9)
+    assert d["ns_per_pixel_eye"] == pytest.approx(
+        d["delta_ms"]["eye"] * 1e6 / d["resolution"] ** 2, rel=1e-9)
+    assert "<!-- bench:shader -->" in md.read_text()

@@ -6,14 +6,14 @@ import importlib.util
 from pathlib import Path
 
 from ..errors import UsageError
-from . import curves, glossy, micro, phases, report, skips
+from . import curves, glossy, micro, phases, report, shader, skips
 
 
 def run(args, cmdline: str, progress=print) -> int:
     """Run the benchmark the arguments ask for; outputs go to --json/--plot/--markdown or
     docs/bench/ and docs/BENCHMARKS.md."""
-    needed = (("OpenEXR", "matplotlib") if not (args.micro or args.phases or args.skips)
-              else ())
+    needed = (("OpenEXR", "matplotlib")
+              if not (args.micro or args.phases or args.skips or args.shader) else ())
     missing = [m for m in needed if importlib.util.find_spec(m) is None]
     if missing:
         raise UsageError(f"the benchmark needs {' and '.join(missing)}: pip install -e "
@@ -51,12 +51,20 @@ def run(args, cmdline: str, progress=print) -> int:
                               args.device, progress)
         g["machine"] = report.machine_info(args.device)
         return publish("glossy", g, glossy.format_glossy(g))
-    if args.phases:
+    if args.phases or args.shader:
         from ..scenes import EXAMPLES
-        if args.phases not in EXAMPLES:
-            raise UsageError(f"unknown scene '{args.phases}'; available: {', '.join(EXAMPLES)}")
+        name = args.phases or args.shader
+        if name not in EXAMPLES:
+            raise UsageError(f"unknown scene '{name}'; available: {', '.join(EXAMPLES)}")
         from ..blender_io import ensure_registered
         ensure_registered()
+    if args.shader:
+        d = shader.run_shader(args.shader, args.resolution or (32 if args.quick else 128),
+                              passes=2 if args.quick else args.passes,
+                              warmup=1 if args.quick else 2, device=args.device,
+                              progress=progress)
+        return publish("shader", d, shader.format_shader(d))
+    if args.phases:
         res = args.resolution or (32 if args.quick else 256)
         p = phases.run_phases(args.phases, res, passes=2 if args.quick else args.passes,
                               warmup=1 if args.quick else 3, device=args.device,
