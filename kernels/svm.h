@@ -37,6 +37,15 @@
 #define SVM_FRESNEL 18
 #define SVM_LAYER_WEIGHT 19
 #define SVM_NORMAL_MAP 20
+#define SVM_TEX_CHECKER 21            /* procedural textures: svm_textures.h */
+#define SVM_TEX_GRADIENT 22
+#define SVM_TEX_WHITE_NOISE 23
+#define SVM_TEX_NOISE 24
+#define SVM_TEX_MAGIC 25
+#define SVM_TEX_WAVE 26
+#define SVM_TEX_BRICK 27
+#define SVM_TEX_VORONOI 28
+#define SVM_TEX_LAST 28
 #define PROGRAM_TANGENTS 2            /* header flags: a tangent-space Normal Map reads them */
 #define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
 #define MIXF_CLAMP_FACTOR 1
@@ -127,6 +136,8 @@ inline float4 svm_table(__global const int4 *t, int n, float x, float lo, float 
     if (!interp || i >= n - 1) return a;
     return mix(a, as_float4(t[i + 1]), f - (float)i);
 }
+
+#include "svm_textures.h"
 
 /* Runs the value ops of the program at word p into stack */
 inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmContext *ctx,
@@ -271,6 +282,9 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
         } else if (SVM_HAS(SVM_NORMAL_MAP) && op == SVM_NORMAL_MAP) {
             int space = svm[i++].x;
             svm_put3(stack, w.y, svm_normal_map(ctx, space, svm_get3(stack, w.z), stack[w.w]));
+        } else if (op >= SVM_TEX_CHECKER && op <= SVM_TEX_LAST) {
+            i = svm_texture(op, w, svm, i, stack);
+            if (i < 0) return;
         } else {
             return;                           /* an op this build lacks: stop safely */
         }

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .materials import MAT_GATHER, MAT_LAMBERT, node_features
+from .materials import MAT_GATHER, MAT_LAMBERT, anisotropic_nodes, node_features
 from .shader_program import SVM_IMAGE, ops_used
 from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHIFT, LIGHT_POINT,
                            LIGHT_SPOT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION,
-                           SceneArrays, anisotropic_nodes)
+                           SceneArrays)
 
 
 def used_materials(scene: SceneArrays, n_materials: int) -> np.ndarray:

@@ -11,8 +11,8 @@ import numpy as np
 
 from .scene_arrays import (NODE_DIFFUSE, NODE_EMISSION, NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT,
                            NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN,
-                           NODE_TRANSLUCENT, NODE_TRANSPARENT, SHADER_NODE_DTYPE, TEX_FLAG_SRGB,
-                           BOUND)
+                           NODE_TRANSLUCENT, NODE_TRANSPARENT, SHADER_NODE_DTYPE, TEX_FLAG_SRGB)
+from .shader_program import BOUND
 
 # mirrors kernels/types.h Material
 KMATERIAL_DTYPE = np.dtype([
@@ -50,6 +50,15 @@ def kernel_nodes(nodes: np.ndarray) -> np.ndarray:
                                     neginf=d if name != "emission" else 0.0)
     k["weight"] = np.maximum(k["weight"], 0.0)
     return k
+
+
+def anisotropic_nodes(nodes: np.ndarray) -> np.ndarray:
+    """Per node: whether it is (or its program may make it) anisotropic: it needs tangents."""
+    t = nodes["type"]
+    a = nodes["anisotropic"]
+    a = np.where((nodes["bound"] & BOUND["anisotropic"]) != 0, 1.0, a)
+    return ((t == NODE_GLOSSY) & (np.abs(a) > 1e-4)) | (
+        np.isin(t, (NODE_PRINCIPLED, NODE_METALLIC)) & (a > 0))
 
 
 def bound(n: np.ndarray, field: str) -> np.ndarray:

@@ -67,22 +67,6 @@ NODE_FLAG_MULTI_GGX = 1     # multiple scattering compensated ("Multiscatter GGX
 NODE_FLAG_CONDUCTOR = 2     # Metallic BSDF, Physical Conductor: color = n, edge_tint = k
 
 
-# BSDF node inputs a shader program may drive: bit i of a node's ``bound`` is BINDABLE[i]
-BINDABLE = ("weight", "color", "edge_tint", "emission", "coat_tint", "sheen_tint", "roughness",
-            "metallic", "ior", "alpha", "transmission", "specular_ior_level", "anisotropic",
-            "anisotropic_rotation", "coat_weight", "coat_roughness", "coat_ior", "sheen_weight",
-            "sheen_roughness", "subsurface_weight", "diffuse_roughness", "normal", "coat_normal")
-BOUND = {name: 1 << i for i, name in enumerate(BINDABLE)}
-
-
-def anisotropic_nodes(nodes: np.ndarray) -> np.ndarray:
-    """Per node: whether it is (or its program may make it) anisotropic: it needs tangents."""
-    t = nodes["type"]
-    a = nodes["anisotropic"]
-    a = np.where((nodes["bound"] & BOUND["anisotropic"]) != 0, 1.0, a)
-    return ((t == NODE_GLOSSY) & (np.abs(a) > 1e-4)) | (
-        np.isin(t, (NODE_PRINCIPLED, NODE_METALLIC)) & (a > 0))
-
 # One BSDF node of a material, its inputs constant (textures: 1-based into ``textures``, the
 # texture's value multiplies the input).  The Mix and Add Shader nodes on its way to the output
 # are folded into ``weight``.  Fields a node type has no input for are ignored.
@@ -114,7 +98,7 @@ SHADER_NODE_DTYPE = np.dtype([
     ("color_texture", np.int32),
     ("emission_texture", np.int32),
     ("alpha_texture", np.int32),        # the texture's alpha channel multiplies ``alpha``
-    ("bound", np.uint32),               # inputs its material's program drives (shader_program)
+    ("bound", np.uint32),               # inputs its program drives (shader_program.BOUND)
     # the Normal and Coat Normal inputs (world space, on the viewer's side as Cycles' N): zero
     # when unlinked, the surface's shading normal then
     ("normal", np.float32, 3),

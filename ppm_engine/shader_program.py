@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from .scene_arrays import BINDABLE, SHADER_NODE_DTYPE
+from .scene_arrays import SHADER_NODE_DTYPE
 
 # --- op codes (kernels/svm.h SVM_*) -----------------------------------------------------------
 SVM_END = 0
@@ -44,15 +44,42 @@ SVM_HSV = 17           # (op, out, color, fac) + (hue, saturation, value, 0)
 SVM_FRESNEL = 18       # (op, out, ior, 0)
 SVM_LAYER_WEIGHT = 19  # (op, out_fresnel, blend, out_facing)
 SVM_NORMAL_MAP = 20    # (op, out, color, strength) + (NORMAL_MAP_SPACES, 0, 0, 0)
-SVM_OPS = 21
+# Procedural textures (kernels/svm_textures.h).  An output slot of -1 is not written (the
+# output is not linked); a float input is a pair of words at the same position in a "slots"
+# and a "values" word: its stack slot, or -1 and its constant's float bits.
+SVM_TEX_CHECKER = 21   # (op, color, fac, vector) + (color1, color2, scale slot, scale)
+SVM_TEX_GRADIENT = 22  # (op, color, fac, vector) + (GRADIENT_TYPES, 0, 0, 0)
+SVM_TEX_WHITE_NOISE = 23  # (op, value, color, vector) + (dimensions, w slot, w, 0)
+SVM_TEX_NOISE = 24     # (op, fac, color, vector) + slots (w, scale, detail, roughness),
+#                        (lacunarity, offset, gain, distortion) + their values
+#                        + (dimensions, NOISE_TYPES, normalize, 0)
+SVM_TEX_MAGIC = 25     # (op, color, fac, vector) + slots (scale, distortion) + values
+#                        + (depth, 0, 0, 0)
+SVM_TEX_WAVE = 26      # (op, color, fac, vector) + slots (scale, distortion, detail,
+#                        detail scale), (detail roughness, phase) + values
+#                        + (WAVE_TYPES, bands direction, rings direction, profile)
+SVM_TEX_BRICK = 27     # (op, color, fac, vector) + slots (scale, mortar size, mortar smooth,
+#                        bias), (brick width, row height) + values + (color1, color2, mortar, 0)
+#                        + (offset frequency, squash frequency, offset, squash)
+SVM_TEX_VORONOI = 28   # (op, distance, color, vector) + slots (w, scale, detail, roughness),
+#                        (lacunarity, smoothness, exponent, randomness) + values
+#                        + (dimensions, VORONOI_FEATURES, VORONOI_METRICS, normalize)
+#                        + (position, w out, radius, 0)
+SVM_TEX_LAST = 28
+SVM_OPS = 29           # op codes stay <= 30 (PPM_SVM_OPS is a bitmask in an int)
 
 OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
             "combine", "color_convert", "invert", "gamma", "bright_contrast", "rgb_to_bw",
-            "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight", "normal_map")
+            "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight", "normal_map",
+            "tex_checker", "tex_gradient", "tex_white_noise", "tex_noise", "tex_magic",
+            "tex_wave", "tex_brick", "tex_voronoi")
 # parameter words after each op's first word
 OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 1, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
             SVM_MIX: 1, SVM_COMBINE: 1, SVM_BRIGHT_CONTRAST: 1, SVM_CLAMP: 1, SVM_MAP_RANGE: 2,
-            SVM_HSV: 1, SVM_TABLE: 2, SVM_NORMAL_MAP: 1}   # (a table's n entries follow its parameters)
+            SVM_HSV: 1, SVM_TABLE: 2, SVM_NORMAL_MAP: 1,   # (a table's n entries follow)
+            SVM_TEX_CHECKER: 1, SVM_TEX_GRADIENT: 1, SVM_TEX_WHITE_NOISE: 1, SVM_TEX_NOISE: 5,
+            SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6}
+assert len(OP_NAMES) == SVM_OPS <= 31
 
 GEOM_UV = 0            # (u, v, 0) of the render UV map
 GEOM_NORMAL = 1        # shading normal (world, facing the viewer)
@@ -88,8 +115,26 @@ MAP_RANGE_TYPES = {"LINEAR": 0, "STEPPED": 1, "SMOOTHSTEP": 2, "SMOOTHERSTEP": 3
 MAPPING_TYPES = {"POINT": 0, "TEXTURE": 1, "VECTOR": 2, "NORMAL": 3}
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
                      "BLENDER_WORLD": 4}
+# texture node options (Blender's enum names; kernels/svm_textures.h)
+GRADIENT_TYPES = {"LINEAR": 0, "QUADRATIC": 1, "EASING": 2, "DIAGONAL": 3, "RADIAL": 4,
+                  "QUADRATIC_SPHERE": 5, "SPHERICAL": 6}
+NOISE_TYPES = {"FBM": 0, "MULTIFRACTAL": 1, "HYBRID_MULTIFRACTAL": 2, "RIDGED_MULTIFRACTAL": 3,
+               "HETERO_TERRAIN": 4}
+WAVE_TYPES = {"BANDS": 0, "RINGS": 1}
+WAVE_BANDS = {"X": 0, "Y": 1, "Z": 2, "DIAGONAL": 3}
+WAVE_RINGS = {"X": 0, "Y": 1, "Z": 2, "SPHERICAL": 3}
+WAVE_PROFILES = {"SIN": 0, "SAW": 1, "TRI": 2}
+VORONOI_FEATURES = {"F1": 0, "F2": 1, "SMOOTH_F1": 2, "DISTANCE_TO_EDGE": 3,
+                    "N_SPHERE_RADIUS": 4}
+VORONOI_METRICS = {"EUCLIDEAN": 0, "MANHATTAN": 1, "CHEBYCHEV": 2, "MINKOWSKI": 3}
 
-# the BSDF node fields a program may drive (scene_arrays.BINDABLE), as float word indexes
+# BSDF node inputs a shader program may drive: bit i of a node's ``bound`` is BINDABLE[i]
+BINDABLE = ("weight", "color", "edge_tint", "emission", "coat_tint", "sheen_tint", "roughness",
+            "metallic", "ior", "alpha", "transmission", "specular_ior_level", "anisotropic",
+            "anisotropic_rotation", "coat_weight", "coat_roughness", "coat_ior", "sheen_weight",
+            "sheen_roughness", "subsurface_weight", "diffuse_roughness", "normal", "coat_normal")
+BOUND = {name: 1 << i for i, name in enumerate(BINDABLE)}
+# the BSDF node fields a program may drive, as float word indexes
 FIELD_WORD = {name: SHADER_NODE_DTYPE.fields[name][1] // 4 for name in BINDABLE}
 
 PROGRAM_EMISSION = 1   # header flags: the program drives an emission input (or a weight)

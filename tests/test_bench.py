@@ -89,6 +89,7 @@ def test_bench_micro_and_phases_quick(cli, tmp_path):
     assert "<!-- bench:phases -->" in md.read_text()
 
 
+@pytest.mark.slow             # tooling: 19 s of the default run
 def test_bench_skips_quick(cli, tmp_path):
     md = tmp_path / "B.md"
     p = cli("bench", "--skips", "--quick", "--json", tmp_path / "s.json", "--markdown", md)
@@ -108,6 +109,7 @@ def test_bench_skips_quick(cli, tmp_path):
     assert "<!-- bench:skips -->" in md.read_text()
 
 
+@pytest.mark.slow             # tooling: 15 s of the default run
 def test_bench_glossy_quick(cli, tmp_path):
     """bench --glossy: ours per gather roughness (two seeds) and Cycles at the same budget,
     against a longer Cycles render; the table follows from the JSON."""
@@ -135,13 +137,15 @@ def test_bench_refuses_bad_arguments(cli):
 
 def test_bench_shader_quick(cli, tmp_path):
     """bench --shader: the same scene with its colours from a shader program renders the same
-    image; the cost per phase and per hit follow from the measured times."""
+    image in the mean (its noise differs: the Lambert short path draws other random numbers;
+    the means of 2 passes of 32 x 32 pixels agree within 0.2 %, a lost or wrong colour moves
+    them by far more than 3 %); the cost per phase and per hit follow from the times."""
     md = tmp_path / "B.md"
     p = cli("bench", "--shader", "cornell_box", "--quick", "--json", tmp_path / "s.json",
             "--markdown", md)
     assert p.returncode == 0, p.stderr
     d = json.loads((tmp_path / "s.json").read_text())
-    assert d["materials_driven"] >= 3 and d["image_max_rel_diff"] < 1e-5
+    assert d["materials_driven"] >= 3 and abs(d["image_mean_ratio"] - 1.0) < 0.03
     for lab in ("eye", "photon", "gather"):
         assert d["phase_ms"]["constant"][lab] > 0 and d["phase_ms"]["program"][lab] > 0
         assert d["delta_ms"][lab] == pytest.approx(

@@ -7,9 +7,9 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from ppm_engine.export.materials import read_material                 # noqa: E402
-from ppm_engine.shader_program import (FIELD_WORD, MAX_STACK, SVM_MATH,  # noqa: E402
+from ppm_engine.shader_program import (BOUND, FIELD_WORD, MAX_STACK, SVM_MATH,  # noqa: E402
                                        SVM_RGB_TO_BW, ops_used)
-from ppm_engine.scene_arrays import BOUND, shader_node                  # noqa: E402
+from ppm_engine.scene_arrays import shader_node                  # noqa: E402
 
 
 def _material(name="M"):

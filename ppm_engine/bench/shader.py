@@ -4,8 +4,10 @@ The example scene is rendered twice through the Renderer, passes interleaved so 
 the same machine: once as built (constant materials: no program, the kernels without the
 interpreter) and once with every Principled BSDF's Base Color routed through a small node graph
 that computes the same colour at run time (Mix, factor Backfacing x 0 from a Geometry node:
-three ops per hit that cannot fold).  The images must agree; the difference in each phase's
-time is the interpreter's cost, also given per pixel (eye, gather) and per photon."""
+three ops per hit that cannot fold).  The images must agree in the mean (their noise differs:
+a material with a program leaves the Lambert short path, whose random numbers differ); the
+difference in each phase's time is the cost of the program and of the general shader path it
+takes, also given per pixel (eye, gather) and per photon."""
 from __future__ import annotations
 
 import time
@@ -72,14 +74,13 @@ def run_shader(scene_name: str, resolution: int = 128, passes: int = 8, warmup: 
     labels = ("eye", "photon", "gather")
     ms = {k: {lab: float(np.mean([s.phase_ms.get(lab, 0.0) for s in v])) for lab in labels}
           for k, v in stats.items()}
-    ref = images["constant"]
-    diff = float(np.max(np.abs(images["program"] - ref)) / max(float(np.max(ref)), 1e-12))
+    ratio = float(np.mean(images["program"]) / max(float(np.mean(images["constant"])), 1e-30))
     pixels, photons = resolution * resolution, renderers["program"].photons_per_pass
     delta = {lab: ms["program"][lab] - ms["constant"][lab] for lab in labels}
     return {"scene": scene_name, "resolution": resolution, "passes": passes,
             "device": renderers["program"].device.info.name, "materials_driven": changed,
             "phase_ms": ms, "wall_ms": {k: 1e3 * v / passes for k, v in wall.items()},
-            "delta_ms": delta, "image_max_rel_diff": diff,
+            "delta_ms": delta, "image_mean_ratio": ratio,
             "ns_per_pixel_eye": 1e6 * delta["eye"] / pixels,
             "ns_per_pixel_gather": 1e6 * delta["gather"] / pixels,
             "ns_per_photon": 1e6 * delta["photon"] / photons}
@@ -97,6 +98,6 @@ def format_shader(d: dict) -> str:
     lines.append(f"| pass (wall) | {c:.2f} | {p:.2f} | {100 * (p - c) / max(c, 1e-9):+.1f} % |")
     lines.append(f"\nper hit: eye {d['ns_per_pixel_eye']:.0f} ns per pixel, gather "
                  f"{d['ns_per_pixel_gather']:.0f} ns per pixel, photons "
-                 f"{d['ns_per_photon']:.0f} ns per photon; images agree within "
-                 f"{d['image_max_rel_diff']:.1e} of the brightest pixel")
+                 f"{d['ns_per_photon']:.0f} ns per photon; mean of the image with programs / "
+                 f"without: {d['image_mean_ratio']:.4f}")
     return "\n".join(lines)

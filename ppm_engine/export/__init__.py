@@ -16,7 +16,7 @@ from ..scene_arrays import (LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT, VIS_CAMERA, VIS_DIF
 from .camera import export_camera
 from .lights import export_light
 from ..shader_program import PROGRAM_GENERATED, PROGRAM_TANGENTS
-from .materials import MaterialTable
+from .material_table import MaterialTable
 from .mesh import GEOMETRY_TYPES, MeshCache, transform_part
 from .textures import TextureTable
 from .world import export_world

@@ -1,0 +1,23 @@
+"""A value of a shader program while it is compiled: a constant or stack slots (shared by the
+compiler, shader_graph.py, and the node modules, shader_nodes.py and shader_textures.py)."""
+from __future__ import annotations
+
+
+class Val:
+    """A value in the program: a constant (tuple of floats) or stack slots; n = 1 or 3."""
+    __slots__ = ("const", "slot", "n")
+
+    def __init__(self, n, const=None, slot=None):
+        self.n, self.const, self.slot = n, const, slot
+
+    @property
+    def is_const(self):
+        return self.const is not None
+
+    def __repr__(self):
+        return f"Val({self.n}, {self.const if self.is_const else 'slot %d' % self.slot})"
+
+
+def width(socket_type: str) -> int:
+    """Floats a socket of this type holds (colour and vector 3, the rest 1)."""
+    return 3 if socket_type in ("RGBA", "VECTOR") else 1
