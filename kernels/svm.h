@@ -155,7 +155,9 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
         } else if (SVM_HAS(SVM_GEOMETRY) && op == SVM_GEOMETRY) {
             float3 v = w.z == 0 ? (float3)(ctx->uv, 0.0f) : w.z == 1 ? ctx->N
                      : w.z == 2 ? ctx->Ng : w.z == 3 ? ctx->I
-                     : w.z == 5 ? ctx->generated : (float3)(ctx->backfacing);
+                     : w.z == 5 ? ctx->generated
+                     : w.z == 6 ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
+                     : (float3)(ctx->backfacing);
             if (w.z == 4) stack[w.y] = ctx->backfacing; else svm_put3(stack, w.y, v);
         } else if (SVM_HAS(SVM_IMAGE) && op == SVM_IMAGE) {
             int4 e = svm[i++];

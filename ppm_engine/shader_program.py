@@ -87,6 +87,7 @@ GEOM_TRUE_NORMAL = 2
 GEOM_INCOMING = 3      # towards the viewer
 GEOM_BACKFACING = 4    # 1 when the ray hit the back
 GEOM_GENERATED = 5     # Generated coordinates (SceneArrays.generated)
+GEOM_REFLECTION = 6    # the view direction mirrored about the shading normal (world)
 
 COLOR_RGB_TO_HSV, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL, COLOR_HSL_TO_RGB = 0, 1, 2, 3
 

@@ -350,6 +350,8 @@ def test_coordinates_and_geometry_as_cycles(cycles, render_exr, tmp_path, tiny):
              "generated turned": out(tc, "Generated", rz=math.pi / 2),
              "generated mirrored": out(tc, "Generated", sx=-1.0),
              "generated back": out(tc, "Generated", rx=math.pi), "uv": out(tc, "UV", rz=math.pi),
+             "reflection": out(tc, "Reflection"), "reflection back": out(tc, "Reflection",
+                                                                          rx=math.pi),
              "normal": out(geo, "Normal", rx=math.pi), "true normal": out(geo, "True Normal"),
              "incoming": out(geo, "Incoming"), "backfacing": out(geo, "Backfacing", rx=math.pi)}
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

@@ -10,9 +10,9 @@ import numpy as np
 
 from ..shader_program import (COLOR_HSL_TO_RGB, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL,
                               COLOR_RGB_TO_HSV, GEOM_BACKFACING, GEOM_INCOMING, GEOM_NORMAL,
-                              GEOM_TRUE_NORMAL, GEOM_UV, MAPPING_TYPES, MAP_RANGE_TYPES, MATH, MIX,
-                              MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT, MIXF_SCALAR,
-                              MIXF_VECTOR_FACTOR, NORMAL_MAP_SPACES, PROGRAM_TANGENTS,
+                              GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, MAPPING_TYPES,
+                              MAP_RANGE_TYPES, MATH, MIX, MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT,
+                              MIXF_SCALAR, MIXF_VECTOR_FACTOR, NORMAL_MAP_SPACES, PROGRAM_TANGENTS,
                               SVM_BRIGHT_CONTRAST, SVM_CLAMP, SVM_COLOR_CONVERT, SVM_FRESNEL,
                               SVM_GAMMA, SVM_HSV, SVM_IMAGE, SVM_INVERT, SVM_LAYER_WEIGHT,
                               SVM_MAPPING, SVM_MAP_RANGE, SVM_MIX, SVM_NORMAL_MAP, SVM_RGB_TO_BW,
@@ -31,7 +31,7 @@ def _rgb(c, node, out, ctx):
 def _tex_coord(c, node, out, ctx):
     if out.name == "Generated":
         return c.generated()
-    what = {"UV": GEOM_UV, "Normal": GEOM_NORMAL}.get(out.name)
+    what = {"UV": GEOM_UV, "Normal": GEOM_NORMAL, "Reflection": GEOM_REFLECTION}.get(out.name)
     if out.name == "Normal":
         c.warn(f"'{node.name}': the Normal coordinate is in world space here (Cycles: object "
                "space)")
