@@ -32,7 +32,7 @@ inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
     float stack[PPM_SVM_STACK];                                                              \
     if ((m).program > 0) {                                                                   \
         SvmContext cx_ = svm_context(svm, (m).program, tri, u, v, N, Ng, I, back, uvs,      \
-                                     uv_tangents, generated);                                \
+                                     uv_tangents, generated, attributes);                    \
         svm_eval(svm, (m).program, stack, &cx_, TEXTURE_PASS);                               \
     }
 #define MATERIAL_NODE(nd, m, i, stack)                                                        \

@@ -48,6 +48,10 @@
 #define SVM_TEX_LAST 28
 #define PROGRAM_TANGENTS 2            /* header flags: a tangent-space Normal Map reads them */
 #define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
+#define PROGRAM_ATTRIBUTES 8          /* mesh attributes are read */
+#ifndef PPM_ATTRIBUTES
+#define PPM_ATTRIBUTES 1              /* attributes per corner in `attributes` (-D: the scene's) */
+#endif
 #define MIXF_CLAMP_FACTOR 1
 #define MIXF_CLAMP_RESULT 2
 #define MIXF_SCALAR 4
@@ -62,6 +66,7 @@ typedef struct {
     float backfacing;
     float4 tangent;      /* the UV map's tangent (world) and bitangent sign; 0 when not read */
     float3 generated;    /* Generated coordinates (0..1 over the mesh's texture space) */
+    float4 attr[PPM_ATTRIBUTES];  /* the mesh attributes programs read, at the point */
 } SvmContext;
 
 /* The context of a shading point of triangle tri at barycentrics (u, v) for the program at word
@@ -70,7 +75,8 @@ typedef struct {
 inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u, float v,
                               float3 N, float3 Ng, float3 I, bool backfacing,
                               __global const float *uvs, __global const float4 *uv_tangents,
-                              __global const float *generated) {
+                              __global const float *generated,
+                              __global const float4 *attributes) {
     SvmContext cx = {surface_uv(uvs, tri, u, v), N, Ng, I, backfacing ? 1.0f : 0.0f,
                      (float4)(0.0f), (float3)(0.0f)};
     float w = 1.0f - u - v;
@@ -82,6 +88,12 @@ inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u
         __global const float *g = generated + 9 * (size_t)tri;
         cx.generated = w * (float3)(g[0], g[1], g[2]) + u * (float3)(g[3], g[4], g[5])
                        + v * (float3)(g[6], g[7], g[8]);
+    }
+    bool attrs = SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_ATTRIBUTES);
+    for (int k = 0; k < PPM_ATTRIBUTES; k++) {
+        __global const float4 *a = attributes + 3 * PPM_ATTRIBUTES * (size_t)tri + k;
+        cx.attr[k] = attrs ? w * a[0] + u * a[PPM_ATTRIBUTES] + v * a[2 * PPM_ATTRIBUTES]
+                           : (float4)(0.0f);
     }
     return cx;
 }
@@ -158,7 +170,14 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
                      : w.z == 5 ? ctx->generated
                      : w.z == 6 ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
                      : (float3)(ctx->backfacing);
-            if (w.z == 4) stack[w.y] = ctx->backfacing; else svm_put3(stack, w.y, v);
+            if (w.z >= 16) {                              /* mesh attribute k */
+                float4 a = ctx->attr[min((w.z - 16) & 7, PPM_ATTRIBUTES - 1)];
+                if (w.z >= 24) stack[w.y] = a.w; else svm_put3(stack, w.y, a.xyz);
+            } else if (w.z == 4) {
+                stack[w.y] = ctx->backfacing;
+            } else {
+                svm_put3(stack, w.y, v);
+            }
         } else if (SVM_HAS(SVM_IMAGE) && op == SVM_IMAGE) {
             int4 e = svm[i++];
             float4 c = (float4)(1.0f);

@@ -60,6 +60,8 @@ class DeviceScene:
                            else np.zeros(4, np.float32), "UV tangents"),
             generated=up(prepared.generated if prepared.generated.size
                          else np.zeros(3, np.float32), "Generated coordinates"),
+            attributes=up(prepared.attributes if prepared.attributes.size
+                          else np.zeros(4, np.float32), "mesh attributes"),
             lights=up(lights, "lights"),
             emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
             emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),
@@ -82,6 +84,8 @@ class DeviceScene:
             starts = self.kmaterials["program"][self.used_materials]
             svm = {"PPM_SVM_OPS": ops_used(self.prepared.svm, starts),
                    "PPM_SVM_STACK": max(stack_used(self.prepared.svm, starts), 1)}
+        if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact
+            svm["PPM_ATTRIBUTES"] = self.prepared.attributes.shape[2]
         return features, {"PPM_FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
                           "PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
                           **feature_defines(features, max_closures(self.knodes,

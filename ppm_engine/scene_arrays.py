@@ -243,6 +243,10 @@ class SceneArrays:
     # material reads them
     generated: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros((0, 3, 3), np.float32))
+    # (T, 3, K, 4) float32: the K mesh attributes shader programs read, at the corners (K = 0:
+    # none; shader_program GEOM_ATTRIBUTE)
+    attributes: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros((0, 3, 0, 4), np.float32))
     # (W, 4) int32 shader programs (ppm_engine/shader_program.py); word 0 is never one
     svm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((1, 4), np.int32))
 
@@ -290,6 +294,11 @@ class SceneArrays:
             raise ValueError("SceneArrays.camera must hold exactly one camera")
         if self.materials.shape[0] < 1:
             raise ValueError("SceneArrays.materials must hold at least one material")
+        at = self.attributes
+        if at.dtype != np.float32 or at.ndim != 4 or at.shape[1] != 3 or at.shape[3] != 4 \
+                or at.shape[0] not in (0, t) or (at.shape[0] == 0) != (at.shape[2] == 0):
+            raise ValueError(f"SceneArrays.attributes: expected float32 (T, 3, K, 4) or "
+                             f"(0, 3, 0, 4), got {at.dtype}{at.shape}")
         for name, k in (("tangents", 3), ("uv_tangents", 4), ("generated", 3)):
             a = getattr(self, name)
             if a.dtype != np.float32 or a.shape not in ((0, 3, k), (t, 3, k)):

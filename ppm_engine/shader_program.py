@@ -88,6 +88,9 @@ GEOM_INCOMING = 3      # towards the viewer
 GEOM_BACKFACING = 4    # 1 when the ray hit the back
 GEOM_GENERATED = 5     # Generated coordinates (SceneArrays.generated)
 GEOM_REFLECTION = 6    # the view direction mirrored about the shading normal (world)
+GEOM_ATTRIBUTE = 16    # + k: attribute k's colour or vector (SceneArrays.attributes)
+GEOM_ATTRIBUTE_ALPHA = 24  # + k: attribute k's alpha
+MAX_ATTRIBUTES = 8     # distinct mesh attributes a scene's programs may read
 
 COLOR_RGB_TO_HSV, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL, COLOR_HSL_TO_RGB = 0, 1, 2, 3
 
@@ -141,6 +144,7 @@ FIELD_WORD = {name: SHADER_NODE_DTYPE.fields[name][1] // 4 for name in BINDABLE}
 PROGRAM_EMISSION = 1   # header flags: the program drives an emission input (or a weight)
 PROGRAM_TANGENTS = 2   # a tangent-space Normal Map reads the UV map's tangents (uv_tangents)
 PROGRAM_GENERATED = 4  # Generated coordinates are read (SceneArrays.generated)
+PROGRAM_ATTRIBUTES = 8  # mesh attributes are read (SceneArrays.attributes)
 MAX_STACK = 96         # floats of stack a program may use (kernels: PPM_SVM_STACK)
 
 

@@ -96,7 +96,14 @@ def _grid(cases):
     rows = -(-len(cases) // cols)
     for k, case in enumerate(cases):
         r, c = divmod(k, cols)
-        bpy.ops.mesh.primitive_plane_add(size=2, location=(2 * c - cols + 1, rows - 1 - 2 * r, 0))
+        loc = (2 * c - cols + 1, rows - 1 - 2 * r, 0)
+        setup = getattr(case, "mesh", None)      # a case may give its plane T x T faces
+        if setup is None:
+            bpy.ops.mesh.primitive_plane_add(size=2, location=loc)
+        else:
+            bpy.ops.mesh.primitive_grid_add(x_subdivisions=T, y_subdivisions=T, size=2,
+                                            location=loc)
+            setup(bpy.context.active_object.data)
         obj = bpy.context.active_object          # a case may turn or mirror its plane
         obj.rotation_euler = (getattr(case, "rx", 0.0), 0.0, getattr(case, "rz", 0.0))
         obj.scale.x = getattr(case, "sx", 1.0)
@@ -354,4 +361,45 @@ def test_coordinates_and_geometry_as_cycles(cycles, render_exr, tmp_path, tiny):
                                                                           rx=math.pi),
              "normal": out(geo, "Normal", rx=math.pi), "true normal": out(geo, "True Normal"),
              "incoming": out(geo, "Incoming"), "backfacing": out(geo, "Backfacing", rx=math.pi)}
+    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def _attributes(me):
+    """Per-face random colours (float and byte, the byte one the default colour attribute) and
+    the vertices' x as a float on points."""
+    rng = np.random.default_rng(5)
+    for name, kind in (("fc", "FLOAT_COLOR"), ("bc", "BYTE_COLOR")):
+        a = me.attributes.new(name, kind, "FACE")
+        a.data.foreach_set("color", rng.random(4 * len(me.polygons)).astype(np.float32))
+    me.attributes.default_color_name = "bc"
+    px = me.attributes.new("px", "FLOAT", "POINT")
+    co = np.empty(3 * len(me.vertices), np.float32)
+    me.vertices.foreach_get("co", co)
+    px.data.foreach_set("value", co[0::3])
+
+
+def test_attributes_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Attribute and Color Attribute nodes: face colours (float, byte: the default colour
+    attribute), their Fac and Alpha, a point float interpolated (stepped per pixel: one value
+    per pixel whatever its samples), an attribute the mesh lacks (0)."""
+    def attr(name, out="Color", idname="ShaderNodeAttribute", step=False):
+        def build(i):
+            n = i.node(idname)
+            if idname == "ShaderNodeAttribute":
+                n.attribute_name = name
+            else:
+                n.layer_name = name
+            o = n.outputs[out]
+            if step:                               # floor((x + 1) T / 2) per pixel
+                o = i.node("ShaderNodeMath", [(0, o)], operation="MULTIPLY_ADD",
+                           in_1=T / 2, in_2=T / 2).outputs[0]
+                o = i.node("ShaderNodeMath", [(0, o)], operation="FLOOR").outputs[0]
+            return o
+        build.mesh = _attributes
+        return build
+    cases = {"float colour": attr("fc"), "float colour fac": attr("fc", "Fac"),
+             "alpha": attr("fc", "Alpha"), "byte colour": attr("bc"),
+             "default colour": attr("", idname="ShaderNodeVertexColor"),
+             "default alpha": attr("", "Alpha", idname="ShaderNodeVertexColor"),
+             "point float": attr("px", "Fac", step=True), "missing": attr("nope")}
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

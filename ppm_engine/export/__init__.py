@@ -15,7 +15,7 @@ from ..scene_arrays import (LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT, VIS_CAMERA, VIS_DIF
                             VIS_TRANSMISSION, SceneArrays)
 from .camera import export_camera
 from .lights import export_light
-from ..shader_program import PROGRAM_GENERATED, PROGRAM_TANGENTS
+from ..shader_program import PROGRAM_ATTRIBUTES, PROGRAM_GENERATED, PROGRAM_TANGENTS
 from .material_table import MaterialTable
 from .mesh import GEOMETRY_TYPES, MeshCache, transform_part
 from .textures import TextureTable
@@ -76,10 +76,12 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
             slots = materials.slot_map(obj)
             mapped = materials.reads(slots, PROGRAM_TANGENTS)
             gen = materials.reads(slots, PROGRAM_GENERATED)
+            attrs = (meshes.attributes(obj, materials.attributes)
+                     if materials.reads(slots, PROGRAM_ATTRIBUTES) else None)
             parts.append(transform_part(mesh, m, slots, visibility_bits(obj), obj.name, warn,
                                         tangents=materials.anisotropic(slots),
                                         uv_tangents=meshes.uv_tangents(obj) if mapped else None,
-                                        generated=gen))
+                                        generated=gen, attributes=attrs))
             uv_tangents |= mapped
             generated |= gen
     meshes.clear()
@@ -87,11 +89,18 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
 
     light_arr = np.concatenate(lights) if lights else np.zeros(0, LIGHT_DTYPE)
     if parts:
+        k_attr = len(materials.attributes)          # the parts read fewer names: zero-padded
+        for part in parts:
+            a = part["attributes"]
+            part["attributes"] = np.concatenate(
+                [a, np.zeros(a.shape[:2] + (k_attr - a.shape[2], 4), np.float32)], axis=2)
         cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
         if not cat["tangents"].any():              # no anisotropic material: no tangents
             cat["tangents"] = np.zeros((0, 3, 3), np.float32)
         if not uv_tangents:                        # no tangent-space normal map
             cat["uv_tangents"] = np.zeros((0, 3, 4), np.float32)
+        if not k_attr:                             # no mesh attribute read
+            cat["attributes"] = np.zeros((0, 3, 0, 4), np.float32)
         if not generated:                          # no Generated coordinates read
             cat["generated"] = np.zeros((0, 3, 3), np.float32)
     else:

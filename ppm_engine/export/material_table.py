@@ -22,6 +22,7 @@ class MaterialTable:
         self.programs = [np.zeros((1, 4), np.int32)]    # word 0: never a program
         self.words = 1
         self.program_flags: dict = {}                   # material -> its header's flags
+        self.attributes: list = []                      # mesh attribute names programs read
         self.names = [DEFAULT_NAME]
         self._index = {}
 
@@ -31,7 +32,8 @@ class MaterialTable:
         key = material.name_full
         if key not in self._index:
             self._index[key] = len(self.rows)
-            row, nodes, program = read_material(material, self.warn, self.textures)
+            row, nodes, program = read_material(material, self.warn, self.textures,
+                                                self.attributes)
             if program is not None:
                 row["program"] = self.words
                 self.programs.append(program)

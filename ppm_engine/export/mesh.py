@@ -111,6 +111,57 @@ def read_uv_tangents(mesh, local: LocalMesh, warn) -> np.ndarray:
     return out
 
 
+# attribute data type -> (foreach_get property, components)
+_ATTR_READ = {"FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color", 4),
+              "FLOAT_VECTOR": ("vector", 3), "FLOAT2": ("vector", 2), "FLOAT": ("value", 1),
+              "INT": ("value", 1)}
+
+
+def read_attributes(mesh, local: LocalMesh, names: list, warn) -> np.ndarray:
+    """(T, 3, len(names), 4) float32: the named attributes at the triangles' corners (colours
+    in scene linear; a float f as (f, f, f, 1), a vector's alpha 1), "" being the mesh's
+    default colour attribute; zeros for an attribute the mesh lacks (as Cycles)."""
+    n_tri = local.n_triangles
+    out = np.zeros((n_tri, 3, len(names), 4), np.float32)
+    out[..., 3] = 1.0
+    if n_tri == 0 or local.tri_loops is None:
+        return out
+    for k, name in enumerate(names):
+        if not name:
+            name = (getattr(mesh.attributes, "default_color_name", "")
+                    or getattr(mesh.color_attributes, "active_color_name", "") or "")
+        a = mesh.attributes.get(name) if name else None
+        if a is None:
+            out[:, :, k] = 0.0
+            continue
+        how = _ATTR_READ.get(a.data_type)
+        if how is None or a.domain not in ("POINT", "CORNER", "FACE"):
+            warn(f"Mesh '{mesh.name}': the attribute '{name}' ({a.data_type.lower()} on "
+                 f"{a.domain.lower()}s) is not read; it is 0")
+            out[:, :, k] = 0.0
+            continue
+        prop, comps = how
+        buf = np.empty(len(a.data) * comps, np.int32 if a.data_type == "INT" else np.float32)
+        a.data.foreach_get(prop, buf)
+        vals = buf.astype(np.float32).reshape(-1, comps)
+        if a.domain == "POINT":
+            cv = np.empty(len(mesh.loops), np.int32)
+            mesh.attributes[".corner_vert"].data.foreach_get("value", cv)
+            idx = cv[local.tri_loops]
+        elif a.domain == "CORNER":
+            idx = local.tri_loops
+        else:
+            idx = np.empty(n_tri, np.int32)
+            mesh.loop_triangle_polygons.foreach_get("value", idx)
+            idx = np.repeat(idx, 3)
+        v = vals[idx].reshape(n_tri, 3, comps)
+        if comps == 1:
+            out[:, :, k, :3] = v
+        else:
+            out[:, :, k, :comps] = v
+    return out
+
+
 class MeshCache:
     """One read per evaluated geometry: 1000 instances of a mesh cost one read."""
 
@@ -130,6 +181,14 @@ class MeshCache:
         if key not in self._tangents:
             self._tangents[key] = read_uv_tangents(obj.data, self.get(obj), self.warn)
         return self._tangents[key]
+
+    def attributes(self, obj, names: list) -> np.ndarray | None:
+        """read_attributes of a mesh object's data for these names; None for other geometry
+        (warned: its attributes read 0)."""
+        if obj.type != 'MESH':
+            self.warn(f"Object '{obj.name}' is not a mesh: its attributes are not read (0)")
+            return None
+        return read_attributes(obj.data, self.get(obj), list(names), self.warn)
 
     def get(self, obj) -> LocalMesh | None:
         data = obj.data
@@ -182,7 +241,8 @@ def generated_coords(mesh: LocalMesh) -> np.ndarray:
 
 def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibility: int,
                    name: str, warn, tangents: bool = False,
-                   uv_tangents: np.ndarray | None = None, generated: bool = False) -> dict:
+                   uv_tangents: np.ndarray | None = None, generated: bool = False,
+                   attributes: np.ndarray | None = None) -> dict:
     """World-space arrays of one instance.
 
     Positions by the world matrix, normals by its inverse transpose (renormalised).  A mirroring
@@ -194,7 +254,7 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
     object_normal_transform), else zeros; ``uv_tangents`` (read_uv_tangents) as directions,
     renormalised, their signs flipped by a mirroring matrix (the bitangent is the normal
     crossed with the tangent), else zeros; with ``generated`` the Generated coordinates
-    (generated_coords), else zeros."""
+    (generated_coords), else zeros; ``attributes`` (read_attributes) carried as they are."""
     m3, t = m[:3, :3], m[:3, 3]
     det = float(np.linalg.det(m3))
     # float32 arithmetic (as Cycles transforms): the result is float32 anyway, and 1M triangles
@@ -228,16 +288,18 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
                 -1, 3, 3)
             ut[..., 3] = uv_tangents[..., 3] * (1.0 if det >= 0 else -1.0)
         gen = generated_coords(mesh) if generated else np.zeros(p.shape, np.float32)
+        attr = attributes if attributes is not None else np.zeros(p.shape[:2] + (0, 4),
+                                                                   np.float32)
         good, warning = finite_triangles(p, f"Object '{name}'")
         uvs = mesh.uvs
         if good is not None:
             warn(warning)
             p, n, zero, uvs, tg, ut = p[good], n[good], zero[good], uvs[good], tg[good], ut[good]
-            gen = gen[good]
+            gen, attr = gen[good], attr[good]
         if det < 0:
             order = [0, 2, 1]
             p, n, uvs, zero = p[:, order], n[:, order], uvs[:, order], zero[:, order]
-            tg, ut, gen = tg[:, order], ut[:, order], gen[:, order]
+            tg, ut, gen, attr = tg[:, order], ut[:, order], gen[:, order], attr[:, order]
         if zero.any() or not np.isfinite(n.reshape(len(n), 9).sum(axis=1)).all():
             bad = zero | ~np.isfinite(n).all(axis=2)
             ng = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]).astype(np.float64)
@@ -253,4 +315,5 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
                 visibility=np.full(p.shape[0], visibility, np.uint32),
                 tangents=np.ascontiguousarray(tg, np.float32),
                 uv_tangents=np.ascontiguousarray(np.nan_to_num(ut), np.float32),
-                generated=np.ascontiguousarray(np.nan_to_num(gen), np.float32))
+                generated=np.ascontiguousarray(np.nan_to_num(gen), np.float32),
+                attributes=np.ascontiguousarray(np.nan_to_num(attr), np.float32))

@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shader_program import (BOUND, FIELD_WORD, GEOM_BACKFACING, GEOM_GENERATED, MATH, MAX_STACK,
+from ..shader_program import (BOUND, GEOM_ATTRIBUTE, GEOM_ATTRIBUTE_ALPHA, MAX_ATTRIBUTES,
+                              PROGRAM_ATTRIBUTES, FIELD_WORD, GEOM_BACKFACING, GEOM_GENERATED, MATH, MAX_STACK,
                               PROGRAM_EMISSION, PROGRAM_GENERATED, SVM_COMBINE, SVM_CONST, SVM_END,
                               SVM_GEOMETRY, SVM_MATH, SVM_RGB_TO_BW, f2i, fold_math)
+from .shader_inputs import INPUT_NODES
 from .shader_nodes import VALUE_NODES
 from .shader_textures import TEXTURE_NODES
 from .shader_values import Val, width
@@ -71,8 +73,10 @@ class Graph:
 class Compiler:
     """Compiles one material's value nodes; ``binds`` and ``ops`` become its program."""
 
-    def __init__(self, material: str, warn, textures, graph: Graph, datablock=None):
+    def __init__(self, material: str, warn, textures, graph: Graph, datablock=None,
+                 attributes: list | None = None):
         self.material = material
+        self.attributes = attributes      # the scene's attribute names (their index: k)
         self.datablock = datablock        # the bpy material (which meshes use it: UV names)
         self.warn_fn = warn
         self.textures = textures
@@ -157,6 +161,24 @@ class Compiler:
         """The Generated texture coordinates (0..1 over the mesh's texture space)."""
         self.flags |= PROGRAM_GENERATED
         return self.geometry(GEOM_GENERATED)
+
+    def attribute(self, name: str, alpha: bool = False) -> Val | None:
+        """Mesh attribute ``name`` (its colour/vector, or its alpha) at the shading point; None
+        when the scene reads too many attributes already (warned)."""
+        names = self.attributes if self.attributes is not None else []
+        if name not in names:
+            if len(names) >= MAX_ATTRIBUTES:
+                self.warn(f"more than {MAX_ATTRIBUTES} mesh attributes are read in the scene; "
+                          f"'{name}' is not evaluated (0)")
+                return None
+            names.append(name)
+        self.flags |= PROGRAM_ATTRIBUTES
+        k = names.index(name)
+        if alpha:
+            s = self.alloc(1)
+            self.ops.append((SVM_GEOMETRY, s, GEOM_ATTRIBUTE_ALPHA + k, 0))
+            return Val(1, slot=s)
+        return self.geometry(GEOM_ATTRIBUTE + k)
 
     def texture_vector(self, node, ctx) -> Val:
         """A texture node's Vector input: what is linked to it, else the Generated
@@ -276,4 +298,4 @@ class Compiler:
 
 
 # every node type a program evaluates: bl_idname -> fn(compiler, node, output, ctx) -> Val
-NODES = {**VALUE_NODES, **TEXTURE_NODES}
+NODES = {**INPUT_NODES, **VALUE_NODES, **TEXTURE_NODES}

@@ -1,7 +1,6 @@
 """The value nodes of a shader program, each compiled as Cycles evaluates it (kernels/svm.h and
-svm_nodes.h run them): inputs (Value, RGB, Texture Coordinate, UV Map, Geometry), Image
-Texture, Mapping, Normal Map, Math, Vector Math, Mix, the colour and converter nodes, ramps
-and curves, Fresnel, Layer Weight.  Each is fn(compiler, node, output socket, group context)
+svm_nodes.h run them): Image Texture, Mapping, Math, Vector Math, Mix, the colour and converter
+nodes, ramps and curves, Fresnel, Layer Weight (the input nodes: shader_inputs.py).  Each is fn(compiler, node, output socket, group context)
 -> Val, using the compiler's methods only (shader_graph.Compiler), so this module does not
 import the compiler."""
 from __future__ import annotations
@@ -9,89 +8,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..shader_program import (COLOR_HSL_TO_RGB, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL,
-                              COLOR_RGB_TO_HSV, GEOM_BACKFACING, GEOM_INCOMING, GEOM_NORMAL,
-                              GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, MAPPING_TYPES,
-                              MAP_RANGE_TYPES, MATH, MIX, MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT,
-                              MIXF_SCALAR, MIXF_VECTOR_FACTOR, NORMAL_MAP_SPACES, PROGRAM_TANGENTS,
-                              SVM_BRIGHT_CONTRAST, SVM_CLAMP, SVM_COLOR_CONVERT, SVM_FRESNEL,
-                              SVM_GAMMA, SVM_HSV, SVM_IMAGE, SVM_INVERT, SVM_LAYER_WEIGHT,
-                              SVM_MAPPING, SVM_MAP_RANGE, SVM_MIX, SVM_NORMAL_MAP, SVM_RGB_TO_BW,
-                              SVM_TABLE, SVM_VECTOR_MATH, TABLE_RGB, TABLE_SCALAR, TABLE_SIZE,
-                              TABLE_VECTOR, VMATH, f2i)
+                              COLOR_RGB_TO_HSV, GEOM_UV, MAPPING_TYPES, MAP_RANGE_TYPES, MATH, MIX,
+                              MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT, MIXF_SCALAR,
+                              MIXF_VECTOR_FACTOR, SVM_BRIGHT_CONTRAST, SVM_CLAMP,
+                              SVM_COLOR_CONVERT, SVM_FRESNEL, SVM_GAMMA, SVM_HSV, SVM_IMAGE,
+                              SVM_INVERT, SVM_LAYER_WEIGHT, SVM_MAPPING, SVM_MAP_RANGE, SVM_MIX,
+                              SVM_RGB_TO_BW, SVM_TABLE, SVM_VECTOR_MATH, TABLE_RGB, TABLE_SCALAR,
+                              TABLE_SIZE, TABLE_VECTOR, VMATH, f2i)
 from .shader_values import Val, width
-
-def _value(c, node, out, ctx):
-    return c.const(float(out.default_value), 1)
-
-
-def _rgb(c, node, out, ctx):
-    return c.const(tuple(out.default_value)[:3], 3)
-
-
-def _tex_coord(c, node, out, ctx):
-    if out.name == "Generated":
-        return c.generated()
-    what = {"UV": GEOM_UV, "Normal": GEOM_NORMAL, "Reflection": GEOM_REFLECTION}.get(out.name)
-    if out.name == "Normal":
-        c.warn(f"'{node.name}': the Normal coordinate is in world space here (Cycles: object "
-               "space)")
-    if what is None:
-        c.warn(f"'{node.name}': the {out.name} texture coordinate is not evaluated yet; the UV "
-               "map is used")
-        what = GEOM_UV
-    return c.geometry(what)
-
-
-def _named_uv_map(c, node, name: str) -> None:
-    """Warns when a node names a UV map other than the one exported (the mesh's active map)
-    on a mesh that uses the material and has both."""
-    if not name or c.datablock is None:
-        return
-    key = ("uv name", name)
-    if key in c.memo:
-        return
-    c.memo[key] = True
-    import bpy
-    for me in bpy.data.meshes:
-        active = me.uv_layers.active
-        if (active is not None and active.name != name and name in me.uv_layers
-                and c.datablock.name in me.materials):
-            c.warn(f"'{node.name}' names the UV map '{name}' of mesh '{me.name}'; this engine "
-                   f"reads its active UV map '{active.name}'")
-            return
-
-
-def _uv_map(c, node, out, ctx):
-    _named_uv_map(c, node, getattr(node, "uv_map", ""))
-    return c.geometry(GEOM_UV)
-
-
-def _normal_map(c, node, out, ctx):
-    """Cycles' Normal Map: a colour to a shading normal (kernels/svm.h svm_normal_map); the
-    tangent space's frame from the UV map's MikkTSpace tangents (SceneArrays.uv_tangents)."""
-    space = NORMAL_MAP_SPACES.get(node.space, 0)
-    if node.space in ("OBJECT", "BLENDER_OBJECT"):
-        c.warn(f"'{node.name}' maps normals in object space; this engine takes them as world "
-               "space (exact for objects that are not rotated)")
-    if space == 0:
-        _named_uv_map(c, node, getattr(node, "uv_map", ""))
-        c.flags |= PROGRAM_TANGENTS
-    col, strength = c.inp(node, "Color", ctx, 3), c.inp(node, "Strength", ctx, 1)
-    sc, ss = c.slot(col), c.slot(strength)
-    o = c.alloc(3)
-    c.ops.append((SVM_NORMAL_MAP, o, sc, ss))
-    c.ops.append((space, 0, 0, 0))
-    return Val(3, slot=o)
-
-
-def _geometry_node(c, node, out, ctx):
-    what = {"Normal": GEOM_NORMAL, "True Normal": GEOM_TRUE_NORMAL, "Incoming": GEOM_INCOMING,
-            "Backfacing": GEOM_BACKFACING}.get(out.name)
-    if what is None:
-        c.warn(f"'{node.name}': the Geometry output {out.name} is not evaluated yet (0)")
-        return c.const(0.0, width(out.type))
-    return c.geometry(what)
-
 
 def _image(c, node, out, ctx):
     if c.textures is None:
@@ -382,9 +306,6 @@ def _layer_weight(c, node, out, ctx):
 
 
 VALUE_NODES = {
-    "ShaderNodeValue": _value, "ShaderNodeRGB": _rgb,
-    "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
-    "ShaderNodeNewGeometry": _geometry_node,
     "ShaderNodeTexImage": _image, "ShaderNodeMapping": _mapping,
     "ShaderNodeMath": _math, "ShaderNodeVectorMath": _vector_math,
     "ShaderNodeMix": _mix, "ShaderNodeMixRGB": _mix,
@@ -396,5 +317,5 @@ VALUE_NODES = {
     "ShaderNodeClamp": _clamp, "ShaderNodeMapRange": _map_range,
     "ShaderNodeValToRGB": _table, "ShaderNodeRGBCurve": _table,
     "ShaderNodeVectorCurve": _table, "ShaderNodeFloatCurve": _table,
-    "ShaderNodeLayerWeight": _layer_weight, "ShaderNodeNormalMap": _normal_map,
+    "ShaderNodeLayerWeight": _layer_weight,
 }

@@ -13,7 +13,7 @@ from ..device import SHADING_GROUP
 _SHADING_DEFINES = {"PPM_SPECIALIZED", "PPM_SHADER", "PPM_GATHER_SHADE", "PPM_MICROFACET",
                     "PPM_SHEEN", "PPM_OREN_NAYAR", "PPM_TRANSLUCENT", "PPM_TRANSPARENT",
                     "PPM_TEXTURES", "PPM_ANISOTROPY", "PPM_MAX_CLOSURES", "PPM_GATHER_ROUGHNESS",
-                    "PPM_SVM", "PPM_SVM_OPS", "PPM_SVM_STACK"}
+                    "PPM_SVM", "PPM_SVM_OPS", "PPM_SVM_STACK", "PPM_ATTRIBUTES"}
 
 
 def gather_defines(defines: dict | None) -> dict:

@@ -1,0 +1,119 @@
+"""The input nodes of a shader program: what a shading point is (Value, RGB, Texture
+Coordinate, UV Map, Attribute, Color Attribute, Geometry) and its frame (Normal Map), each as
+Cycles evaluates it; fn(compiler, node, output socket, group context) -> Val, using the
+compiler's methods only (shader_graph.Compiler)."""
+from __future__ import annotations
+
+from ..shader_program import (GEOM_BACKFACING, GEOM_INCOMING, GEOM_NORMAL, GEOM_REFLECTION,
+                              GEOM_TRUE_NORMAL, GEOM_UV, NORMAL_MAP_SPACES, PROGRAM_TANGENTS,
+                              SVM_NORMAL_MAP)
+from .shader_values import Val, width
+
+
+def _value(c, node, out, ctx):
+    return c.const(float(out.default_value), 1)
+
+
+def _rgb(c, node, out, ctx):
+    return c.const(tuple(out.default_value)[:3], 3)
+
+
+def _tex_coord(c, node, out, ctx):
+    if out.name == "Generated":
+        return c.generated()
+    what = {"UV": GEOM_UV, "Normal": GEOM_NORMAL, "Reflection": GEOM_REFLECTION}.get(out.name)
+    if out.name == "Normal":
+        c.warn(f"'{node.name}': the Normal coordinate is in world space here (Cycles: object "
+               "space)")
+    if what is None:
+        c.warn(f"'{node.name}': the {out.name} texture coordinate is not evaluated yet; the UV "
+               "map is used")
+        what = GEOM_UV
+    return c.geometry(what)
+
+
+def _named_uv_map(c, node, name: str) -> None:
+    """Warns when a node names a UV map other than the one exported (the mesh's active map)
+    on a mesh that uses the material and has both."""
+    if not name or c.datablock is None:
+        return
+    key = ("uv name", name)
+    if key in c.memo:
+        return
+    c.memo[key] = True
+    import bpy
+    for me in bpy.data.meshes:
+        active = me.uv_layers.active
+        if (active is not None and active.name != name and name in me.uv_layers
+                and c.datablock.name in me.materials):
+            c.warn(f"'{node.name}' names the UV map '{name}' of mesh '{me.name}'; this engine "
+                   f"reads its active UV map '{active.name}'")
+            return
+
+
+def _attribute_output(c, node, out, name: str):
+    """An attribute node's output: Color/Vector the attribute, Fac its average, Alpha its
+    alpha, as Cycles' attribute node; 0 where it cannot be read."""
+    if out.name == "Alpha":
+        v = c.attribute(name, alpha=True)
+    else:
+        v = c.attribute(name)
+        if v is not None and out.name in ("Fac", "Factor"):
+            v = c.convert(v, 1, "vector")
+    return v if v is not None else c.const(0.0, width(out.type))
+
+
+def _attribute(c, node, out, ctx):
+    """Attribute node: a mesh attribute by name (Geometry type); the object, instancer and
+    view-layer types read no mesh data (warned, 0)."""
+    if getattr(node, "attribute_type", "GEOMETRY") != "GEOMETRY":
+        c.warn(f"'{node.name}' reads an {node.attribute_type.lower().replace('_', ' ')} "
+               "attribute, which this engine does not evaluate (0)")
+        return c.const(0.0, width(out.type))
+    return _attribute_output(c, node, out, node.attribute_name)
+
+
+def _color_attribute(c, node, out, ctx):
+    """Color Attribute node: a colour attribute by name, or the mesh's default colour attribute
+    when none is named ("" here; export resolves it per mesh)."""
+    return _attribute_output(c, node, out, getattr(node, "layer_name", ""))
+
+
+def _uv_map(c, node, out, ctx):
+    _named_uv_map(c, node, getattr(node, "uv_map", ""))
+    return c.geometry(GEOM_UV)
+
+
+def _normal_map(c, node, out, ctx):
+    """Cycles' Normal Map: a colour to a shading normal (kernels/svm.h svm_normal_map); the
+    tangent space's frame from the UV map's MikkTSpace tangents (SceneArrays.uv_tangents)."""
+    space = NORMAL_MAP_SPACES.get(node.space, 0)
+    if node.space in ("OBJECT", "BLENDER_OBJECT"):
+        c.warn(f"'{node.name}' maps normals in object space; this engine takes them as world "
+               "space (exact for objects that are not rotated)")
+    if space == 0:
+        _named_uv_map(c, node, getattr(node, "uv_map", ""))
+        c.flags |= PROGRAM_TANGENTS
+    col, strength = c.inp(node, "Color", ctx, 3), c.inp(node, "Strength", ctx, 1)
+    sc, ss = c.slot(col), c.slot(strength)
+    o = c.alloc(3)
+    c.ops.append((SVM_NORMAL_MAP, o, sc, ss))
+    c.ops.append((space, 0, 0, 0))
+    return Val(3, slot=o)
+
+
+def _geometry_node(c, node, out, ctx):
+    what = {"Normal": GEOM_NORMAL, "True Normal": GEOM_TRUE_NORMAL, "Incoming": GEOM_INCOMING,
+            "Backfacing": GEOM_BACKFACING}.get(out.name)
+    if what is None:
+        c.warn(f"'{node.name}': the Geometry output {out.name} is not evaluated yet (0)")
+        return c.const(0.0, width(out.type))
+    return c.geometry(what)
+
+
+INPUT_NODES = {
+    "ShaderNodeValue": _value, "ShaderNodeRGB": _rgb,
+    "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
+    "ShaderNodeAttribute": _attribute, "ShaderNodeVertexColor": _color_attribute,
+    "ShaderNodeNewGeometry": _geometry_node, "ShaderNodeNormalMap": _normal_map,
+}
