@@ -63,7 +63,7 @@ inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v,
         *pdf_light = st.area > 0.0f ? pmf / st.area : pmf * t * t / (cos_l * 0.5f * area2);
     }
 #endif
-    return material_emission(m, as_uint(v0.w), u, v, SHADING_PASS);
+    return material_emission(m, as_uint(v0.w), u, v, o + t * d, SHADING_PASS);
 }
 
 /* The fraction of light a shadow ray from o along d lets through over dist: 0 at an opaque
@@ -78,7 +78,7 @@ inline float3 shadow_transmittance(float3 o, float3 d, float dist, SCENE_ARGS) {
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
         if (i == TRANSPARENT_MAX_BOUNCES || !(materials[s.material].flags & MAT_TRANSPARENT))
             return (float3)(0.0f);
-        T *= material_transparency(s.material, s.tri, h.u, h.v, SHADING_PASS);
+        T *= material_transparency(s.material, s.tri, h.u, h.v, s.p, SHADING_PASS);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
         float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, emitter_info->offset_scale);
         dist -= dot(o2 - o, d);
@@ -175,7 +175,7 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_A
 #endif
         if (!(materials[mat].flags & MAT_TRANSPARENT)) return (float3)(0.0f);
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        T *= material_transparency(mat, s.tri, h.u, h.v, SHADING_PASS);
+        T *= material_transparency(mat, s.tri, h.u, h.v, s.p, SHADING_PASS);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
         o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, emitter_info->offset_scale);
     }

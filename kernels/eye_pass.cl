@@ -89,7 +89,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         }
         path_len += h.t;
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        shader_setup(&sd, s.material, s.tri, h.u, h.v, s.ng, s.ns, -d, SHADING_PASS);
+        shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, s.ng, s.ns, -d, SHADING_PASS);
         if (max3(sd.emission) > 0.0f) {
             if (PPM_EMISSIVE && !isinf(prev_pdf))
                 mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, &pdf_l);

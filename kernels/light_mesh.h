@@ -115,7 +115,7 @@ inline bool mesh_direct(int k, float3 o, float u1, float u2, SCENE_ARGS,
         s->E = cos_l * 0.5f * area2 / dq2;
         s->pdf_dir = cos_l > 0.0f ? dq2 / (cos_l * 0.5f * area2) : 0.0f;
     }
-    s->E = s->E * material_emission(me, as_uint(v0.w), b.x, b.y, SHADING_PASS);
+    s->E = s->E * material_emission(me, as_uint(v0.w), b.x, b.y, q, SHADING_PASS);
     return true;
 }
 
@@ -136,7 +136,7 @@ inline bool mesh_emit(int k, float pmf, float u1, float u2, float u3, float u4, 
     *d = sample_cosine_hemisphere(nt, uu, u4);
     *o = offset_ray(q, nt, emitter_info->offset_scale);
     __global const Material *me = materials + as_int(e2.w);
-    *flux = material_emission(me, as_uint(v0.w), b.x, b.y, SHADING_PASS)
+    *flux = material_emission(me, as_uint(v0.w), b.x, b.y, q, SHADING_PASS)
             * (2.0f * PPM_PI * 0.5f * area2 / pmf);
     return true;
 }

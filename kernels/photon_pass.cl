@@ -53,7 +53,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             Ng = back ? -s.ng : s.ng;
             gather = fabs(avg3(color)) >= CLOSURE_WEIGHT_CUTOFF;
         } else {
-            shader_setup(&sd, s.material, s.tri, h.u, h.v, s.ng, s.ns, -d, SHADING_PASS);
+            shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, s.ng, s.ns, -d, SHADING_PASS);
             N = sd.N;
             Ng = sd.Ng;
             gather = sd.sw_gather > 0.0f;

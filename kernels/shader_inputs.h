@@ -28,11 +28,12 @@ inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
  * the private array `stack`; and node i of m with the inputs its program drives written in.
  * Without shader programs in the build (PPM_SVM 0) they read the buffer's rows. */
 #if PPM_SVM
-#define MATERIAL_PROGRAM(m, stack, N, Ng, I, back)                                            \
+#define MATERIAL_PROGRAM(m, stack, P, N, Ng, I, back)                                         \
     float stack[PPM_SVM_STACK];                                                              \
     if ((m).program > 0) {                                                                   \
-        SvmContext cx_ = svm_context(svm, (m).program, tri, u, v, N, Ng, I, back, uvs,      \
-                                     uv_tangents, generated, attributes);                    \
+        SvmContext cx_ = svm_context(svm, (m).program, tri, u, v, P, N, Ng, I, back, uvs,   \
+                                     uv_tangents, generated, attributes, tri_object,         \
+                                     objects);                                               \
         svm_eval(svm, (m).program, stack, &cx_, TEXTURE_PASS);                               \
     }
 #define MATERIAL_NODE(nd, m, i, stack)                                                        \
@@ -40,7 +41,7 @@ inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
     if ((m).program > 0) svm_bind(svm, (m).program, (i), &nd##_row, stack);                 \
     NODE_PTR nd = &nd##_row
 #else
-#define MATERIAL_PROGRAM(m, stack, N, Ng, I, back) const float *stack = 0
+#define MATERIAL_PROGRAM(m, stack, P, N, Ng, I, back) const float *stack = 0
 #define MATERIAL_NODE(nd, m, i, stack) NODE_PTR nd = shader_nodes + (m).node_first + (i)
 #endif
 
@@ -95,11 +96,12 @@ inline float3 surface_tangent(uint tri, float u, float v, float3 N,
 
 /* The transparency (1 - alpha) of material mat at a surface point, without the closures: what
  * shadow rays are let through (Principled Alpha, Transparent BSDF; view-independent). */
-inline float3 material_transparency(int mat, uint tri, float u, float v, SHADING_ARGS) {
+inline float3 material_transparency(int mat, uint tri, float u, float v, float3 P,
+                                    SHADING_ARGS) {
     float3 T = (float3)(0.0f);
     Material m = materials[mat];
     float3 z = (float3)(0.0f);            /* (no view direction or normal for a shadow ray) */
-    MATERIAL_PROGRAM(m, stack, z, z, z, false);
+    MATERIAL_PROGRAM(m, stack, P, z, z, z, false);
     for (int i = 0; i < m.node_count; i++) {
         MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;
@@ -120,12 +122,12 @@ inline float3 material_transparency(int mat, uint tri, float u, float v, SHADING
  * drives an emission (PROGRAM_EMISSION), the emission nodes evaluated there (the Principled's
  * under its alpha; the view-dependent sheen and coat left out, as materials.node_emission). */
 inline float3 material_emission(__global const Material *m, uint tri, float u, float v,
-                                SHADING_ARGS) {
+                                float3 P, SHADING_ARGS) {
 #if PPM_SVM
     if (m->program > 0 && (svm[m->program].w & 1)) {
         Material mm = *m;
         float3 z = (float3)(0.0f);
-        MATERIAL_PROGRAM(mm, stack, z, z, z, false);
+        MATERIAL_PROGRAM(mm, stack, P, z, z, z, false);
         float3 E = (float3)(0.0f);
         for (int i = 0; i < mm.node_count; i++) {
             MATERIAL_NODE(nd, mm, i, stack);

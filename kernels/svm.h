@@ -49,6 +49,7 @@
 #define PROGRAM_TANGENTS 2            /* header flags: a tangent-space Normal Map reads them */
 #define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
 #define PROGRAM_ATTRIBUTES 8          /* mesh attributes are read */
+#define PROGRAM_OBJECT 16             /* the object's data are read */
 #ifndef PPM_ATTRIBUTES
 #define PPM_ATTRIBUTES 1              /* attributes per corner in `attributes` (-D: the scene's) */
 #endif
@@ -66,6 +67,9 @@ typedef struct {
     float backfacing;
     float4 tangent;      /* the UV map's tangent (world) and bitangent sign; 0 when not read */
     float3 generated;    /* Generated coordinates (0..1 over the mesh's texture space) */
+    float3 P;            /* the position (world) */
+    float3 P_object;     /* the position in the object's space */
+    float4 object[3];    /* the object's (location, pass index), colour, (random, 0, 0, 0) */
     float4 attr[PPM_ATTRIBUTES];  /* the mesh attributes programs read, at the point */
 } SvmContext;
 
@@ -73,12 +77,13 @@ typedef struct {
  * p: N and Ng on the viewer's side, I towards the viewer (all 0 where no direction is known:
  * shadow rays, emitter samples); the UV tangent only when the program reads it. */
 inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u, float v,
-                              float3 N, float3 Ng, float3 I, bool backfacing,
+                              float3 P, float3 N, float3 Ng, float3 I, bool backfacing,
                               __global const float *uvs, __global const float4 *uv_tangents,
                               __global const float *generated,
-                              __global const float4 *attributes) {
+                              __global const float4 *attributes,
+                              __global const int *tri_object, __global const float4 *objects) {
     SvmContext cx = {surface_uv(uvs, tri, u, v), N, Ng, I, backfacing ? 1.0f : 0.0f,
-                     (float4)(0.0f), (float3)(0.0f)};
+                     (float4)(0.0f), (float3)(0.0f), P};
     float w = 1.0f - u - v;
     if (SVM_HAS(SVM_NORMAL_MAP) && p > 0 && (svm[p].w & PROGRAM_TANGENTS)) {
         __global const float4 *t = uv_tangents + 3 * (size_t)tri;
@@ -88,6 +93,16 @@ inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u
         __global const float *g = generated + 9 * (size_t)tri;
         cx.generated = w * (float3)(g[0], g[1], g[2]) + u * (float3)(g[3], g[4], g[5])
                        + v * (float3)(g[6], g[7], g[8]);
+    }
+    cx.P_object = P;
+    cx.object[0] = cx.object[1] = cx.object[2] = (float4)(0.0f);
+    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_OBJECT) && tri_object[tri] >= 0) {
+        __global const float4 *o = objects + 6 * (size_t)tri_object[tri];
+        float4 h = (float4)(P, 1.0f);
+        cx.P_object = (float3)(dot(o[0], h), dot(o[1], h), dot(o[2], h));
+        cx.object[0] = o[3];
+        cx.object[1] = o[4];
+        cx.object[2] = o[5];
     }
     bool attrs = SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_ATTRIBUTES);
     for (int k = 0; k < PPM_ATTRIBUTES; k++) {
@@ -169,12 +184,15 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
                      : w.z == 2 ? ctx->Ng : w.z == 3 ? ctx->I
                      : w.z == 5 ? ctx->generated
                      : w.z == 6 ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
+                     : w.z == 7 ? ctx->P : w.z == 8 ? ctx->P_object
+                     : w.z == 9 ? ctx->object[0].xyz : w.z == 10 ? ctx->object[1].xyz
                      : (float3)(ctx->backfacing);
             if (w.z >= 16) {                              /* mesh attribute k */
                 float4 a = ctx->attr[min((w.z - 16) & 7, PPM_ATTRIBUTES - 1)];
                 if (w.z >= 24) stack[w.y] = a.w; else svm_put3(stack, w.y, a.xyz);
-            } else if (w.z == 4) {
-                stack[w.y] = ctx->backfacing;
+            } else if (w.z == 4 || (w.z >= 11 && w.z <= 13)) {
+                stack[w.y] = w.z == 4 ? ctx->backfacing : w.z == 11 ? ctx->object[1].w
+                           : w.z == 12 ? ctx->object[0].w : ctx->object[2].x;
             } else {
                 svm_put3(stack, w.y, v);
             }

@@ -62,6 +62,10 @@ class DeviceScene:
                          else np.zeros(3, np.float32), "Generated coordinates"),
             attributes=up(prepared.attributes if prepared.attributes.size
                           else np.zeros(4, np.float32), "mesh attributes"),
+            tri_object=up(prepared.object if prepared.object.size else np.full(1, -1, np.int32),
+                          "triangles' objects"),
+            objects=up(prepared.objects if prepared.objects.size else np.zeros(4, np.float32),
+                       "objects"),
             lights=up(lights, "lights"),
             emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
             emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),

@@ -62,10 +62,10 @@ def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
         changes.update(positions=scene.positions[good], normals=scene.normals[good],
                        uvs=scene.uvs[good], material=scene.material[good],
                        visibility=scene.visibility[good])
-        for name in ("tangents", "uv_tangents", "generated", "attributes"):
+        for name in ("tangents", "uv_tangents", "generated", "attributes", "object"):
             if getattr(scene, name).shape[0]:
                 changes[name] = getattr(scene, name)[good]
-    for name in ("tangents", "uv_tangents", "generated", "attributes"):
+    for name in ("tangents", "uv_tangents", "generated", "attributes", "object"):
         tg = changes.get(name, getattr(scene, name))
         if not np.isfinite(tg).all():
             changes[name] = np.where(np.isfinite(tg), tg, 0.0).astype(np.float32)

@@ -88,6 +88,13 @@ GEOM_INCOMING = 3      # towards the viewer
 GEOM_BACKFACING = 4    # 1 when the ray hit the back
 GEOM_GENERATED = 5     # Generated coordinates (SceneArrays.generated)
 GEOM_REFLECTION = 6    # the view direction mirrored about the shading normal (world)
+GEOM_POSITION = 7      # the shading point (world)
+GEOM_OBJECT = 8        # the shading point in its object's space (SceneArrays.objects)
+GEOM_OBJECT_LOCATION = 9
+GEOM_OBJECT_COLOR = 10
+GEOM_OBJECT_ALPHA = 11     # (one float, as the three below)
+GEOM_OBJECT_INDEX = 12     # the object's pass index
+GEOM_OBJECT_RANDOM = 13
 GEOM_ATTRIBUTE = 16    # + k: attribute k's colour or vector (SceneArrays.attributes)
 GEOM_ATTRIBUTE_ALPHA = 24  # + k: attribute k's alpha
 MAX_ATTRIBUTES = 8     # distinct mesh attributes a scene's programs may read
@@ -145,6 +152,7 @@ PROGRAM_EMISSION = 1   # header flags: the program drives an emission input (or 
 PROGRAM_TANGENTS = 2   # a tangent-space Normal Map reads the UV map's tangents (uv_tangents)
 PROGRAM_GENERATED = 4  # Generated coordinates are read (SceneArrays.generated)
 PROGRAM_ATTRIBUTES = 8  # mesh attributes are read (SceneArrays.attributes)
+PROGRAM_OBJECT = 16    # the object's data are read (SceneArrays.object, objects)
 MAX_STACK = 96         # floats of stack a program may use (kernels: PPM_SVM_STACK)
 
 

@@ -48,7 +48,8 @@ class Shading:
                      up(np.zeros((1, 4), np.int32), "no shader programs"),
                      up(np.zeros(4, np.float32), "no UV tangents"),
                      up(np.zeros(3, np.float32), "no Generated coordinates"),
-                     up(np.zeros(4, np.float32), "no mesh attributes")]
+                     up(np.zeros(4, np.float32), "no mesh attributes"),
+                     up(np.full(1, -1, np.int32), "no objects"), up(np.zeros(4, np.float32), "o")]
         self.prog = device.programs.get("closure_test.cl")
 
     def sample(self, mat, wi, n, seed=1, mask=MASK_ALL):

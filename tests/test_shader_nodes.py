@@ -107,6 +107,8 @@ def _grid(cases):
         obj = bpy.context.active_object          # a case may turn or mirror its plane
         obj.rotation_euler = (getattr(case, "rx", 0.0), 0.0, getattr(case, "rz", 0.0))
         obj.scale.x = getattr(case, "sx", 1.0)
+        obj.color = getattr(case, "ocolor", (1.0, 1.0, 1.0, 1.0))
+        obj.pass_index = getattr(case, "pindex", 0)
         mat = bpy.data.materials.new(f"case{k}")
         t = mat.node_tree
         t.nodes.remove(t.nodes["Principled BSDF"])
@@ -342,11 +344,11 @@ def test_coordinates_and_geometry_as_cycles(cycles, render_exr, tmp_path, tiny):
     def out(idname, name, **plane):
         def build(i):
             o = i.node(idname).outputs[name]
-            if name in ("Generated", "UV"):      # (z, 0 or 1/2 on a plane, off a step edge)
+            if name in ("Generated", "UV", "Position"):   # (z: 0 or 1/2, off a step edge)
                 o = i.node("ShaderNodeVectorMath", [(0, o)], operation="ADD",
                            in_1=(0.0, 0.0, 0.5 / T)).outputs[0]
                 snap = i.node("ShaderNodeVectorMath", [(0, o)], operation="SNAP")
-                snap.inputs[1].default_value = (1.0 / T,) * 3
+                snap.inputs[1].default_value = ((2.0 if name == "Position" else 1.0) / T,) * 3
                 o = snap.outputs[0]
             return o
         for k, v in plane.items():
@@ -359,6 +361,7 @@ def test_coordinates_and_geometry_as_cycles(cycles, render_exr, tmp_path, tiny):
              "generated back": out(tc, "Generated", rx=math.pi), "uv": out(tc, "UV", rz=math.pi),
              "reflection": out(tc, "Reflection"), "reflection back": out(tc, "Reflection",
                                                                           rx=math.pi),
+             "position": out(geo, "Position"), "position mirrored": out(geo, "Position", sx=-1.0),
              "normal": out(geo, "Normal", rx=math.pi), "true normal": out(geo, "True Normal"),
              "incoming": out(geo, "Incoming"), "backfacing": out(geo, "Backfacing", rx=math.pi)}
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
@@ -402,4 +405,41 @@ def test_attributes_as_cycles(cycles, render_exr, tmp_path, tiny):
              "default colour": attr("", idname="ShaderNodeVertexColor"),
              "default alpha": attr("", "Alpha", idname="ShaderNodeVertexColor"),
              "point float": attr("px", "Fac", step=True), "missing": attr("nope")}
+    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def test_object_info_and_object_coordinates_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Object Info (location, colour, alpha, pass index, random, the material's pass index) of
+    planes with their own colour and index, and Texture Coordinate's Object output (the plane's
+    own space, turned and mirrored), stepped per pixel."""
+    import math
+
+    def info(name, **plane):
+        def build(i):
+            n = i.node("ShaderNodeObjectInfo")
+            if name == "Material Index":
+                next(m for m in bpy.data.materials if m.node_tree == i.t).pass_index = 3
+            return n.outputs[name]
+        plane.setdefault("ocolor", (0.3, 0.6, 0.9, 0.4))
+        plane.setdefault("pindex", 7)
+        for k, v in plane.items():
+            setattr(build, k, v)
+        return build
+
+    def obj_coords(**plane):
+        def build(i):
+            n = i.node("ShaderNodeTexCoord")
+            o = i.node("ShaderNodeVectorMath", [(0, n.outputs["Object"])], operation="ADD",
+                       in_1=(0.0, 0.0, 0.5 / T)).outputs[0]
+            snap = i.node("ShaderNodeVectorMath", [(0, o)], operation="SNAP")
+            snap.inputs[1].default_value = (2.0 / T,) * 3
+            return snap.outputs[0]
+        for k, v in plane.items():
+            setattr(build, k, v)
+        return build
+    cases = {"location": info("Location"), "colour": info("Color"), "alpha": info("Alpha"),
+             "index": info("Object Index"), "random": info("Random"),
+             "random 2": info("Random"), "material index": info("Material Index"),
+             "object": obj_coords(), "object turned": obj_coords(rz=math.pi / 2),
+             "object mirrored": obj_coords(sx=-1.0)}
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

@@ -15,8 +15,10 @@ from ..scene_arrays import (LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT, VIS_CAMERA, VIS_DIF
                             VIS_TRANSMISSION, SceneArrays)
 from .camera import export_camera
 from .lights import export_light
-from ..shader_program import PROGRAM_ATTRIBUTES, PROGRAM_GENERATED, PROGRAM_TANGENTS
+from ..shader_program import (PROGRAM_ATTRIBUTES, PROGRAM_GENERATED, PROGRAM_OBJECT,
+                              PROGRAM_TANGENTS)
 from .material_table import MaterialTable
+from .objects import object_row
 from .mesh import GEOMETRY_TYPES, MeshCache, transform_part
 from .textures import TextureTable
 from .world import export_world
@@ -55,6 +57,7 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
     meshes = MeshCache(warn)
     parts, lights = [], []
     uv_tangents = generated = False
+    objects = []                            # rows of the objects whose programs read them
     for inst in depsgraph.object_instances:
         obj = inst.object
         kind = obj.type
@@ -84,6 +87,11 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                                         generated=gen, attributes=attrs))
             uv_tangents |= mapped
             generated |= gen
+            k_obj = -1
+            if materials.reads(slots, PROGRAM_OBJECT):
+                k_obj = len(objects)
+                objects.append(object_row(obj, m, inst))
+            parts[-1]["object"] = np.full(parts[-1]["positions"].shape[0], k_obj, np.int32)
     meshes.clear()
     world = export_world(scene.world, warn)
 
@@ -101,6 +109,8 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
             cat["uv_tangents"] = np.zeros((0, 3, 4), np.float32)
         if not k_attr:                             # no mesh attribute read
             cat["attributes"] = np.zeros((0, 3, 0, 4), np.float32)
+        if not objects:                            # no object data read
+            cat["object"] = np.zeros(0, np.int32)
         if not generated:                          # no Generated coordinates read
             cat["generated"] = np.zeros((0, 3, 3), np.float32)
     else:
@@ -114,6 +124,8 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                            shader_nodes=materials.node_array(), lights=light_arr, camera=camera,
                            world=world, material_names=tuple(materials.names),
                            warnings=tuple(warn), textures=tex_table, texels=texels,
+                           objects=(np.stack(objects) if objects
+                                    else np.zeros((0, 6, 4), np.float32)),
                            svm=materials.svm())
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e

@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shader_program import (BOUND, GEOM_ATTRIBUTE, GEOM_ATTRIBUTE_ALPHA, MAX_ATTRIBUTES,
+from ..shader_program import (BOUND, GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT_INDEX,
+                              GEOM_OBJECT_RANDOM, PROGRAM_OBJECT, GEOM_ATTRIBUTE, GEOM_ATTRIBUTE_ALPHA, MAX_ATTRIBUTES,
                               PROGRAM_ATTRIBUTES, FIELD_WORD, GEOM_BACKFACING, GEOM_GENERATED, MATH, MAX_STACK,
                               PROGRAM_EMISSION, PROGRAM_GENERATED, SVM_COMBINE, SVM_CONST, SVM_END,
                               SVM_GEOMETRY, SVM_MATH, SVM_RGB_TO_BW, f2i, fold_math)
@@ -153,9 +154,13 @@ class Compiler:
 
     def geometry(self, what: int) -> Val:
         """A property of the shading point (shader_program GEOM_*)."""
-        s = self.alloc(3)
+        n = 1 if what in (GEOM_BACKFACING, GEOM_OBJECT_ALPHA, GEOM_OBJECT_INDEX,
+                          GEOM_OBJECT_RANDOM) else 3
+        if GEOM_OBJECT <= what <= GEOM_OBJECT_RANDOM:
+            self.flags |= PROGRAM_OBJECT
+        s = self.alloc(n)
         self.ops.append((SVM_GEOMETRY, s, what, 0))
-        return Val(3, slot=s) if what != GEOM_BACKFACING else Val(1, slot=s)
+        return Val(n, slot=s)
 
     def generated(self) -> Val:
         """The Generated texture coordinates (0..1 over the mesh's texture space)."""

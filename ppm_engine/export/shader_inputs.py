@@ -4,9 +4,13 @@ Cycles evaluates it; fn(compiler, node, output socket, group context) -> Val, us
 compiler's methods only (shader_graph.Compiler)."""
 from __future__ import annotations
 
-from ..shader_program import (GEOM_BACKFACING, GEOM_INCOMING, GEOM_NORMAL, GEOM_REFLECTION,
-                              GEOM_TRUE_NORMAL, GEOM_UV, NORMAL_MAP_SPACES, PROGRAM_TANGENTS,
-                              SVM_NORMAL_MAP)
+import numpy as np
+
+from ..shader_program import (GEOM_BACKFACING, GEOM_INCOMING, GEOM_NORMAL, GEOM_OBJECT,
+                              GEOM_OBJECT_ALPHA, GEOM_OBJECT_COLOR, GEOM_OBJECT_INDEX,
+                              GEOM_OBJECT_LOCATION, GEOM_OBJECT_RANDOM, GEOM_POSITION,
+                              GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, NORMAL_MAP_SPACES,
+                              PROGRAM_TANGENTS, SVM_MAPPING, SVM_NORMAL_MAP, f2i)
 from .shader_values import Val, width
 
 
@@ -21,6 +25,16 @@ def _rgb(c, node, out, ctx):
 def _tex_coord(c, node, out, ctx):
     if out.name == "Generated":
         return c.generated()
+    if out.name == "Object":
+        if getattr(node, "object", None) is None:
+            return c.geometry(GEOM_OBJECT)
+        # another object's space: the position by that object's inverse matrix, a constant
+        inv = np.linalg.inv(np.array(node.object.matrix_world, np.float64))
+        sp, o = c.slot(c.geometry(GEOM_POSITION)), c.alloc(3)
+        c.ops.append((SVM_MAPPING, o, sp, 0))
+        for r in range(3):
+            c.ops.append(tuple(f2i(float(x)) for x in inv[r]))
+        return Val(3, slot=o)
     what = {"UV": GEOM_UV, "Normal": GEOM_NORMAL, "Reflection": GEOM_REFLECTION}.get(out.name)
     if out.name == "Normal":
         c.warn(f"'{node.name}': the Normal coordinate is in world space here (Cycles: object "
@@ -102,9 +116,23 @@ def _normal_map(c, node, out, ctx):
     return Val(3, slot=o)
 
 
+def _object_info(c, node, out, ctx):
+    """Object Info: the shading object's location, colour, alpha, pass index and random number
+    (SceneArrays.objects); the material's pass index a constant."""
+    if out.name == "Material Index":
+        return c.const(float(getattr(c.datablock, "pass_index", 0)), 1)
+    what = {"Location": GEOM_OBJECT_LOCATION, "Color": GEOM_OBJECT_COLOR,
+            "Alpha": GEOM_OBJECT_ALPHA, "Object Index": GEOM_OBJECT_INDEX,
+            "Random": GEOM_OBJECT_RANDOM}.get(out.name)
+    if what is None:
+        c.warn(f"'{node.name}': the Object Info output {out.name} is not evaluated (0)")
+        return c.const(0.0, width(out.type))
+    return c.geometry(what)
+
+
 def _geometry_node(c, node, out, ctx):
-    what = {"Normal": GEOM_NORMAL, "True Normal": GEOM_TRUE_NORMAL, "Incoming": GEOM_INCOMING,
-            "Backfacing": GEOM_BACKFACING}.get(out.name)
+    what = {"Position": GEOM_POSITION, "Normal": GEOM_NORMAL, "True Normal": GEOM_TRUE_NORMAL,
+            "Incoming": GEOM_INCOMING, "Backfacing": GEOM_BACKFACING}.get(out.name)
     if what is None:
         c.warn(f"'{node.name}': the Geometry output {out.name} is not evaluated yet (0)")
         return c.const(0.0, width(out.type))
@@ -116,4 +144,5 @@ INPUT_NODES = {
     "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
     "ShaderNodeAttribute": _attribute, "ShaderNodeVertexColor": _color_attribute,
     "ShaderNodeNewGeometry": _geometry_node, "ShaderNodeNormalMap": _normal_map,
+    "ShaderNodeObjectInfo": _object_info,
 }
