@@ -4,7 +4,8 @@
 #include "rng.h"
 
 inline void test_setup(ShaderData *sd, int mat, float4 wi, SHADING_ARGS) {
-    shader_setup(sd, mat, 0u, 0.0f, 0.0f, (float3)(0.0f), (float3)(0.0f, 0.0f, 1.0f),
+    shader_setup(sd, mat, 0u, 0.0f, 0.0f, (float3)(0.0f), PATH_CAMERA, 1.0f,
+                 (float3)(0.0f, 0.0f, 1.0f),
                  (float3)(0.0f, 0.0f, 1.0f), normalize(wi.xyz), SHADING_PASS);
 }
 

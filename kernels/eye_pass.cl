@@ -58,6 +58,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
     float3 beta = (float3)(1.0f), L = (float3)(0.0f);
     float path_len = 0.0f;
     uint mask = VIS_CAMERA;
+    uint path = PATH_CAMERA;           /* the ray, as the Light Path node sees it */
     /* the density of the sample that made this ray, and the normal its vertex sampled the world
      * around, for the MIS weight of the emitter it finds */
     float prev_pdf = INFINITY;
@@ -89,7 +90,8 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         }
         path_len += h.t;
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, s.ng, s.ns, -d, SHADING_PASS);
+        shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
+                     SHADING_PASS);
         if (max3(sd.emission) > 0.0f) {
             if (PPM_EMISSIVE && !isinf(prev_pdf))
                 mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, &pdf_l);
@@ -104,7 +106,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
             float3 bvp = beta * (sw / sd.sw_gather);
             L += bvp * direct_light(&sd, s.p, MASK_GATHER, SCENE_PASS, &rng);
             vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
-            vp_nrm[id] = (float4)(sd.N, 0.0f);
+            vp_nrm[id] = (float4)(sd.N, as_float(path));    /* (the gather shades it again) */
             float3 albedo = (float3)(0.0f);
             bool lambert = true;
             for (int k = 0; k < sd.n; k++) {
@@ -148,6 +150,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
             /* straight through: not a bounce (as Cycles' transparent bounces), the ray keeps
              * its type and its MIS state */
             if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
+            path = path_transparent(path);
             continue;
         }
         if (depth >= max_bounces) {
@@ -160,6 +163,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
             break;
         }
         depth++;
+        path = path_bounce(path, b.label);
         prev_pdf = sd.continue_glossy ? b.pdf : INFINITY;
         prev_n = sd.N;
         mask = transmit ? VIS_TRANSMISSION : VIS_GLOSSY;

@@ -72,7 +72,7 @@ inline void gather_point(float4 vp, float4 nrm, float4 shade, GatherPoint *gp,
     h.v = shade.y;
     h.t = 0.0f;
     Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-    shader_setup(&gp->sd, s.material, s.tri, h.u, h.v, s.p, s.ng, s.ns,
+    shader_setup(&gp->sd, s.material, s.tri, h.u, h.v, s.p, as_uint(nrm.w), 0.0f, s.ng, s.ns,
                  unpack_unit(as_uint(shade.w)),
                  SHADING_PASS);
     gp->lambert_f = (float3)(0.0f);

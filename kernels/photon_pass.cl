@@ -28,6 +28,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
 #endif
     ShaderData sd;
     bool direct = true;       /* nothing but transparent surfaces crossed yet */
+    uint path = 0u;           /* the Light Path node's view: light's rays are no camera rays */
     for (int bounce = 0, transparent = 0; bounce <= max_bounces;) {
         Hit h = bvh_intersect(o, d, PPM_INF, mask, false, BVH_PASS);
         if (h.leaf < 0) break;
@@ -53,7 +54,8 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             Ng = back ? -s.ng : s.ng;
             gather = fabs(avg3(color)) >= CLOSURE_WEIGHT_CUTOFF;
         } else {
-            shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, s.ng, s.ns, -d, SHADING_PASS);
+            shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
+                         SHADING_PASS);
             N = sd.N;
             Ng = sd.Ng;
             gather = sd.sw_gather > 0.0f;
@@ -99,8 +101,10 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         }
         if (b.label & LABEL_TRANSPARENT) {      /* not a bounce (Cycles' transparent bounces) */
             if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
+            path = path_transparent(path);
         } else {
             bounce++;
+            path = path_bounce(path, b.label);
             direct = false;
             mask = transmit ? VIS_TRANSMISSION : (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE
                                                                             : VIS_GLOSSY;

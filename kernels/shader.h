@@ -159,10 +159,12 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
     }
 }
 
-/* Closures at a hit of material mat: triangle tri at barycentrics (u, v), position P, stored
- * normals ng and ns (ns on ng's side), wi towards the viewer. */
+/* Closures at a hit of material mat: triangle tri at barycentrics (u, v), position P, reached
+ * by the ray `path` (light_path.h) after a last segment of length path_length, stored normals
+ * ng and ns (ns on ng's side), wi towards the viewer. */
 inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, float3 P,
-                         float3 ng, float3 ns, float3 wi, SHADING_ARGS) {
+                         uint path, float path_length, float3 ng, float3 ns, float3 wi,
+                         SHADING_ARGS) {
     sd->n = 0;
     sd->emission = sd->transparent = sd->holdout = (float3)(0.0f);
     sd->wi = wi;
@@ -188,7 +190,7 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
         return;
     }
     float3 tangent = surface_tangent(tri, u, v, sd->N, tangents);
-    MATERIAL_PROGRAM(m, stack, P, sd->N, sd->Ng, wi, sd->backfacing);
+    MATERIAL_PROGRAM(m, stack, P, path, path_length, sd->N, sd->Ng, wi, sd->backfacing);
     for (int i = 0; i < m.node_count; i++) {
         MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;

@@ -1,5 +1,6 @@
 #ifndef PPM_SVM_H
 #define PPM_SVM_H
+#include "light_path.h"
 #include "svm_nodes.h"
 #include "textures.h"
 
@@ -68,6 +69,8 @@ typedef struct {
     float4 tangent;      /* the UV map's tangent (world) and bitangent sign; 0 when not read */
     float3 generated;    /* Generated coordinates (0..1 over the mesh's texture space) */
     float3 P;            /* the position (world) */
+    uint path;           /* the ray that reached the point (light_path.h) */
+    float path_length;   /* its last segment's length */
     float3 P_object;     /* the position in the object's space */
     float4 object[3];    /* the object's (location, pass index), colour, (random, 0, 0, 0) */
     float4 attr[PPM_ATTRIBUTES];  /* the mesh attributes programs read, at the point */
@@ -77,13 +80,13 @@ typedef struct {
  * p: N and Ng on the viewer's side, I towards the viewer (all 0 where no direction is known:
  * shadow rays, emitter samples); the UV tangent only when the program reads it. */
 inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u, float v,
-                              float3 P, float3 N, float3 Ng, float3 I, bool backfacing,
+                              float3 P, uint path, float path_length, float3 N, float3 Ng, float3 I, bool backfacing,
                               __global const float *uvs, __global const float4 *uv_tangents,
                               __global const float *generated,
                               __global const float4 *attributes,
                               __global const int *tri_object, __global const float4 *objects) {
     SvmContext cx = {surface_uv(uvs, tri, u, v), N, Ng, I, backfacing ? 1.0f : 0.0f,
-                     (float4)(0.0f), (float3)(0.0f), P};
+                     (float4)(0.0f), (float3)(0.0f), P, path, path_length};
     float w = 1.0f - u - v;
     if (SVM_HAS(SVM_NORMAL_MAP) && p > 0 && (svm[p].w & PROGRAM_TANGENTS)) {
         __global const float4 *t = uv_tangents + 3 * (size_t)tri;
@@ -190,6 +193,8 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
             if (w.z >= 16) {                              /* mesh attribute k */
                 float4 a = ctx->attr[min((w.z - 16) & 7, PPM_ATTRIBUTES - 1)];
                 if (w.z >= 24) stack[w.y] = a.w; else svm_put3(stack, w.y, a.xyz);
+            } else if (w.z == 14) {                       /* Light Path output w.w */
+                stack[w.y] = path_output(ctx->path, ctx->path_length, w.w);
             } else if (w.z == 4 || (w.z >= 11 && w.z <= 13)) {
                 stack[w.y] = w.z == 4 ? ctx->backfacing : w.z == 11 ? ctx->object[1].w
                            : w.z == 12 ? ctx->object[0].w : ctx->object[2].x;

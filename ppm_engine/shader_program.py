@@ -95,6 +95,11 @@ GEOM_OBJECT_COLOR = 10
 GEOM_OBJECT_ALPHA = 11     # (one float, as the three below)
 GEOM_OBJECT_INDEX = 12     # the object's pass index
 GEOM_OBJECT_RANDOM = 13
+GEOM_LIGHT_PATH = 14   # (op, slot, GEOM_LIGHT_PATH, output): one float (kernels/light_path.h)
+LIGHT_PATH_OUTPUTS = ("Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray",
+                      "Is Singular Ray", "Is Reflection Ray", "Is Transmission Ray",
+                      "Is Volume Scatter Ray", "Ray Length", "Ray Depth", "Diffuse Depth",
+                      "Glossy Depth", "Transparent Depth", "Transmission Depth", "Portal Depth")
 GEOM_ATTRIBUTE = 16    # + k: attribute k's colour or vector (SceneArrays.attributes)
 GEOM_ATTRIBUTE_ALPHA = 24  # + k: attribute k's alpha
 MAX_ATTRIBUTES = 8     # distinct mesh attributes a scene's programs may read

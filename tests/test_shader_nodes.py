@@ -443,3 +443,65 @@ def test_object_info_and_object_coordinates_as_cycles(cycles, render_exr, tmp_pa
              "object": obj_coords(), "object turned": obj_coords(rz=math.pi / 2),
              "object mirrored": obj_coords(sx=-1.0)}
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def test_light_path_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Light Path outputs (three per case as an emission's RGB) on a plane the camera sees and
+    on the same plane seen only in a mirror (a glossy, singular reflection one bounce deep),
+    under an orthographic camera: every pixel away from the planes' edges as Cycles."""
+    import math
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    cases = [("Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray"),
+             ("Is Glossy Ray", "Is Singular Ray", "Is Reflection Ray"),
+             ("Is Transmission Ray", "Ray Depth", "Glossy Depth"),
+             ("Ray Length", "Transparent Depth", "Transmission Depth")]
+    mirror = bpy.data.materials.new("mirror")
+    g = mirror.node_tree.nodes.new("ShaderNodeBsdfAnisotropic")
+    g.inputs["Roughness"].default_value = 0.0
+    g.inputs["Color"].default_value = (1, 1, 1, 1)
+    mirror.node_tree.links.new(g.outputs[0],
+                               mirror.node_tree.nodes["Material Output"].inputs["Surface"])
+    for k, outs in enumerate(cases):
+        mat = bpy.data.materials.new(f"path{k}")
+        t = mat.node_tree
+        t.nodes.remove(t.nodes["Principled BSDF"])
+        lp, comb, em = (t.nodes.new(n) for n in ("ShaderNodeLightPath", "ShaderNodeCombineXYZ",
+                                                  "ShaderNodeEmission"))
+        for i, name in enumerate(outs):
+            t.links.new(lp.outputs[name], comb.inputs[i])
+        t.links.new(comb.outputs[0], em.inputs["Color"])
+        t.links.new(em.outputs[0], t.nodes["Material Output"].inputs["Surface"])
+        y = 7 - 2 * k
+        for x, z, rx, m, seen in ((-1, 0, 0, mat, True), (1, 0, 0, mirror, True),
+                                  (1, 1, math.pi, mat, False)):
+            bpy.ops.mesh.primitive_plane_add(size=2, location=(x, y - 4, z),
+                                             rotation=(rx, 0, 0))
+            obj = bpy.context.active_object
+            obj.data.materials.append(m)
+            obj.visible_camera = seen
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    cam.data.type, cam.data.ortho_scale = "ORTHO", 8.0
+    cam.location = (0.0, 0.0, 5.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.world = bpy.data.worlds.new("W")
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+    scene.render.dither_intensity = 0.0
+    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
+    scene.render.filter_size = 0.0
+    w, h = 4 * T, 8 * T
+    cycles(scene, 4, width=w)
+    scene.render.resolution_y = h
+    ref = render_exr(tmp_path / "cycles.exr")
+    tiny(scene, width=w, height=h, passes=2, photons=64)
+    scene.ppm.max_bounces = 4
+    ours = render_exr(tmp_path / "ours.exr")
+    inner = np.zeros((h, w), bool)                  # each plane's pixels, two from its edges
+    for r in range(4):
+        for c in range(2):
+            inner[r * 2 * T + 2:(r + 1) * 2 * T - 2, c * 2 * T + 2:(c + 1) * 2 * T - 2] = True
+    err = np.abs(ours - ref).max(axis=2)
+    assert err[inner].max() <= 1e-3, (err[inner].max(), ref[inner].reshape(-1, 3)[:: T * T])
+    # the cases differ: a constant or ignored path state would be caught
+    assert ref[inner][:, 0].max() - ref[inner][:, 0].min() > 0.5

@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shader_program import (GEOM_BACKFACING, GEOM_INCOMING, GEOM_NORMAL, GEOM_OBJECT,
-                              GEOM_OBJECT_ALPHA, GEOM_OBJECT_COLOR, GEOM_OBJECT_INDEX,
+from ..shader_program import (GEOM_BACKFACING, GEOM_INCOMING, GEOM_LIGHT_PATH, GEOM_NORMAL,
+                              GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT_COLOR, GEOM_OBJECT_INDEX,
                               GEOM_OBJECT_LOCATION, GEOM_OBJECT_RANDOM, GEOM_POSITION,
-                              GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, NORMAL_MAP_SPACES,
-                              PROGRAM_TANGENTS, SVM_MAPPING, SVM_NORMAL_MAP, f2i)
+                              GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, LIGHT_PATH_OUTPUTS,
+                              NORMAL_MAP_SPACES, PROGRAM_TANGENTS, SVM_GEOMETRY, SVM_MAPPING,
+                              SVM_NORMAL_MAP, f2i)
 from .shader_values import Val, width
 
 
@@ -130,6 +131,17 @@ def _object_info(c, node, out, ctx):
     return c.geometry(what)
 
 
+def _light_path(c, node, out, ctx):
+    """Light Path: the type and bounces of the ray that reached the point (kernels/light_path.h;
+    photons' rays are never camera rays)."""
+    if out.name not in LIGHT_PATH_OUTPUTS:
+        c.warn(f"'{node.name}': the Light Path output {out.name} is not evaluated (0)")
+        return c.const(0.0, width(out.type))
+    s = c.alloc(1)
+    c.ops.append((SVM_GEOMETRY, s, GEOM_LIGHT_PATH, LIGHT_PATH_OUTPUTS.index(out.name)))
+    return Val(1, slot=s)
+
+
 def _geometry_node(c, node, out, ctx):
     what = {"Position": GEOM_POSITION, "Normal": GEOM_NORMAL, "True Normal": GEOM_TRUE_NORMAL,
             "Incoming": GEOM_INCOMING, "Backfacing": GEOM_BACKFACING}.get(out.name)
@@ -144,5 +156,5 @@ INPUT_NODES = {
     "ShaderNodeTexCoord": _tex_coord, "ShaderNodeUVMap": _uv_map,
     "ShaderNodeAttribute": _attribute, "ShaderNodeVertexColor": _color_attribute,
     "ShaderNodeNewGeometry": _geometry_node, "ShaderNodeNormalMap": _normal_map,
-    "ShaderNodeObjectInfo": _object_info,
+    "ShaderNodeObjectInfo": _object_info, "ShaderNodeLightPath": _light_path,
 }
