@@ -73,6 +73,9 @@ typedef struct {
     float path_length;   /* its last segment's length */
     float3 P_object;     /* the position in the object's space */
     float4 object[3];    /* the object's (location, pass index), colour, (random, 0, 0, 0) */
+#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+    float4 to_object[3], to_world[3];   /* its inverse and world matrices (Vector Transform) */
+#endif
     float4 attr[PPM_ATTRIBUTES];  /* the mesh attributes programs read, at the point */
 } SvmContext;
 
@@ -100,12 +103,22 @@ inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u
     cx.P_object = P;
     cx.object[0] = cx.object[1] = cx.object[2] = (float4)(0.0f);
     if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_OBJECT) && tri_object[tri] >= 0) {
-        __global const float4 *o = objects + 6 * (size_t)tri_object[tri];
+        __global const float4 *o = objects + 9 * (size_t)tri_object[tri];
         float4 h = (float4)(P, 1.0f);
         cx.P_object = (float3)(dot(o[0], h), dot(o[1], h), dot(o[2], h));
         cx.object[0] = o[3];
         cx.object[1] = o[4];
         cx.object[2] = o[5];
+#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+        for (int r = 0; r < 3; r++) {
+            cx.to_object[r] = o[r];
+            cx.to_world[r] = o[6 + r];
+        }
+    } else {
+        for (int r = 0; r < 3; r++) {      /* no object: the identity */
+            cx.to_object[r] = cx.to_world[r] = (float4)(r == 0, r == 1, r == 2, 0.0f);
+        }
+#endif
     }
     bool attrs = SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_ATTRIBUTES);
     for (int k = 0; k < PPM_ATTRIBUTES; k++) {
@@ -214,10 +227,20 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
         } else if (SVM_HAS(SVM_MAPPING) && op == SVM_MAPPING) {
             float4 r0 = as_float4(svm[i]), r1 = as_float4(svm[i + 1]), r2 = as_float4(svm[i + 2]);
             i += 3;
-            float4 v = (float4)(svm_get3(stack, w.z), w.w == 0 ? 1.0f : 0.0f);
-            if (w.w == 1) v.w = 1.0f;
+            int t = w.w;
+            if (t >= 4) {             /* the object's own matrices (MAPPING_OBJECT_*) */
+                const float4 *m = t < 7 ? ctx->to_object : ctx->to_world;
+                const float4 *n = t < 7 ? ctx->to_world : ctx->to_object;
+                bool normal = t == 6 || t == 9;
+                r0 = normal ? (float4)(n[0].x, n[1].x, n[2].x, 0.0f) : m[0];
+                r1 = normal ? (float4)(n[0].y, n[1].y, n[2].y, 0.0f) : m[1];
+                r2 = normal ? (float4)(n[0].z, n[1].z, n[2].z, 0.0f) : m[2];
+                t = t == 4 || t == 7 ? 0 : t == 5 || t == 8 ? 2 : 3;
+            }
+            float4 v = (float4)(svm_get3(stack, w.z), t == 0 ? 1.0f : 0.0f);
+            if (t == 1) v.w = 1.0f;
             float3 o = (float3)(dot(r0, v), dot(r1, v), dot(r2, v));
-            if (w.w == 3) o = svm_safe_normalize(o);
+            if (t == 3) o = svm_safe_normalize(o);
             svm_put3(stack, w.y, o);
         } else if (SVM_HAS(SVM_MATH) && op == SVM_MATH) {
             int4 e = svm[i++];

@@ -248,10 +248,10 @@ class SceneArrays:
     attributes: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros((0, 3, 0, 4), np.float32))
     # (T,) int32 the object of each triangle (a row of ``objects``, -1: none), (0,) when no
-    # program reads object data; (O, 6, 4) float32 the objects (export.object_row)
+    # program reads object data; (O, 9, 4) float32 the objects (export/objects.py)
     object: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
     objects: np.ndarray = dataclasses.field(
-        default_factory=lambda: np.zeros((0, 6, 4), np.float32))
+        default_factory=lambda: np.zeros((0, 9, 4), np.float32))
     # (W, 4) int32 shader programs (ppm_engine/shader_program.py); word 0 is never one
     svm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((1, 4), np.int32))
 
@@ -301,10 +301,10 @@ class SceneArrays:
             raise ValueError("SceneArrays.materials must hold at least one material")
         ob, obs = self.object, self.objects
         if ob.dtype != np.int32 or ob.shape not in ((0,), (t,)) or obs.dtype != np.float32 \
-                or obs.ndim != 3 or obs.shape[1:] != (6, 4) \
+                or obs.ndim != 3 or obs.shape[1:] != (9, 4) \
                 or (ob.size and (ob.min() < -1 or ob.max() >= obs.shape[0])):
             raise ValueError("SceneArrays.object/objects: expected int32 (T,) rows of a float32 "
-                             "(O, 6, 4) table")
+                             "(O, 9, 4) table")
         at = self.attributes
         if at.dtype != np.float32 or at.ndim != 4 or at.shape[1] != 3 or at.shape[3] != 4 \
                 or at.shape[0] not in (0, t) or (at.shape[0] == 0) != (at.shape[2] == 0):

@@ -505,3 +505,34 @@ def test_light_path_as_cycles(cycles, render_exr, tmp_path, tiny):
     assert err[inner].max() <= 1e-3, (err[inner].max(), ref[inner].reshape(-1, 3)[:: T * T])
     # the cases differ: a constant or ignored path state would be caught
     assert ref[inner][:, 0].max() - ref[inner][:, 0].min() > 0.5
+
+
+def test_vector_transform_and_camera_coordinates_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Vector Transform between world, object and camera space for points, vectors and normals
+    (planes turned and mirrored: their own matrices), and Texture Coordinate's Camera output
+    (stepped per pixel)."""
+    import math
+
+    def vt(frm, to, kind, **plane):
+        def build(i):
+            return i.node("ShaderNodeVectorTransform", [(0, i.A)], convert_from=frm,
+                          convert_to=to, vector_type=kind).outputs[0]
+        for k, v in plane.items():
+            setattr(build, k, v)
+        return build
+
+    def camera(i):
+        o = i.node("ShaderNodeTexCoord").outputs["Camera"]
+        o = i.node("ShaderNodeVectorMath", [(0, o)], operation="ADD",
+                   in_1=(0.0, 0.0, 0.5 / T)).outputs[0]
+        snap = i.node("ShaderNodeVectorMath", [(0, o)], operation="SNAP")
+        snap.inputs[1].default_value = (2.0 / T,) * 3
+        return snap.outputs[0]
+    cases = {}
+    for kind in ("POINT", "VECTOR", "NORMAL"):
+        for frm, to in (("WORLD", "CAMERA"), ("CAMERA", "WORLD"), ("WORLD", "OBJECT"),
+                        ("OBJECT", "WORLD"), ("OBJECT", "CAMERA"), ("CAMERA", "OBJECT")):
+            cases[f"{kind.lower()} {frm.lower()} to {to.lower()}"] = vt(
+                frm, to, kind, rz=math.pi / 2, sx=-1.0)
+    cases["camera coordinates"] = camera
+    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

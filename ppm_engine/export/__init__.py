@@ -54,6 +54,9 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
     camera = export_camera(scene, depsgraph)
     textures = TextureTable(warn)
     materials = MaterialTable(warn, textures)
+    # Cycles' camera space: the camera object's, its z flipped (+z ahead)
+    materials.camera = (np.array(scene.camera.evaluated_get(depsgraph).matrix_world, np.float64)
+                        @ np.diag((1.0, 1.0, -1.0, 1.0)))
     meshes = MeshCache(warn)
     parts, lights = [], []
     uv_tangents = generated = False
@@ -125,7 +128,7 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                            world=world, material_names=tuple(materials.names),
                            warnings=tuple(warn), textures=tex_table, texels=texels,
                            objects=(np.stack(objects) if objects
-                                    else np.zeros((0, 6, 4), np.float32)),
+                                    else np.zeros((0, 9, 4), np.float32)),
                            svm=materials.svm())
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e

@@ -23,6 +23,7 @@ class MaterialTable:
         self.words = 1
         self.program_flags: dict = {}                   # material -> its header's flags
         self.attributes: list = []                      # mesh attribute names programs read
+        self.camera = None                              # camera-to-world (camera space nodes)
         self.names = [DEFAULT_NAME]
         self._index = {}
 
@@ -33,7 +34,7 @@ class MaterialTable:
         if key not in self._index:
             self._index[key] = len(self.rows)
             row, nodes, program = read_material(material, self.warn, self.textures,
-                                                self.attributes)
+                                                self.attributes, self.camera)
             if program is not None:
                 row["program"] = self.words
                 self.programs.append(program)

@@ -57,12 +57,13 @@ class _Reader:
     """Reads one material's BSDF nodes, warning once per problem; inputs driven by value nodes
     are compiled into the material's shader program (shader_graph.Compiler)."""
 
-    def __init__(self, material, warn, textures, attributes=None):
+    def __init__(self, material, warn, textures, attributes=None, camera=None):
         self.name = material.name
         self.warn_fn = warn
         self.textures = textures
         self.graph = Graph(warn)
-        self.compiler = Compiler(material.name, warn, textures, self.graph, material, attributes)
+        self.compiler = Compiler(material.name, warn, textures, self.graph, material, attributes,
+                                 camera)
         self.said = self.compiler.said
         self.ctx = ()                     # group nodes around the node being read
         self.index = 0                    # the node's index among the material's BSDF nodes
@@ -321,12 +322,13 @@ def read_absorption(material, reader: _Reader) -> tuple:
     return (0.0, 0.0, 0.0)
 
 
-def read_material(material, warn, textures=None,
-                  attributes: list | None = None) -> tuple[np.ndarray, list, np.ndarray | None]:
+def read_material(material, warn, textures=None, attributes: list | None = None,
+                  camera=None) -> tuple[np.ndarray, list, np.ndarray | None]:
     """(MATERIAL_DTYPE row, its BSDF nodes as SHADER_NODE_DTYPE rows or dicts, its shader
     program's words or None); ``attributes``: the scene's list of mesh attribute names read by
-    programs, extended with this material's."""
-    reader = _Reader(material, warn, textures, attributes)
+    programs, extended with this material's; ``camera``: the camera-to-world matrix of the
+    camera space nodes read (Cycles' camera space, +z ahead)."""
+    reader = _Reader(material, warn, textures, attributes, camera)
     row = np.zeros(1, MATERIAL_DTYPE)
     row["absorption"] = read_absorption(material, reader)
     nodes: list = []

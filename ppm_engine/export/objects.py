@@ -32,10 +32,12 @@ def random_id(obj, inst) -> int:
 
 
 def object_row(obj, m: np.ndarray, inst) -> np.ndarray:
-    """(6, 4) float32 of one object instance as shader programs read it (kernels/svm.h
+    """(9, 4) float32 of one object instance as shader programs read it (kernels/svm.h
     svm_context): its inverse world matrix (3 rows), (location, pass index), its colour and
-    alpha, (random, 0, 0, 0) with Cycles' random number (random_id / (2^32 - 1))."""
-    row = np.zeros((6, 4), np.float64)
+    alpha, (random, 0, 0, 0) with Cycles' random number (random_id / (2^32 - 1)), its world
+    matrix (3 rows)."""
+    row = np.zeros((9, 4), np.float64)
+    row[6:] = m[:3]
     try:
         row[:3] = np.linalg.inv(m)[:3]
     except np.linalg.LinAlgError:

@@ -75,8 +75,9 @@ class Compiler:
     """Compiles one material's value nodes; ``binds`` and ``ops`` become its program."""
 
     def __init__(self, material: str, warn, textures, graph: Graph, datablock=None,
-                 attributes: list | None = None):
+                 attributes: list | None = None, camera=None):
         self.material = material
+        self.camera = camera              # 4x4 camera-to-world, Cycles' camera space (+z ahead)
         self.attributes = attributes      # the scene's attribute names (their index: k)
         self.datablock = datablock        # the bpy material (which meshes use it: UV names)
         self.warn_fn = warn

@@ -10,8 +10,8 @@ from ..shader_program import (GEOM_BACKFACING, GEOM_INCOMING, GEOM_LIGHT_PATH, G
                               GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT_COLOR, GEOM_OBJECT_INDEX,
                               GEOM_OBJECT_LOCATION, GEOM_OBJECT_RANDOM, GEOM_POSITION,
                               GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, LIGHT_PATH_OUTPUTS,
-                              NORMAL_MAP_SPACES, PROGRAM_TANGENTS, SVM_GEOMETRY, SVM_MAPPING,
-                              SVM_NORMAL_MAP, f2i)
+                              NORMAL_MAP_SPACES, PROGRAM_OBJECT, PROGRAM_TANGENTS, SVM_GEOMETRY,
+                              SVM_MAPPING, SVM_NORMAL_MAP, f2i)
 from .shader_values import Val, width
 
 
@@ -23,19 +23,66 @@ def _rgb(c, node, out, ctx):
     return c.const(tuple(out.default_value)[:3], 3)
 
 
+def _transform(c, v: Val, m, kind: int) -> Val:
+    """An SVM_MAPPING op: ``v`` by the rows of the 3x4 (or 4x4) matrix ``m`` as a point (kind
+    0), a direction (2) or a normal (3: normalised); kinds 4-9 use the shading object's own
+    matrices (MAPPING_OBJECT: point, direction, normal to object space, then to world)."""
+    s, o = c.slot(v), c.alloc(3)
+    c.ops.append((SVM_MAPPING, o, s, kind))
+    rows = np.zeros((3, 4)) if m is None else np.asarray(m, np.float64)[:3]
+    for r in range(3):
+        c.ops.append(tuple(f2i(float(x)) for x in rows[r]))
+    if kind >= 4:
+        c.flags |= PROGRAM_OBJECT
+    return Val(3, slot=o)
+
+
+def _camera(c, to_camera: bool, kind: int, node):
+    """The constant matrix of a world <-> camera transform of this kind (Cycles': normals by
+    the other direction's transpose)."""
+    c2w = c.camera if c.camera is not None else np.eye(4)
+    if c.camera is None:
+        c.warn(f"'{node.name}': no camera; camera space is world space")
+    w2c = np.linalg.inv(c2w)
+    if kind == 3:
+        m = np.eye(4)
+        m[:3, :3] = (c2w if to_camera else w2c)[:3, :3].T
+        return m
+    return w2c if to_camera else c2w
+
+
+def _vector_transform(c, node, out, ctx):
+    """Vector Transform between world, object and camera space, as Cycles chains them."""
+    v = c.inp(node, "Vector", ctx, 3)
+    kind = {"POINT": 0, "VECTOR": 2, "NORMAL": 3}.get(node.vector_type, 0)
+    frm, to = node.convert_from, node.convert_to
+    obj = {0: 0, 2: 1, 3: 2}[kind]
+    if frm == "WORLD" and to == "CAMERA":
+        v = _transform(c, v, _camera(c, True, kind, node), kind)
+    elif frm == "WORLD" and to == "OBJECT":
+        v = _transform(c, v, None, 4 + obj)
+    elif frm == "CAMERA" and to in ("WORLD", "OBJECT"):
+        v = _transform(c, v, _camera(c, False, kind, node), kind)
+        if to == "OBJECT":
+            v = _transform(c, v, None, 4 + obj)
+    elif frm == "OBJECT" and to in ("WORLD", "CAMERA"):
+        v = _transform(c, v, None, 7 + obj)
+        if to == "CAMERA":
+            v = _transform(c, v, _camera(c, True, kind, node), kind)
+    return v
+
+
 def _tex_coord(c, node, out, ctx):
     if out.name == "Generated":
         return c.generated()
+    if out.name == "Camera":
+        return _transform(c, c.geometry(GEOM_POSITION), _camera(c, True, 0, node), 0)
     if out.name == "Object":
         if getattr(node, "object", None) is None:
             return c.geometry(GEOM_OBJECT)
         # another object's space: the position by that object's inverse matrix, a constant
         inv = np.linalg.inv(np.array(node.object.matrix_world, np.float64))
-        sp, o = c.slot(c.geometry(GEOM_POSITION)), c.alloc(3)
-        c.ops.append((SVM_MAPPING, o, sp, 0))
-        for r in range(3):
-            c.ops.append(tuple(f2i(float(x)) for x in inv[r]))
-        return Val(3, slot=o)
+        return _transform(c, c.geometry(GEOM_POSITION), inv, 0)
     what = {"UV": GEOM_UV, "Normal": GEOM_NORMAL, "Reflection": GEOM_REFLECTION}.get(out.name)
     if out.name == "Normal":
         c.warn(f"'{node.name}': the Normal coordinate is in world space here (Cycles: object "
@@ -157,4 +204,5 @@ INPUT_NODES = {
     "ShaderNodeAttribute": _attribute, "ShaderNodeVertexColor": _color_attribute,
     "ShaderNodeNewGeometry": _geometry_node, "ShaderNodeNormalMap": _normal_map,
     "ShaderNodeObjectInfo": _object_info, "ShaderNodeLightPath": _light_path,
+    "ShaderNodeVectorTransform": _vector_transform,
 }
