@@ -13,7 +13,7 @@
 #define PPM_SVM_OPS 0x7fffffff
 #endif
 #ifndef PPM_SVM_STACK
-#define PPM_SVM_STACK 96
+#define PPM_SVM_STACK 256
 #endif
 #define SVM_HAS(op) ((PPM_SVM_OPS >> (op)) & 1)
 

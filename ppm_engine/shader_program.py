@@ -158,7 +158,8 @@ PROGRAM_TANGENTS = 2   # a tangent-space Normal Map reads the UV map's tangents 
 PROGRAM_GENERATED = 4  # Generated coordinates are read (SceneArrays.generated)
 PROGRAM_ATTRIBUTES = 8  # mesh attributes are read (SceneArrays.attributes)
 PROGRAM_OBJECT = 16    # the object's data are read (SceneArrays.object, objects)
-MAX_STACK = 96         # floats of stack a program may use (kernels: PPM_SVM_STACK)
+MAX_STACK = 256        # floats of stack a program may use (kernels: PPM_SVM_STACK, the most a
+                       # scene's programs use)
 
 
 def f2i(x: float) -> int:

@@ -536,3 +536,35 @@ def test_vector_transform_and_camera_coordinates_as_cycles(cycles, render_exr, t
                 frm, to, kind, rz=math.pi / 2, sx=-1.0)
     cases["camera coordinates"] = camera
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def test_mapping_with_linked_inputs_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Mapping of every type whose Location, Rotation and Scale come from links (per-pixel
+    values), and Texture Coordinate's Normal output (object space, on turned planes)."""
+    import math
+
+    def mapping(kind):
+        def build(i):
+            rot = i.node("ShaderNodeVectorMath", [(0, i.B)], operation="SCALE")
+            rot.inputs[3].default_value = 3.0                 # angles up to 3 radians
+            n = i.node("ShaderNodeMapping", [(0, i.A), ("Rotation", rot.outputs[0])],
+                       vector_type=kind)
+            if "Location" in n.inputs and n.inputs["Location"].enabled:
+                i.t.links.new(i.B, n.inputs["Location"])
+            if "Scale" in n.inputs:
+                sc = i.node("ShaderNodeVectorMath", [(0, i.A)], operation="ADD",
+                            in_1=(0.5, -0.3, 0.8))
+                i.t.links.new(sc.outputs[0], n.inputs["Scale"])
+            return n.outputs[0]
+        return build
+
+    def normal(**plane):
+        def build(i):
+            return i.node("ShaderNodeTexCoord").outputs["Normal"]
+        for k, v in plane.items():
+            setattr(build, k, v)
+        return build
+    cases = {f"mapping {k.lower()}": mapping(k) for k in ("POINT", "TEXTURE", "VECTOR", "NORMAL")}
+    cases.update({"normal coordinate": normal(rz=math.pi / 2, sx=-1.0),
+                  "normal coordinate back": normal(rx=math.pi)})
+    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

@@ -111,10 +111,14 @@ class Compiler:
         return Val(n, const=v[:n] if len(v) >= n else v * n)
 
     def slot(self, v: Val) -> int:
-        """``v`` on the stack (a constant is loaded once per use)."""
+        """``v`` on the stack (a constant is loaded once: programs have no branches, and no op
+        writes a slot it did not allocate)."""
         if not v.is_const:
             return v.slot
-        s = self.alloc(v.n)
+        key = ("const", v.n, v.const)
+        if key in self.memo:
+            return self.memo[key]
+        s = self.memo[key] = self.alloc(v.n)
         c = list(v.const) + [0.0] * (4 - v.n)
         self.ops.append((SVM_CONST, s, v.n, 0))
         self.ops.append(tuple(f2i(x) for x in c[:4]))

@@ -83,10 +83,9 @@ def _tex_coord(c, node, out, ctx):
         # another object's space: the position by that object's inverse matrix, a constant
         inv = np.linalg.inv(np.array(node.object.matrix_world, np.float64))
         return _transform(c, c.geometry(GEOM_POSITION), inv, 0)
-    what = {"UV": GEOM_UV, "Normal": GEOM_NORMAL, "Reflection": GEOM_REFLECTION}.get(out.name)
-    if out.name == "Normal":
-        c.warn(f"'{node.name}': the Normal coordinate is in world space here (Cycles: object "
-               "space)")
+    if out.name == "Normal":                    # the shading normal in object space
+        return _transform(c, c.geometry(GEOM_NORMAL), None, 6)
+    what = {"UV": GEOM_UV, "Reflection": GEOM_REFLECTION}.get(out.name)
     if what is None:
         c.warn(f"'{node.name}': the {out.name} texture coordinate is not evaluated yet; the UV "
                "map is used")

@@ -39,22 +39,60 @@ def _image(c, node, out, ctx):
     return Val(3, slot=col) if out.name == "Color" else Val(1, slot=alpha)
 
 
+def _rotate(c, v: Val, angles: Val, inverse: bool) -> Val:
+    """``v`` rotated by the XYZ Euler ``angles`` (Cycles' euler_to_transform: x, then y, then z),
+    or by its inverse (z, y, x with the angles negated), in Math ops."""
+    axes = (2, 1, 0) if inverse else (0, 1, 2)
+    comps = [c.component(v, k) for k in range(3)]
+    for axis in axes:
+        a = c.component(angles, axis)
+        if inverse:
+            a = c.math("MULTIPLY", a, c.const(-1.0, 1))
+        cos, sin = c.math("COSINE", a, a), c.math("SINE", a, a)
+        i, j = [k for k in range(3) if k != axis]
+        if axis == 1:                       # about y: z, x (right-handed order)
+            i, j = j, i
+        ci, cj = comps[i], comps[j]
+        comps[i] = c.math("SUBTRACT", c.math("MULTIPLY", ci, cos), c.math("MULTIPLY", cj, sin))
+        comps[j] = c.math("ADD", c.math("MULTIPLY", ci, sin), c.math("MULTIPLY", cj, cos))
+    return c.combine(*comps)
+
+
+def _vmath(c, op: str, a: Val, b: Val) -> Val:
+    sa, sb, sz = c.slot(a), c.slot(b), c.slot(c.const(0.0, 3))
+    vo, fo = c.alloc(3), c.alloc(1)
+    c.ops.append((SVM_VECTOR_MATH, vo, sa, sb))
+    c.ops.append((sz, VMATH[op], fo, c.slot(c.const(1.0, 1))))
+    return Val(3, slot=vo)
+
+
+def _mapping_driven(c, t: int, vec: Val, loc: Val, rot: Val, scale: Val) -> Val:
+    """Mapping with linked Location, Rotation or Scale, in ops (Cycles' svm_mapping)."""
+    if t == 1:                                  # texture: the inverse of point
+        v = _rotate(c, _vmath(c, "SUBTRACT", vec, loc), rot, True)
+        return _vmath(c, "DIVIDE", v, scale)
+    if t == 3:                                  # normal
+        v = _rotate(c, _vmath(c, "DIVIDE", vec, scale), rot, False)
+        return _vmath(c, "NORMALIZE", v, v)
+    v = _rotate(c, _vmath(c, "MULTIPLY", vec, scale), rot, False)
+    return _vmath(c, "ADD", v, loc) if t == 0 else v
+
+
 def _mapping(c, node, out, ctx):
     from mathutils import Euler, Matrix, Vector
     vec = c.inp(node, "Vector", ctx, 3)
-    parts = {}
+    t = MAPPING_TYPES.get(node.vector_type, 0)
+    parts, vals = {}, {}
     for name in ("Location", "Rotation", "Scale"):
         sock = node.inputs.get(name)
         if sock is None or not sock.enabled:
             parts[name] = (0.0, 0.0, 0.0) if name != "Scale" else (1.0, 1.0, 1.0)
+            vals[name] = c.const(parts[name], 3)
             continue
-        v = c.input(node, sock, ctx, 3)
-        if not v.is_const:
-            c.warn(f"the {name} of '{node.name}' is driven by a node link this engine does not "
-                   "evaluate; its unlinked value is used")
-            v = c._default(sock, 3)
-        parts[name] = v.const
-    t = MAPPING_TYPES.get(node.vector_type, 0)
+        vals[name] = c.input(node, sock, ctx, 3)
+        parts[name] = vals[name].const
+    if any(p is None for p in parts.values()):
+        return _mapping_driven(c, t, vec, vals["Location"], vals["Rotation"], vals["Scale"])
     rot = Euler(parts["Rotation"], "XYZ").to_matrix()
     s = parts["Scale"]
     loc = parts["Location"]
