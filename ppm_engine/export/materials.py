@@ -12,6 +12,8 @@ Absorption, the absorbing part of Principled Volume; constant inputs) -> the row
 coefficient."""
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from .shader_graph import Compiler, Graph
@@ -23,6 +25,7 @@ from ..scene_arrays import (MATERIAL_DTYPE, NODE_DIFFUSE, NODE_EMISSION, NODE_FL
 
 DEFAULT_NAME = "(default grey)"
 _MAX_DEPTH = 64
+_RECURSION = 20000                # Python frames while a node graph compiles (a chain of nodes)
 
 # Principled BSDF input -> node field (scalars)
 _PRINCIPLED_SCALARS = {
@@ -337,7 +340,14 @@ def read_material(material, warn, textures=None, attributes: list | None = None,
         reader.warn("no shader is connected to the material output; it renders black, as in "
                     "Cycles")
         return row, nodes, None
-    reader.walk(surface, reader.compiler.const(1.0, 1), nodes)
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(limit, _RECURSION))     # a long chain of nodes compiles deep
+    try:
+        reader.walk(surface, reader.compiler.const(1.0, 1), nodes)
+    except RecursionError:
+        reader.compiler.overflow = True
+    finally:
+        sys.setrecursionlimit(limit)
     if reader.compiler.overflow:          # a graph too large: the BSDFs' unlinked inputs
         reader.warn(f"its node graph needs more than {MAX_STACK} values at once; the graph is "
                     "not evaluated (its unlinked inputs are used)")
