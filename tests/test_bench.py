@@ -68,6 +68,7 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
     assert "| bulb_box |" in text and "RMSE ours/Cycles" in text
 
 
+@pytest.mark.slow             # tooling: 20 s of the default run
 def test_bench_micro_and_phases_quick(cli, tmp_path):
     md = tmp_path / "B.md"
     p = cli("bench", "--micro", "--quick", "--json", tmp_path / "m.json", "--markdown", md)
