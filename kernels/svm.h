@@ -228,6 +228,7 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
             float4 r0 = as_float4(svm[i]), r1 = as_float4(svm[i + 1]), r2 = as_float4(svm[i + 2]);
             i += 3;
             int t = w.w;
+#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
             if (t >= 4) {             /* the object's own matrices (MAPPING_OBJECT_*) */
                 const float4 *m = t < 7 ? ctx->to_object : ctx->to_world;
                 const float4 *n = t < 7 ? ctx->to_world : ctx->to_object;
@@ -237,6 +238,7 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
                 r2 = normal ? (float4)(n[0].z, n[1].z, n[2].z, 0.0f) : m[2];
                 t = t == 4 || t == 7 ? 0 : t == 5 || t == 8 ? 2 : 3;
             }
+#endif
             float4 v = (float4)(svm_get3(stack, w.z), t == 0 ? 1.0f : 0.0f);
             if (t == 1) v.w = 1.0f;
             float3 o = (float3)(dot(r0, v), dot(r1, v), dot(r2, v));

@@ -87,6 +87,21 @@ def _emit(tree, out):
     tree.links.new(em.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
 
 
+def _view(scene, width: float):
+    """An orthographic camera looking down at the planes (``width`` across), a black world, one
+    sample per pixel's box filter, no dither: each pixel sees one set of inputs."""
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    cam.data.type, cam.data.ortho_scale = "ORTHO", width
+    cam.location = (0.0, 0.0, 5.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.world = bpy.data.worlds.new("W")
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+    scene.render.dither_intensity = 0.0
+    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
+    scene.render.filter_size = 0.0
+
+
 def _grid(cases):
     """A scene of one plane per case (case(inputs) -> output socket), in rows of 8."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -114,16 +129,7 @@ def _grid(cases):
         t.nodes.remove(t.nodes["Principled BSDF"])
         _emit(t, case(Inputs(t, images)))
         bpy.context.active_object.data.materials.append(mat)
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    cam.data.type, cam.data.ortho_scale = "ORTHO", 2.0 * cols
-    cam.location = (0.0, 0.0, 5.0)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    scene.world = bpy.data.worlds.new("W")
-    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
-    scene.render.dither_intensity = 0.0
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    scene.render.filter_size = 0.0
+    _view(scene, 2.0 * cols)
     return scene, cols * T, rows * T
 
 
@@ -480,16 +486,7 @@ def test_light_path_as_cycles(cycles, render_exr, tmp_path, tiny):
             obj = bpy.context.active_object
             obj.data.materials.append(m)
             obj.visible_camera = seen
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    cam.data.type, cam.data.ortho_scale = "ORTHO", 8.0
-    cam.location = (0.0, 0.0, 5.0)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    scene.world = bpy.data.worlds.new("W")
-    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
-    scene.render.dither_intensity = 0.0
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    scene.render.filter_size = 0.0
+    _view(scene, 8.0)
     w, h = 4 * T, 8 * T
     cycles(scene, 4, width=w)
     scene.render.resolution_y = h
