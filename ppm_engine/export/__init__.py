@@ -83,7 +83,10 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
             uv_tangents |= mapped
             generated |= gen
     meshes.clear()
-    world = export_world(scene.world, warn)
+    svm = materials.svm()
+    world, world_program, world_shader = export_world(scene.world, warn, textures, svm.shape[0])
+    if world_program is not None:
+        svm = np.concatenate([svm, world_program])
 
     light_arr = np.concatenate(lights) if lights else np.zeros(0, LIGHT_DTYPE)
     if parts:
@@ -105,7 +108,7 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                            shader_nodes=materials.node_array(), lights=light_arr, camera=camera,
                            world=world, material_names=tuple(materials.names),
                            warnings=tuple(warn), textures=tex_table, texels=texels,
-                           svm=materials.svm())
+                           svm=svm, world_shader=world_shader)
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
 

@@ -1,0 +1,222 @@
+"""World node trees against Cycles: an HDRI (a float image made here: a coloured sky gradient
+and a bright sun-like spot) through Texture Coordinate, Mapping and an Environment Texture,
+lighting a diffuse sphere on a plane per 8 x 8 block (direct light only and full transport),
+and seen by the camera per pixel; the importance map's sampling against its density; and a
+constant world rendered exactly as the kernels without world programs render it."""
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+W = 48          # image size: 6 x 6 blocks of 8 x 8 pixels
+SUN = (0.3, 0.75)   # the spot's (u, v): above the horizon, to the side
+
+
+def _hdri(w=64, h=32):
+    """A float image, rows bottom-up: sky blue above, brown below, a bright spot at SUN."""
+    v, u = (np.mgrid[0:h, 0:w] + 0.5) / np.array([h, w])[:, None, None]
+    up = np.clip((v - 0.5) * 2, 0, 1)[..., None]
+    px = up * np.array([0.25, 0.45, 0.9]) + (1 - up) * np.array([0.35, 0.25, 0.15])
+    px = px * (0.6 + 0.4 * np.cos(2 * np.pi * u))[..., None]
+    spot = (np.abs(u - SUN[0]) < 2.0 / w) & (np.abs(v - SUN[1]) < 1.5 / h)
+    px[spot] = (60.0, 50.0, 35.0)
+    rgba = np.concatenate([px, np.ones((h, w, 1))], -1).astype(np.float32)
+    img = bpy.data.images.new("sky", w, h, float_buffer=True)
+    img.pixels.foreach_set(rgba.ravel())
+    img.pack()
+    return img
+
+
+def _world(scene, rotation=0.0, strength=1.0):
+    world = scene.world = bpy.data.worlds.new("HDRI")
+    t = world.node_tree
+    bg = t.nodes["Background"]
+    bg.inputs["Strength"].default_value = strength
+    tc, mp = t.nodes.new("ShaderNodeTexCoord"), t.nodes.new("ShaderNodeMapping")
+    env = t.nodes.new("ShaderNodeTexEnvironment")
+    env.image = _hdri()
+    mp.inputs["Rotation"].default_value = (0.0, 0.0, rotation)
+    t.links.new(tc.outputs["Generated"], mp.inputs["Vector"])
+    t.links.new(mp.outputs["Vector"], env.inputs["Vector"])
+    t.links.new(env.outputs["Color"], bg.inputs["Color"])
+    return world
+
+
+def _camera(scene, location, rotation, lens):
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    cam.location, cam.rotation_euler, cam.data.lens = location, rotation, lens
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.dither_intensity = 0.0
+    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
+    scene.render.filter_size = 0.0
+
+
+def _diffuse(name, color):
+    mat = bpy.data.materials.new(name)
+    t = mat.node_tree
+    t.nodes.remove(t.nodes["Principled BSDF"])
+    d = t.nodes.new("ShaderNodeBsdfDiffuse")
+    d.inputs["Color"].default_value = (*color, 1.0)
+    t.links.new(d.outputs[0], t.nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
+def _sphere_scene():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=0.5)
+    bpy.ops.object.shade_smooth()
+    bpy.context.active_object.data.materials.append(_diffuse("Ball", (0.8, 0.8, 0.8)))
+    bpy.ops.mesh.primitive_plane_add(size=8, location=(0, 0, -0.5))
+    bpy.context.active_object.data.materials.append(_diffuse("Floor", (0.5, 0.5, 0.5)))
+    _world(scene, rotation=0.7)
+    _camera(scene, (0.0, -3.2, 0.9), (1.32, 0.0, 0.0), 60)
+    return scene
+
+
+def _both(scene, cycles, render_exr, tmp_path, tiny, *, samples, passes, bounces, photons,
+          width=W):
+    cycles(scene, samples, width=width)
+    c = scene.cycles
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
+    ref = render_exr(tmp_path / "cycles.exr")
+    tiny(scene, width=width, height=width, passes=passes, photons=photons)
+    scene.ppm.max_bounces = bounces
+    ours = render_exr(tmp_path / "ours.exr")
+    return ours, ref
+
+
+def _compare_blocks(ours, ref, rtol, atol):
+    a, b = (x.reshape(W // 8, 8, W // 8, 8, 3).mean(axis=(1, 3)) for x in (ours, ref))
+    bad = np.abs(a - b) > rtol * np.abs(b) + atol
+    assert not bad.any(), (f"{bad.any(-1).sum()} of {bad.shape[0] * bad.shape[1]} blocks "
+                           f"differ; worst ratio {np.max(a / np.maximum(b, 1e-6)):.3f} / "
+                           f"{np.min(a / np.maximum(b, 1e-6)):.3f}")
+
+
+def test_hdri_direct_light_per_block_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Direct light only: the map's next-event estimation with MIS against the BSDF sample."""
+    scene = _sphere_scene()
+    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=256,
+                      bounces=0, photons=1024)
+    _compare_blocks(ours, ref, 0.04, 0.003)
+
+
+def test_hdri_full_transport_per_block_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """All bounces: photons emitted from the map light the floor under the sphere."""
+    scene = _sphere_scene()
+    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=384,
+                      bounces=4, photons=65536)
+    _compare_blocks(ours, ref, 0.07, 0.004)
+
+
+def test_background_per_pixel_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """The camera sees the HDRI through the Mapping's rotation (and its Strength), per pixel."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    _world(scene, rotation=1.1, strength=1.5)
+    _camera(scene, (0.0, 0.0, 0.0), (2.3, 0.0, -1.35), 18)
+    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=512, passes=512,
+                      bounces=0, photons=256, width=32)
+    assert ref.max() > 20.0              # the spot is in view
+    np.testing.assert_allclose(ours, ref, rtol=0.03, atol=0.01)
+
+
+def _map_device():
+    from ppm_engine.device import get_device
+    from ppm_engine.world_map import build_map
+    v, u = (np.mgrid[0:16, 0:32] + 0.5) / np.array([16, 32])[:, None, None]
+    rgb = np.stack([1 + np.cos(2 * np.pi * u), v, 0.2 * np.ones_like(u)], -1)
+    rgb[11, 9] = (80.0, 60.0, 40.0)                            # a sun
+    rgb[3, 20] = 0.0                                           # and a black texel
+    return get_device(), build_map(rgb)
+
+
+def test_map_sampling_follows_the_map_and_its_density_integrates_to_one():
+    """Directions sampled from the CDF on the device fall in each texel in proportion to the
+    map (chi-square), carry the density world_map_pdf gives them (and the NumPy mirror), and
+    that density integrates to 1 over the sphere."""
+    import pyopencl as cl
+    from ppm_engine.world_map import direction_to_uv, map_pdf
+    dev, m = _map_device()
+    n = 1 << 18
+    prog = dev.programs.get("world_map.cl", {})
+    dirs, again = dev.buffer(16 * n, "dirs"), dev.buffer(4 * n, "pdf")
+    prog.launch("world_sample_test", "test")(
+        dev.queue, n, map=dev.upload(m.buffer, "map"), w=np.int32(m.width),
+        h=np.int32(m.height), mean=np.float32(m.mean), seed=np.uint32(3), n=np.int32(n),
+        dirs=dirs, pdf_again=again)
+    d, p2 = np.empty((n, 4), np.float32), np.empty(n, np.float32)
+    cl.enqueue_copy(dev.queue, d, dirs)
+    cl.enqueue_copy(dev.queue, p2, again).wait()
+    assert (d[:, 3] > 0).all()
+    # (a direction on a texel's edge may round into its neighbour)
+    assert np.isclose(d[:, 3], p2, rtol=1e-3).mean() > 0.999
+    p3 = map_pdf(m, d[:, :3].astype(np.float64))
+    assert np.isclose(d[:, 3], p3, rtol=1e-3).mean() > 0.999
+    uv = direction_to_uv(d[:, :3].astype(np.float64))
+    j = np.clip((uv[:, 0] * m.width).astype(int), 0, m.width - 1)
+    i = np.clip((uv[:, 1] * m.height).astype(int), 0, m.height - 1)
+    counts = np.bincount(i * m.width + j, minlength=m.f.size)
+    expect = n * m.f.ravel() / m.f.sum()
+    assert counts[expect == 0].sum() == 0
+    live = expect > 5
+    chi2 = (((counts[live] - expect[live]) ** 2) / expect[live]).sum()
+    assert chi2 < live.sum() + 5 * np.sqrt(2 * live.sum()), chi2
+    rng = np.random.default_rng(1)
+    z = rng.uniform(-1, 1, 1 << 21)
+    phi = rng.uniform(0, 2 * np.pi, z.size)
+    s = np.sqrt(1 - z * z)
+    u = np.stack([s * np.cos(phi), s * np.sin(phi), z], -1)
+    np.testing.assert_allclose(map_pdf(m, u).mean() * 4 * np.pi, 1.0, rtol=0.01)
+
+
+def test_baked_map_is_the_image_at_its_texel_centres(bpy):
+    """Without Mapping the map (the image's resolution) evaluates the world at the image's
+    texel centres: its values are the image's mean x sin(theta), row 0 at the nadir; and the
+    world's power in the emitter table is pi R^2 2 pi^2 mean(f)."""
+    from ppm_engine.device import get_device
+    from ppm_engine.device_scene import DeviceScene
+    from ppm_engine.export import export_scene
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    world = _world(scene)
+    t = world.node_tree
+    t.nodes["Mapping"].inputs["Rotation"].default_value = (0.0, 0.0, 0.0)
+    _camera(scene, (0.0, -3.0, 0.0), (1.5, 0.0, 0.0), 50)
+    bpy.ops.mesh.primitive_plane_add(size=1)
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+    assert arrays.world_shader[0] > 0 and tuple(arrays.world_shader[2:]) == (64, 32)
+    ds = DeviceScene(get_device(), arrays)
+    img = np.array(bpy.data.images["sky"].pixels[:], np.float32).reshape(32, 64, 4)[..., :3]
+    sin = np.sin(np.pi * (np.arange(32) + 0.5) / 32)[:, None]
+    np.testing.assert_allclose(ds.world_map.f, img.mean(-1) * sin, rtol=2e-3, atol=1e-5)
+    em = ds.emitters
+    R = float(em.info["scene_radius"][0])
+    np.testing.assert_allclose(em.power[-1], np.pi * R * R * 2 * np.pi ** 2 * ds.world_map.mean,
+                               rtol=1e-6)
+
+
+def test_constant_world_renders_as_before():
+    """A constant world keeps its path: the specialised kernels (no world program code) render
+    the image the engine rendered before world programs existed (commit 6f8d7a4, same seed),
+    and the kernels with every feature (world programs compiled in, none in the scene) the
+    same image."""
+    from pathlib import Path
+    from ppm_engine.options import RenderOptions
+    from ppm_engine.renderer import Renderer
+    import sys
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_skips import _room          # the room of the specialisation tests
+    before = np.load(Path(__file__).parent / "data" / "constant_world_6f8d7a4.npy")
+    scene = _room(None, glass=True, world=(0.3, 0.4, 0.5))
+    for specialize in (True, False):
+        r = Renderer(scene, RenderOptions(photons_per_pass=2048, seed=4, specialize=specialize,
+                                          exact_gather=True))
+        if specialize:
+            assert "PPM_WORLD_MAP" not in r.features and "PPM_SVM" not in r.features
+        for _ in range(4):
+            r.iterate()
+        np.testing.assert_allclose(r.image(), before, rtol=1e-5, atol=1e-6)
+        r.close()
