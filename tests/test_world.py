@@ -3,12 +3,16 @@ and a bright sun-like spot) through Texture Coordinate, Mapping and an Environme
 lighting a diffuse sphere on a plane per 8 x 8 block (direct light only and full transport),
 and seen by the camera per pixel; the importance map's sampling against its density; and a
 constant world rendered exactly as the kernels without world programs render it."""
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
-
-W = 48          # image size: 6 x 6 blocks of 8 x 8 pixels
+sys.path.insert(0, str(Path(__file__).parent))
+from test_materials import _both, _compare, _light_world_camera  # noqa: E402  (the same scenes' set-up)
+from test_skips import _room  # noqa: E402
 SUN = (0.3, 0.75)   # the spot's (u, v): above the horizon, to the side
 
 
@@ -43,13 +47,8 @@ def _world(scene, rotation=0.0, strength=1.0):
 
 
 def _camera(scene, location, rotation, lens):
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    cam.location, cam.rotation_euler, cam.data.lens = location, rotation, lens
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    scene.render.dither_intensity = 0.0
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    scene.render.filter_size = 0.0
+    """The camera and the pixel filter of tests/test_materials.py."""
+    _light_world_camera(scene, light=None, world=0.0, camera=(location, rotation, lens))
 
 
 def _diffuse(name, color):
@@ -70,29 +69,9 @@ def _sphere_scene():
     bpy.context.active_object.data.materials.append(_diffuse("Ball", (0.8, 0.8, 0.8)))
     bpy.ops.mesh.primitive_plane_add(size=8, location=(0, 0, -0.5))
     bpy.context.active_object.data.materials.append(_diffuse("Floor", (0.5, 0.5, 0.5)))
-    _world(scene, rotation=0.7)
     _camera(scene, (0.0, -3.2, 0.9), (1.32, 0.0, 0.0), 60)
+    _world(scene, rotation=0.7)
     return scene
-
-
-def _both(scene, cycles, render_exr, tmp_path, tiny, *, samples, passes, bounces, photons,
-          width=W):
-    cycles(scene, samples, width=width)
-    c = scene.cycles
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
-    ref = render_exr(tmp_path / "cycles.exr")
-    tiny(scene, width=width, height=width, passes=passes, photons=photons)
-    scene.ppm.max_bounces = bounces
-    ours = render_exr(tmp_path / "ours.exr")
-    return ours, ref
-
-
-def _compare_blocks(ours, ref, rtol, atol):
-    a, b = (x.reshape(W // 8, 8, W // 8, 8, 3).mean(axis=(1, 3)) for x in (ours, ref))
-    bad = np.abs(a - b) > rtol * np.abs(b) + atol
-    assert not bad.any(), (f"{bad.any(-1).sum()} of {bad.shape[0] * bad.shape[1]} blocks "
-                           f"differ; worst ratio {np.max(a / np.maximum(b, 1e-6)):.3f} / "
-                           f"{np.min(a / np.maximum(b, 1e-6)):.3f}")
 
 
 def test_hdri_direct_light_per_block_as_cycles(cycles, render_exr, tmp_path, tiny):
@@ -100,7 +79,7 @@ def test_hdri_direct_light_per_block_as_cycles(cycles, render_exr, tmp_path, tin
     scene = _sphere_scene()
     ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=256,
                       bounces=0, photons=1024)
-    _compare_blocks(ours, ref, 0.04, 0.003)
+    _compare(ours, ref, 0.04, 0.003)
 
 
 def test_hdri_full_transport_per_block_as_cycles(cycles, render_exr, tmp_path, tiny):
@@ -108,17 +87,17 @@ def test_hdri_full_transport_per_block_as_cycles(cycles, render_exr, tmp_path, t
     scene = _sphere_scene()
     ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=384,
                       bounces=4, photons=65536)
-    _compare_blocks(ours, ref, 0.07, 0.004)
+    _compare(ours, ref, 0.07, 0.004)
 
 
 def test_background_per_pixel_as_cycles(cycles, render_exr, tmp_path, tiny):
     """The camera sees the HDRI through the Mapping's rotation (and its Strength), per pixel."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    _world(scene, rotation=1.1, strength=1.5)
     _camera(scene, (0.0, 0.0, 0.0), (2.3, 0.0, -1.35), 18)
+    _world(scene, rotation=1.1, strength=1.5)
     ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=512, passes=512,
-                      bounces=0, photons=256, width=32)
+                      bounces=0, photons=256)
     assert ref.max() > 20.0              # the spot is in view
     np.testing.assert_allclose(ours, ref, rtol=0.03, atol=0.01)
 
@@ -181,10 +160,8 @@ def test_baked_map_is_the_image_at_its_texel_centres(bpy):
     from ppm_engine.export import export_scene
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    world = _world(scene)
-    t = world.node_tree
-    t.nodes["Mapping"].inputs["Rotation"].default_value = (0.0, 0.0, 0.0)
     _camera(scene, (0.0, -3.0, 0.0), (1.5, 0.0, 0.0), 50)
+    _world(scene)
     bpy.ops.mesh.primitive_plane_add(size=1)
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
     assert arrays.world_shader[0] > 0 and tuple(arrays.world_shader[2:]) == (64, 32)
@@ -203,12 +180,8 @@ def test_constant_world_renders_as_before():
     the image the engine rendered before world programs existed (commit 6f8d7a4, same seed),
     and the kernels with every feature (world programs compiled in, none in the scene) the
     same image."""
-    from pathlib import Path
     from ppm_engine.options import RenderOptions
     from ppm_engine.renderer import Renderer
-    import sys
-    sys.path.insert(0, str(Path(__file__).parent))
-    from test_skips import _room          # the room of the specialisation tests
     before = np.load(Path(__file__).parent / "data" / "constant_world_6f8d7a4.npy")
     scene = _room(None, glass=True, world=(0.3, 0.4, 0.5))
     for specialize in (True, False):
@@ -220,3 +193,20 @@ def test_constant_world_renders_as_before():
             r.iterate()
         np.testing.assert_allclose(r.image(), before, rtol=1e-5, atol=1e-6)
         r.close()
+
+
+def test_world_hidden_from_camera_and_an_unsupported_node(render_exr, tmp_path, tiny):
+    """Ray Visibility > Camera off: the camera sees black where the world was, the sphere is
+    still lit by it.  A Sky Texture (not evaluated): a warning naming it, a finite image."""
+    scene = _sphere_scene()
+    scene.world.cycles_visibility.camera = False
+    tiny(scene, width=16, height=16, passes=4, photons=1024)
+    img = render_exr(tmp_path / "hidden.exr")
+    assert img[0].max() == 0.0 and img[-1].mean() > 0.05        # sky black, floor lit
+    t = scene.world.node_tree
+    sky = t.nodes.new("ShaderNodeTexSky")
+    t.links.new(sky.outputs["Color"], t.nodes["Background"].inputs["Color"])
+    from ppm_engine.export import export_scene
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+    assert any("Sky Texture" in w for w in arrays.warnings), arrays.warnings
+    assert np.isfinite(render_exr(tmp_path / "sky.exr")).all()

@@ -94,12 +94,20 @@ def _geometry_node(c, node, out, ctx):
     return c.geometry(what)
 
 
-def _image(c, node, out, ctx):
+def _no_image(c, node, out):
+    """The constant an image node gives without its image (no table: 1; missing: magenta), or
+    None when its image is in the texture table."""
     if c.textures is None:
         return c.const(1.0, width(out.type))
     tex, missing = c.textures.image_index(node, c.material)
     if not tex:
         return c.const(missing if out.name == "Color" else (1.0,), width(out.type))
+    return None
+
+
+def _image(c, node, out, ctx):
+    if (v := _no_image(c, node, out)) is not None:
+        return v
     if getattr(node, "projection", "FLAT") != "FLAT":
         c.warn(f"'{node.name}' uses {node.projection.title()} projection; this engine projects "
                "Flat")
@@ -125,11 +133,8 @@ def _image_op(c, node, out, ctx, v, projection: int):
 def _environment(c, node, out, ctx):
     """Cycles' Environment Texture: the image at the equirectangular (u, v) of its Vector
     (normalised; unlinked: the position, for a world the ray's direction)."""
-    if c.textures is None:
-        return c.const(1.0, width(out.type))
-    tex, missing = c.textures.image_index(node, c.material)
-    if not tex:
-        return c.const(missing if out.name == "Color" else (1.0,), width(out.type))
+    if (v := _no_image(c, node, out)) is not None:
+        return v
     if getattr(node, "projection", "EQUIRECTANGULAR") != "EQUIRECTANGULAR":
         c.warn(f"'{node.name}' uses {node.projection.title()} projection; this engine projects "
                "Equirectangular")
