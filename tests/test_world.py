@@ -197,7 +197,8 @@ def test_constant_world_renders_as_before():
 
 def test_world_hidden_from_camera_and_an_unsupported_node(render_exr, tmp_path, tiny):
     """Ray Visibility > Camera off: the camera sees black where the world was, the sphere is
-    still lit by it.  A Sky Texture (not evaluated): a warning naming it, a finite image."""
+    still lit by it.  A Sky Texture (not evaluated): a warning naming it, the world's viewport
+    colour instead."""
     scene = _sphere_scene()
     scene.world.cycles_visibility.camera = False
     tiny(scene, width=16, height=16, passes=4, photons=1024)
@@ -209,4 +210,30 @@ def test_world_hidden_from_camera_and_an_unsupported_node(render_exr, tmp_path, 
     from ppm_engine.export import export_scene
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
     assert any("Sky Texture" in w for w in arrays.warnings), arrays.warnings
-    assert np.isfinite(render_exr(tmp_path / "sky.exr")).all()
+    scene.world.cycles_visibility.camera = True
+    scene.world.color = (0.2, 0.3, 0.4)
+    img = render_exr(tmp_path / "sky.exr")
+    np.testing.assert_allclose(img[0].mean(axis=0), (0.2, 0.3, 0.4), rtol=1e-3)
+
+
+def test_specialised_kernels_render_the_same_hdri_image(bpy):
+    """The world program's code with every feature compiled in renders the specialised
+    kernels' image (same seed: the same random streams)."""
+    from ppm_engine.export import export_scene
+    from ppm_engine.options import RenderOptions
+    from ppm_engine.renderer import Renderer
+    scene = _sphere_scene()
+    scene.render.resolution_x = scene.render.resolution_y = 16
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+    imgs = []
+    for specialize in (True, False):
+        r = Renderer(arrays, RenderOptions(photons_per_pass=2048, seed=4, specialize=specialize,
+                                           exact_gather=True))
+        if specialize:
+            assert {"PPM_WORLD_MAP", "PPM_SVM", "PPM_TEXTURES"} <= r.features
+        for _ in range(3):
+            assert r.iterate().nan_dropped == 0
+        imgs.append(r.image())
+        r.close()
+    assert imgs[0][..., :3].mean() > 0.1
+    np.testing.assert_allclose(imgs[0], imgs[1], rtol=1e-4, atol=1e-6)

@@ -60,6 +60,11 @@ def export_world(world, warn, textures=None, base: int = 0):
         return const, None, shader
     c = WorldCompiler(world.name, warn, textures, graph)
     v = c.scale(c.inp(node, "Color", ctx, 3), c.inp(node, "Strength", ctx, 1))
+    lacking = [t for t in c.said if "not evaluated" in t or "could not be read" in t]
+    if lacking:                          # a Sky Texture, Light Path, ...: not this sky at all
+        warn(f"World '{world.name}': a node of its graph is not evaluated (above); the world "
+             "is approximated by its viewport colour")
+        return approx, None, shader
     if v.is_const:                                      # folded to a constant
         return np.array(v.const[:3], np.float32), None, shader
     slot = c.slot(v)
