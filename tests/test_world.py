@@ -61,7 +61,10 @@ def _diffuse(name, color):
     return mat
 
 
-def _sphere_scene():
+def _sphere_scene(wall=False):
+    """The sphere on a floor; ``wall``: a white wall behind the camera, out of view, that
+    lights the scene by reflection (photons that leave the world outside the disc over what
+    the camera sees must still reach it)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=0.5)
@@ -69,6 +72,9 @@ def _sphere_scene():
     bpy.context.active_object.data.materials.append(_diffuse("Ball", (0.8, 0.8, 0.8)))
     bpy.ops.mesh.primitive_plane_add(size=8, location=(0, 0, -0.5))
     bpy.context.active_object.data.materials.append(_diffuse("Floor", (0.5, 0.5, 0.5)))
+    if wall:
+        bpy.ops.mesh.primitive_plane_add(size=8, location=(0, -6, 3.5), rotation=(-1.5708, 0, 0))
+        bpy.context.active_object.data.materials.append(_diffuse("Wall", (0.9, 0.9, 0.9)))
     _camera(scene, (0.0, -3.2, 0.9), (1.32, 0.0, 0.0), 60)
     _world(scene, rotation=0.7)
     return scene
@@ -82,9 +88,11 @@ def test_hdri_direct_light_per_block_as_cycles(cycles, render_exr, tmp_path, tin
     _compare(ours, ref, 0.04, 0.003)
 
 
-def test_hdri_full_transport_per_block_as_cycles(cycles, render_exr, tmp_path, tiny):
-    """All bounces: photons emitted from the map light the floor under the sphere."""
-    scene = _sphere_scene()
+@pytest.mark.parametrize("wall", [False, True])
+def test_hdri_full_transport_per_block_as_cycles(wall, cycles, render_exr, tmp_path, tiny):
+    """All bounces: photons emitted from the map light the floor under the sphere (and, with
+    the wall, the light it reflects onto the sphere's front)."""
+    scene = _sphere_scene(wall)
     ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=384,
                       bounces=4, photons=65536)
     _compare(ours, ref, 0.07, 0.004)
