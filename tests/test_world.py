@@ -93,7 +93,7 @@ def test_hdri_full_transport_per_block_as_cycles(wall, cycles, render_exr, tmp_p
     """All bounces: photons emitted from the map light the floor under the sphere (and, with
     the wall, the light it reflects onto the sphere's front)."""
     scene = _sphere_scene(wall)
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=384,
+    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=1024,
                       bounces=4, photons=65536)
     _compare(ours, ref, 0.07, 0.004)
 
