@@ -118,7 +118,7 @@ inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng
     } else if (PPM_EMISSIVE && e < info.n_lights + info.n_emissive) {
         if (!mesh_direct(emissive[e - info.n_lights], o, u1, u2, SCENE_PASS, s)) return false;
     } else if (PPM_WORLD && info.has_world) {
-        if (!world_direct(F3(info.world), n, u1, u2, s)) return false;
+        if (!world_direct(n, u1, u2, SCENE_PASS, s)) return false;
     } else return false;
     return true;
 }
@@ -163,9 +163,9 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_A
 #endif
         if (h.leaf < 0) {
             if (!(PPM_WORLD && emitter_info->has_world)) return (float3)(0.0f);
-            *pdf_l = fmax(dot(d, n), 0.0f) * (1.0f / PPM_PI)
+            *pdf_l = world_pdf(d, n, SCENE_PASS)
                      * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1);
-            return T * F3(emitter_info->world);
+            return T * world_le(d, SCENE_PASS);
         }
         int mat = as_int(tri_e2[h.leaf].w);
         if (PPM_EMISSIVE && (materials[mat].flags & MAT_EMISSIVE))
@@ -212,7 +212,7 @@ inline float3 direct_light(const ShaderData *sd, float3 p, int mask, SCENE_ARGS,
     bool lambert = true;
     for (int k = 0; k < sd->n; k++)
         lambert &= !closure_in(&sd->c[k], mask) || sd->c[k].type == CLOSURE_DIFFUSE;
-    bool sample = !lambert;
+    bool sample = !lambert || WORLD_PROGRAM(emitter_info);
 #if PPM_EMISSIVE
     sample = sample || emitter_info->n_emissive > 0;
 #endif

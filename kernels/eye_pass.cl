@@ -82,10 +82,11 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         L += beta * Ls * path_mis(prev_pdf, pdf_l);
 #endif
         if (h.leaf < 0) {
-            pdf_l = PPM_WORLD && emitter_info->has_world
-                ? fmax(dot(d, prev_n), 0.0f) * (1.0f / PPM_PI)
+            if (mask == VIS_CAMERA && (emitter_info->world_flags & WORLD_HIDDEN_CAMERA)) break;
+            pdf_l = PPM_WORLD && emitter_info->has_world && !isinf(prev_pdf)
+                ? world_pdf(d, prev_n, SCENE_PASS)
                   * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1) : 0.0f;
-            L += beta * F3(emitter_info->world) * path_mis(prev_pdf, pdf_l);
+            L += beta * world_le(d, SCENE_PASS) * path_mis(prev_pdf, pdf_l);
             break;
         }
         path_len += h.t;

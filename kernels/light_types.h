@@ -219,23 +219,5 @@ inline void area_emit(const Light *L, float pmf, float u1, float u2, float u3, f
 
 #include "light_mesh.h"
 
-/* --- the world: a constant colour all around -------------------------------------------- */
-inline bool world_direct(float3 world, float3 n, float u1, float u2, LightSample *s) {
-    s->wi = sample_cosine_hemisphere(n, u1, u2);       /* density cos / pi */
-    s->pdf_dir = fmax(dot(s->wi, n), 0.0f) * (1.0f / PPM_PI);
-    s->E = world / s->pdf_dir;
-    return s->pdf_dir > 0.0f;
-}
-
-/* photons from a disc of the scene's bounding radius R, in a uniform direction */
-inline void world_emit(float3 world, float3 c, float R, float pmf, float u1, float u2,
-                       float u3, float u4, float3 *o, float3 *d, float3 *flux) {
-    float3 dir = sample_uniform_sphere(u3, u4);
-    float2 q = sample_disk(u1, u2) * R;
-    float3 t, b;
-    make_frame(dir, &t, &b);
-    *d = dir;
-    *o = c - R * dir + q.x * t + q.y * b;
-    *flux = world * (4.0f * PPM_PI * PPM_PI * R * R / pmf);
-}
+#include "world.h"
 #endif

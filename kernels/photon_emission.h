@@ -27,7 +27,7 @@ inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flu
         if (!mesh_emit(emissive[e - info.n_lights], pmf, u1, u2, u3, u4, SCENE_PASS, o, d, flux))
             return false;
     } else if (PPM_WORLD && info.has_world) {
-        world_emit(F3(info.world), c, R, pmf, u1, u2, u3, u4, o, d, flux);
+        if (!world_emit(pmf, u1, u2, u3, u4, SCENE_PASS, o, d, flux)) return false;
     } else return false;
     return max3(*flux) > 0.0f && isfinite(max3(*flux));
 }

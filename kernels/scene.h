@@ -9,8 +9,8 @@
  * binds them by these names). */
 #define SCENE_ARGS BVH_ARGS, __global const float *normals, SHADING_ARGS, \
     __global const Light *lights, __global const float *emitter_cdf, __global const int *emissive, \
-    __global const EmitterInfo *emitter_info
-#define SCENE_PASS BVH_PASS, normals, SHADING_PASS, lights, emitter_cdf, emissive, emitter_info
+    __global const EmitterInfo *emitter_info, __global const float *world_map
+#define SCENE_PASS BVH_PASS, normals, SHADING_PASS, lights, emitter_cdf, emissive, emitter_info, world_map
 
 /* Emitter chosen in proportion to its power (cdf built by ppm_engine/emitters.py): the lights
  * first, then the emissive triangles, then the world. */

@@ -1,5 +1,6 @@
 #ifndef PPM_SVM_H
 #define PPM_SVM_H
+#include "geometry.h"
 #include "light_path.h"
 #include "svm_nodes.h"
 #include "textures.h"
@@ -170,6 +171,18 @@ inline float svm_fresnel_cos(float c, float eta) {
     return 0.5f * A * A * (1.0f + B * B);
 }
 
+/* Cycles' equirectangular projection (learnt from its direction_to_equirectangular): +X at
+ * u = 0.5, +Y at u = 0.25, the zenith at v = 1 */
+inline float2 direction_to_equirect(float3 d) {
+    if (!(dot(d, d) > 0.0f)) return (float2)(0.0f);
+    return (float2)(0.5f - atan2(d.y, d.x) * (0.5f / PPM_PI),
+                    1.0f - acos(clamp(d.z / length(d), -1.0f, 1.0f)) * (1.0f / PPM_PI));
+}
+inline float3 equirect_to_direction(float u, float v) {
+    float phi = PPM_PI * (1.0f - 2.0f * u), theta = PPM_PI * (1.0f - v);
+    return (float3)(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
+}
+
 /* a baked ramp or curve at x in [lo, hi] (linear between entries, or the entry below) */
 inline float4 svm_table(__global const int4 *t, int n, float x, float lo, float hi, int interp) {
     float f = hi > lo ? (x - lo) / (hi - lo) : 0.0f;
@@ -219,6 +232,7 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
             float4 c = (float4)(1.0f);
 #if PPM_TEXTURES
             float3 uvw = svm_get3(stack, w.w);
+            if (e.z) uvw.xy = direction_to_equirect(svm_safe_normalize(uvw));   /* Environment */
             c = texture_rgba(textures, texels, e.x, uvw.xy);
             if (e.y) c.xyz *= c.w;             /* Cycles' Color under unlinked alpha */
 #endif
@@ -374,5 +388,29 @@ inline void svm_bind(__global const int4 *svm, int p, int node, ShaderNode *nd,
             words[b.y + c] = isfinite(v) ? v : 0.0f;
         }
     }
+}
+/* The radiance of the world's program at word p along direction d (Cycles' background shader
+ * data: P = d, N = Ng = I = -d; export/world.py binds colour x strength as its one input; no
+ * object, no mesh attributes) */
+inline float3 svm_world(__global const int4 *svm, int p, float3 d, TEXTURE_ARGS) {
+    SvmContext cx;
+    cx.uv = (float2)(0.0f);
+    cx.N = cx.Ng = cx.I = -d;
+    cx.backfacing = 0.0f;
+    cx.tangent = (float4)(0.0f);
+    cx.generated = cx.P = cx.P_object = d;
+    cx.path = 0u;
+    cx.path_length = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        cx.object[k] = (float4)(0.0f);
+#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+        cx.to_object[k] = cx.to_world[k] = (float4)(k == 0, k == 1, k == 2, 0.0f);
+#endif
+    }
+    for (int k = 0; k < PPM_ATTRIBUTES; k++) cx.attr[k] = (float4)(0.0f);
+    float stack[PPM_SVM_STACK];
+    svm_eval(svm, p, stack, &cx, TEXTURE_PASS);
+    float3 L = svm_get3(stack, svm[p + 1].w);
+    return (isfinite(L.x) && isfinite(L.y) && isfinite(L.z)) ? L : (float3)(0.0f);
 }
 #endif

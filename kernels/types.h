@@ -138,7 +138,13 @@ typedef struct {
     float scene_center[3];
     float scene_radius;
     float offset_scale;  /* the scene's size for the ray offsets (geometry.h offset_ray) */
+    int world_program;   /* the world's shader program (word in svm), 0 = the constant world */
+    int world_flags;     /* WORLD_HIDDEN_CAMERA: camera rays do not see the world */
+    int map_w;           /* the world's importance map (world.h; ppm_engine/world_map.py) */
+    int map_h;
+    float map_mean;      /* mean of the map's values (sin(theta) included) */
 } EmitterInfo;
+#define WORLD_HIDDEN_CAMERA 1
 
 /* grid of the stochastic hash; written on the device by grid_setup (hash_build.cl) */
 typedef struct {

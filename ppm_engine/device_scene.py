@@ -15,6 +15,7 @@ from .shader_program import ops_used, stack_used
 from .shading_tables import load as shading_tables
 from .scene_arrays import LIGHT_DTYPE, TEXTURE_DTYPE, SceneArrays
 from .scene_prep import offset_scale, prepare_scene
+from .world_map import bake, build_map, map_size
 
 
 class DeviceScene:
@@ -35,12 +36,10 @@ class DeviceScene:
         self.kmaterials = kernel_materials(prepared.materials, self.knodes)
         self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
         self.offset_scale = offset_scale(prepared)
-        self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order)
-        em.info["offset_scale"] = self.offset_scale
         b = self.bvh
         lights = prepared.lights if prepared.lights.shape[0] else np.zeros(1, LIGHT_DTYPE)
         # names and order: kernels/scene.h SCENE_ARGS (the BVH's own: kernels/bvh.h BVH_ARGS)
-        self.args = dict(
+        args = dict(
             nodes=b.nodes, tri_v0=b.tri_v0, tri_e1=b.tri_e1, tri_e2=b.tri_e2,
             normals=up(prepared.normals, "shading normals"),
             # kernels/shader_data.h SHADING_ARGS
@@ -65,15 +64,32 @@ class DeviceScene:
             tri_object=up(prepared.object if prepared.object.size else np.full(1, -1, np.int32),
                           "triangles' objects"),
             objects=up(prepared.objects if prepared.objects.size else np.zeros(4, np.float32),
-                       "objects"),
+                       "objects"))
+        self.world_map = self._world_map(prepared, args)
+        self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,
+                                            self.world_map)
+        em.info["offset_scale"] = self.offset_scale
+        self.args = dict(
+            args,
             lights=up(lights, "lights"),
             emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
             emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),
                         "emissive triangles"),
-            emitter_info=up(em.info, "emitters"))
+            emitter_info=up(em.info, "emitters"),
+            world_map=up(self.world_map.buffer if self.world_map is not None
+                         else np.zeros(4, np.float32), "world map"))
         self.camera = up(prepared.camera, "camera")
         self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0])),
                                "pixel filter")
+
+    def _world_map(self, prepared: SceneArrays, args: dict):
+        """The world program's importance map baked on the device, or None (a constant
+        world)."""
+        ws = prepared.world_shader
+        if ws[0] <= 0:
+            return None
+        w, h = map_size(int(ws[2]), int(ws[3]))
+        return build_map(bake(self.device, args, prepared.svm, int(ws[0]), w, h))
 
     def kernel_defines(self, specialize: bool, gather_roughness: float = 0.7
                        ) -> tuple[frozenset | None, dict]:
@@ -85,7 +101,8 @@ class DeviceScene:
                                    self.used_materials) if specialize else None)
         svm = {}
         if features is not None and "PPM_SVM" in features:
-            starts = self.kmaterials["program"][self.used_materials]
+            starts = [*self.kmaterials["program"][self.used_materials],
+                      int(self.emitters.info["world_program"][0])]
             svm = {"PPM_SVM_OPS": ops_used(self.prepared.svm, starts),
                    "PPM_SVM_STACK": max(stack_used(self.prepared.svm, starts), 1)}
         if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact

@@ -22,6 +22,11 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("scene_radius", np.float32),
     # the scale of the ray offsets (scene_prep.offset_scale; kernels/geometry.h offset_ray)
     ("offset_scale", np.float32),
+    ("world_program", np.int32),   # the world's program (SceneArrays.world_shader), 0 = none
+    ("world_flags", np.int32),     # WORLD_HIDDEN_CAMERA
+    ("map_w", np.int32),           # its importance map (world_map.WorldMap)
+    ("map_h", np.int32),
+    ("map_mean", np.float32),
 ])
 
 
@@ -78,8 +83,8 @@ def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
     bounds: a sun's power (irradiance x the scene's cross-section) is positive exactly when its
     irradiance is."""
     world = np.nan_to_num(scene.world.astype(np.float64), nan=0.0, posinf=0.0)
-    if world.max(initial=0.0) > 0:
-        return True
+    if world.max(initial=0.0) > 0 or scene.world_shader[0] > 0:
+        return True                     # (a world's program: its map may be black)
     if (light_power(scene.lights, 1.0) > 0).any():
         return True
     emission = mean_emission(kmaterials, scene.textures, scene.texels).max(axis=1)
@@ -95,8 +100,10 @@ def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
     return bool((np.isfinite(area) & (area > 0)).any())
 
 
-def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.ndarray) -> Emitters:
-    """``leaf_order[k]`` = original index of the triangle in BVH leaf k."""
+def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.ndarray,
+                   world_map=None) -> Emitters:
+    """``leaf_order[k]`` = original index of the triangle in BVH leaf k; ``world_map``: the
+    importance map of the world's program (world_map.WorldMap), whose power it gives."""
     center, radius = scene_bounds(scene.positions)
     lp = light_power(scene.lights, radius)
 
@@ -113,6 +120,8 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
 
     world = np.maximum(np.nan_to_num(scene.world.astype(np.float64), nan=0.0, posinf=0.0), 0.0)
     wp = 4 * np.pi ** 2 * radius ** 2 * world.mean()
+    if world_map is not None:
+        wp = np.pi * radius ** 2 * world_map.integral
     has_world = bool(wp > 0 and np.isfinite(wp))
 
     power = np.concatenate([lp, tp, [wp] if has_world else []])
@@ -131,4 +140,9 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
     info["world"] = world
     info["scene_center"] = center
     info["scene_radius"] = radius
+    info["world_flags"] = scene.world_shader[1]
+    if world_map is not None:
+        info["world_program"] = scene.world_shader[0]
+        info["map_w"], info["map_h"] = world_map.width, world_map.height
+        info["map_mean"] = world_map.mean
     return Emitters(info, cdf.astype(np.float32), emissive_leaves, power, total)

@@ -57,6 +57,11 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarra
         f.add("PPM_EMISSIVE")        # (emission seen by camera rays needs no flag)
     if int(emitters.info["has_world"][0]):
         f.add("PPM_WORLD")
+    world_program = int(emitters.info["world_program"][0])
+    if world_program > 0:                  # (a world seen by rays: its program, even if black)
+        f.update(("PPM_WORLD_MAP", "PPM_SVM"))
+        if ops_used(scene.svm, [world_program]) & (1 << SVM_IMAGE):
+            f.add("PPM_TEXTURES")
     # lights a camera or specular ray can see: area lights, point lights with a radius
     # (kernels/lights.h lights_seen), unless hidden from every ray type that looks for them
     hidden_all = (VIS_CAMERA | VIS_GLOSSY | VIS_TRANSMISSION) << LIGHT_HIDDEN_SHIFT

@@ -33,6 +33,7 @@ LIGHT_AREA_ELLIPSE = 4   # DISK and ELLIPSE
 
 LIGHT_FLAG_SOFT_FALLOFF = 1   # point/spot with radius > 0: Cycles' "soft falloff" disk model
 # flags bit (VIS_x << LIGHT_HIDDEN_SHIFT): the light is not seen by rays of type VIS_x
+WORLD_HIDDEN_CAMERA = 1       # world_shader[1]: the world's Ray Visibility > Camera off
 # (the light object's visible_camera / visible_glossy / visible_transmission off)
 LIGHT_HIDDEN_SHIFT = 8
 
@@ -254,6 +255,10 @@ class SceneArrays:
         default_factory=lambda: np.zeros((0, 9, 4), np.float32))
     # (W, 4) int32 shader programs (ppm_engine/shader_program.py); word 0 is never one
     svm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((1, 4), np.int32))
+    # (4,) int32 the world's node graph: its program's first word in ``svm`` (0: the constant
+    # ``world``), WORLD_HIDDEN_CAMERA, and the largest Environment Texture's width and height
+    # (0: none; the importance map's automatic resolution, world_map.map_size)
+    world_shader: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4, np.int32))
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -319,6 +324,9 @@ class SceneArrays:
                 or not (0 <= self.materials["program"]).all() \
                 or (self.materials["program"] >= self.svm.shape[0]).any():
             raise ValueError("SceneArrays.svm: expected int32 (W, 4) holding every program")
+        ws = self.world_shader
+        if ws.dtype != np.int32 or ws.shape != (4,) or not 0 <= ws[0] < self.svm.shape[0]:
+            raise ValueError("SceneArrays.world_shader: expected int32 (4,) naming a program")
         if self.textures.dtype != TEXTURE_DTYPE or self.textures.ndim != 1:
             raise ValueError("SceneArrays.textures: expected a 1-D array of TEXTURE_DTYPE")
         if self.texels.dtype != np.float16 or self.texels.ndim != 2 or self.texels.shape[1] != 4:

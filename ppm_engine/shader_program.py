@@ -26,7 +26,8 @@ from .scene_arrays import SHADER_NODE_DTYPE
 SVM_END = 0
 SVM_CONST = 1          # (op, slot, n, 0) + (x, y, z, w) as float bits
 SVM_GEOMETRY = 2       # (op, slot, what, 0): GEOM_*
-SVM_IMAGE = 3          # (op, color_slot, alpha_slot, vector_slot) + (texture, 0, 0, 0)
+SVM_IMAGE = 3          # (op, color_slot, alpha_slot, vector_slot) + (texture, premultiplied,
+#                        projection: 0 flat, 1 equirectangular (Environment Texture), 0)
 SVM_MAPPING = 4        # (op, out, vector, type) + 3 words: the 3x4 matrix rows (float bits)
 SVM_MATH = 5           # (op, out, a, b) + (c, MATH_*, clamp, 0)
 SVM_VECTOR_MATH = 6    # (op, out_vector, a, b) + (c, VMATH_*, out_value, scale)

@@ -96,7 +96,10 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                 objects.append(object_row(obj, m, inst))
             parts[-1]["object"] = np.full(parts[-1]["positions"].shape[0], k_obj, np.int32)
     meshes.clear()
-    world = export_world(scene.world, warn)
+    svm = materials.svm()
+    world, world_program, world_shader = export_world(scene.world, warn, textures, svm.shape[0])
+    if world_program is not None:
+        svm = np.concatenate([svm, world_program])
 
     light_arr = np.concatenate(lights) if lights else np.zeros(0, LIGHT_DTYPE)
     if parts:
@@ -129,7 +132,7 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                            warnings=tuple(warn), textures=tex_table, texels=texels,
                            objects=(np.stack(objects) if objects
                                     else np.zeros((0, 9, 4), np.float32)),
-                           svm=materials.svm())
+                           svm=svm, world_shader=world_shader)
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
 

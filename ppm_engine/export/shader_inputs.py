@@ -73,8 +73,11 @@ def _vector_transform(c, node, out, ctx):
 
 
 def _tex_coord(c, node, out, ctx):
-    if out.name == "Generated":
+    world = getattr(c, "world", False)        # a world's: Generated = Object = the direction
+    if out.name == "Generated" or (world and out.name == "Object"):
         return c.generated()
+    if world and out.name == "Normal":
+        return c.geometry(GEOM_NORMAL)
     if out.name == "Camera":
         return _transform(c, c.geometry(GEOM_POSITION), _camera(c, True, 0, node), 0)
     if out.name == "Object":

@@ -45,8 +45,8 @@ def _premultiplied(node) -> bool:
     """Whether Cycles' Color output of this Image Texture is the colour times alpha: it is
     unless the Alpha output is linked, the image is data or its alpha is channel-packed or
     ignored (Cycles stores images with associated alpha)."""
-    image = node.image
-    if image is None or node.outputs["Alpha"].is_linked:
+    image, alpha = node.image, node.outputs.get("Alpha")     # (an Environment: no Alpha)
+    if image is None or (alpha is not None and alpha.is_linked):
         return False
     if image.colorspace_settings.is_data or image.alpha_mode in ("CHANNEL_PACKED", "NONE"):
         return False
@@ -97,7 +97,7 @@ class TextureTable:
             self.warn(f"Material '{material}': image node '{node.name}' has no image; it renders "
                       "magenta, as in Cycles")
             return 0, MISSING
-        flags = _EXTENSION.get(node.extension, TEX_REPEAT)
+        flags = _EXTENSION.get(getattr(node, "extension", "REPEAT"), TEX_REPEAT)
         if node.interpolation == "Closest":
             flags |= TEX_FLAG_CLOSEST
         key = (image.name_full, flags)

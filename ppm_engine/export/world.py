@@ -1,30 +1,81 @@
-"""The world: a constant background radiance = colour x strength (Cycles units)."""
+"""The world: a constant background radiance = colour x strength (Cycles units), or, when the
+Background's Color or Strength comes from a node graph (an HDRI through an Environment
+Texture, Mapping, Math, ...), that graph compiled into a shader program (shader_graph.Compiler)
+whose one bound value is colour x strength (kernels/svm.h svm_world)."""
 from __future__ import annotations
 
 import numpy as np
 
+from ..scene_arrays import WORLD_HIDDEN_CAMERA
+from ..shader_program import SVM_END
+from .shader_graph import Compiler, Graph
+
 _SHADERS = ("ShaderNodeBackground", "ShaderNodeEmission")   # identical for a world in Cycles
 
 
-def export_world(world, warn) -> np.ndarray:
+class WorldCompiler(Compiler):
+    """The compiler with a world's coordinates (Generated and Object: the ray's direction) and
+    its warnings named by the world."""
+    world = True
+
+    def __init__(self, name, warn, textures, graph):
+        super().__init__(name, warn, textures, graph)
+        self.env_sizes: list = []
+
+    def warn(self, text):
+        if text not in self.said:
+            self.said.add(text)
+            self.warn_fn(f"World '{self.material}': {text}")
+
+
+def export_world(world, warn, textures=None, base: int = 0):
+    """(radiance (3,) float32, program words or None, world_shader (4,) int32): the program is
+    to be placed at word ``base`` of SceneArrays.svm."""
+    shader = np.zeros(4, np.int32)
     if world is None:
-        return np.zeros(3, np.float32)
+        return np.zeros(3, np.float32), None, shader
+    vis = getattr(world, "cycles_visibility", None)
+    if vis is not None and not getattr(vis, "camera", True):
+        shader[1] |= WORLD_HIDDEN_CAMERA
     approx = np.array(world.color[:3], np.float32)          # the world's viewport colour
     tree = world.node_tree
     if tree is None:
-        return approx
+        return approx, None, shader
     out = tree.get_output_node('CYCLES') or tree.get_output_node('ALL')
     sock = out.inputs.get("Surface") if out is not None else None
-    if sock is None or not sock.is_linked:
-        return np.zeros(3, np.float32)                      # Cycles: no surface = black
-    node = sock.links[0].from_node
+    graph = Graph(warn)
+    src = graph.source(sock) if sock is not None else None
+    if src is None:
+        return np.zeros(3, np.float32), None, shader       # Cycles: no surface = black
+    node, _, ctx = src
     if node.bl_idname not in _SHADERS:
-        warn(f"World '{world.name}': only a Background shader is supported; the world is "
-             "approximated by its viewport colour")
-        return approx
+        warn(f"World '{world.name}': only a Background shader is supported, not "
+             f"'{node.name}' ({node.bl_label}); the world is its viewport colour")
+        return approx, None, shader
     color, strength = node.inputs["Color"], node.inputs["Strength"]
-    if color.is_linked or strength.is_linked:
-        warn(f"World '{world.name}': textures on the background are not evaluated; its "
-             "unlinked colour and strength are used")
-    return (np.array(color.default_value[:3], np.float64)
-            * float(strength.default_value)).astype(np.float32)
+    const = (np.array(color.default_value[:3], np.float64)
+             * float(strength.default_value)).astype(np.float32)
+    if textures is None or (graph.source(color, ctx) is None
+                            and graph.source(strength, ctx) is None):
+        return const, None, shader
+    c = WorldCompiler(world.name, warn, textures, graph)
+    v = c.scale(c.inp(node, "Color", ctx, 3), c.inp(node, "Strength", ctx, 1))
+    lacking = [t for t in c.said if "not evaluated" in t or "could not be read" in t]
+    if lacking:                          # a Sky Texture, Light Path, ...: not this sky at all
+        warn(f"World '{world.name}': a node of its graph is not evaluated (above); the world "
+             "is approximated by its viewport colour")
+        return approx, None, shader
+    if v.is_const:                                      # folded to a constant
+        return np.array(v.const[:3], np.float32), None, shader
+    slot = c.slot(v)
+    if c.overflow:
+        warn(f"World '{world.name}': its node graph needs more values than a shader program "
+             "holds; its unlinked colour and strength are used")
+        return const, None, shader
+    words = [(1, 0, c.top, c.flags), (0, 0, 3, slot)] + list(c.ops) + [(SVM_END, 0, 0, 0)]
+    words[0] = (1, len(words), c.top, c.flags)
+    shader[0] = base
+    if c.env_sizes:
+        shader[2] = max(s[0] for s in c.env_sizes)
+        shader[3] = max(s[1] for s in c.env_sizes)
+    return const, np.array(words, np.int32), shader

@@ -1,0 +1,28 @@
+/* The world's importance map (ppm_engine/world_map.py): the radiance of the world's shader
+ * program at the centre of each texel of a w x h lat-long map (Cycles' equirectangular
+ * directions, row 0 at the nadir), as Cycles bakes its background map. */
+#include "world_map.h"
+#include "rng.h"
+
+__kernel void world_bake(__global const int4 *svm, TEXTURE_ARGS, int program, int w, int h,
+                         __global float4 *out) {
+    int id = get_global_id(0);
+    if (id >= w * h) return;
+    int i = id / w, j = id % w;
+    float3 d = equirect_to_direction(((float)j + 0.5f) / (float)w, ((float)i + 0.5f) / (float)h);
+    out[id] = (float4)(svm_world(svm, program, d, TEXTURE_PASS), 0.0f);
+}
+
+/* Tests (tests/test_world.py): n directions sampled from the map with their densities, and the
+ * density world_map_pdf gives each (float4: direction, pdf; and the pdf again) */
+__kernel void world_sample_test(__global const float *map, int w, int h, float mean, uint seed,
+                                int n, __global float4 *dirs, __global float *pdf_again) {
+    int id = get_global_id(0);
+    if (id >= n) return;
+    uint rng = rng_seed(seed, 0u, (uint)id, 7u);
+    float3 wi;
+    float pdf;
+    if (!world_map_sample(w, h, mean, map, rnd(&rng), rnd(&rng), &wi, &pdf)) pdf = 0.0f;
+    dirs[id] = (float4)(wi, pdf);
+    pdf_again[id] = world_map_pdf(wi, w, h, mean, map);
+}
