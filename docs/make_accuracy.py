@@ -23,7 +23,8 @@ from ppm_engine import analytic as A  # noqa: E402
 from ppm_engine.options import RenderOptions  # noqa: E402
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at  # noqa: E402
 from ppm_engine.renderer import Renderer  # noqa: E402
-from ppm_engine.scene_arrays import LIGHT_DTYPE, LIGHT_POINT, make_camera, perspective_extent  # noqa: E402
+from ppm_engine.camera_model import make_camera, perspective_extent  # noqa: E402
+from ppm_engine.scene_arrays import LIGHT_DTYPE, LIGHT_POINT  # noqa: E402
 
 
 def save_png(name, img, scale=None):

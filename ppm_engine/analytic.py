@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from .procedural import MeshBuilder, look_at
-from .scene_arrays import CAMERA_ORTHO, LIGHT_DTYPE, LIGHT_POINT, make_camera
+from .camera_model import make_camera
+from .scene_arrays import CAMERA_ORTHO, LIGHT_DTYPE, LIGHT_POINT
 
 ALBEDO = 0.5
 

@@ -14,7 +14,8 @@ from ppm_engine.counters import N_COUNTERS, Counter  # noqa: E402
 from ppm_engine.passes import Gather, HashBuild, unshaded  # noqa: E402
 from ppm_engine.photon_map import GRID_DTYPE, PhotonMap  # noqa: E402
 from ppm_engine.procedural import MeshBuilder, look_at  # noqa: E402
-from ppm_engine.scene_arrays import CAMERA_DTYPE, LIGHT_DTYPE, make_camera  # noqa: E402
+from ppm_engine.camera_model import make_camera  # noqa: E402
+from ppm_engine.scene_arrays import CAMERA_DTYPE, LIGHT_DTYPE  # noqa: E402
 
 DEVICES = [d.key for d in list_devices()]
 

@@ -8,7 +8,8 @@ from ppm_engine.errors import DeviceError
 from ppm_engine.options import RenderOptions, SettingsError
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import NODE_PRINCIPLED, SceneArrays, make_camera
+from ppm_engine.camera_model import make_camera
+from ppm_engine.scene_arrays import NODE_PRINCIPLED, SceneArrays
 
 
 @pytest.mark.parametrize("bad", [dict(passes=-1), dict(passes=0), dict(alpha=0.0),

@@ -22,7 +22,7 @@ from ..photon_map import GRID_DTYPE, PhotonMap
 from ..procedural import MeshBuilder, cornell_box, look_at
 from ..reference import pack_unit
 from ..renderer import Renderer
-from ..scene_arrays import make_camera
+from ..camera_model import make_camera
 
 PAPER = {
     "hash_build_200k_ms": (2.5, "Radeon HD 4850 (paper)"),

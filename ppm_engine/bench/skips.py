@@ -18,7 +18,8 @@ from ..blender_io import ensure_registered
 from ..options import RenderOptions
 from ..procedural import MeshBuilder, cornell_box, look_at
 from ..renderer import Renderer
-from ..scene_arrays import LIGHT_DTYPE, LIGHT_POINT, make_camera, perspective_extent
+from ..camera_model import make_camera, perspective_extent
+from ..scene_arrays import LIGHT_DTYPE, LIGHT_POINT
 
 
 def _median_pass_ms(renderers: dict, passes: int, warmup: int = 3) -> dict:

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SceneError
-from ..scene_arrays import (CAMERA_ORTHO, CAMERA_PERSP, make_camera, ortho_extent,
-                            perspective_extent)
+from ..camera_model import make_camera, ortho_extent, perspective_extent
+from ..scene_arrays import CAMERA_ORTHO, CAMERA_PERSP
 
 
 def render_size(render) -> tuple[int, int]:

@@ -1,0 +1,105 @@
+#ifndef PPM_SVM_CONTEXT_H
+#define PPM_SVM_CONTEXT_H
+
+/* The shading point as a shader program reads it (included by kernels/svm.h after the op
+ * codes and flags): its context, built per hit from the scene's per-corner arrays, and the
+ * Normal Map node, which reads the context's frame. */
+
+/* what a program may read of the shading point */
+typedef struct {
+    float2 uv;
+    float3 N;            /* shading normal, on the viewer's side */
+    float3 Ng;
+    float3 I;            /* towards the viewer (0 for shadow rays and emitter samples) */
+    float backfacing;
+    float4 tangent;      /* the UV map's tangent (world) and bitangent sign; 0 when not read */
+    float3 generated;    /* Generated coordinates (0..1 over the mesh's texture space) */
+    float3 P;            /* the position (world) */
+    uint path;           /* the ray that reached the point (light_path.h) */
+    float path_length;   /* its last segment's length */
+    float3 P_object;     /* the position in the object's space */
+    float4 object[3];    /* the object's (location, pass index), colour, (random, 0, 0, 0) */
+#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+    float4 to_object[3], to_world[3];   /* its inverse and world matrices (Vector Transform) */
+#endif
+    float4 attr[PPM_ATTRIBUTES];  /* the mesh attributes programs read, at the point */
+} SvmContext;
+
+/* The context of a shading point of triangle tri at barycentrics (u, v) for the program at word
+ * p: N and Ng on the viewer's side, I towards the viewer (all 0 where no direction is known:
+ * shadow rays, emitter samples); the UV tangent only when the program reads it. */
+inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u, float v,
+                              float3 P, uint path, float path_length, float3 N, float3 Ng, float3 I, bool backfacing,
+                              __global const float *uvs, __global const float4 *uv_tangents,
+                              __global const float *generated,
+                              __global const float4 *attributes,
+                              __global const int *tri_object, __global const float4 *objects) {
+    SvmContext cx = {surface_uv(uvs, tri, u, v), N, Ng, I, backfacing ? 1.0f : 0.0f,
+                     (float4)(0.0f), (float3)(0.0f), P, path, path_length};
+    float w = 1.0f - u - v;
+    if (SVM_HAS(SVM_NORMAL_MAP) && p > 0 && (svm[p].w & PROGRAM_TANGENTS)) {
+        __global const float4 *t = uv_tangents + 3 * (size_t)tri;
+        cx.tangent = w * t[0] + u * t[1] + v * t[2];
+    }
+    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_GENERATED)) {
+        __global const float *g = generated + 9 * (size_t)tri;
+        cx.generated = w * (float3)(g[0], g[1], g[2]) + u * (float3)(g[3], g[4], g[5])
+                       + v * (float3)(g[6], g[7], g[8]);
+    }
+    cx.P_object = P;
+    cx.object[0] = cx.object[1] = cx.object[2] = (float4)(0.0f);
+    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_OBJECT) && tri_object[tri] >= 0) {
+        __global const float4 *o = objects + 9 * (size_t)tri_object[tri];
+        float4 h = (float4)(P, 1.0f);
+        cx.P_object = (float3)(dot(o[0], h), dot(o[1], h), dot(o[2], h));
+        cx.object[0] = o[3];
+        cx.object[1] = o[4];
+        cx.object[2] = o[5];
+#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+        for (int r = 0; r < 3; r++) {
+            cx.to_object[r] = o[r];
+            cx.to_world[r] = o[6 + r];
+        }
+    } else {
+        for (int r = 0; r < 3; r++) {      /* no object: the identity */
+            cx.to_object[r] = cx.to_world[r] = (float4)(r == 0, r == 1, r == 2, 0.0f);
+        }
+#endif
+    }
+    bool attrs = SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_ATTRIBUTES);
+    for (int k = 0; k < PPM_ATTRIBUTES; k++) {
+        __global const float4 *a = attributes + 3 * PPM_ATTRIBUTES * (size_t)tri + k;
+        cx.attr[k] = attrs ? w * a[0] + u * a[PPM_ATTRIBUTES] + v * a[2 * PPM_ATTRIBUTES]
+                           : (float4)(0.0f);
+    }
+    return cx;
+}
+
+/* Cycles' Normal Map node (learnt from its svm_node_normal_map): the colour's tangent-space
+ * normal (space 0) in the frame of the UV tangent, the interpolated normal and their
+ * bitangent, the strength applied in tangent space; or a world-space normal (spaces 1-4:
+ * object and world, Blender's object and world with y and z negated; object space is taken
+ * as world space, warned about at export) interpolated from N by the strength.  On the
+ * viewer's side; N itself where the result is degenerate or no tangent exists. */
+inline float3 svm_normal_map(const SvmContext *cx, int space, float3 color, float strength) {
+    float3 c = 2.0f * color - 1.0f, N;
+    bool back = cx->backfacing > 0.0f;
+    if (space == 0) {
+        float3 T = cx->tangent.xyz;
+        if (!(dot(T, T) > 0.0f)) return cx->N;
+        float3 n = back ? -cx->N : cx->N;
+        c.x *= strength;
+        c.y *= strength;
+        c.z = mix(1.0f, c.z, clamp(strength, 0.0f, 1.0f));
+        float3 B = (cx->tangent.w < 0.0f ? -1.0f : 1.0f) * cross(n, T);
+        N = svm_safe_normalize(c.x * T + c.y * B + c.z * n);
+    } else {
+        if (space >= 3) c.yz = -c.yz;
+        N = svm_safe_normalize(c);
+    }
+    if (back) N = -N;
+    if (space != 0 && strength != 1.0f)
+        N = svm_safe_normalize(cx->N + (N - cx->N) * fmax(strength, 0.0f));
+    return (dot(N, N) > 0.0f && all(isfinite(N))) ? N : cx->N;
+}
+#endif
