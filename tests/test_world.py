@@ -88,7 +88,7 @@ def test_hdri_direct_light_per_block_as_cycles(cycles, render_exr, tmp_path, tin
     _compare(ours, ref, 0.04, 0.003)
 
 
-@pytest.mark.parametrize("wall", [False, True])
+@pytest.mark.parametrize("wall", [pytest.param(False, marks=pytest.mark.slow), True])  # 38 s each
 def test_hdri_full_transport_per_block_as_cycles(wall, cycles, render_exr, tmp_path, tiny):
     """All bounces: photons emitted from the map light the floor under the sphere (and, with
     the wall, the light it reflects onto the sphere's front)."""
