@@ -9,9 +9,9 @@ from ppm_engine.device import SHADING_GROUP
 from ppm_engine.options import RenderOptions
 from ppm_engine.procedural import MeshBuilder, look_at
 from ppm_engine.renderer import Renderer
+from ppm_engine.camera_model import make_camera, perspective_extent
 from ppm_engine.scene_arrays import (CAMERA_ORTHO, LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_SUN,
-                                     LIGHT_DTYPE, LIGHT_FLAG_SOFT_FALLOFF, LIGHT_POINT,
-                                     LIGHT_SPOT, make_camera, perspective_extent)
+                                     LIGHT_DTYPE, LIGHT_FLAG_SOFT_FALLOFF, LIGHT_POINT, LIGHT_SPOT)
 
 
 def render(scene, passes, seed=0, **opts):

@@ -8,10 +8,10 @@ from ppm_engine.options import RenderOptions
 from ppm_engine.passes import ProgressiveUpdate
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import (LIGHT_AREA_RECT, LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT,
-                                     LIGHT_POINT, LIGHT_SUN, NODE_DIFFUSE, NODE_PRINCIPLED,
-                                     NODE_SHEEN, NODE_TRANSLUCENT, VIS_CAMERA, VIS_GLOSSY,
-                                     VIS_TRANSMISSION, make_camera, perspective_extent)
+from ppm_engine.camera_model import make_camera, perspective_extent
+from ppm_engine.scene_arrays import (LIGHT_AREA_RECT, LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT, LIGHT_POINT,
+                                     LIGHT_SUN, NODE_DIFFUSE, NODE_PRINCIPLED, NODE_SHEEN,
+                                     NODE_TRANSLUCENT, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION)
 
 
 def _light(kind, emit, position=(0, 0, 1.5), direction=(0, 0, -1), radius=0.0, size=0.3,

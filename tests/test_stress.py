@@ -18,8 +18,9 @@ from ppm_engine.photon_map import PhotonMap  # noqa: E402
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at  # noqa: E402
 from ppm_engine.renderer import Renderer  # noqa: E402
 from ppm_engine.scene_prep import prepare_scene  # noqa: E402
-from ppm_engine.scene_arrays import (CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT, LIGHT_SPOT,  # noqa: E402
-                                     LIGHT_SUN, make_camera, perspective_extent)
+from ppm_engine.camera_model import make_camera, perspective_extent  # noqa: E402
+from ppm_engine.scene_arrays import (CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT,  # noqa: E402
+                                     LIGHT_SPOT, LIGHT_SUN)
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,9 @@ from ppm_engine.export.textures import srgb_to_linear  # noqa: E402
 from ppm_engine.options import RenderOptions  # noqa: E402
 from ppm_engine.procedural import MeshBuilder, look_at  # noqa: E402
 from ppm_engine.renderer import Renderer  # noqa: E402
+from ppm_engine.camera_model import make_camera  # noqa: E402
 from ppm_engine.scene_arrays import (CAMERA_ORTHO, TEX_CLIP, TEX_FLAG_CLOSEST,  # noqa: E402
-                                     TEX_FLAG_SRGB, TEX_REPEAT, TEXTURE_DTYPE, make_camera)
+                                     TEX_FLAG_SRGB, TEX_REPEAT, TEXTURE_DTYPE)
 
 # a 4 x 2 image, rows bottom-up (Blender's order), values on the 8-bit grid
 PIXELS = np.array([[[0.0, 0.2, 0.4, 1], [1.0, 0.0, 0.0, 1], [0.0, 1.0, 0.0, 1], [0.0, 0.0, 1.0, 1]],
