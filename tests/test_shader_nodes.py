@@ -565,3 +565,24 @@ def test_mapping_with_linked_inputs_as_cycles(cycles, render_exr, tmp_path, tiny
     cases.update({"normal coordinate": normal(rz=math.pi / 2, sx=-1.0),
                   "normal coordinate back": normal(rx=math.pi)})
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def test_map_range_vector_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Map Range in vector mode: every interpolation, clamped or not, a reversed range."""
+    def case(kind, clamp, reverse=False):
+        def build(i):
+            n = i.node("ShaderNodeMapRange", data_type="FLOAT_VECTOR", interpolation_type=kind,
+                       clamp=clamp)
+            i.t.links.new(i.A, n.inputs["Vector"])
+            fmin, fmax = ((0.9, 0.8, 0.7), (0.1, 0.3, 0.2)) if reverse else \
+                ((0.1, 0.2, -0.1), (0.8, 0.7, 1.2))
+            for name, v in (("From_Min_FLOAT3", fmin), ("From_Max_FLOAT3", fmax),
+                            ("To_Min_FLOAT3", (-1.0, 0.5, 2.0)), ("To_Max_FLOAT3", (2.0, -0.5, 3.0)),
+                            ("Steps_FLOAT3", (3.0, 4.0, 5.0))):
+                next(s for s in n.inputs if s.identifier == name).default_value = v
+            return n.outputs["Vector"]
+        return build
+    cases = {f"{k.lower()}{' clamp' if c else ''}{' reversed' if r else ''}": case(k, c, r)
+             for k in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
+             for c in (False, True) for r in (False, True)}
+    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

@@ -298,18 +298,21 @@ def _clamp(c, node, out, ctx):
 
 
 def _map_range(c, node, out, ctx):
-    if node.data_type != "FLOAT":
-        c.warn(f"'{node.name}' maps vectors, which this engine does not evaluate yet; its "
-               "input is passed through")
-        return c.convert(c.inp(node, "Vector", ctx, 3), width(out.type))
-    names = ("Value", "From Min", "From Max", "To Min", "To Max", "Steps")
-    vals = [c.inp(node, k, ctx, 1) for k in names]
-    s = [c.slot(x) for x in vals]
-    o = c.alloc(1)
-    c.ops.append((SVM_MAP_RANGE, o, s[0], s[1]))
-    c.ops.append((s[2], s[3], s[4], s[5]))
-    c.ops.append((MAP_RANGE_TYPES.get(node.interpolation_type, 0), int(node.clamp), 0, 0))
-    return Val(1, slot=o)
+    """Map Range; in vector mode each component mapped by its own ranges and steps."""
+    vector = node.data_type == "FLOAT_VECTOR"
+    names = ("Vector" if vector else "Value", "From Min", "From Max", "To Min", "To Max",
+             "Steps")
+    vals = [c.inp(node, k, ctx, 3 if vector else 1) for k in names]
+    kind = (MAP_RANGE_TYPES.get(node.interpolation_type, 0), int(node.clamp), 0, 0)
+    comps = []
+    for k in range(3 if vector else 1):
+        s = [c.slot(c.component(x, k) if vector else x) for x in vals]
+        o = c.alloc(1)
+        c.ops.append((SVM_MAP_RANGE, o, s[0], s[1]))
+        c.ops.append((s[2], s[3], s[4], s[5]))
+        c.ops.append(kind)
+        comps.append(Val(1, slot=o))
+    return c.combine(*comps) if vector else comps[0]
 
 
 def _table(c, node, out, ctx):
