@@ -54,9 +54,11 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
     camera = export_camera(scene, depsgraph)
     textures = TextureTable(warn)
     materials = MaterialTable(warn, textures)
-    # Cycles' camera space: the camera object's, its z flipped (+z ahead)
-    materials.camera = (np.array(scene.camera.evaluated_get(depsgraph).matrix_world, np.float64)
-                        @ np.diag((1.0, 1.0, -1.0, 1.0)))
+    # Cycles' camera space: the camera object's without its scale (as the camera's rays), its z
+    # flipped (+z ahead)
+    cm = np.array(scene.camera.evaluated_get(depsgraph).matrix_world, np.float64)
+    cm[:3, :3] /= np.maximum(np.linalg.norm(cm[:3, :3], axis=0, keepdims=True), 1e-30)
+    materials.camera = cm @ np.diag((1.0, 1.0, -1.0, 1.0))
     meshes = MeshCache(warn)
     parts, lights = [], []
     uv_tangents = generated = False
