@@ -297,21 +297,8 @@ inline void svm_bind(__global const int4 *svm, int p, int node, ShaderNode *nd,
  * data: P = d, N = Ng = I = -d; export/world.py binds colour x strength as its one input; no
  * object, no mesh attributes) */
 inline float3 svm_world(__global const int4 *svm, int p, float3 d, TEXTURE_ARGS) {
-    SvmContext cx;
-    cx.uv = (float2)(0.0f);
-    cx.N = cx.Ng = cx.I = -d;
-    cx.backfacing = 0.0f;
-    cx.tangent = (float4)(0.0f);
-    cx.generated = cx.P = cx.P_object = d;
-    cx.path = 0u;
-    cx.path_length = 0.0f;
-    for (int k = 0; k < 3; k++) {
-        cx.object[k] = (float4)(0.0f);
-#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
-        cx.to_object[k] = cx.to_world[k] = (float4)(k == 0, k == 1, k == 2, 0.0f);
-#endif
-    }
-    for (int k = 0; k < PPM_ATTRIBUTES; k++) cx.attr[k] = (float4)(0.0f);
+    SvmContext cx = svm_context_base((float2)(0.0f), d, 0u, 0.0f, -d, -d, -d, false);
+    cx.generated = d;
     float stack[PPM_SVM_STACK];
     svm_eval(svm, p, stack, &cx, TEXTURE_PASS);
     float3 L = svm_get3(stack, svm[p + 1].w);

@@ -25,17 +25,42 @@ typedef struct {
     float4 attr[PPM_ATTRIBUTES];  /* the mesh attributes programs read, at the point */
 } SvmContext;
 
+/* A context with what every shading point has, and the defaults of the rest: no tangent, no
+ * Generated coordinates, no object (its space the world's), no mesh attributes */
+inline SvmContext svm_context_base(float2 uv, float3 P, uint path, float path_length, float3 N,
+                                   float3 Ng, float3 I, bool backfacing) {
+    SvmContext cx;
+    cx.uv = uv;
+    cx.N = N;
+    cx.Ng = Ng;
+    cx.I = I;
+    cx.backfacing = backfacing ? 1.0f : 0.0f;
+    cx.tangent = (float4)(0.0f);
+    cx.generated = (float3)(0.0f);
+    cx.P = cx.P_object = P;
+    cx.path = path;
+    cx.path_length = path_length;
+    for (int r = 0; r < 3; r++) {
+        cx.object[r] = (float4)(0.0f);
+#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+        cx.to_object[r] = cx.to_world[r] = (float4)(r == 0, r == 1, r == 2, 0.0f);
+#endif
+    }
+    for (int k = 0; k < PPM_ATTRIBUTES; k++) cx.attr[k] = (float4)(0.0f);
+    return cx;
+}
+
 /* The context of a shading point of triangle tri at barycentrics (u, v) for the program at word
  * p: N and Ng on the viewer's side, I towards the viewer (all 0 where no direction is known:
- * shadow rays, emitter samples); the UV tangent only when the program reads it. */
+ * shadow rays, emitter samples); the per-corner data only where the program reads them. */
 inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u, float v,
-                              float3 P, uint path, float path_length, float3 N, float3 Ng, float3 I, bool backfacing,
-                              __global const float *uvs, __global const float4 *uv_tangents,
-                              __global const float *generated,
+                              float3 P, uint path, float path_length, float3 N, float3 Ng,
+                              float3 I, bool backfacing, __global const float *uvs,
+                              __global const float4 *uv_tangents, __global const float *generated,
                               __global const float4 *attributes,
                               __global const int *tri_object, __global const float4 *objects) {
-    SvmContext cx = {surface_uv(uvs, tri, u, v), N, Ng, I, backfacing ? 1.0f : 0.0f,
-                     (float4)(0.0f), (float3)(0.0f), P, path, path_length};
+    SvmContext cx = svm_context_base(surface_uv(uvs, tri, u, v), P, path, path_length, N, Ng, I,
+                                     backfacing);
     float w = 1.0f - u - v;
     if (SVM_HAS(SVM_NORMAL_MAP) && p > 0 && (svm[p].w & PROGRAM_TANGENTS)) {
         __global const float4 *t = uv_tangents + 3 * (size_t)tri;
@@ -46,8 +71,6 @@ inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u
         cx.generated = w * (float3)(g[0], g[1], g[2]) + u * (float3)(g[3], g[4], g[5])
                        + v * (float3)(g[6], g[7], g[8]);
     }
-    cx.P_object = P;
-    cx.object[0] = cx.object[1] = cx.object[2] = (float4)(0.0f);
     if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_OBJECT) && tri_object[tri] >= 0) {
         __global const float4 *o = objects + 9 * (size_t)tri_object[tri];
         float4 h = (float4)(P, 1.0f);
@@ -60,17 +83,13 @@ inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u
             cx.to_object[r] = o[r];
             cx.to_world[r] = o[6 + r];
         }
-    } else {
-        for (int r = 0; r < 3; r++) {      /* no object: the identity */
-            cx.to_object[r] = cx.to_world[r] = (float4)(r == 0, r == 1, r == 2, 0.0f);
-        }
 #endif
     }
-    bool attrs = SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_ATTRIBUTES);
-    for (int k = 0; k < PPM_ATTRIBUTES; k++) {
-        __global const float4 *a = attributes + 3 * PPM_ATTRIBUTES * (size_t)tri + k;
-        cx.attr[k] = attrs ? w * a[0] + u * a[PPM_ATTRIBUTES] + v * a[2 * PPM_ATTRIBUTES]
-                           : (float4)(0.0f);
+    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_ATTRIBUTES)) {
+        for (int k = 0; k < PPM_ATTRIBUTES; k++) {
+            __global const float4 *a = attributes + 3 * PPM_ATTRIBUTES * (size_t)tri + k;
+            cx.attr[k] = w * a[0] + u * a[PPM_ATTRIBUTES] + v * a[2 * PPM_ATTRIBUTES];
+        }
     }
     return cx;
 }
