@@ -169,6 +169,7 @@ class MeshCache:
         self.warn = warn
         self._cache: dict = {}
         self._tangents: dict = {}
+        self._attributes: dict = {}
 
     def uv_tangents(self, obj) -> np.ndarray | None:
         """read_uv_tangents of a mesh object's data (once per datablock); None for other
@@ -188,7 +189,11 @@ class MeshCache:
         if obj.type != 'MESH':
             self.warn(f"Object '{obj.name}' is not a mesh: its attributes are not read (0)")
             return None
-        return read_attributes(obj.data, self.get(obj), list(names), self.warn)
+        key = (obj.data.as_pointer(), tuple(names))
+        if key not in self._attributes:                # once per datablock, not per instance
+            self._attributes[key] = read_attributes(obj.data, self.get(obj), list(names),
+                                                    self.warn)
+        return self._attributes[key]
 
     def get(self, obj) -> LocalMesh | None:
         data = obj.data
@@ -216,6 +221,15 @@ class MeshCache:
     def clear(self):
         self._cache.clear()
         self._tangents.clear()
+        self._attributes.clear()
+
+
+def _texspace_centred(mesh: LocalMesh) -> np.ndarray:
+    """(T, 3, 3) float64 Generated coordinates minus 1/2 at the corners: the object-space
+    position over the mesh's texture space, centred."""
+    loc, size = (np.asarray(v, np.float64) for v in mesh.texspace)
+    size = np.where(np.abs(size) > 1e-30, size, 1.0)
+    return (mesh.positions.astype(np.float64) - loc) / (2.0 * size)
 
 
 def radial_tangents(mesh: LocalMesh) -> np.ndarray:
@@ -223,9 +237,7 @@ def radial_tangents(mesh: LocalMesh) -> np.ndarray:
     (its Tangent node, Radial, Z): (-(g.y - 1/2), g.x - 1/2, 0) of the Generated coordinates
     g, which map the mesh's texture space to 0..1.  Linear in the position, so interpolating
     the corners' is exact."""
-    loc, size = (np.asarray(v, np.float64) for v in mesh.texspace)
-    size = np.where(np.abs(size) > 1e-30, size, 1.0)
-    g = (mesh.positions.astype(np.float64) - loc) / (2.0 * size)        # g - 1/2
+    g = _texspace_centred(mesh)                                          # g - 1/2
     t = np.zeros(mesh.positions.shape, np.float32)
     t[..., 0], t[..., 1] = -g[..., 1], g[..., 0]
     return t
@@ -234,9 +246,7 @@ def radial_tangents(mesh: LocalMesh) -> np.ndarray:
 def generated_coords(mesh: LocalMesh) -> np.ndarray:
     """(T, 3, 3) Generated coordinates at the corners: the object-space position mapped from
     the mesh's texture space to 0..1 (Cycles' "generated" attribute)."""
-    loc, size = (np.asarray(v, np.float64) for v in mesh.texspace)
-    size = np.where(np.abs(size) > 1e-30, size, 1.0)
-    return ((mesh.positions.astype(np.float64) - loc) / (2.0 * size) + 0.5).astype(np.float32)
+    return (_texspace_centred(mesh) + 0.5).astype(np.float32)
 
 
 def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibility: int,
