@@ -90,6 +90,11 @@ class _Reader:
         sock = next((s for s in node.inputs if s.name == name and s.enabled), None)
         return None if sock is None else self.compiler.input(node, sock, self.ctx, n)
 
+    def may_exceed(self, node, name, limit: float) -> bool:
+        """Whether the input is above ``limit``, or driven (any value is possible)."""
+        v = self.val(node, name)
+        return v is not None and (not v.is_const or v.const[0] > limit)
+
     def field(self, row, node, name, field, default=None):
         v = self.val(node, name, 3 if row.dtype[field].shape else 1)
         if v is None:
@@ -204,6 +209,11 @@ class _Reader:
             self.ctx = ()
 
 
+def _thin_film(r: _Reader, node):
+    if r.may_exceed(node, "Thin Film Thickness", 0.1):
+        r.warn("thin-film iridescence is not rendered")
+
+
 def _principled(r: _Reader, node, row):
     row["type"] = NODE_PRINCIPLED
     r.color(node, "Base Color", row, "color", "color_texture")
@@ -225,12 +235,9 @@ def _principled(r: _Reader, node, row):
     else:
         row["emission"] = 0.0
     r.distribution(node, row)
-    ss = r.val(node, "Subsurface Weight")
-    if ss is not None and (not ss.is_const or ss.const[0] > 0.0):
+    if r.may_exceed(node, "Subsurface Weight", 0.0):
         r.warn("subsurface scattering renders as diffuse (its radius and scale are ignored)")
-    tf = r.val(node, "Thin Film Thickness")
-    if tf is not None and (not tf.is_const or tf.const[0] > 0.1):
-        r.warn("thin-film iridescence is not rendered")
+    _thin_film(r, node)
 
 
 def _simple(kind, color_default=(0.8, 0.8, 0.8)):
@@ -248,9 +255,8 @@ def _simple(kind, color_default=(0.8, 0.8, 0.8)):
             r.distribution(node, row)
         if kind == NODE_SHEEN and getattr(node, "distribution", "MICROFIBER") != "MICROFIBER":
             r.warn(f"'{node.name}' uses the Ashikhmin sheen; this engine renders Microfiber")
-        tf = r.val(node, "Thin Film Thickness") if kind == NODE_GLASS else None
-        if tf is not None and (not tf.is_const or tf.const[0] > 0.1):
-            r.warn("thin-film iridescence is not rendered")
+        if kind == NODE_GLASS:
+            _thin_film(r, node)
     return read
 
 
