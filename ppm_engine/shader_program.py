@@ -168,10 +168,6 @@ def f2i(x: float) -> int:
     return int(np.array([x], np.float32).view(np.int32)[0])
 
 
-def i2f(i) -> float:
-    return float(np.array([i], np.int32).view(np.float32)[0])
-
-
 def ops_used(svm: np.ndarray, starts) -> int:
     """Bitmask of the op codes in the programs starting at ``starts`` (-D PPM_SVM_OPS)."""
     mask = 0

@@ -73,6 +73,8 @@ class Graph:
 
 class Compiler:
     """Compiles one material's value nodes; ``binds`` and ``ops`` become its program."""
+    world = False                         # a world's graph (export/world.py WorldCompiler)
+    owner = "Material"                    # what its warnings name
 
     def __init__(self, material: str, warn, textures, graph: Graph, datablock=None,
                  attributes: list | None = None, camera=None):
@@ -96,7 +98,7 @@ class Compiler:
     def warn(self, text):
         if text not in self.said:
             self.said.add(text)
-            self.warn_fn(f"Material '{self.material}': {text}")
+            self.warn_fn(f"{self.owner} '{self.material}': {text}")
 
     # --- values -----------------------------------------------------------------------------
     def alloc(self, n: int) -> int:

@@ -73,7 +73,7 @@ def _vector_transform(c, node, out, ctx):
 
 
 def _tex_coord(c, node, out, ctx):
-    world = getattr(c, "world", False)        # a world's: Generated = Object = the direction
+    world = c.world                           # a world's: Generated = Object = the direction
     if out.name == "Generated" or (world and out.name == "Object"):
         return c.generated()
     if world and out.name == "Normal":

@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene_arrays import WORLD_HIDDEN_CAMERA
-from ..shader_program import SVM_END
 from .shader_graph import Compiler, Graph
 
 _SHADERS = ("ShaderNodeBackground", "ShaderNodeEmission")   # identical for a world in Cycles
@@ -17,15 +16,11 @@ class WorldCompiler(Compiler):
     """The compiler with a world's coordinates (Generated and Object: the ray's direction) and
     its warnings named by the world."""
     world = True
+    owner = "World"
 
     def __init__(self, name, warn, textures, graph):
         super().__init__(name, warn, textures, graph)
         self.env_sizes: list = []
-
-    def warn(self, text):
-        if text not in self.said:
-            self.said.add(text)
-            self.warn_fn(f"World '{self.material}': {text}")
 
 
 def export_world(world, warn, textures=None, base: int = 0):
@@ -67,15 +62,14 @@ def export_world(world, warn, textures=None, base: int = 0):
         return approx, None, shader
     if v.is_const:                                      # folded to a constant
         return np.array(v.const[:3], np.float32), None, shader
-    slot = c.slot(v)
-    if c.overflow:
+    c.binds.append((0, 0, 3, c.slot(v)))      # the radiance: svm_world reads bind 0's slots
+    words = c.program()
+    if words is None:                         # (program() refuses an overflowing stack)
         warn(f"World '{world.name}': its node graph needs more values than a shader program "
              "holds; its unlinked colour and strength are used")
         return const, None, shader
-    words = [(1, 0, c.top, c.flags), (0, 0, 3, slot)] + list(c.ops) + [(SVM_END, 0, 0, 0)]
-    words[0] = (1, len(words), c.top, c.flags)
     shader[0] = base
     if c.env_sizes:
         shader[2] = max(s[0] for s in c.env_sizes)
         shader[3] = max(s[1] for s in c.env_sizes)
-    return const, np.array(words, np.int32), shader
+    return const, words, shader
