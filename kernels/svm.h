@@ -9,9 +9,9 @@
  * export/shader_graph.py compiles a material's node graph into it): value nodes evaluated into a
  * private stack of floats, then the BSDF nodes' inputs read from it (svm_bind).  Built only for
  * scenes with a program (PPM_SVM), with the op codes the scene's programs use (PPM_SVM_OPS:
- * bit per op) and the stack they need (PPM_SVM_STACK floats). */
+ * bit per op, a ulong) and the stack they need (PPM_SVM_STACK floats). */
 #ifndef PPM_SVM_OPS
-#define PPM_SVM_OPS 0x7fffffff
+#define PPM_SVM_OPS 0x7fffffffffffffffUL
 #endif
 #ifndef PPM_SVM_STACK
 #define PPM_SVM_STACK 256

@@ -11,7 +11,7 @@ from .emitters import build_emitters
 from .features import defines as feature_defines, scene_features, used_materials
 from .film import FILTER_TABLE_SIZE, filter_table
 from .materials import MAT_GATHER, kernel_materials, kernel_nodes, max_closures
-from .shader_program import ops_used, stack_used
+from .shader_program import ops_define, ops_used, stack_used
 from .shading_tables import load as shading_tables
 from .scene_arrays import LIGHT_DTYPE, TEXTURE_DTYPE, SceneArrays
 from .scene_prep import offset_scale, prepare_scene
@@ -103,7 +103,7 @@ class DeviceScene:
         if features is not None and "PPM_SVM" in features:
             starts = [*self.kmaterials["program"][self.used_materials],
                       int(self.emitters.info["world_program"][0])]
-            svm = {"PPM_SVM_OPS": ops_used(self.prepared.svm, starts),
+            svm = {"PPM_SVM_OPS": ops_define(ops_used(self.prepared.svm, starts)),
                    "PPM_SVM_STACK": max(stack_used(self.prepared.svm, starts), 1)}
         if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact
             svm["PPM_ATTRIBUTES"] = self.prepared.attributes.shape[2]

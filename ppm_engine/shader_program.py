@@ -67,7 +67,7 @@ SVM_TEX_VORONOI = 28   # (op, distance, color, vector) + slots (w, scale, detail
 #                        + (dimensions, VORONOI_FEATURES, VORONOI_METRICS, normalize)
 #                        + (position, w out, radius, 0)
 SVM_TEX_LAST = 28
-SVM_OPS = 29           # op codes stay <= 30 (PPM_SVM_OPS is a bitmask in an int)
+SVM_OPS = 29           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
 
 OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
             "combine", "color_convert", "invert", "gamma", "bright_contrast", "rgb_to_bw",
@@ -80,7 +80,7 @@ OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 1, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_
             SVM_HSV: 1, SVM_TABLE: 2, SVM_NORMAL_MAP: 1,   # (a table's n entries follow)
             SVM_TEX_CHECKER: 1, SVM_TEX_GRADIENT: 1, SVM_TEX_WHITE_NOISE: 1, SVM_TEX_NOISE: 5,
             SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6}
-assert len(OP_NAMES) == SVM_OPS <= 31
+assert len(OP_NAMES) == SVM_OPS <= 64
 
 GEOM_UV = 0            # (u, v, 0) of the render UV map
 GEOM_NORMAL = 1        # shading normal (world, facing the viewer)
@@ -186,6 +186,11 @@ def ops_used(svm: np.ndarray, starts) -> int:
             mask |= 1 << op
             i += 1 + OP_EXTRA.get(op, 0) + (int(svm[i, 3]) if op == SVM_TABLE else 0)
     return mask
+
+
+def ops_define(mask: int) -> str:
+    """The -D PPM_SVM_OPS value of an ops_used mask: a ulong literal (op codes up to 63)."""
+    return f"{mask:#x}UL"
 
 
 def stack_used(svm: np.ndarray, starts) -> int:

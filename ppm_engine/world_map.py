@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from .shader_program import SVM_IMAGE, ops_used, stack_used
+from .shader_program import SVM_IMAGE, ops_define, ops_used, stack_used
 
 DEFAULT_WIDTH = 512        # without an Environment Texture (Cycles: 1024)
 MAX_WIDTH = 1024           # the cap of the automatic resolution (an environment image's width)
@@ -85,7 +85,7 @@ def map_pdf(m: WorldMap, d: np.ndarray) -> np.ndarray:
 def bake_defines(svm: np.ndarray, program: int) -> dict:
     """-D flags of kernels/world_map.cl for the world's program."""
     ops = ops_used(svm, [program])
-    return {"PPM_SPECIALIZED": True, "PPM_SVM": True, "PPM_SVM_OPS": ops,
+    return {"PPM_SPECIALIZED": True, "PPM_SVM": True, "PPM_SVM_OPS": ops_define(ops),
             "PPM_SVM_STACK": max(stack_used(svm, [program]), 1),
             **({"PPM_TEXTURES": True} if ops & (1 << SVM_IMAGE) else {})}
 
