@@ -34,7 +34,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
                        __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
                        __global float4 *vp_shade, __global uint *counters,
                        __global float4 *aux_albedo, __global float4 *aux_normal,
-                       __global const uint *active) {
+                       __global const uint *active, __global float *transparency) {
     int id = get_global_id(0);
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;
@@ -64,6 +64,11 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
     float prev_pdf = INFINITY;
     float3 prev_n = (float3)(0.0f, 0.0f, 1.0f);
     float4 vp = (float4)(0.0f);
+    /* alpha: a camera ray (through transparent surfaces, and transparent glass) that reaches
+     * the world on a transparent film, or a holdout, is transparency, not radiance (Cycles'
+     * transparent background path) */
+    bool film_clear = true;
+    float clear = 0.0f;
     ShaderData sd;
 #if PPM_ABSORPTION
     Media media;
@@ -82,6 +87,10 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         L += beta * Ls * path_mis(prev_pdf, pdf_l);
 #endif
         if (h.leaf < 0) {
+            if (film_clear && cam->film_transparent) {
+                clear += (beta.x + beta.y + beta.z) * (1.0f / 3.0f);
+                break;
+            }
             if (mask == VIS_CAMERA && (emitter_info->world_flags & WORLD_HIDDEN_CAMERA)) break;
             pdf_l = PPM_WORLD && emitter_info->has_world && !isinf(prev_pdf)
                 ? world_pdf(d, prev_n, SCENE_PASS)
@@ -93,6 +102,10 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
         shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
                      SHADING_PASS);
+        if (film_clear && max3(sd.holdout) > 0.0f) {
+            float3 t = beta * sd.holdout;
+            clear += (t.x + t.y + t.z) * (1.0f / 3.0f);
+        }
         if (max3(sd.emission) > 0.0f) {
             if (PPM_EMISSIVE && !isinf(prev_pdf))
                 mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, &pdf_l);
@@ -154,6 +167,9 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
             path = path_transparent(path);
             continue;
         }
+        film_clear = film_clear && (cam->film_transparent & FILM_TRANSPARENT_GLASS)
+            && (b.label & LABEL_TRANSMIT) && !(b.label & LABEL_DIFFUSE)
+            && b.roughness2 <= cam->glass_roughness * cam->glass_roughness;
         if (depth >= max_bounces) {
             /* the last bounce: the emitter this sample finds, and no further (Cycles ends a
              * path at the surface after its last bounce) */
@@ -178,4 +194,5 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
     bool ok = isfinite(L.x) && isfinite(L.y) && isfinite(L.z);
     direct[id] = ok ? (float4)(L, 1.0f) : (float4)(0.0f);
     if (!ok) atomic_inc(&counters[CNT_NAN]);
+    if (clear > 0.0f && isfinite(clear)) transparency[id] += clear;
 }

@@ -110,17 +110,20 @@ __kernel void film_add_sample(__global const float4 *direct_pass, __global const
     acc_add(moments, id, (float4)(y, y * y, (float)photons, 1.0f));
 }
 
-/* The per-pixel image: direct mean + S / (pi x the photons emitted while the pixel was
- * active), the latter in moments.z (a pixel that converged keeps its value). */
+/* The per-pixel image: (direct mean + S / (pi x the photons emitted while the pixel was
+ * active), the latter in moments.z: a pixel that converged keeps its value) x the film's
+ * exposure; alpha 1 - the mean transparency of its passes (transparent film, eye_pass.cl). */
 __kernel void film_resolve(__global const float4 *direct, __global const float4 *photon_sum,
-                           __global const float4 *moments, __global float4 *image, uint n) {
+                           __global const float4 *moments, __global const float *transparency,
+                           float exposure, __global float4 *image, uint n) {
     uint id = get_global_id(0);
     if (id >= n) return;
     acc4 d = acc_get(direct, id);
     acc4 c = d.w > 0 ? d / d.w : (acc4)(0);
     acc4 m = acc_get(moments, id);
     if (m.z > 0) c += acc_get(photon_sum, id) / (m.z * PPM_PI);
-    image[id] = (float4)(convert_float3(c.xyz), 1.0f);
+    float alpha = m.w > 0 ? 1.0f - clamp(transparency[id] / (float)m.w, 0.0f, 1.0f) : 1.0f;
+    image[id] = (float4)(convert_float3(c.xyz) * exposure, alpha);
 }
 
 /* Adaptive sampling, step 1: each pixel's estimated error, the standard error of its mean

@@ -285,6 +285,7 @@ typedef struct {
     float3 weight;       /* f cos / pdf of the mixture: the path's throughput factor */
     float pdf;           /* the mixture's density (INFINITY: a singular lobe) */
     float eta;           /* relative index crossed (1 unless refracted) */
+    float roughness2;    /* the sampled lobe's alpha_x alpha_y (transparent glass) */
     int label;
 } BsdfSample;
 
@@ -298,6 +299,7 @@ inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSampl
         s->label = closure_sample(c, sd->Ng, sd->wi, rand, &eval, &s->wo, &pdf, &s->eta);
         if (s->label == LABEL_NONE || !(pdf > 0.0f)) return false;
         if (!(s->label & LABEL_TRANSMIT)) eval *= bump_shadowing(sd, c, s->wo, false);
+        s->roughness2 = c->alpha_x * c->alpha_y;
         s->pdf = (s->label & LABEL_SINGULAR) ? INFINITY : pdf;
         s->weight = c->weight * eval / pdf;
         return true;
@@ -328,6 +330,7 @@ inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSampl
     s->label = closure_sample(c, sd->Ng, sd->wi, rand, &eval, &s->wo, &pdf, &s->eta);
     if (s->label == LABEL_NONE || !(pdf > 0.0f)) return false;
     if (!(s->label & LABEL_TRANSMIT)) eval *= bump_shadowing(sd, c, s->wo, false);
+    s->roughness2 = c->alpha_x * c->alpha_y;
     if (s->label & LABEL_SINGULAR) {
         s->pdf = INFINITY;
         s->weight = c->weight * eval * (sum_sw / (pdf * c->sample_weight));

@@ -56,8 +56,14 @@ typedef struct {
     int aperture_blades;
     float aperture_rotation;
     float aperture_ratio;
-    float filter_width;     /* 0: box; > 0: Blackman-Harris over +-filter_width pixels */
+    float filter_width;     /* the pixel filter (ppm_engine/film.py filter_table) */
+    int filter_type;
+    int film_transparent;   /* FILM_TRANSPARENT, FILM_TRANSPARENT_GLASS */
+    float glass_roughness;  /* transparent glass: the roughest transmission still clear */
+    float exposure;         /* applied by the film's resolve */
 } Camera;
+#define FILM_TRANSPARENT 1
+#define FILM_TRANSPARENT_GLASS 2
 
 /* mirrors materials.KMATERIAL_DTYPE (ppm_engine/materials.py derives it from the scene's
  * materials): what a pass needs of a material before it shades a hit */

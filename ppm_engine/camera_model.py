@@ -1,17 +1,45 @@
-"""Cameras as the kernels read them (scene_arrays.CAMERA_DTYPE): a row from the camera's
-placement and extent, and the extents of Cycles' perspective and orthographic cameras (sensor
-fit)."""
+"""Cameras as the kernels read them (CAMERA_DTYPE, kernels/types.h Camera): a row from the
+camera's placement, extent and film (pixel filter, transparency, exposure), and the extents of
+Cycles' perspective and orthographic cameras (sensor fit)."""
 from __future__ import annotations
 
 import numpy as np
 
-from .scene_arrays import CAMERA_DTYPE, CAMERA_PERSP
+CAMERA_PERSP = 0
+CAMERA_ORTHO = 1
+
+CAMERA_DTYPE = np.dtype([
+    ("type", np.int32),               # CAMERA_PERSP | CAMERA_ORTHO
+    ("width", np.int32),              # full frame in pixels (resolution percentage applied)
+    ("height", np.int32),
+    ("region", np.int32, 4),          # x0, y0, w, h of the rendered rectangle (border), pixels, y up
+    ("to_world", np.float32, (3, 4)), # camera-to-world rows, scale removed; camera looks down -Z
+    ("extent", np.float32, 2),        # w_ext, h_ext: view-plane size at distance 1 (ortho: in units)
+    ("shift", np.float32, 2),         # shift_x * fit, shift_y * fit
+    ("clip", np.float32, 2),          # clip_start, clip_end (planar depth)
+    ("aperture_radius", np.float32),  # 0 = pinhole
+    ("focus_distance", np.float32),
+    ("aperture_blades", np.int32),
+    ("aperture_rotation", np.float32),
+    ("aperture_ratio", np.float32),
+    ("filter_width", np.float32),     # pixel filter width (pixels); Blackman-Harris with 0: a
+                                      # one-pixel box (film.filter_table)
+    ("filter_type", np.int32),        # FILTER_BLACKMAN_HARRIS | FILTER_BOX | FILTER_GAUSSIAN
+    ("film_transparent", np.int32),   # FILM_TRANSPARENT (| FILM_TRANSPARENT_GLASS): camera rays
+                                      # that reach the world make alpha, not radiance
+    ("glass_roughness", np.float32),  # transparent glass: the largest roughness that stays clear
+    ("exposure", np.float32),         # Cycles' film exposure: the image's scale
+])
+# Cycles' pixel filters (scene.cycles.pixel_filter_type); 0 is what files before the field meant
+FILTER_BLACKMAN_HARRIS, FILTER_BOX, FILTER_GAUSSIAN = 0, 1, 2
+FILM_TRANSPARENT, FILM_TRANSPARENT_GLASS = 1, 2
 
 
 def make_camera(*, type=CAMERA_PERSP, width, height, to_world, extent, shift=(0.0, 0.0),
                 clip=(0.1, 1000.0), region=None, aperture_radius=0.0, focus_distance=10.0,
                 aperture_blades=0, aperture_rotation=0.0, aperture_ratio=1.0,
-                filter_width=0.0) -> np.ndarray:
+                filter_width=0.0, filter_type=FILTER_BLACKMAN_HARRIS, film_transparent=0,
+                glass_roughness=0.1, exposure=1.0) -> np.ndarray:
     """One CAMERA_DTYPE record (used by the exporter, tests and scripted scenes)."""
     cam = np.zeros(1, CAMERA_DTYPE)
     cam["type"] = type
@@ -22,7 +50,9 @@ def make_camera(*, type=CAMERA_PERSP, width, height, to_world, extent, shift=(0.
     cam["aperture_radius"], cam["focus_distance"] = aperture_radius, focus_distance
     cam["aperture_blades"], cam["aperture_rotation"] = aperture_blades, aperture_rotation
     cam["aperture_ratio"] = aperture_ratio
-    cam["filter_width"] = filter_width
+    cam["filter_width"], cam["filter_type"] = filter_width, filter_type
+    cam["film_transparent"], cam["glass_roughness"] = film_transparent, glass_roughness
+    cam["exposure"] = exposure
     return cam
 
 

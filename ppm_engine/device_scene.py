@@ -79,7 +79,8 @@ class DeviceScene:
             world_map=up(self.world_map.buffer if self.world_map is not None
                          else np.zeros(4, np.float32), "world map"))
         self.camera = up(prepared.camera, "camera")
-        self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0])),
+        self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0]),
+                                             int(prepared.camera["filter_type"][0])),
                                "pixel filter")
 
     def _world_map(self, prepared: SceneArrays, args: dict):

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .scene_arrays import FILTER_BLACKMAN_HARRIS, FILTER_BOX, FILTER_GAUSSIAN
+
 
 def has_fp64(device) -> bool:
     """Whether the OpenCL device does double precision (cl_khr_fp64)."""
@@ -50,9 +52,12 @@ class Film:
         # denoising passes (eye_pass.cl adds (value, 1) at each visible point)
         self.aux_albedo = device.buffer(16 * n, "film (denoising albedo)")
         self.aux_normal = device.buffer(16 * n, "film (denoising normal)")
+        # transparent film: the sum over passes of the share of the sample that reached the world
+        self.transparency = device.buffer(4 * n, "film (transparency)")
+        self.exposure = 1.0           # Cycles' film exposure (the camera's; Renderer sets it)
         for b, size in ((self.direct_pass, 16), (self.direct, 32), (self.photon_sum, 32),
                         (self.nstat, 4), (self.radius, 4), (self.radius0, 4), (self.aux_albedo, 16),
-                        (self.aux_normal, 16), (self.moments, 32)):
+                        (self.aux_normal, 16), (self.moments, 32), (self.transparency, 4)):
             cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
         cl.enqueue_fill_buffer(device.queue, self.active, np.uint32(1), 0, 4 * n)
         self.photons_emitted = 0      # Python int: exact at any count
@@ -65,7 +70,8 @@ class Film:
         n = self.n_pixels
         ev = self.prog.launch("film_resolve", "resolve")(
             q, n, wait_for=wait_for, direct=self.direct, photon_sum=self.photon_sum,
-            moments=self.moments, image=self.image_buf, n=np.uint32(n))
+            moments=self.moments, transparency=self.transparency,
+            exposure=np.float32(self.exposure), image=self.image_buf, n=np.uint32(n))
         out = np.empty((self.height, self.width, 4), np.float32)
         ev2 = cl.enqueue_copy(q, out, self.image_buf, wait_for=[ev], is_blocking=False)
         return ev2, out
@@ -104,17 +110,24 @@ class Film:
 FILTER_TABLE_SIZE = 256
 
 
-def filter_table(width: float) -> np.ndarray:
-    """Inverse CDF of Cycles' Blackman-Harris pixel filter (scene/film.cpp: the function is
-    evaluated with its width doubled, so its support is +-width pixels), sampled at
-    FILTER_TABLE_SIZE uniform u; the eye pass jitters each axis with it.  width <= 0: the box
-    filter (offsets uniform in the pixel)."""
+def filter_table(width: float, kind: int = FILTER_BLACKMAN_HARRIS) -> np.ndarray:
+    """Inverse CDF of Cycles' pixel filter (scene/film.cpp), sampled at FILTER_TABLE_SIZE
+    uniform u; the eye pass jitters each axis with it.  Supports as Cycles': the box +-width/2
+    (Blender's Cycles passes width 1 for the box), the Gaussian +-1.5 width with sigma width/4,
+    Blackman-Harris +-width.  Blackman-Harris of width <= 0 (files from before the filter
+    type): the one-pixel box."""
     u = (np.arange(FILTER_TABLE_SIZE) + 0.5) / FILTER_TABLE_SIZE
-    if width <= 0:
-        return (u - 0.5).astype(np.float32)
-    x = np.linspace(-width, width, 4097)
-    v = 2 * np.pi * (x / (2 * width) + 0.5)
-    f = 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
+    if kind == FILTER_BOX or width <= 0:
+        w = width if kind == FILTER_BOX and width > 0 else 1.0
+        return ((u - 0.5) * w).astype(np.float32)
+    if kind == FILTER_GAUSSIAN:
+        half = 1.5 * width
+        x = np.linspace(-half, half, 4097)
+        f = np.exp(-8.0 * (x / width) ** 2)
+    else:
+        x = np.linspace(-width, width, 4097)
+        v = 2 * np.pi * (x / (2 * width) + 0.5)
+        f = 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
     cdf = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(x))])
     cdf /= cdf[-1]
     return np.interp(u, cdf, x).astype(np.float32)

@@ -63,6 +63,7 @@ class Renderer:
             self.photon_map = PhotonMap(dev, self.STORE_FACTOR * self.photons_per_pass,
                                         exact=o.exact_gather)
         self.film = Film(dev, w, h)
+        self.film.exposure = float(self.scene.scene.camera["exposure"][0])
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
         programs = dev.programs
         self.eye = EyePass(self.scene, programs.get("eye_pass.cl", self.defines), self.film,

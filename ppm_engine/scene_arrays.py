@@ -16,6 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .camera_model import (CAMERA_DTYPE, CAMERA_ORTHO, CAMERA_PERSP,  # noqa: F401 (re-exported)
+                           FILM_TRANSPARENT, FILM_TRANSPARENT_GLASS, FILTER_BLACKMAN_HARRIS,
+                           FILTER_BOX, FILTER_GAUSSIAN)
+
 # --- triangle visibility bits (Blender's Object.visible_* ray flags) -------------------------
 VIS_CAMERA = 1
 VIS_DIFFUSE = 2
@@ -37,8 +41,6 @@ WORLD_HIDDEN_CAMERA = 1       # world_shader[1]: the world's Ray Visibility > Ca
 # (the light object's visible_camera / visible_glossy / visible_transmission off)
 LIGHT_HIDDEN_SHIFT = 8
 
-CAMERA_PERSP = 0
-CAMERA_ORTHO = 1
 
 # A material: its BSDF nodes are rows of ``SceneArrays.shader_nodes`` (material = its index);
 # what belongs to the material as a whole is here.
@@ -189,22 +191,8 @@ LIGHT_DTYPE = np.dtype([
     ("spot_scale_z", np.float32),     # SPOT: 1 / |scaled Z column| (cone measured in the scaled frame)
 ])
 
-CAMERA_DTYPE = np.dtype([
-    ("type", np.int32),               # CAMERA_PERSP | CAMERA_ORTHO
-    ("width", np.int32),              # full frame in pixels (resolution percentage applied)
-    ("height", np.int32),
-    ("region", np.int32, 4),          # x0, y0, w, h of the rendered rectangle (border), pixels, y up
-    ("to_world", np.float32, (3, 4)), # camera-to-world rows, scale removed; camera looks down -Z
-    ("extent", np.float32, 2),        # w_ext, h_ext: view-plane size at distance 1 (ortho: in units)
-    ("shift", np.float32, 2),         # shift_x * fit, shift_y * fit
-    ("clip", np.float32, 2),          # clip_start, clip_end (planar depth)
-    ("aperture_radius", np.float32),  # 0 = pinhole
-    ("focus_distance", np.float32),
-    ("aperture_blades", np.int32),
-    ("aperture_rotation", np.float32),
-    ("aperture_ratio", np.float32),
-    ("filter_width", np.float32),     # pixel filter: 0 = box (one pixel), > 0 = Cycles' Blackman-Harris
-])
+# fields whose default is not zero (files written before the field existed)
+_FIELD_DEFAULTS = {"exposure": 1.0}     # the camera's
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -390,8 +378,12 @@ class SceneArrays:
 
 
 def _with_fields(a: np.ndarray, dt: np.dtype) -> np.ndarray:
-    """``a`` as dtype ``dt``: the fields both have copied, the others zero."""
+    """``a`` as dtype ``dt``: the fields both have copied, the others their default (zero but
+    for _FIELD_DEFAULTS)."""
     new = np.zeros(a.shape, dt)
+    for field in set(dt.names) - set(a.dtype.names):
+        if field in _FIELD_DEFAULTS:
+            new[field] = _FIELD_DEFAULTS[field]
     for field in set(a.dtype.names) & set(dt.names):
         new[field] = a[field]
     return new

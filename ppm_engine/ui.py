@@ -11,6 +11,11 @@ EXTRA_BUILTIN_PANELS = (
     "EEVEE_MATERIAL_PT_context_material",
     "DATA_PT_EEVEE_light",
     "EEVEE_WORLD_PT_surface",
+    # Cycles' film (exposure, pixel filter, transparency): the engine renders Cycles' film
+    # settings (export/camera.py film_settings); absent without the Cycles add-on
+    "CYCLES_RENDER_PT_film",
+    "CYCLES_RENDER_PT_film_pixel_filter",
+    "CYCLES_RENDER_PT_film_transparency",
 )
 
 
@@ -80,15 +85,23 @@ def builtin_panels():
     return panels
 
 
+def _own_engines(panel) -> set:
+    """The panel's own COMPAT_ENGINES: a set shared with its base class (every Cycles panel
+    shares CyclesButtonsPanel's) is copied onto the panel first, so only this panel changes."""
+    if "COMPAT_ENGINES" not in vars(panel):
+        panel.COMPAT_ENGINES = set(panel.COMPAT_ENGINES)
+    return panel.COMPAT_ENGINES
+
+
 def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
     for panel in builtin_panels():
-        panel.COMPAT_ENGINES.add(ENGINE_ID)
+        _own_engines(panel).add(ENGINE_ID)
 
 
 def unregister():
     for panel in builtin_panels():
-        panel.COMPAT_ENGINES.discard(ENGINE_ID)
+        _own_engines(panel).discard(ENGINE_ID)
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

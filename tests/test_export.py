@@ -9,7 +9,9 @@ from mathutils import Vector  # noqa: E402
 
 from ppm_engine.errors import SceneError  # noqa: E402
 from ppm_engine.export import export_scene  # noqa: E402
-from ppm_engine.scene_arrays import (CAMERA_ORTHO, LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT,  # noqa: E402
+from ppm_engine.scene_arrays import (CAMERA_ORTHO, FILM_TRANSPARENT,  # noqa: E402
+                                     FILM_TRANSPARENT_GLASS, FILTER_BLACKMAN_HARRIS, FILTER_BOX,
+                                     FILTER_GAUSSIAN, LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT,
                                      LIGHT_FLAG_SOFT_FALLOFF, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN,
                                      NODE_DIFFUSE, NODE_EMISSION, NODE_FLAG_CONDUCTOR,
                                      NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT, NODE_METALLIC,
@@ -411,7 +413,41 @@ def test_ortho_camera_and_border(empty):
     np.testing.assert_allclose(c["extent"], (4.0, 3.0))
     assert tuple(c["region"]) == (16, 4, int(0.8 * 64) - 16, int(0.55 * 48) - 4)
     assert s.resolution == (c["region"][2], c["region"][3])
-    assert c["filter_width"] == pytest.approx(scene.render.filter_size)    # Cycles' pixel filter
+
+
+@pytest.mark.parametrize("kind, width, expect", [
+    ("BLACKMAN_HARRIS", 2.0, (FILTER_BLACKMAN_HARRIS, 2.0)),
+    ("GAUSSIAN", 0.8, (FILTER_GAUSSIAN, 0.8)),
+    ("BOX", 3.0, (FILTER_BOX, 1.0)),        # Blender's Cycles: the box is one pixel wide
+])
+def test_film_settings_are_cycles_film(empty, kind, width, expect):
+    """The pixel filter, film exposure and transparency come from the scene's Cycles film
+    settings (not EEVEE's render.filter_size)."""
+    scene = empty
+    scene.render.filter_size = 0.25          # EEVEE's: not read
+    scene.cycles.pixel_filter_type, scene.cycles.filter_width = kind, width
+    scene.cycles.film_exposure = 1.7
+    scene.render.film_transparent = True
+    scene.cycles.film_transparent_glass = True
+    scene.cycles.film_transparent_roughness = 0.25
+    c = export().camera[0]
+    assert (int(c["filter_type"]), float(c["filter_width"])) == pytest.approx(expect)
+    assert c["exposure"] == pytest.approx(1.7)
+    assert c["film_transparent"] == FILM_TRANSPARENT | FILM_TRANSPARENT_GLASS
+    assert c["glass_roughness"] == pytest.approx(0.25)
+    scene.cycles.film_transparent_glass = False
+    assert export().camera[0]["film_transparent"] == FILM_TRANSPARENT
+    scene.render.film_transparent = False
+    assert export().camera[0]["film_transparent"] == 0
+
+
+def test_film_settings_without_cycles_are_its_defaults():
+    """Without the Cycles add-on (no scene.cycles): Cycles' defaults."""
+    from types import SimpleNamespace
+    from ppm_engine.export.camera import film_settings
+    f = film_settings(SimpleNamespace(render=SimpleNamespace(film_transparent=False)))
+    assert f == dict(filter_type=FILTER_BLACKMAN_HARRIS, filter_width=1.5, film_transparent=0,
+                     glass_roughness=pytest.approx(0.1), exposure=1.0)
 
 
 def test_no_camera_is_a_scene_error(empty):

@@ -193,3 +193,19 @@ def test_scene_arrays_from_before_the_shader_nodes(tmp_path):
     assert (t.shader_nodes["specular_ior_level"] == 0).all()
     for f in ("material", "color", "emission", "metallic", "roughness", "transmission", "ior"):
         np.testing.assert_array_equal(t.shader_nodes[f], s.shader_nodes[f])
+
+
+def test_scene_arrays_from_before_the_film_settings(tmp_path):
+    """A .npz whose camera has no film fields loads with the film it was rendered with:
+    exposure 1, opaque, Blackman-Harris of its width (0: the one-pixel box)."""
+    s = cornell_box(8, 8)
+    s.save(tmp_path / "new.npz")
+    with np.load(tmp_path / "new.npz") as z:
+        arrays = {k: z[k] for k in z.files}
+    old = [f for f in arrays["camera"].dtype.names
+           if f not in ("filter_type", "film_transparent", "glass_roughness", "exposure")]
+    arrays["camera"] = np.ascontiguousarray(arrays["camera"][old])
+    np.savez(tmp_path / "old.npz", **arrays)
+    c = SceneArrays.load(tmp_path / "old.npz").camera[0]
+    assert c["exposure"] == 1.0 and c["film_transparent"] == 0 and c["filter_type"] == 0
+    assert c["filter_width"] == s.camera[0]["filter_width"]

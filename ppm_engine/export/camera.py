@@ -7,7 +7,9 @@ import numpy as np
 
 from ..errors import SceneError
 from ..camera_model import make_camera, ortho_extent, perspective_extent
-from ..scene_arrays import CAMERA_ORTHO, CAMERA_PERSP
+from ..scene_arrays import (CAMERA_ORTHO, CAMERA_PERSP, FILM_TRANSPARENT,
+                            FILM_TRANSPARENT_GLASS, FILTER_BLACKMAN_HARRIS, FILTER_BOX,
+                            FILTER_GAUSSIAN)
 
 
 def render_size(render) -> tuple[int, int]:
@@ -69,4 +71,34 @@ def export_camera(scene, depsgraph) -> np.ndarray:
                        clip=(cam.clip_start, cam.clip_end), region=region,
                        aperture_radius=aperture, focus_distance=focus, aperture_blades=blades,
                        aperture_rotation=rotation, aperture_ratio=ratio,
-                       filter_width=float(getattr(render, "filter_size", 1.5)))
+                       **film_settings(scene))
+
+
+# Cycles' film settings when the Cycles add-on (scene.cycles) is absent: its defaults
+CYCLES_FILM_DEFAULTS = {"pixel_filter_type": "BLACKMAN_HARRIS", "filter_width": 1.5,
+                        "film_exposure": 1.0, "film_transparent_glass": False,
+                        "film_transparent_roughness": 0.1}
+_FILTERS = {"BLACKMAN_HARRIS": FILTER_BLACKMAN_HARRIS, "BOX": FILTER_BOX,
+            "GAUSSIAN": FILTER_GAUSSIAN}
+
+
+def film_settings(scene) -> dict:
+    """The film as Cycles renders it: the pixel filter, transparency and exposure of the
+    scene's Cycles film settings (Render Properties > Film), Cycles' defaults without them;
+    the transparent film is Blender's own render.film_transparent."""
+    cycles = getattr(scene, "cycles", None)
+
+    def get(name):
+        value = getattr(cycles, name, None) if cycles is not None else None
+        return CYCLES_FILM_DEFAULTS[name] if value is None else value
+
+    kind = _FILTERS.get(str(get("pixel_filter_type")), FILTER_BLACKMAN_HARRIS)
+    # Blender's Cycles renders the box one pixel wide, whatever the width (it hides it)
+    width = 1.0 if kind == FILTER_BOX else max(float(get("filter_width")), 0.01)
+    transparent = 0
+    if scene.render.film_transparent:
+        transparent = FILM_TRANSPARENT | (FILM_TRANSPARENT_GLASS
+                                          if get("film_transparent_glass") else 0)
+    return dict(filter_type=kind, filter_width=width, film_transparent=transparent,
+                glass_roughness=float(get("film_transparent_roughness")),
+                exposure=float(get("film_exposure")))

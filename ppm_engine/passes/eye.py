@@ -44,5 +44,5 @@ class EyePass:
             filter_table=self.scene.filter_table, direct=f.direct_pass, radius=f.radius,
             radius0=f.radius0, vp_pos=v.pos, vp_nrm=v.nrm, vp_beta=v.beta, vp_shade=v.shade,
             counters=self.counters, aux_albedo=f.aux_albedo, aux_normal=f.aux_normal,
-            active=f.active)
+            active=f.active, transparency=f.transparency)
         return [(self.kernel.label, ev)]
