@@ -21,14 +21,15 @@ inline float emitter_pmf(__global const float *cdf, int e) {
 }
 
 /* Radiance of the scene lights seen along o + t d, t < tmax (camera, glossy and transmission
- * rays; Cycles shows area lights from the front and point lights as disks or spheres).  Lights
- * do not block rays: only the nearest one in front of the surface hit counts.  ray_type:
+ * rays; Cycles shows area lights from the front, point lights as disks or spheres, suns with
+ * an angle as discs to rays that escape, ``escaped``).  Lights do not block rays: only the
+ * nearest one in front of the surface hit counts.  ray_type:
  * VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY or VIS_TRANSMISSION; lights hidden from it are skipped.
  * *pdf_light: the density next-event estimation gives d from o for that light (pmf
  * included), for MIS. */
-inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *lights,
-                          int n_lights, uint ray_type, __global const float *emitter_cdf,
-                          float *pdf_light) {
+inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
+                          __global const Light *lights, int n_lights, uint ray_type,
+                          __global const float *emitter_cdf, float *pdf_light) {
     float3 L = (float3)(0.0f);
     float best = tmax, pdf = 0.0f;
     int seen = -1;
@@ -38,11 +39,28 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, __global const Light *
         float before = best;
         if (PPM_LIGHT_AREA && (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE))
             area_seen(&l, o, d, &best, &L, &pdf);
-        else if (PPM_LIGHT_POINT)
+        else if (PPM_LIGHT_POINT && l.type != LIGHT_SUN)
             point_seen(&l, o, d, &best, &L, &pdf);
         if (best != before) seen = i;
     }
     *pdf_light = seen >= 0 ? pdf * emitter_pmf(emitter_cdf, seen) : 0.0f;
+#if PPM_LIGHT_SUN
+    /* suns, behind everything: a ray that escapes the scene and meets no other light.
+     * Next-event estimation samples a sun without MIS (sun_direct: pdf_dir 0), so a sun a
+     * sampled direction finds counts only after a singular bounce or the camera (density
+     * INFINITY: path_mis weighs it 0 after any other). */
+    if (escaped && seen < 0) {
+        for (int i = 0; i < n_lights; i++) {
+            Light l = lights[i];
+            if (l.type != LIGHT_SUN || (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT))) continue;
+            float3 Ls = sun_seen(&l, d);
+            if (max3(Ls) > 0.0f) {
+                L += Ls;
+                *pdf_light = INFINITY;
+            }
+        }
+    }
+#endif
     return L;
 }
 
@@ -157,8 +175,8 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_A
     for (int i = 0; i <= TRANSPARENT_MAX_BOUNCES; i++) {
         Hit h = bvh_intersect(o, d, PPM_INF, ray_type, false, BVH_PASS);
 #if PPM_LIGHTS_SEEN
-        float3 Le = lights_seen(o, d, h.leaf < 0 ? PPM_INF : h.t, lights, emitter_info->n_lights,
-                                ray_type, emitter_cdf, pdf_l);
+        float3 Le = lights_seen(o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, lights,
+                                emitter_info->n_lights, ray_type, emitter_cdf, pdf_l);
         if (max3(Le) > 0.0f) return T * Le;
 #endif
         if (h.leaf < 0) {

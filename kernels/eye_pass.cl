@@ -82,7 +82,8 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
 #endif
         float pdf_l = 0.0f;
 #if PPM_LIGHTS_SEEN
-        float3 Ls = lights_seen(o, d, h.leaf < 0 ? tmax : h.t, lights, emitter_info->n_lights,
+        float3 Ls = lights_seen(o, d, h.leaf < 0 ? tmax : h.t, h.leaf < 0, lights,
+                                emitter_info->n_lights,
                                 mask, emitter_cdf, &pdf_l);
         L += beta * Ls * path_mis(prev_pdf, pdf_l);
 #endif

@@ -33,6 +33,15 @@ inline void sun_direct(const Light *L, float u1, float u2, LightSample *s) {
     }
 }
 
+/* a ray that escapes the scene along d sees the sun's disc (half-angle L->radius > 0) with the
+ * radiance sun_direct samples, E / (pi sin^2 r); a sun without size is seen by no ray */
+inline float3 sun_seen(const Light *L, float3 d) {
+    float r = L->radius;
+    if (!(r > 0.0f) || dot(d, -F3(L->direction)) < cos(r)) return (float3)(0.0f);
+    float sr = sin(r);
+    return F3(L->emit) / (PPM_PI * sr * sr);
+}
+
 /* photons from a disc of the scene's bounding radius R around its centre c, facing the sun */
 inline void sun_emit(const Light *L, float3 c, float R, float pmf, float u1, float u2, float u3,
                      float u4, float3 *o, float3 *d, float3 *flux) {

@@ -66,7 +66,8 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarra
     # (kernels/lights.h lights_seen), unless hidden from every ray type that looks for them
     hidden_all = (VIS_CAMERA | VIS_GLOSSY | VIS_TRANSMISSION) << LIGHT_HIDDEN_SHIFT
     shown = (lights["flags"] & np.uint32(hidden_all)) != hidden_all
-    visible = area | ((t == LIGHT_POINT) & (lights["radius"] > 0))
+    # seen by rays: area lights, points with a radius, suns with an angle (light_types.h)
+    visible = area | (((t == LIGHT_POINT) | (t == LIGHT_SUN)) & (lights["radius"] > 0))
     if (live & visible & shown).any():
         f.add("PPM_LIGHTS_SEEN")
     if float(scene.camera["aperture_radius"][0]) > 0:

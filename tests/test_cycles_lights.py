@@ -137,3 +137,33 @@ def test_light_ray_visibility_as_cycles(bpy, tiny, cycles, render_exr, tmp_path,
         cycles(both, 64, W)
         full = render_exr(tmp_path / "both.exr").mean(-1).sum()
         assert 0.1 * full < ours.sum() < 0.9 * full, (ours.sum(), full)
+
+
+@pytest.mark.parametrize("glossy", [True, False])
+def test_sun_disc_in_a_mirror_as_cycles(bpy, tiny, cycles, render_exr, tmp_path, glossy):
+    """A sun with an angle is a disc that rays escaping the scene see (Cycles' distant light
+    intersection): in a mirror floor as bright and as large as Cycles shows it, and not at
+    all when the sun is hidden from glossy rays."""
+    scene = mirror_scene_with_light(bpy)
+    bpy.data.objects.remove(bpy.data.objects["L"])
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    sun.data.energy, sun.data.angle = 2.0, math.radians(30.0)
+    sun.rotation_euler = (math.radians(10.0), 0.0, 0.0)
+    sun.visible_glossy = glossy
+    scene.collection.objects.link(sun)
+    cycles(scene, 256, W)
+    ref = render_exr(tmp_path / "cycles.exr").mean(-1)
+    tiny(scene, width=W, height=W, passes=256, photons=256)
+    ours = render_exr(tmp_path / "ppm.exr").mean(-1)
+    if not glossy:
+        assert ref.max() < 1e-6 and ours.max() < 1e-6
+        return
+    disc = ref > 0.5 * ref.max()
+    assert 20 < disc.sum() < 0.5 * W * W                # a disc, inside the view
+    assert ours.sum() == pytest.approx(ref.sum(), rel=0.01), (ours.sum(), ref.sum())
+    # inside the disc, 2 pixels from its edge (beyond the pixel filter's reach): exact
+    core = disc.copy()
+    for dy in range(-2, 3):
+        for dx in range(-2, 3):
+            core &= np.roll(np.roll(disc, dy, 0), dx, 1)
+    assert core.sum() >= 4 and np.abs(ours[core] / ref[core] - 1).max() < 1e-3
