@@ -2,6 +2,7 @@
 #define PPM_SVM_H
 #include "geometry.h"
 #include "light_path.h"
+#include "svm_color.h"
 #include "svm_nodes.h"
 #include "textures.h"
 
@@ -48,6 +49,8 @@
 #define SVM_TEX_BRICK 27
 #define SVM_TEX_VORONOI 28
 #define SVM_TEX_LAST 28
+#define SVM_BLACKBODY 29              /* svm_color.h */
+#define SVM_WAVELENGTH 30
 #define PROGRAM_TANGENTS 2            /* header flags: a tangent-space Normal Map reads them */
 #define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
 #define PROGRAM_ATTRIBUTES 8          /* mesh attributes are read */
@@ -269,6 +272,10 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
         } else if (SVM_HAS(SVM_NORMAL_MAP) && op == SVM_NORMAL_MAP) {
             int space = svm[i++].x;
             svm_put3(stack, w.y, svm_normal_map(ctx, space, svm_get3(stack, w.z), stack[w.w]));
+        } else if (SVM_HAS(SVM_BLACKBODY) && op == SVM_BLACKBODY) {
+            svm_put3(stack, w.y, svm_blackbody(stack[w.z]));
+        } else if (SVM_HAS(SVM_WAVELENGTH) && op == SVM_WAVELENGTH) {
+            svm_put3(stack, w.y, svm_wavelength(stack[w.z]));
         } else if (op >= SVM_TEX_CHECKER && op <= SVM_TEX_LAST) {
             i = svm_texture(op, w, svm, i, stack);
             if (i < 0) return;

@@ -67,13 +67,15 @@ SVM_TEX_VORONOI = 28   # (op, distance, color, vector) + slots (w, scale, detail
 #                        + (dimensions, VORONOI_FEATURES, VORONOI_METRICS, normalize)
 #                        + (position, w out, radius, 0)
 SVM_TEX_LAST = 28
-SVM_OPS = 29           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
+SVM_BLACKBODY = 29     # (op, out, temperature, 0): kernels/svm_color.h
+SVM_WAVELENGTH = 30    # (op, out, wavelength, 0)
+SVM_OPS = 31           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
 
 OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
             "combine", "color_convert", "invert", "gamma", "bright_contrast", "rgb_to_bw",
             "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight", "normal_map",
             "tex_checker", "tex_gradient", "tex_white_noise", "tex_noise", "tex_magic",
-            "tex_wave", "tex_brick", "tex_voronoi")
+            "tex_wave", "tex_brick", "tex_voronoi", "blackbody", "wavelength")
 # parameter words after each op's first word
 OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 1, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
             SVM_MIX: 1, SVM_COMBINE: 1, SVM_BRIGHT_CONTRAST: 1, SVM_CLAMP: 1, SVM_MAP_RANGE: 2,
