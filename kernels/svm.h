@@ -1,6 +1,7 @@
 #ifndef PPM_SVM_H
 #define PPM_SVM_H
 #include "geometry.h"
+#include "camera.h"
 #include "light_path.h"
 #include "svm_color.h"
 #include "svm_nodes.h"
@@ -55,6 +56,7 @@
 #define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
 #define PROGRAM_ATTRIBUTES 8          /* mesh attributes are read */
 #define PROGRAM_OBJECT 16             /* the object's data are read */
+#define PROGRAM_WINDOW 32             /* the Window coordinates are read (the camera's) */
 #ifndef PPM_ATTRIBUTES
 #define PPM_ATTRIBUTES 1              /* attributes per corner in `attributes` (-D: the scene's) */
 #endif
@@ -120,7 +122,7 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
                      : w.z == 2 ? ctx->Ng : w.z == 3 ? ctx->I
                      : w.z == 5 ? ctx->generated
                      : w.z == 6 ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
-                     : w.z == 7 ? ctx->P : w.z == 8 ? ctx->P_object
+                     : w.z == 7 ? ctx->P : w.z == 8 ? ctx->P_object : w.z == 15 ? ctx->window
                      : w.z == 9 ? ctx->object[0].xyz : w.z == 10 ? ctx->object[1].xyz
                      : (float3)(ctx->backfacing);
             if (w.z >= 16) {                              /* mesh attribute k */

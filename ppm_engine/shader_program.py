@@ -103,6 +103,7 @@ LIGHT_PATH_OUTPUTS = ("Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Gl
                       "Is Singular Ray", "Is Reflection Ray", "Is Transmission Ray",
                       "Is Volume Scatter Ray", "Ray Length", "Ray Depth", "Diffuse Depth",
                       "Glossy Depth", "Transparent Depth", "Transmission Depth", "Portal Depth")
+GEOM_WINDOW = 15       # the point projected into the camera's frame: (0..1, 0..1, 0)
 GEOM_ATTRIBUTE = 16    # + k: attribute k's colour or vector (SceneArrays.attributes)
 GEOM_ATTRIBUTE_ALPHA = 24  # + k: attribute k's alpha
 MAX_ATTRIBUTES = 8     # distinct mesh attributes a scene's programs may read
@@ -161,6 +162,7 @@ PROGRAM_TANGENTS = 2   # a tangent-space Normal Map reads the UV map's tangents 
 PROGRAM_GENERATED = 4  # Generated coordinates are read (SceneArrays.generated)
 PROGRAM_ATTRIBUTES = 8  # mesh attributes are read (SceneArrays.attributes)
 PROGRAM_OBJECT = 16    # the object's data are read (SceneArrays.object, objects)
+PROGRAM_WINDOW = 32    # the Window coordinates are read (the camera's projection)
 MAX_STACK = 256        # floats of stack a program may use (kernels: PPM_SVM_STACK, the most a
                        # scene's programs use)
 

@@ -633,3 +633,60 @@ def test_wavelength_as_cycles(cycles, render_exr, tmp_path, tiny):
     cases.update({f"{w:g} nm": _spectral("ShaderNodeWavelength", value=w) for w in waves})
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
 
+
+def _window_scene(kind, res, fit="AUTO", shift=(0.0, 0.0)):
+    """A large plane filling the view of a turned camera of ``kind`` (PERSP or ORTHO, sensor
+    fit, shift) at resolution ``res``; its emission: the Window coordinates x, y snapped to
+    the pixel they fall in (floor(x W) / W: one value per pixel whatever its samples) and z as
+    it is."""
+    import math
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    _view(scene, 1.0)
+    cam = scene.camera
+    cam.data.type, cam.data.sensor_fit = kind, fit
+    cam.data.shift_x, cam.data.shift_y = shift
+    cam.data.lens, cam.data.ortho_scale = 30.0, 7.0
+    cam.location, cam.rotation_euler = (0.5, -6.0, 5.0), (math.radians(50), 0.0, 0.2)
+    bpy.ops.mesh.primitive_plane_add(size=400.0)
+    mat = bpy.data.materials.new("window")
+    t = mat.node_tree
+    t.nodes.remove(t.nodes["Principled BSDF"])
+    i = Inputs.__new__(Inputs)
+    i.t = t
+    sep = i.node("ShaderNodeSeparateXYZ", [(0, i.node("ShaderNodeTexCoord").outputs["Window"])])
+    comb = i.node("ShaderNodeCombineXYZ", [(2, sep.outputs[2])])
+    for k, n in enumerate(res):
+        m = i.node("ShaderNodeMath", [(0, sep.outputs[k])], operation="MULTIPLY", in_1=float(n))
+        f = i.node("ShaderNodeMath", [(0, m.outputs[0])], operation="FLOOR")
+        d = i.node("ShaderNodeMath", [(0, f.outputs[0])], operation="DIVIDE", in_1=float(n))
+        t.links.new(d.outputs[0], comb.inputs[k])
+    _emit(t, comb.outputs[0], 0.0)
+    bpy.context.active_object.data.materials.append(mat)
+    return scene
+
+
+@pytest.mark.parametrize("kind, res, fit, shift", [
+    ("PERSP", (24, 16), "AUTO", (0.1, -0.05)), ("PERSP", (16, 24), "VERTICAL", (0.0, 0.08)),
+    ("PERSP", (24, 16), "VERTICAL", (-0.1, 0.0)), ("ORTHO", (24, 16), "AUTO", (0.05, 0.1)),
+    ("ORTHO", (16, 24), "HORIZONTAL", (0.0, -0.1))])
+def test_window_coordinates_as_cycles(cycles, render_exr, tmp_path, tiny, kind, res, fit, shift):
+    """Texture Coordinate's Window output under perspective and orthographic cameras, sensor
+    fits, shifts and non-square images: every pixel's (snapped) x and y and the 0 z as
+    Cycles'.  A projection off by more than ~1/16 pixel moves samples into the next step."""
+    scene = _window_scene(kind, res, fit, shift)
+    w, h = res
+    cycles(scene, 4, width=w)
+    scene.render.resolution_y = h
+    scene.cycles.max_bounces = 0
+    ref = render_exr(tmp_path / "cycles.exr")
+    tiny(scene, width=w, height=h, passes=2, photons=64)
+    scene.ppm.max_bounces = 0
+    ours = render_exr(tmp_path / "ours.exr")
+    err = np.abs(ours - ref).max()
+    assert err <= 1e-3, (err, ref[::4, ::4, 0], ours[::4, ::4, 0])
+    # the image's steps, bottom-left pixel (0, 0) to top-right: Cycles' y is up
+    exp_x = (np.arange(w) / w)[None, :].repeat(h, 0)
+    exp_y = ((h - 1 - np.arange(h)) / h)[:, None].repeat(w, 1)
+    np.testing.assert_allclose(ref[..., 0], exp_x, atol=1e-6)
+    np.testing.assert_allclose(ref[..., 1], exp_y, atol=1e-6)
