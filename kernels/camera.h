@@ -55,6 +55,26 @@ inline void camera_ray(__global const Camera *cam, float px, float py, float u1,
     *tmax = t1 - t0;
 }
 
+/* Cycles' Window texture coordinates of world point P (learnt from its camera_world_to_ndc
+ * and the Texture Coordinate node): P in the camera's frame, divided by its depth for a
+ * perspective camera, as a fraction of the full frame's view plane (the inverse of
+ * camera_ray's raster mapping: 0..1 across the image, y up); z is 0.  A point in the
+ * perspective camera's own plane (depth 0) gives 0, as Cycles' projection. */
+inline float3 camera_window(__global const Camera *cam, float3 P) {
+    __global const float *m = cam->to_world;
+    float3 d = P - (float3)(m[3], m[7], m[11]);
+    float3 pc = (float3)(m[0] * d.x + m[4] * d.y + m[8] * d.z,      /* rotation transposed */
+                         m[1] * d.x + m[5] * d.y + m[9] * d.z,
+                         m[2] * d.x + m[6] * d.y + m[10] * d.z);
+    float2 s = pc.xy;
+    if (cam->type != CAMERA_ORTHO) {
+        if (pc.z == 0.0f) return (float3)(0.0f);
+        s /= -pc.z;
+    }
+    return (float3)((s.x - cam->shift[0]) / cam->extent[0] + 0.5f,
+                    (s.y - cam->shift[1]) / cam->extent[1] + 0.5f, 0.0f);
+}
+
 /* size of one pixel on the view plane at distance 1 (ortho: in scene units) */
 inline float camera_pixel_size(__global const Camera *cam) {
     return cam->extent[0] / (float)cam->width;

@@ -27,7 +27,7 @@ inline float path_mis(float prev_pdf, float pdf_light) {
     return isinf(prev_pdf) ? 1.0f : mis_power(prev_pdf, pdf_light);
 }
 
-__kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, uint seed,
+__kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
                        int max_bounces, float initial_radius, float auto_radius_pixels,
                        __global const float *filter_table,
                        __global float4 *direct, __global float *radius, __global float *radius0,
@@ -35,6 +35,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
                        __global float4 *vp_shade, __global uint *counters,
                        __global float4 *aux_albedo, __global float4 *aux_normal,
                        __global const uint *active, __global float *transparency) {
+    __global const Camera *cam = camera;           /* the scene's (shader_data.h SHADING_ARGS) */
     int id = get_global_id(0);
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;

@@ -34,7 +34,7 @@ inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
         SvmContext cx_ = svm_context(svm, (m).program, tri, u, v, P, path, len, N, Ng, I,   \
                                      back, uvs,                                              \
                                      uv_tangents, generated, attributes, tri_object,         \
-                                     objects);                                               \
+                                     objects, camera);                                       \
         svm_eval(svm, (m).program, stack, &cx_, TEXTURE_PASS);                               \
     }
 #define MATERIAL_NODE(nd, m, i, stack)                                                        \

@@ -1,7 +1,9 @@
 #ifndef PPM_SVM_H
 #define PPM_SVM_H
 #include "geometry.h"
+#include "camera.h"
 #include "light_path.h"
+#include "svm_color.h"
 #include "svm_nodes.h"
 #include "textures.h"
 
@@ -48,10 +50,13 @@
 #define SVM_TEX_BRICK 27
 #define SVM_TEX_VORONOI 28
 #define SVM_TEX_LAST 28
+#define SVM_BLACKBODY 29              /* svm_color.h */
+#define SVM_WAVELENGTH 30
 #define PROGRAM_TANGENTS 2            /* header flags: a tangent-space Normal Map reads them */
 #define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
 #define PROGRAM_ATTRIBUTES 8          /* mesh attributes are read */
 #define PROGRAM_OBJECT 16             /* the object's data are read */
+#define PROGRAM_WINDOW 32             /* the Window coordinates are read (the camera's) */
 #ifndef PPM_ATTRIBUTES
 #define PPM_ATTRIBUTES 1              /* attributes per corner in `attributes` (-D: the scene's) */
 #endif
@@ -117,7 +122,7 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
                      : w.z == 2 ? ctx->Ng : w.z == 3 ? ctx->I
                      : w.z == 5 ? ctx->generated
                      : w.z == 6 ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
-                     : w.z == 7 ? ctx->P : w.z == 8 ? ctx->P_object
+                     : w.z == 7 ? ctx->P : w.z == 8 ? ctx->P_object : w.z == 15 ? ctx->window
                      : w.z == 9 ? ctx->object[0].xyz : w.z == 10 ? ctx->object[1].xyz
                      : (float3)(ctx->backfacing);
             if (w.z >= 16) {                              /* mesh attribute k */
@@ -269,6 +274,10 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
         } else if (SVM_HAS(SVM_NORMAL_MAP) && op == SVM_NORMAL_MAP) {
             int space = svm[i++].x;
             svm_put3(stack, w.y, svm_normal_map(ctx, space, svm_get3(stack, w.z), stack[w.w]));
+        } else if (SVM_HAS(SVM_BLACKBODY) && op == SVM_BLACKBODY) {
+            svm_put3(stack, w.y, svm_blackbody(stack[w.z]));
+        } else if (SVM_HAS(SVM_WAVELENGTH) && op == SVM_WAVELENGTH) {
+            svm_put3(stack, w.y, svm_wavelength(stack[w.z]));
         } else if (op >= SVM_TEX_CHECKER && op <= SVM_TEX_LAST) {
             i = svm_texture(op, w, svm, i, stack);
             if (i < 0) return;

@@ -18,6 +18,7 @@ typedef struct {
     uint path;           /* the ray that reached the point (light_path.h) */
     float path_length;   /* its last segment's length */
     float3 P_object;     /* the position in the object's space */
+    float3 window;       /* the camera's Window coordinates (0 where not read) */
     float4 object[3];    /* the object's (location, pass index), colour, (random, 0, 0, 0) */
 #if (PPM_SVM_OPS >> SVM_MAPPING) & 1
     float4 to_object[3], to_world[3];   /* its inverse and world matrices (Vector Transform) */
@@ -38,6 +39,7 @@ inline SvmContext svm_context_base(float2 uv, float3 P, uint path, float path_le
     cx.tangent = (float4)(0.0f);
     cx.generated = (float3)(0.0f);
     cx.P = cx.P_object = P;
+    cx.window = (float3)(0.0f);
     cx.path = path;
     cx.path_length = path_length;
     for (int r = 0; r < 3; r++) {
@@ -58,7 +60,8 @@ inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u
                               float3 I, bool backfacing, __global const float *uvs,
                               __global const float4 *uv_tangents, __global const float *generated,
                               __global const float4 *attributes,
-                              __global const int *tri_object, __global const float4 *objects) {
+                              __global const int *tri_object, __global const float4 *objects,
+                              __global const Camera *camera) {
     SvmContext cx = svm_context_base(surface_uv(uvs, tri, u, v), P, path, path_length, N, Ng, I,
                                      backfacing);
     float w = 1.0f - u - v;
@@ -85,6 +88,8 @@ inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u
         }
 #endif
     }
+    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_WINDOW))
+        cx.window = camera_window(camera, P);
     if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_ATTRIBUTES)) {
         for (int k = 0; k < PPM_ATTRIBUTES; k++) {
             __global const float4 *a = attributes + 3 * PPM_ATTRIBUTES * (size_t)tri + k;

@@ -64,7 +64,8 @@ class DeviceScene:
             tri_object=up(prepared.object if prepared.object.size else np.full(1, -1, np.int32),
                           "triangles' objects"),
             objects=up(prepared.objects if prepared.objects.size else np.zeros(4, np.float32),
-                       "objects"))
+                       "objects"),
+            camera=up(prepared.camera, "camera"))
         self.world_map = self._world_map(prepared, args)
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,
                                             self.world_map)
@@ -78,7 +79,7 @@ class DeviceScene:
             emitter_info=up(em.info, "emitters"),
             world_map=up(self.world_map.buffer if self.world_map is not None
                          else np.zeros(4, np.float32), "world map"))
-        self.camera = up(prepared.camera, "camera")
+        self.camera = args["camera"]
         self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0]),
                                              int(prepared.camera["filter_type"][0])),
                                "pixel filter")
@@ -148,4 +149,4 @@ class DeviceScene:
 
     def buffers(self) -> list:
         """The device buffers this object owns (BVH's included), for release."""
-        return [*self.args.values(), self.camera, self.filter_table]
+        return [*self.args.values(), self.filter_table]

@@ -67,13 +67,15 @@ SVM_TEX_VORONOI = 28   # (op, distance, color, vector) + slots (w, scale, detail
 #                        + (dimensions, VORONOI_FEATURES, VORONOI_METRICS, normalize)
 #                        + (position, w out, radius, 0)
 SVM_TEX_LAST = 28
-SVM_OPS = 29           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
+SVM_BLACKBODY = 29     # (op, out, temperature, 0): kernels/svm_color.h
+SVM_WAVELENGTH = 30    # (op, out, wavelength, 0)
+SVM_OPS = 31           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
 
 OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
             "combine", "color_convert", "invert", "gamma", "bright_contrast", "rgb_to_bw",
             "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight", "normal_map",
             "tex_checker", "tex_gradient", "tex_white_noise", "tex_noise", "tex_magic",
-            "tex_wave", "tex_brick", "tex_voronoi")
+            "tex_wave", "tex_brick", "tex_voronoi", "blackbody", "wavelength")
 # parameter words after each op's first word
 OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 1, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
             SVM_MIX: 1, SVM_COMBINE: 1, SVM_BRIGHT_CONTRAST: 1, SVM_CLAMP: 1, SVM_MAP_RANGE: 2,
@@ -101,6 +103,7 @@ LIGHT_PATH_OUTPUTS = ("Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Gl
                       "Is Singular Ray", "Is Reflection Ray", "Is Transmission Ray",
                       "Is Volume Scatter Ray", "Ray Length", "Ray Depth", "Diffuse Depth",
                       "Glossy Depth", "Transparent Depth", "Transmission Depth", "Portal Depth")
+GEOM_WINDOW = 15       # the point projected into the camera's frame: (0..1, 0..1, 0)
 GEOM_ATTRIBUTE = 16    # + k: attribute k's colour or vector (SceneArrays.attributes)
 GEOM_ATTRIBUTE_ALPHA = 24  # + k: attribute k's alpha
 MAX_ATTRIBUTES = 8     # distinct mesh attributes a scene's programs may read
@@ -159,6 +162,7 @@ PROGRAM_TANGENTS = 2   # a tangent-space Normal Map reads the UV map's tangents 
 PROGRAM_GENERATED = 4  # Generated coordinates are read (SceneArrays.generated)
 PROGRAM_ATTRIBUTES = 8  # mesh attributes are read (SceneArrays.attributes)
 PROGRAM_OBJECT = 16    # the object's data are read (SceneArrays.object, objects)
+PROGRAM_WINDOW = 32    # the Window coordinates are read (the camera's projection)
 MAX_STACK = 256        # floats of stack a program may use (kernels: PPM_SVM_STACK, the most a
                        # scene's programs use)
 

@@ -13,8 +13,8 @@ cl = pytest.importorskip("pyopencl")
 
 from ppm_engine import shading_tables as st  # noqa: E402
 from ppm_engine.materials import kernel_materials, kernel_nodes  # noqa: E402
-from ppm_engine.scene_arrays import (MATERIAL_DTYPE, NODE_DIFFUSE, NODE_GLASS,  # noqa: E402
-                                     NODE_GLOSSY, NODE_METALLIC, NODE_PRINCIPLED,
+from ppm_engine.scene_arrays import (CAMERA_DTYPE, MATERIAL_DTYPE, NODE_DIFFUSE,  # noqa: E402
+                                     NODE_GLASS, NODE_GLOSSY, NODE_METALLIC, NODE_PRINCIPLED,
                                      NODE_REFRACTION, NODE_SHEEN, NODE_TRANSLUCENT,
                                      NODE_TRANSPARENT, NODE_FLAG_CONDUCTOR, shader_node)
 
@@ -49,7 +49,8 @@ class Shading:
                      up(np.zeros(4, np.float32), "no UV tangents"),
                      up(np.zeros(3, np.float32), "no Generated coordinates"),
                      up(np.zeros(4, np.float32), "no mesh attributes"),
-                     up(np.full(1, -1, np.int32), "no objects"), up(np.zeros(4, np.float32), "o")]
+                     up(np.full(1, -1, np.int32), "no objects"), up(np.zeros(4, np.float32), "o"),
+                     up(np.zeros(1, CAMERA_DTYPE), "camera")]
         self.prog = device.programs.get("closure_test.cl")
 
     def sample(self, mat, wi, n, seed=1, mask=MASK_ALL):

@@ -520,7 +520,7 @@ def test_glass_linked_input_dedup_and_empty_slots(empty):
     n.inputs["Transmission Weight"].default_value = 1.0
     n.inputs["IOR"].default_value = 1.33
     n.inputs["Roughness"].default_value = 0.0
-    tex = g.node_tree.nodes.new("ShaderNodeBlackbody")
+    tex = g.node_tree.nodes.new("ShaderNodeAmbientOcclusion")
     g.node_tree.links.new(tex.outputs["Color"], n.inputs["Base Color"])
     a = add_plane("A", g)
     add_plane("B", g, loc=(3, 0, 0))                  # same material: one table entry

@@ -7,8 +7,10 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from ppm_engine.export.materials import read_material                 # noqa: E402
-from ppm_engine.shader_program import (BOUND, FIELD_WORD, MAX_STACK, SVM_MATH,  # noqa: E402
-                                       SVM_RGB_TO_BW, ops_used)
+from ppm_engine.shader_program import (BOUND, FIELD_WORD, GEOM_WINDOW,  # noqa: E402
+                                       MAX_STACK, PROGRAM_WINDOW, SVM_BLACKBODY, SVM_GEOMETRY,
+                                       SVM_MATH, SVM_RGB_TO_BW, SVM_WAVELENGTH, ops_used)
+from ppm_engine.spectra import blackbody_rgb, wavelength_rgb     # noqa: E402
 from ppm_engine.scene_arrays import shader_node                  # noqa: E402
 
 
@@ -119,6 +121,37 @@ def test_unsupported_node_warned_once_with_its_default():
     row, (bsdf,), program, warnings = _read(mat)
     assert sum(odd.name in w and "Odd" in w for w in warnings) == 1
     assert bsdf["roughness"] == pytest.approx(odd.outputs[0].default_value)
+
+
+def test_blackbody_and_wavelength_fold_or_run_and_window_flags_the_program():
+    """A constant Temperature or Wavelength folds into the colour (no program); a linked one
+    is an op; the Window coordinates flag the program (the camera is read)."""
+    mat, t, p = _material()
+    bb, wl = t.nodes.new("ShaderNodeBlackbody"), t.nodes.new("ShaderNodeWavelength")
+    bb.inputs[0].default_value, wl.inputs[0].default_value = 3000.0, 550.0
+    t.links.new(bb.outputs[0], p.inputs["Base Color"])
+    t.links.new(wl.outputs[0], p.inputs["Emission Color"])
+    p.inputs["Emission Strength"].default_value = 1.0
+    row, (node,), program, warnings = _read(mat)
+    assert program is None and not warnings
+    np.testing.assert_allclose(node["color"], blackbody_rgb(3000.0), rtol=1e-6)
+    np.testing.assert_allclose(node["emission"], wavelength_rgb(550.0), rtol=1e-6)
+    # the fit's constant ends (below 800 K, from 12000 K); the rest: tests/test_shader_nodes.py
+    assert blackbody_rgb(500.0) == pytest.approx((5.4133, 0.0, 0.0), abs=1e-4)
+    assert blackbody_rgb(2e4) == pytest.approx((0.8263, 0.9945, 1.5663), abs=1e-4)
+    assert wavelength_rgb(370.0) == wavelength_rgb(780.0) == (0.0, 0.0, 0.0)
+    tc = t.nodes.new("ShaderNodeTexCoord")
+    sep = t.nodes.new("ShaderNodeSeparateXYZ")
+    t.links.new(tc.outputs["Window"], sep.inputs[0])
+    k = _math(t, "MULTIPLY", sep.outputs[0], vb=10000.0)
+    t.links.new(k.outputs[0], bb.inputs[0])
+    t.links.new(sep.outputs[1], wl.inputs[0])
+    row, (node,), program, warnings = _read(mat)
+    assert not warnings and program[0, 3] & PROGRAM_WINDOW
+    ops = _ops(program)
+    assert SVM_BLACKBODY in ops and SVM_WAVELENGTH in ops
+    geom = [w for w in program[1 + int(program[0, 0]):] if w[0] == SVM_GEOMETRY]
+    assert [int(w[2]) for w in geom] == [GEOM_WINDOW]
 
 
 def test_a_muted_node_passes_its_input_through_and_colour_converts_to_float():

@@ -58,10 +58,11 @@ class Inputs:
         return n
 
 
-def _emit(tree, out):
+def _emit(tree, out, offset=OFFSET):
     """out -> Emission -> the material output: a float v as (max(v, 0), max(-v, 0), OFFSET)
-    (both signs, each positive), a colour or vector plus OFFSET (every case's stays above
-    -OFFSET)."""
+    (both signs, each positive), a colour or vector plus ``offset`` (every case's stays above
+    -offset; 0 for a colour that is never negative: the comparison's tolerance then is the
+    colour's own)."""
     em = tree.nodes.new("ShaderNodeEmission")
     if out.type == "VALUE":
         pos, neg, inv = (tree.nodes.new("ShaderNodeMath") for _ in range(3))
@@ -81,7 +82,7 @@ def _emit(tree, out):
         add = tree.nodes.new("ShaderNodeVectorMath")
         add.operation = "ADD"
         tree.links.new(out, add.inputs[0])
-        add.inputs[1].default_value = (OFFSET,) * 3
+        add.inputs[1].default_value = (offset,) * 3
         result = add.outputs[0]
     tree.links.new(result, em.inputs["Color"])
     tree.links.new(em.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
@@ -127,7 +128,7 @@ def _grid(cases):
         mat = bpy.data.materials.new(f"case{k}")
         t = mat.node_tree
         t.nodes.remove(t.nodes["Principled BSDF"])
-        _emit(t, case(Inputs(t, images)))
+        _emit(t, case(Inputs(t, images)), getattr(case, "offset", OFFSET))
         bpy.context.active_object.data.materials.append(mat)
     _view(scene, 2.0 * cols)
     return scene, cols * T, rows * T
@@ -586,3 +587,106 @@ def test_map_range_vector_as_cycles(cycles, render_exr, tmp_path, tiny):
              for k in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
              for c in (False, True) for r in (False, True)}
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def _map_range(i, lo, hi):
+    """The input x (0..1 per pixel) mapped linearly to [lo, hi]."""
+    return i.node("ShaderNodeMapRange", [(0, i.x)], in_3=lo, in_4=hi).outputs[0]
+
+
+def _spectral(idname, linked=None, value=None):
+    """A Blackbody or Wavelength node on a linked input (x mapped to the range ``linked``) or a
+    constant (folded at export), emitted as it is (never negative: no offset)."""
+    def build(i):
+        n = i.node(idname)
+        if linked is not None:
+            i.t.links.new(_map_range(i, *linked), n.inputs[0])
+        else:
+            n.inputs[0].default_value = value
+        return n.outputs[0]
+    build.offset = 0.0
+    return build
+
+
+def test_blackbody_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Blackbody: temperatures from links (per pixel, across every interval of Cycles' fit,
+    below 800 K and above 12000 K) and constants (folded at export), within 1e-3 of the
+    colour (relative above 1)."""
+    ranges = [(300.0, 1000.0), (900.0, 2000.0), (1800.0, 3500.0), (3200.0, 7000.0),
+              (6000.0, 13000.0), (11000.0, 40000.0)]
+    temps = [500.0, 799.0, 800.0, 965.0, 1200.0, 1500.0, 3000.0, 6500.0, 11999.0, 12000.0,
+             20000.0, 0.0, -50.0]
+    cases = {f"linked {a:g}-{b:g} K": _spectral("ShaderNodeBlackbody", (a, b))
+             for a, b in ranges}
+    cases.update({f"{t:g} K": _spectral("ShaderNodeBlackbody", value=t) for t in temps})
+    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def test_wavelength_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Wavelength: wavelengths from links (per pixel, 360-800 nm: the extrapolated step below
+    380 nm and the zeros outside included) and constants (folded at export)."""
+    ranges = [(360.0, 480.0), (470.0, 590.0), (580.0, 700.0), (690.0, 800.0), (300.0, 900.0)]
+    waves = [200.0, 374.9, 377.5, 380.0, 432.1, 500.0, 555.5, 610.0, 700.0, 779.9, 780.0,
+             1000.0]
+    cases = {f"linked {a:g}-{b:g} nm": _spectral("ShaderNodeWavelength", (a, b))
+             for a, b in ranges}
+    cases.update({f"{w:g} nm": _spectral("ShaderNodeWavelength", value=w) for w in waves})
+    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def _window_scene(kind, res, fit="AUTO", shift=(0.0, 0.0)):
+    """A large plane filling the view of a turned camera of ``kind`` (PERSP or ORTHO, sensor
+    fit, shift) at resolution ``res``; its emission: the Window coordinates x, y snapped to
+    the pixel they fall in (floor(x W) / W: one value per pixel whatever its samples) and z as
+    it is."""
+    import math
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    _view(scene, 1.0)
+    cam = scene.camera
+    cam.data.type, cam.data.sensor_fit = kind, fit
+    cam.data.shift_x, cam.data.shift_y = shift
+    cam.data.lens, cam.data.ortho_scale = 30.0, 7.0
+    cam.location, cam.rotation_euler = (0.5, -6.0, 5.0), (math.radians(50), 0.0, 0.2)
+    bpy.ops.mesh.primitive_plane_add(size=400.0)
+    mat = bpy.data.materials.new("window")
+    t = mat.node_tree
+    t.nodes.remove(t.nodes["Principled BSDF"])
+    i = Inputs.__new__(Inputs)
+    i.t = t
+    sep = i.node("ShaderNodeSeparateXYZ", [(0, i.node("ShaderNodeTexCoord").outputs["Window"])])
+    comb = i.node("ShaderNodeCombineXYZ", [(2, sep.outputs[2])])
+    for k, n in enumerate(res):
+        m = i.node("ShaderNodeMath", [(0, sep.outputs[k])], operation="MULTIPLY", in_1=float(n))
+        f = i.node("ShaderNodeMath", [(0, m.outputs[0])], operation="FLOOR")
+        d = i.node("ShaderNodeMath", [(0, f.outputs[0])], operation="DIVIDE", in_1=float(n))
+        t.links.new(d.outputs[0], comb.inputs[k])
+    _emit(t, comb.outputs[0], 0.0)
+    bpy.context.active_object.data.materials.append(mat)
+    return scene
+
+
+@pytest.mark.parametrize("kind, res, fit, shift", [
+    ("PERSP", (24, 16), "AUTO", (0.1, -0.05)), ("PERSP", (16, 24), "VERTICAL", (0.0, 0.08)),
+    ("PERSP", (24, 16), "VERTICAL", (-0.1, 0.0)), ("ORTHO", (24, 16), "AUTO", (0.05, 0.1)),
+    ("ORTHO", (16, 24), "HORIZONTAL", (0.0, -0.1))])
+def test_window_coordinates_as_cycles(cycles, render_exr, tmp_path, tiny, kind, res, fit, shift):
+    """Texture Coordinate's Window output under perspective and orthographic cameras, sensor
+    fits, shifts and non-square images: every pixel's (snapped) x and y and the 0 z as
+    Cycles'.  A projection off by more than ~1/16 pixel moves samples into the next step."""
+    scene = _window_scene(kind, res, fit, shift)
+    w, h = res
+    cycles(scene, 4, width=w)
+    scene.render.resolution_y = h
+    scene.cycles.max_bounces = 0
+    ref = render_exr(tmp_path / "cycles.exr")
+    tiny(scene, width=w, height=h, passes=2, photons=64)
+    scene.ppm.max_bounces = 0
+    ours = render_exr(tmp_path / "ours.exr")
+    err = np.abs(ours - ref).max()
+    assert err <= 1e-3, (err, ref[::4, ::4, 0], ours[::4, ::4, 0])
+    # the image's steps, bottom-left pixel (0, 0) to top-right: Cycles' y is up
+    exp_x = (np.arange(w) / w)[None, :].repeat(h, 0)
+    exp_y = ((h - 1 - np.arange(h)) / h)[:, None].repeat(w, 1)
+    np.testing.assert_allclose(ref[..., 0], exp_x, atol=1e-6)
+    np.testing.assert_allclose(ref[..., 1], exp_y, atol=1e-6)

@@ -13,13 +13,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shader_program import (BOUND, GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT_INDEX,
-                              GEOM_OBJECT_RANDOM, PROGRAM_OBJECT, GEOM_ATTRIBUTE, GEOM_ATTRIBUTE_ALPHA, MAX_ATTRIBUTES,
-                              PROGRAM_ATTRIBUTES, FIELD_WORD, GEOM_BACKFACING, GEOM_GENERATED, MATH, MAX_STACK,
-                              PROGRAM_EMISSION, PROGRAM_GENERATED, SVM_COMBINE, SVM_CONST, SVM_END,
-                              SVM_GEOMETRY, SVM_MATH, SVM_RGB_TO_BW, f2i, fold_math)
+from ..shader_program import (BOUND, FIELD_WORD, GEOM_ATTRIBUTE, GEOM_ATTRIBUTE_ALPHA,
+                              GEOM_BACKFACING, GEOM_GENERATED, GEOM_OBJECT, GEOM_OBJECT_ALPHA,
+                              GEOM_OBJECT_INDEX, GEOM_OBJECT_RANDOM, GEOM_WINDOW, MATH,
+                              MAX_ATTRIBUTES, MAX_STACK, PROGRAM_ATTRIBUTES, PROGRAM_EMISSION,
+                              PROGRAM_GENERATED, PROGRAM_OBJECT, PROGRAM_WINDOW, SVM_COMBINE,
+                              SVM_CONST, SVM_END, SVM_GEOMETRY, SVM_MATH, SVM_RGB_TO_BW, f2i,
+                              fold_math)
 from .shader_inputs import INPUT_NODES
 from .shader_nodes import VALUE_NODES
+from .shader_spectra import SPECTRAL_NODES
 from .shader_textures import TEXTURE_NODES
 from .shader_values import Val, width
 
@@ -165,6 +168,8 @@ class Compiler:
                           GEOM_OBJECT_RANDOM) else 3
         if GEOM_OBJECT <= what <= GEOM_OBJECT_RANDOM:
             self.flags |= PROGRAM_OBJECT
+        if what == GEOM_WINDOW:
+            self.flags |= PROGRAM_WINDOW
         s = self.alloc(n)
         self.ops.append((SVM_GEOMETRY, s, what, 0))
         return Val(n, slot=s)
@@ -310,4 +315,4 @@ class Compiler:
 
 
 # every node type a program evaluates: bl_idname -> fn(compiler, node, output, ctx) -> Val
-NODES = {**INPUT_NODES, **VALUE_NODES, **TEXTURE_NODES}
+NODES = {**INPUT_NODES, **VALUE_NODES, **TEXTURE_NODES, **SPECTRAL_NODES}

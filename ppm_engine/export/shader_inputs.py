@@ -9,9 +9,9 @@ import numpy as np
 from ..shader_program import (GEOM_BACKFACING, GEOM_INCOMING, GEOM_LIGHT_PATH, GEOM_NORMAL,
                               GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT_COLOR, GEOM_OBJECT_INDEX,
                               GEOM_OBJECT_LOCATION, GEOM_OBJECT_RANDOM, GEOM_POSITION,
-                              GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, LIGHT_PATH_OUTPUTS,
-                              NORMAL_MAP_SPACES, PROGRAM_OBJECT, PROGRAM_TANGENTS, SVM_GEOMETRY,
-                              SVM_MAPPING, SVM_NORMAL_MAP, f2i)
+                              GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, GEOM_WINDOW,
+                              LIGHT_PATH_OUTPUTS, NORMAL_MAP_SPACES, PROGRAM_OBJECT,
+                              PROGRAM_TANGENTS, SVM_GEOMETRY, SVM_MAPPING, SVM_NORMAL_MAP, f2i)
 from .shader_values import Val, width
 
 
@@ -88,7 +88,8 @@ def _tex_coord(c, node, out, ctx):
         return _transform(c, c.geometry(GEOM_POSITION), inv, 0)
     if out.name == "Normal":                    # the shading normal in object space
         return _transform(c, c.geometry(GEOM_NORMAL), None, 6)
-    what = {"UV": GEOM_UV, "Reflection": GEOM_REFLECTION}.get(out.name)
+    what = {"UV": GEOM_UV, "Reflection": GEOM_REFLECTION,
+            "Window": None if world else GEOM_WINDOW}.get(out.name)
     if what is None:
         c.warn(f"'{node.name}': the {out.name} texture coordinate is not evaluated yet; the UV "
                "map is used")

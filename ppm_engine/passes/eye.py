@@ -37,7 +37,7 @@ class EyePass:
     def enqueue(self, q, pass_index: int, options) -> list:
         f, v = self.film, self.vps
         ev = self.kernel(
-            q, v.n, SHADING_GROUP, cam=self.scene.camera, **self.scene.args, pass_index=np.uint32(pass_index),
+            q, v.n, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
             seed=np.uint32(options.seed), max_bounces=np.int32(options.max_bounces),
             initial_radius=np.float32(options.initial_radius),
             auto_radius_pixels=np.float32(self.AUTO_RADIUS_PIXELS),
