@@ -189,3 +189,67 @@ def test_textured_scene_as_bright_as_cycles(cycles, render_exr, tmp_path):
     q = lambda a: a.reshape(8, 4, 8, 4, 3).mean(axis=(1, 3))     # noqa: E731
     assert np.ptp(q(ref)[..., 0]) > 0.2                            # the checker really shows
     np.testing.assert_allclose(q(ours), q(ref), rtol=0.03, atol=0.003)
+
+
+# --- the Image Texture node in shader programs, per pixel against Cycles (the harness of
+# test_shader_nodes.py: one plane per case, image A's colour one value per pixel) -----------
+
+def _harness():
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_shader_nodes import _compare
+    return _compare
+
+
+def _small_image(name, w, h, seed, float_buffer=True, alpha=False):
+    """A w x h image of random values (Non-Color floats, or 8-bit sRGB), made once a scene."""
+    img = bpy.data.images.get(name)
+    if img is None:
+        rng = np.random.default_rng(seed)
+        v = rng.random((h, w, 4)).astype(np.float16).astype(np.float32)
+        if not float_buffer:
+            v = np.round(v * 255) / 255
+        if not alpha:
+            v[..., 3] = 1.0
+        img = bpy.data.images.new(name, w, h, float_buffer=float_buffer, alpha=True)
+        if float_buffer:
+            img.colorspace_settings.name = "Non-Color"
+        img.pixels.foreach_set(v.ravel())
+    return img
+
+
+def _spread(i, s, o):
+    """Image A's colour (one random value per pixel, in [0, 1]) times s plus o."""
+    return i.node("ShaderNodeVectorMath", [(0, i.A)], operation="MULTIPLY_ADD",
+                  in_1=(s, s, s), in_2=(o, o, o)).outputs[0]
+
+
+def _tex(image, vector=None, out="Color", **props):
+    """A case: an Image Texture of ``image()`` with ``props``, its Vector from ``vector(i)``
+    (None: the UV map), output ``out``."""
+    def build(i):
+        n = i.node("ShaderNodeTexImage", **props)
+        n.image = image()
+        if vector is not None:
+            i.t.links.new(vector(i), n.inputs["Vector"])
+        return n.outputs[out]
+    return build
+
+
+def test_cubic_every_extension_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Cubic (and Smart) interpolation: a 5 x 3 texture read at random points of [-1, 2]^2, so
+    the 4 x 4 B-spline and every extension mode's borders show."""
+    img = lambda: _small_image("Small", 5, 3, 7)                              # noqa: E731
+    srgb = lambda: _small_image("Bytes", 4, 3, 8, float_buffer=False)         # noqa: E731
+    alpha = lambda: _small_image("Alpha", 3, 4, 9, alpha=True)                # noqa: E731
+    wide = lambda i: _spread(i, 3.0, -1.0)                                    # noqa: E731
+    cases = {f"cubic {e}": _tex(img, wide, interpolation="Cubic", extension=e)
+             for e in ("REPEAT", "EXTEND", "CLIP", "MIRROR")}
+    cases.update({
+        "smart repeat": _tex(img, wide, interpolation="Smart"),
+        "cubic 8-bit sRGB": _tex(srgb, wide, interpolation="Cubic", extension="MIRROR"),
+        "cubic alpha clip": _tex(alpha, wide, "Alpha", interpolation="Cubic", extension="CLIP"),
+        "linear mirror": _tex(img, wide, interpolation="Linear", extension="MIRROR"),
+    })
+    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

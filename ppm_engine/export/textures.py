@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene_arrays import (TEX_CLIP, TEX_EXTEND, TEX_FLAG_CLOSEST, TEX_FLAG_SRGB, TEX_MIRROR,
-                            TEX_REPEAT, TEXTURE_DTYPE)
+from ..scene_arrays import (TEX_CLIP, TEX_EXTEND, TEX_FLAG_CLOSEST, TEX_FLAG_CUBIC,
+                            TEX_FLAG_SRGB, TEX_MIRROR, TEX_REPEAT, TEXTURE_DTYPE)
 
 MISSING = (1.0, 0.0, 1.0)          # Cycles' colour for an image it cannot load
 _EXTENSION = {"REPEAT": TEX_REPEAT, "EXTEND": TEX_EXTEND, "CLIP": TEX_CLIP,
               "MIRROR": TEX_MIRROR}
+# Cycles renders 'Smart' as 'Cubic' (its CPU kernels and GPUs alike)
+_INTERPOLATION = {"Closest": TEX_FLAG_CLOSEST, "Cubic": TEX_FLAG_CUBIC, "Smart": TEX_FLAG_CUBIC}
 # Vector inputs that mean "the UV map" (anything else is not evaluated: warned)
 _UV_SOURCES = {("ShaderNodeTexCoord", "UV"), ("ShaderNodeUVMap", "UV")}
 
@@ -98,8 +100,7 @@ class TextureTable:
                       "magenta, as in Cycles")
             return 0, MISSING
         flags = _EXTENSION.get(getattr(node, "extension", "REPEAT"), TEX_REPEAT)
-        if node.interpolation == "Closest":
-            flags |= TEX_FLAG_CLOSEST
+        flags |= _INTERPOLATION.get(node.interpolation, 0)
         key = (image.name_full, flags)
         if key not in self._index:
             texels, srgb = self._read(image, material)
