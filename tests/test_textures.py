@@ -253,3 +253,125 @@ def test_cubic_every_extension_as_cycles(cycles, render_exr, tmp_path, tiny):
         "linear mirror": _tex(img, wide, interpolation="Linear", extension="MIRROR"),
     })
     _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def _tilted(normal, case):
+    """``case`` on a plane whose object-space normal is ``normal``: the mesh turned by a
+    rotation taking +z to it and the object by its inverse (the plane still faces the camera,
+    one input per pixel)."""
+    from mathutils import Vector
+
+    def build(i):
+        obj = bpy.context.active_object
+        q = Vector((0.0, 0.0, 1.0)).rotation_difference(Vector(normal).normalized())
+        obj.data.transform(q.to_matrix().to_4x4())
+        obj.rotation_mode = "QUATERNION"
+        obj.rotation_quaternion = q.inverted()
+        return case(i)
+    return build
+
+
+BOX_NORMALS = {"+x": (0.9, 0.3, 0.2), "-x": (-0.9, 0.3, -0.2), "+y": (0.2, 0.9, 0.3),
+               "-y": (0.3, -0.9, 0.2), "+z": (0.3, 0.2, 0.9), "-z": (-0.2, 0.3, -0.9),
+               "x-y": (0.6, -0.5, 0.1), "y-z": (0.1, 0.6, -0.5), "x-z": (-0.6, 0.1, 0.5),
+               "corner": (0.55, 0.5, 0.45), "-corner": (-0.5, -0.55, -0.45)}
+
+
+def test_box_sphere_and_tube_projections_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """Box projection: the object-space normal picks or blends the three planar projections
+    (every face and sign with Projection Blend 0; each blend zone, edges and corner, with 0.4);
+    Sphere and Tube projections of random points in the unit box."""
+    img = lambda: _small_image("Small", 5, 3, 7)                              # noqa: E731
+    unit = lambda i: _spread(i, 1.0, 0.0)                                     # noqa: E731
+    cases = {}
+    for blend in (0.0, 0.4):
+        for name, n in BOX_NORMALS.items():
+            if blend == 0.0 and len(name) > 2:
+                continue
+            cases[f"box {name} blend {blend}"] = _tilted(n, _tex(
+                img, unit, projection="BOX", projection_blend=blend, interpolation="Linear"))
+    cases["box cubic clip"] = _tilted(BOX_NORMALS["corner"], _tex(
+        img, lambda i: _spread(i, 1.4, -0.2), projection="BOX", projection_blend=0.7,
+        interpolation="Cubic", extension="CLIP"))
+    cases["sphere"] = _tex(img, unit, projection="SPHERE")
+    cases["tube"] = _tex(img, unit, projection="TUBE", interpolation="Cubic")
+    cases["sphere alpha"] = _tex(lambda: _small_image("Alpha", 3, 4, 9, alpha=True), unit,
+                                 "Alpha", projection="SPHERE")
+    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def _udim(folder, missing=1011):
+    """A UDIM image of tiles 1001 and 1002 (4 x 4 float files) and tile ``missing`` (if any),
+    whose file is deleted after Blender found it."""
+    import os
+    img = bpy.data.images.get("udim")
+    if img is not None:
+        return img
+    tiles = (1001, 1002) + ((missing,) if missing else ())
+    for k, tile in enumerate(tiles):
+        t = _small_image(f"tile{tile}", 4, 4, 20 + k)
+        t.filepath_raw = str(folder / f"udim.{tile}.exr")
+        t.file_format = "OPEN_EXR"
+        t.save()
+    img = bpy.data.images.load(str(folder / "udim.1001.exr"))
+    img.name = "udim"
+    img.source = "TILED"
+    img.colorspace_settings.name = "Non-Color"
+    assert sorted(t.number for t in img.tiles) == list(tiles)
+    if missing:
+        os.remove(folder / f"udim.{missing}.exr")
+    return img
+
+
+def test_udim_tiles_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """A UDIM image: each tile its own texture, chosen by the UV's integer parts (1001 + u +
+    10 v, truncated); a tile without a file and a tile not in the image are magenta, as in
+    Cycles; a plane whose UVs span tiles 1001 and 1002, read with Closest (one texel a pixel)."""
+    img = lambda: _udim(tmp_path)                                             # noqa: E731
+
+    def span(me):                                   # u in [0, 2]: both tiles across the plane
+        uv = np.empty(2 * len(me.loops), np.float32)
+        me.uv_layers.active.data.foreach_get("uv", uv)
+        uv[0::2] *= 2.0
+        me.uv_layers.active.data.foreach_set("uv", uv)
+
+    plane = _tex(img, interpolation="Closest")
+    plane.mesh = span
+    cases = {"uv spans 1001-1002": plane,
+             "tiles 1001-1012": _tex(img, lambda i: _spread(i, 2.0, 0.0)),
+             "negative, cubic": _tex(img, lambda i: _spread(i, 3.0, -1.0),
+                                     interpolation="Cubic", extension="EXTEND"),
+             "box reads 1001": _tilted(BOX_NORMALS["corner"], _tex(
+                 img, lambda i: _spread(i, 1.0, 0.0), projection="BOX", projection_blend=0.3))}
+    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    warnings = _export().warnings
+    assert any("tile 1011" in w and "udim.1011.exr" in w and "magenta" in w
+               for w in warnings), warnings
+
+
+def test_udim_tiles_packed_and_a_corrupt_tile(tmp_path):
+    """Packed tiles are read from their packed data (the files gone); a tile file that is not
+    an image is warned about (magenta), never an error."""
+    _scene_with_texture()
+    img = _udim(tmp_path, missing=None)
+    img.pack()
+    for tile in (1001, 1002):
+        (tmp_path / f"udim.{tile}.exr").unlink()
+    bpy.data.materials["Textured"].node_tree.nodes["Image Texture"].image = img
+    a = _export()
+    assert not a.warnings, a.warnings
+    got = a.texels.astype(np.float32).reshape(-1, 4, 4, 4)
+    for k, tile in enumerate((1001, 1002)):
+        want = np.empty(64, np.float32)
+        bpy.data.images[f"tile{tile}"].pixels.foreach_get(want)
+        np.testing.assert_allclose(got[k], want.reshape(4, 4, 4), atol=1e-3)
+    t = _small_image("tile1001", 4, 4, 20)
+    t.filepath_raw = str(tmp_path / "bad.1001.exr")
+    t.save()
+    bad = bpy.data.images.load(str(tmp_path / "bad.1001.exr"))
+    bad.source = "TILED"
+    (tmp_path / "bad.1001.exr").write_bytes(b"not an image")
+    bpy.data.materials["Textured"].node_tree.nodes["Image Texture"].image = bad
+    a = _export()
+    assert any("tile 1001" in w and "bad.1001.exr" in w and "magenta" in w
+               for w in a.warnings), a.warnings

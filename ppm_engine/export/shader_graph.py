@@ -18,6 +18,7 @@ from ..shader_program import (BOUND, GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT
                               PROGRAM_ATTRIBUTES, FIELD_WORD, GEOM_BACKFACING, GEOM_GENERATED, MATH, MAX_STACK,
                               PROGRAM_EMISSION, PROGRAM_GENERATED, SVM_COMBINE, SVM_CONST, SVM_END,
                               SVM_GEOMETRY, SVM_MATH, SVM_RGB_TO_BW, f2i, fold_math)
+from .shader_images import IMAGE_NODES
 from .shader_inputs import INPUT_NODES
 from .shader_nodes import VALUE_NODES
 from .shader_textures import TEXTURE_NODES
@@ -310,4 +311,4 @@ class Compiler:
 
 
 # every node type a program evaluates: bl_idname -> fn(compiler, node, output, ctx) -> Val
-NODES = {**INPUT_NODES, **VALUE_NODES, **TEXTURE_NODES}
+NODES = {**INPUT_NODES, **VALUE_NODES, **IMAGE_NODES, **TEXTURE_NODES}
