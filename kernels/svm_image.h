@@ -12,12 +12,15 @@
 #define IMAGE_TUBE 4
 
 /* texture tex (1-based; 0: an image that could not be read, or a UDIM tile that does not
- * exist: Cycles' magenta) at uv, its colour times alpha where Cycles' Color output carries it */
+ * exist: Cycles' magenta) at uv.  Texels hold colours times alpha (associated, as Cycles
+ * stores them): Cycles' Color output as is, or divided by the alpha where the node's Alpha
+ * output is linked (unassociate); then an 8-bit sRGB image's colour decoded. */
 inline float4 svm_image_lookup(__global const Texture *textures, __global const half *texels,
-                               int tex, float2 uv, int premultiplied) {
+                               int tex, float2 uv, int unassociate) {
     if (tex <= 0) return (float4)(1.0f, 0.0f, 1.0f, 1.0f);
-    float4 c = texture_rgba(textures, texels, tex, uv);
-    if (premultiplied) c.xyz *= c.w;
+    float4 c = texture_rgba_encoded(textures, texels, tex, uv);
+    if (unassociate && c.w != 0.0f && c.w != 1.0f) c.xyz /= c.w;
+    if (textures[tex - 1].flags & TEX_FLAG_SRGB) c.xyz = srgb_to_linear(c.xyz);
     return c;
 }
 
@@ -64,7 +67,7 @@ inline float3 image_box_weights(float3 N, float b) {
     return ((2.0f - k) * a + (k - 1.0f)) / (2.0f * k - 1.0f);  /* the corner: all three */
 }
 
-/* SVM_IMAGE: w = (op, colour slot, alpha slot, vector slot), then (texture, premultiplied,
+/* SVM_IMAGE: w = (op, colour slot, alpha slot, vector slot), then (texture, unassociate,
  * projection, tile words), (blend bits, normal slot, 0, 0) and the UDIM tiles two a word
  * (tile, texture, tile, texture); returns the next op's word */
 inline int svm_image(int4 w, __global const int4 *svm, int i, float *stack,

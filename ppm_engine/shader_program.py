@@ -26,7 +26,7 @@ from .scene_arrays import SHADER_NODE_DTYPE
 SVM_END = 0
 SVM_CONST = 1          # (op, slot, n, 0) + (x, y, z, w) as float bits
 SVM_GEOMETRY = 2       # (op, slot, what, 0): GEOM_*
-SVM_IMAGE = 3          # (op, color_slot, alpha_slot, vector_slot) + (texture, premultiplied,
+SVM_IMAGE = 3          # (op, color_slot, alpha_slot, vector_slot) + (texture, unassociate,
 #                        IMAGE_PROJECTIONS, n) + (blend bits, normal slot, 0, 0) + n words of
 #                        UDIM tiles (tile, texture, tile, texture) (kernels/svm_image.h)
 SVM_MAPPING = 4        # (op, out, vector, type) + 3 words: the 3x4 matrix rows (float bits)

@@ -428,3 +428,58 @@ def test_box_projection_on_a_turned_sphere_as_cycles(cycles, render_exr, tmp_pat
         assert len(faces) >= least and inside[:, side].sum() > 250
     err = np.abs(ours - ref)[inside].max()
     assert err <= 1e-3, err
+
+
+def _alpha_image(name, float_buffer):
+    """A 3 x 4 image of random colours and alphas in a colour space (not data): Cycles' Color
+    carries its alpha (associated)."""
+    img = bpy.data.images.get(name)
+    if img is None:
+        rng = np.random.default_rng(11)
+        v = rng.random((4, 3, 4)).astype(np.float32)
+        v[0, 0, 3], v[1, 1, 3] = 0.0, 1.0
+        if float_buffer:
+            v[..., :3] *= v[..., 3:]                  # Blender's float buffers are associated
+        else:
+            v = np.round(v * 255) / 255
+        img = bpy.data.images.new(name, 3, 4, float_buffer=float_buffer, alpha=True)
+        img.pixels.foreach_set(v.ravel())
+    return img
+
+
+def _with_alpha_linked(case):
+    """``case``'s Color with its node's Alpha output linked too (to a branch that adds 0):
+    Cycles then divides the colour by the alpha."""
+    def build(i):
+        color = case(i)
+        zero = i.node("ShaderNodeMath", [(0, color.node.outputs["Alpha"])],
+                      operation="LESS_THAN", in_1=-1.0)
+        one = i.node("ShaderNodeMath", [(1, zero.outputs[0])], operation="SUBTRACT", in_0=1.0)
+        return i.node("ShaderNodeVectorMath", [(0, color), (3, one.outputs[0])],
+                      operation="SCALE").outputs[0]
+    return build
+
+
+def test_alpha_association_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """An image with partial alpha: the Color output carries the alpha (Cycles stores images
+    associated: float buffers as Blender holds them, 8-bit ones multiplied in their bytes, a
+    generated image or a PNG file), and is divided by the interpolated alpha where the Alpha
+    output is linked."""
+    def png():                                  # the 8-bit image as an external PNG file
+        img = bpy.data.images.get("png")
+        if img is None:
+            src = _alpha_image("8-bit", False)
+            src.filepath_raw, src.file_format = str(tmp_path / "alpha.png"), "PNG"
+            src.save()
+            img = bpy.data.images.load(str(tmp_path / "alpha.png"))
+            img.name = "png"
+        return img
+    wide = lambda i: _spread(i, 3.0, -1.0)                                    # noqa: E731
+    cases = {}
+    for kind, fb in (("float", True), ("8-bit", False), ("png", None)):
+        img = png if fb is None else (lambda fb=fb, kind=kind: _alpha_image(kind, fb))
+        for interp in ("Closest", "Linear", "Cubic"):
+            cases[f"{kind} {interp}"] = _tex(img, wide, interpolation=interp)
+            cases[f"{kind} {interp} alpha linked"] = _with_alpha_linked(
+                _tex(img, wide, interpolation=interp))
+    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

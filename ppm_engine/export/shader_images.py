@@ -51,7 +51,7 @@ def _image_op(c, node, out, ctx, v, projection: int):
         else:
             tex, _ = c.textures.image_index(node, c.material)
         texs = [t for _, t in tiles if t] if tiles else [tex]
-        premultiplied = any(c.textures.premultiplied(node, t) for t in texs if t)
+        unassociate = any(c.textures.unassociates(node, t) for t in texs if t)
         sv, normal, blend = c.slot(v), 0, 0.0
         if projection == BOX:          # the shading normal in object space (a world's: as is)
             n = c.geometry(GEOM_NORMAL)
@@ -62,7 +62,7 @@ def _image_op(c, node, out, ctx, v, projection: int):
         words = [(pairs[k][0], pairs[k][1], pairs[k + 1][0], pairs[k + 1][1])
                  for k in range(0, len(pairs), 2)]
         c.ops.append((SVM_IMAGE, col, alpha, sv))
-        c.ops.append((tex, int(premultiplied), projection, len(words)))
+        c.ops.append((tex, int(unassociate), projection, len(words)))
         c.ops.append((f2i(blend), normal, 0, 0))
         c.ops.extend(words)
         c.memo[key] = (col, alpha)

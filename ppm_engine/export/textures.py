@@ -3,7 +3,8 @@
 Images are read once each (deduplicated by datablock) with ``pixels.foreach_get`` into a
 float32 buffer (rows bottom-up; 8-bit images read as their stored bytes / 255)
 and stored as float16 RGBA: float images linear, 8-bit sRGB images still encoded and decoded
-by the kernel after interpolation (TEX_FLAG_SRGB, as Cycles' byte textures).  Packed and
+by the kernel after interpolation (TEX_FLAG_SRGB, as Cycles' byte textures); colours with alpha
+stored associated, as Cycles stores them.  Packed and
 external images read the same way; an image that cannot be loaded (a missing file) renders
 magenta, as in Cycles, with a warning naming the material and the file.  A UDIM image (source
 'TILED') is one texture per tile, each read from its own file (a tile whose file cannot be
@@ -48,16 +49,20 @@ def _follow(socket):
     return node, out
 
 
-def _premultiplied(node) -> bool:
-    """Whether Cycles' Color output of this Image Texture is the colour times alpha: it is
-    unless the Alpha output is linked, the image is data or its alpha is channel-packed or
-    ignored (Cycles stores images with associated alpha)."""
-    image, alpha = node.image, node.outputs.get("Alpha")     # (an Environment: no Alpha)
-    if image is None or (alpha is not None and alpha.is_linked):
-        return False
+def _associable(image) -> bool:
+    """Whether Cycles stores this image with associated alpha (the colour times alpha): unless
+    it is data, its alpha is channel-packed or ignored, or it has no alpha channel."""
     if image.colorspace_settings.is_data or image.alpha_mode in ("CHANNEL_PACKED", "NONE"):
         return False
     return int(image.channels) in (2, 4)
+
+
+def _unassociates(node) -> bool:
+    """Whether Cycles divides this Image Texture's Color by its alpha: where its Alpha output
+    is linked and its image is stored associated (an Environment Texture has no Alpha)."""
+    alpha = node.outputs.get("Alpha")
+    return (node.image is not None and alpha is not None and alpha.is_linked
+            and _associable(node.image))
 
 
 class TextureTable:
@@ -90,14 +95,14 @@ class TextureTable:
                                        or getattr(node, "projection", "FLAT") != "FLAT"):
             return 0, None                 # tiles, projections: the shader program's
         tex, missing = self.image_index(node, material)
-        if tex and output == "Color" and self.premultiplied(node, tex):
-            return 0, None                 # a colour under alpha: the shader program's
+        if tex and output == "Color" and self.unassociates(node, tex):
+            return 0, None                 # a colour divided by alpha: the shader program's
         return tex, missing
 
-    def premultiplied(self, node, tex: int) -> bool:
-        """Whether texture ``tex`` of this node has partial alpha that Cycles' Color output
-        carries (the colour times alpha, _premultiplied)."""
-        return _premultiplied(node) and not self.opaque[tex - 1]
+    def unassociates(self, node, tex: int) -> bool:
+        """Whether Cycles divides this node's Color from texture ``tex`` by its alpha: the
+        texture has partial alpha and _unassociates."""
+        return _unassociates(node) and not self.opaque[tex - 1]
 
     def image_index(self, node, material: str, tile: int = 0):
         """(texture index, None) for an Image Texture node's image and sampling mode, or
@@ -198,6 +203,11 @@ class TextureTable:
         px[:, :3] = raw[:, :3] if c >= 3 else raw[:, :1]
         if c in (2, 4):
             px[:, 3] = raw[:, c - 1]
+        if _associable(image) and not image.is_float:
+            # Cycles associates 8-bit images in their bytes (c a / 255, truncated) before the
+            # sRGB decoding; Blender's float buffers are associated already
+            b = np.round(np.clip(px, 0.0, 1.0) * 255.0).astype(np.int32)
+            px[:, :3] = ((b[:, :3] * b[:, 3:]) // 255).astype(np.float32) / 255.0
         cs = image.colorspace_settings
         srgb = False
         if not image.is_float and not cs.is_data:
