@@ -1,15 +1,17 @@
 #ifndef PPM_SVM_IMAGE_H
 #define PPM_SVM_IMAGE_H
 /* The Image Texture and Environment Texture nodes of a shader program (kernels/svm.h runs
- * them; ppm_engine/shader_program.py SVM_IMAGE has the layout, export/shader_nodes.py compiles
+ * them; ppm_engine/shader_program.py SVM_IMAGE has the layout, export/shader_images.py compiles
  * them).  The projections and the UDIM tile choice are Cycles' (learnt from its
- * kernel/svm/image.h and util/math.h: map_to_sphere, map_to_tube, the box's blend zones). */
+ * kernel/svm/image.h, util/math.h and kernel/camera/projection.h: map_to_sphere, map_to_tube,
+ * the box's blend zones, the mirror ball). */
 
 #define IMAGE_FLAT 0
 #define IMAGE_EQUIRECT 1      /* Environment Texture */
 #define IMAGE_BOX 2
 #define IMAGE_SPHERE 3
 #define IMAGE_TUBE 4
+#define IMAGE_MIRROR_BALL 5   /* Environment Texture */
 
 /* texture tex (1-based; 0: an image that could not be read, or a UDIM tile that does not
  * exist: Cycles' magenta) at uv.  Texels hold colours times alpha (associated, as Cycles
@@ -37,6 +39,15 @@ inline float2 image_tube_uv(float3 co) {
     float r = sqrt(co.x * co.x + co.y * co.y);
     if (!(r > 0.0f)) return (float2)(0.0f);
     return (float2)(0.5f - 0.5f * atan2(co.x / r, co.y / r) * (1.0f / PPM_PI), 0.5f * (co.z + 1.0f));
+}
+
+/* the mirror ball (Cycles' direction_to_mirrorball): the ball's normal halfway between the
+ * direction d and the view along -y, its x and z as the image's u and v */
+inline float2 image_mirror_ball_uv(float3 d) {
+    float3 h = d - (float3)(0.0f, 1.0f, 0.0f);
+    float l = length(h);
+    if (l > 0.0f) h /= l;
+    return (float2)(0.5f * (h.x + 1.0f), 0.5f * (h.z + 1.0f));
 }
 
 /* the weights of the box's three planar projections (x, y, z faces) for object-space normal N
@@ -93,6 +104,7 @@ inline int svm_image(int4 w, __global const int4 *svm, int i, float *stack,
                                          (float2)(N.z > 0.0f ? 1.0f - co.y : co.y, co.x), e.y);
     } else {
         float2 uv = e.z == IMAGE_EQUIRECT ? direction_to_equirect(svm_safe_normalize(co))
+                  : e.z == IMAGE_MIRROR_BALL ? image_mirror_ball_uv(svm_safe_normalize(co))
                   : e.z == IMAGE_SPHERE ? image_sphere_uv(co)
                   : e.z == IMAGE_TUBE ? image_tube_uv(co) : co.xy;
         if (e.w > 0) {                  /* UDIM: the tile 1001 + u + 10 v, uv within it */

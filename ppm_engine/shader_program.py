@@ -83,7 +83,8 @@ OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 2, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_
             SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6}
 assert len(OP_NAMES) == SVM_OPS <= 64
 # an Image Texture's projection (and the Environment Texture's equirectangular one)
-IMAGE_PROJECTIONS = {"FLAT": 0, "EQUIRECTANGULAR": 1, "BOX": 2, "SPHERE": 3, "TUBE": 4}
+IMAGE_PROJECTIONS = {"FLAT": 0, "EQUIRECTANGULAR": 1, "BOX": 2, "SPHERE": 3, "TUBE": 4,
+                     "MIRROR_BALL": 5}
 
 GEOM_UV = 0            # (u, v, 0) of the render UV map
 GEOM_NORMAL = 1        # shading normal (world, facing the viewer)

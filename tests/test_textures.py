@@ -483,3 +483,20 @@ def test_alpha_association_as_cycles(cycles, render_exr, tmp_path, tiny):
             cases[f"{kind} {interp} alpha linked"] = _with_alpha_linked(
                 _tex(img, wide, interpolation=interp))
     _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+
+
+def test_environment_projections_as_cycles(cycles, render_exr, tmp_path, tiny):
+    """The Environment Texture at random directions: equirectangular and mirror ball."""
+    img = lambda: _small_image("Small", 5, 3, 7)                              # noqa: E731
+
+    def env(projection, interpolation):
+        def build(i):
+            n = i.node("ShaderNodeTexEnvironment", projection=projection,
+                       interpolation=interpolation)
+            n.image = img()
+            i.t.links.new(_spread(i, 2.0, -1.0), n.inputs["Vector"])
+            return n.outputs["Color"]
+        return build
+    cases = {f"{p} {k}": env(p, k) for p in ("EQUIRECTANGULAR", "MIRROR_BALL")
+             for k in ("Linear", "Cubic")}
+    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))

@@ -1,8 +1,8 @@
 """The image nodes of a shader program (kernels/svm_image.h runs them): the Image Texture with
 its interpolations (the texture table's flags, export/textures.py), its Flat, Box (with
 Projection Blend), Sphere and Tube projections and UDIM tiles, and the Environment Texture
-(equirectangular), each as Cycles evaluates it.  fn(compiler, node, output socket, group
-context) -> Val, like the other value nodes (shader_nodes.py)."""
+(equirectangular, mirror ball), each as Cycles evaluates it.  fn(compiler, node, output
+socket, group context) -> Val, like the other value nodes (shader_nodes.py)."""
 from __future__ import annotations
 
 from ..shader_program import GEOM_NORMAL, GEOM_UV, IMAGE_PROJECTIONS, SVM_IMAGE, f2i
@@ -71,14 +71,11 @@ def _image_op(c, node, out, ctx, v, projection: int):
 
 
 def _environment(c, node, out, ctx):
-    """Cycles' Environment Texture: the image at the equirectangular (u, v) of its Vector
-    (normalised; unlinked: the position, for a world the ray's direction)."""
-    projection = IMAGE_PROJECTIONS["EQUIRECTANGULAR"]
+    """Cycles' Environment Texture: the image at the equirectangular or mirror ball (u, v) of
+    its Vector (normalised; unlinked: the position, for a world the ray's direction)."""
+    projection = IMAGE_PROJECTIONS.get(getattr(node, "projection", "EQUIRECTANGULAR"), 1)
     if (v := _no_image(c, node, out, projection)) is not None:
         return v
-    if getattr(node, "projection", "EQUIRECTANGULAR") != "EQUIRECTANGULAR":
-        c.warn(f"'{node.name}' uses {node.projection.title()} projection; this engine projects "
-               "Equirectangular")
     sizes = getattr(c, "env_sizes", None)
     if sizes is not None:
         sizes.append(tuple(node.image.size))
