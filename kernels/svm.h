@@ -103,6 +103,7 @@ inline float4 svm_table(__global const int4 *t, int n, float x, float lo, float 
 }
 
 #include "svm_textures.h"
+#include "svm_image.h"
 
 /* Runs the value ops of the program at word p into stack */
 inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmContext *ctx,
@@ -137,16 +138,7 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
                 svm_put3(stack, w.y, v);
             }
         } else if (SVM_HAS(SVM_IMAGE) && op == SVM_IMAGE) {
-            int4 e = svm[i++];
-            float4 c = (float4)(1.0f);
-#if PPM_TEXTURES
-            float3 uvw = svm_get3(stack, w.w);
-            if (e.z) uvw.xy = direction_to_equirect(svm_safe_normalize(uvw));   /* Environment */
-            c = texture_rgba(textures, texels, e.x, uvw.xy);
-            if (e.y) c.xyz *= c.w;             /* Cycles' Color under unlinked alpha */
-#endif
-            svm_put3(stack, w.y, c.xyz);
-            stack[w.z] = c.w;
+            i = svm_image(w, svm, i, stack, textures, texels);         /* svm_image.h */
         } else if (SVM_HAS(SVM_MAPPING) && op == SVM_MAPPING) {
             float4 r0 = as_float4(svm[i]), r1 = as_float4(svm[i + 1]), r2 = as_float4(svm[i + 2]);
             i += 3;

@@ -20,6 +20,7 @@ typedef struct {
 #define TEX_MIRROR 3u
 #define TEX_FLAG_CLOSEST 16u
 #define TEX_FLAG_SRGB 32u
+#define TEX_FLAG_CUBIC 64u
 
 inline float3 srgb_to_linear(float3 c) {
     c = clamp(c, 0.0f, 1.0f);
@@ -50,9 +51,24 @@ inline float4 tex_fetch(__global const half *texels, const Texture *t, int x, in
     return vload_half4((size_t)t->offset + (size_t)iy * (size_t)t->width + (size_t)ix, texels);
 }
 
+/* the uniform cubic B-spline's four weights for the texels at i - 1 .. i + 2 of a point a
+ * fraction t past texel centre i (Cycles' cubic interpolation: the B-spline, not Catmull-Rom;
+ * non-negative, summing to 1) */
+inline float4 tex_bspline(float t) {
+    float s = 1.0f - t, t2 = t * t, t3 = t2 * t;
+    return (float4)(s * s * s, 3.0f * t3 - 6.0f * t2 + 4.0f, -3.0f * t3 + 3.0f * t2 + 3.0f * t + 1.0f,
+                    t3) * (1.0f / 6.0f);
+}
+
+inline float4 tex_row4(__global const half *texels, const Texture *t, int x0, int y, float4 w) {
+    return w.x * tex_fetch(texels, t, x0 - 1, y) + w.y * tex_fetch(texels, t, x0, y)
+         + w.z * tex_fetch(texels, t, x0 + 1, y) + w.w * tex_fetch(texels, t, x0 + 2, y);
+}
+
 /* RGBA of texture tex1 (1-based) at uv as stored (sRGB-encoded colour for TEX_FLAG_SRGB):
- * bilinear between texel centres (as Cycles' 'Linear' interpolation) or the nearest texel
- * ('Closest') */
+ * bilinear between texel centres (as Cycles' 'Linear' interpolation), the nearest texel
+ * ('Closest') or the bicubic B-spline over 4 x 4 texels ('Cubic', 'Smart'), each texel read
+ * through the extension mode (CLIP: 0 outside) */
 inline float4 texture_rgba_encoded(__global const Texture *textures, __global const half *texels,
                                    int tex1, float2 uv) {
     Texture t = textures[tex1 - 1];
@@ -64,6 +80,12 @@ inline float4 texture_rgba_encoded(__global const Texture *textures, __global co
     y -= 0.5f;
     float fx = floor(x), fy = floor(y), ax = x - fx, ay = y - fy;
     int x0 = (int)fx, y0 = (int)fy;
+    if (t.flags & TEX_FLAG_CUBIC) {
+        float4 wx = tex_bspline(ax), wy = tex_bspline(ay);
+        return wy.x * tex_row4(texels, &t, x0, y0 - 1, wx) + wy.y * tex_row4(texels, &t, x0, y0, wx)
+             + wy.z * tex_row4(texels, &t, x0, y0 + 1, wx)
+             + wy.w * tex_row4(texels, &t, x0, y0 + 2, wx);
+    }
     float4 a = mix(tex_fetch(texels, &t, x0, y0), tex_fetch(texels, &t, x0 + 1, y0), ax);
     float4 b = mix(tex_fetch(texels, &t, x0, y0 + 1), tex_fetch(texels, &t, x0 + 1, y0 + 1), ax);
     return mix(a, b, ay);

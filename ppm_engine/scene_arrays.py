@@ -168,11 +168,12 @@ TEX_FLAG_CLOSEST = 16                                          # interpolation '
 # byte textures: interpolating the encoded values is what makes our image match Cycles' at
 # texel edges)
 TEX_FLAG_SRGB = 32
+TEX_FLAG_CUBIC = 64                 # interpolation 'Cubic' or 'Smart' (Cycles' cubic B-spline)
 TEXTURE_DTYPE = np.dtype([
     ("offset", np.int32),             # first texel in ``texels``
     ("width", np.int32),
     ("height", np.int32),
-    ("flags", np.uint32),             # TEX_REPEAT.. | TEX_FLAG_CLOSEST | TEX_FLAG_SRGB
+    ("flags", np.uint32),             # TEX_REPEAT.. | TEX_FLAG_CLOSEST, _CUBIC, _SRGB
 ])
 
 # ``emit`` depends on the type: POINT/SPOT radiant intensity in W/sr (Cycles: P/(4 pi)),

@@ -26,8 +26,9 @@ from .scene_arrays import SHADER_NODE_DTYPE
 SVM_END = 0
 SVM_CONST = 1          # (op, slot, n, 0) + (x, y, z, w) as float bits
 SVM_GEOMETRY = 2       # (op, slot, what, 0): GEOM_*
-SVM_IMAGE = 3          # (op, color_slot, alpha_slot, vector_slot) + (texture, premultiplied,
-#                        projection: 0 flat, 1 equirectangular (Environment Texture), 0)
+SVM_IMAGE = 3          # (op, color_slot, alpha_slot, vector_slot) + (texture, unassociate,
+#                        IMAGE_PROJECTIONS, n) + (blend bits, normal slot, 0, 0) + n words of
+#                        UDIM tiles (tile, texture, tile, texture) (kernels/svm_image.h)
 SVM_MAPPING = 4        # (op, out, vector, type) + 3 words: the 3x4 matrix rows (float bits)
 SVM_MATH = 5           # (op, out, a, b) + (c, MATH_*, clamp, 0)
 SVM_VECTOR_MATH = 6    # (op, out_vector, a, b) + (c, VMATH_*, out_value, scale)
@@ -77,12 +78,15 @@ OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math
             "tex_checker", "tex_gradient", "tex_white_noise", "tex_noise", "tex_magic",
             "tex_wave", "tex_brick", "tex_voronoi", "blackbody", "wavelength")
 # parameter words after each op's first word
-OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 1, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
+OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 2, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
             SVM_MIX: 1, SVM_COMBINE: 1, SVM_BRIGHT_CONTRAST: 1, SVM_CLAMP: 1, SVM_MAP_RANGE: 2,
-            SVM_HSV: 1, SVM_TABLE: 2, SVM_NORMAL_MAP: 1,   # (a table's n entries follow)
+            SVM_HSV: 1, SVM_TABLE: 2, SVM_NORMAL_MAP: 1,   # (+ a table's entries, op_words)
             SVM_TEX_CHECKER: 1, SVM_TEX_GRADIENT: 1, SVM_TEX_WHITE_NOISE: 1, SVM_TEX_NOISE: 5,
             SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6}
 assert len(OP_NAMES) == SVM_OPS <= 64
+# an Image Texture's projection (and the Environment Texture's equirectangular one)
+IMAGE_PROJECTIONS = {"FLAT": 0, "EQUIRECTANGULAR": 1, "BOX": 2, "SPHERE": 3, "TUBE": 4,
+                     "MIRROR_BALL": 5}
 
 GEOM_UV = 0            # (u, v, 0) of the render UV map
 GEOM_NORMAL = 1        # shading normal (world, facing the viewer)
@@ -188,8 +192,16 @@ def ops_used(svm: np.ndarray, starts) -> int:
             if not 0 < op < SVM_OPS:
                 raise ValueError(f"shader program at word {p}: unknown op {op} at word {i}")
             mask |= 1 << op
-            i += 1 + OP_EXTRA.get(op, 0) + (int(svm[i, 3]) if op == SVM_TABLE else 0)
+            i += op_words(svm, i)
     return mask
+
+
+def op_words(svm: np.ndarray, i: int) -> int:
+    """Words of the op at word ``i``: its first, its parameters, and the entries of a table
+    or an image's UDIM tiles."""
+    op = int(svm[i, 0])
+    tail = int(svm[i, 3]) if op == SVM_TABLE else int(svm[i + 1, 3]) if op == SVM_IMAGE else 0
+    return 1 + OP_EXTRA.get(op, 0) + tail
 
 
 def ops_define(mask: int) -> str:

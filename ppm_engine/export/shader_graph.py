@@ -20,6 +20,7 @@ from ..shader_program import (BOUND, FIELD_WORD, GEOM_ATTRIBUTE, GEOM_ATTRIBUTE_
                               PROGRAM_GENERATED, PROGRAM_OBJECT, PROGRAM_WINDOW, SVM_COMBINE,
                               SVM_CONST, SVM_END, SVM_GEOMETRY, SVM_MATH, SVM_RGB_TO_BW, f2i,
                               fold_math)
+from .shader_images import IMAGE_NODES
 from .shader_inputs import INPUT_NODES
 from .shader_nodes import VALUE_NODES
 from .shader_spectra import SPECTRAL_NODES
@@ -315,4 +316,4 @@ class Compiler:
 
 
 # every node type a program evaluates: bl_idname -> fn(compiler, node, output, ctx) -> Val
-NODES = {**INPUT_NODES, **VALUE_NODES, **TEXTURE_NODES, **SPECTRAL_NODES}
+NODES = {**INPUT_NODES, **VALUE_NODES, **IMAGE_NODES, **TEXTURE_NODES, **SPECTRAL_NODES}

@@ -1,72 +1,22 @@
 """The value nodes of a shader program, each compiled as Cycles evaluates it (kernels/svm.h and
-svm_nodes.h run them): Image Texture, Mapping, Math, Vector Math, Mix, the colour and converter
-nodes, ramps and curves, Fresnel, Layer Weight (the input nodes: shader_inputs.py).  Each is fn(compiler, node, output socket, group context)
--> Val, using the compiler's methods only (shader_graph.Compiler), so this module does not
-import the compiler."""
+svm_nodes.h run them): Mapping, Math, Vector Math, Mix, the colour and converter nodes, ramps
+and curves, Fresnel, Layer Weight (the input nodes: shader_inputs.py; the image nodes:
+shader_images.py).  Each is fn(compiler, node, output socket, group context) -> Val, using
+the compiler's methods only (shader_graph.Compiler), so this module does not import the
+compiler."""
 from __future__ import annotations
 
 import numpy as np
 
 from ..shader_program import (COLOR_HSL_TO_RGB, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL,
-                              COLOR_RGB_TO_HSV, GEOM_UV, MAPPING_TYPES, MAP_RANGE_TYPES, MATH, MIX,
+                              COLOR_RGB_TO_HSV, MAPPING_TYPES, MAP_RANGE_TYPES, MATH, MIX,
                               MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT, MIXF_SCALAR,
                               MIXF_VECTOR_FACTOR, SVM_BRIGHT_CONTRAST, SVM_CLAMP,
-                              SVM_COLOR_CONVERT, SVM_FRESNEL, SVM_GAMMA, SVM_HSV, SVM_IMAGE,
+                              SVM_COLOR_CONVERT, SVM_FRESNEL, SVM_GAMMA, SVM_HSV,
                               SVM_INVERT, SVM_LAYER_WEIGHT, SVM_MAPPING, SVM_MAP_RANGE, SVM_MIX,
                               SVM_RGB_TO_BW, SVM_TABLE, SVM_VECTOR_MATH, TABLE_RGB, TABLE_SCALAR,
                               TABLE_SIZE, TABLE_VECTOR, VMATH, f2i)
 from .shader_values import Val, width
-
-def _no_image(c, node, out):
-    """The constant an image node gives without its image (no table: 1; missing: magenta), or
-    None when its image is in the texture table."""
-    if c.textures is None:
-        return c.const(1.0, width(out.type))
-    tex, missing = c.textures.image_index(node, c.material)
-    if not tex:
-        return c.const(missing if out.name == "Color" else (1.0,), width(out.type))
-    return None
-
-
-def _image(c, node, out, ctx):
-    if (v := _no_image(c, node, out)) is not None:
-        return v
-    if getattr(node, "projection", "FLAT") != "FLAT":
-        c.warn(f"'{node.name}' uses {node.projection.title()} projection; this engine projects "
-               "Flat")
-    vec = node.inputs.get("Vector")
-    v = c.input(node, vec, ctx, 3) if vec.is_linked else c.geometry(GEOM_UV)
-    return _image_op(c, node, out, ctx, v, 0)
-
-
-def _image_op(c, node, out, ctx, v, projection: int):
-    """The op of an image node's texture at vector ``v`` (projection 1: equirectangular)."""
-    tex, _ = c.textures.image_index(node, c.material)
-    key = ("image", tuple(g.as_pointer() for g in ctx), node.as_pointer())
-    if key not in c.memo:
-        sv = c.slot(v)
-        col, alpha = c.alloc(3), c.alloc(1)
-        c.ops.append((SVM_IMAGE, col, alpha, sv))
-        c.ops.append((tex, int(c.textures.premultiplied(node, tex)), projection, 0))
-        c.memo[key] = (col, alpha)
-    col, alpha = c.memo[key]
-    return Val(3, slot=col) if out.name == "Color" else Val(1, slot=alpha)
-
-
-def _environment(c, node, out, ctx):
-    """Cycles' Environment Texture: the image at the equirectangular (u, v) of its Vector
-    (normalised; unlinked: the position, for a world the ray's direction)."""
-    if (v := _no_image(c, node, out)) is not None:
-        return v
-    if getattr(node, "projection", "EQUIRECTANGULAR") != "EQUIRECTANGULAR":
-        c.warn(f"'{node.name}' uses {node.projection.title()} projection; this engine projects "
-               "Equirectangular")
-    sizes = getattr(c, "env_sizes", None)
-    if sizes is not None:
-        sizes.append(tuple(node.image.size))
-    vec = node.inputs.get("Vector")
-    v = c.input(node, vec, ctx, 3) if c.graph.source(vec, ctx) is not None else c.generated()
-    return _image_op(c, node, out, ctx, v, 1)
 
 
 def _rotate(c, v: Val, angles: Val, inverse: bool) -> Val:
@@ -377,8 +327,7 @@ def _layer_weight(c, node, out, ctx):
 
 
 VALUE_NODES = {
-    "ShaderNodeTexImage": _image, "ShaderNodeMapping": _mapping,
-    "ShaderNodeTexEnvironment": _environment,
+    "ShaderNodeMapping": _mapping,
     "ShaderNodeMath": _math, "ShaderNodeVectorMath": _vector_math,
     "ShaderNodeMix": _mix, "ShaderNodeMixRGB": _mix,
     "ShaderNodeSeparateXYZ": _separate_xyz, "ShaderNodeCombineXYZ": _combine_xyz,
