@@ -101,12 +101,15 @@ def table(result: dict) -> str:
 
 
 def reference_table(result: dict) -> str:
-    lines = ["| scene | reference engine | s per half | mean | reference noise RMSE (rel) "
-             "| caustic pixels | caustic noise RMSE | Cycles longest mean / ref | ours longest mean / ref |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = ["| scene | reference engine | independent | s per half | mean "
+             "| reference noise RMSE (rel) | caustic pixels | caustic noise RMSE "
+             "| Cycles longest mean / ref | ours longest mean / ref |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for name, s in result["scenes"].items():
         r, b = s["reference"], s["bias_check"]
-        lines.append(f"| {name} | {r['engine']} | {r['seconds_per_half']:g} | {r['mean']:.4f} | "
+        independent = "yes" if r.get("independent", r["engine"] != "PPM") else "no (ours)"
+        lines.append(f"| {name} | {r['engine']} | {independent} | {r['seconds_per_half']:g} | "
+                     f"{r['mean']:.4f} | "
                      f"{r['noise_rmse']:.4f} ({r['noise_rel_rmse']:.3f}) | "
                      f"{s['caustic_mask_pixels']} | {r['noise_rmse_caustic']:.4f} | "
                      f"{b['cycles_longest_mean_over_reference']:.3f} | "
