@@ -52,6 +52,13 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         assert 0.7 < s["bias_check"]["cycles_longest_mean_over_reference"] < 1.3
         ours = s["curves"]["ours"]
         assert ours[-1]["passes"] >= ours[0]["passes"] >= 1
+        # references independent of the engine measured: Cycles, or light tracing (which
+        # leaves out the pixels it cannot render) checked against Cycles on the Cornell box
+        assert ref["engine"] == ("CYCLES" if name == "cornell_box" else "LIGHT_TRACE")
+        if name != "cornell_box":      # (at 16 x 16 the filter's reach is a large share)
+            assert 0 < s["excluded_pixels"] < 0.75 * 256
+    check = res["scenes"]["cornell_box"]["light_trace_check"]
+    assert check["passes"] >= 1 and 0.7 < check["mean_over_reference"] < 1.3
     assert all(math.isfinite(x) for x in _finite_numbers(res))
     assert set(res["ratios"]["bulb_box"]) >= {"image_rmse", "target", "met"}
     eq = res["ratios_at"]

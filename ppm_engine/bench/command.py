@@ -89,6 +89,8 @@ def run(args, cmdline: str, progress=print) -> int:
     report.write_json(result, json_path)
     report.plot(result, plot_path)
     text = (f"`{cmdline}`\n\nReference per scene:\n\n{report.reference_table(result)}\n\n"
+            f"Light tracing (the caustic scenes' reference) against Cycles where both converge:"
+            f"\n\n{report.light_trace_check_table(result)}\n\n"
             f"Error against time (RMSE over RGB; relative = RMSE / mean of the reference):\n\n"
             f"{report.table(result)}\n\nAt equal time:\n\n{report.ratio_table(result)}")
     print(text)

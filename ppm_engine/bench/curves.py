@@ -15,14 +15,17 @@ with the OpenEXR package:
 
 Reference per scene: two independent long renders ("halves", different seeds from the timed
 renders and from each other), averaged.  Its own noise is RMSE(half_a, half_b) / 2, and
-``rmse_corrected`` takes it out of every error.  Which estimator renders it: one whose bias
-cannot hide, the engine measured never where another converges - Cycles for the Cornell box
-and the bulb box (path tracing reaches the filament through the glass: slowly, so its halves
-run REFERENCE_TIME_FACTOR x longer), Cycles with shadow caustics (MNEE) for the glass ball's
-caustic of a spot light.  The mirror caustic of a point light is a path no Cycles estimator
-samples; its reference is still this engine's (marked not independent in the table), and the
-JSON records the mean brightness of Cycles' longest render over each reference's
-(``bias_check``).
+``rmse_corrected`` takes it out of every error.  The estimator that renders it is never the
+one measured: Cycles for the Cornell box (no caustics: path tracing converges well); light
+tracing (ppm_engine/light_tracer.py: photons connected to the camera, unbiased, no photon map,
+no radius) for the three caustic scenes, where Cycles converges slowly (bulb box) or never (a
+point light's caustic in a mirror).  Light tracing renders what the camera sees of surfaces it
+can evaluate: pixels that see an emitter or a mirror, glass or smooth glossy surface (and their
+neighbours within the pixel filter's reach) are left out of every figure of those scenes
+(``LightTracer.coverage``).  It is cross-checked with Cycles on the Cornell box in every run
+(``light_trace_check``: the means of the two over the covered pixels, and their RMSE against
+both references' noise).  The JSON also records the mean brightness of Cycles' longest render
+over each reference's (``bias_check``).
 
 Errors: RMSE over RGB (linear radiance) against the reference, over the whole image and over
 the scene's caustic pixels (scenes.CAUSTIC_MASKS), and the relative RMSE = RMSE / mean of
@@ -52,10 +55,9 @@ DEFAULT_RESOLUTION = 128
 SCENES = ("cornell_box", "bulb_box", "glass_caustic", "mirror_caustic")
 CAUSTIC_SCENES = ("glass_caustic", "mirror_caustic")
 # reference engine per scene (see the module docstring)
-REFERENCE_ENGINE = {"cornell_box": "CYCLES", "bulb_box": "CYCLES", "glass_caustic": "CYCLES_MNEE",
-                    "mirror_caustic": "PPM"}
-# reference halves of slowly converging Cycles references run this many times --ref-seconds
-REFERENCE_TIME_FACTOR = {"bulb_box": 4.0, "glass_caustic": 2.0}
+REFERENCE_ENGINE = {"cornell_box": "CYCLES", "bulb_box": "LIGHT_TRACE",
+                    "glass_caustic": "LIGHT_TRACE", "mirror_caustic": "LIGHT_TRACE"}
+LIGHT_TRACE_PHOTONS = 1 << 17      # photons per light-tracing pass
 REF_SEEDS = (1001, 2002)
 EQUAL_TIME = 16.0
 TARGETS = {"bulb_box": 0.25, "cornell_box": 1.0}     # RMSE ours / Cycles at EQUAL_TIME
@@ -219,18 +221,30 @@ class Bench:
             ppm_settings(scene, seconds, seed, self.device, self.photons)
         else:
             cycles_reference(scene, seconds=seconds, seed=seed)
-        mnee = engine == "CYCLES_MNEE"
-        if mnee:
-            set_mnee(self.name, True)
+        return render(scene, self.folder / f"r{self.count:04d}.exr")
+
+    def light_traced(self, seconds: float, seed: int):
+        """A light-traced image of the current scene for ``seconds`` (whole passes): (RGB image
+        top-down, wall seconds, info, coverage top-down)."""
+        import bpy
+        from ..export import export_scene
+        from ..light_tracer import LightTracer
+        t = time.perf_counter()
+        lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()),
+                         photons=LIGHT_TRACE_PHOTONS, seed=seed, device=self.device)
         try:
-            return render(scene, self.folder / f"r{self.count:04d}.exr")
+            while True:
+                lt.trace(1)
+                if time.perf_counter() - t >= seconds:
+                    break
+            img, cover = lt.image()[::-1].copy(), lt.coverage()[::-1].copy()
         finally:
-            if mnee:
-                set_mnee(self.name, False)
+            lt.close()
+        info = {"passes": lt.passes, "photons": lt.passes * lt.photons}
+        return img, time.perf_counter() - t, info, cover
 
     def run_scene(self, name: str, times, ref_seconds: float) -> dict:
         scene = self._scene(name)
-        self.name = name
         w = h = self.res
         keep = ~excluded_pixels(scene, name, w, h)
         cmask = caustic_mask(scene, name, w, h) & keep
@@ -240,25 +254,39 @@ class Bench:
 
         # reference: two independent halves
         ref_engine = REFERENCE_ENGINE[name]
-        ref_seconds = ref_seconds * REFERENCE_TIME_FACTOR.get(name, 1.0)
         halves = []
         for seed in REF_SEEDS:
             self.progress(f"[{name}] reference half (seed {seed}): {ref_engine}, "
                           f"{ref_seconds:g} s")
-            img, wall, info = self.shot(scene, ref_engine, ref_seconds, seed)
+            if ref_engine == "LIGHT_TRACE":
+                img, wall, info, cover = self.light_traced(ref_seconds, seed)
+                keep &= cover
+                cmask &= cover
+            else:
+                img, wall, info = self.shot(scene, ref_engine, ref_seconds, seed)
             halves.append(img)
+        out["excluded_pixels"] = int((~keep).sum())
+        out["caustic_mask_pixels"] = int(cmask.sum())
         ref = 0.5 * (halves[0] + halves[1])
         noise_all = errors(halves[0], halves[1], keep)["rmse"] / 2
         noise_c = errors(halves[0], halves[1], cmask)["rmse"] / 2 if cmask.any() else float("nan")
         out["reference"] = {
-            "engine": ref_engine, "independent": ref_engine != "PPM",
-            "seconds_per_half": ref_seconds, "seeds": list(REF_SEEDS),
+            "engine": ref_engine, "seconds_per_half": ref_seconds, "seeds": list(REF_SEEDS),
             "mean": float(ref[keep].mean()),
             "caustic_mean": float(ref[cmask].mean()) if cmask.any() else float("nan"),
             "noise_rmse": noise_all, "noise_rel_rmse": noise_all / float(ref[keep].mean()),
             "noise_rmse_caustic": noise_c,
         }
         np.save(self.folder / f"{name}_reference.npy", ref)
+        if ref_engine == "CYCLES":          # the light tracer cross-checked with Cycles
+            self.progress(f"[{name}] light-tracing check, {ref_seconds:g} s")
+            lt, _, info, cover = self.light_traced(ref_seconds, REF_SEEDS[0] + 7)
+            both = cover & keep
+            out["light_trace_check"] = {
+                "seconds": ref_seconds, **info, "pixels": int(both.sum()),
+                "mean_over_reference": float(lt[both].mean() / ref[both].mean()),
+                "rmse": errors(lt, ref, both)["rmse"],
+                "reference_noise_rmse": errors(halves[0], halves[1], both)["rmse"] / 2}
 
         curves = {"ours": ("PPM", False), "cycles": ("CYCLES", False)}
         if name in CAUSTIC_SCENES:

@@ -117,6 +117,19 @@ def reference_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def light_trace_check_table(result: dict) -> str:
+    """The light tracer against Cycles where both converge (curves.Bench.run_scene)."""
+    lines = ["| scene | light tracing s | photons | pixels | mean LT / Cycles reference "
+             "| RMSE LT - ref | reference noise RMSE |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for name, s in result["scenes"].items():
+        c = s.get("light_trace_check")
+        if c:
+            lines.append(f"| {name} | {c['seconds']:g} | {c['photons']:.3g} | {c['pixels']} | "
+                         f"{c['mean_over_reference']:.4f} | {c['rmse']:.4f} | "
+                         f"{c['reference_noise_rmse']:.4f} |")
+    return "\n".join(lines)
+
+
 def ratio_table(result: dict) -> str:
     eq = result["ratios_at"]
     lines = [f"| scene | RMSE ours/Cycles at {eq:g} s | corrected for ref. noise "
