@@ -55,6 +55,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
     float3 o, d;
     float tmax;
     camera_ray(cam, px, py, rnd(&rng), rnd(&rng), &o, &d, &tmax);
+    float2 diff = camera_differential(cam, px, py);  /* the ray footprint (Bump nodes) */
     float3 beta = (float3)(1.0f), L = (float3)(0.0f);
     float path_len = 0.0f;
     uint mask = VIS_CAMERA;
@@ -91,8 +92,9 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         }
         path_len += h.t;
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        float foot_r = diff.x + path_len * diff.y;
         shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
-                     SHADING_PASS);
+                     footprint(tri_e1[h.leaf].xyz, tri_e2[h.leaf].xyz, foot_r), SHADING_PASS);
         if (max3(sd.emission) > 0.0f) {
             if (PPM_EMISSIVE && !isinf(prev_pdf))
                 mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, &pdf_l);
@@ -117,10 +119,10 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
             }
             if (lambert) {
                 /* f is one constant: it goes into the path weight, the gather sums flux */
-                vp_beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), 0.0f);
+                vp_beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), foot_r);
                 vp_shade[id] = (float4)(0.0f, 0.0f, as_float(-1), 0.0f);
             } else {
-                vp_beta[id] = (float4)(bvp, 0.0f);
+                vp_beta[id] = (float4)(bvp, foot_r);   /* (w: the gather's footprint) */
                 vp_shade[id] = (float4)(h.u, h.v, as_float(h.leaf), as_float(pack_unit(sd.wi)));
             }
             /* denoising passes: albedo through the specular chain, world-space normal */

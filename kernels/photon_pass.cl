@@ -5,13 +5,14 @@
  * estimation's).  Photons outside this pass's grid (visible points' bounds) cannot be gathered
  * and are only counted. */
 #include "photon_emission.h"
+#include "camera.h"
 #include "shader.h"
 #include "hash.h"
 
 #include "counters.h"
 #include "medium.h"
 
-__kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounces, uint n_photons,
+__kernel void photon_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, uint seed, int max_bounces, uint n_photons,
                           __global const Grid *grid, uint capacity, __global float4 *ph_pos,
                           __global float4 *ph_flux, __global uint *counters) {
     uint id = get_global_id(0);
@@ -55,7 +56,8 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             gather = fabs(avg3(color)) >= CLOSURE_WEIGHT_CUTOFF;
         } else {
             shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
-                         SHADING_PASS);
+                         footprint(tri_e1[h.leaf].xyz, tri_e2[h.leaf].xyz,
+                                   camera_footprint_at(cam, s.p)), SHADING_PASS);
             N = sd.N;
             Ng = sd.Ng;
             gather = sd.sw_gather > 0.0f;

@@ -161,10 +161,11 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
 
 /* Closures at a hit of material mat: triangle tri at barycentrics (u, v), position P, reached
  * by the ray `path` (light_path.h) after a last segment of length path_length, stored normals
- * ng and ns (ns on ng's side), wi towards the viewer. */
+ * ng and ns (ns on ng's side), wi towards the viewer, the ray's footprint fp there (the Bump
+ * node's, svm_bump.h). */
 inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, float3 P,
                          uint path, float path_length, float3 ng, float3 ns, float3 wi,
-                         SHADING_ARGS) {
+                         Footprint fp, SHADING_ARGS) {
     sd->n = 0;
     sd->emission = sd->transparent = sd->holdout = (float3)(0.0f);
     sd->wi = wi;
@@ -190,7 +191,7 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
         return;
     }
     float3 tangent = surface_tangent(tri, u, v, sd->N, tangents);
-    MATERIAL_PROGRAM(m, stack, P, path, path_length, sd->N, sd->Ng, wi, sd->backfacing);
+    MATERIAL_PROGRAM(m, stack, P, path, path_length, sd->N, sd->Ng, wi, sd->backfacing, fp);
     for (int i = 0; i < m.node_count; i++) {
         MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;

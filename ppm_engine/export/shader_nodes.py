@@ -42,7 +42,7 @@ def _image(c, node, out, ctx):
 def _image_op(c, node, out, ctx, v, projection: int):
     """The op of an image node's texture at vector ``v`` (projection 1: equirectangular)."""
     tex, _ = c.textures.image_index(node, c.material)
-    key = ("image", tuple(g.as_pointer() for g in ctx), node.as_pointer())
+    key = c.node_key("image", node, ctx)
     if key not in c.memo:
         sv = c.slot(v)
         col, alpha = c.alloc(3), c.alloc(1)
@@ -225,7 +225,7 @@ def _separate_color(c, node, out, ctx):
     v = c.inp(node, 0, ctx, 3)
     mode = getattr(node, "mode", "RGB")
     if mode in _COLOR_MODES:
-        key = ("sepcol", tuple(g.as_pointer() for g in ctx), node.as_pointer())
+        key = c.node_key("sepcol", node, ctx)
         if key not in c.memo:
             s, o = c.slot(v), c.alloc(3)
             c.ops.append((SVM_COLOR_CONVERT, o, s, _COLOR_MODES[mode][0]))
@@ -367,7 +367,7 @@ def _table(c, node, out, ctx):
 
 def _layer_weight(c, node, out, ctx):
     blend = c.inp(node, "Blend", ctx, 1)
-    key = ("layer", tuple(g.as_pointer() for g in ctx), node.as_pointer())
+    key = c.node_key("layer", node, ctx)
     if key not in c.memo:
         s, o = c.slot(blend), c.alloc(2)
         c.ops.append((SVM_LAYER_WEIGHT, o, s, o + 1))

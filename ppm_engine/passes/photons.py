@@ -16,7 +16,7 @@ class PhotonPass:
     def enqueue(self, q, pass_index: int, options, n_photons: int) -> list:
         pm = self.photon_map
         ev = self.kernel(
-            q, n_photons, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
+            q, n_photons, SHADING_GROUP, cam=self.scene.camera, **self.scene.args, pass_index=np.uint32(pass_index),
             seed=np.uint32(options.seed), max_bounces=np.int32(options.max_bounces),
             n_photons=np.uint32(n_photons), grid=pm.grid, capacity=np.uint32(pm.capacity),
             ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, counters=self.counters)
