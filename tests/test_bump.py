@@ -269,3 +269,18 @@ def _ops(program):
         names.append(OP_NAMES[op])
         i += 1 + OP_EXTRA.get(op, 0) + (int(program[i, 3]) if op == SVM_TABLE else 0)
     return names
+
+
+def test_displacement_output_is_warned():
+    """The material output's Displacement is not rendered: one warning naming the material."""
+    from ppm_engine.export.materials import read_material
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mat = bpy.data.materials.new("displaced")
+    t, d = _diffuse(mat)
+    noise = t.nodes.new("ShaderNodeTexNoise")
+    disp = _node(t, "ShaderNodeDisplacement", [("Height", noise.outputs["Fac"])])
+    t.links.new(disp.outputs[0], t.nodes["Material Output"].inputs["Displacement"])
+    warnings = []
+    row, nodes, program = read_material(mat, warnings.append)
+    assert program is None
+    assert len(warnings) == 1 and "Displacement" in warnings[0] and "displaced" in warnings[0]
