@@ -115,7 +115,7 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
             for (int k = 0; k < sd.n; k++) {
                 if (!sd.c[k].gather) continue;
                 albedo += sd.c[k].weight;
-                lambert &= sd.c[k].type == CLOSURE_DIFFUSE;
+                lambert &= closure_lambert(&sd, &sd.c[k]);
             }
             if (lambert) {
                 /* f is one constant: it goes into the path weight, the gather sums flux */

@@ -79,7 +79,7 @@ inline void gather_point(float4 vp, float4 nrm, float4 shade, float foot_r, Gath
     for (int k = 0; k < gp->sd.n; k++) {
         const Closure *c = &gp->sd.c[k];
         if (!c->gather) continue;
-        gp->lambert &= c->type == CLOSURE_DIFFUSE;
+        gp->lambert &= closure_lambert(&gp->sd, c);
         gp->lambert_f += c->weight * (1.0f / PPM_PI);
     }
 #endif

@@ -255,6 +255,13 @@ inline float bump_shadowing(const ShaderData *sd, const Closure *c, float3 wo, b
     return 2.0f / (1.0f + sqrt(1.0f + a2 * (1.0f - ci * ci) / (ci * ci)));    /* 1/(1+lambda) */
 }
 
+/* whether closure c's f cos / cos (the gather's estimate's factor) is one constant, albedo / pi:
+ * a Lambert closure on the smooth normal (a driven normal's cosine and bump shadowing vary with
+ * the direction) */
+inline bool closure_lambert(const ShaderData *sd, const Closure *c) {
+    return c->type == CLOSURE_DIFFUSE && all(isequal(c->N, sd->N));
+}
+
 /* closure c's f cos at wo with its bump shadowing; *p its density (0 where shadowed) */
 inline float3 closure_eval_bumped(const ShaderData *sd, const Closure *c, float3 wo, float *p) {
     float3 e = closure_eval(c, sd->wi, wo, p);
