@@ -94,7 +94,8 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
         float foot_r = diff.x + path_len * diff.y;
         shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
-                     footprint(tri_e1[h.leaf].xyz, tri_e2[h.leaf].xyz, foot_r), SHADING_PASS);
+                     footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf], foot_r, normals),
+                     SHADING_PASS);
         if (max3(sd.emission) > 0.0f) {
             if (PPM_EMISSIVE && !isinf(prev_pdf))
                 mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, &pdf_l);

@@ -74,7 +74,8 @@ inline void gather_point(float4 vp, float4 nrm, float4 shade, float foot_r, Gath
     Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
     shader_setup(&gp->sd, s.material, s.tri, h.u, h.v, s.p, as_uint(nrm.w), 0.0f, s.ng, s.ns,
                  unpack_unit(as_uint(shade.w)),
-                 footprint(tri_e1[h.leaf].xyz, tri_e2[h.leaf].xyz, foot_r), SHADING_PASS);
+                 footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf], foot_r, normals),
+                 SHADING_PASS);
     gp->lambert_f = (float3)(0.0f);
     for (int k = 0; k < gp->sd.n; k++) {
         const Closure *c = &gp->sd.c[k];

@@ -56,8 +56,9 @@ __kernel void photon_pass(__global const Camera *cam, SCENE_ARGS, uint pass_inde
             gather = fabs(avg3(color)) >= CLOSURE_WEIGHT_CUTOFF;
         } else {
             shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
-                         footprint(tri_e1[h.leaf].xyz, tri_e2[h.leaf].xyz,
-                                   camera_footprint_at(cam, s.p)), SHADING_PASS);
+                         footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
+                                      camera_footprint_at(cam, s.p), normals),
+                         SHADING_PASS);
             N = sd.N;
             Ng = sd.Ng;
             gather = sd.sw_gather > 0.0f;

@@ -46,6 +46,8 @@ inline void svm_footprint_offsets(SvmContext *cx, __global const int4 *svm, int 
     float3 n = cross(fp.dpdu, fp.dpdv);
     float nn = dot(n, n);
     if (!(nn > 0.0f)) return;
+    float side = dot(fp.n, cx->N) < 0.0f ? -1.0f : 1.0f;
+    cx->n_smooth = side * fp.n;
     for (int k = 0; k < 2; k++) {
         float3 D = fp.r * (k == 0 ? a : b);
         float du = dot(cross(D, fp.dpdv), n) / nn, dv = dot(cross(fp.dpdu, D), n) / nn;
@@ -56,13 +58,20 @@ inline void svm_footprint_offsets(SvmContext *cx, __global const int4 *svm, int 
         cx->dP_object[k] = o.P_object - cx->P_object;
         cx->dgenerated[k] = o.generated - cx->generated;
         cx->duv[k] = o.uv - cx->uv;
+        cx->dn[k] = side * (du * fp.dndu + dv * fp.dndv);
         for (int j = 0; j < PPM_ATTRIBUTES; j++) cx->dattr[k][j] = o.attr[j] - cx->attr[j];
     }
 }
 
 /* A position-dependent input (GEOM_UV, GEOM_GENERATED, GEOM_POSITION, GEOM_OBJECT, an
- * attribute's value or alpha) at offset k of the footprint, scaled by the filter width fw */
+ * attribute's value or alpha; GEOM_NORMAL for the Texture Coordinate's Normal: the smooth
+ * normal interpolated there, as Cycles) at offset k of the footprint, scaled by the filter
+ * width fw */
 inline float4 svm_bump_input(const SvmContext *cx, int what, int k, float fw, float4 x) {
+    if (what == 1) {
+        float3 n = cx->n_smooth + fw * cx->dn[k];
+        return dot(n, n) > 0.0f ? (float4)(normalize(n), 0.0f) : x;
+    }
     float3 d = what == 0 ? (float3)(cx->duv[k], 0.0f) : what == 5 ? cx->dgenerated[k]
              : what == 7 ? cx->dP[k] : what == 8 ? cx->dP_object[k] : (float3)(0.0f);
     if (what >= 16) {

@@ -6,11 +6,14 @@
  * Normal Map node, which reads the context's frame. */
 
 /* The ray footprint at a shading point, for the Bump node: the triangle's edges dP/du and dP/dv
- * (world; barycentrics as surface_at's) and the radius of Cycles' compact ray differential
- * there (0: none, the Bump gives its input normal).  kernels/svm_bump.h has how callers get it. */
+ * (world; barycentrics as surface_at's), the radius of Cycles' compact ray differential there
+ * (0: none, the Bump gives its input normal), and the smooth normal (unnormalised, as
+ * interpolated at the point) with its changes along u and v.  kernels/svm_bump.h has how
+ * callers get the radius. */
 typedef struct {
     float3 dpdu, dpdv;
     float r;
+    float3 n, dndu, dndv;
 } Footprint;
 
 inline Footprint footprint(float3 dpdu, float3 dpdv, float r) {
@@ -18,6 +21,21 @@ inline Footprint footprint(float3 dpdu, float3 dpdv, float r) {
     f.dpdu = dpdu;
     f.dpdv = dpdv;
     f.r = r;
+    f.n = f.dndu = f.dndv = (float3)(0.0f);
+    return f;
+}
+
+/* the footprint of radius r at barycentrics (u, v) of triangle tri (original index; its edges
+ * e1, e2 from the BVH's leaf, its corner normals from `normals`) */
+inline Footprint footprint_at(uint tri, float u, float v, float4 e1, float4 e2, float r,
+                              __global const float *normals) {
+    Footprint f = footprint(e1.xyz, e2.xyz, r);
+    __global const float *c = normals + 9 * (size_t)tri;
+    float3 n0 = (float3)(c[0], c[1], c[2]), n1 = (float3)(c[3], c[4], c[5]),
+           n2 = (float3)(c[6], c[7], c[8]);
+    f.n = (1.0f - u - v) * n0 + u * n1 + v * n2;
+    f.dndu = n1 - n0;
+    f.dndv = n2 - n0;
     return f;
 }
 #define NO_FOOTPRINT footprint((float3)(0.0f), (float3)(0.0f), 0.0f)
@@ -45,6 +63,7 @@ typedef struct {
     /* what the position-dependent inputs change by over the footprint's two offsets dP[k]
      * (Cycles' dPdx, dPdy): the Bump node's height is evaluated at P + width x dP[k] */
     float3 dP[2], dP_object[2], dgenerated[2];
+    float3 n_smooth, dn[2];  /* the smooth normal (unnormalised, on N's side), its changes */
     float2 duv[2];
     float4 dattr[2][PPM_ATTRIBUTES];
 #endif
@@ -73,8 +92,9 @@ inline SvmContext svm_context_base(float2 uv, float3 P, uint path, float path_le
     }
     for (int k = 0; k < PPM_ATTRIBUTES; k++) cx.attr[k] = (float4)(0.0f);
 #if SVM_HAS_BUMP
+    cx.n_smooth = (float3)(0.0f);
     for (int d = 0; d < 2; d++) {
-        cx.dP[d] = cx.dP_object[d] = cx.dgenerated[d] = (float3)(0.0f);
+        cx.dP[d] = cx.dP_object[d] = cx.dgenerated[d] = cx.dn[d] = (float3)(0.0f);
         cx.duv[d] = (float2)(0.0f);
         for (int k = 0; k < PPM_ATTRIBUTES; k++) cx.dattr[d][k] = (float4)(0.0f);
     }

@@ -163,16 +163,17 @@ class Compiler:
         """``n`` new stack slots as a value (an op's output)."""
         return Val(n, slot=self.alloc(n))
 
-    def geometry(self, what: int, n: int | None = None) -> Val:
+    def geometry(self, what: int, n: int | None = None, moved: bool = False) -> Val:
         """A property of the shading point (shader_program GEOM_*); the position-dependent ones
-        at the Bump node's offset where its Height is being compiled (``self.bump``)."""
+        (and the normal where ``moved``: the Texture Coordinate's) at the Bump node's offset
+        where its Height is being compiled (``self.bump``)."""
         n = n or (1 if what in (GEOM_BACKFACING, GEOM_OBJECT_ALPHA, GEOM_OBJECT_INDEX,
                                 GEOM_OBJECT_RANDOM) else 3)
         if GEOM_OBJECT <= what <= GEOM_OBJECT_RANDOM:
             self.flags |= PROGRAM_OBJECT
         s = self.alloc(n)
-        if self.bump is not None and (what in (GEOM_UV, GEOM_GENERATED, GEOM_POSITION,
-                                               GEOM_OBJECT) or what >= GEOM_ATTRIBUTE):
+        if self.bump is not None and (moved or what in (GEOM_UV, GEOM_GENERATED, GEOM_POSITION,
+                                                        GEOM_OBJECT) or what >= GEOM_ATTRIBUTE):
             k, fw = self.bump
             self.ops.append((SVM_GEOMETRY, s, what + GEOM_BUMP_OFFSET * k, f2i(fw)))
         else:
