@@ -57,7 +57,8 @@ __kernel void photon_pass(__global const Camera *cam, SCENE_ARGS, uint pass_inde
         } else {
             shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
                          footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
-                                      camera_footprint_at(cam, s.p), normals),
+                                      SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f,
+                                      normals),
                          SHADING_PASS);
             N = sd.N;
             Ng = sd.Ng;

@@ -5,6 +5,10 @@
  * codes and flags): its context, built per hit from the scene's per-corner arrays, and the
  * Normal Map node, which reads the context's frame. */
 
+#define SVM_HAS_BUMP ((PPM_SVM_OPS >> SVM_BUMP) & 1)
+/* whether a build reads footprints at all (callers skip computing them otherwise) */
+#define SVM_FOOTPRINT (PPM_SVM && SVM_HAS_BUMP)
+
 /* The ray footprint at a shading point, for the Bump node: the triangle's edges dP/du and dP/dv
  * (world; barycentrics as surface_at's), the radius of Cycles' compact ray differential there
  * (0: none, the Bump gives its input normal), and the smooth normal (unnormalised, as
@@ -24,12 +28,14 @@ inline Footprint footprint(float3 dpdu, float3 dpdv, float r) {
     f.n = f.dndu = f.dndv = (float3)(0.0f);
     return f;
 }
+#define NO_FOOTPRINT footprint((float3)(0.0f), (float3)(0.0f), 0.0f)
 
 /* the footprint of radius r at barycentrics (u, v) of triangle tri (original index; its edges
  * e1, e2 from the BVH's leaf, its corner normals from `normals`) */
 inline Footprint footprint_at(uint tri, float u, float v, float4 e1, float4 e2, float r,
                               __global const float *normals) {
     Footprint f = footprint(e1.xyz, e2.xyz, r);
+    if (!SVM_FOOTPRINT) return f;
     __global const float *c = normals + 9 * (size_t)tri;
     float3 n0 = (float3)(c[0], c[1], c[2]), n1 = (float3)(c[3], c[4], c[5]),
            n2 = (float3)(c[6], c[7], c[8]);
@@ -38,8 +44,6 @@ inline Footprint footprint_at(uint tri, float u, float v, float4 e1, float4 e2, 
     f.dndv = n2 - n0;
     return f;
 }
-#define NO_FOOTPRINT footprint((float3)(0.0f), (float3)(0.0f), 0.0f)
-#define SVM_HAS_BUMP ((PPM_SVM_OPS >> SVM_BUMP) & 1)
 
 /* what a program may read of the shading point */
 typedef struct {

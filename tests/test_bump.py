@@ -4,7 +4,7 @@
   footprint are exact whatever the footprint, so every pixel of a plane has one bumped normal):
   diffuse planes under a sun without size, direct light only, strengths 1 and 0.5, Invert, a
   driven Distance, a Normal Map feeding the Bump, a Bump feeding a Bump, a turned plane, the
-  Generated and UV coordinates; compared per pixel (1e-3 relative: the only difference left is
+  Generated and UV coordinates, a plane seen from behind; compared per pixel (1e-3 relative: the only difference left is
   float rounding).
 - A Noise Texture's height seen through a perspective camera: compared per 8 x 8 block.
 - A height varying within a few pixels across a wide Filter Width: the footprint's radius and
@@ -103,7 +103,7 @@ LINEAR = {
     "invert 0.5": _case(0.5, True), "generated": _case(coord="Generated", distance=0.3),
     "uv": _case(coord="UV", distance=1.5), "driven distance": _driven_distance,
     "normal map": _normal_map_into_bump, "bump into bump": _bump_into_bump,
-    "turned": _case(0.9, distance=0.8),
+    "turned": _case(0.9, distance=0.8), "back": _case(0.8, distance=0.6),
 }
 
 
@@ -163,9 +163,9 @@ def test_bump_linear_height_per_pixel_as_cycles(cycles, render_exr, tmp_path, ti
     for k, name in enumerate(names):
         r, c = divmod(k, cols)
         obj = _triangle(name, (4 * c - 2 * cols + 2, 2 * rows - 2 - 4 * r, 0))
-        if name == "turned":              # a rotated, scaled object: Object space differs
-            obj.rotation_euler = (0.0, 0.0, 0.7)
-            obj.scale = (1.5, 1.5, 1.0)
+        if name in ("turned", "back"):    # a rotated, scaled object: Object space differs
+            obj.rotation_euler = (0.0, 0.0, 0.7) if name == "turned" else (math.pi, 0.0, 0.0)
+            obj.scale = (1.5, 1.5, 1.0)       # ("back": seen from behind)
         mat = bpy.data.materials.new(name)
         LINEAR[name](*_diffuse(mat))
         obj.data.materials.append(mat)
