@@ -70,14 +70,19 @@ inline float camera_dD(__global const Camera *cam, float3 d) {
                    + length(normalize(d + (float3)(0.0f, ey, 0.0f)) - n));
 }
 
-/* (dP, dD) of the camera ray through pixel position (px, py): the footprint's radius at
- * distance t along the ray (and along the whole path after it: Cycles' bounces keep dD) is
- * dP + t dD; orthographic: one pixel's width (Cycles' dP: its x step for both axes), dD = 0 */
+/* (dP, dD) of the camera ray through pixel position (px, py), as Cycles makes it (from the
+ * pinhole, depth of field or not): the footprint's radius at distance t along the ray from its
+ * origin (and along the whole path after it: Cycles' bounces keep dD) is dP + t dD.
+ * Perspective: dP = dD x the origin's distance from the camera (the ray starts on the near
+ * clipping plane); orthographic: one pixel's width (Cycles' dP: its x step for both axes),
+ * dD = 0. */
 inline float2 camera_differential(__global const Camera *cam, float px, float py) {
     if (cam->type == CAMERA_ORTHO) return (float2)(camera_pixel_size(cam), 0.0f);
     float xc = (px / (float)cam->width - 0.5f) * cam->extent[0] + cam->shift[0];
     float yc = (py / (float)cam->height - 0.5f) * cam->extent[1] + cam->shift[1];
-    return (float2)(0.0f, camera_dD(cam, (float3)(xc, yc, -1.0f)));
+    float3 d = (float3)(xc, yc, -1.0f);
+    float dD = camera_dD(cam, d);
+    return (float2)(cam->clip[0] * length(d) * dD, dD);
 }
 
 /* The footprint's radius a camera ray would have at world position P (the photons': measured

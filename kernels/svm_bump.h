@@ -13,10 +13,12 @@
  * r a and r b, (a, b) Cycles' orthonormal pair around the geometric normal (its
  * make_orthonormals: a along (1, 1, 1) x Ng).  Where r comes from (kernels/camera.h):
  *   - camera rays, and rays after any number of bounces or transparent crossings, as Cycles:
- *     r = dP + t dD with t the length of the whole path from the camera, dP and dD the camera
- *     ray's (perspective: dP = 0, dD the mean change of the normalised direction over one
- *     pixel in x and in y at the pixel; orthographic: dP = one pixel's width, dD = 0), since
- *     Cycles' bounces keep the camera's dD and start from the hit's radius;
+ *     r = dP + t dD with t the length of the whole path from the camera ray's origin, dP and
+ *     dD the camera ray's (perspective: dD the mean change of the normalised direction over
+ *     one pixel in x and in y at the pixel, dP = dD x the distance to the near clipping plane
+ *     where the ray starts; orthographic: dP = one pixel's width, dD = 0), since Cycles'
+ *     bounces keep the camera's dD and start from the hit's radius; depth of field does not
+ *     change them (Cycles takes them from the pinhole);
  *   - the gather shades a visible point again with the radius its eye pass stored;
  *   - photons (Cycles has none): the radius a camera ray would have at the hit, measured from
  *     the camera position straight (so a photon scatters off a bumped surface the camera sees
