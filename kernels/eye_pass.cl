@@ -55,7 +55,8 @@ __kernel void eye_pass(__global const Camera *cam, SCENE_ARGS, uint pass_index, 
     float3 o, d;
     float tmax;
     camera_ray(cam, px, py, rnd(&rng), rnd(&rng), &o, &d, &tmax);
-    float2 diff = camera_differential(cam, px, py);  /* the ray footprint (Bump nodes) */
+    /* the ray's footprint (Bump nodes: svm_bump.h) */
+    float2 diff = SVM_FOOTPRINT ? camera_differential(cam, px, py) : (float2)(0.0f);
     float3 beta = (float3)(1.0f), L = (float3)(0.0f);
     float path_len = 0.0f;
     uint mask = VIS_CAMERA;

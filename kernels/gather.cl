@@ -128,8 +128,8 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
     Grid g = *grid;
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     GatherPoint gp;
-    gather_point(vp, vp_nrm[id], vp_shade[id], vp_beta[id].w, &gp, tri_v0, tri_e1, tri_e2,
-                 normals, SHADING_PASS);
+    gather_point(vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp,
+                 tri_v0, tri_e1, tri_e2, normals, SHADING_PASS);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
@@ -170,8 +170,8 @@ __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 
     Grid g = *grid;
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     GatherPoint gp;
-    gather_point(vp, vp_nrm[id], vp_shade[id], vp_beta[id].w, &gp, tri_v0, tri_e1, tri_e2,
-                 normals, SHADING_PASS);
+    gather_point(vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp,
+                 tri_v0, tri_e1, tri_e2, normals, SHADING_PASS);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
