@@ -8,7 +8,7 @@
   float rounding).
 - A Noise Texture's height seen through a perspective camera: compared per 8 x 8 block.
 - A height varying within a few pixels across a wide Filter Width: the footprint's radius and
-  orientation, compared per column.
+  orientation, compared per column, orthographic, in perspective and seen in a mirror.
 - A height of the Texture Coordinate's Normal on a smooth sphere (the smooth normal at the
   offsets): compared per 8 x 8 block.
 - A constant height folds to the input normal: no program at all; the Displacement output is
