@@ -4,7 +4,7 @@
   footprint are exact whatever the footprint, so every pixel of a plane has one bumped normal):
   diffuse planes under a sun without size, direct light only, strengths 1 and 0.5, Invert, a
   driven Distance, a Normal Map feeding the Bump, a Bump feeding a Bump, a turned plane, the
-  Generated and UV coordinates, a plane seen from behind; compared per pixel (1e-3 relative: the only difference left is
+  Generated and UV coordinates, a mesh attribute, a plane seen from behind; compared per pixel (1e-3 relative: the only difference left is
   float rounding).
 - A Noise Texture's height seen through a perspective camera: compared per 8 x 8 block.
 - A height varying within a few pixels across a wide Filter Width: the footprint's radius and
@@ -72,6 +72,13 @@ def _case(strength=1.0, invert=False, distance=0.5, coord="Object"):
     return build
 
 
+def _attribute(t, d):
+    """A mesh attribute's height (linear over the triangle)."""
+    at = _node(t, "ShaderNodeAttribute", attribute_name="height")
+    b = _bump(t, at.outputs["Fac"], Distance=0.5)
+    t.links.new(b.outputs[0], d.inputs["Normal"])
+
+
 def _driven_distance(t, d):
     """Distance from a Math node (a program value) and Filter Width 0.3."""
     v = _node(t, "ShaderNodeMath", operation="MULTIPLY")
@@ -103,7 +110,8 @@ LINEAR = {
     "invert 0.5": _case(0.5, True), "generated": _case(coord="Generated", distance=0.3),
     "uv": _case(coord="UV", distance=1.5), "driven distance": _driven_distance,
     "normal map": _normal_map_into_bump, "bump into bump": _bump_into_bump,
-    "turned": _case(0.9, distance=0.8), "back": _case(0.8, distance=0.6),
+    "turned": _case(0.9, distance=0.8), "attribute": _attribute,
+    "back": _case(0.8, distance=0.6),      # (last: its triangle reaches into the next square)
 }
 
 
@@ -149,6 +157,8 @@ def _triangle(name, location):
     me.from_pydata([(-1, -1, 0), (3, -1, 0), (-1, 3, 0)], [], [(0, 1, 2)])
     uv = me.uv_layers.new(name="UVMap")
     uv.data.foreach_set("uv", [0.0, 0.0, 2.0, 0.0, 0.0, 2.0])
+    a = me.attributes.new("height", "FLOAT", "POINT")     # 0.4 x - 0.7 y: linear
+    a.data.foreach_set("value", [0.3, 1.9, -2.5])
     obj = bpy.data.objects.new(name, me)
     obj.location = location
     bpy.context.scene.collection.objects.link(obj)
