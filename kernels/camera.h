@@ -79,4 +79,42 @@ inline float3 camera_window(__global const Camera *cam, float3 P) {
 inline float camera_pixel_size(__global const Camera *cam) {
     return cam->extent[0] / (float)cam->width;
 }
+
+/* Cycles' compact ray differential of a perspective camera ray of camera-space direction d
+ * (on the plane z = -1): the mean change of the normalised direction over one pixel in x and
+ * one in y (the pinhole's: depth of field ignored) */
+inline float camera_dD(__global const Camera *cam, float3 d) {
+    float ex = cam->extent[0] / (float)cam->width, ey = cam->extent[1] / (float)cam->height;
+    float3 n = normalize(d);
+    return 0.5f * (length(normalize(d + (float3)(ex, 0.0f, 0.0f)) - n)
+                   + length(normalize(d + (float3)(0.0f, ey, 0.0f)) - n));
+}
+
+/* (dP, dD) of the camera ray through pixel position (px, py), as Cycles makes it (from the
+ * pinhole, depth of field or not): the footprint's radius at distance t along the ray from its
+ * origin (and along the whole path after it: Cycles' bounces keep dD) is dP + t dD.
+ * Perspective: dP = dD x the origin's distance from the camera (the ray starts on the near
+ * clipping plane); orthographic: one pixel's width (Cycles' dP: its x step for both axes),
+ * dD = 0. */
+inline float2 camera_differential(__global const Camera *cam, float px, float py) {
+    if (cam->type == CAMERA_ORTHO) return (float2)(camera_pixel_size(cam), 0.0f);
+    float xc = (px / (float)cam->width - 0.5f) * cam->extent[0] + cam->shift[0];
+    float yc = (py / (float)cam->height - 0.5f) * cam->extent[1] + cam->shift[1];
+    float3 d = (float3)(xc, yc, -1.0f);
+    float dD = camera_dD(cam, d);
+    return (float2)(cam->clip[0] * length(d) * dD, dD);
+}
+
+/* The footprint's radius a camera ray would have at world position P (the photons': measured
+ * straight from the camera position; behind the camera, the centre pixel's) */
+inline float camera_footprint_at(__global const Camera *cam, float3 P) {
+    if (cam->type == CAMERA_ORTHO) return camera_pixel_size(cam);
+    __global const float *m = cam->to_world;
+    float3 q = P - (float3)(m[3], m[7], m[11]);
+    float3 c = (float3)(m[0] * q.x + m[4] * q.y + m[8] * q.z, m[1] * q.x + m[5] * q.y + m[9] * q.z,
+                        m[2] * q.x + m[6] * q.y + m[10] * q.z);
+    float dist = length(q);
+    if (!(c.z < 0.0f)) return dist * camera_pixel_size(cam);
+    return dist * camera_dD(cam, c / -c.z);
+}
 #endif

@@ -6,7 +6,7 @@
 inline void test_setup(ShaderData *sd, int mat, float4 wi, SHADING_ARGS) {
     shader_setup(sd, mat, 0u, 0.0f, 0.0f, (float3)(0.0f), PATH_CAMERA, 1.0f,
                  (float3)(0.0f, 0.0f, 1.0f),
-                 (float3)(0.0f, 0.0f, 1.0f), normalize(wi.xyz), SHADING_PASS);
+                 (float3)(0.0f, 0.0f, 1.0f), normalize(wi.xyz), NO_FOOTPRINT, SHADING_PASS);
 }
 
 /* n samples of the material's closures in mask: wo (w = the mixture pdf, INFINITY for a

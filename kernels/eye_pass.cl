@@ -56,6 +56,8 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
     float3 o, d;
     float tmax;
     camera_ray(cam, px, py, rnd(&rng), rnd(&rng), &o, &d, &tmax);
+    /* the ray's footprint (Bump nodes: svm_bump.h) */
+    float2 diff = SVM_FOOTPRINT ? camera_differential(cam, px, py) : (float2)(0.0f);
     float3 beta = (float3)(1.0f), L = (float3)(0.0f);
     float path_len = 0.0f;
     uint mask = VIS_CAMERA;
@@ -102,7 +104,9 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
         }
         path_len += h.t;
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        float foot_r = diff.x + path_len * diff.y;
         shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
+                     footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf], foot_r, normals),
                      SHADING_PASS);
         if (film_clear && max3(sd.holdout) > 0.0f) {
             float3 t = beta * sd.holdout;
@@ -128,14 +132,14 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
             for (int k = 0; k < sd.n; k++) {
                 if (!sd.c[k].gather) continue;
                 albedo += sd.c[k].weight;
-                lambert &= sd.c[k].type == CLOSURE_DIFFUSE;
+                lambert &= closure_lambert(&sd, &sd.c[k]);
             }
             if (lambert) {
                 /* f is one constant: it goes into the path weight, the gather sums flux */
-                vp_beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), 0.0f);
+                vp_beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), foot_r);
                 vp_shade[id] = (float4)(0.0f, 0.0f, as_float(-1), 0.0f);
             } else {
-                vp_beta[id] = (float4)(bvp, 0.0f);
+                vp_beta[id] = (float4)(bvp, foot_r);   /* (w: the gather's footprint) */
                 vp_shade[id] = (float4)(h.u, h.v, as_float(h.leaf), as_float(pack_unit(sd.wi)));
             }
             /* denoising passes: albedo through the specular chain, world-space normal */

@@ -57,7 +57,7 @@ typedef struct {
     bool transmits;
 } GatherPoint;
 
-inline void gather_point(float4 vp, float4 nrm, float4 shade, GatherPoint *gp,
+inline void gather_point(float4 vp, float4 nrm, float4 shade, float foot_r, GatherPoint *gp,
                          GATHER_SCENE_ARGS) {
     gp->nrm = nrm.xyz;
     gp->transmits = vp.w > 1.5f;
@@ -74,12 +74,13 @@ inline void gather_point(float4 vp, float4 nrm, float4 shade, GatherPoint *gp,
     Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
     shader_setup(&gp->sd, s.material, s.tri, h.u, h.v, s.p, as_uint(nrm.w), 0.0f, s.ng, s.ns,
                  unpack_unit(as_uint(shade.w)),
+                 footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf], foot_r, normals),
                  SHADING_PASS);
     gp->lambert_f = (float3)(0.0f);
     for (int k = 0; k < gp->sd.n; k++) {
         const Closure *c = &gp->sd.c[k];
         if (!c->gather) continue;
-        gp->lambert &= c->type == CLOSURE_DIFFUSE;
+        gp->lambert &= closure_lambert(&gp->sd, c);
         gp->lambert_f += c->weight * (1.0f / PPM_PI);
     }
 #endif
@@ -116,7 +117,8 @@ inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l) {
 }
 
 __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nrm,
-                     __global const float4 *vp_shade, __global const float *radius,
+                     __global const float4 *vp_shade, __global const float4 *vp_beta,
+                     __global const float *radius,
                      __global const Grid *grid, __global const ulong *table, uint table_mask,
                      __global const float4 *ph_pos, __global const float4 *ph_flux,
                      __global float4 *gathered, uint n, GATHER_SCENE_ARGS) {
@@ -126,8 +128,8 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
     Grid g = *grid;
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     GatherPoint gp;
-    gather_point(vp, vp_nrm[id], vp_shade[id], &gp, tri_v0, tri_e1, tri_e2, normals,
-                 SHADING_PASS);
+    gather_point(vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp,
+                 tri_v0, tri_e1, tri_e2, normals, SHADING_PASS);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
@@ -156,7 +158,8 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
 
 /* Exact gather (reference mode): every photon of every cell the disc overlaps. */
 __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 *vp_nrm,
-                           __global const float4 *vp_shade, __global const float *radius,
+                           __global const float4 *vp_shade, __global const float4 *vp_beta,
+                           __global const float *radius,
                            __global const Grid *grid, __global const uint *ranges,
                            __global const uint *sorted_ids, uint table_mask,
                            __global const float4 *ph_pos, __global const float4 *ph_flux,
@@ -167,8 +170,8 @@ __kernel void gather_exact(__global const float4 *vp_pos, __global const float4 
     Grid g = *grid;
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     GatherPoint gp;
-    gather_point(vp, vp_nrm[id], vp_shade[id], &gp, tri_v0, tri_e1, tri_e2, normals,
-                 SHADING_PASS);
+    gather_point(vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp,
+                 tri_v0, tri_e1, tri_e2, normals, SHADING_PASS);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;

@@ -120,7 +120,10 @@ __kernel void light_trace(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         if (camera_project(cam, s.p, reach, &px, &py, &wc, &we)) {
             ShaderData sc;
             shader_setup(&sc, s.material, s.tri, h.u, h.v, s.p, PATH_CAMERA, h.t, s.ng, s.ns,
-                         wc, SHADING_PASS);
+                         wc, footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
+                                          SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f,
+                                          normals),
+                         SHADING_PASS);
             float pdf;
             float3 f = shader_eval(&sc, -d, MASK_ALL, &pdf);     /* f cos(light side) */
             float cos_lg = fabs(dot(s.ng, d)), cos_cg = fabs(dot(s.ng, wc));
@@ -140,6 +143,8 @@ __kernel void light_trace(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         }
         if (bounce == max_bounces) break;
         shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
+                     footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
+                                  SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f, normals),
                      SHADING_PASS);
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
@@ -190,6 +195,8 @@ __kernel void lt_coverage(SCENE_ARGS, __global float *covered) {
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
         ShaderData sd;
         shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, PATH_CAMERA, h.t, s.ng, s.ns, -d,
+                     footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
+                                  SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f, normals),
                      SHADING_PASS);
         ok = (sd.sw_continue <= 0.0f && max3(sd.emission) <= 0.0f) ? 1.0f : 0.0f;
     }

@@ -5,6 +5,7 @@
  * estimation's).  Photons outside this pass's grid (visible points' bounds) cannot be gathered
  * and are only counted. */
 #include "photon_emission.h"
+#include "camera.h"
 #include "shader.h"
 #include "hash.h"
 
@@ -55,6 +56,9 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             gather = fabs(avg3(color)) >= CLOSURE_WEIGHT_CUTOFF;
         } else {
             shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
+                         footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
+                                      SVM_FOOTPRINT ? camera_footprint_at(camera, s.p) : 0.0f,
+                                      normals),
                          SHADING_PASS);
             N = sd.N;
             Ng = sd.Ng;

@@ -161,10 +161,11 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
 
 /* Closures at a hit of material mat: triangle tri at barycentrics (u, v), position P, reached
  * by the ray `path` (light_path.h) after a last segment of length path_length, stored normals
- * ng and ns (ns on ng's side), wi towards the viewer. */
+ * ng and ns (ns on ng's side), wi towards the viewer, the ray's footprint fp there (the Bump
+ * node's, svm_bump.h). */
 inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, float3 P,
                          uint path, float path_length, float3 ng, float3 ns, float3 wi,
-                         SHADING_ARGS) {
+                         Footprint fp, SHADING_ARGS) {
     sd->n = 0;
     sd->emission = sd->transparent = sd->holdout = (float3)(0.0f);
     sd->wi = wi;
@@ -190,7 +191,7 @@ inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, fl
         return;
     }
     float3 tangent = surface_tangent(tri, u, v, sd->N, tangents);
-    MATERIAL_PROGRAM(m, stack, P, path, path_length, sd->N, sd->Ng, wi, sd->backfacing);
+    MATERIAL_PROGRAM(m, stack, P, path, path_length, sd->N, sd->Ng, wi, sd->backfacing, fp);
     for (int i = 0; i < m.node_count; i++) {
         MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;
@@ -252,6 +253,13 @@ inline float bump_shadowing(const ShaderData *sd, const Closure *c, float3 wo, b
     if (ci < 1e-6f) return 0.0f;
     float a2 = clamp(0.125f * (1.0f / (cd * cd) - 1.0f), 0.0f, 1.0f);
     return 2.0f / (1.0f + sqrt(1.0f + a2 * (1.0f - ci * ci) / (ci * ci)));    /* 1/(1+lambda) */
+}
+
+/* whether closure c's f cos / cos (the gather's estimate's factor) is one constant, albedo / pi:
+ * a Lambert closure on the smooth normal (a driven normal's cosine and bump shadowing vary with
+ * the direction) */
+inline bool closure_lambert(const ShaderData *sd, const Closure *c) {
+    return c->type == CLOSURE_DIFFUSE && all(isequal(c->N, sd->N));
 }
 
 /* closure c's f cos at wo with its bump shadowing; *p its density (0 where shadowed) */

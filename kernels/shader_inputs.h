@@ -24,15 +24,15 @@ inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
     return T;
 }
 
-/* Material m's shader program run at a shading point (normals and view as svm_context), into
- * the private array `stack`; and node i of m with the inputs its program drives written in.
+/* Material m's shader program run at a shading point (normals, view and footprint fp as
+ * svm_context), into the private array `stack`; and node i of m with the inputs its program drives written in.
  * Without shader programs in the build (PPM_SVM 0) they read the buffer's rows. */
 #if PPM_SVM
-#define MATERIAL_PROGRAM(m, stack, P, path, len, N, Ng, I, back)                              \
+#define MATERIAL_PROGRAM(m, stack, P, path, len, N, Ng, I, back, fp)                          \
     float stack[PPM_SVM_STACK];                                                              \
     if ((m).program > 0) {                                                                   \
         SvmContext cx_ = svm_context(svm, (m).program, tri, u, v, P, path, len, N, Ng, I,   \
-                                     back, uvs,                                              \
+                                     back, fp, uvs,                                          \
                                      uv_tangents, generated, attributes, tri_object,         \
                                      objects, camera);                                       \
         svm_eval(svm, (m).program, stack, &cx_, TEXTURE_PASS);                               \
@@ -42,7 +42,7 @@ inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
     if ((m).program > 0) svm_bind(svm, (m).program, (i), &nd##_row, stack);                 \
     NODE_PTR nd = &nd##_row
 #else
-#define MATERIAL_PROGRAM(m, stack, P, path, len, N, Ng, I, back) const float *stack = 0
+#define MATERIAL_PROGRAM(m, stack, P, path, len, N, Ng, I, back, fp) const float *stack = 0
 #define MATERIAL_NODE(nd, m, i, stack) NODE_PTR nd = shader_nodes + (m).node_first + (i)
 #endif
 
@@ -102,7 +102,7 @@ inline float3 material_transparency(int mat, uint tri, float u, float v, float3 
     float3 T = (float3)(0.0f);
     Material m = materials[mat];
     float3 z = (float3)(0.0f);            /* (no view direction or normal for a shadow ray) */
-    MATERIAL_PROGRAM(m, stack, P, PATH_SHADOW, 0.0f, z, z, z, false);
+    MATERIAL_PROGRAM(m, stack, P, PATH_SHADOW, 0.0f, z, z, z, false, NO_FOOTPRINT);
     for (int i = 0; i < m.node_count; i++) {
         MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;
@@ -128,7 +128,7 @@ inline float3 material_emission(__global const Material *m, uint tri, float u, f
     if (m->program > 0 && (svm[m->program].w & 1)) {
         Material mm = *m;
         float3 z = (float3)(0.0f);
-        MATERIAL_PROGRAM(mm, stack, P, 0u, 0.0f, z, z, z, false);
+        MATERIAL_PROGRAM(mm, stack, P, 0u, 0.0f, z, z, z, false, NO_FOOTPRINT);
         float3 E = (float3)(0.0f);
         for (int i = 0; i < mm.node_count; i++) {
             MATERIAL_NODE(nd, mm, i, stack);

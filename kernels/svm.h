@@ -52,11 +52,13 @@
 #define SVM_TEX_LAST 28
 #define SVM_BLACKBODY 29              /* svm_color.h */
 #define SVM_WAVELENGTH 30
+#define SVM_BUMP 31                   /* the Bump node: svm_bump.h */
 #define PROGRAM_TANGENTS 2            /* header flags: a tangent-space Normal Map reads them */
 #define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
 #define PROGRAM_ATTRIBUTES 8          /* mesh attributes are read */
 #define PROGRAM_OBJECT 16             /* the object's data are read */
 #define PROGRAM_WINDOW 32             /* the Window coordinates are read (the camera's) */
+#define PROGRAM_BUMP 64               /* a Bump node reads the footprint's offsets */
 #ifndef PPM_ATTRIBUTES
 #define PPM_ATTRIBUTES 1              /* attributes per corner in `attributes` (-D: the scene's) */
 #endif
@@ -119,23 +121,29 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
             stack[w.y] = c.x;
             if (w.z > 1) { stack[w.y + 1] = c.y; stack[w.y + 2] = c.z; }
         } else if (SVM_HAS(SVM_GEOMETRY) && op == SVM_GEOMETRY) {
-            float3 v = w.z == 0 ? (float3)(ctx->uv, 0.0f) : w.z == 1 ? ctx->N
-                     : w.z == 2 ? ctx->Ng : w.z == 3 ? ctx->I
-                     : w.z == 5 ? ctx->generated
-                     : w.z == 6 ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
-                     : w.z == 7 ? ctx->P : w.z == 8 ? ctx->P_object : w.z == 15 ? ctx->window
-                     : w.z == 9 ? ctx->object[0].xyz : w.z == 10 ? ctx->object[1].xyz
+            int what = w.z & 255;       /* (bits 8-9: at the Bump's offset 1 or 2, w.w its width) */
+            float3 v = what == 0 ? (float3)(ctx->uv, 0.0f) : what == 1 ? ctx->N
+                     : what == 2 ? ctx->Ng : what == 3 ? ctx->I
+                     : what == 5 ? ctx->generated
+                     : what == 6 ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
+                     : what == 7 ? ctx->P : what == 8 ? ctx->P_object : what == 15 ? ctx->window
+                     : what == 9 ? ctx->object[0].xyz : what == 10 ? ctx->object[1].xyz
                      : (float3)(ctx->backfacing);
-            if (w.z >= 16) {                              /* mesh attribute k */
-                float4 a = ctx->attr[min((w.z - 16) & 7, PPM_ATTRIBUTES - 1)];
-                if (w.z >= 24) stack[w.y] = a.w; else svm_put3(stack, w.y, a.xyz);
-            } else if (w.z == 14) {                       /* Light Path output w.w */
+            float4 x = (float4)(v, 0.0f);
+            if (what >= 16)                               /* mesh attribute k */
+                x = ctx->attr[min((what - 16) & 7, PPM_ATTRIBUTES - 1)];
+            if (what >= 24) x.x = x.w;
+#if SVM_HAS_BUMP
+            if (w.z >= 256) x = svm_bump_input(ctx, what, (w.z >> 8) - 1, as_float(w.w), x);
+#endif
+            if (what == 14) {                             /* Light Path output w.w */
                 stack[w.y] = path_output(ctx->path, ctx->path_length, w.w);
-            } else if (w.z == 4 || (w.z >= 11 && w.z <= 13)) {
-                stack[w.y] = w.z == 4 ? ctx->backfacing : w.z == 11 ? ctx->object[1].w
-                           : w.z == 12 ? ctx->object[0].w : ctx->object[2].x;
+            } else if (what == 4 || (what >= 11 && what <= 13) || what >= 24) {
+                stack[w.y] = what == 4 ? ctx->backfacing : what == 11 ? ctx->object[1].w
+                           : what == 12 ? ctx->object[0].w : what == 13 ? ctx->object[2].x
+                           : x.x;
             } else {
-                svm_put3(stack, w.y, v);
+                svm_put3(stack, w.y, x.xyz);
             }
         } else if (SVM_HAS(SVM_IMAGE) && op == SVM_IMAGE) {
             i = svm_image(w, svm, i, stack, textures, texels);         /* svm_image.h */
@@ -270,6 +278,15 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
             svm_put3(stack, w.y, svm_blackbody(stack[w.z]));
         } else if (SVM_HAS(SVM_WAVELENGTH) && op == SVM_WAVELENGTH) {
             svm_put3(stack, w.y, svm_wavelength(stack[w.z]));
+#if SVM_HAS_BUMP
+        } else if (op == SVM_BUMP) {
+            int4 e = svm[i], f = svm[i + 1];
+            i += 2;
+            float3 n_in = w.z >= 0 ? svm_get3(stack, w.z) : ctx->N;
+            svm_put3(stack, w.y, svm_bump_normal(ctx, n_in, stack[e.x], stack[e.y], stack[e.z],
+                                                 stack[e.w], stack[w.w], f.x != 0,
+                                                 as_float(f.y)));
+#endif
         } else if (op >= SVM_TEX_CHECKER && op <= SVM_TEX_LAST) {
             i = svm_texture(op, w, svm, i, stack);
             if (i < 0) return;

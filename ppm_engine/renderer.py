@@ -127,7 +127,8 @@ class Renderer:
             emitted = self.photons_per_pass
             events += self.photons.enqueue(q, pass_index, o, emitted)
             events += self.hash_build.build(q, pass_index, o.seed)
-            events += self.gather.enqueue(q, v.pos, v.nrm, v.shade, film.radius, v.gathered, n)
+            events += self.gather.enqueue(q, v.pos, v.nrm, v.shade, film.radius, v.gathered, n,
+                                          vp_beta=v.beta)
             events += self.update.update(q, v.pos, v.beta, v.gathered, o.alpha)
         events += self.update.add_sample(q, v.gathered, emitted)
         converge = self.update.due(pass_index + 1, o.noise_threshold)

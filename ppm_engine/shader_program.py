@@ -70,19 +70,23 @@ SVM_TEX_VORONOI = 28   # (op, distance, color, vector) + slots (w, scale, detail
 SVM_TEX_LAST = 28
 SVM_BLACKBODY = 29     # (op, out, temperature, 0): kernels/svm_color.h
 SVM_WAVELENGTH = 30    # (op, out, wavelength, 0)
-SVM_OPS = 31           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
+SVM_BUMP = 31          # (op, out, normal (-1: the shading normal), distance)
+#                        + (height at the centre, at offset 1, at offset 2, strength)
+#                        + (invert, filter width, 0, 0): the Bump node (kernels/svm_bump.h)
+SVM_OPS = 32           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
 
 OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
             "combine", "color_convert", "invert", "gamma", "bright_contrast", "rgb_to_bw",
             "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight", "normal_map",
             "tex_checker", "tex_gradient", "tex_white_noise", "tex_noise", "tex_magic",
-            "tex_wave", "tex_brick", "tex_voronoi", "blackbody", "wavelength")
+            "tex_wave", "tex_brick", "tex_voronoi", "blackbody", "wavelength", "bump")
 # parameter words after each op's first word
 OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 2, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
             SVM_MIX: 1, SVM_COMBINE: 1, SVM_BRIGHT_CONTRAST: 1, SVM_CLAMP: 1, SVM_MAP_RANGE: 2,
             SVM_HSV: 1, SVM_TABLE: 2, SVM_NORMAL_MAP: 1,   # (+ a table's entries, op_words)
             SVM_TEX_CHECKER: 1, SVM_TEX_GRADIENT: 1, SVM_TEX_WHITE_NOISE: 1, SVM_TEX_NOISE: 5,
-            SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6}
+            SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6,
+            SVM_BUMP: 2}
 assert len(OP_NAMES) == SVM_OPS <= 64
 # an Image Texture's projection (and the Environment Texture's equirectangular one)
 IMAGE_PROJECTIONS = {"FLAT": 0, "EQUIRECTANGULAR": 1, "BOX": 2, "SPHERE": 3, "TUBE": 4,
@@ -111,6 +115,9 @@ GEOM_WINDOW = 15       # the point projected into the camera's frame: (0..1, 0..
 GEOM_ATTRIBUTE = 16    # + k: attribute k's colour or vector (SceneArrays.attributes)
 GEOM_ATTRIBUTE_ALPHA = 24  # + k: attribute k's alpha
 MAX_ATTRIBUTES = 8     # distinct mesh attributes a scene's programs may read
+# what | GEOM_BUMP_OFFSET * k, with the op's last word the filter width's float bits: a
+# position-dependent input at the Bump node's offset k = 1, 2 (kernels/svm_bump.h)
+GEOM_BUMP_OFFSET = 256
 
 COLOR_RGB_TO_HSV, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL, COLOR_HSL_TO_RGB = 0, 1, 2, 3
 
@@ -167,6 +174,7 @@ PROGRAM_GENERATED = 4  # Generated coordinates are read (SceneArrays.generated)
 PROGRAM_ATTRIBUTES = 8  # mesh attributes are read (SceneArrays.attributes)
 PROGRAM_OBJECT = 16    # the object's data are read (SceneArrays.object, objects)
 PROGRAM_WINDOW = 32    # the Window coordinates are read (the camera's projection)
+PROGRAM_BUMP = 64      # a Bump node reads the footprint's offsets (kernels/svm_bump.h)
 MAX_STACK = 256        # floats of stack a program may use (kernels: PPM_SVM_STACK, the most a
                        # scene's programs use)
 

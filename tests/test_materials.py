@@ -120,6 +120,26 @@ def _normal_mapped(mat):
     t.links.new(nm.outputs[0], t.nodes["Principled BSDF"].inputs["Normal"])
 
 
+def _bumped(mat, diffuse=False):
+    """A rough plastic (or a diffuse BSDF) whose Normal comes from a Bump node on a Noise
+    Texture's height (on the Object coordinates): the heights at the ray footprint's offsets on
+    a smooth sphere, seen in perspective; in full transport the gather shades its visible
+    points again with them (the diffuse one's f is no constant: the bumped normal's cosine)."""
+    if diffuse:
+        _replace(mat, "ShaderNodeBsdfDiffuse", Color=(0.3, 0.5, 0.7))
+    else:
+        _principled(mat, **{"Base Color": (0.3, 0.5, 0.7), "Roughness": 0.8})
+    t = mat.node_tree
+    tc, noise = t.nodes.new("ShaderNodeTexCoord"), t.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 4.0
+    bump = t.nodes.new("ShaderNodeBump")
+    bump.inputs["Distance"].default_value = 0.3
+    t.links.new(tc.outputs["Object"], noise.inputs["Vector"])
+    t.links.new(noise.outputs["Fac"], bump.inputs["Height"])
+    bsdf = next(n for n in t.nodes if n.type in ("BSDF_PRINCIPLED", "BSDF_DIFFUSE"))
+    t.links.new(bump.outputs[0], bsdf.inputs["Normal"])
+
+
 MATERIALS = {
     "plastic": lambda m: _principled(m, **{"Base Color": (0.7, 0.2, 0.1), "Roughness": 0.3}),
     "rough_metal": lambda m: _principled(m, **{"Base Color": (0.9, 0.6, 0.3), "Metallic": 1.0,
@@ -148,8 +168,10 @@ MATERIALS = {
     "translucent": lambda m: _replace(m, "ShaderNodeBsdfTranslucent", Color=(0.8, 0.7, 0.5)),
     "node_graph": _node_graph,
     "normal_map": _normal_mapped,
+    "bump": _bumped,
+    "bump_diffuse": lambda m: _bumped(m, diffuse=True),
 }
-DEFAULT_DIRECT = {"plastic", "mix", "node_graph", "normal_map"}         # the rest with -m slow
+DEFAULT_DIRECT = {"plastic", "mix", "node_graph", "normal_map", "bump"}  # the rest: -m slow
 DEFAULT_FULL = {"rough_glass", "sheen"}
 
 

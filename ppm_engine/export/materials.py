@@ -346,6 +346,9 @@ def read_material(material, warn, textures=None, attributes: list | None = None,
         reader.warn("no shader is connected to the material output; it renders black, as in "
                     "Cycles")
         return row, nodes, None
+    if reader.graph.source(_output_socket(material, "Displacement")) is not None:
+        reader.warn("its Displacement output is not rendered (Cycles renders it as bump "
+                    "mapping or displacement; a Bump node on the BSDF's Normal is rendered)")
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(max(limit, _RECURSION))     # a long chain of nodes compiles deep
     try:

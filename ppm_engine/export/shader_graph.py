@@ -14,18 +14,20 @@ from __future__ import annotations
 import numpy as np
 
 from ..shader_program import (BOUND, FIELD_WORD, GEOM_ATTRIBUTE, GEOM_ATTRIBUTE_ALPHA,
-                              GEOM_BACKFACING, GEOM_GENERATED, GEOM_OBJECT, GEOM_OBJECT_ALPHA,
-                              GEOM_OBJECT_INDEX, GEOM_OBJECT_RANDOM, GEOM_WINDOW, MATH,
+                              GEOM_BACKFACING, GEOM_BUMP_OFFSET, GEOM_GENERATED, GEOM_NORMAL,
+                              GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT_INDEX,
+                              GEOM_OBJECT_RANDOM, GEOM_POSITION, GEOM_UV, GEOM_WINDOW, MATH,
                               MAX_ATTRIBUTES, MAX_STACK, PROGRAM_ATTRIBUTES, PROGRAM_EMISSION,
                               PROGRAM_GENERATED, PROGRAM_OBJECT, PROGRAM_WINDOW, SVM_COMBINE,
                               SVM_CONST, SVM_END, SVM_GEOMETRY, SVM_MATH, SVM_RGB_TO_BW, f2i,
                               fold_math)
+from .shader_bump import BUMP_NODES
 from .shader_images import IMAGE_NODES
 from .shader_inputs import INPUT_NODES
 from .shader_nodes import VALUE_NODES
 from .shader_spectra import SPECTRAL_NODES
 from .shader_textures import TEXTURE_NODES
-from .shader_values import Val, width
+from .shader_values import ShadingNormal, Val, width
 
 _MAX_DEPTH = 256
 # Cycles' luminance weights for colour -> float (linear Rec. 709, Blender's default scene space)
@@ -98,6 +100,8 @@ class Compiler:
         self.said: set = set()
         self.overflow = False
         self.constants_only = False       # every linked input read as its unlinked value
+        self.bump = None                  # (offset 1 or 2, filter width): a Bump node's
+        #                                   Height compiled at that offset (export/shader_bump.py)
 
     def warn(self, text):
         if text not in self.said:
@@ -163,16 +167,23 @@ class Compiler:
         """``n`` new stack slots as a value (an op's output)."""
         return Val(n, slot=self.alloc(n))
 
-    def geometry(self, what: int) -> Val:
-        """A property of the shading point (shader_program GEOM_*)."""
-        n = 1 if what in (GEOM_BACKFACING, GEOM_OBJECT_ALPHA, GEOM_OBJECT_INDEX,
-                          GEOM_OBJECT_RANDOM) else 3
+    def geometry(self, what: int, n: int | None = None, moved: bool = False) -> Val:
+        """A property of the shading point (shader_program GEOM_*); the position-dependent ones
+        (and the normal where ``moved``: the Texture Coordinate's) at the Bump node's offset
+        where its Height is being compiled (``self.bump``)."""
+        n = n or (1 if what in (GEOM_BACKFACING, GEOM_OBJECT_ALPHA, GEOM_OBJECT_INDEX,
+                                GEOM_OBJECT_RANDOM) else 3)
         if GEOM_OBJECT <= what <= GEOM_OBJECT_RANDOM:
             self.flags |= PROGRAM_OBJECT
         if what == GEOM_WINDOW:
             self.flags |= PROGRAM_WINDOW
         s = self.alloc(n)
-        self.ops.append((SVM_GEOMETRY, s, what, 0))
+        if self.bump is not None and (moved or what in (GEOM_UV, GEOM_GENERATED, GEOM_POSITION,
+                                                        GEOM_OBJECT) or what >= GEOM_ATTRIBUTE):
+            k, fw = self.bump
+            self.ops.append((SVM_GEOMETRY, s, what + GEOM_BUMP_OFFSET * k, f2i(fw)))
+        else:
+            self.ops.append((SVM_GEOMETRY, s, what, 0))
         return Val(n, slot=s)
 
     def generated(self) -> Val:
@@ -193,9 +204,7 @@ class Compiler:
         self.flags |= PROGRAM_ATTRIBUTES
         k = names.index(name)
         if alpha:
-            s = self.alloc(1)
-            self.ops.append((SVM_GEOMETRY, s, GEOM_ATTRIBUTE_ALPHA + k, 0))
-            return Val(1, slot=s)
+            return self.geometry(GEOM_ATTRIBUTE_ALPHA + k, 1)
         return self.geometry(GEOM_ATTRIBUTE + k)
 
     def texture_vector(self, node, ctx) -> Val:
@@ -236,6 +245,8 @@ class Compiler:
             return self._default(socket, n)
         from_node, out, fctx = src
         v = self.output(from_node, out, fctx)
+        if isinstance(v, ShadingNormal) and not getattr(socket, "hide_value", False):
+            v = self.geometry(GEOM_NORMAL)        # not a Normal input: the normal itself
         return self.convert(v, n, "vector" if out.type == "VECTOR" else "")
 
     def _default(self, socket, n) -> Val:
@@ -246,8 +257,14 @@ class Compiler:
             v = (float(dv),)
         return self.convert(self.const(v, len(v)), n)
 
+    def node_key(self, kind, node, ctx) -> tuple:
+        """The memo key of a node's compiled value: one per group context and Bump offset
+        (constants are shared by every offset: loaded once, unaffected by it)."""
+        return (kind, tuple(g.as_pointer() for g in ctx), node.as_pointer(), self.bump)
+
     def output(self, node, out, ctx) -> Val:
-        key = (tuple(g.as_pointer() for g in ctx), node.as_pointer(), out.identifier)
+        """``out`` of ``node``, compiled once per group context and Bump offset."""
+        key = self.node_key(("output", out.identifier), node, ctx)
         if key in self.memo:
             return self.memo[key]
         if key in self.visiting:
@@ -316,4 +333,5 @@ class Compiler:
 
 
 # every node type a program evaluates: bl_idname -> fn(compiler, node, output, ctx) -> Val
-NODES = {**INPUT_NODES, **VALUE_NODES, **IMAGE_NODES, **TEXTURE_NODES, **SPECTRAL_NODES}
+NODES = {**INPUT_NODES, **VALUE_NODES, **IMAGE_NODES, **TEXTURE_NODES, **SPECTRAL_NODES,
+         **BUMP_NODES}

@@ -43,7 +43,7 @@ def _image(c, node, out, ctx):
 
 def _image_op(c, node, out, ctx, v, projection: int):
     """The op of an image node's texture at vector ``v`` (shader_program IMAGE_PROJECTIONS)."""
-    key = ("image", tuple(g.as_pointer() for g in ctx), node.as_pointer())
+    key = c.node_key("image", node, ctx)
     if key not in c.memo:
         tiles, tex = [], 0
         if _tiled(node, projection):

@@ -87,7 +87,7 @@ def _tex_coord(c, node, out, ctx):
         inv = np.linalg.inv(np.array(node.object.matrix_world, np.float64))
         return _transform(c, c.geometry(GEOM_POSITION), inv, 0)
     if out.name == "Normal":                    # the shading normal in object space
-        return _transform(c, c.geometry(GEOM_NORMAL), None, 6)
+        return _transform(c, c.geometry(GEOM_NORMAL, moved=True), None, 6)
     what = {"UV": GEOM_UV, "Reflection": GEOM_REFLECTION,
             "Window": None if world else GEOM_WINDOW}.get(out.name)
     if what is None:

@@ -175,7 +175,7 @@ def _separate_color(c, node, out, ctx):
     v = c.inp(node, 0, ctx, 3)
     mode = getattr(node, "mode", "RGB")
     if mode in _COLOR_MODES:
-        key = ("sepcol", tuple(g.as_pointer() for g in ctx), node.as_pointer())
+        key = c.node_key("sepcol", node, ctx)
         if key not in c.memo:
             s, o = c.slot(v), c.alloc(3)
             c.ops.append((SVM_COLOR_CONVERT, o, s, _COLOR_MODES[mode][0]))
@@ -317,7 +317,7 @@ def _table(c, node, out, ctx):
 
 def _layer_weight(c, node, out, ctx):
     blend = c.inp(node, "Blend", ctx, 1)
-    key = ("layer", tuple(g.as_pointer() for g in ctx), node.as_pointer())
+    key = c.node_key("layer", node, ctx)
     if key not in c.memo:
         s, o = c.slot(blend), c.alloc(2)
         c.ops.append((SVM_LAYER_WEIGHT, o, s, o + 1))

@@ -100,7 +100,7 @@ def _texture(build):
     run once per node and group context.  The outputs linked get stack slots, the first two
     go into the op's word, the others into the parameter word given as "outputs"."""
     def compile_node(c, node, out, ctx):
-        key = ("texture", tuple(g.as_pointer() for g in ctx), node.as_pointer())
+        key = c.node_key("texture", node, ctx)
         if key not in c.memo:
             op, params = build(c, node, ctx)
             outs, slots = {}, []

@@ -18,6 +18,16 @@ class Val:
         return f"Val({self.n}, {self.const if self.is_const else 'slot %d' % self.slot})"
 
 
+class ShadingNormal(Val):
+    """The shading normal as an unlinked Normal input reads it: the constant 0 a BSDF node's
+    or a Bump node's Normal takes for its own shading normal (no program needed); any other
+    input it feeds reads the Geometry node's Normal instead (Compiler.input)."""
+    __slots__ = ()
+
+    def __init__(self):
+        super().__init__(3, const=(0.0, 0.0, 0.0))
+
+
 def width(socket_type: str) -> int:
     """Floats a socket of this type holds (colour and vector 3, the rest 1)."""
     return 3 if socket_type in ("RGBA", "VECTOR") else 1

@@ -34,7 +34,7 @@ def unshaded(device, n: int):
 
 
 # the gather's own arguments (the rest are the scene's: kernels/gather.cl GATHER_SCENE_ARGS)
-_OWN = {"vp_pos", "vp_nrm", "vp_shade", "radius", "grid", "table", "ranges", "sorted_ids",
+_OWN = {"vp_pos", "vp_nrm", "vp_shade", "vp_beta", "radius", "grid", "table", "ranges", "sorted_ids",
         "table_mask", "ph_pos", "ph_flux", "gathered", "n"}
 
 
@@ -56,11 +56,14 @@ class Gather:
             self._dummy = device.buffer(64, "gather without a scene")
             self.scene_args = dict.fromkeys(names, self._dummy)
 
-    def enqueue(self, q, vp_pos, vp_nrm, vp_shade, radius, gathered, n: int) -> list:
+    def enqueue(self, q, vp_pos, vp_nrm, vp_shade, radius, gathered, n: int,
+                vp_beta=None) -> list:
         """gathered[i] = (sum of n x flux x f, sum of n) over the accepted entries, f the
-        visible point's BSDF for the photon's direction."""
+        visible point's BSDF for the photon's direction; ``vp_beta``'s w: the visible points'
+        ray footprints (Bump nodes; any float4 buffer of n where nothing is shaded)."""
         pm = self.photon_map
-        common = dict(vp_pos=vp_pos, vp_nrm=vp_nrm, vp_shade=vp_shade, radius=radius,
+        common = dict(vp_pos=vp_pos, vp_nrm=vp_nrm, vp_shade=vp_shade,
+                      vp_beta=vp_nrm if vp_beta is None else vp_beta, radius=radius,
                       grid=pm.grid, table_mask=pm.table_mask, ph_pos=pm.ph_pos,
                       ph_flux=pm.ph_flux, gathered=gathered, n=np.uint32(n),
                       **self.scene_args)
