@@ -67,19 +67,25 @@ SVM_TEX_VORONOI = 28   # (op, distance, color, vector) + slots (w, scale, detail
 #                        + (dimensions, VORONOI_FEATURES, VORONOI_METRICS, normalize)
 #                        + (position, w out, radius, 0)
 SVM_TEX_LAST = 28
-SVM_OPS = 29           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
+# (29-34: other nodes' op codes)
+SVM_TEX_SKY = 35       # (op, color, vector, SKY_*) + (n, 0, 0, 0) + n words of float
+#                        parameters (kernels/svm_sky.h; export/sky.py)
+SVM_OPS = 36           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
 
 OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
             "combine", "color_convert", "invert", "gamma", "bright_contrast", "rgb_to_bw",
             "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight", "normal_map",
             "tex_checker", "tex_gradient", "tex_white_noise", "tex_noise", "tex_magic",
-            "tex_wave", "tex_brick", "tex_voronoi")
+            "tex_wave", "tex_brick", "tex_voronoi") + tuple(f"op{k}" for k in range(29, 35)) \
+    + ("tex_sky",)
 # parameter words after each op's first word
 OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 1, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
             SVM_MIX: 1, SVM_COMBINE: 1, SVM_BRIGHT_CONTRAST: 1, SVM_CLAMP: 1, SVM_MAP_RANGE: 2,
             SVM_HSV: 1, SVM_TABLE: 2, SVM_NORMAL_MAP: 1,   # (a table's n entries follow)
             SVM_TEX_CHECKER: 1, SVM_TEX_GRADIENT: 1, SVM_TEX_WHITE_NOISE: 1, SVM_TEX_NOISE: 5,
-            SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6}
+            SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6,
+            SVM_TEX_SKY: 1}   # (a sky's n parameter words follow)
+SKY_TYPES = {"PREETHAM": 0, "SINGLE_SCATTERING": 2}     # kernels/svm_sky.h SKY_*
 assert len(OP_NAMES) == SVM_OPS <= 64
 
 GEOM_UV = 0            # (u, v, 0) of the render UV map
@@ -184,7 +190,8 @@ def ops_used(svm: np.ndarray, starts) -> int:
             if not 0 < op < SVM_OPS:
                 raise ValueError(f"shader program at word {p}: unknown op {op} at word {i}")
             mask |= 1 << op
-            i += 1 + OP_EXTRA.get(op, 0) + (int(svm[i, 3]) if op == SVM_TABLE else 0)
+            i += 1 + OP_EXTRA.get(op, 0) + (int(svm[i, 3]) if op == SVM_TABLE else 0) \
+                + (int(svm[i + 1, 0]) if op == SVM_TEX_SKY else 0)
     return mask
 
 

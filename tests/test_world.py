@@ -205,7 +205,7 @@ def test_constant_world_renders_as_before():
 
 def test_world_hidden_from_camera_and_an_unsupported_node(render_exr, tmp_path, tiny):
     """Ray Visibility > Camera off: the camera sees black where the world was, the sphere is
-    still lit by it.  A Sky Texture (not evaluated): a warning naming it, the world's viewport
+    still lit by it.  An IES Texture (not evaluated): a warning naming it, the world's viewport
     colour instead."""
     scene = _sphere_scene()
     scene.world.cycles_visibility.camera = False
@@ -213,11 +213,11 @@ def test_world_hidden_from_camera_and_an_unsupported_node(render_exr, tmp_path, 
     img = render_exr(tmp_path / "hidden.exr")
     assert img[0].max() == 0.0 and img[-1].mean() > 0.05        # sky black, floor lit
     t = scene.world.node_tree
-    sky = t.nodes.new("ShaderNodeTexSky")
-    t.links.new(sky.outputs["Color"], t.nodes["Background"].inputs["Color"])
+    ies = t.nodes.new("ShaderNodeTexIES")
+    t.links.new(ies.outputs["Fac"], t.nodes["Background"].inputs["Strength"])
     from ppm_engine.export import export_scene
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
-    assert any("Sky Texture" in w for w in arrays.warnings), arrays.warnings
+    assert any("IES Texture" in w for w in arrays.warnings), arrays.warnings
     scene.world.cycles_visibility.camera = True
     scene.world.color = (0.2, 0.3, 0.4)
     img = render_exr(tmp_path / "sky.exr")

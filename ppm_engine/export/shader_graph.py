@@ -2,7 +2,8 @@
 
 ``Graph`` resolves links as Cycles' compiler sees them: through reroutes, muted nodes (their
 internal links), node groups (inlined: a group's Group Output leads into its tree, its Group
-Input back out to the group node's inputs) and invalid or muted links (the input's own value).
+Input back out to the group node's inputs) and invalid or muted links, or links to or from an
+unavailable socket (the input's own value).
 ``Compiler`` turns the value nodes feeding a BSDF input into ops: every output is compiled once
 per group context (a shared sub-graph is evaluated once), unlinked inputs are constants, an op
 whose inputs are all constant folds to a constant where the arithmetic is simple (Math,
@@ -20,6 +21,7 @@ from ..shader_program import (BOUND, GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT
                               SVM_GEOMETRY, SVM_MATH, SVM_RGB_TO_BW, f2i, fold_math)
 from .shader_inputs import INPUT_NODES
 from .shader_nodes import VALUE_NODES
+from .sky import SKY_NODES
 from .shader_textures import TEXTURE_NODES
 from .shader_values import Val, width
 
@@ -41,7 +43,8 @@ class Graph:
             if socket is None or not socket.is_linked:
                 return None
             link = socket.links[0]
-            if not link.is_valid or link.is_muted:
+            if not link.is_valid or link.is_muted or not socket.enabled \
+                    or not link.from_socket.enabled:      # (Cycles: unavailable sockets)
                 return None
             node, out = link.from_node, link.from_socket
             kind = node.bl_idname
@@ -310,4 +313,4 @@ class Compiler:
 
 
 # every node type a program evaluates: bl_idname -> fn(compiler, node, output, ctx) -> Val
-NODES = {**INPUT_NODES, **VALUE_NODES, **TEXTURE_NODES}
+NODES = {**INPUT_NODES, **VALUE_NODES, **TEXTURE_NODES, **SKY_NODES}

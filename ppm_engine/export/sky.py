@@ -1,0 +1,135 @@
+"""Cycles' Sky Texture node in shader programs (SVM_TEX_SKY, kernels/svm_sky.h): the host
+precomputes what Cycles precomputes (its scene/shader_nodes.cpp SkyTextureNode), the kernel
+evaluates the rest.
+
+- PREETHAM: Preetham, Shirley & Smits, "A Practical Analytic Model for Daylight" (SIGGRAPH
+  1999): the Perez distribution with turbidity-dependent coefficients, the zenith luminance
+  and chromaticity (the paper's fits, as Cycles uses them) divided by the distribution at the
+  zenith, xyY -> XYZ -> scene linear.  The sun is the node's Sun Direction (normalised).
+- SINGLE_SCATTERING (Nishita): a 512 x 256 LUT of the sky's XYZ ray-marched through the
+  atmosphere (ppm_engine/sky_atmosphere.py) and the sun disc's colour at its lower and upper
+  edge, for the sun elevation and rotation Cycles wraps into range (its simplify_settings).
+- HOSEK_WILKIE and MULTIPLE_SCATTERING are not reproduced: a warning, and the nearest model
+  (Preetham for Hosek-Wilkie: the same Sun Direction and Turbidity; single scattering for
+  multiple scattering: the same sun and atmosphere, one bounce of light only).
+
+The node's Vector (unlinked: Generated, a world's ray direction) goes through its texture
+mapping as Cycles applies it; like Cycles the vector is not normalised.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..shader_program import SKY_TYPES, SVM_TEX_SKY
+from .shader_textures import _texture_mapping
+from .shader_values import Val
+
+_FALLBACK = {"HOSEK_WILKIE": ("PREETHAM", "the Preetham model with the same sun direction and "
+                              "turbidity"),
+             "MULTIPLE_SCATTERING": ("SINGLE_SCATTERING", "single scattering with the same sun "
+                                     "and atmosphere (a darker, less saturated sky)")}
+
+
+def _perez(p, theta: float, gamma: float) -> float:
+    return (1.0 + p[0] * math.exp(p[1] / math.cos(theta))) * (
+        1.0 + p[2] * math.exp(p[3] * gamma) + p[4] * math.cos(gamma) ** 2)
+
+
+def preetham_params(sun_direction, turbidity: float) -> list:
+    """The 20 floats of SKY_PREETHAM: sun phi and theta (Cycles' convention: phi from +Y
+    towards +X), the zenith Y, x, y over the Perez function at the zenith, the Perez
+    coefficients A..E of Y, x and y (Preetham et al. 1999, appendix A.2)."""
+    s = np.asarray(sun_direction, np.float64)
+    n = np.linalg.norm(s)
+    s = s / n if n > 0 else np.array([0.0, 0.0, 1.0])
+    theta, phi = math.acos(min(max(s[2], -1.0), 1.0)), math.atan2(s[0], s[1])
+    t, t2, th, th2, th3 = turbidity, turbidity ** 2, theta, theta ** 2, theta ** 3
+    chi = (4.0 / 9.0 - t / 120.0) * (math.pi - 2.0 * theta)
+    zen_Y = ((4.0453 * t - 4.9710) * math.tan(chi) - 0.2155 * t + 2.4192) * 0.06
+    zen_x = ((0.00166 * th3 - 0.00375 * th2 + 0.00209 * th) * t2
+             + (-0.02903 * th3 + 0.06377 * th2 - 0.03202 * th + 0.00394) * t
+             + (0.11693 * th3 - 0.21196 * th2 + 0.06052 * th + 0.25886))
+    zen_y = ((0.00275 * th3 - 0.00610 * th2 + 0.00317 * th) * t2
+             + (-0.04214 * th3 + 0.08970 * th2 - 0.04153 * th + 0.00516) * t
+             + (0.15346 * th3 - 0.26756 * th2 + 0.06670 * th + 0.26688))
+    coef = {  # (slope in T, offset) of the Perez coefficients A..E
+        "Y": ((0.1787, -1.4630), (-0.3554, 0.4275), (-0.0227, 5.3251), (0.1206, -2.5771),
+              (-0.0670, 0.3703)),
+        "x": ((-0.0193, -0.2592), (-0.0665, 0.0008), (-0.0004, 0.2125), (-0.0641, -0.8989),
+              (-0.0033, 0.0452)),
+        "y": ((-0.0167, -0.2608), (-0.0950, 0.0092), (-0.0079, 0.2102), (-0.0441, -1.6537),
+              (-0.0109, 0.0529))}
+    perez = {k: [a * t + b for a, b in v] for k, v in coef.items()}
+    zen = [z / _perez(perez[k], 0.0, theta) for z, k in ((zen_Y, "Y"), (zen_x, "x"),
+                                                         (zen_y, "y"))]
+    return [phi, theta] + zen + perez["Y"] + perez["x"] + perez["y"]
+
+
+def simplify_sun(elevation: float, rotation: float) -> tuple[float, float]:
+    """The sun's elevation in [-pi/2, pi/2] and rotation as Cycles' kernel takes them
+    (SkyTextureNode::simplify_settings: the same position, the rotation mirrored)."""
+    f32 = np.float32
+    e, r, tau, pi = f32(elevation), f32(rotation), f32(2 * math.pi), f32(math.pi)
+    e = f32(math.fmod(e, tau))
+    if abs(e) >= pi:
+        e = f32(e - f32(math.copysign(2.0, e)) * pi)
+    if e >= pi / 2 or e <= -pi / 2:
+        e = f32(f32(math.copysign(pi, e)) - e)
+        r = f32(r + pi)
+    r = f32(math.fmod(r, tau))
+    if r < 0:
+        r = f32(r + tau)
+    return float(e), float(tau - r)
+
+
+def single_scattering_params(node) -> list:
+    """The floats of SKY_SINGLE: the sun disc, the sun, the LUT (sky_atmosphere.py)."""
+    from ..sky_atmosphere import earth_intersection_angle, sky_lut, sun_pixels
+    elevation, rotation = simplify_sun(node.sun_elevation, node.sun_rotation)
+    size = max(float(node.sun_size), 0.0005)
+    atmosphere = (float(node.altitude), float(node.air_density), float(node.aerosol_density))
+    lo, hi = sun_pixels(elevation, size, *atmosphere)
+    lut = sky_lut(elevation, *atmosphere, float(node.ozone_density))
+    head = list(lo) + list(hi) + [elevation, rotation, size if node.sun_disc else -1.0,
+                                  float(node.sun_intensity),
+                                  -earth_intersection_angle(float(node.altitude)),
+                                  lut.shape[1], lut.shape[0]]
+    return head + [lut]
+
+
+def _words(params) -> np.ndarray:
+    """Float parameters (a trailing array: the LUT) as int4 words."""
+    arrays = [np.asarray(p, np.float32).ravel() if isinstance(p, np.ndarray)
+              else np.array([p], np.float32) for p in params]
+    f = np.concatenate(arrays)
+    f = np.concatenate([f, np.zeros(-len(f) % 4, np.float32)])
+    return f.view(np.int32).reshape(-1, 4)
+
+
+def _sky(c, node, out, ctx):
+    kind = node.sky_type
+    if kind in _FALLBACK:
+        near, what = _FALLBACK[kind]
+        c.warn(f"'{node.name}' (Sky Texture) uses the {kind.replace('_', ' ').title()} sky, "
+               f"which this engine does not reproduce; it renders {what}")
+        kind = near
+    if kind not in SKY_TYPES:
+        c.warn(f"'{node.name}' (Sky Texture): the sky type {kind} is not evaluated by this "
+               "engine; the Preetham model is used")
+        kind = "PREETHAM"
+    if kind == "PREETHAM":
+        params = preetham_params(tuple(node.sun_direction), float(node.turbidity))
+    else:
+        params = single_scattering_params(node)
+    words = _words(params)
+    vec = c.slot(_texture_mapping(c, node, c.texture_vector(node, ctx)))
+    o = c.alloc(3)
+    c.ops.append((SVM_TEX_SKY, o, vec, SKY_TYPES[kind]))
+    c.ops.append((len(words), 0, 0, 0))
+    c.ops.extend(map(tuple, words.tolist()))
+    return Val(3, slot=o)
+
+
+SKY_NODES = {"ShaderNodeTexSky": _sky}
