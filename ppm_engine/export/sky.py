@@ -9,15 +9,19 @@ evaluates the rest.
 - SINGLE_SCATTERING (Nishita): a 512 x 256 LUT of the sky's XYZ ray-marched through the
   atmosphere (ppm_engine/sky_atmosphere.py) and the sun disc's colour at its lower and upper
   edge, for the sun elevation and rotation Cycles wraps into range (its simplify_settings).
-- HOSEK_WILKIE and MULTIPLE_SCATTERING are not reproduced: a warning, and the nearest model
-  (Preetham for Hosek-Wilkie: the same Sun Direction and Turbidity; single scattering for
-  multiple scattering: the same sun and atmosphere, one bounce of light only).
+- HOSEK_WILKIE: Hosek & Wilkie, "An Analytic Model for Full Spectral Sky-Dome Radiance"
+  (SIGGRAPH 2012): the 9 parameters and radiance of each XYZ channel cooked from the authors'
+  coefficients (a quintic Bezier over the sun's elevation, linear in turbidity and ground
+  albedo), the kernel's distribution times 2 pi / 683.
+- MULTIPLE_SCATTERING is not reproduced: a warning, and single scattering with the same sun
+  and atmosphere (one bounce of light only: a darker sky).
 
 The node's Vector (unlinked: Generated, a world's ray direction) goes through its texture
 mapping as Cycles applies it; like Cycles the vector is not normalised.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -26,9 +30,7 @@ from ..shader_program import SKY_TYPES, SVM_TEX_SKY
 from .shader_textures import _texture_mapping
 from .shader_values import Val
 
-_FALLBACK = {"HOSEK_WILKIE": ("PREETHAM", "the Preetham model with the same sun direction and "
-                              "turbidity"),
-             "MULTIPLE_SCATTERING": ("SINGLE_SCATTERING", "single scattering with the same sun "
+_FALLBACK = {"MULTIPLE_SCATTERING": ("SINGLE_SCATTERING", "single scattering with the same sun "
                                      "and atmosphere (a darker, less saturated sky)")}
 
 
@@ -65,6 +67,46 @@ def preetham_params(sun_direction, turbidity: float) -> list:
     zen = [z / _perez(perez[k], 0.0, theta) for z, k in ((zen_Y, "Y"), (zen_x, "x"),
                                                          (zen_y, "y"))]
     return [phi, theta] + zen + perez["Y"] + perez["x"] + perez["y"]
+
+
+@functools.lru_cache(maxsize=1)
+def _hosek_data():
+    from pathlib import Path
+    with np.load(Path(__file__).resolve().parents[1] / "data" / "hosek_wilkie_xyz.npz") as f:
+        return f["config"], f["radiance"]
+
+
+def _bezier_elevation(ctrl, elevation: float, turbidity: float, albedo: float):
+    """A Hosek-Wilkie quantity at the solar elevation: the quintic Bezier over
+    (elevation / (pi/2))^(1/3) of its 6 control points (the last-but-one axis of ``ctrl``),
+    linear in the albedo (axis 0) and the turbidity (axis 1, 1..10)."""
+    t = (elevation / (math.pi / 2)) ** (1.0 / 3.0)
+    basis = np.array([math.comb(5, k) * (1 - t) ** (5 - k) * t ** k for k in range(6)])
+    lo = int(turbidity)
+    frac = turbidity - lo
+    res = 0.0
+    for a, wa in ((0, 1.0 - albedo), (1, albedo)):
+        for k, wt in ((lo - 1, 1.0 - frac), (lo, frac)):
+            if wt != 0.0 and 0 <= k < 10:
+                res = res + wa * wt * np.tensordot(basis, ctrl[a, k], axes=(0, 0))
+    return res
+
+
+def hosek_params(sun_direction, turbidity: float, albedo: float) -> list:
+    """The 32 floats of SKY_HOSEK: sun phi and theta (the sun clamped to the horizon), the
+    X, Y, Z radiances and the 9 distribution parameters of each channel (Hosek & Wilkie 2012,
+    their XYZ coefficients, ppm_engine/data/hosek_wilkie_xyz.npz)."""
+    s = np.asarray(sun_direction, np.float64)
+    n = np.linalg.norm(s)
+    s = s / n if n > 0 else np.array([0.0, 0.0, 1.0])
+    theta = min(max(math.acos(min(max(s[2], -1.0), 1.0)), 0.0), math.pi / 2)
+    phi = math.atan2(s[0], s[1])
+    t = min(max(turbidity, 1.0), 10.0)          # (Blender's range; Cycles clamps to 0..10)
+    config, radiance = _hosek_data()
+    elevation = math.pi / 2 - theta
+    rad = [float(_bezier_elevation(radiance[c], elevation, t, albedo)) for c in range(3)]
+    cfg = [_bezier_elevation(config[c], elevation, t, albedo) for c in range(3)]
+    return [phi, theta] + rad + [float(x) for c in cfg for x in c]
 
 
 def simplify_sun(elevation: float, rotation: float) -> tuple[float, float]:
@@ -121,6 +163,9 @@ def _sky(c, node, out, ctx):
         kind = "PREETHAM"
     if kind == "PREETHAM":
         params = preetham_params(tuple(node.sun_direction), float(node.turbidity))
+    elif kind == "HOSEK_WILKIE":
+        params = hosek_params(tuple(node.sun_direction), float(node.turbidity),
+                              float(node.ground_albedo))
     else:
         params = single_scattering_params(node)
     words = _words(params)
