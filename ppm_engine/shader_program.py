@@ -85,7 +85,8 @@ OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 1, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_
             SVM_TEX_CHECKER: 1, SVM_TEX_GRADIENT: 1, SVM_TEX_WHITE_NOISE: 1, SVM_TEX_NOISE: 5,
             SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6,
             SVM_TEX_SKY: 1}   # (a sky's n parameter words follow)
-SKY_TYPES = {"PREETHAM": 0, "HOSEK_WILKIE": 1, "SINGLE_SCATTERING": 2}     # kernels/svm_sky.h SKY_*
+SKY_TYPES = {"PREETHAM": 0, "HOSEK_WILKIE": 1, "SINGLE_SCATTERING": 2,
+             "MULTIPLE_SCATTERING": 2}     # kernels/svm_sky.h SKY_*
 assert len(OP_NAMES) == SVM_OPS <= 64
 
 GEOM_UV = 0            # (u, v, 0) of the render UV map

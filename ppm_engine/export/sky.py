@@ -13,8 +13,8 @@ evaluates the rest.
   (SIGGRAPH 2012): the 9 parameters and radiance of each XYZ channel cooked from the authors'
   coefficients (a quintic Bezier over the sun's elevation, linear in turbidity and ground
   albedo), the kernel's distribution times 2 pi / 683.
-- MULTIPLE_SCATTERING is not reproduced: a warning, and single scattering with the same sun
-  and atmosphere (one bounce of light only: a darker sky).
+- MULTIPLE_SCATTERING: García Liñán's atmosphere (ppm_engine/sky_multiple.py), its LUT and
+  sun disc evaluated by the same kernel code as single scattering (as in Cycles 5.0).
 
 The node's Vector (unlinked: Generated, a world's ray direction) goes through its texture
 mapping as Cycles applies it; like Cycles the vector is not normalised.
@@ -30,8 +30,7 @@ from ..shader_program import SKY_TYPES, SVM_TEX_SKY
 from .shader_textures import _texture_mapping
 from .shader_values import Val
 
-_FALLBACK = {"MULTIPLE_SCATTERING": ("SINGLE_SCATTERING", "single scattering with the same sun "
-                                     "and atmosphere (a darker, less saturated sky)")}
+_FALLBACK: dict = {}      # sky type -> (the model used instead, what it renders), warned
 
 
 def _perez(p, theta: float, gamma: float) -> float:
@@ -126,17 +125,23 @@ def simplify_sun(elevation: float, rotation: float) -> tuple[float, float]:
     return float(e), float(tau - r)
 
 
-def single_scattering_params(node) -> list:
-    """The floats of SKY_SINGLE: the sun disc, the sun, the LUT (sky_atmosphere.py)."""
-    from ..sky_atmosphere import earth_intersection_angle, sky_lut, sun_pixels
+def nishita_params(node, multiple: bool) -> list:
+    """The floats of SKY_SINGLE (both atmosphere models): the sun disc, the sun, the LUT
+    (sky_atmosphere.py, single scattering; sky_multiple.py, multiple scattering)."""
+    from .. import sky_atmosphere, sky_multiple
     elevation, rotation = simplify_sun(node.sun_elevation, node.sun_rotation)
     size = max(float(node.sun_size), 0.0005)
     atmosphere = (float(node.altitude), float(node.air_density), float(node.aerosol_density))
-    lo, hi = sun_pixels(elevation, size, *atmosphere)
-    lut = sky_lut(elevation, *atmosphere, float(node.ozone_density))
+    ozone = float(node.ozone_density)
+    if multiple:
+        lo, hi = sky_multiple.sun_pixels(elevation, size, *atmosphere, ozone)
+        lut = sky_multiple.sky_lut(elevation, *atmosphere, ozone)
+    else:
+        lo, hi = sky_atmosphere.sun_pixels(elevation, size, *atmosphere)
+        lut = sky_atmosphere.sky_lut(elevation, *atmosphere, ozone)
     head = list(lo) + list(hi) + [elevation, rotation, size if node.sun_disc else -1.0,
                                   float(node.sun_intensity),
-                                  -earth_intersection_angle(float(node.altitude)),
+                                  -sky_atmosphere.earth_intersection_angle(atmosphere[0]),
                                   lut.shape[1], lut.shape[0]]
     return head + [lut]
 
@@ -167,7 +172,7 @@ def _sky(c, node, out, ctx):
         params = hosek_params(tuple(node.sun_direction), float(node.turbidity),
                               float(node.ground_albedo))
     else:
-        params = single_scattering_params(node)
+        params = nishita_params(node, kind == "MULTIPLE_SCATTERING")
     words = _words(params)
     vec = c.slot(_texture_mapping(c, node, c.texture_vector(node, ctx)))
     o = c.alloc(3)
