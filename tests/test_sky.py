@@ -62,7 +62,10 @@ def _sky_grid(skies, up=False):
         t.links.new(vec, norm.inputs[0])
         sky = t.nodes.new("ShaderNodeTexSky")
         for key, v in props.items():
-            setattr(sky, key, v)
+            if key.startswith("mapping_"):            # the node's own texture mapping
+                setattr(sky.texture_mapping, key[8:], v)
+            else:
+                setattr(sky, key, v)
         t.links.new(norm.outputs[0], sky.inputs[0])
         em = t.nodes.new("ShaderNodeEmission")
         t.links.new(sky.outputs["Color"], em.inputs["Color"])
@@ -91,12 +94,16 @@ def _blocks(img, cols, k):
 
 PREETHAM = [dict(sky_type="PREETHAM", sun_direction=d, turbidity=t) for d, t in (
     ((0.0, 0.0, 1.0), 2.2), ((0.3, -0.5, 0.8), 2.0), ((0.7, 0.2, 0.25), 3.5),
-    ((-0.6, 0.6, 0.08), 6.0), ((0.1, 0.9, 0.5), 10.0), ((0.5, 0.5, -0.1), 2.5))]
+    ((-0.6, 0.6, 0.08), 6.0), ((0.1, 0.9, 0.5), 10.0), ((0.5, 0.5, -0.1), 2.5))] + [
+    dict(sky_type="PREETHAM", sun_direction=(0.3, 0.4, 0.6), turbidity=4.0,
+         mapping_rotation=(0.3, -0.2, 1.1), mapping_scale=(1.0, 1.5, 0.8))]
 
 
 def test_preetham_as_cycles(cycles, render_exr, tmp_path, tiny):
-    """Six suns (zenith to below the horizon) and turbidities 2-10, directions all around:
-    every pixel within 1e-3 of Cycles' value (relative, 1e-5 absolute)."""
+    """Six suns (zenith to below the horizon) and turbidities 2-10, directions all around, and
+    one through the node's texture mapping (rotated and scaled: the vector not normalised
+    again, as in Cycles): every pixel within 1e-3 of Cycles' value (relative, 1e-5
+    absolute)."""
     ours, ref, cols = _both(PREETHAM, cycles, render_exr, tmp_path, tiny)
     assert ref.max() > 0.05
     for k in range(len(PREETHAM)):
