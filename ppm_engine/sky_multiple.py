@@ -103,12 +103,18 @@ class _Lut:
         return lo + (hi - lo) * fy
 
     def multiscattering(self, cos_theta, altitude01, dist):
+        """The fitted multiple scattering plus the ground's bounce (its second order)."""
         omega = 2 * np.pi * (1.0 - np.sqrt(np.maximum(1.0 - (EARTH_RADIUS / dist) ** 2, 0.0)))
-        to_ground = self(cos_theta, np.zeros_like(cos_theta))
-        ground_to_sample = self(np.ones_like(cos_theta), np.zeros_like(cos_theta)) / self(
-            np.ones_like(cos_theta), altitude01)
+        x = (T_W - 1) * np.clip(cos_theta * 0.5 + 0.5, 0.0, 1.0)     # at the ground
+        x1 = x.astype(int)
+        g = self.t[0]
+        to_ground = g[x1] + (g[np.minimum(x1 + 1, T_W - 1)] - g[x1]) * (x - x1)[..., None]
+        y = (T_H - 1) * np.clip(altitude01, 0.0, 1.0)                 # sun at the zenith
+        y1 = y.astype(int)
+        z = self.t[:, -1]
+        to_sun = z[y1] + (z[np.minimum(y1 + 1, T_H - 1)] - z[y1]) * (y - y1)[..., None]
         ground = (1.0 / (4 * np.pi)) * omega[..., None] * (GROUND_ALBEDO / np.pi) * to_ground \
-            * ground_to_sample * cos_theta[..., None]
+            * (z[0] / to_sun) * cos_theta[..., None]
         fit = MS_FIT / (1.0 + 5.0 * np.exp(-17.92 * cos_theta))[..., None]
         return fit + ground
 
