@@ -133,12 +133,14 @@ SINGLE = [dict(sky_type="SINGLE_SCATTERING", sun_disc=False, sun_elevation=e, su
           for e, r, a, air, aer, oz in ((0.2618, 0.0, 100.0, 1.0, 1.0, 1.0),
                                         (1.2, 2.0, 3000.0, 0.5, 3.0, 2.0),
                                         (0.03, -0.7, 1.0, 2.0, 0.2, 0.0),
-                                        (-0.05, 4.0, 20000.0, 1.0, 1.0, 1.0))]
+                                        (-0.05, 4.0, 20000.0, 1.0, 1.0, 1.0),
+                                        (2.3, -1.0, 500.0, 1.0, 1.0, 1.0))]
 
 
 @pytest.mark.parametrize("model", ["SINGLE_SCATTERING", "MULTIPLE_SCATTERING"])
 def test_scattering_skies_as_cycles(model, cycles, render_exr, tmp_path, tiny):
-    """Four skies without the sun disc (sun elevations -0.05 to 1.2 rad, rotations, altitudes
+    """Five skies without the sun disc (sun elevations -0.05 to 1.2 rad and 2.3 (past the
+    zenith: wrapped as Cycles wraps it), rotations, altitudes
     1 m to 20 km, air, aerosol and ozone densities), directions all around, below the horizon
     too.  The tolerance, 1e-3 relative (1e-4 absolute): the LUTs are computed here in double
     precision, Cycles' in single precision (measured: at most 3.3e-4 relative; the

@@ -30,9 +30,6 @@ from ..shader_program import SKY_TYPES, SVM_TEX_SKY
 from .shader_textures import _texture_mapping
 from .shader_values import Val
 
-_FALLBACK: dict = {}      # sky type -> (the model used instead, what it renders), warned
-
-
 def _perez(p, theta: float, gamma: float) -> float:
     return (1.0 + p[0] * math.exp(p[1] / math.cos(theta))) * (
         1.0 + p[2] * math.exp(p[3] * gamma) + p[4] * math.cos(gamma) ** 2)
@@ -157,14 +154,9 @@ def _words(params) -> np.ndarray:
 
 def _sky(c, node, out, ctx):
     kind = node.sky_type
-    if kind in _FALLBACK:
-        near, what = _FALLBACK[kind]
-        c.warn(f"'{node.name}' (Sky Texture) uses the {kind.replace('_', ' ').title()} sky, "
-               f"which this engine does not reproduce; it renders {what}")
-        kind = near
-    if kind not in SKY_TYPES:
+    if kind not in SKY_TYPES:                  # (another Blender version's model)
         c.warn(f"'{node.name}' (Sky Texture): the sky type {kind} is not evaluated by this "
-               "engine; the Preetham model is used")
+               "engine; the Preetham model with its Sun Direction and Turbidity is used")
         kind = "PREETHAM"
     if kind == "PREETHAM":
         params = preetham_params(tuple(node.sun_direction), float(node.turbidity))
