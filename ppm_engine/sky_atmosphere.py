@@ -93,7 +93,8 @@ def _optical_depth(p, d):
     length = _exit_distance(p, d)
     seg = length[..., None] * d                                     # (..., 3)
     q = p[..., None, :] + QUAD_NODES[:, None] * seg[..., None, :]   # (..., 8, 3)
-    return np.einsum("...kc,k->...c", _densities(q), QUAD_WEIGHTS) * length[..., None]
+    with np.errstate(over="ignore"):     # (through the Earth: infinite, where the sun is hidden)
+        return np.einsum("...kc,k->...c", _densities(q), QUAD_WEIGHTS) * length[..., None]
 
 
 def _blocked(p, s):
@@ -126,12 +127,12 @@ def single_scattering_xyz(dirs, sun, altitude, air, aerosol, ozone, chunk=2048):
         p = cam + (k[None, :, None] * seg_len[:, None, None]) * d[:, None, :]   # (n, 32, 3)
         dens = scale * _densities(p)
         depth = np.cumsum(dens * seg_len[:, None, None], axis=1)          # to each midpoint
-        total = depth + scale * _optical_depth(p, sun)
+        lit = ~_blocked(p, sun)                       # (where not, the sun's leg is not used)
+        total = depth + scale * np.where(lit[..., None], _optical_depth(p, sun), 0.0)
         atten = np.exp(-(total @ ext))                                    # (n, 32, 21)
         ray_ph, mie_ph = _phases(d @ sun)
         scatter = (ray_ph[:, None, None] * dens[..., :1] * RAYLEIGH
                    + (mie_ph[:, None] * dens[..., 1] * MIE_COEFF)[..., None])
-        lit = ~_blocked(p, sun)
         spec = np.einsum("nk,nkw->nw", lit * seg_len[:, None], atten * scatter) * IRRADIANCE
         out[a:a + chunk] = spec @ CMF * STEP_LAMBDA
     return out

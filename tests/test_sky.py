@@ -206,3 +206,27 @@ def test_sun_disc_as_cycles(model, cycles, render_exr, tmp_path, tiny):
     ours, ref = np.array(values).transpose(1, 0, 2)
     assert ref[0].min() > 1.0 and ref[3].max() < 1e-2 and ref[5].max() < 1e-2   # in, out
     np.testing.assert_allclose(ours, ref, rtol=1e-3, atol=1e-6)
+
+
+def test_extreme_parameters_stay_finite():
+    """The host's precomputation at the ends of the node's ranges (a zero sun direction, the
+    sun at the nadir, the zenith, altitude 0 and far above the atmosphere, densities 0 to
+    1000, a disc of size 0) gives finite, non-negative skies (small LUTs)."""
+    from ppm_engine import sky_atmosphere, sky_multiple
+    from ppm_engine.export.sky import hosek_params, preetham_params, simplify_sun
+    for p in (preetham_params((0.0, 0.0, 0.0), 1.0), preetham_params((0.0, 0.0, -1.0), 10.0),
+              hosek_params((0.0, 0.0, 0.0), 1.0, 0.0), hosek_params((0.0, 0.0, -1.0), 10.0, 1.0),
+              hosek_params((0.0, 0.0, 1.0), 5.5, 0.5)):
+        assert np.isfinite(p).all()
+    for e, r in ((10.0, -20.0), (-np.pi / 2, 0.0), (np.pi / 2, 7.0)):
+        e2, r2 = simplify_sun(e, r)
+        half, tau = float(np.float32(np.pi / 2)), float(np.float32(2 * np.pi))
+        assert -half <= e2 <= half and 0.0 <= r2 <= tau
+    for model in (sky_atmosphere, sky_multiple):
+        for args in ((np.pi / 2, 0.0, 0.0, 0.0, 0.0), (-np.pi / 2, 1e6, 10.0, 10.0, 10.0),
+                     (-0.3, 100.0, 0.0, 0.0, 0.0), (0.3, 0.0, 1000.0, 1000.0, 1000.0)):
+            lut = model.sky_lut(*args, width=32, height=16)
+            assert np.isfinite(lut).all() and (lut >= 0).all()
+    for lo, hi in (sky_atmosphere.sun_pixels(0.0, 0.0005, 0.0, 10.0, 10.0),
+                   sky_multiple.sun_pixels(-np.pi / 2, 0.0005, 1e6, 0.0, 10.0, 10.0)):
+        assert np.isfinite(lo).all() and np.isfinite(hi).all()
