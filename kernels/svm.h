@@ -53,6 +53,7 @@
 #define SVM_BLACKBODY 29              /* svm_color.h */
 #define SVM_WAVELENGTH 30
 #define SVM_BUMP 31                   /* the Bump node: svm_bump.h */
+#define SVM_TEX_SKY 35                /* svm_sky.h */
 #define PROGRAM_TANGENTS 2            /* header flags: a tangent-space Normal Map reads them */
 #define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
 #define PROGRAM_ATTRIBUTES 8          /* mesh attributes are read */
@@ -106,6 +107,7 @@ inline float4 svm_table(__global const int4 *t, int n, float x, float lo, float 
 
 #include "svm_textures.h"
 #include "svm_image.h"
+#include "svm_sky.h"
 
 /* Runs the value ops of the program at word p into stack */
 inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmContext *ctx,
@@ -290,6 +292,8 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
         } else if (op >= SVM_TEX_CHECKER && op <= SVM_TEX_LAST) {
             i = svm_texture(op, w, svm, i, stack);
             if (i < 0) return;
+        } else if (SVM_HAS(SVM_TEX_SKY) && op == SVM_TEX_SKY) {
+            i = svm_sky(w, svm, i, stack);
         } else {
             return;                           /* an op this build lacks: stop safely */
         }

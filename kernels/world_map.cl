@@ -1,16 +1,31 @@
 /* The world's importance map (ppm_engine/world_map.py): the radiance of the world's shader
  * program at the centre of each texel of a w x h lat-long map (Cycles' equirectangular
- * directions, row 0 at the nadir), as Cycles bakes its background map. */
+ * directions, row 0 at the nadir), as Cycles bakes its background map; the texels near a sun
+ * disc averaged over sub x sub points. */
 #include "world_map.h"
 #include "rng.h"
 
 __kernel void world_bake(__global const int4 *svm, TEXTURE_ARGS, int program, int w, int h,
-                         __global float4 *out) {
+                         float4 sun, int sub, __global float4 *out) {
     int id = get_global_id(0);
     if (id >= w * h) return;
     int i = id / w, j = id % w;
     float3 d = equirect_to_direction(((float)j + 0.5f) / (float)w, ((float)i + 0.5f) / (float)h);
-    out[id] = (float4)(svm_world(svm, program, d, TEXTURE_PASS), 0.0f);
+    float3 L = (float3)(0.0f);
+    if (sub > 1 && dot(d, sun.xyz) > sun.w) {
+        /* a texel near a sun disc (a sky's, world_map.sun_hint): the mean of sub x sub points
+         * of it, so that the map sees a disc smaller than a texel */
+        for (int a = 0; a < sub; a++)
+            for (int b = 0; b < sub; b++) {
+                float3 e = equirect_to_direction(((float)j + ((float)b + 0.5f) / (float)sub) / w,
+                                                 ((float)i + ((float)a + 0.5f) / (float)sub) / h);
+                L += svm_world(svm, program, e, TEXTURE_PASS);
+            }
+        L /= (float)(sub * sub);
+    } else {
+        L = svm_world(svm, program, d, TEXTURE_PASS);
+    }
+    out[id] = (float4)(L, 0.0f);
 }
 
 /* Tests (tests/test_world.py): n directions sampled from the map with their densities, and the

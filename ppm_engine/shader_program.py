@@ -73,20 +73,26 @@ SVM_WAVELENGTH = 30    # (op, out, wavelength, 0)
 SVM_BUMP = 31          # (op, out, normal (-1: the shading normal), distance)
 #                        + (height at the centre, at offset 1, at offset 2, strength)
 #                        + (invert, filter width, 0, 0): the Bump node (kernels/svm_bump.h)
-SVM_OPS = 32           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
+# (32-34: free)
+SVM_TEX_SKY = 35       # (op, color, vector, SKY_*) + (n, 0, 0, 0) + n words of float
+#                        parameters (kernels/svm_sky.h; export/sky.py)
+SVM_OPS = 36           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
 
 OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
             "combine", "color_convert", "invert", "gamma", "bright_contrast", "rgb_to_bw",
             "clamp", "map_range", "table", "hsv", "fresnel", "layer_weight", "normal_map",
             "tex_checker", "tex_gradient", "tex_white_noise", "tex_noise", "tex_magic",
-            "tex_wave", "tex_brick", "tex_voronoi", "blackbody", "wavelength", "bump")
+            "tex_wave", "tex_brick", "tex_voronoi", "blackbody", "wavelength", "bump", "(32)",
+            "(33)", "(34)", "tex_sky")
 # parameter words after each op's first word
 OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 2, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_MATH: 1,
             SVM_MIX: 1, SVM_COMBINE: 1, SVM_BRIGHT_CONTRAST: 1, SVM_CLAMP: 1, SVM_MAP_RANGE: 2,
             SVM_HSV: 1, SVM_TABLE: 2, SVM_NORMAL_MAP: 1,   # (+ a table's entries, op_words)
             SVM_TEX_CHECKER: 1, SVM_TEX_GRADIENT: 1, SVM_TEX_WHITE_NOISE: 1, SVM_TEX_NOISE: 5,
             SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6,
-            SVM_BUMP: 2}
+            SVM_BUMP: 2, SVM_TEX_SKY: 1}   # (a sky's n parameter words follow)
+SKY_TYPES = {"PREETHAM": 0, "HOSEK_WILKIE": 1, "SINGLE_SCATTERING": 2,
+             "MULTIPLE_SCATTERING": 2}     # kernels/svm_sky.h SKY_*
 assert len(OP_NAMES) == SVM_OPS <= 64
 # an Image Texture's projection (and the Environment Texture's equirectangular one)
 IMAGE_PROJECTIONS = {"FLAT": 0, "EQUIRECTANGULAR": 1, "BOX": 2, "SPHERE": 3, "TUBE": 4,
@@ -205,10 +211,11 @@ def ops_used(svm: np.ndarray, starts) -> int:
 
 
 def op_words(svm: np.ndarray, i: int) -> int:
-    """Words of the op at word ``i``: its first, its parameters, and the entries of a table
-    or an image's UDIM tiles."""
+    """Words of the op at word ``i``: its first, its parameters, and the entries of a table,
+    an image's UDIM tiles or a sky's parameters."""
     op = int(svm[i, 0])
-    tail = int(svm[i, 3]) if op == SVM_TABLE else int(svm[i + 1, 3]) if op == SVM_IMAGE else 0
+    tail = (int(svm[i, 3]) if op == SVM_TABLE else int(svm[i + 1, 3]) if op == SVM_IMAGE
+            else int(svm[i + 1, 0]) if op == SVM_TEX_SKY else 0)
     return 1 + OP_EXTRA.get(op, 0) + tail
 
 

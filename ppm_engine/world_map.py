@@ -10,7 +10,8 @@ import dataclasses
 
 import numpy as np
 
-from .shader_program import SVM_IMAGE, ops_define, ops_used, stack_used
+from .shader_program import (SKY_TYPES, SVM_END, SVM_IMAGE, SVM_OPS, SVM_TEX_SKY, op_words,
+                             ops_define, ops_used, stack_used)
 
 DEFAULT_WIDTH = 512        # without an Environment Texture (Cycles: 1024)
 MAX_WIDTH = 1024           # the cap of the automatic resolution (an environment image's width)
@@ -90,9 +91,39 @@ def bake_defines(svm: np.ndarray, program: int) -> dict:
             **({"PPM_TEXTURES": True} if ops & (1 << SVM_IMAGE) else {})}
 
 
+def sun_hint(svm: np.ndarray, program: int, width: int, height: int) -> np.ndarray:
+    """(sun direction, cos of the angle within which texels are supersampled): the first sun
+    disc of a Sky Texture in the world's program (its Vector is then the ray's direction), or
+    a direction no texel is near; the disc (0.5 degrees for the real sun) is smaller than a
+    texel, which the texel's centre alone would mostly miss."""
+    none = np.array([0.0, 0.0, 1.0, 2.0], np.float32)
+    if program <= 0:
+        return none
+    n_binds, n_words = int(svm[program, 0]), int(svm[program, 1])
+    i, end = program + 1 + n_binds, program + n_words
+    while i < end:
+        op = int(svm[i, 0])
+        if op == SVM_END or not 0 < op < SVM_OPS:
+            break
+        if op == SVM_TEX_SKY and int(svm[i, 3]) == SKY_TYPES["SINGLE_SCATTERING"]:
+            p = svm[i + 2:i + 5].ravel().view(np.float32)
+            elevation, rotation, diameter = float(p[6]), float(p[7]), float(p[8])
+            if diameter > 0.0:            # (Cycles' sun direction of the kernel's sky)
+                st, sp = elevation - np.pi / 2, rotation - np.pi / 2
+                d = (np.sin(st) * np.cos(sp), np.sin(st) * np.sin(sp), np.cos(st))
+                margin = 1.5 * max(2 * np.pi / width, np.pi / height)
+                return np.array([*d, np.cos(diameter / 2 + margin)], np.float32)
+        i += op_words(svm, i)
+    return none
+
+
+SUN_SUPERSAMPLING = 8      # points per side of a texel near a sun disc
+
+
 def bake(device, args: dict, svm: np.ndarray, program: int, width: int, height: int) -> np.ndarray:
-    """The world's radiance (h, w, 3) at the map's texel centres, evaluated on ``device``;
-    ``args``: the scene's buffers (svm, textures, texels, uvs)."""
+    """The world's radiance (h, w, 3) at the map's texel centres (near a sun disc: the mean
+    over the texel, sun_hint), evaluated on ``device``; ``args``: the scene's buffers (svm,
+    textures, texels, uvs)."""
     import pyopencl as cl
     prog = device.programs.get("world_map.cl", bake_defines(svm, program))
     kernel = prog.launch("world_bake", "world map")
@@ -101,7 +132,7 @@ def bake(device, args: dict, svm: np.ndarray, program: int, width: int, height: 
     q = device.queue
     kernel(q, n, svm=args["svm"], textures=args["textures"], texels=args["texels"],
            uvs=args["uvs"], program=np.int32(program), w=np.int32(width), h=np.int32(height),
-           out=out)
+           sun=sun_hint(svm, program, width, height), sub=np.int32(SUN_SUPERSAMPLING), out=out)
     rgba = np.empty((height, width, 4), np.float32)
     cl.enqueue_copy(q, rgba, out).wait()
     out.release()

@@ -2,7 +2,8 @@
 
 ``Graph`` resolves links as Cycles' compiler sees them: through reroutes, muted nodes (their
 internal links), node groups (inlined: a group's Group Output leads into its tree, its Group
-Input back out to the group node's inputs) and invalid or muted links (the input's own value).
+Input back out to the group node's inputs) and invalid or muted links, or links to or from an
+unavailable socket (the input's own value).
 ``Compiler`` turns the value nodes feeding a BSDF input into ops: every output is compiled once
 per group context (a shared sub-graph is evaluated once), unlinked inputs are constants, an op
 whose inputs are all constant folds to a constant where the arithmetic is simple (Math,
@@ -28,6 +29,7 @@ from .shader_nodes import VALUE_NODES
 from .shader_spectra import SPECTRAL_NODES
 from .shader_textures import TEXTURE_NODES
 from .shader_values import ShadingNormal, Val, width
+from .sky import SKY_NODES
 
 _MAX_DEPTH = 256
 # Cycles' luminance weights for colour -> float (linear Rec. 709, Blender's default scene space)
@@ -47,7 +49,8 @@ class Graph:
             if socket is None or not socket.is_linked:
                 return None
             link = socket.links[0]
-            if not link.is_valid or link.is_muted:
+            if not link.is_valid or link.is_muted or not socket.enabled \
+                    or not link.from_socket.enabled:      # (Cycles: unavailable sockets)
                 return None
             node, out = link.from_node, link.from_socket
             kind = node.bl_idname
@@ -334,4 +337,4 @@ class Compiler:
 
 # every node type a program evaluates: bl_idname -> fn(compiler, node, output, ctx) -> Val
 NODES = {**INPUT_NODES, **VALUE_NODES, **IMAGE_NODES, **TEXTURE_NODES, **SPECTRAL_NODES,
-         **BUMP_NODES}
+         **BUMP_NODES, **SKY_NODES}
