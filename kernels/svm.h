@@ -67,6 +67,9 @@
 #define MIXF_CLAMP_RESULT 2
 #define MIXF_SCALAR 4
 #define MIXF_VECTOR_FACTOR 8
+/* the object's matrices in the context: Mapping and Vector Transform, object-space normal maps */
+#define SVM_OBJECT_MATRICES \
+    (((PPM_SVM_OPS >> SVM_MAPPING) & 1) || ((PPM_SVM_OPS >> SVM_NORMAL_MAP) & 1))
 
 #include "svm_context.h"
 
@@ -153,7 +156,7 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
             float4 r0 = as_float4(svm[i]), r1 = as_float4(svm[i + 1]), r2 = as_float4(svm[i + 2]);
             i += 3;
             int t = w.w;
-#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+#if SVM_OBJECT_MATRICES
             if (t >= 4) {             /* the object's own matrices (MAPPING_OBJECT_*) */
                 const float4 *m = t < 7 ? ctx->to_object : ctx->to_world;
                 const float4 *n = t < 7 ? ctx->to_world : ctx->to_object;

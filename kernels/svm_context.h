@@ -60,7 +60,7 @@ typedef struct {
     float3 P_object;     /* the position in the object's space */
     float3 window;       /* the camera's Window coordinates (0 where not read) */
     float4 object[3];    /* the object's (location, pass index), colour, (random, 0, 0, 0) */
-#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+#if SVM_OBJECT_MATRICES
     float4 to_object[3], to_world[3];   /* its inverse and world matrices (Vector Transform) */
 #endif
     float4 attr[PPM_ATTRIBUTES];  /* the mesh attributes programs read, at the point */
@@ -92,7 +92,7 @@ inline SvmContext svm_context_base(float2 uv, float3 P, uint path, float path_le
     cx.path_length = path_length;
     for (int r = 0; r < 3; r++) {
         cx.object[r] = (float4)(0.0f);
-#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+#if SVM_OBJECT_MATRICES
         cx.to_object[r] = cx.to_world[r] = (float4)(r == 0, r == 1, r == 2, 0.0f);
 #endif
     }
@@ -129,7 +129,7 @@ inline void svm_corner_data(SvmContext *cx, __global const int4 *svm, int p, uin
         cx->object[0] = o[3];
         cx->object[1] = o[4];
         cx->object[2] = o[5];
-#if (PPM_SVM_OPS >> SVM_MAPPING) & 1
+#if SVM_OBJECT_MATRICES
         for (int r = 0; r < 3; r++) {
             cx->to_object[r] = o[r];
             cx->to_world[r] = o[6 + r];
@@ -177,8 +177,8 @@ inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u
 /* Cycles' Normal Map node (learnt from its svm_node_normal_map): the colour's tangent-space
  * normal (space 0) in the frame of the UV tangent, the interpolated normal and their
  * bitangent, the strength applied in tangent space; or a world-space normal (spaces 1-4:
- * object and world, Blender's object and world with y and z negated; object space is taken
- * as world space, warned about at export) interpolated from N by the strength.  On the
+ * object and world, Blender's object and world with y and z negated; object space through
+ * the object's inverse transpose) interpolated from N by the strength.  On the
  * viewer's side; N itself where the result is degenerate or no tangent exists. */
 inline float3 svm_normal_map(const SvmContext *cx, int space, float3 color, float strength) {
     float3 c = 2.0f * color - 1.0f, N;
@@ -195,6 +195,12 @@ inline float3 svm_normal_map(const SvmContext *cx, int space, float3 color, floa
     } else {
         if (space >= 3) c.yz = -c.yz;
         N = svm_safe_normalize(c);
+#if SVM_OBJECT_MATRICES
+        /* object space (1, 3): to world by the inverse transpose of the object's matrix */
+        if (space == 1 || space == 3)
+            N = svm_safe_normalize(N.x * cx->to_object[0].xyz + N.y * cx->to_object[1].xyz
+                                   + N.z * cx->to_object[2].xyz);
+#endif
     }
     if (back) N = -N;
     if (space != 0 && strength != 1.0f)

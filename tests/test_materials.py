@@ -120,6 +120,32 @@ def _normal_mapped(mat):
     t.links.new(nm.outputs[0], t.nodes["Principled BSDF"].inputs["Normal"])
 
 
+def _object_normal_mapped(mat):
+    """A glossy plastic whose Normal comes from an object-space Normal Map: the object-space
+    normal tilted along the object's X (Texture Coordinate Normal + (0.5, 0, 0), as a colour);
+    the sphere is turned (``rotation``), so object space is not world space."""
+    _principled(mat, **{"Base Color": (0.3, 0.6, 0.4), "Roughness": 0.3})
+    t = mat.node_tree
+    tc, add, col = (t.nodes.new(n) for n in ("ShaderNodeTexCoord", "ShaderNodeVectorMath",
+                                              "ShaderNodeVectorMath"))
+    add.operation = "NORMALIZE"
+    tilt = t.nodes.new("ShaderNodeVectorMath")
+    tilt.operation = "ADD"
+    tilt.inputs[1].default_value = (0.5, 0.0, 0.0)
+    t.links.new(tc.outputs["Normal"], tilt.inputs[0])
+    t.links.new(tilt.outputs[0], add.inputs[0])
+    col.operation = "MULTIPLY_ADD"
+    col.inputs[1].default_value = col.inputs[2].default_value = (0.5, 0.5, 0.5)
+    t.links.new(add.outputs[0], col.inputs[0])
+    nm = t.nodes.new("ShaderNodeNormalMap")
+    nm.space = "OBJECT"
+    t.links.new(col.outputs[0], nm.inputs["Color"])
+    t.links.new(nm.outputs[0], t.nodes["Principled BSDF"].inputs["Normal"])
+
+
+_object_normal_mapped.rotation = (0.7, 0.4, 1.9)
+
+
 def _bumped(mat, diffuse=False):
     """A rough plastic (or a diffuse BSDF) whose Normal comes from a Bump node on a Noise
     Texture's height (on the Object coordinates): the heights at the ray footprint's offsets on
@@ -168,10 +194,12 @@ MATERIALS = {
     "translucent": lambda m: _replace(m, "ShaderNodeBsdfTranslucent", Color=(0.8, 0.7, 0.5)),
     "node_graph": _node_graph,
     "normal_map": _normal_mapped,
+    "object_normal_map": _object_normal_mapped,
     "bump": _bumped,
     "bump_diffuse": lambda m: _bumped(m, diffuse=True),
 }
-DEFAULT_DIRECT = {"plastic", "mix", "node_graph", "normal_map", "bump"}  # the rest: -m slow
+DEFAULT_DIRECT = {"plastic", "mix", "node_graph", "normal_map", "object_normal_map",
+                  "bump"}  # the rest: -m slow
 DEFAULT_FULL = {"rough_glass", "sheen"}
 
 
@@ -183,6 +211,7 @@ def _scene(material: str, floor: bool, world: float, light: bool):
     bpy.ops.object.shade_smooth()
     mat = bpy.data.materials.new(material)
     MATERIALS[material](mat)
+    sphere.rotation_euler = getattr(MATERIALS[material], "rotation", (0.0, 0.0, 0.0))
     sphere.data.materials.append(mat)
     if floor:
         bpy.ops.mesh.primitive_plane_add(size=8, location=(0, 0, -0.5))

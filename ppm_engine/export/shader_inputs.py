@@ -154,8 +154,7 @@ def _normal_map(c, node, out, ctx):
     tangent space's frame from the UV map's MikkTSpace tangents (SceneArrays.uv_tangents)."""
     space = NORMAL_MAP_SPACES.get(node.space, 0)
     if node.space in ("OBJECT", "BLENDER_OBJECT"):
-        c.warn(f"'{node.name}' maps normals in object space; this engine takes them as world "
-               "space (exact for objects that are not rotated)")
+        c.flags |= PROGRAM_OBJECT             # the object's matrices (svm_normal_map)
     if space == 0:
         _named_uv_map(c, node, getattr(node, "uv_map", ""))
         c.flags |= PROGRAM_TANGENTS
