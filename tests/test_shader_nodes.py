@@ -320,8 +320,8 @@ def test_ramps_curves_and_mapping_as_cycles(cycles, render_exr, tmp_path, tiny):
 
 def test_normal_map_as_cycles(cycles, render_exr, tmp_path, tiny):
     """The Normal Map node's output (tangent space from the UV map's tangents on planes turned,
-    mirrored and seen from the back; world and Blender's spaces; object space on planes that
-    are not rotated, the one case where this engine's reading (as world space) is exact)."""
+    mirrored and seen from the back; world and Blender's spaces; object space on planes turned
+    and mirrored, through the object's inverse transpose)."""
     import math
 
     def nmap(space="TANGENT", strength=1.0, **plane):
@@ -338,7 +338,13 @@ def test_normal_map_as_cycles(cycles, render_exr, tmp_path, tiny):
              "world": nmap("WORLD"), "world 0.5": nmap("WORLD", 0.5),
              "blender world": nmap("BLENDER_WORLD"), "object": nmap("OBJECT"),
              "blender object": nmap("BLENDER_OBJECT"),
-             "blender world back": nmap("BLENDER_WORLD", rx=math.pi)}
+             "blender world back": nmap("BLENDER_WORLD", rx=math.pi),
+             # (turned by quarter turns: the planes keep to their squares of the grid)
+             "object turned": nmap("OBJECT", rz=math.pi / 2),
+             "object mirrored": nmap("OBJECT", sx=-1.0),
+             "object back": nmap("OBJECT", rx=math.pi),
+             "blender object turned": nmap("BLENDER_OBJECT", rz=-math.pi / 2),
+             "object turned 0.6": nmap("OBJECT", 0.6, rz=math.pi)}
     _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
 
 
