@@ -441,6 +441,17 @@ def test_film_settings_are_cycles_film(empty, kind, width, expect):
     assert export().camera[0]["film_transparent"] == 0
 
 
+def test_film_settings_not_a_number_are_refused():
+    """A film exposure or filter width that is not a number: a SceneError naming the setting."""
+    from types import SimpleNamespace
+    from ppm_engine.export.camera import film_settings
+    for name in ("film_exposure", "filter_width"):
+        cycles = SimpleNamespace(**{name: float("nan")})
+        with pytest.raises(SceneError, match=name.replace("_", " ")):
+            film_settings(SimpleNamespace(cycles=cycles,
+                                          render=SimpleNamespace(film_transparent=False)))
+
+
 def test_film_settings_without_cycles_are_its_defaults():
     """Without the Cycles add-on (no scene.cycles): Cycles' defaults."""
     from types import SimpleNamespace

@@ -92,6 +92,10 @@ def film_settings(scene) -> dict:
         value = getattr(cycles, name, None) if cycles is not None else None
         return CYCLES_FILM_DEFAULTS[name] if value is None else value
 
+    for name in ("filter_width", "film_exposure", "film_transparent_roughness"):
+        if not np.isfinite(float(get(name))):
+            raise SceneError(f"the film's {name.replace('_', ' ')} is not a number: set it in "
+                             "Render Properties > Film")
     kind = _FILTERS.get(str(get("pixel_filter_type")), FILTER_BLACKMAN_HARRIS)
     # Blender's Cycles renders the box one pixel wide, whatever the width (it hides it)
     width = 1.0 if kind == FILTER_BOX else max(float(get("filter_width")), 0.01)
@@ -101,4 +105,4 @@ def film_settings(scene) -> dict:
                                           if get("film_transparent_glass") else 0)
     return dict(filter_type=kind, filter_width=width, film_transparent=transparent,
                 glass_roughness=float(get("film_transparent_roughness")),
-                exposure=float(get("film_exposure")))
+                exposure=max(float(get("film_exposure")), 0.0))
