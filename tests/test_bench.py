@@ -29,7 +29,8 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
             "--markdown", md, timeout=900)
     assert p.returncode == 0, p.stderr
     res = json.loads((tmp_path / "b.json").read_text())
-    assert set(res["scenes"]) == {"cornell_box", "bulb_box", "glass_caustic", "mirror_caustic"}
+    assert set(res["scenes"]) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
+                                  "mirror_caustic"}
     for name, s in res["scenes"].items():
         curves = {"ours", "cycles"} | ({"cycles_mnee"} if "caustic" in name else set())
         assert set(s["curves"]) == curves
@@ -45,7 +46,8 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
                     math.sqrt(max(e["rmse"] ** 2 - ref["noise_rmse"] ** 2, 0.0)), abs=1e-9)
                 assert r["wall_s"] >= r["seconds"] * 0.5
         # two halves rendered with different seeds differ: the reference has measured noise
-        assert ref["noise_rmse"] > 0 and ref["mean"] > 0
+        # (the furnace's is its closed form: none)
+        assert (ref["noise_rmse"] > 0) == (name != "furnace") and ref["mean"] > 0
         assert ref["noise_rel_rmse"] == pytest.approx(ref["noise_rmse"] / ref["mean"], rel=1e-6)
         # the references agree with each other: Cycles' longest render is no more than a few
         # tens of percent off ours in mean, even at 16x16 and one second
@@ -54,8 +56,11 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         assert ours[-1]["passes"] >= ours[0]["passes"] >= 1
         # references independent of the engine measured: Cycles, or light tracing (which
         # leaves out the pixels it cannot render) checked against Cycles on the Cornell box
-        assert ref["engine"] == ("CYCLES" if name == "cornell_box" else "LIGHT_TRACE")
-        if name != "cornell_box":      # (at 16 x 16 the filter's reach is a large share)
+        assert ref["engine"] == {"cornell_box": "CYCLES", "furnace": "ANALYTIC"}.get(
+            name, "LIGHT_TRACE")
+        if name == "furnace":
+            assert ref["mean"] == pytest.approx(1.0)        # E / (1 - albedo) = 0.5 / 0.5
+        elif name != "cornell_box":    # (at 16 x 16 the filter's reach is a large share)
             assert 0 < s["excluded_pixels"] < 0.75 * 256
     check = res["scenes"]["cornell_box"]["light_trace_check"]
     assert check["passes"] >= 1 and 0.7 < check["mean_over_reference"] < 1.3

@@ -10,13 +10,14 @@ is.  The geometry matches ``ppm_engine.procedural.cornell_box`` (the arrays vers
 core tests and the benchmark)."""
 from __future__ import annotations
 
-from . import bulb_box, caustics, cornell_box
+from . import bulb_box, caustics, cornell_box, furnace
 
 EXAMPLES = {
     "cornell_box": cornell_box.build,
     "bulb_box": bulb_box.build,
     "glass_caustic": caustics.glass_caustic,     # also the benchmark's caustic scenes
     "mirror_caustic": caustics.mirror_caustic,
+    "furnace": furnace.build,                    # the benchmark's closed-form scene
 }
 
 
