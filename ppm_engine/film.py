@@ -110,24 +110,29 @@ class Film:
 FILTER_TABLE_SIZE = 256
 
 
-def filter_table(width: float, kind: int = FILTER_BLACKMAN_HARRIS) -> np.ndarray:
-    """Inverse CDF of Cycles' pixel filter (scene/film.cpp), sampled at FILTER_TABLE_SIZE
-    uniform u; the eye pass jitters each axis with it.  Supports as Cycles': the box +-width/2
-    (Blender's Cycles passes width 1 for the box), the Gaussian +-1.5 width with sigma width/4,
-    Blackman-Harris +-width.  Blackman-Harris of width <= 0 (files from before the filter
-    type): the one-pixel box."""
-    u = (np.arange(FILTER_TABLE_SIZE) + 0.5) / FILTER_TABLE_SIZE
+def filter_shape(width: float, kind: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Cycles' pixel filter (scene/film.cpp) in pixel units: n offsets x over its support and
+    its unnormalised weights f there.  Supports as Cycles': the box +-width/2 (Blender's Cycles
+    passes width 1 for the box), the Gaussian +-1.5 width with sigma width/4, Blackman-Harris
+    +-width.  Blackman-Harris of width <= 0 (files from before the filter type): the one-pixel
+    box."""
     if kind == FILTER_BOX or width <= 0:
         w = width if kind == FILTER_BOX and width > 0 else 1.0
-        return ((u - 0.5) * w).astype(np.float32)
+        return np.linspace(-0.5 * w, 0.5 * w, n), np.ones(n)
+    reach = 1.5 * width if kind == FILTER_GAUSSIAN else width
+    x = np.linspace(-reach, reach, n)
     if kind == FILTER_GAUSSIAN:
-        half = 1.5 * width
-        x = np.linspace(-half, half, 4097)
-        f = np.exp(-8.0 * (x / width) ** 2)
-    else:
-        x = np.linspace(-width, width, 4097)
-        v = 2 * np.pi * (x / (2 * width) + 0.5)
-        f = 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
+        return x, np.exp(-8.0 * (x / width) ** 2)
+    v = 2 * np.pi * (x / (2 * width) + 0.5)
+    f = 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
+    return x, np.maximum(f, 0.0)
+
+
+def filter_table(width: float, kind: int = FILTER_BLACKMAN_HARRIS) -> np.ndarray:
+    """Inverse CDF of the pixel filter (filter_shape), sampled at FILTER_TABLE_SIZE uniform u;
+    the eye pass jitters each axis with it."""
+    u = (np.arange(FILTER_TABLE_SIZE) + 0.5) / FILTER_TABLE_SIZE
+    x, f = filter_shape(width, kind, 4097)
     cdf = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(x))])
     cdf /= cdf[-1]
     return np.interp(u, cdf, x).astype(np.float32)

@@ -10,27 +10,17 @@ import numpy as np
 
 from .device import SHADING_GROUP, get_device
 from .device_scene import DeviceScene
-from .scene_arrays import FILTER_BOX, FILTER_GAUSSIAN, SceneArrays
+from .film import filter_shape
+from .scene_arrays import SceneArrays
 
 FILTER_SAMPLES = 257
 
 
 def filter_density(width: float, kind: int) -> tuple[np.ndarray, float]:
     """The pixel filter's 1D density (integral 1, pixel units) sampled at FILTER_SAMPLES points
-    over [-reach, reach], and reach: the filter film.filter_table samples (Cycles')."""
-    if kind == FILTER_BOX or width <= 0:
-        w = width if kind == FILTER_BOX and width > 0 else 1.0
-        reach = 0.5 * w
-        return np.full(FILTER_SAMPLES, 1.0 / w, np.float32), reach
-    reach = 1.5 * width if kind == FILTER_GAUSSIAN else width
-    x = np.linspace(-reach, reach, FILTER_SAMPLES)
-    if kind == FILTER_GAUSSIAN:
-        f = np.exp(-8.0 * (x / width) ** 2)
-    else:
-        v = 2 * np.pi * (x / (2 * width) + 0.5)
-        f = 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
-    f = np.maximum(f, 0.0)
-    return (f / np.trapz(f, x)).astype(np.float32), float(reach)
+    over [-reach, reach], and reach: the filter the eye pass samples (film.filter_shape)."""
+    x, f = filter_shape(width, kind, FILTER_SAMPLES)
+    return (f / np.trapz(f, x)).astype(np.float32), float(x[-1])
 
 
 class LightTracer:
