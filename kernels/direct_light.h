@@ -30,7 +30,7 @@ inline float emitter_pmf(__global const float *cdf, int e) {
 inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
                           __global const Light *lights, int n_lights, uint ray_type,
                           __global const float *emitter_cdf, float *pdf_light) {
-    float3 L = (float3)(0.0f);
+    float3 L = (float3)(0.0f), Lsun = (float3)(0.0f);
     float best = tmax, pdf = 0.0f;
     int seen = -1;
     for (int i = 0; i < n_lights; i++) {
@@ -39,28 +39,21 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
         float before = best;
         if (PPM_LIGHT_AREA && (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE))
             area_seen(&l, o, d, &best, &L, &pdf);
-        else if (PPM_LIGHT_POINT && l.type != LIGHT_SUN)
+        else if (PPM_LIGHT_SUN && l.type == LIGHT_SUN) {
+            if (escaped) Lsun += sun_seen(&l, d);
+        } else if (PPM_LIGHT_POINT)
             point_seen(&l, o, d, &best, &L, &pdf);
         if (best != before) seen = i;
     }
     *pdf_light = seen >= 0 ? pdf * emitter_pmf(emitter_cdf, seen) : 0.0f;
-#if PPM_LIGHT_SUN
     /* suns, behind everything: a ray that escapes the scene and meets no other light.
      * Next-event estimation samples a sun without MIS (sun_direct: pdf_dir 0), so a sun a
      * sampled direction finds counts only after a singular bounce or the camera (density
      * INFINITY: path_mis weighs it 0 after any other). */
-    if (escaped && seen < 0) {
-        for (int i = 0; i < n_lights; i++) {
-            Light l = lights[i];
-            if (l.type != LIGHT_SUN || (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT))) continue;
-            float3 Ls = sun_seen(&l, d);
-            if (max3(Ls) > 0.0f) {
-                L += Ls;
-                *pdf_light = INFINITY;
-            }
-        }
+    if (seen < 0 && max3(Lsun) > 0.0f) {
+        L = Lsun;
+        *pdf_light = INFINITY;
     }
-#endif
     return L;
 }
 

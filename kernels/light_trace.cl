@@ -14,12 +14,12 @@
 #include "medium.h"
 
 /* p seen by the pinhole camera: raster position (full-frame pixels, y up), the unit direction
- * from p to the camera and the factor from a radiance at p to the film's measure (pixel area),
- * without the pixel filter: 1 / (d^2 cos^3 theta A_pixel) for a perspective camera,
- * 1 / A_pixel for an orthographic one.  False when p is behind, outside the clip range or
- * outside the frame's filter reach. */
+ * from p to the camera, its distance (orthographic: to the view plane) and the factor from a
+ * radiance at p to the film's measure (pixel area), without the pixel filter:
+ * 1 / (d^2 cos^3 theta A_pixel) for a perspective camera, 1 / A_pixel for an orthographic one.
+ * False when p is behind, outside the clip range or outside the frame's filter reach. */
 inline bool camera_project(__global const Camera *cam, float3 p, float reach, float *px,
-                           float *py, float3 *to_cam, float *we) {
+                           float *py, float3 *to_cam, float *dist, float *we) {
     __global const float *m = cam->to_world;
     float3 c = (float3)(m[3], m[7], m[11]);
     float3 ax = (float3)(m[0], m[4], m[8]), ay = (float3)(m[1], m[5], m[9]),
@@ -34,12 +34,14 @@ inline bool camera_project(__global const Camera *cam, float3 p, float reach, fl
         xc = pc.x;
         yc = pc.y;
         *to_cam = az;
+        *dist = depth;
         *we = 1.0f / a_pix;
     } else {
         xc = pc.x / depth;
         yc = pc.y / depth;
         float d2 = dot(v, v), cos_c = depth / sqrt(d2);
-        *to_cam = -v / sqrt(d2);
+        *dist = sqrt(d2);
+        *to_cam = -v / *dist;
         *we = 1.0f / (d2 * cos_c * cos_c * cos_c * a_pix);
     }
     *px = ((xc - cam->shift[0]) / cam->extent[0] + 0.5f) * (float)cam->width;
@@ -115,9 +117,9 @@ __kernel void light_trace(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
 #endif
         Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
         /* the connection to the camera: the closures as the camera sees them */
-        float px, py, we;
+        float px, py, dist, we;
         float3 wc;
-        if (camera_project(cam, s.p, reach, &px, &py, &wc, &we)) {
+        if (camera_project(cam, s.p, reach, &px, &py, &wc, &dist, &we)) {
             ShaderData sc;
             shader_setup(&sc, s.material, s.tri, h.u, h.v, s.p, PATH_CAMERA, h.t, s.ng, s.ns,
                          wc, footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
@@ -128,11 +130,6 @@ __kernel void light_trace(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             float3 f = shader_eval(&sc, -d, MASK_ALL, &pdf);     /* f cos(light side) */
             float cos_lg = fabs(dot(s.ng, d)), cos_cg = fabs(dot(s.ng, wc));
             if (max3(f) > 0.0f && cos_lg > 0.0f) {
-                float dist = cam->type == CAMERA_ORTHO
-                    ? -dot(s.p - (float3)(cam->to_world[3], cam->to_world[7], cam->to_world[11]),
-                           (float3)(cam->to_world[2], cam->to_world[6], cam->to_world[10]))
-                    : distance(s.p, (float3)(cam->to_world[3], cam->to_world[7],
-                                             cam->to_world[11]));
                 bool front = dot(wc, s.ng) > 0.0f;
                 float3 org = offset_ray(s.p, front ? s.ng : -s.ng, emitter_info->offset_scale);
                 float3 T = shadow_transmittance(org, wc, dist * 0.9999f, SCENE_PASS);
