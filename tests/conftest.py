@@ -149,3 +149,19 @@ def render_exr(bpy, exr):
         assert np.isfinite(img).all()
         return img[..., :3]
     return render
+
+
+@pytest.fixture(scope="session")
+def render_direct(cycles, tiny, render_exr):
+    """render_direct(scene, folder, width, height, samples, passes, photons=64) -> (ours,
+    Cycles' RGB): the scene without bounces (direct light and what the camera sees), by Cycles
+    at ``samples`` per pixel and by this engine in ``passes`` passes, width x height."""
+    def run(scene, folder, width, height, samples, passes, photons=64):
+        cycles(scene, samples, width=width)
+        scene.render.resolution_y = height
+        scene.cycles.max_bounces = 0
+        ref = render_exr(folder / "cycles.exr")
+        tiny(scene, width=width, height=height, passes=passes, photons=photons)
+        scene.ppm.max_bounces = 0
+        return render_exr(folder / "ours.exr"), ref
+    return run

@@ -139,16 +139,6 @@ def _camera(scene, ortho_width=None, location=(0, 0, 5), rotation=(0, 0, 0)):
     scene.camera = cam
 
 
-def _render_both(scene, cycles, render_exr, tmp_path, tiny, w, h, samples, passes):
-    cycles(scene, samples, width=w)
-    scene.render.resolution_y = h
-    scene.cycles.max_bounces = 0
-    ref = render_exr(tmp_path / "cycles.exr")
-    tiny(scene, width=w, height=h, passes=passes, photons=64)
-    scene.ppm.max_bounces = 0
-    return render_exr(tmp_path / "ours.exr"), ref
-
-
 def _triangle(name, location):
     """One triangle covering the square [-1, 1]^2 around ``location`` (a plane's two triangles
     would share a diagonal that Cycles' shadow rays from samples exactly on it can find: black
@@ -165,7 +155,7 @@ def _triangle(name, location):
     return obj
 
 
-def test_bump_linear_height_per_pixel_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_bump_linear_height_per_pixel_as_cycles(render_direct, tmp_path):
     scene = _sun_scene()
     names = list(LINEAR)
     cols = 5
@@ -180,7 +170,7 @@ def test_bump_linear_height_per_pixel_as_cycles(cycles, render_exr, tmp_path, ti
         LINEAR[name](*_diffuse(mat))
         obj.data.materials.append(mat)
     _camera(scene, ortho_width=4.0 * cols)
-    ours, ref = _render_both(scene, cycles, render_exr, tmp_path, tiny, cols * 2 * T,
+    ours, ref = render_direct(scene, tmp_path, cols * 2 * T,
                              rows * 2 * T, 4, 2)
     flat = 0.8 / math.pi * 3.0 * math.cos(SUN[0])       # the unbumped plane
     bad = []
@@ -195,7 +185,7 @@ def test_bump_linear_height_per_pixel_as_cycles(cycles, render_exr, tmp_path, ti
     assert not bad, f"planes differing from Cycles (max abs error, Cycles', ours): {bad}"
 
 
-def test_bump_noise_height_per_block_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_bump_noise_height_per_block_as_cycles(render_direct, tmp_path):
     """A Noise Texture's height (on the default Generated coordinates) through a perspective
     camera: the heights at the footprint's offsets, the perspective differential.  Both images
     average the same shading over 16 different positions in each pixel (Cycles' sampler, this
@@ -212,7 +202,7 @@ def test_bump_noise_height_per_block_as_cycles(cycles, render_exr, tmp_path, tin
     t.links.new(b.outputs[0], d.inputs["Normal"])
     bpy.context.active_object.data.materials.append(mat)
     _camera(scene, location=(0.0, -2.5, 3.5), rotation=(math.radians(35.0), 0.0, 0.0))
-    ours, ref = _render_both(scene, cycles, render_exr, tmp_path, tiny, 32, 32, 16, 16)
+    ours, ref = render_direct(scene, tmp_path, 32, 32, 16, 16)
     blocks = [x.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3)) for x in (ours, ref)]
     flat = 0.8 / math.pi * 3.0 * math.cos(SUN[0])
     assert np.ptp(blocks[1]) > 0.1 * flat          # the bumps show
@@ -223,7 +213,7 @@ def test_bump_noise_height_per_block_as_cycles(cycles, render_exr, tmp_path, tin
 
 
 @pytest.mark.parametrize("view", ["ortho", "perspective"])
-def test_bump_footprint_per_column_as_cycles(view, cycles, render_exr, tmp_path, tiny):
+def test_bump_footprint_per_column_as_cycles(view, render_direct, tmp_path):
     """A height varying within a few pixels, differenced over a wide Filter Width (8: one period
     of the height across the footprint's offsets): the normal then depends on the footprint's
     radius (one pixel, orthographic; perspective: the camera's angular pixel at the distance
@@ -250,7 +240,7 @@ def test_bump_footprint_per_column_as_cycles(view, cycles, render_exr, tmp_path,
     else:
         _camera(scene, location=(0.0, 0.0, 3.0))
         scene.camera.data.lens, scene.camera.data.clip_start = 55.0, 2.0
-    ours, ref = _render_both(scene, cycles, render_exr, tmp_path, tiny, 32, 32, 16, 16)
+    ours, ref = render_direct(scene, tmp_path, 32, 32, 16, 16)
     cols = [x.mean(axis=(0, 2)) for x in (ours, ref)]
     flat = 0.8 / math.pi * 3.0 * math.cos(SUN[0])
     assert np.ptp(cols[1]) > 0.2 * flat                  # the bumps show (29 %)
@@ -314,7 +304,7 @@ def test_bump_footprint_after_a_mirror_per_column_as_cycles(cycles, render_exr, 
     assert err.max() < 0.01, f"worst column {err.max():.4f}: {cols[0]} {cols[1]}"
 
 
-def test_bump_image_height_per_block_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_bump_image_height_per_block_as_cycles(render_direct, tmp_path):
     """A height map: an Image Texture (8 x 8 random texels, Linear, Non-Color) on the UV map, 4
     pixels a texel: the image op compiled at each offset.  Per 8 x 8 block within 0.5 %
     (measured 0.12 %) and per pixel within 6 % (measured 4.4 %, in the pixels where the bilinear
@@ -334,7 +324,7 @@ def test_bump_image_height_per_block_as_cycles(cycles, render_exr, tmp_path, tin
     t.links.new(b.outputs[0], d.inputs["Normal"])
     obj.data.materials.append(mat)
     _camera(scene, ortho_width=2.0)
-    ours, ref = _render_both(scene, cycles, render_exr, tmp_path, tiny, 32, 32, 16, 16)
+    ours, ref = render_direct(scene, tmp_path, 32, 32, 16, 16)
     blocks = [x.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3)) for x in (ours, ref)]
     err = np.abs(blocks[0] - blocks[1]) / blocks[1]
     px_err = np.abs(ours - ref) / ref
@@ -343,7 +333,7 @@ def test_bump_image_height_per_block_as_cycles(cycles, render_exr, tmp_path, tin
     assert px_err.max() < 0.06, f"worst pixel {px_err.max():.4f}"
 
 
-def test_bump_texture_coordinate_normal_per_block_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_bump_texture_coordinate_normal_per_block_as_cycles(render_direct, tmp_path):
     """A height read from the Texture Coordinate's Normal on a smooth sphere, seen from above
     (no silhouette in view): at the offsets Cycles interpolates the smooth normal there (were
     it not moved, the height would not change: 16 % off per block, 31 % per pixel).  Per 8 x 8
@@ -360,7 +350,7 @@ def test_bump_texture_coordinate_normal_per_block_as_cycles(cycles, render_exr, 
     t.links.new(b.outputs[0], d.inputs["Normal"])
     bpy.context.active_object.data.materials.append(mat)
     _camera(scene, ortho_width=0.8)
-    ours, ref = _render_both(scene, cycles, render_exr, tmp_path, tiny, 32, 32, 16, 16)
+    ours, ref = render_direct(scene, tmp_path, 32, 32, 16, 16)
     blocks = [x.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3)) for x in (ours, ref)]
     err = np.abs(blocks[0] - blocks[1]) / blocks[1]
     px = np.abs(ours - ref) / ref

@@ -134,15 +134,9 @@ def _grid(cases):
     return scene, cols * T, rows * T
 
 
-def _compare(cases, cycles, render_exr, tmp_path, tiny, names):
+def _compare(cases, render_direct, tmp_path, names):
     scene, w, h = _grid(cases)
-    cycles(scene, 4, width=w)
-    scene.render.resolution_y = h
-    scene.cycles.max_bounces = 0
-    ref = render_exr(tmp_path / "cycles.exr")
-    tiny(scene, width=w, height=h, passes=2, photons=64)
-    scene.ppm.max_bounces = 0
-    ours = render_exr(tmp_path / "ours.exr")
+    ours, ref = render_direct(scene, tmp_path, w, h, 4, 2)
     err = np.abs(ours - ref)
     cols = w // T
     bad = []
@@ -165,16 +159,16 @@ BLENDS = [e.identifier for e in bpy.types.ShaderNodeMix.bl_rna.properties["blend
           .enum_items] if bpy else []
 
 
-def test_math_every_operation_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_math_every_operation_as_cycles(render_direct, tmp_path):
     def case(op, clamp=False):
         return lambda i: i.node("ShaderNodeMath", [(0, i.s), (1, i.y), (2, i.z)], operation=op,
                                 use_clamp=clamp).outputs[0]
     cases = [case(op) for op in MATH_OPS] + [case("SINE", True), case("SUBTRACT", True)]
-    _compare(cases, cycles, render_exr, tmp_path, tiny, MATH_OPS + ["SINE clamp",
+    _compare(cases, render_direct, tmp_path, MATH_OPS + ["SINE clamp",
                                                                     "SUBTRACT clamp"])
 
 
-def test_vector_math_every_operation_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_vector_math_every_operation_as_cycles(render_direct, tmp_path):
     def case(op):
         def build(i):
             n = i.node("ShaderNodeVectorMath", [(0, i.A), (1, i.B), (2, i.A)], operation=op)
@@ -182,10 +176,10 @@ def test_vector_math_every_operation_as_cycles(cycles, render_exr, tmp_path, tin
             value = op in ("DOT_PRODUCT", "DISTANCE", "LENGTH")
             return n.outputs["Value" if value else "Vector"]
         return build
-    _compare([case(op) for op in VMATH_OPS], cycles, render_exr, tmp_path, tiny, VMATH_OPS)
+    _compare([case(op) for op in VMATH_OPS], render_direct, tmp_path, VMATH_OPS)
 
 
-def test_mix_every_blend_mode_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_mix_every_blend_mode_as_cycles(render_direct, tmp_path):
     def case(blend, clamp_factor=True, clamp_result=False, fac=None):
         def build(i):
             n = i.node("ShaderNodeMix", data_type="RGBA", blend_type=blend,
@@ -199,10 +193,10 @@ def test_mix_every_blend_mode_as_cycles(cycles, render_exr, tmp_path, tiny):
     names = list(BLENDS)
     cases += [case("MULTIPLY", clamp_result=True), case("ADD", clamp_result=True)]
     names += ["MULTIPLY clamp", "ADD clamp"]
-    _compare(cases, cycles, render_exr, tmp_path, tiny, names)
+    _compare(cases, render_direct, tmp_path, names)
 
 
-def test_mix_float_vector_and_legacy_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_mix_float_vector_and_legacy_as_cycles(render_direct, tmp_path):
     def flt(i):
         n = i.node("ShaderNodeMix", data_type="FLOAT", clamp_factor=False)
         i.t.links.new(i.s, n.inputs[0])
@@ -226,12 +220,12 @@ def test_mix_float_vector_and_legacy_as_cycles(cycles, render_exr, tmp_path, tin
         return build
     cases = [flt, vec, lambda i: vec(i, False), legacy("MIX", False), legacy("OVERLAY", True),
              legacy("SUBTRACT", False)]
-    _compare(cases, cycles, render_exr, tmp_path, tiny,
+    _compare(cases, render_direct, tmp_path,
              ["float", "vector", "vector non-uniform", "legacy mix", "legacy overlay clamp",
               "legacy subtract"])
 
 
-def test_color_and_converter_nodes_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_color_and_converter_nodes_as_cycles(render_direct, tmp_path):
     def sep(mode, k):
         return lambda i: i.node("ShaderNodeSeparateColor", [(0, i.A)], mode=mode).outputs[k]
 
@@ -270,10 +264,10 @@ def test_color_and_converter_nodes_as_cycles(cycles, render_exr, tmp_path, tiny)
         "combine xyz": lambda i: i.node("ShaderNodeCombineXYZ",
                                         [(0, i.s), (1, i.x), (2, i.y)]).outputs[0],
     }
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
-def test_ramps_curves_and_mapping_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_ramps_curves_and_mapping_as_cycles(render_direct, tmp_path):
     def ramp(interp, out="Color"):
         def build(i):
             n = i.node("ShaderNodeValToRGB", [(0, i.x)])
@@ -315,10 +309,10 @@ def test_ramps_curves_and_mapping_as_cycles(cycles, render_exr, tmp_path, tiny):
                                                       [(0, i.x)]).outputs[0],
              "layer weight facing": lambda i: i.node("ShaderNodeLayerWeight",
                                                      [(0, i.x)]).outputs[1]}
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
-def test_normal_map_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_normal_map_as_cycles(render_direct, tmp_path):
     """The Normal Map node's output (tangent space from the UV map's tangents on planes turned,
     mirrored and seen from the back; world and Blender's spaces; object space on planes turned
     and mirrored, through the object's inverse transpose)."""
@@ -345,10 +339,10 @@ def test_normal_map_as_cycles(cycles, render_exr, tmp_path, tiny):
              "object back": nmap("OBJECT", rx=math.pi),
              "blender object turned": nmap("BLENDER_OBJECT", rz=-math.pi / 2),
              "object turned 0.6": nmap("OBJECT", 0.6, rz=math.pi)}
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
-def test_coordinates_and_geometry_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_coordinates_and_geometry_as_cycles(render_direct, tmp_path):
     """Texture Coordinate (Generated on planes turned, mirrored and seen from the back; UV) and
     Geometry (normal, true normal, incoming, backfacing) outputs.  Coordinates that vary inside
     a pixel are snapped to the pixel's (1/T steps: one value per pixel whatever its samples)."""
@@ -377,7 +371,7 @@ def test_coordinates_and_geometry_as_cycles(cycles, render_exr, tmp_path, tiny):
              "position": out(geo, "Position"), "position mirrored": out(geo, "Position", sx=-1.0),
              "normal": out(geo, "Normal", rx=math.pi), "true normal": out(geo, "True Normal"),
              "incoming": out(geo, "Incoming"), "backfacing": out(geo, "Backfacing", rx=math.pi)}
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _attributes(me):
@@ -394,7 +388,7 @@ def _attributes(me):
     px.data.foreach_set("value", co[0::3])
 
 
-def test_attributes_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_attributes_as_cycles(render_direct, tmp_path):
     """Attribute and Color Attribute nodes: face colours (float, byte: the default colour
     attribute), their Fac and Alpha, a point float interpolated (stepped per pixel: one value
     per pixel whatever its samples), an attribute the mesh lacks (0)."""
@@ -418,10 +412,10 @@ def test_attributes_as_cycles(cycles, render_exr, tmp_path, tiny):
              "default colour": attr("", idname="ShaderNodeVertexColor"),
              "default alpha": attr("", "Alpha", idname="ShaderNodeVertexColor"),
              "point float": attr("px", "Fac", step=True), "missing": attr("nope")}
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
-def test_object_info_and_object_coordinates_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_object_info_and_object_coordinates_as_cycles(render_direct, tmp_path):
     """Object Info (location, colour, alpha, pass index, random, the material's pass index) of
     planes with their own colour and index, and Texture Coordinate's Object output (the plane's
     own space, turned and mirrored), stepped per pixel."""
@@ -455,7 +449,7 @@ def test_object_info_and_object_coordinates_as_cycles(cycles, render_exr, tmp_pa
              "random 2": info("Random"), "material index": info("Material Index"),
              "object": obj_coords(), "object turned": obj_coords(rz=math.pi / 2),
              "object mirrored": obj_coords(sx=-1.0)}
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def test_light_path_as_cycles(cycles, render_exr, tmp_path, tiny):
@@ -511,7 +505,7 @@ def test_light_path_as_cycles(cycles, render_exr, tmp_path, tiny):
     assert ref[inner][:, 0].max() - ref[inner][:, 0].min() > 0.5
 
 
-def test_vector_transform_and_camera_coordinates_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_vector_transform_and_camera_coordinates_as_cycles(render_direct, tmp_path):
     """Vector Transform between world, object and camera space for points, vectors and normals
     (planes turned and mirrored: their own matrices), and Texture Coordinate's Camera output
     (stepped per pixel)."""
@@ -539,10 +533,10 @@ def test_vector_transform_and_camera_coordinates_as_cycles(cycles, render_exr, t
             cases[f"{kind.lower()} {frm.lower()} to {to.lower()}"] = vt(
                 frm, to, kind, rz=math.pi / 2, sx=-1.0)
     cases["camera coordinates"] = camera
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
-def test_mapping_with_linked_inputs_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_mapping_with_linked_inputs_as_cycles(render_direct, tmp_path):
     """Mapping of every type whose Location, Rotation and Scale come from links (per-pixel
     values), and Texture Coordinate's Normal output (object space, on turned planes)."""
     import math
@@ -571,10 +565,10 @@ def test_mapping_with_linked_inputs_as_cycles(cycles, render_exr, tmp_path, tiny
     cases = {f"mapping {k.lower()}": mapping(k) for k in ("POINT", "TEXTURE", "VECTOR", "NORMAL")}
     cases.update({"normal coordinate": normal(rz=math.pi / 2, sx=-1.0),
                   "normal coordinate back": normal(rx=math.pi)})
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
-def test_map_range_vector_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_map_range_vector_as_cycles(render_direct, tmp_path):
     """Map Range in vector mode: every interpolation, clamped or not, a reversed range."""
     def case(kind, clamp, reverse=False):
         def build(i):
@@ -592,7 +586,7 @@ def test_map_range_vector_as_cycles(cycles, render_exr, tmp_path, tiny):
     cases = {f"{k.lower()}{' clamp' if c else ''}{' reversed' if r else ''}": case(k, c, r)
              for k in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
              for c in (False, True) for r in (False, True)}
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _map_range(i, lo, hi):
@@ -614,7 +608,7 @@ def _spectral(idname, linked=None, value=None):
     return build
 
 
-def test_blackbody_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_blackbody_as_cycles(render_direct, tmp_path):
     """Blackbody: temperatures from links (per pixel, across every interval of Cycles' fit,
     below 800 K and above 12000 K) and constants (folded at export), within 1e-3 of the
     colour (relative above 1)."""
@@ -625,10 +619,10 @@ def test_blackbody_as_cycles(cycles, render_exr, tmp_path, tiny):
     cases = {f"linked {a:g}-{b:g} K": _spectral("ShaderNodeBlackbody", (a, b))
              for a, b in ranges}
     cases.update({f"{t:g} K": _spectral("ShaderNodeBlackbody", value=t) for t in temps})
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
-def test_wavelength_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_wavelength_as_cycles(render_direct, tmp_path):
     """Wavelength: wavelengths from links (per pixel, 360-800 nm: the extrapolated step below
     380 nm and the zeros outside included) and constants (folded at export)."""
     ranges = [(360.0, 480.0), (470.0, 590.0), (580.0, 700.0), (690.0, 800.0), (300.0, 900.0)]
@@ -637,7 +631,7 @@ def test_wavelength_as_cycles(cycles, render_exr, tmp_path, tiny):
     cases = {f"linked {a:g}-{b:g} nm": _spectral("ShaderNodeWavelength", (a, b))
              for a, b in ranges}
     cases.update({f"{w:g} nm": _spectral("ShaderNodeWavelength", value=w) for w in waves})
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _window_scene(kind, res, fit="AUTO", shift=(0.0, 0.0)):
@@ -676,19 +670,13 @@ def _window_scene(kind, res, fit="AUTO", shift=(0.0, 0.0)):
     ("PERSP", (24, 16), "AUTO", (0.1, -0.05)), ("PERSP", (16, 24), "VERTICAL", (0.0, 0.08)),
     ("PERSP", (24, 16), "VERTICAL", (-0.1, 0.0)), ("ORTHO", (24, 16), "AUTO", (0.05, 0.1)),
     ("ORTHO", (16, 24), "HORIZONTAL", (0.0, -0.1))])
-def test_window_coordinates_as_cycles(cycles, render_exr, tmp_path, tiny, kind, res, fit, shift):
+def test_window_coordinates_as_cycles(render_direct, tmp_path, kind, res, fit, shift):
     """Texture Coordinate's Window output under perspective and orthographic cameras, sensor
     fits, shifts and non-square images: every pixel's (snapped) x and y and the 0 z as
     Cycles'.  A projection off by more than ~1/16 pixel moves samples into the next step."""
     scene = _window_scene(kind, res, fit, shift)
     w, h = res
-    cycles(scene, 4, width=w)
-    scene.render.resolution_y = h
-    scene.cycles.max_bounces = 0
-    ref = render_exr(tmp_path / "cycles.exr")
-    tiny(scene, width=w, height=h, passes=2, photons=64)
-    scene.ppm.max_bounces = 0
-    ours = render_exr(tmp_path / "ours.exr")
+    ours, ref = render_direct(scene, tmp_path, w, h, 4, 2)
     err = np.abs(ours - ref).max()
     assert err <= 1e-3, (err, ref[::4, ::4, 0], ours[::4, ::4, 0])
     # the image's steps, bottom-left pixel (0, 0) to top-right: Cycles' y is up

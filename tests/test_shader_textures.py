@@ -39,14 +39,14 @@ def case(idname, out, vector=spread, links=(), inputs=None, **props):
     return build
 
 
-def run(cases: dict, cycles, render_exr, tmp_path, tiny):
-    _compare(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+def run(cases: dict, render_direct, tmp_path):
+    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 X = ("Scale", lambda i: i.x)
 
 
-def test_checker_gradient_and_white_noise_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_checker_gradient_and_white_noise_as_cycles(render_direct, tmp_path):
     chk, grad, white = "ShaderNodeTexChecker", "ShaderNodeTexGradient", "ShaderNodeTexWhiteNoise"
     cases = {
         "checker color": case(chk, "Color", inputs={"Color1": (0.9, 0.2, 0.1, 1.0)}),
@@ -69,10 +69,10 @@ def test_checker_gradient_and_white_noise_as_cycles(cycles, render_exr, tmp_path
         cases[f"white noise {d} color"] = case(white, "Color", vector=lambda i: i.B, links=w,
                                                noise_dimensions=d)
     cases["white noise unlinked"] = case(white, "Color", vector=None)
-    run(cases, cycles, render_exr, tmp_path, tiny)
+    run(cases, render_direct, tmp_path)
 
 
-def test_noise_fbm_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_noise_fbm_as_cycles(render_direct, tmp_path):
     noise = "ShaderNodeTexNoise"
     cases = {
         "default fac": case(noise, "Fac"),
@@ -95,10 +95,10 @@ def test_noise_fbm_as_cycles(cycles, render_exr, tmp_path, tiny):
         cases[f"{d} fac"] = case(noise, "Fac", noise_dimensions=d, links=w,
                                  inputs={"Distortion": 0.4, "Detail": 2.5})
         cases[f"{d} color"] = case(noise, "Color", noise_dimensions=d, links=w)
-    run(cases, cycles, render_exr, tmp_path, tiny)
+    run(cases, render_direct, tmp_path)
 
 
-def test_noise_types_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_noise_types_as_cycles(render_direct, tmp_path):
     noise = "ShaderNodeTexNoise"
     cases = {}
     for kind in ("MULTIFRACTAL", "RIDGED_MULTIFRACTAL", "HYBRID_MULTIFRACTAL", "HETERO_TERRAIN"):
@@ -115,10 +115,10 @@ def test_noise_types_as_cycles(cycles, render_exr, tmp_path, tiny):
                                                        "HYBRID_MULTIFRACTAL") else []
         cases[f"{k} 4D linked"] = case(noise, "Fac", noise_type=kind, noise_dimensions="4D",
                                        links=links)
-    run(cases, cycles, render_exr, tmp_path, tiny)
+    run(cases, render_direct, tmp_path)
 
 
-def test_magic_wave_and_brick_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_magic_wave_and_brick_as_cycles(render_direct, tmp_path):
     magic, wave, brick = "ShaderNodeTexMagic", "ShaderNodeTexWave", "ShaderNodeTexBrick"
     cases = {f"magic depth {d}": case(magic, "Color", turbulence_depth=d,
                                       inputs={"Distortion": 1.3, "Scale": 1.5})
@@ -153,10 +153,10 @@ def test_magic_wave_and_brick_as_cycles(cycles, render_exr, tmp_path, tiny):
                              vector=lambda i: spread(i, 2.0, -1.0)),
         "brick bias": case(brick, "Color", inputs={"Bias": -0.6, "Scale": 2.0}),
     })
-    run(cases, cycles, render_exr, tmp_path, tiny)
+    run(cases, render_direct, tmp_path)
 
 
-def test_voronoi_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_voronoi_as_cycles(render_direct, tmp_path):
     vor = "ShaderNodeTexVoronoi"
     cases = {
         "f1 distance": case(vor, "Distance"),
@@ -194,10 +194,10 @@ def test_voronoi_as_cycles(cycles, render_exr, tmp_path, tiny):
                                   feature="DISTANCE_TO_EDGE")
         cases[f"{d} radius"] = case(vor, "Radius", voronoi_dimensions=d, links=w,
                                     feature="N_SPHERE_RADIUS")
-    run(cases, cycles, render_exr, tmp_path, tiny)
+    run(cases, render_direct, tmp_path)
 
 
-def test_texture_mapping_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_texture_mapping_as_cycles(render_direct, tmp_path):
     """The texture node's own (hidden) mapping, as Cycles applies it before the texture."""
     def mapped(kind, axes=("X", "Y", "Z")):
         def build(i):
@@ -212,7 +212,7 @@ def test_texture_mapping_as_cycles(cycles, render_exr, tmp_path, tiny):
     cases = {f"mapping {k.lower()}": mapped(k) for k in ("POINT", "TEXTURE", "VECTOR",
                                                            "NORMAL")}
     cases["mapping axes"] = mapped("POINT", ("Z", "NONE", "X"))
-    run(cases, cycles, render_exr, tmp_path, tiny)
+    run(cases, render_direct, tmp_path)
 
 
 def test_no_texture_code_without_textures():

@@ -75,15 +75,9 @@ def _sky_grid(skies, up=False):
     return scene, cols * T, rows * T
 
 
-def _both(skies, cycles, render_exr, tmp_path, tiny, up=False):
+def _both(skies, render_direct, tmp_path, up=False):
     scene, w, h = _sky_grid(skies, up)
-    cycles(scene, 1, width=w)
-    scene.render.resolution_y = h
-    scene.cycles.max_bounces = 0
-    ref = render_exr(tmp_path / "cycles.exr")
-    tiny(scene, width=w, height=h, passes=1, photons=64)
-    scene.ppm.max_bounces = 0
-    ours = render_exr(tmp_path / "ours.exr")
+    ours, ref = render_direct(scene, tmp_path, w, h, 1, 1)
     return ours, ref, w // T
 
 
@@ -99,12 +93,12 @@ PREETHAM = [dict(sky_type="PREETHAM", sun_direction=d, turbidity=t) for d, t in 
          mapping_rotation=(0.3, -0.2, 1.1), mapping_scale=(1.0, 1.5, 0.8))]
 
 
-def test_preetham_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_preetham_as_cycles(render_direct, tmp_path):
     """Six suns (zenith to below the horizon) and turbidities 2-10, directions all around, and
     one through the node's texture mapping (rotated and scaled: the vector not normalised
     again, as in Cycles): every pixel within 1e-3 of Cycles' value (relative, 1e-5
     absolute)."""
-    ours, ref, cols = _both(PREETHAM, cycles, render_exr, tmp_path, tiny)
+    ours, ref, cols = _both(PREETHAM, render_direct, tmp_path)
     assert ref.max() > 0.05
     for k in range(len(PREETHAM)):
         o, r = _blocks(ours, cols, k), _blocks(ref, cols, k)
@@ -119,10 +113,10 @@ HOSEK = [dict(sky_type="HOSEK_WILKIE", sun_direction=d, turbidity=t, ground_albe
                          ((0.1, 0.9, 0.5), 10.0, 0.2), ((0.5, 0.5, -0.1), 2.5, 0.3))]
 
 
-def test_hosek_wilkie_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_hosek_wilkie_as_cycles(render_direct, tmp_path):
     """Six suns (one below the horizon: clamped to it), turbidities 1-10 (whole and between),
     ground albedos 0-1, directions all around: every pixel within 1e-3 of Cycles."""
-    ours, ref, cols = _both(HOSEK, cycles, render_exr, tmp_path, tiny)
+    ours, ref, cols = _both(HOSEK, render_direct, tmp_path)
     for k in range(len(HOSEK)):
         o, r = _blocks(ours, cols, k), _blocks(ref, cols, k)
         assert np.ptp(r) > 1e-3, k
@@ -141,7 +135,7 @@ SINGLE = [dict(sky_type="SINGLE_SCATTERING", sun_disc=False, sun_elevation=e, su
 # default run keeps that model's sun-lit sphere, tests/test_world.py)
 @pytest.mark.parametrize("model", ["SINGLE_SCATTERING",
                                    pytest.param("MULTIPLE_SCATTERING", marks=pytest.mark.slow)])
-def test_scattering_skies_as_cycles(model, cycles, render_exr, tmp_path, tiny):
+def test_scattering_skies_as_cycles(model, render_direct, tmp_path):
     """Five skies without the sun disc (sun elevations -0.05 to 1.2 rad and 2.3 (past the
     zenith: wrapped as Cycles wraps it), rotations, altitudes
     1 m to 20 km, air, aerosol and ozone densities), directions all around, below the horizon
@@ -150,7 +144,7 @@ def test_scattering_skies_as_cycles(model, cycles, render_exr, tmp_path, tiny):
     multiple-scattering view rays' lengths are computed in single precision as Cycles does,
     else the ground's colour differs by 0.15 % at 100 m, 6 % at 1 m)."""
     skies = [dict(s, sky_type=model) for s in SINGLE]
-    ours, ref, cols = _both(skies, cycles, render_exr, tmp_path, tiny)
+    ours, ref, cols = _both(skies, render_direct, tmp_path)
     for k in range(len(skies)):
         o, r = _blocks(ours, cols, k), _blocks(ref, cols, k)
         assert np.ptp(r) > 1e-2, k

@@ -237,7 +237,7 @@ def _tex(image, vector=None, out="Color", **props):
     return build
 
 
-def test_cubic_every_extension_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_cubic_every_extension_as_cycles(render_direct, tmp_path):
     """Cubic (and Smart) interpolation: a 5 x 3 texture read at random points of [-1, 2]^2, so
     the 4 x 4 B-spline and every extension mode's borders show."""
     img = lambda: _small_image("Small", 5, 3, 7)                              # noqa: E731
@@ -252,7 +252,7 @@ def test_cubic_every_extension_as_cycles(cycles, render_exr, tmp_path, tiny):
         "cubic alpha clip": _tex(alpha, wide, "Alpha", interpolation="Cubic", extension="CLIP"),
         "linear mirror": _tex(img, wide, interpolation="Linear", extension="MIRROR"),
     })
-    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _tilted(normal, case):
@@ -277,7 +277,7 @@ BOX_NORMALS = {"+x": (0.9, 0.3, 0.2), "-x": (-0.9, 0.3, -0.2), "+y": (0.2, 0.9, 
                "corner": (0.55, 0.5, 0.45), "-corner": (-0.5, -0.55, -0.45)}
 
 
-def test_box_sphere_and_tube_projections_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_box_sphere_and_tube_projections_as_cycles(render_direct, tmp_path):
     """Box projection: the object-space normal picks or blends the three planar projections
     (every face and sign with Projection Blend 0; each blend zone, edges and corner, with 0.4);
     Sphere and Tube projections of random points in the unit box."""
@@ -297,7 +297,7 @@ def test_box_sphere_and_tube_projections_as_cycles(cycles, render_exr, tmp_path,
     cases["tube"] = _tex(img, unit, projection="TUBE", interpolation="Cubic")
     cases["sphere alpha"] = _tex(lambda: _small_image("Alpha", 3, 4, 9, alpha=True), unit,
                                  "Alpha", projection="SPHERE")
-    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _udim(folder, missing=1011):
@@ -323,7 +323,7 @@ def _udim(folder, missing=1011):
     return img
 
 
-def test_udim_tiles_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_udim_tiles_as_cycles(render_direct, tmp_path):
     """A UDIM image: each tile its own texture, chosen by the UV's integer parts (1001 + u +
     10 v, truncated); a tile without a file and a tile not in the image are magenta, as in
     Cycles; a plane whose UVs span tiles 1001 and 1002, read with Closest (one texel a pixel)."""
@@ -343,7 +343,7 @@ def test_udim_tiles_as_cycles(cycles, render_exr, tmp_path, tiny):
                                      interpolation="Cubic", extension="EXTEND"),
              "box reads 1001": _tilted(BOX_NORMALS["corner"], _tex(
                  img, lambda i: _spread(i, 1.0, 0.0), projection="BOX", projection_blend=0.3))}
-    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
     warnings = _export().warnings
     assert any("tile 1011" in w and "udim.1011.exr" in w and "magenta" in w
                for w in warnings), warnings
@@ -377,7 +377,7 @@ def test_udim_tiles_packed_and_a_corrupt_tile(tmp_path):
                for w in a.warnings), a.warnings
 
 
-def test_box_projection_on_a_turned_sphere_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_box_projection_on_a_turned_sphere_as_cycles(render_direct, tmp_path):
     """Box projection on a flat-shaded ico sphere, turned and seen at an angle, Projection
     Blend 0 (left) and 0.5 (right): the Vector is a constant point, so each face shows the
     texture at one point of the projection(s) its object-space normal picks; every pixel inside
@@ -412,12 +412,7 @@ def test_box_projection_on_a_turned_sphere_as_cycles(cycles, render_exr, tmp_pat
     scene.world = bpy.data.worlds.new("W")
     scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
     W = 96
-    cycles(scene, 4, width=W)
-    scene.cycles.max_bounces = 0
-    ref = render_exr(tmp_path / "cycles.exr")
-    tiny(scene, width=W, height=W, passes=2, photons=64)
-    scene.ppm.max_bounces = 0
-    ours = render_exr(tmp_path / "ours.exr")
+    ours, ref = render_direct(scene, tmp_path, W, W, 4, 2)
     win = np.lib.stride_tricks.sliding_window_view(ref, (3, 3), axis=(0, 1))
     inside = np.zeros(ref.shape[:2], bool)
     inside[1:-1, 1:-1] = (np.ptp(win.reshape(W - 2, W - 2, 3, 9), axis=-1).max(-1) < 1e-5) \
@@ -460,7 +455,7 @@ def _with_alpha_linked(case):
     return build
 
 
-def test_alpha_association_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_alpha_association_as_cycles(render_direct, tmp_path):
     """An image with partial alpha: the Color output carries the alpha (Cycles stores images
     associated: float buffers as Blender holds them, 8-bit ones multiplied in their bytes, a
     generated image or a PNG file), and is divided by the interpolated alpha where the Alpha
@@ -482,10 +477,10 @@ def test_alpha_association_as_cycles(cycles, render_exr, tmp_path, tiny):
             cases[f"{kind} {interp}"] = _tex(img, wide, interpolation=interp)
             cases[f"{kind} {interp} alpha linked"] = _with_alpha_linked(
                 _tex(img, wide, interpolation=interp))
-    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
-def test_environment_projections_as_cycles(cycles, render_exr, tmp_path, tiny):
+def test_environment_projections_as_cycles(render_direct, tmp_path):
     """The Environment Texture at random directions: equirectangular and mirror ball."""
     img = lambda: _small_image("Small", 5, 3, 7)                              # noqa: E731
 
@@ -499,4 +494,4 @@ def test_environment_projections_as_cycles(cycles, render_exr, tmp_path, tiny):
         return build
     cases = {f"{p} {k}": env(p, k) for p in ("EQUIRECTANGULAR", "MIRROR_BALL")
              for k in ("Linear", "Cubic")}
-    _harness()(list(cases.values()), cycles, render_exr, tmp_path, tiny, list(cases))
+    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
