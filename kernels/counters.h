@@ -8,5 +8,7 @@
 #define CNT_OCCUPIED 4
 #define CNT_ACTIVE 5
 #define CNT_SINK 6
-#define N_COUNTERS 7
+#define CNT_CAUSTIC 7
+#define CNT_DIFFUSE_FIRST 8
+#define N_COUNTERS 9
 #endif

@@ -105,13 +105,13 @@ inline float3 shadow_transmittance(float3 o, float3 d, float dist, SCENE_ARGS) {
 
 /* One next-event sample from p (n: the shading normal the world is sampled around, ngf the
  * geometric normal on the side the light must come from); false when there is none. */
-inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng,
+inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, float3 u,
                            LightSample *s, float *pmf) {
     EmitterInfo info = *emitter_info;
     if (info.n_emitters == 0) return false;
-    int e = pick_emitter(emitter_cdf, info.n_emitters, rnd(rng), pmf);
+    int e = pick_emitter(emitter_cdf, info.n_emitters, u.x, pmf);
     if (!(*pmf > 0.0f)) return false;
-    float u1 = rnd(rng), u2 = rnd(rng);
+    float u1 = u.y, u2 = u.z;
     /* All geometry from the shadow ray's own origin: a direction computed from p but traced
      * from the offset origin would meet a planar emitter's own plane early at grazing angles
      * (the offset over cos) and the light would shadow itself. */
@@ -140,12 +140,13 @@ inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, uint *rng
 
 /* Next-event estimation at shading point p for the closures in mask, weighted against their
  * sample (power heuristic; mis false: alone, when no sample of the closures looks for
- * emitters).  Returns the radiance reflected towards sd->wi. */
-inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, bool mis, SCENE_ARGS,
-                         uint *rng) {
+ * emitters), from the uniform numbers u (the emitter's pick, a point on it).  Returns the
+ * radiance reflected towards sd->wi. */
+inline float3 direct_nee_u(const ShaderData *sd, float3 p, int mask, bool mis, float3 u,
+                           SCENE_ARGS) {
     LightSample s;
     float pmf;
-    if (!sample_emitter(p, sd->N, sd->Ng, SCENE_PASS, rng, &s, &pmf)) return (float3)(0.0f);
+    if (!sample_emitter(p, sd->N, sd->Ng, SCENE_PASS, u, &s, &pmf)) return (float3)(0.0f);
     float pdf_b;
     float3 f = shader_eval(sd, s.wi, mask, &pdf_b);
     bool transmit = dot(s.wi, sd->Ng) < 0.0f;
@@ -155,6 +156,15 @@ inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, bool mis, SCE
                                     SCENE_PASS);
     float w = mis && s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
     return f * T * s.E * (w / pmf);
+}
+
+inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, bool mis, SCENE_ARGS,
+                         uint *rng) {
+    float3 u;
+    u.x = rnd(rng);
+    u.y = rnd(rng);
+    u.z = rnd(rng);
+    return direct_nee_u(sd, p, mask, mis, u, SCENE_PASS);
 }
 
 

@@ -8,6 +8,7 @@
 #include "camera.h"
 #include "counters.h"
 #include "medium.h"
+#include "indirect_paths.h"
 
 /* entries of the pixel filter's table: -D PPM_FILTER_TABLE_SIZE from ppm_engine/film.py */
 #define FILTER_TABLE_SIZE PPM_FILTER_TABLE_SIZE
@@ -34,7 +35,8 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
                        __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
                        __global float4 *vp_shade, __global uint *counters,
                        __global float4 *aux_albedo, __global float4 *aux_normal,
-                       __global const uint *active, __global float *transparency) {
+                       __global const uint *active, __global float *transparency,
+                       uint path_indirect) {
     __global const Camera *cam = camera;           /* the scene's (shader_data.h SHADING_ARGS) */
     int id = get_global_id(0);
     int rw = cam->region[2], rh = cam->region[3];
@@ -124,7 +126,9 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
         if (rnd(&rng) * sw < sd.sw_gather) {
             /* a visible point: the gather's closures, weighted by 1 / their probability */
             float3 bvp = beta * (sw / sd.sw_gather);
-            L += bvp * direct_light(&sd, s.p, MASK_GATHER, SCENE_PASS, &rng);
+            /* direct light: next-event estimation and a sample of the closures (MIS); with
+             * path_indirect the continuing path's (indirect_paths below) */
+            if (!path_indirect) L += bvp * direct_light(&sd, s.p, MASK_GATHER, SCENE_PASS, &rng);
             vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
             vp_nrm[id] = (float4)(sd.N, as_float(path));    /* (the gather shades it again) */
             float3 albedo = (float3)(0.0f);
@@ -150,6 +154,15 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
                 float r0 = initial_radius > 0.0f ? initial_radius : auto_radius_pixels * foot;
                 radius[id] = radius0[id] = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
             }
+            /* direct and indirect light by path tracing (indirect_paths.h); the photons bring
+             * caustics */
+            if (path_indirect)
+                L += indirect_paths(&sd, s.p, s.material, bvp, depth, path, max_bounces,
+                                    pass_index, rng_seed(seed, 0u, (uint)id, 5u),
+#if PPM_ABSORPTION
+                                    &media,
+#endif
+                                    SCENE_PASS, &rng);
             break;
         }
         /* the path goes on through the other closures (mirrors, glass, smooth glossy lobes,

@@ -3,7 +3,10 @@
  * and stored where the gather can evaluate a closure (kernels/shader.h: diffuse, sheen,
  * translucent and rough lobes), after the first scattering (direct light is next-event
  * estimation's).  Photons outside this pass's grid (visible points' bounds) cannot be gathered
- * and are only counted. */
+ * and are only counted.  With caustics_only (eye paths bring the rest of the indirect light,
+ * indirect_paths.h) a photon lives on only if its first scattering is by a followed closure;
+ * with capacity 0 (a pilot) photons are only classified at their first scattering and counted
+ * (CNT_CAUSTIC, CNT_DIFFUSE_FIRST). */
 #include "photon_emission.h"
 #include "camera.h"
 #include "shader.h"
@@ -14,11 +17,12 @@
 
 __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounces, uint n_photons,
                           __global const Grid *grid, uint capacity, __global float4 *ph_pos,
-                          __global float4 *ph_flux, __global uint *counters) {
+                          __global float4 *ph_flux, __global uint *counters,
+                          uint caustics_only) {
     uint id = get_global_id(0);
     if (id >= n_photons) return;
     Grid g = *grid;
-    if (g.valid == 0u) return;
+    if (g.valid == 0u && capacity > 0u) return;
     uint rng = rng_seed(seed, pass_index, id, 2u);
     float3 o, d, flux;
     if (!emit_photon(SCENE_PASS, &rng, &o, &d, &flux)) return;
@@ -81,6 +85,23 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
                 atomic_inc(&counters[CNT_OUTSIDE]);
             }
         }
+        int set = MASK_ALL;
+        if (caustics_only && direct) {
+            /* The light's first scattering, with eye paths for the indirect light
+             * (indirect_paths.h): the gather's closures or the followed ones, in proportion to
+             * their sample weights; the first ends the photon (next-event estimation and the
+             * eye paths count that light), the second makes a caustic photon. */
+            float sg = lambert ? (gather ? 1.0f : 0.0f) : sd.sw_gather;
+            float sc = lambert ? 0.0f : sd.sw_continue;
+            if (!(sc > 0.0f) || rnd(&rng) * (sg + sc) < sg) {
+                /* a pilot counts the light the gather's closures scatter first (not what
+                 * meets a black surface: a filament's inside) */
+                if (capacity == 0u && sg > 0.0f) atomic_inc(&counters[CNT_DIFFUSE_FIRST]);
+                break;
+            }
+            flux *= (sg + sc) / sc;
+            set = MASK_CONTINUE;
+        }
         if (bounce == max_bounces) break;
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
@@ -91,8 +112,12 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             b.weight = color;
             b.label = LABEL_REFLECT | LABEL_DIFFUSE;
             b.eta = 1.0f;
-        } else if (!shader_sample(&sd, MASK_ALL, rand, &b)) {
+        } else if (!shader_sample(&sd, set, rand, &b)) {
             break;
+        }
+        if (set == MASK_CONTINUE && !(b.label & LABEL_TRANSPARENT)) {
+            atomic_inc(&counters[CNT_CAUSTIC]);
+            if (capacity == 0u) return;     /* a pilot (Renderer.caustic_fraction): counted */
         }
         flux *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;

@@ -101,11 +101,12 @@ def apply_settings(scene, overrides: dict, device: str | None) -> None:
     from .properties import DEFAULT_DEVICE, refresh_devices
     settings = scene.ppm
     stored = {name: getattr(settings, name) for name in LIMITS}
+    stored["indirect"] = str(settings.indirect).lower()
     if settings.auto_photons:
         stored["photons_per_pass"] = None
     RenderOptions(**stored).replace(**overrides).validate()
     for name, value in overrides.items():
-        setattr(settings, name, value)
+        setattr(settings, name, value.upper() if name == "indirect" else value)
     if device is not None:
         settings.device = resolve_device(device, refresh_devices(), DEFAULT_DEVICE)
 

@@ -2,7 +2,8 @@
 
     python -m ppm_engine render SCENE.blend -o OUT.png|OUT.exr [--passes N] [--time-limit S]
                                 [--resolution WxH] [--device NAME] [--photons N] [--seed N]
-                                [--noise-threshold T] [--frame N | --frames A-B]
+                                [--noise-threshold T] [--indirect auto|photons|paths]
+                                [--frame N | --frames A-B]
     python -m ppm_engine devices
     python -m ppm_engine example NAME OUT.blend
     python -m ppm_engine package [-o dist] [--platforms linux-x64,...]
@@ -20,7 +21,7 @@ import time
 from pathlib import Path
 
 from .errors import PPMError, UsageError
-from .options import SettingsError
+from .options import INDIRECT_MODES, SettingsError
 
 PROG = "ppm_engine"
 EXIT_FAILED = 1
@@ -67,6 +68,9 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--photons", type=int, help="photons per pass (default: the file's setting, "
                    "normally automatic: one per pixel)")
     r.add_argument("--seed", type=int, help="random seed")
+    r.add_argument("--indirect", choices=INDIRECT_MODES,
+                   help="indirect light: photons (the paper's SPPM), paths (eye paths, photons "
+                        "for caustics only) or auto (per scene; default: the file's setting)")
     fr = r.add_mutually_exclusive_group()
     fr.add_argument("-f", "--frame", type=int, metavar="N",
                     help="the frame to render (default: the file's current frame)")
@@ -166,7 +170,8 @@ def cmd_render(args) -> int:
     overrides = {name: value for name, value in (
         ("passes", args.passes), ("time_limit", args.time_limit),
         ("photons_per_pass", args.photons), ("seed", args.seed),
-        ("noise_threshold", args.noise_threshold)) if value is not None}
+        ("noise_threshold", args.noise_threshold), ("indirect", args.indirect))
+        if value is not None}
     bar = progress_bar(PROG)
     t0 = time.perf_counter()
     try:

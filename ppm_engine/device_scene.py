@@ -10,7 +10,8 @@ from .bvh import BVH
 from .emitters import build_emitters
 from .features import defines as feature_defines, scene_features, used_materials
 from .film import FILTER_TABLE_SIZE, filter_table
-from .materials import MAT_GATHER, kernel_materials, kernel_nodes, max_closures
+from .materials import (MAT_GATHER, follow_capable, kernel_materials, kernel_nodes,
+                        max_closures)
 from .shader_program import ops_define, ops_used, stack_used
 from .shading_tables import load as shading_tables
 from .scene_arrays import LIGHT_DTYPE, TEXTURE_DTYPE, SceneArrays
@@ -121,6 +122,12 @@ class DeviceScene:
         made, only there)."""
         diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_GATHER).any())
         return bool(self.emitters.info["n_emitters"][0] > 0 and max_bounces > 0 and diffuse)
+
+    def caustics_possible(self, gather_roughness: float) -> bool:
+        """Whether some surface has a closure eye paths follow (materials.follow_capable): the
+        only place a caustic photon (photon_pass.cl, caustics_only) can start."""
+        used = np.isin(self.knodes["material"], self.used_materials)
+        return bool(follow_capable(self.knodes[used], gather_roughness).any())
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The prepared scene's bounding box (float32 corners, w = 0)."""

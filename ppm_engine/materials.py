@@ -127,6 +127,23 @@ def gather_capable(nodes: np.ndarray) -> np.ndarray:
     return out & (nodes["weight"] > 0)
 
 
+def follow_capable(nodes: np.ndarray, gather_roughness: float) -> np.ndarray:
+    """Per node: whether it can make a closure eye paths follow rather than gather (a mirror,
+    glass, a glossy lobe smoother than ``gather_roughness``, kernels/shader.h): the closures
+    that make caustics.  Transparency is no scattering and does not count."""
+    t = nodes["type"]
+    smooth = (np.clip(nodes["roughness"], 0, 1) < gather_roughness) | bound(nodes, "roughness")
+    out = np.isin(t, (NODE_GLOSSY, NODE_METALLIC, NODE_GLASS, NODE_REFRACTION)) & smooth
+    p = t == NODE_PRINCIPLED
+    if p.any():
+        parts = _principled_parts(nodes[p])
+        n = nodes[p]
+        out[p] = ((parts["metal"] | parts["glass"] | parts["specular"]) & smooth[p]) \
+            | (parts["coat"] & ((np.clip(n["coat_roughness"], 0, 1) < gather_roughness)
+                                | bound(n, "coat_roughness")))
+    return out & (nodes["weight"] > 0)
+
+
 def lambert_node(nodes: np.ndarray) -> np.ndarray:
     """Per node: whether it makes exactly one Lambert closure (weight colour x mix weight) and
     at most emission: a Diffuse BSDF of roughness 0, a Principled BSDF with nothing but its

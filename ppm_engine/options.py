@@ -44,6 +44,18 @@ LIMITS = {
 # progress together.
 AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
 
+# How indirect light is estimated (RenderOptions.indirect):
+#   "photons": the paper's SPPM, every bounce of indirect light from the photon map;
+#   "paths": eye paths continue from the visible points through diffuse bounces with next-event
+#            estimation (kernels/indirect_paths.h), photons only for caustics (the light paths
+#            whose first scattering is by a mirror, glass or a smooth glossy lobe);
+#   "auto": per scene, from a pilot of photons (Renderer.caustic_fraction): "photons" when most
+#           of the light's first scatterings are caustic ones (a bulb inside glass, a room lit
+#           through windows), "paths" otherwise.
+INDIRECT_MODES = ("auto", "photons", "paths")
+# "auto" chooses "photons" above this fraction of caustic first scatterings (docs/BENCHMARKS.md)
+AUTO_PHOTONS_CAUSTIC_FRACTION = 0.5
+
 
 @dataclasses.dataclass
 class RenderOptions:
@@ -56,6 +68,7 @@ class RenderOptions:
     seed: int = LIMITS["seed"][2]
     noise_threshold: float = LIMITS["noise_threshold"][2]
     device: str = ""               # OpenCL device name (substring); "" = default choice
+    indirect: str = "auto"         # INDIRECT_MODES
     exact_gather: bool = False     # debug/reference mode: gather every photon, not the stochastic map
     # microfacet lobes at least this rough hold visible points and photons (the gather evaluates
     # them); smoother ones are followed by the eye path.  Chosen by measurement
@@ -78,6 +91,9 @@ class RenderOptions:
                 raise SettingsError(f"{name} must be a number, got {v!r}")
             if v != v or not (lo <= v <= hi):
                 raise SettingsError(f"{name} = {v!r} is outside [{lo}, {hi}]")
+        if self.indirect not in INDIRECT_MODES:
+            raise SettingsError(f"indirect = {self.indirect!r} must be one of "
+                                f"{', '.join(INDIRECT_MODES)}")
         if not (0.0 < self.alpha < 1.0):
             raise SettingsError(f"alpha = {self.alpha!r} must lie strictly between 0 and 1")
         if not (0.0 <= self.gather_roughness <= 2.0):

@@ -82,6 +82,21 @@ class PPMSettings(bpy.types.PropertyGroup):
     seed: _int("seed", label="Seed")
     noise_threshold: _float("noise_threshold", label="Noise Threshold", soft_max=0.1,
                             precision=4, step=0.1)
+    indirect: EnumProperty(
+        name="Indirect Light",
+        description="How indirect light is estimated",
+        items=(
+            ("AUTO", "Automatic", "Per scene from a pilot of photons: Photons when most light "
+             "first meets a mirror, glass or a smooth glossy surface (a bulb inside glass, a "
+             "room lit through windows), Paths otherwise; the choice shows in the stats line", 0),
+            ("PHOTONS", "Photons", "The paper's progressive photon mapping: every bounce of "
+             "indirect light from the photon map", 1),
+            ("PATHS", "Paths + Caustic Photons", "Eye paths continue through diffuse bounces "
+             "with next-event estimation; photons only for caustics (light whose first "
+             "bounce is a mirror, glass or a smooth glossy surface)", 2),
+        ),
+        default="AUTO",
+    )
     device: EnumProperty(
         name="Device",
         description="OpenCL device that renders (Default: a GPU if present, else the PoCL CPU device)",
@@ -101,6 +116,7 @@ def to_options(settings) -> RenderOptions:
         max_bounces=int(settings.max_bounces),
         seed=int(settings.seed),
         noise_threshold=float(settings.noise_threshold),
+        indirect=str(settings.indirect).lower(),
         device="" if device in ("", DEFAULT_DEVICE) else device,
     ).validate()
 

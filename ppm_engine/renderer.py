@@ -17,7 +17,7 @@ from .counters import N_COUNTERS, PER_PASS, Counter
 from .device import get_device
 from .device_scene import DeviceScene
 from .film import Film
-from .options import RenderOptions
+from .options import AUTO_PHOTONS_CAUSTIC_FRACTION, RenderOptions
 from .passes import EyePass, Gather, HashBuild, PhotonPass, ProgressiveUpdate, VisiblePoints
 from .photon_map import GRID_DTYPE, PhotonMap
 from .scene_arrays import SceneArrays
@@ -73,13 +73,50 @@ class Renderer:
         self.hash_build = HashBuild(dev, self.photon_map, self.counters)
         self.gather = Gather(dev, self.photon_map, self.scene, self.defines)
         self.update = ProgressiveUpdate(dev, self.film)
-        self.photons_needed = (self.scene.photons_useful(o.max_bounces)
-                               or not o.skip_unneeded_photon_pass)
+        self.path_indirect, self.caustic_fraction = self._choose_indirect(o)
+        useful = self.scene.photons_useful(o.max_bounces) and (
+            not self.path_indirect or self.scene.caustics_possible(o.gather_roughness))
+        self.photons_needed = useful or not o.skip_unneeded_photon_pass
         self.grid_cover = None if o.skip_unseen_photons else self.scene.bounds()
         self.passes_done = 0
         self.nan_dropped = 0
         self.active_pixels = self.n_pixels
         self.queue.finish()
+
+    # photons of the pilot that measures the share of caustic first scatterings
+    PILOT_PHOTONS = 1 << 16
+
+    def _choose_indirect(self, o: RenderOptions) -> tuple[bool, float | None]:
+        """(indirect light by eye paths?, the pilot's caustic fraction or None): options.indirect,
+        or for "auto" eye paths unless most of the light's first scatterings are caustic ones
+        (a bulb inside glass: eye paths would find almost nothing, every photon is caustic)."""
+        if o.indirect != "auto":
+            return o.indirect == "paths", None
+        if not self.scene.caustics_possible(o.gather_roughness):
+            return True, 0.0
+        if not self.scene.photons_useful(o.max_bounces):
+            return True, None
+        f = self.caustic_fraction_pilot(o)
+        return f <= AUTO_PHOTONS_CAUSTIC_FRACTION, f
+
+    def caustic_fraction_pilot(self, o: RenderOptions) -> float:
+        """The share of the light's first scatterings that are by a closure eye paths follow (a
+        mirror, glass, a smooth glossy lobe) rather than by the gather's closures, from
+        PILOT_PHOTONS photons classified at their first hit and counted (photon_pass.cl with
+        capacity 0; photons that escape or meet a black surface count for neither)."""
+        import pyopencl as cl
+        q = self.queue
+        first = slice(Counter.CAUSTIC, Counter.DIFFUSE_FIRST + 1)
+        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * first.start,
+                               4 * (first.stop - first.start))
+        self.photons.enqueue(q, 0x7FFFFFFF, o, self.PILOT_PHOTONS, pilot=True)
+        counters = np.empty(N_COUNTERS, np.uint32)
+        cl.enqueue_copy(q, counters, self.counters)
+        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * first.start,
+                               4 * (first.stop - first.start))
+        q.finish()
+        caustic, diffuse = int(counters[Counter.CAUSTIC]), int(counters[Counter.DIFFUSE_FIRST])
+        return caustic / (caustic + diffuse) if caustic + diffuse else 0.0
 
     def refit(self, scene: SceneArrays) -> bool:
         """The same triangles moved or deformed (an object's transform, an armature): the BVH is
@@ -120,12 +157,13 @@ class Renderer:
         # this pass's counters (Counter.NAN counts over the whole render)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
-        events = self.eye.enqueue(q, pass_index, o)
+        events = self.eye.enqueue(q, pass_index, o, self.path_indirect)
         events += self.hash_build.grid(q, v.pos, film.radius, n, cover=self.grid_cover)
         emitted = 0
         if self.photons_needed:
             emitted = self.photons_per_pass
-            events += self.photons.enqueue(q, pass_index, o, emitted)
+            events += self.photons.enqueue(q, pass_index, o, emitted,
+                                           caustics_only=self.path_indirect)
             events += self.hash_build.build(q, pass_index, o.seed)
             events += self.gather.enqueue(q, v.pos, v.nrm, v.shade, film.radius, v.gathered, n,
                                           vp_beta=v.beta)
@@ -159,7 +197,8 @@ class Renderer:
             visible_points=int(grid["valid"][0]), radius_min=float(grid["r_min"][0]),
             radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
             seconds=seconds, phase_ms=phase_ms, active_pixels=self.active_pixels,
-            pixels=self.n_pixels)
+            pixels=self.n_pixels, indirect="paths" if self.path_indirect else "photons",
+            caustic_fraction=self.caustic_fraction)
         if overflow:     # this pass lost photons (counted); the next one has room
             pm.allocate(2 * pm.capacity)
         return stats

@@ -21,6 +21,8 @@ class PassStats:
     phase_ms: dict             # device time per phase
     active_pixels: int = 0     # pixels still sampled (adaptive sampling: 0 = all converged)
     pixels: int = 0
+    indirect: str = ""         # the estimator of indirect light (options.INDIRECT_MODES, chosen)
+    caustic_fraction: float | None = None   # the pilot's share of caustic first scatterings
 
     @property
     def converged(self) -> bool:
@@ -37,7 +39,14 @@ class PassStats:
         """The stats a user reads: "Pass 12/64 · 3.1M photons · r 0.012–0.034 · 2.4 s · 18 s
         left" (remaining time from the pass rate, or the time limit if that comes first)."""
         of = f"/{passes}" if passes else ""
-        s = f"Pass {self.pass_index}{of} · {_si(self.photons_emitted)} photons"
+        s = f"Pass {self.pass_index}{of}"
+        if self.indirect == "paths":
+            # path-traced indirect light; photons (if any) only for caustics
+            s += " · paths"
+            if self.photons_emitted:
+                s += f" + {_si(self.photons_emitted)} caustic photons"
+        else:
+            s += f" · {_si(self.photons_emitted)} photons"
         if self.radius_max > 0:
             s += f" · r {self.radius_min:.3g}–{self.radius_max:.3g}"
         if elapsed is not None:

@@ -56,7 +56,7 @@ class PPM_PT_photons(PPMPanel, bpy.types.Panel):
         row = col.row()
         row.active = not settings.auto_photons
         row.prop(settings, "photons_per_pass")
-        _draw_props(self.layout, settings, ("initial_radius", "alpha", "max_bounces"))
+        _draw_props(self.layout, settings, ("indirect", "initial_radius", "alpha", "max_bounces"))
 
 
 class PPM_PT_device(PPMPanel, bpy.types.Panel):

@@ -53,13 +53,16 @@ def furnace_scene(rho, Le, W=16):
     return mb.build(camera=cam)
 
 
+@pytest.mark.parametrize("indirect", ["photons", "paths"])
 @pytest.mark.parametrize("rho", [0.3, 0.7])
-def test_furnace_radiance_is_le_over_one_minus_rho(rho):
+def test_furnace_radiance_is_le_over_one_minus_rho(rho, indirect):
     """Energy conservation, Russian roulette, emission units, photon flux and the density
-    estimate together: inside a closed sphere of albedo rho and emission Le, L = Le/(1-rho)."""
+    estimate (or the eye paths' MIS of emission and next-event estimation) together: inside a
+    closed sphere of albedo rho and emission Le, L = Le/(1-rho)."""
     Le = 1.0
     scene = furnace_scene(rho, Le)
-    means = [render(scene, 40, seed=s, photons_per_pass=1 << 13, max_bounces=64)[..., :3].mean()
+    means = [render(scene, 40, seed=s, photons_per_pass=1 << 13, max_bounces=64,
+                    indirect=indirect)[..., :3].mean()
              for s in range(4)]
     m, se = mean_and_se(means)
     expected = Le / (1 - rho)

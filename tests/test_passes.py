@@ -10,6 +10,7 @@ def test_denoising_and_debug_passes(bpy, example_blend, tiny, tmp_path):
     bpy.ops.wm.open_mainfile(filepath=str(example_blend("cornell_box")), load_ui=False)
     scene = bpy.context.scene
     tiny(scene, width=24, height=24, passes=3)
+    scene.ppm.indirect = 'PHOTONS'          # the photon map's debug passes have photons to show
     scene.render.image_settings.media_type = 'MULTI_LAYER_IMAGE'
     scene.render.filepath = str(tmp_path / "passes.exr")
     assert bpy.ops.render.render(write_still=True) == {'FINISHED'}

@@ -30,10 +30,11 @@ def test_automatic_photon_count_is_one_per_pixel_within_bounds():
     assert auto.photons_for(1) == AUTO_PHOTONS_MIN
     assert auto.photons_for(8192 * 8192) == AUTO_PHOTONS_MAX
     assert RenderOptions(photons_per_pass=777).photons_for(128 * 128) == 777
-    r = Renderer(cornell_box(80, 80), auto)                # 6400 pixels: 6400 photons a pass
+    # 6400 pixels: 6400 photons a pass (the paper's photons: a diffuse box has no caustics)
+    r = Renderer(cornell_box(80, 80), auto.replace(indirect="photons"))
     s = r.iterate()
     assert r.photons_per_pass == 6400 and s.photons_emitted == 6400
-    r.reset(RenderOptions(photons_per_pass=1000))
+    r.reset(RenderOptions(photons_per_pass=1000, indirect="photons"))
     assert r.iterate().photons_emitted == 1000
     r.close()
 
@@ -44,7 +45,8 @@ def test_unknown_device_lists_the_available_ones():
 
 
 def test_cornell_box_statistics_and_monotone_radii():
-    r = Renderer(cornell_box(32, 32), RenderOptions(photons_per_pass=1 << 13, seed=3))
+    r = Renderer(cornell_box(32, 32), RenderOptions(photons_per_pass=1 << 13, seed=3,
+                                                    indirect="photons"))
     radii = []
     for _ in range(8):
         s = r.iterate()
@@ -80,7 +82,7 @@ def test_cornell_box_statistics_and_monotone_radii():
 def test_photon_buffer_overflow_is_counted_then_grows():
     class Tight(Renderer):
         STORE_FACTOR = 0.05
-    r = Tight(cornell_box(16, 16), RenderOptions(photons_per_pass=1 << 12))
+    r = Tight(cornell_box(16, 16), RenderOptions(photons_per_pass=1 << 12, indirect="photons"))
     cap = r.photon_map.capacity
     s1 = r.iterate()
     assert s1.photons_dropped > 0 and s1.photons_stored == cap
@@ -128,7 +130,7 @@ def test_stochastic_hash_and_exact_gather_converge_to_the_same_image():
     for exact in (False, True):
         imgs, photon_terms = [], []
         for seed in range(8):
-            r = Renderer(scene, RenderOptions(photons_per_pass=1 << 12, seed=seed,
+            r = Renderer(scene, RenderOptions(photons_per_pass=1 << 12, seed=seed, indirect="photons",
                                               exact_gather=exact))
             for _ in range(25):
                 r.iterate()

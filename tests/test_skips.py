@@ -43,7 +43,7 @@ def _room(lights=None, glass=False, mirror=False, world=(0, 0, 0), aperture=0.0,
 
 
 def _features(scene):
-    r = Renderer(scene, RenderOptions(photons_per_pass=256))
+    r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=256))
     f = r.features
     r.close()
     return f
@@ -106,9 +106,9 @@ def test_closure_features_follow_the_materials():
 
 
 def test_specialised_kernels_are_separate_programs():
-    a = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=256))
-    b = Renderer(cornell_box(8, 8, bulb=True), RenderOptions(photons_per_pass=256))
-    c = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=256, specialize=False))
+    a = Renderer(cornell_box(8, 8), RenderOptions(indirect="photons", photons_per_pass=256))
+    b = Renderer(cornell_box(8, 8, bulb=True), RenderOptions(indirect="photons", photons_per_pass=256))
+    c = Renderer(cornell_box(8, 8), RenderOptions(indirect="photons", photons_per_pass=256, specialize=False))
     assert a.features != b.features and c.features is None
     assert len({r.eye.kernel.kernel.program.int_ptr for r in (a, b, c)}) == 3
     for r in (a, b, c):
@@ -138,7 +138,7 @@ def test_specialised_kernels_render_the_same_image(name):
     scene = SCENES[name]()
     imgs = []
     for specialize in (True, False):
-        r = Renderer(scene, RenderOptions(photons_per_pass=2048, seed=4, specialize=specialize,
+        r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=2048, seed=4, specialize=specialize,
                                           exact_gather=True))
         for _ in range(4):
             s = r.iterate()
@@ -150,7 +150,7 @@ def test_specialised_kernels_render_the_same_image(name):
 
 
 def _phases(scene, passes=2, **opts):
-    r = Renderer(scene, RenderOptions(photons_per_pass=1024, **opts))
+    r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=1024, **opts))
     stats = [r.iterate() for _ in range(passes)]
     img = r.image()
     r.close()
@@ -197,7 +197,7 @@ def test_lights_without_power_are_never_sampled():
 
 def test_adaptive_sampling_stops_converged_pixels_and_keeps_their_value():
     scene = cornell_box(24, 24)
-    r = Renderer(scene, RenderOptions(photons_per_pass=4096, seed=3, noise_threshold=0.03))
+    r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=4096, seed=3, noise_threshold=0.03))
     active, imgs = [], []
     for _ in range(400):
         s = r.iterate()
@@ -218,7 +218,7 @@ def test_adaptive_sampling_stops_converged_pixels_and_keeps_their_value():
     assert stopped.any() and act_b.sum() <= act_a.sum()
     np.testing.assert_array_equal(img_a[stopped], img_b[stopped])
     # and the image is the non-adaptive one within noise (stopping pixels adds no bias)
-    full = Renderer(scene, RenderOptions(photons_per_pass=4096, seed=4))
+    full = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=4096, seed=4))
     for _ in range(len(active)):
         full.iterate()
     ref = full.image()[..., :3]
@@ -228,7 +228,7 @@ def test_adaptive_sampling_stops_converged_pixels_and_keeps_their_value():
 
 
 def test_noise_threshold_off_samples_every_pixel_every_pass():
-    r = Renderer(cornell_box(16, 16), RenderOptions(photons_per_pass=1024))
+    r = Renderer(cornell_box(16, 16), RenderOptions(indirect="photons", photons_per_pass=1024))
     for _ in range(40):
         s = r.iterate()
         assert s.active_pixels == 256 and not s.converged and "adaptive" not in s.phase_ms

@@ -82,7 +82,8 @@ def floor_scene(w=16, h=16, lights=None, extra=None, world=(0, 0, 0)):
 # ------------------------------------------------------------------------------------------------
 # Long runs
 def _long_run(passes, check_every):
-    r = Renderer(cornell_box(4, 4), RenderOptions(photons_per_pass=256, seed=2))
+    r = Renderer(cornell_box(4, 4), RenderOptions(photons_per_pass=256, seed=2,
+                                                  indirect="photons"))
     prev_r = prev_n = None
     means = {}
     try:
@@ -368,16 +369,18 @@ def test_zero_power_and_huge_lights_scale_linearly():
     np.testing.assert_allclose(b / 1e7, a, rtol=1e-3, atol=1e-6 * a.max())
 
 
-def test_light_inside_a_closed_box_does_not_leak():
+@pytest.mark.parametrize("indirect", ["photons", "paths"])
+def test_light_inside_a_closed_box_does_not_leak(indirect):
     """A lamp in a closed diffuse box above the floor: outside, the box and the floor stay
     black (photons on the inside of a wall must not be gathered on its outside: the gather's
-    normal test; the walls have no thickness)."""
+    normal test; eye paths must not cross the walls, which have no thickness)."""
     def add(mb):
         w = mb.material("box", (0.8, 0.8, 0.8))
         mb.box((-0.5, -0.5, 0.2), (0.5, 0.5, 1.2), w)
     img, stats, _ = render(floor_scene(lights=point_light((0, 0, 0.7), 1000.0), extra=add),
-                           passes=8)
-    assert stats[-1].photons_stored > 0         # photons bounce around inside
+                           passes=8, indirect=indirect)
+    if indirect == "photons":
+        assert stats[-1].photons_stored > 0     # photons bounce around inside
     assert img.max() == 0.0
 
 

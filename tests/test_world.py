@@ -194,7 +194,7 @@ def test_constant_world_renders_as_before():
     scene = _room(None, glass=True, world=(0.3, 0.4, 0.5))
     for specialize in (True, False):
         r = Renderer(scene, RenderOptions(photons_per_pass=2048, seed=4, specialize=specialize,
-                                          exact_gather=True))
+                                          exact_gather=True, indirect="photons"))
         if specialize:
             assert "PPM_WORLD_MAP" not in r.features and "PPM_SVM" not in r.features
         for _ in range(4):

@@ -195,6 +195,8 @@ def render(scene, path) -> tuple[np.ndarray, float, dict]:
     wall = time.perf_counter() - t
     if scene.render.engine == "PPM":
         info["passes"] = len(passes)
+        # the estimator of indirect light the render used, as its stats line shows it
+        info["indirect"] = "paths" if passes and " · paths" in passes[-1] else "photons"
     img = read_exr(path)[..., :3]
     if not np.isfinite(img).all():
         raise RuntimeError(f"non-finite pixels in {path}")
@@ -347,6 +349,7 @@ def ratios(result: dict, seconds: float) -> dict:
         if m is not None:
             r["image_rmse_vs_mnee"] = o["image"]["rmse"] / m["image"]["rmse"]
             r["caustic_rmse_vs_mnee"] = o["caustic"]["rmse"] / m["caustic"]["rmse"]
+        r["indirect"] = o.get("indirect", "photons")
         if name in TARGETS:
             r["target"] = TARGETS[name]
             r["met"] = bool(r["image_rmse"] <= TARGETS[name])

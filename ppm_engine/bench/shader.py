@@ -54,7 +54,8 @@ def run_shader(scene_name: str, resolution: int = 128, passes: int = 8, warmup: 
     plain = export_scene(bpy.context.evaluated_depsgraph_get())
     changed = drive_base_colors(bpy)
     driven = export_scene(bpy.context.evaluated_depsgraph_get())
-    opts = RenderOptions(device=device, seed=7)
+    # the paper's passes (every phase has hits to shade: eye, photons, gather)
+    opts = RenderOptions(device=device, seed=7, indirect="photons")
     renderers = {"constant": Renderer(plain, opts), "program": Renderer(driven, opts)}
     progress(f"shader: {scene_name} {resolution}x{resolution}, {changed} materials driven, "
              f"{renderers['program'].photons_per_pass} photons per pass, {warmup} warm-up + "

@@ -90,6 +90,7 @@ def no_photon_pass(res: int, passes: int, device: str) -> dict:
     """max_bounces = 0: no photon pass, hash or gather vs running them anyway."""
     scene = cornell_box(res, res)
     rs = {k: Renderer(scene, RenderOptions(max_bounces=0, device=device, seed=1,
+                                           indirect="photons",
                                            skip_unneeded_photon_pass=(k == "skip")))
           for k in ("skip", "run")}                 # "run": the passes run and add nothing
     ms = _median_pass_ms(rs, passes)
@@ -100,6 +101,22 @@ def no_photon_pass(res: int, passes: int, device: str) -> dict:
                 "without: photon pass, hash build and gather run")
 
 
+def no_caustic_photons(res: int, passes: int, device: str) -> dict:
+    """Indirect light by eye paths in a scene without mirrors, glass or smooth glossy lobes:
+    no photon can be a caustic one, so no photon pass, hash or gather vs running them."""
+    scene = cornell_box(res, res)
+    rs = {k: Renderer(scene, RenderOptions(device=device, seed=1, indirect="paths",
+                                           skip_unneeded_photon_pass=(k == "skip")))
+          for k in ("skip", "run")}                 # "run": every photon ends at its first hit
+    ms = _median_pass_ms(rs, passes)
+    for r in rs.values():
+        r.close()
+    return _row("no caustic photons (indirect light by paths, no mirror or glass)",
+                f"Cornell box, {res}x{res}", ms["skip"], ms["run"], "ms per pass",
+                "without: photon pass (each photon ends at its first hit), hash build and "
+                "gather run")
+
+
 def photons_outside(res: int, passes: int, device: str) -> dict:
     """Photons outside the visible points' grid are not stored or hashed vs a grid over the
     whole scene (every photon stored)."""
@@ -107,7 +124,7 @@ def photons_outside(res: int, passes: int, device: str) -> dict:
     cam = scene.camera.copy()                # looking into one corner: most photons unseen
     cam["to_world"] = look_at((0.5, 0.5, 0.5), (1.0, 1.0, 0.0))[:3]
     scene = scene.replace(camera=cam)
-    rs = {k: Renderer(scene, RenderOptions(device=device, seed=1,
+    rs = {k: Renderer(scene, RenderOptions(device=device, seed=1, indirect="photons",
                                            skip_unseen_photons=(k == "skip")))
           for k in ("skip", "all")}                 # "all": a grid over the whole scene
     ms = _median_pass_ms(rs, passes)
@@ -250,6 +267,7 @@ def run_skips(device: str = "", quick: bool = False, progress=print) -> dict:
     rows.append(dark_scene(res, device))
     progress("skips: no photon pass")
     rows.append(no_photon_pass(res, passes, device))
+    rows.append(no_caustic_photons(res, passes, device))
     progress("skips: photons outside the visible points")
     rows.append(photons_outside(res, passes, device))
     progress("skips: adaptive sampling")

@@ -34,7 +34,8 @@ class EyePass:
         self.scene, self.film, self.vps, self.counters = scene, film, vps, counters
         self.kernel = program.launch("eye_pass", "eye")
 
-    def enqueue(self, q, pass_index: int, options) -> list:
+    def enqueue(self, q, pass_index: int, options, path_indirect: bool = False) -> list:
+        """``path_indirect``: indirect light by eye paths (kernels/indirect_paths.h)."""
         f, v = self.film, self.vps
         ev = self.kernel(
             q, v.n, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
@@ -44,5 +45,6 @@ class EyePass:
             filter_table=self.scene.filter_table, direct=f.direct_pass, radius=f.radius,
             radius0=f.radius0, vp_pos=v.pos, vp_nrm=v.nrm, vp_beta=v.beta, vp_shade=v.shade,
             counters=self.counters, aux_albedo=f.aux_albedo, aux_normal=f.aux_normal,
-            active=f.active, transparency=f.transparency)
+            active=f.active, transparency=f.transparency,
+            path_indirect=np.uint32(path_indirect))
         return [(self.kernel.label, ev)]

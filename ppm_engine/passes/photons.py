@@ -13,11 +13,16 @@ class PhotonPass:
         self.scene, self.photon_map, self.counters = scene, photon_map, counters
         self.kernel = program.launch("photon_pass", "photon")
 
-    def enqueue(self, q, pass_index: int, options, n_photons: int) -> list:
+    def enqueue(self, q, pass_index: int, options, n_photons: int, caustics_only: bool = False,
+                pilot: bool = False) -> list:
+        """``caustics_only``: only photons whose first scattering is caustic live on (indirect
+        light by eye paths); ``pilot``: they are only counted (Counter.CAUSTIC), none stored."""
         pm = self.photon_map
         ev = self.kernel(
             q, n_photons, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
             seed=np.uint32(options.seed), max_bounces=np.int32(options.max_bounces),
-            n_photons=np.uint32(n_photons), grid=pm.grid, capacity=np.uint32(pm.capacity),
-            ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, counters=self.counters)
+            n_photons=np.uint32(n_photons), grid=pm.grid,
+            capacity=np.uint32(0 if pilot else pm.capacity),
+            ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, counters=self.counters,
+            caustics_only=np.uint32(caustics_only or pilot))
         return [(self.kernel.label, ev)]

@@ -1,0 +1,147 @@
+#ifndef PPM_INDIRECT_PATHS_H
+#define PPM_INDIRECT_PATHS_H
+#include "direct_light.h"
+#include "camera.h"
+#include "medium.h"
+
+/* Indirect light at a visible point by path tracing (RenderOptions.indirect = "paths"): the eye
+ * path goes on from the visible point through a sample of the gather's closures, with
+ * next-event estimation at every vertex, and the photon map keeps only the light paths that
+ * path tracing cannot sample: those whose first scattering from the emitter is by a closure the
+ * eye path follows (mirrors, glass, smooth glossy lobes: caustics, kernels/photon_pass.cl).
+ *
+ * The two estimators split the light paths without overlap by that one vertex, the light's
+ * first scattering: at every vertex the path chooses the gather's closures or the followed ones
+ * in proportion to their sample weights (as the eye pass does at its first hits).  Light
+ * counts here only when the vertex before it chose the gather's closures (next-event
+ * estimation of those closures and emitters their sample finds, combined by MIS); light
+ * reached through a followed closure, or whose shadow ray meets glass, is the caustic photons'
+ * (a photon whose first scattering chose the gather's closures is ended there: next-event
+ * estimation and these paths have it).  Transparent surfaces are no scattering for either.
+ *
+ * Russian roulette as Cycles plays it (survival sqrt of the path's throughput relative to the
+ * visible point's), bounces counted from the camera as in the eye pass: the vertex after
+ * max_bounces bounces only adds the emitters its last sample found.  The first vertices'
+ * numbers are low-discrepancy over the passes (as Cycles' samplers): in a closed emissive
+ * sphere (the benchmark's furnace) independent Russian roulette alone was 8x Cycles' variance
+ * per sample. */
+
+/* the MIS weight of an emitter found by a sample of density prev_pdf (INFINITY: singular) */
+inline float indirect_mis(float prev_pdf, float pdf_light) {
+    return isinf(prev_pdf) ? 1.0f : mis_power(prev_pdf, pdf_light);
+}
+
+/* the path's first vertices draw their numbers from the pixel's low-discrepancy stream over the
+ * passes (rng.h ld_sample), 8 dimensions each: the closure set, next-event estimation (3), the
+ * sample of the closures (3), Russian roulette; later ones from the generator */
+#define INDIRECT_LD_VERTICES (LD_DIMS / 8)
+
+inline float indirect_u(int vertex, int k, uint pass, uint key, uint *rng) {
+    return vertex < INDIRECT_LD_VERTICES ? ld_sample(pass, key, vertex * 8 + k) : rnd(rng);
+}
+
+/* Light reaching the visible point p (material mat, closures sd, weight beta towards the pixel,
+ * reached after depth bounces by the ray `path`) by next-event estimation there and paths that
+ * continue from it; pass and key: the pixel's low-discrepancy stream.  sd is overwritten. */
+inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int depth,
+                             uint path, int max_bounces, uint pass, uint key,
+#if PPM_ABSORPTION
+                             Media *media,
+#endif
+                             SCENE_ARGS, uint *rng) {
+    float3 L = (float3)(0.0f);
+    float beta0 = max3(beta);
+    if (!(beta0 > 0.0f)) return L;
+    int set = MASK_GATHER;           /* the closures this vertex samples */
+    bool counts = true;              /* whether emitters the next ray finds are these paths' */
+    float prev_pdf = INFINITY;
+    float3 prev_n = sd->N;
+    uint mask = VIS_DIFFUSE;
+    for (int vertex = 0, transparent = 0;; vertex++) {
+        if (set == MASK_GATHER) {
+            float3 u = (float3)(indirect_u(vertex, 1, pass, key, rng),
+                                indirect_u(vertex, 2, pass, key, rng),
+                                indirect_u(vertex, 3, pass, key, rng));
+            L += beta * direct_nee_u(sd, p, MASK_GATHER, EMITTERS_HITTABLE, u, SCENE_PASS);
+        }
+        BsdfSample b;
+        float3 rand = (float3)(indirect_u(vertex, 4, pass, key, rng),
+                               indirect_u(vertex, 5, pass, key, rng),
+                               indirect_u(vertex, 6, pass, key, rng));
+        if (!shader_sample(sd, set, rand, &b)) break;
+        beta *= b.weight;
+        bool transmit = (b.label & LABEL_TRANSMIT) != 0;
+        float3 o = offset_ray(p, transmit ? -sd->Ng : sd->Ng, emitter_info->offset_scale);
+        float3 d = b.wo;
+        if (b.label & LABEL_TRANSPARENT) {
+            /* straight through: no scattering, the ray keeps its type and MIS state */
+            if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
+            path = path_transparent(path);
+        } else {
+            depth++;
+            path = path_bounce(path, b.label);
+            counts = set == MASK_GATHER;
+            prev_pdf = b.pdf;
+            prev_n = sd->N;
+            mask = transmit ? VIS_TRANSMISSION : (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE
+                                                                            : VIS_GLOSSY;
+#if PPM_ABSORPTION
+            if (transmit) media_cross(media, mat, !sd->backfacing);
+#endif
+        }
+        if (!(max3(beta) > 0.0f)) break;
+        Hit h = bvh_intersect(o, d, PPM_INF, mask, false, BVH_PASS);
+#if PPM_ABSORPTION
+        if (h.leaf >= 0) beta *= media_transmittance(media, materials, h.t);
+#endif
+        float pdf_l = 0.0f;
+#if PPM_LIGHTS_SEEN
+        if (counts) {
+            float3 Ls = lights_seen(o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, lights,
+                                    emitter_info->n_lights, mask, emitter_cdf, &pdf_l);
+            L += beta * Ls * indirect_mis(prev_pdf, pdf_l);
+        }
+#endif
+        if (h.leaf < 0) {
+            if (counts && PPM_WORLD && emitter_info->has_world) {
+                pdf_l = !isinf(prev_pdf) ? world_pdf(d, prev_n, SCENE_PASS)
+                        * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1) : 0.0f;
+                L += beta * world_le(d, SCENE_PASS) * indirect_mis(prev_pdf, pdf_l);
+            }
+            break;
+        }
+        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        shader_setup(sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
+                     footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
+                                  SVM_FOOTPRINT ? camera_footprint_at(camera, s.p) : 0.0f,
+                                  normals),
+                     SHADING_PASS);
+        if (counts && max3(sd->emission) > 0.0f) {
+            if (PPM_EMISSIVE && !isinf(prev_pdf))
+                mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, &pdf_l);
+            else
+                pdf_l = 0.0f;
+            L += beta * sd->emission * indirect_mis(prev_pdf, pdf_l);
+        }
+        if (depth > max_bounces) break;
+        float sw = sd->sw_gather + sd->sw_continue;
+        if (!(sw > 0.0f)) break;
+        /* Russian roulette as Cycles plays it: after the hit's emission, before its next-event
+         * estimation and sample (survival: sqrt of the throughput relative to the visible
+         * point's) */
+        float q = fmin(1.0f, sqrt(max3(beta) / beta0));
+        if (!(q > 0.0f) || indirect_u(vertex, 7, pass, key, rng) >= q) break;
+        beta /= q;
+        p = s.p;
+        mat = s.material;
+        if (indirect_u(vertex + 1, 0, pass, key, rng) * sw < sd->sw_gather) {
+            set = MASK_GATHER;
+            beta *= sw / sd->sw_gather;
+        } else {
+            set = MASK_CONTINUE;
+            beta *= sw / sd->sw_continue;
+        }
+    }
+    return L;
+}
+#endif

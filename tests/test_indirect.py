@@ -1,0 +1,169 @@
+"""The two estimators of indirect light (RenderOptions.indirect): the paper's photons for every
+bounce, and eye paths with photons for caustics only (kernels/indirect_paths.h).  They split the
+light paths differently, so on the same scene they must agree (no path counted twice or
+missed), and "auto" must choose by the scene's share of caustic first scatterings."""
+import numpy as np
+import pytest
+
+from ppm_engine import analytic
+from ppm_engine.options import RenderOptions, SettingsError
+from ppm_engine.camera_model import make_camera, perspective_extent
+from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.scene_arrays import CAMERA_PERSP
+from ppm_engine.renderer import Renderer
+
+
+def renders(scene, passes, seeds, **opts):
+    out = []
+    for seed in seeds:
+        r = Renderer(scene, RenderOptions(seed=seed, **opts))
+        for _ in range(passes):
+            stats = r.iterate()
+        assert stats.nan_dropped == 0
+        img = r.image()[..., :3]
+        assert np.isfinite(img).all()
+        out.append(img)
+        r.close()
+    return np.asarray(out, np.float64)
+
+
+def blocks(imgs, b):
+    n, h, w, c = imgs.shape
+    return imgs.reshape(n, h // b, b, w // b, b, c).mean(axis=(2, 4, 5))
+
+
+def assert_agree(scene, passes, bias, seeds=4, block=4, **opts):
+    """Photons and paths on the same scene: per block of block x block pixels, the two means
+    over independent seeds within 4 standard errors plus ``bias`` (relative: the photon
+    map's radius blurs what paths render sharp)."""
+    a = blocks(renders(scene, passes, range(seeds), indirect="photons", **opts), block)
+    b = blocks(renders(scene, passes, range(10, 10 + seeds), indirect="paths", **opts), block)
+    ma, mb = a.mean(axis=0), b.mean(axis=0)
+    se = np.sqrt(a.var(axis=0, ddof=1) / seeds + b.var(axis=0, ddof=1) / seeds)
+    tol = 4 * se + bias * np.maximum(ma, mb) + 1e-4
+    assert (np.abs(ma - mb) <= tol).mean() >= 0.95, np.abs(ma - mb).max()
+    assert abs(ma.mean() - mb.mean()) <= 0.02 * ma.mean(), (ma.mean(), mb.mean())
+    return ma, mb
+
+
+def test_paths_and_photons_agree_where_light_comes_through_glass():
+    """The bulb box: every photon's first scattering is the bulb's glass (all caustic), the
+    paths' next-event estimation is blocked by the glass; indirect light by either estimator
+    is the same image."""
+    scene = cornell_box(16, 16, bulb=True)
+    assert_agree(scene, 48, bias=0.08, max_bounces=6)
+
+
+def box_with_glass_ball(W=16):
+    """The Cornell box's walls and ceiling lamp with a glass ball on the floor: diffuse
+    inter-reflection (a third of the image) and a caustic under the ball."""
+    mb = MeshBuilder()
+    white = mb.material("white", (0.73, 0.73, 0.73))
+    red = mb.material("red", (0.63, 0.065, 0.05))
+    glass = mb.material("glass", (1, 1, 1), transmission=1.0, roughness=0.0, ior=1.5)
+    lamp = mb.material("lamp", (0, 0, 0), emission=(15.0,) * 3)
+    mb.quad((0, 0, 0), (1, 0, 0), (0, 1, 0), white)
+    mb.quad((0, 0, 2), (0, 1, 0), (1, 0, 0), white)
+    mb.quad((0, 1, 1), (0, 0, 1), (1, 0, 0), white)
+    mb.quad((-1, 0, 1), (0, 0, 1), (0, 1, 0), red)
+    mb.quad((1, 0, 1), (0, 1, 0), (0, 0, 1), white)
+    mb.quad((0, 0, 1.99), (0, 0.4, 0), (0.4, 0, 0), lamp)
+    mb.sphere((0.2, 0.1, 0.35), 0.35, glass, 24, 12)
+    ext = perspective_extent(W, W, 35.0, 36.0)
+    cam = make_camera(type=CAMERA_PERSP, width=W, height=W,
+                      to_world=look_at((0, -2.9, 1), (0, 0, 1)), extent=ext[:2], clip=(0.1, 100))
+    return mb.build(camera=cam)
+
+
+def test_both_match_light_tracing_in_a_box_with_a_glass_ball():
+    """Both kinds of light at once: the box's inter-reflection is the paths' in one mode and
+    the photons' in the other, the ball's caustic (and the light that comes back through the
+    ball) the photons' in both.  Against light tracing (unbiased, no photon map, no eye paths)
+    over the pixels it renders: counting a path twice or never shows.  Eye paths are unbiased
+    (1 %); the photons' radius at 16x16 pixels still darkens the corners (5 %)."""
+    from ppm_engine.light_tracer import LightTracer
+    scene = box_with_glass_ball()
+    lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32)
+    try:
+        lt.trace(20)
+        ref, cover = lt.image().astype(np.float64), lt.coverage()
+    finally:
+        lt.close()
+    assert cover.mean() > 0.7
+    paths = renders(scene, 100, range(4), indirect="paths", max_bounces=32).mean(axis=0)
+    assert abs(paths[cover].mean() / ref[cover].mean() - 1.0) < 0.01
+    # per quarter of the image (the caustic is in the lower half)
+    for rows in (slice(0, 8), slice(8, 16)):
+        for cols in (slice(0, 8), slice(8, 16)):
+            c = cover[rows, cols]
+            ratio = paths[rows, cols][c].mean() / ref[rows, cols][c].mean()
+            assert abs(ratio - 1.0) < 0.03, (rows, cols, ratio)
+    photons = renders(scene, 100, range(4), indirect="photons", max_bounces=32).mean(axis=0)
+    assert abs(photons[cover].mean() / ref[cover].mean() - 1.0) < 0.05
+    # the scene has both: the auto mode's pilot sees some caustic first scatterings
+    r = Renderer(scene, RenderOptions())
+    try:
+        assert 0.0 < r.caustic_fraction < 0.5 and r.path_indirect
+    finally:
+        r.close()
+
+
+def test_paths_and_photons_agree_beside_a_mirror():
+    """A point light beside a mirror over a floor, several bounces: the mirror's caustic is the
+    photons' in both modes, the floor's inter-reflection (floor, mirror, floor) the paths'
+    in one and the photons' in the other."""
+    scene = analytic.mirror_caustic(W=16)
+    assert_agree(scene, 48, bias=0.06, max_bounces=4)
+
+
+def test_auto_chooses_paths_without_caustics():
+    """A diffuse Cornell box: no closure makes caustics, so paths, and no photon pass at all."""
+    r = Renderer(cornell_box(16, 16), RenderOptions())
+    try:
+        assert r.path_indirect and r.caustic_fraction == 0.0 and not r.photons_needed
+        stats = r.iterate()
+        assert stats.photons_emitted == 0 and stats.indirect == "paths"
+        assert "paths" in stats.line() and "photons" not in stats.line()
+    finally:
+        r.close()
+
+
+def test_auto_chooses_photons_for_a_bulb_in_glass():
+    """Every photon leaves the bulb through its glass: the pilot measures a caustic fraction
+    near 1 and auto keeps the paper's photons for all indirect light."""
+    r = Renderer(cornell_box(16, 16, bulb=True), RenderOptions())
+    try:
+        assert r.caustic_fraction > 0.95 and not r.path_indirect and r.photons_needed
+        assert r.iterate().indirect == "photons"
+    finally:
+        r.close()
+
+
+def test_auto_chooses_paths_beside_a_mirror():
+    """Most of the point light's photons meet the floor first: paths, with caustic photons for
+    the mirror's caustic (the pilot's fraction is the mirror's share of the light)."""
+    r = Renderer(analytic.mirror_caustic(W=16), RenderOptions())
+    try:
+        assert 0.0 < r.caustic_fraction < 0.5 and r.path_indirect and r.photons_needed
+        stats = r.iterate()
+        assert stats.photons_stored > 0 and "caustic photons" in stats.line()
+    finally:
+        r.close()
+
+
+def test_mirror_caustic_by_paths_matches_the_closed_form():
+    """The mirror's caustic through the caustic photons alone (max_bounces 1: direct light by
+    the eye paths, the reflected light by photons), against the analytic radiance."""
+    W = 16
+    scene = analytic.mirror_caustic(W=W)
+    ref = analytic.mirror_caustic_radiance(W=W)
+    imgs = renders(scene, 64, range(4), indirect="paths", max_bounces=1)[..., 0]
+    m = imgs.mean(axis=0)
+    assert abs(m.mean() - ref.mean()) <= 0.02 * ref.mean(), (m.mean(), ref.mean())
+
+
+def test_indirect_setting_is_validated():
+    with pytest.raises(SettingsError, match="indirect"):
+        RenderOptions(indirect="bidirectional").validate()
+    for mode in ("auto", "photons", "paths"):
+        RenderOptions(indirect=mode).validate()
