@@ -167,3 +167,28 @@ def test_indirect_setting_is_validated():
         RenderOptions(indirect="bidirectional").validate()
     for mode in ("auto", "photons", "paths"):
         RenderOptions(indirect=mode).validate()
+
+
+def test_low_discrepancy_constants_and_their_spread():
+    """rng.h's LD_ALPHA: the fractional parts of the square roots of the first primes (in units
+    of 2^-32); the first 16 (a path's first two vertices) spread a pixel's first N passes with a
+    star discrepancy below 5 / N (independent uniform numbers: about 6.5 / N)."""
+    import math
+    import re
+    from pathlib import Path
+    text = (Path(__file__).parents[1] / "kernels" / "rng.h").read_text()
+    dims = int(re.search(r"#define LD_DIMS (\d+)", text).group(1))
+    body = text[text.index("LD_ALPHA[LD_DIMS] = {"):]
+    alphas = [int(v) for v in re.findall(r"(\d+)u", body[:body.index("}")])]
+    primes, k = [], 2
+    while len(primes) < dims:
+        if all(k % p for p in primes if p * p <= k):
+            primes.append(k)
+        k += 1
+    assert alphas == [int((math.sqrt(p) % 1) * 2 ** 32) for p in primes]
+    for N in (16, 64, 256):
+        n, i = np.arange(N, dtype=np.uint64), np.arange(1, N + 1)
+        for a in alphas[:16]:
+            u = np.sort(((n * a) % 2 ** 32) / 2 ** 32)
+            star = max((i / N - u).max(), (u - (i - 1) / N).max())
+            assert star * N < 5.0, (a, N, star * N)

@@ -158,10 +158,12 @@ def errors(img, ref, pixels, ref_noise=0.0) -> dict:
 
 
 # --- rendering through bpy --------------------------------------------------------------------
-def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | None) -> None:
+def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | None,
+                 indirect: str = "AUTO") -> None:
     if scene.render.engine != "PPM":
         scene.render.engine = "PPM"
     s = scene.ppm
+    s.indirect = indirect
     s.passes = 1_000_000
     s.time_limit = seconds
     s.seed = seed
@@ -221,10 +223,10 @@ class Bench:
         bpy.context.view_layer.update()
         return scene
 
-    def shot(self, scene, engine: str, seconds: float, seed: int):
+    def shot(self, scene, engine: str, seconds: float, seed: int, indirect: str = "AUTO"):
         self.count += 1
         if engine == "PPM":
-            ppm_settings(scene, seconds, seed, self.device, self.photons)
+            ppm_settings(scene, seconds, seed, self.device, self.photons, indirect)
         else:
             cycles_reference(scene, seconds=seconds, seed=seed)
         return render(scene, self.folder / f"r{self.count:04d}.exr")
@@ -297,16 +299,19 @@ class Bench:
                 "rmse": errors(lt, ref, both)["rmse"],
                 "reference_noise_rmse": errors(halves[0], halves[1], both)["rmse"] / 2}
 
-        curves = {"ours": ("PPM", False), "cycles": ("CYCLES", False)}
+        # "ours": the default (the estimator of indirect light chosen per scene);
+        # "ours_photons": the paper's photons for all indirect light, in the same run
+        curves = {"ours": ("PPM", False, "AUTO"), "ours_photons": ("PPM", False, "PHOTONS"),
+                  "cycles": ("CYCLES", False, "")}
         if name in CAUSTIC_SCENES:
-            curves["cycles_mnee"] = ("CYCLES", True)
+            curves["cycles_mnee"] = ("CYCLES", True, "")
         out["curves"] = {}
-        for curve, (engine, mnee) in curves.items():
+        for curve, (engine, mnee, indirect) in curves.items():
             if name in CAUSTIC_SCENES:
                 set_mnee(name, mnee)
             rows = []
             for budget in times:
-                img, wall, info = self.shot(scene, engine, budget, 1)
+                img, wall, info = self.shot(scene, engine, budget, 1, indirect or "AUTO")
                 row = {"seconds": budget, "wall_s": wall, **info,
                        "image": errors(img, ref, keep, noise_all),
                        "caustic": errors(img, ref, cmask, noise_c if cmask.any() else 0.0),
@@ -350,6 +355,9 @@ def ratios(result: dict, seconds: float) -> dict:
             r["image_rmse_vs_mnee"] = o["image"]["rmse"] / m["image"]["rmse"]
             r["caustic_rmse_vs_mnee"] = o["caustic"]["rmse"] / m["caustic"]["rmse"]
         r["indirect"] = o.get("indirect", "photons")
+        p = _at(s["curves"].get("ours_photons", []), seconds)
+        if p is not None:
+            r["photons_image_rmse"] = p["image"]["rmse"] / c["image"]["rmse"]
         if name in TARGETS:
             r["target"] = TARGETS[name]
             r["met"] = bool(r["image_rmse"] <= TARGETS[name])

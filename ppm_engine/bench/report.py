@@ -48,7 +48,8 @@ def plot(result: dict, path) -> None:
     import matplotlib.pyplot as plt
     names = list(result["scenes"])
     fig, axes = plt.subplots(2, len(names), figsize=(4 * len(names), 7), squeeze=False)
-    style = {"ours": ("C0", "o", "ours (SPPM)"), "cycles": ("C1", "s", "Cycles"),
+    style = {"ours": ("C0", "o", "ours (default)"),
+             "ours_photons": ("C3", "x", "ours, paper's photons"), "cycles": ("C1", "s", "Cycles"),
              "cycles_mnee": ("C2", "^", "Cycles + MNEE")}
     for j, name in enumerate(names):
         s = result["scenes"][name]
@@ -79,10 +80,11 @@ def plot(result: dict, path) -> None:
 
 def table(result: dict) -> str:
     """Markdown: one row per scene and budget, RMSE (relative) per curve and region."""
-    lines = ["| scene | time (s) | ours RMSE (rel) | Cycles RMSE (rel) | Cycles+MNEE RMSE (rel) "
+    lines = ["| scene | time (s) | ours RMSE (rel) | paper's photons RMSE (rel) "
+             "| Cycles RMSE (rel) | Cycles+MNEE RMSE (rel) "
              "| ours caustic RMSE (rel) | Cycles caustic RMSE (rel) | Cycles+MNEE caustic (rel) "
              "| ours passes |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
 
     def cell(row, region):
         if row is None:
@@ -94,7 +96,9 @@ def table(result: dict) -> str:
         for k, budget in enumerate(result["times"]):
             o, cy = c["ours"][k], c["cycles"][k]
             m = c["cycles_mnee"][k] if "cycles_mnee" in c else None
-            lines.append(f"| {name} | {budget:g} | {cell(o, 'image')} | {cell(cy, 'image')} | "
+            p = c["ours_photons"][k] if "ours_photons" in c else None
+            lines.append(f"| {name} | {budget:g} | {cell(o, 'image')} | {cell(p, 'image')} | "
+                         f"{cell(cy, 'image')} | "
                          f"{cell(m, 'image')} | {cell(o, 'caustic')} | {cell(cy, 'caustic')} | "
                          f"{cell(m, 'caustic')} | {o.get('passes', '–')} |")
     return "\n".join(lines)
@@ -133,14 +137,16 @@ def light_trace_check_table(result: dict) -> str:
 def ratio_table(result: dict) -> str:
     eq = result["ratios_at"]
     lines = [f"| scene | ours: indirect light | RMSE ours/Cycles at {eq:g} s "
-             "| corrected for ref. noise | caustic pixels | ours/(Cycles+MNEE) | target | met |",
-             "|---|---|---:|---:|---:|---:|---:|---|"]
+             "| corrected for ref. noise | caustic pixels | ours/(Cycles+MNEE) "
+             "| paper's photons/Cycles | target | met |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---|"]
     for name, r in result["ratios"].items():
         mn = f"{r['image_rmse_vs_mnee']:.3f}" if "image_rmse_vs_mnee" in r else "–"
         tgt = f"≤ {r['target']:g}" if "target" in r else "–"
         met = ("yes" if r["met"] else "no") if "met" in r else "–"
+        ph = f"{r['photons_image_rmse']:.3f}" if "photons_image_rmse" in r else "–"
         lines.append(f"| {name} | {r.get('indirect', 'photons')} | {r['image_rmse']:.3f} | {r['image_rmse_corrected']:.3f} | "
-                     f"{r['caustic_rmse']:.3f} | {mn} | {tgt} | {met} |")
+                     f"{r['caustic_rmse']:.3f} | {mn} | {ph} | {tgt} | {met} |")
     return "\n".join(lines)
 
 
