@@ -114,6 +114,9 @@ def _build_parser() -> argparse.ArgumentParser:
     b.add_argument("--shader", metavar="SCENE",
                    help="what the shader programs cost per pass of SCENE (its colours computed "
                         "by a node graph against the same constants)")
+    b.add_argument("--report", metavar="JSON",
+                   help="write the tables and plot again from a run's JSON (no rendering): "
+                        "the same figures, the current report's layout and targets")
     b.add_argument("--passes", type=int, default=8,
                    help="--phases, --shader: timed passes (default 8)")
     b.add_argument("--json", metavar="PATH", help="JSON output (default docs/bench/bench.json, "

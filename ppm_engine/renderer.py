@@ -35,6 +35,7 @@ class Renderer:
         t0 = time.perf_counter()
         self.scene = DeviceScene(dev, scene)
         self.counters = dev.buffer(4 * N_COUNTERS, "counters")
+        self._pilot = None          # (settings it depends on, caustic fraction): kept by reset()
         self._start(options, new_pixels=True)
         self.setup_seconds = time.perf_counter() - t0
 
@@ -96,7 +97,10 @@ class Renderer:
             return True, 0.0
         if not self.scene.photons_useful(o.max_bounces):
             return True, None
-        f = self.caustic_fraction_pilot(o)
+        key = (o.gather_roughness, o.max_bounces, o.seed)
+        if self._pilot is None or self._pilot[0] != key:    # a re-render of the same scene
+            self._pilot = (key, self.caustic_fraction_pilot(o))   # keeps its pilot
+        f = self._pilot[1]
         return f <= AUTO_PHOTONS_CAUSTIC_FRACTION, f
 
     def caustic_fraction_pilot(self, o: RenderOptions) -> float:
@@ -123,6 +127,7 @@ class Renderer:
         refitted over its hierarchy instead of rebuilt, and the scene re-uploaded.  Returns
         False (nothing changed) when the triangle count differs or the refitted tree would be
         too slow (bvh.BVH.refit); then build a new Renderer.  Call reset() afterwards."""
+        self._pilot = None                       # the caustic fraction may have moved too
         return self.scene.refit(scene)
 
     def can_reuse(self, options: RenderOptions, scene: SceneArrays | None = None) -> bool:
@@ -140,6 +145,7 @@ class Renderer:
         old, self.options = self.options, options
         if scene is not None and scene is not self.scene.scene:
             self.scene.upload(scene)
+            self._pilot = None                   # materials or lights may differ
         w, h = self.scene.scene.resolution
         self._start(options, new_pixels=(
             (w, h) != (self.width, self.height)

@@ -32,7 +32,8 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
     assert set(res["scenes"]) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
                                   "mirror_caustic"}
     for name, s in res["scenes"].items():
-        curves = {"ours", "cycles"} | ({"cycles_mnee"} if "caustic" in name else set())
+        curves = {"ours", "ours_photons", "cycles"} | (
+            {"cycles_mnee"} if "caustic" in name else set())
         assert set(s["curves"]) == curves
         ref = s["reference"]
         for rows in s["curves"].values():
@@ -54,6 +55,11 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         assert 0.7 < s["bias_check"]["cycles_longest_mean_over_reference"] < 1.3
         ours = s["curves"]["ours"]
         assert ours[-1]["passes"] >= ours[0]["passes"] >= 1
+        # the estimator each render used, from its stats line: the default's choice per scene
+        # (no caustic in the furnace or the Cornell box: paths; the bulb in glass: photons),
+        # and the paper's photons in the curve that forces them
+        assert {r["indirect"] for r in ours} == {"photons" if name == "bulb_box" else "paths"}
+        assert {r["indirect"] for r in s["curves"]["ours_photons"]} == {"photons"}
         # references independent of the engine measured: Cycles, or light tracing (which
         # leaves out the pixels it cannot render) checked against Cycles on the Cornell box
         assert ref["engine"] == {"cornell_box": "CYCLES", "furnace": "ANALYTIC"}.get(
@@ -72,12 +78,25 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         at = res["times"].index(eq)
         assert r["image_rmse"] == pytest.approx(
             c["ours"][at]["image"]["rmse"] / c["cycles"][at]["image"]["rmse"], rel=1e-6)
-        if "met" in r:
+        if "target" in r:
             assert r["met"] == (r["image_rmse"] <= r["target"])
+        elif "target_mnee" in r:
+            assert r["met"] == (r["image_rmse_vs_mnee"] <= r["target_mnee"])
+    assert "target_mnee" in res["ratios"]["glass_caustic"]
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     text = md.read_text()
     assert text.startswith("# head") and text.rstrip().endswith("tail") and "old" not in text
     assert "| bulb_box |" in text and "RMSE ours/Cycles" in text
+    # the tables again from the JSON alone: the same block, headed by the run's command
+    md2 = tmp_path / "B2.md"
+    md2.write_text("<!-- bench:curves -->\n<!-- /bench:curves -->\n")
+    p = cli("bench", "--report", tmp_path / "b.json", "--plot", tmp_path / "p2.png",
+            "--markdown", md2)
+    assert p.returncode == 0, p.stderr
+    block = text[text.index("<!-- bench:curves -->"):text.index("<!-- /bench:curves -->")]
+    assert md2.read_text().startswith(block)
+    p = cli("bench", "--report", tmp_path / "p.png")
+    assert p.returncode == 2 and "cannot read the benchmark JSON" in p.stderr
 
 
 @pytest.mark.slow             # tooling: 20 s of the default run

@@ -192,3 +192,24 @@ def test_low_discrepancy_constants_and_their_spread():
             u = np.sort(((n * a) % 2 ** 32) / 2 ** 32)
             star = max((i / N - u).max(), (u - (i - 1) / N).max())
             assert star * N < 5.0, (a, N, star * N)
+
+
+def test_a_re_render_keeps_its_pilot(monkeypatch):
+    """Persistent data: a re-render of the same scene with the same settings reuses the pilot's
+    fraction (no device work before its first pass); another seed or a new scene measures
+    again."""
+    scene = analytic.mirror_caustic(W=16)
+    r = Renderer(scene, RenderOptions())
+    try:
+        f = r.caustic_fraction
+        calls = []
+        real = r.caustic_fraction_pilot
+        monkeypatch.setattr(r, "caustic_fraction_pilot", lambda o: calls.append(o) or real(o))
+        r.reset(RenderOptions())
+        assert r.caustic_fraction == f and calls == []
+        r.reset(RenderOptions(seed=5))
+        assert len(calls) == 1 and abs(r.caustic_fraction - f) < 0.02
+        r.reset(RenderOptions(seed=5), scene.replace(lights=scene.lights.copy()))
+        assert len(calls) == 2
+    finally:
+        r.close()

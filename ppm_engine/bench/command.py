@@ -12,7 +12,7 @@ from . import curves, glossy, micro, phases, report, shader, skips
 def run(args, cmdline: str, progress=print) -> int:
     """Run the benchmark the arguments ask for; outputs go to --json/--plot/--markdown or
     docs/bench/ and docs/BENCHMARKS.md."""
-    needed = (("OpenEXR", "matplotlib")
+    needed = (("matplotlib",) if args.report else ("OpenEXR", "matplotlib")
               if not (args.micro or args.phases or args.skips or args.shader) else ())
     missing = [m for m in needed if importlib.util.find_spec(m) is None]
     if missing:
@@ -71,6 +71,18 @@ def run(args, cmdline: str, progress=print) -> int:
                               photons=args.photons or (4096 if args.quick else None),
                               progress=progress)
         return publish("phases", p, phases.format_phases(p))
+    if args.report:
+        import json
+        try:
+            result = json.loads(Path(args.report).read_text())
+        except (OSError, ValueError) as e:
+            raise UsageError(f"cannot read the benchmark JSON {args.report}: {e}") from None
+        if "scenes" not in result or "ratios_at" not in result:
+            raise UsageError(f"{args.report} is not the JSON of a 'python -m ppm_engine bench' "
+                             "run")
+        result["ratios"] = curves.ratios(result, result["ratios_at"])
+        return _write_curves(result, result.get("command", cmdline), args, md_path, progress,
+                             json_out=False)
     q = curves.QUICK if args.quick else {}
     times = tuple(args.times) if args.times else q.get("times", curves.DEFAULT_TIMES)
     if any(t <= 0 for t in times):
@@ -84,9 +96,17 @@ def run(args, cmdline: str, progress=print) -> int:
     result = curves.run_bench(times, res, scenes, args.ref_seconds or q.get("ref_seconds"),
                               args.device, args.photons or q.get("photons"), progress)
     result["command"] = cmdline
+    return _write_curves(result, cmdline, args, md_path, progress)
+
+
+def _write_curves(result: dict, cmdline: str, args, md_path: Path, progress,
+                  json_out: bool = True) -> int:
+    """The run's JSON, plot and markdown tables (the block starts with the command that
+    rendered the figures)."""
     json_path = Path(args.json) if args.json else report.DOCS / "bench" / "bench.json"
     plot_path = Path(args.plot) if args.plot else report.DOCS / "bench" / "error_vs_time.png"
-    report.write_json(result, json_path)
+    if json_out:
+        report.write_json(result, json_path)
     report.plot(result, plot_path)
     text = (f"`{cmdline}`\n\nReference per scene:\n\n{report.reference_table(result)}\n\n"
             f"Light tracing (the caustic scenes' reference) against Cycles where both converge:"
@@ -95,5 +115,6 @@ def run(args, cmdline: str, progress=print) -> int:
             f"{report.table(result)}\n\nAt equal time:\n\n{report.ratio_table(result)}")
     print(text)
     report.replace_block(md_path, "curves", text)
-    progress(f"wrote {json_path}, {plot_path}, {md_path} in {result['total_s']:.0f} s")
+    written = f"{json_path}, " if json_out else ""
+    progress(f"wrote {written}{plot_path}, {md_path} (the run took {result['total_s']:.0f} s)")
     return 0
