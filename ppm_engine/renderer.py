@@ -164,9 +164,10 @@ class Renderer:
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
         events = self.eye.enqueue(q, pass_index, o, self.path_indirect)
-        events += self.hash_build.grid(q, v.pos, film.radius, n, cover=self.grid_cover)
         emitted = 0
         if self.photons_needed:
+            # the grid over the visible points: only photons use it
+            events += self.hash_build.grid(q, v.pos, film.radius, n, cover=self.grid_cover)
             emitted = self.photons_per_pass
             events += self.photons.enqueue(q, pass_index, o, emitted,
                                            caustics_only=self.path_indirect)
