@@ -180,9 +180,10 @@ class Renderer:
         if converge:
             events += self.update.converge(q, o.noise_threshold, self.counters)
         counters = np.empty(N_COUNTERS, np.uint32)
-        grid = np.empty(1, GRID_DTYPE)
-        cl.enqueue_copy(q, counters, self.counters, is_blocking=False)
-        cl.enqueue_copy(q, grid, self.photon_map.grid, is_blocking=False)
+        grid = np.zeros(1, GRID_DTYPE)     # no grid this pass (no photons): no visible points
+        cl.enqueue_copy(q, counters, self.counters, is_blocking=False)    # counted, no radii
+        if self.photons_needed:
+            cl.enqueue_copy(q, grid, self.photon_map.grid, is_blocking=False)
         q.finish()
         self.passes_done += 1
         return self._stats(counters, grid, events, converge, time.perf_counter() - t0)

@@ -77,6 +77,7 @@ def run(args, cmdline: str, progress=print) -> int:
             result = json.loads(Path(args.report).read_text())
         except (OSError, ValueError) as e:
             raise UsageError(f"cannot read the benchmark JSON {args.report}: {e}") from None
+        result = report.from_json(result)
         if "scenes" not in result or "ratios_at" not in result:
             raise UsageError(f"{args.report} is not the JSON of a 'python -m ppm_engine bench' "
                              "run")

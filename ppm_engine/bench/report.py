@@ -162,6 +162,17 @@ def _finite_json(obj):
     return obj
 
 
+def from_json(obj):
+    """The inverse of _finite_json: null -> NaN (write_json stores every NaN as null)."""
+    if obj is None:
+        return float("nan")
+    if isinstance(obj, dict):
+        return {k: from_json(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [from_json(v) for v in obj]
+    return obj
+
+
 def write_json(result: dict, path) -> None:
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w") as f:
