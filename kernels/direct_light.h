@@ -49,7 +49,7 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
     /* suns, behind everything: a ray that escapes the scene and meets no other light.
      * Next-event estimation samples a sun without MIS (sun_direct: pdf_dir 0), so a sun a
      * sampled direction finds counts only after a singular bounce or the camera (density
-     * INFINITY: path_mis weighs it 0 after any other). */
+     * INFINITY: mis_power weighs it 0 after any other). */
     if (seen < 0 && max3(Lsun) > 0.0f) {
         L = Lsun;
         *pdf_light = INFINITY;
@@ -75,6 +75,21 @@ inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v,
     }
 #endif
     return material_emission(m, as_uint(v0.w), u, v, o + t * d, SHADING_PASS);
+}
+
+/* The density next-event estimation gives the world in direction d from a point whose normal
+ * (the one the world is sampled around) is n, its pick included. */
+inline float world_light_pdf(float3 d, float3 n, SCENE_ARGS) {
+    return world_pdf(d, n, SCENE_PASS) * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1);
+}
+
+/* The MIS weight of the emission of the surface hit h, found from o along d by a sample of
+ * density prev_pdf (INFINITY: a camera ray or a singular lobe, weight 1). */
+inline float mesh_hit_mis(const Hit *h, float3 o, float3 d, float prev_pdf, SCENE_ARGS) {
+    float pdf_l = 0.0f;
+    if (PPM_EMISSIVE && !isinf(prev_pdf))
+        mesh_seen(h->leaf, o, d, h->t, h->u, h->v, SCENE_PASS, &pdf_l);
+    return mis_power(prev_pdf, pdf_l);
 }
 
 /* The fraction of light a shadow ray from o along d lets through over dist: 0 at an opaque
@@ -184,8 +199,7 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_A
 #endif
         if (h.leaf < 0) {
             if (!(PPM_WORLD && emitter_info->has_world)) return (float3)(0.0f);
-            *pdf_l = world_pdf(d, n, SCENE_PASS)
-                     * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1);
+            *pdf_l = world_light_pdf(d, n, SCENE_PASS);
             return T * world_le(d, SCENE_PASS);
         }
         int mat = as_int(tri_e2[h.leaf].w);

@@ -22,12 +22,6 @@ inline float filter_offset(__global const float *table, uint bits) {
     return mix(table[k], table[k + 1], t);
 }
 
-/* the MIS weight of an emitter found by a path's sample of density prev_pdf (INFINITY: a camera
- * ray or a singular lobe, which next-event estimation cannot sample) */
-inline float path_mis(float prev_pdf, float pdf_light) {
-    return isinf(prev_pdf) ? 1.0f : mis_power(prev_pdf, pdf_light);
-}
-
 __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
                        int max_bounces, float initial_radius, float auto_radius_pixels,
                        __global const float *filter_table,
@@ -90,7 +84,7 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
         float3 Ls = lights_seen(o, d, h.leaf < 0 ? tmax : h.t, h.leaf < 0, lights,
                                 emitter_info->n_lights,
                                 mask, emitter_cdf, &pdf_l);
-        L += beta * Ls * path_mis(prev_pdf, pdf_l);
+        L += beta * Ls * mis_power(prev_pdf, pdf_l);
 #endif
         if (h.leaf < 0) {
             if (film_clear && cam->film_transparent) {
@@ -99,9 +93,8 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
             }
             if (mask == VIS_CAMERA && (emitter_info->world_flags & WORLD_HIDDEN_CAMERA)) break;
             pdf_l = PPM_WORLD && emitter_info->has_world && !isinf(prev_pdf)
-                ? world_pdf(d, prev_n, SCENE_PASS)
-                  * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1) : 0.0f;
-            L += beta * world_le(d, SCENE_PASS) * path_mis(prev_pdf, pdf_l);
+                ? world_light_pdf(d, prev_n, SCENE_PASS) : 0.0f;
+            L += beta * world_le(d, SCENE_PASS) * mis_power(prev_pdf, pdf_l);
             break;
         }
         path_len += h.t;
@@ -114,13 +107,8 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
             float3 t = beta * sd.holdout;
             clear += (t.x + t.y + t.z) * (1.0f / 3.0f);
         }
-        if (max3(sd.emission) > 0.0f) {
-            if (PPM_EMISSIVE && !isinf(prev_pdf))
-                mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, &pdf_l);
-            else
-                pdf_l = 0.0f;
-            L += beta * sd.emission * path_mis(prev_pdf, pdf_l);
-        }
+        if (max3(sd.emission) > 0.0f)
+            L += beta * sd.emission * mesh_hit_mis(&h, o, d, prev_pdf, SCENE_PASS);
         float sw = sd.sw_gather + sd.sw_continue;
         if (!(sw > 0.0f)) break;
         if (rnd(&rng) * sw < sd.sw_gather) {

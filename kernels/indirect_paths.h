@@ -32,11 +32,6 @@
  * stayed (0.0127, 0.0125); sparing two hits was worse on both */
 #define INDIRECT_RR_FIRST 1
 
-/* the MIS weight of an emitter found by a sample of density prev_pdf (INFINITY: singular) */
-inline float indirect_mis(float prev_pdf, float pdf_light) {
-    return isinf(prev_pdf) ? 1.0f : mis_power(prev_pdf, pdf_light);
-}
-
 /* the path's first vertices draw their numbers from the pixel's low-discrepancy stream over the
  * passes (rng.h ld_sample), 8 dimensions each: the closure set, next-event estimation (3), the
  * sample of the closures (3), Russian roulette; later ones from the generator */
@@ -89,8 +84,7 @@ inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int
             counts = set == MASK_GATHER;
             prev_pdf = b.pdf;
             prev_n = sd->N;
-            mask = transmit ? VIS_TRANSMISSION : (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE
-                                                                            : VIS_GLOSSY;
+            mask = bounce_visibility(b.label);
 #if PPM_ABSORPTION
             if (transmit) media_cross(media, mat, !sd->backfacing);
 #endif
@@ -105,14 +99,13 @@ inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int
         if (counts) {
             float3 Ls = lights_seen(o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, lights,
                                     emitter_info->n_lights, mask, emitter_cdf, &pdf_l);
-            L += beta * Ls * indirect_mis(prev_pdf, pdf_l);
+            L += beta * Ls * mis_power(prev_pdf, pdf_l);
         }
 #endif
         if (h.leaf < 0) {
             if (counts && PPM_WORLD && emitter_info->has_world) {
-                pdf_l = !isinf(prev_pdf) ? world_pdf(d, prev_n, SCENE_PASS)
-                        * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1) : 0.0f;
-                L += beta * world_le(d, SCENE_PASS) * indirect_mis(prev_pdf, pdf_l);
+                pdf_l = !isinf(prev_pdf) ? world_light_pdf(d, prev_n, SCENE_PASS) : 0.0f;
+                L += beta * world_le(d, SCENE_PASS) * mis_power(prev_pdf, pdf_l);
             }
             break;
         }
@@ -122,13 +115,8 @@ inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int
                                   SVM_FOOTPRINT ? camera_footprint_at(camera, s.p) : 0.0f,
                                   normals),
                      SHADING_PASS);
-        if (counts && max3(sd->emission) > 0.0f) {
-            if (PPM_EMISSIVE && !isinf(prev_pdf))
-                mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, &pdf_l);
-            else
-                pdf_l = 0.0f;
-            L += beta * sd->emission * indirect_mis(prev_pdf, pdf_l);
-        }
+        if (counts && max3(sd->emission) > 0.0f)
+            L += beta * sd->emission * mesh_hit_mis(&h, o, d, prev_pdf, SCENE_PASS);
         if (depth > max_bounces) break;
         float sw = sd->sw_gather + sd->sw_continue;
         if (!(sw > 0.0f)) break;

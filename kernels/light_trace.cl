@@ -159,8 +159,7 @@ __kernel void light_trace(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         } else {
             bounce++;
             path = path_bounce(path, b.label);
-            mask = transmit ? VIS_TRANSMISSION : (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE
-                                                                            : VIS_GLOSSY;
+            mask = bounce_visibility(b.label);
 #if PPM_ABSORPTION
             if (transmit) media_cross(&media, s.material, dot(d, s.ng) < 0.0f);
 #endif

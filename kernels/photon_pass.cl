@@ -115,9 +115,9 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         } else if (!shader_sample(&sd, set, rand, &b)) {
             break;
         }
-        if (set == MASK_CONTINUE && !(b.label & LABEL_TRANSPARENT)) {
-            atomic_inc(&counters[CNT_CAUSTIC]);
-            if (capacity == 0u) return;     /* a pilot (Renderer.caustic_fraction): counted */
+        if (capacity == 0u && set == MASK_CONTINUE && !(b.label & LABEL_TRANSPARENT)) {
+            atomic_inc(&counters[CNT_CAUSTIC]);   /* a pilot (Renderer.caustic_fraction_pilot) */
+            return;
         }
         flux *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
@@ -135,8 +135,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             bounce++;
             path = path_bounce(path, b.label);
             direct = false;
-            mask = transmit ? VIS_TRANSMISSION : (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE
-                                                                            : VIS_GLOSSY;
+            mask = bounce_visibility(b.label);
 #if PPM_ABSORPTION
             if (transmit) media_cross(&media, s.material, dot(d, s.ng) < 0.0f);
 #endif

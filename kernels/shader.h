@@ -297,6 +297,13 @@ typedef struct {
     int label;
 } BsdfSample;
 
+/* The visibility class of the ray a sampled bounce makes (light_path.h's ray types; as in
+ * Cycles, a transmission is a transmission ray even when diffuse). */
+inline uint bounce_visibility(int label) {
+    return (label & LABEL_TRANSMIT) ? VIS_TRANSMISSION
+         : (label & LABEL_DIFFUSE) ? VIS_DIFFUSE : VIS_GLOSSY;
+}
+
 /* A direction from the closures in mask, picked in proportion to their sample weights. */
 inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSample *s) {
     if (sd->n == 1) {                       /* one closure: no pick, no mixture */

@@ -13,7 +13,7 @@ class Counter(enum.IntEnum):
     OCCUPIED = 4    # hash entries holding at least one photon
     ACTIVE = 5      # pixels still sampled (adaptive sampling)
     SINK = 6        # the hash build's prefetch sink (never read)
-    CAUSTIC = 7     # photons this pass whose first scattering was a followed closure (caustics)
+    CAUSTIC = 7     # a pilot's photons whose first scattering was a followed closure (caustics)
     DIFFUSE_FIRST = 8   # a pilot's photons whose first scattering was by the gather's closures
 
 

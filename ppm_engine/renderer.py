@@ -74,9 +74,10 @@ class Renderer:
         self.hash_build = HashBuild(dev, self.photon_map, self.counters)
         self.gather = Gather(dev, self.photon_map, self.scene, self.defines)
         self.update = ProgressiveUpdate(dev, self.film)
-        self.path_indirect, self.caustic_fraction = self._choose_indirect(o)
-        useful = self.scene.photons_useful(o.max_bounces) and (
-            not self.path_indirect or self.scene.caustics_possible(o.gather_roughness))
+        useful = self.scene.photons_useful(o.max_bounces)
+        caustics = self.scene.caustics_possible(o.gather_roughness)
+        self.path_indirect, self.caustic_fraction = self._choose_indirect(o, useful, caustics)
+        useful = useful and (caustics or not self.path_indirect)
         self.photons_needed = useful or not o.skip_unneeded_photon_pass
         self.grid_cover = None if o.skip_unseen_photons else self.scene.bounds()
         self.passes_done = 0
@@ -87,15 +88,17 @@ class Renderer:
     # photons of the pilot that measures the share of caustic first scatterings
     PILOT_PHOTONS = 1 << 16
 
-    def _choose_indirect(self, o: RenderOptions) -> tuple[bool, float | None]:
+    def _choose_indirect(self, o: RenderOptions, photons_useful: bool,
+                         caustics_possible: bool) -> tuple[bool, float | None]:
         """(indirect light by eye paths?, the pilot's caustic fraction or None): options.indirect,
         or for "auto" eye paths unless most of the light's first scatterings are caustic ones
-        (a bulb inside glass: eye paths would find almost nothing, every photon is caustic)."""
+        (a bulb inside glass: eye paths would find almost nothing, every photon is caustic).
+        ``photons_useful``, ``caustics_possible``: the DeviceScene's answers for ``o``."""
         if o.indirect != "auto":
             return o.indirect == "paths", None
-        if not self.scene.caustics_possible(o.gather_roughness):
+        if not caustics_possible:
             return True, 0.0
-        if not self.scene.photons_useful(o.max_bounces):
+        if not photons_useful:
             return True, None
         key = (o.gather_roughness, o.max_bounces, o.seed)
         if self._pilot is None or self._pilot[0] != key:    # a re-render of the same scene

@@ -86,16 +86,22 @@ def dark_scene(res: int, device: str) -> dict:
                 "without: build the renderer (BVH, buffers) and run 16 passes")
 
 
-def no_photon_pass(res: int, passes: int, device: str) -> dict:
-    """max_bounces = 0: no photon pass, hash or gather vs running them anyway."""
-    scene = cornell_box(res, res)
-    rs = {k: Renderer(scene, RenderOptions(max_bounces=0, device=device, seed=1,
-                                           indirect="photons",
-                                           skip_unneeded_photon_pass=(k == "skip")))
-          for k in ("skip", "run")}                 # "run": the passes run and add nothing
+def _photon_pass_skip(scene, passes: int, device: str, **opts) -> dict:
+    """Median ms per pass with the unneeded photon pass skipped ("skip") and run anyway
+    ("run": the passes run and add nothing)."""
+    rs = {k: Renderer(scene, RenderOptions(device=device, seed=1,
+                                           skip_unneeded_photon_pass=(k == "skip"), **opts))
+          for k in ("skip", "run")}
     ms = _median_pass_ms(rs, passes)
     for r in rs.values():
         r.close()
+    return ms
+
+
+def no_photon_pass(res: int, passes: int, device: str) -> dict:
+    """max_bounces = 0: no photon pass, hash or gather vs running them anyway."""
+    scene = cornell_box(res, res)
+    ms = _photon_pass_skip(scene, passes, device, max_bounces=0, indirect="photons")
     return _row("no photon pass (direct light only, or no diffuse surface)",
                 f"Cornell box, max bounces 0, {res}x{res}", ms["skip"], ms["run"], "ms per pass",
                 "without: photon pass, hash build and gather run")
@@ -105,12 +111,7 @@ def no_caustic_photons(res: int, passes: int, device: str) -> dict:
     """Indirect light by eye paths in a scene without mirrors, glass or smooth glossy lobes:
     no photon can be a caustic one, so no photon pass, hash or gather vs running them."""
     scene = cornell_box(res, res)
-    rs = {k: Renderer(scene, RenderOptions(device=device, seed=1, indirect="paths",
-                                           skip_unneeded_photon_pass=(k == "skip")))
-          for k in ("skip", "run")}                 # "run": every photon ends at its first hit
-    ms = _median_pass_ms(rs, passes)
-    for r in rs.values():
-        r.close()
+    ms = _photon_pass_skip(scene, passes, device, indirect="paths")
     return _row("no caustic photons (indirect light by paths, no mirror or glass)",
                 f"Cornell box, {res}x{res}", ms["skip"], ms["run"], "ms per pass",
                 "without: photon pass (each photon ends at its first hit), hash build and "
