@@ -1,6 +1,7 @@
 """``python -m ppm_engine bench --quick`` (what CI runs of the benchmark): the error-against-
 time run, the micro benchmarks and the phase breakdown run end to end and write well-formed
 JSON, the plot and the markdown tables.  The full run is not part of CI (docs/BENCHMARKS.md)."""
+import importlib.util
 import json
 import math
 import re
@@ -29,11 +30,17 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
             "--markdown", md, timeout=900)
     assert p.returncode == 0, p.stderr
     res = json.loads((tmp_path / "b.json").read_text())
+    luxcore_installed = importlib.util.find_spec("pyluxcore") is not None
     assert set(res["scenes"]) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
                                   "mirror_caustic"}
     for name, s in res["scenes"].items():
         curves = {"ours", "ours_photons", "cycles"} | (
             {"cycles_mnee"} if "caustic" in name else set())
+        if name == "mirror_caustic":          # LuxCore's curve where pyluxcore is installed
+            if luxcore_installed:
+                curves.add("luxcore_bidir")
+            else:
+                assert "pyluxcore" in s["luxcore"]
         assert set(s["curves"]) == curves
         ref = s["reference"]
         for rows in s["curves"].values():

@@ -12,6 +12,13 @@ with the OpenEXR package:
 - Cycles + MNEE (caustic scenes only): the same with shadow caustics on (the glass ball or the
   mirror ``cycles.is_caustics_caster``, floor and wall ``is_caustics_receiver``, the light
   ``cycles.is_caustics_light``).
+- LuxCore BIDIR (``LUXCORE_SCENES``, when the ``pyluxcore`` package is installed; otherwise the
+  JSON says why under ``"luxcore"``): LuxCoreRender's bidirectional path tracer on the scene
+  translated from bpy, in a process of its own (luxcore.py), 2 threads, the budget as its
+  rendering time.  MNEE handles refraction only, so for the point light's caustic in a mirror
+  (issue 15) the bidirectional tracer is the competitor: ours <= 0.5 x its RMSE
+  (``TARGETS_LUXCORE``).  LuxCore 2.11's BIDIRCPU converges about 2 % bright on that scene
+  (``bias_check``; luxcore.py says where): part of its RMSE is that bias.
 
 Reference per scene: two independent long renders ("halves", different seeds from the timed
 renders and from each other), averaged.  Its own noise is RMSE(half_a, half_b) / 2, and
@@ -49,6 +56,7 @@ from ..blender_io import cycles_reference, ensure_registered, read_exr, set_outp
 from ..scenes import build_example
 from ..scenes import furnace
 from ..scenes.bulb_box import BULB_CENTER
+from . import luxcore
 from .report import machine_info
 from .scenes import CAUSTIC_MASKS, MNEE_OBJECTS
 
@@ -66,6 +74,10 @@ TARGETS = {"bulb_box": 0.25, "cornell_box": 1.0, "furnace": 1.0}   # ours / Cycl
 # ours / (Cycles with MNEE), EQUAL_TIME: the issue's point light's caustic through a glass ball
 # (a spot light here: a point light whose power goes towards the ball)
 TARGETS_MNEE = {"glass_caustic": 1.0}
+# scenes with LuxCore's bidirectional path tracer as a curve; ours / LuxCore BIDIR, EQUAL_TIME
+# (issue 15: the point light's caustic in a mirror, which no Cycles estimator samples)
+LUXCORE_SCENES = ("mirror_caustic",)
+TARGETS_LUXCORE = {"mirror_caustic": 0.5}
 QUICK = dict(times=(0.25, 0.5), resolution=16, ref_seconds=1.0, photons=1 << 13)
 
 
@@ -308,13 +320,24 @@ class Bench:
                   "cycles": ("CYCLES", False, "")}
         if name in CAUSTIC_SCENES:
             curves["cycles_mnee"] = ("CYCLES", True, "")
+        # LuxCore renders through luxcore.render, not bpy's render (engine "LUXCORE" below)
+        if name in LUXCORE_SCENES:
+            reason = luxcore.unavailable()
+            if reason is None:
+                curves["luxcore_bidir"] = ("LUXCORE", False, "")
+            else:
+                out["luxcore"] = reason
+                self.progress(f"[{name}] LuxCore BIDIR skipped: {reason}")
         out["curves"] = {}
         for curve, (engine, mnee, indirect) in curves.items():
             if name in CAUSTIC_SCENES:
                 set_mnee(name, mnee)
             rows = []
             for budget in times:
-                img, wall, info = self.shot(scene, engine, budget, 1, indirect or "AUTO")
+                if engine == "LUXCORE":
+                    img, wall, info = luxcore.render(budget, 1)
+                else:
+                    img, wall, info = self.shot(scene, engine, budget, 1, indirect or "AUTO")
                 row = {"seconds": budget, "wall_s": wall, **info,
                        "image": errors(img, ref, keep, noise_all),
                        "caustic": errors(img, ref, cmask, noise_c if cmask.any() else 0.0),
@@ -331,6 +354,9 @@ class Bench:
         out["bias_check"] = {"cycles_longest_mean_over_reference": last["mean_over_reference"],
                              "ours_longest_mean_over_reference":
                                  out["curves"]["ours"][-1]["mean_over_reference"]}
+        if "luxcore_bidir" in out["curves"]:
+            out["bias_check"]["luxcore_longest_mean_over_reference"] = \
+                out["curves"]["luxcore_bidir"][-1]["mean_over_reference"]
         return out
 
 
@@ -342,7 +368,8 @@ def _at(rows, seconds):
 
 
 def ratios(result: dict, seconds: float) -> dict:
-    """RMSE ours / Cycles at the given budget, per scene (whole image and caustic pixels)."""
+    """RMSE ours / Cycles at the given budget, per scene (whole image and caustic pixels), and
+    ours / Cycles + MNEE and ours / LuxCore BIDIR where the run has those curves."""
     out = {}
     for name, s in result["scenes"].items():
         o, c = _at(s["curves"]["ours"], seconds), _at(s["curves"]["cycles"], seconds)
@@ -357,6 +384,10 @@ def ratios(result: dict, seconds: float) -> dict:
         if m is not None:
             r["image_rmse_vs_mnee"] = o["image"]["rmse"] / m["image"]["rmse"]
             r["caustic_rmse_vs_mnee"] = o["caustic"]["rmse"] / m["caustic"]["rmse"]
+        x = _at(s["curves"].get("luxcore_bidir", []), seconds)
+        if x is not None:
+            r["image_rmse_vs_luxcore"] = o["image"]["rmse"] / x["image"]["rmse"]
+            r["caustic_rmse_vs_luxcore"] = o["caustic"]["rmse"] / x["caustic"]["rmse"]
         r["indirect"] = o.get("indirect", "photons")
         p = _at(s["curves"].get("ours_photons", []), seconds)
         if p is not None:
@@ -367,6 +398,9 @@ def ratios(result: dict, seconds: float) -> dict:
         elif name in TARGETS_MNEE and "image_rmse_vs_mnee" in r:
             r["target_mnee"] = TARGETS_MNEE[name]
             r["met"] = bool(r["image_rmse_vs_mnee"] <= TARGETS_MNEE[name])
+        elif name in TARGETS_LUXCORE and "image_rmse_vs_luxcore" in r:
+            r["target_luxcore"] = TARGETS_LUXCORE[name]
+            r["met"] = bool(r["image_rmse_vs_luxcore"] <= TARGETS_LUXCORE[name])
         out[name] = r
     return out
 

@@ -50,7 +50,8 @@ def plot(result: dict, path) -> None:
     fig, axes = plt.subplots(2, len(names), figsize=(4 * len(names), 7), squeeze=False)
     style = {"ours": ("C0", "o", "ours (default)"),
              "ours_photons": ("C3", "x", "ours, paper's photons"), "cycles": ("C1", "s", "Cycles"),
-             "cycles_mnee": ("C2", "^", "Cycles + MNEE")}
+             "cycles_mnee": ("C2", "^", "Cycles + MNEE"),
+             "luxcore_bidir": ("C4", "D", "LuxCore BIDIR")}
     for j, name in enumerate(names):
         s = result["scenes"][name]
         for i, region in enumerate(("image", "caustic")):
@@ -81,10 +82,10 @@ def plot(result: dict, path) -> None:
 def table(result: dict) -> str:
     """Markdown: one row per scene and budget, RMSE (relative) per curve and region."""
     lines = ["| scene | time (s) | ours RMSE (rel) | paper's photons RMSE (rel) "
-             "| Cycles RMSE (rel) | Cycles+MNEE RMSE (rel) "
+             "| Cycles RMSE (rel) | Cycles+MNEE RMSE (rel) | LuxCore BIDIR RMSE (rel) "
              "| ours caustic RMSE (rel) | Cycles caustic RMSE (rel) | Cycles+MNEE caustic (rel) "
-             "| ours passes |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| LuxCore BIDIR caustic (rel) | ours passes |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
 
     def cell(row, region):
         if row is None:
@@ -97,10 +98,12 @@ def table(result: dict) -> str:
             o, cy = c["ours"][k], c["cycles"][k]
             m = c["cycles_mnee"][k] if "cycles_mnee" in c else None
             p = c["ours_photons"][k] if "ours_photons" in c else None
+            x = c["luxcore_bidir"][k] if "luxcore_bidir" in c else None
             lines.append(f"| {name} | {budget:g} | {cell(o, 'image')} | {cell(p, 'image')} | "
-                         f"{cell(cy, 'image')} | "
-                         f"{cell(m, 'image')} | {cell(o, 'caustic')} | {cell(cy, 'caustic')} | "
-                         f"{cell(m, 'caustic')} | {o.get('passes', '–')} |")
+                         f"{cell(cy, 'image')} | {cell(m, 'image')} | {cell(x, 'image')} | "
+                         f"{cell(o, 'caustic')} | {cell(cy, 'caustic')} | "
+                         f"{cell(m, 'caustic')} | {cell(x, 'caustic')} | "
+                         f"{o.get('passes', '–')} |")
     return "\n".join(lines)
 
 
@@ -138,16 +141,27 @@ def ratio_table(result: dict) -> str:
     eq = result["ratios_at"]
     lines = [f"| scene | ours: indirect light | RMSE ours/Cycles at {eq:g} s "
              "| corrected for ref. noise | caustic pixels | ours/(Cycles+MNEE) "
-             "| paper's photons/Cycles | target | met |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---|"]
+             "| ours/LuxCore BIDIR (caustic pixels) | paper's photons/Cycles | target | met |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
     for name, r in result["ratios"].items():
         mn = f"{r['image_rmse_vs_mnee']:.3f}" if "image_rmse_vs_mnee" in r else "–"
+        lx = (f"{r['image_rmse_vs_luxcore']:.3f} ({r['caustic_rmse_vs_luxcore']:.3f})"
+              if "image_rmse_vs_luxcore" in r else "–")
         tgt = (f"≤ {r['target']:g}" if "target" in r else
-               f"≤ {r['target_mnee']:g} (vs MNEE)" if "target_mnee" in r else "–")
+               f"≤ {r['target_mnee']:g} (vs MNEE)" if "target_mnee" in r else
+               f"≤ {r['target_luxcore']:g} (vs LuxCore BIDIR)" if "target_luxcore" in r else "–")
         met = ("yes" if r["met"] else "no") if "met" in r else "–"
         ph = f"{r['photons_image_rmse']:.3f}" if "photons_image_rmse" in r else "–"
         lines.append(f"| {name} | {r.get('indirect', 'photons')} | {r['image_rmse']:.3f} | {r['image_rmse_corrected']:.3f} | "
-                     f"{r['caustic_rmse']:.3f} | {mn} | {ph} | {tgt} | {met} |")
+                     f"{r['caustic_rmse']:.3f} | {mn} | {lx} | {ph} | {tgt} | {met} |")
+    # LuxCore's curve: its converged brightness (a bias raises its RMSE) or why it is missing
+    for name, s in result["scenes"].items():
+        b = s.get("bias_check", {}).get("luxcore_longest_mean_over_reference")
+        if b is not None:
+            lines.append(f"\nLuxCore BIDIR on {name}: its longest render's mean / reference "
+                         f"{b:.3f}.")
+        if isinstance(s.get("luxcore"), str):
+            lines.append(f"\nLuxCore BIDIR on {name} skipped: {s['luxcore']}.")
     return "\n".join(lines)
 
 
