@@ -44,3 +44,12 @@ __kernel void direct_light_at(SCENE_ARGS, __global const float4 *points, __globa
         E += direct_light(&sd, points[i].xyz, MASK_GATHER, SCENE_PASS, &rng);
     out[i] = (float4)(E / (float)n_samples, 0.0f);
 }
+
+/* rng.h's low-discrepancy sets: out[k * n_pass + n] = set `set` of pass first + n for key
+ * keys[k] (tests/test_indirect.py) */
+__kernel void ld_sets(__global const uint *keys, uint n_keys, uint n_pass, uint first, uint set,
+                      __global float4 *out) {
+    uint i = get_global_id(0);
+    if (i >= n_keys * n_pass) return;
+    out[i] = ld_set(first + i % n_pass, keys[i / n_pass], set);
+}

@@ -18,37 +18,83 @@ inline uint rng_next(uint *s) {
 /* uniform in [0, 1) */
 inline float rnd(uint *s) { return (float)(rng_next(s) >> 8) * (1.0f / 16777216.0f); }
 
-/* Low-discrepancy samples over the passes for a pixel's first few path dimensions (eye paths,
- * indirect_paths.h): dimension d of pass n is the Weyl sequence frac(n alpha_d + r_d), alpha_d
- * the fractional part of the square root of the d-th prime (irrationals independent over the
- * rationals: no two dimensions move in step), r_d a rotation per pixel and dimension from
- * ``key`` (Cranley-Patterson: each pass's sample stays uniform, so the estimate stays unbiased).
- * The first 16 dimensions (a path's first two vertices) spread a pixel's first 16, 64 and 256
- * passes with a star discrepancy below 5 / N (independent numbers: about 6.5 / N); a few later
- * ones (alpha near a simple fraction, sqrt(101) = 10.05) spread worse than independent numbers
- * over the first passes.  Tables chosen for small continued-fraction terms measured worse at
- * equal time on the Cornell box (0.0136-0.0139 against 0.0125), so the plain order stays.
- * Over the passes a pixel's decisions are stratified instead of independent: the share of its
- * paths that survive Russian roulette, or whose light sample falls in a soft shadow, follows
- * the probability closely. */
-#define LD_DIMS 96          /* 12 vertices of 8 numbers (indirect_paths.h) */
-__constant uint LD_ALPHA[LD_DIMS] = {
-    1779033703u, 3144134277u, 1013904242u, 2773480762u, 1359893119u, 2600822924u, 528734635u,
-    1541459225u, 3418070365u, 1654270250u, 2438529370u, 355462360u, 1731405415u, 2394180231u,
-    3675008525u, 1203062813u, 2925498710u, 3479995859u, 796084093u, 1830299338u, 2336478295u,
-    3814765974u, 474308610u, 1863934769u, 3645816497u, 214214161u, 639484402u, 1477814206u,
-    1891102055u, 2706455657u, 1157183029u, 1913507325u, 3026663070u, 3392277365u, 887149614u,
-    1237834173u, 2276178418u, 3294864124u, 3963601907u, 656899949u, 1628171250u, 1948300446u,
-    3523054131u, 3833017748u, 153196534u, 458427541u, 2258461506u, 4007997007u, 285697673u,
-    570139515u, 1135321014u, 1974073629u, 2251313177u, 3620569459u, 134086911u, 933187903u,
-    1723224488u, 1984608322u, 2763025377u, 3277294613u, 3533056595u, 503553856u, 2239462382u,
-    2728129246u, 2971284200u, 3455274624u, 830669862u, 1535707435u, 2696964627u, 2927199279u,
-    3385697929u, 4068602425u, 675358098u, 1345217755u, 2009711121u, 2449788317u, 3105617507u,
-    3972238493u, 107307157u, 960992129u, 2016442007u, 2226015100u, 3266492245u, 3473134094u,
-    4090212631u, 204290891u, 814412129u, 1621600664u, 2022545426u, 2222365506u, 2620715106u,
-    3805635780u, 292386301u, 680837383u, 1453021382u, 1836792121u};
-inline float ld_sample(uint pass, uint key, int d) {
-    uint bits = pass * LD_ALPHA[d] + pcg_hash(key ^ ((uint)d * 0x9E3779B9u));
-    return (float)(bits >> 8) * (1.0f / 16777216.0f);
+/* Low-discrepancy samples over the passes for a pixel's first path dimensions (eye paths,
+ * indirect_paths.h), as Cycles' default sampler draws them: the Sobol sequence with Owen
+ * scrambling by hashing (Burley, "Practical Hash-based Owen Scrambling", JCGT 2020).  The
+ * dimensions come in sets of four; each set is the 4D Sobol sequence (Joe & Kuo's direction
+ * numbers for its first four dimensions, SOBOL_V: every dimension's first 2^m points stratify [0, 1)
+ * into 2^m equal cells, the first two dimensions are a (0, 2)-sequence, the other pairs have
+ * t <= 2), its pass index shuffled and each dimension's bits scrambled with seeds hashed from
+ * the pixel's key and the set: sets are independent of each other (padding), pixels of each
+ * other, and every pass's sample is uniform (the estimate stays unbiased).  Over the passes a
+ * pixel's samples stay stratified in every dimension and pair of its set: the share of its
+ * light samples in a soft shadow, or of its paths that survive Russian roulette, follows the
+ * probability closely.  It replaced Weyl sequences of square roots of primes (rotated per
+ * pixel), whose error fell more slowly than 1/sqrt(N) after a few hundred passes (docs/BENCHMARKS.md). */
+#define LD_SETS 24          /* 12 vertices of two sets (indirect_paths.h) */
+/* SOBOL_V[d - 1][i]: the direction number of bit i of the index in dimension d = 1, 2, 3, its
+ * bits reversed (dimension 0, the van der Corput sequence, is the index's bits reversed): the
+ * values are built and scrambled in reversed order, one reversal each instead of three
+ * (tests/test_indirect.py derives the table) */
+__constant uint SOBOL_V[3][32] = {
+    {0x00000001u, 0x00000003u, 0x00000005u, 0x0000000fu, 0x00000011u, 0x00000033u, 0x00000055u,
+     0x000000ffu, 0x00000101u, 0x00000303u, 0x00000505u, 0x00000f0fu, 0x00001111u, 0x00003333u,
+     0x00005555u, 0x0000ffffu, 0x00010001u, 0x00030003u, 0x00050005u, 0x000f000fu, 0x00110011u,
+     0x00330033u, 0x00550055u, 0x00ff00ffu, 0x01010101u, 0x03030303u, 0x05050505u, 0x0f0f0f0fu,
+     0x11111111u, 0x33333333u, 0x55555555u, 0xffffffffu},
+    {0x00000001u, 0x00000003u, 0x00000006u, 0x00000009u, 0x00000017u, 0x0000003au, 0x00000071u,
+     0x000000a3u, 0x00000116u, 0x00000339u, 0x00000677u, 0x000009aau, 0x00001601u, 0x00003903u,
+     0x00007706u, 0x0000aa09u, 0x00010117u, 0x0003033au, 0x00060671u, 0x000909a3u, 0x00171616u,
+     0x003a3939u, 0x00717777u, 0x00a3aaaau, 0x01170001u, 0x033a0003u, 0x06710006u, 0x09a30009u,
+     0x16160017u, 0x3939003au, 0x77770071u, 0xaaaa00a3u},
+    {0x00000001u, 0x00000003u, 0x00000004u, 0x0000000au, 0x0000001fu, 0x0000002eu, 0x00000045u,
+     0x000000c9u, 0x0000011bu, 0x000002a4u, 0x0000079au, 0x00000b67u, 0x0000101eu, 0x0000302du,
+     0x00004041u, 0x0000a0c3u, 0x0001f104u, 0x0002e28au, 0x000457dfu, 0x000c9baeu, 0x0011a105u,
+     0x002a7289u, 0x0079e7dbu, 0x00b6dba4u, 0x0100011au, 0x030002a7u, 0x0400079eu, 0x0a000b6du,
+     0x1f001001u, 0x2e003003u, 0x45004004u, 0xc900a00au}};
+inline uint reverse_bits(uint x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
+    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
+    return (x >> 16) | (x << 16);
+}
+/* Owen scrambling of x's bits by a hash, on x's bits reversed (Laine & Karras' permutation as
+ * Burley's paper gives it): each bit of the result is flipped by a function of the seed and
+ * the bits above it, so the stratification of every power-of-two prefix survives */
+inline uint owen_scramble_reversed(uint xr, uint seed) {
+    xr += seed;
+    xr ^= xr * 0x6c50b47cu;
+    xr ^= xr * 0xb82f1e52u;
+    xr ^= xr * 0xc7afe638u;
+    xr ^= xr * 0x8d22f6e6u;
+    return reverse_bits(xr);
+}
+inline float bits_unit(uint bits) { return (float)(bits >> 8) * (1.0f / 16777216.0f); }
+/* set `set` (dimensions 4 set to 4 set + 3) of pass `pass` for the pixel's key: the pass index
+ * shuffled by an Owen scramble of its low 16 bits (each power-of-two run of passes stays one
+ * aligned block of Sobol points; a bijection, the bits above kept: the Sobol sum runs over 16
+ * bits rather than 32 for a render's first 65,536 passes), the four coordinates scrambled with
+ * seeds of their own */
+inline float4 ld_set(uint pass, uint key, uint set) {
+    uint seed = pcg_hash(key ^ (set * 0x9E3779B9u));
+    uint index = (owen_scramble_reversed(reverse_bits(pass), seed) & 0xFFFFu) | (pass & ~0xFFFFu);
+    uint x1 = 0u, x2 = 0u, x3 = 0u;
+    for (int i = 0; i < 16; i++) {            /* a fixed count: unrolled, no branch */
+        uint on = 0u - ((index >> i) & 1u);
+        x1 ^= SOBOL_V[0][i] & on;
+        x2 ^= SOBOL_V[1][i] & on;
+        x3 ^= SOBOL_V[2][i] & on;
+    }
+    for (int i = 16; (index >> 16) != 0u && i < 32; i++) {
+        uint on = 0u - ((index >> i) & 1u);
+        x1 ^= SOBOL_V[0][i] & on;
+        x2 ^= SOBOL_V[1][i] & on;
+        x3 ^= SOBOL_V[2][i] & on;
+    }
+    return (float4)(bits_unit(owen_scramble_reversed(index, pcg_hash(seed + 1u))),
+                    bits_unit(owen_scramble_reversed(x1, pcg_hash(seed + 2u))),
+                    bits_unit(owen_scramble_reversed(x2, pcg_hash(seed + 3u))),
+                    bits_unit(owen_scramble_reversed(x3, pcg_hash(seed + 4u))));
 }
 #endif

@@ -169,29 +169,78 @@ def test_indirect_setting_is_validated():
         RenderOptions(indirect=mode).validate()
 
 
-def test_low_discrepancy_constants_and_their_spread():
-    """rng.h's LD_ALPHA: the fractional parts of the square roots of the first primes (in units
-    of 2^-32); the first 16 (a path's first two vertices) spread a pixel's first N passes with a
-    star discrepancy below 5 / N (independent uniform numbers: about 6.5 / N)."""
-    import math
+def _sobol_directions():
+    """Dimensions 1-3 of the Sobol sequence from Joe & Kuo's primitive polynomials (degree s,
+    coefficients a) and initial numbers m: direction number i of each, bits reversed."""
+    out = []
+    for s, a, m in ((1, 0, [1]), (2, 1, [1, 3]), (3, 1, [1, 3, 1])):
+        m = list(m)
+        for k in range(s, 32):
+            x = m[k - s] ^ (m[k - s] << s)
+            for j in range(1, s):
+                if (a >> (s - 1 - j)) & 1:
+                    x ^= m[k - j] << j
+            m.append(x)
+        out.append([int(f"{m[i] << (31 - i):032b}"[::-1], 2) for i in range(32)])
+    return out
+
+
+def _ld_sets(keys, passes, first_pass=0, set_index=0):
+    import pyopencl as cl
+    from ppm_engine.device.context import get_device
+    dev = get_device("")
+    keys = np.asarray(keys, np.uint32)
+    out = np.empty((len(keys) * passes, 4), np.float32)
+    mf = cl.mem_flags
+    kb = cl.Buffer(dev.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=keys)
+    ob = cl.Buffer(dev.context, mf.WRITE_ONLY, out.nbytes)
+    dev.programs.get("debug.cl").ld_sets(dev.queue, (out.shape[0],), None, kb,
+                                         np.uint32(len(keys)), np.uint32(passes),
+                                         np.uint32(first_pass), np.uint32(set_index), ob)
+    cl.enqueue_copy(dev.queue, out, ob)
+    return out.reshape(len(keys), passes, 4)
+
+
+# t of each pair of a set's dimensions (Joe & Kuo's numbers, up to 2^10 points)
+T_VALUES = {(0, 1): 0, (0, 2): 1, (1, 2): 1, (0, 3): 2, (1, 3): 2, (2, 3): 2}
+
+
+def test_low_discrepancy_sets():
+    """rng.h's ld_set: its direction numbers are Joe & Kuo's; a pixel's first 2^m passes (and
+    any aligned run of 2^m, also past the 16 shuffled bits) put one point in each of 2^m equal
+    cells of every dimension, the first two dimensions form a (0, m, 2)-net (one point in
+    every elementary box of area 2^-m), the other pairs (t, m, 2)-nets with t <= 2; over pixels each pass's numbers are uniform and two
+    sets are independent."""
     import re
     from pathlib import Path
     text = (Path(__file__).parents[1] / "kernels" / "rng.h").read_text()
-    dims = int(re.search(r"#define LD_DIMS (\d+)", text).group(1))
-    body = text[text.index("LD_ALPHA[LD_DIMS] = {"):]
-    alphas = [int(v) for v in re.findall(r"(\d+)u", body[:body.index("}")])]
-    primes, k = [], 2
-    while len(primes) < dims:
-        if all(k % p for p in primes if p * p <= k):
-            primes.append(k)
-        k += 1
-    assert alphas == [int((math.sqrt(p) % 1) * 2 ** 32) for p in primes]
-    for N in (16, 64, 256):
-        n, i = np.arange(N, dtype=np.uint64), np.arange(1, N + 1)
-        for a in alphas[:16]:
-            u = np.sort(((n * a) % 2 ** 32) / 2 ** 32)
-            star = max((i / N - u).max(), (u - (i - 1) / N).max())
-            assert star * N < 5.0, (a, N, star * N)
+    body = text[text.index("SOBOL_V[3][32] = {"):]
+    table = [int(v, 16) for v in re.findall(r"0x([0-9a-f]{8})u", body[:body.index("};")])]
+    assert table == sum(_sobol_directions(), [])
+    keys = (np.arange(1, 9, dtype=np.uint64) * 2654435761 % 2 ** 32).astype(np.uint32)
+    for first in (0, 1 << 16):
+        pts = _ld_sets(keys, 1024, first)
+        for m in (2, 5, 8, 10):
+            n = 1 << m
+            for block in range(0, 1024, n)[:2]:
+                for p in pts[:, block:block + n]:
+                    for d in range(4):
+                        assert len(set((p[:, d] * n).astype(int))) == n, (first, m, d)
+                    for (d0, d1), t in T_VALUES.items():   # (t, m, 2)-nets
+                        for la in range(m - t + 1):
+                            cells = set(zip((p[:, d0] * (1 << la)).astype(int),
+                                            (p[:, d1] * (1 << (m - t - la))).astype(int)))
+                            assert len(cells) == n >> t, (first, m, d0, d1, la)
+    # over 4096 pixels, pass 5: uniform in each dimension; sets 0 and 1 uncorrelated
+    many = (np.arange(4096, dtype=np.uint64) * 2246822519 % 2 ** 32).astype(np.uint32)
+    a = _ld_sets(many, 8, 0, 0)[:, 5]
+    b = _ld_sets(many, 8, 0, 1)[:, 5]
+    for d in range(4):
+        counts = np.bincount((a[:, d] * 16).astype(int), minlength=16)
+        chi2 = ((counts - 256) ** 2 / 256).sum()
+        assert chi2 < 45, (d, chi2)                  # 15 degrees of freedom: p < 1e-4
+        assert abs(np.corrcoef(a[:, d], b[:, d])[0, 1]) < 0.07
+    assert abs(np.corrcoef(a[:, 0], a[:, 1])[0, 1]) < 0.07
 
 
 def test_a_re_render_keeps_its_pilot(monkeypatch):
