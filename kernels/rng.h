@@ -63,11 +63,11 @@ inline uint reverse_bits(uint x) {
  * Burley's paper gives it): each bit of the result is flipped by a function of the seed and
  * the bits above it, so the stratification of every power-of-two prefix survives */
 inline uint owen_scramble_reversed(uint xr, uint seed) {
+    xr ^= xr * 0x3d20adeau;
     xr += seed;
-    xr ^= xr * 0x6c50b47cu;
-    xr ^= xr * 0xb82f1e52u;
-    xr ^= xr * 0xc7afe638u;
-    xr ^= xr * 0x8d22f6e6u;
+    xr *= (seed >> 16) | 1u;
+    xr ^= xr * 0x05526c56u;
+    xr ^= xr * 0x53a22864u;
     return reverse_bits(xr);
 }
 inline float bits_unit(uint bits) { return (float)(bits >> 8) * (1.0f / 16777216.0f); }
@@ -75,10 +75,12 @@ inline float bits_unit(uint bits) { return (float)(bits >> 8) * (1.0f / 16777216
  * shuffled by an Owen scramble of its low 16 bits (each power-of-two run of passes stays one
  * aligned block of Sobol points; a bijection, the bits above kept: the Sobol sum runs over 16
  * bits rather than 32 for a render's first 65,536 passes), the four coordinates scrambled with
- * seeds of their own */
+ * seeds of their own (the set's hashed seed xor a constant per use, as Cycles' sampler
+ * derives them: the scramble's multiplications mix them) */
 inline float4 ld_set(uint pass, uint key, uint set) {
     uint seed = pcg_hash(key ^ (set * 0x9E3779B9u));
-    uint index = (owen_scramble_reversed(reverse_bits(pass), seed) & 0xFFFFu) | (pass & ~0xFFFFu);
+    uint index = (owen_scramble_reversed(reverse_bits(pass), seed ^ 0x2f8b1e35u) & 0xFFFFu)
+        | (pass & ~0xFFFFu);
     uint x1 = 0u, x2 = 0u, x3 = 0u;
     for (int i = 0; i < 16; i++) {            /* a fixed count: unrolled, no branch */
         uint on = 0u - ((index >> i) & 1u);
@@ -92,9 +94,9 @@ inline float4 ld_set(uint pass, uint key, uint set) {
         x2 ^= SOBOL_V[1][i] & on;
         x3 ^= SOBOL_V[2][i] & on;
     }
-    return (float4)(bits_unit(owen_scramble_reversed(index, pcg_hash(seed + 1u))),
-                    bits_unit(owen_scramble_reversed(x1, pcg_hash(seed + 2u))),
-                    bits_unit(owen_scramble_reversed(x2, pcg_hash(seed + 3u))),
-                    bits_unit(owen_scramble_reversed(x3, pcg_hash(seed + 4u))));
+    return (float4)(bits_unit(owen_scramble_reversed(index, seed ^ 0x71c3a94du)),
+                    bits_unit(owen_scramble_reversed(x1, seed ^ 0xd46b0e27u)),
+                    bits_unit(owen_scramble_reversed(x2, seed ^ 0x9a5f62b1u)),
+                    bits_unit(owen_scramble_reversed(x3, seed ^ 0x0ce7d8f3u)));
 }
 #endif

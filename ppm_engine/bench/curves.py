@@ -35,6 +35,10 @@ neighbours within the pixel filter's reach) are left out of every figure of thos
 both references' noise).  The JSON also records the mean brightness of Cycles' longest render
 over each reference's (``bias_check``).
 
+At the equal-time budget (``EQUAL_TIME``, the targets' point) ours and Cycles are rendered
+with three seeds (``EQUAL_TIME_SEEDS``) and the targets compare the mean RMSEs: one render's
+RMSE varies by about 3 % from seed to seed, as much as a target's margin.
+
 Errors: RMSE over RGB (linear radiance) against the reference, over the whole image and over
 the scene's caustic pixels (scenes.CAUSTIC_MASKS), and the relative RMSE = RMSE / mean of
 the reference over the same pixels.  ``rmse_corrected`` = sqrt(max(RMSE^2 - ref_noise^2, 0))
@@ -78,6 +82,11 @@ TARGETS_MNEE = {"glass_caustic": 1.0}
 # (issue 15: the point light's caustic in a mirror, which no Cycles estimator samples)
 LUXCORE_SCENES = ("mirror_caustic",)
 TARGETS_LUXCORE = {"mirror_caustic": 0.5}
+# at the equal-time budget, the curves the targets compare are rendered with these seeds and
+# the ratio is that of the mean RMSEs ("image_rmse_mean"): seed to seed a render's RMSE varies
+# by about 3 % (the Cornell box at 16 s), as much as a target's margin
+EQUAL_TIME_SEEDS = (1, 2, 3)
+SEEDED_CURVES = ("ours", "cycles")
 QUICK = dict(times=(0.25, 0.5), resolution=16, ref_seconds=1.0, photons=1 << 13)
 
 
@@ -266,7 +275,8 @@ class Bench:
         info = {"passes": lt.passes, "photons": lt.passes * lt.photons}
         return img, time.perf_counter() - t, info, cover
 
-    def run_scene(self, name: str, times, ref_seconds: float) -> dict:
+    def run_scene(self, name: str, times, ref_seconds: float, equal_time: float | None = None
+                  ) -> dict:
         scene = self._scene(name)
         w = h = self.res
         keep = ~excluded_pixels(scene, name, w, h)
@@ -342,11 +352,23 @@ class Bench:
                        "image": errors(img, ref, keep, noise_all),
                        "caustic": errors(img, ref, cmask, noise_c if cmask.any() else 0.0),
                        "mean_over_reference": float(img[keep].mean() / ref[keep].mean())}
+                if budget == equal_time and curve in SEEDED_CURVES:
+                    # the targets' ratio: mean RMSE over seeds (one render's RMSE varies by a
+                    # few percent from seed to seed)
+                    per_seed = [row["image"]["rmse"]]
+                    for seed in EQUAL_TIME_SEEDS[1:]:
+                        img2, _, _ = self.shot(scene, engine, budget, seed, indirect or "AUTO")
+                        per_seed.append(errors(img2, ref, keep, noise_all)["rmse"])
+                    row["seeds"] = list(EQUAL_TIME_SEEDS)
+                    row["image_rmse_seeds"] = per_seed
+                    row["image_rmse_mean"] = float(np.mean(per_seed))
                 rows.append(row)
                 self.progress(f"[{name}] {curve:11s} {budget:6.2f} s: RMSE {row['image']['rmse']:.4g}"
                               f" (rel {row['image']['rel_rmse']:.3f}), caustic RMSE "
                               f"{row['caustic']['rmse']:.4g}, wall {wall:.1f} s"
-                              + (f", {info['passes']} passes" if "passes" in info else ""))
+                              + (f", {info['passes']} passes" if "passes" in info else "")
+                              + (f", mean RMSE of seeds {row['seeds']}: "
+                                 f"{row['image_rmse_mean']:.4g}" if "seeds" in row else ""))
             out["curves"][curve] = rows
         if name in CAUSTIC_SCENES:
             set_mnee(name, False)
@@ -388,13 +410,16 @@ def ratios(result: dict, seconds: float) -> dict:
         if x is not None:
             r["image_rmse_vs_luxcore"] = o["image"]["rmse"] / x["image"]["rmse"]
             r["caustic_rmse_vs_luxcore"] = o["caustic"]["rmse"] / x["caustic"]["rmse"]
+        if "image_rmse_mean" in o and "image_rmse_mean" in c:
+            r["image_rmse_seeds"] = o["image_rmse_mean"] / c["image_rmse_mean"]
+            r["seeds"] = o["seeds"]
         r["indirect"] = o.get("indirect", "photons")
         p = _at(s["curves"].get("ours_photons", []), seconds)
         if p is not None:
             r["photons_image_rmse"] = p["image"]["rmse"] / c["image"]["rmse"]
         if name in TARGETS:
             r["target"] = TARGETS[name]
-            r["met"] = bool(r["image_rmse"] <= TARGETS[name])
+            r["met"] = bool(r.get("image_rmse_seeds", r["image_rmse"]) <= TARGETS[name])
         elif name in TARGETS_MNEE and "image_rmse_vs_mnee" in r:
             r["target_mnee"] = TARGETS_MNEE[name]
             r["met"] = bool(r["image_rmse_vs_mnee"] <= TARGETS_MNEE[name])
@@ -420,10 +445,10 @@ def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="ppm-bench-") as tmp:
         b = Bench(resolution, device, photons, Path(tmp), progress)
+        eq = EQUAL_TIME if EQUAL_TIME in times else times[-1]
         for name in scenes:
-            result["scenes"][name] = b.run_scene(name, times, ref_seconds)
+            result["scenes"][name] = b.run_scene(name, times, ref_seconds, eq)
     result["total_s"] = time.perf_counter() - t0
-    eq = EQUAL_TIME if EQUAL_TIME in times else times[-1]
     result["ratios_at"] = eq
     result["ratios"] = ratios(result, eq)
     return result

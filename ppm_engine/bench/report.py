@@ -140,9 +140,9 @@ def light_trace_check_table(result: dict) -> str:
 def ratio_table(result: dict) -> str:
     eq = result["ratios_at"]
     lines = [f"| scene | ours: indirect light | RMSE ours/Cycles at {eq:g} s "
-             "| corrected for ref. noise | caustic pixels | ours/(Cycles+MNEE) "
+             "| mean of seeds | corrected for ref. noise | caustic pixels | ours/(Cycles+MNEE) "
              "| ours/LuxCore BIDIR (caustic pixels) | paper's photons/Cycles | target | met |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for name, r in result["ratios"].items():
         mn = f"{r['image_rmse_vs_mnee']:.3f}" if "image_rmse_vs_mnee" in r else "–"
         lx = (f"{r['image_rmse_vs_luxcore']:.3f} ({r['caustic_rmse_vs_luxcore']:.3f})"
@@ -152,7 +152,9 @@ def ratio_table(result: dict) -> str:
                f"≤ {r['target_luxcore']:g} (vs LuxCore BIDIR)" if "target_luxcore" in r else "–")
         met = ("yes" if r["met"] else "no") if "met" in r else "–"
         ph = f"{r['photons_image_rmse']:.3f}" if "photons_image_rmse" in r else "–"
-        lines.append(f"| {name} | {r.get('indirect', 'photons')} | {r['image_rmse']:.3f} | {r['image_rmse_corrected']:.3f} | "
+        sd = (f"{r['image_rmse_seeds']:.3f} ({len(r['seeds'])})" if "image_rmse_seeds" in r
+              else "–")
+        lines.append(f"| {name} | {r.get('indirect', 'photons')} | {r['image_rmse']:.3f} | {sd} | {r['image_rmse_corrected']:.3f} | "
                      f"{r['caustic_rmse']:.3f} | {mn} | {lx} | {ph} | {tgt} | {met} |")
     # LuxCore's curve: its converged brightness (a bias raises its RMSE) or why it is missing
     for name, s in result["scenes"].items():
