@@ -8,7 +8,7 @@
     python -m ppm_engine example NAME OUT.blend
     python -m ppm_engine package [-o dist] [--platforms linux-x64,...]
     python -m ppm_engine bench [--quick] [--times S ...] [--resolution N] [--micro]
-                               [--phases SCENE] [--skips] (docs/BENCHMARKS.md)
+                               [--phases SCENE] [--skips] [--noise SCENE] (docs/BENCHMARKS.md)
 
 Rendering a .blend is batch.py (its scripts are never run), the benchmark is the bench
 subpackage and the extension zips are packaging.py; the last two are not part of the extension
@@ -114,6 +114,15 @@ def _build_parser() -> argparse.ArgumentParser:
     b.add_argument("--shader", metavar="SCENE",
                    help="what the shader programs cost per pass of SCENE (its colours computed "
                         "by a node graph against the same constants)")
+    b.add_argument("--noise", metavar="SCENE",
+                   help="noise per sample of a bench scene, ours against Cycles at the same "
+                        "samples per pixel (--samples, --seeds, --bounces), and each one's "
+                        "samples per second")
+    b.add_argument("--samples", type=int, default=550,
+                   help="--noise: samples (our passes) per pixel (default 550)")
+    b.add_argument("--seeds", type=int, default=4, help="--noise: seeds per engine (default 4)")
+    b.add_argument("--bounces", type=int, default=12,
+                   help="--noise: bounces for both engines (0: direct light only; default 12)")
     b.add_argument("--report", metavar="JSON",
                    help="write the tables and plot again from a run's JSON (no rendering): "
                         "the same figures, the current report's layout and targets")

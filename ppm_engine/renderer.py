@@ -166,7 +166,8 @@ class Renderer:
         # this pass's counters (Counter.NAN counts over the whole render)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
-        events = self.eye.enqueue(q, pass_index, o, self.path_indirect)
+        events = self.eye.enqueue(q, pass_index, o, self.path_indirect,
+                                  camera_sobol=not self.photons_needed)
         emitted = 0
         if self.photons_needed:
             # the grid over the visible points: only photons use it

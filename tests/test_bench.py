@@ -175,9 +175,35 @@ def test_bench_glossy_quick(cli, tmp_path):
         assert f"| {r['gather_roughness']:g} | {r['rmse'][0]:.4f}, {r['rmse'][1]:.4f} |" in text
 
 
+def test_bench_noise_quick(cli, tmp_path):
+    """bench --noise: both engines at the same samples per pixel over two seeds; the two see the
+    same image (means within a few percent even at 16x16 and 8 samples), the noise splits into
+    the bright pixels' and the rest's, and the ratios follow from the figures."""
+    md = tmp_path / "B.md"
+    p = cli("bench", "--noise", "cornell_box", "--quick", "--json", tmp_path / "n.json",
+            "--markdown", md)
+    assert p.returncode == 0, p.stderr
+    d = json.loads((tmp_path / "n.json").read_text())
+    assert (d["passes"], d["seeds"], d["resolution"]) == (8, 2, 16)
+    o, c = d["engines"]["PPM"], d["engines"]["CYCLES"]
+    assert o["mean"] == pytest.approx(c["mean"], rel=0.1)
+    for e in (o, c):
+        assert e["noise_rms"] > 0
+        assert e["noise_rms"] ** 2 == pytest.approx(
+            e["noise_rms_bright"] ** 2 + e["noise_rms_rest"] ** 2, rel=1e-6)
+    assert d["ratio_noise"] == pytest.approx(o["noise_rms"] / c["noise_rms"], rel=1e-6)
+    assert d["implied_equal_time_ratio"] == pytest.approx(
+        d["ratio_noise"] / math.sqrt(o["samples_per_s"] / c["samples_per_s"]), rel=1e-6)
+    assert "<!-- bench:noise -->" in md.read_text()
+
+
 def test_bench_refuses_bad_arguments(cli):
     p = cli("bench", "--scenes", "no_such_scene", "--quick")
     assert p.returncode == 2 and "no_such_scene" in p.stderr and "cornell_box" in p.stderr
+    p = cli("bench", "--noise", "no_such_scene", "--quick")
+    assert p.returncode == 2 and "no_such_scene" in p.stderr
+    p = cli("bench", "--noise", "furnace", "--seeds", "1")
+    assert p.returncode == 2 and "--seeds" in p.stderr
     p = cli("bench", "--times", "0", "--quick")
     assert p.returncode == 2 and "positive" in p.stderr
 

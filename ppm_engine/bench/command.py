@@ -6,7 +6,7 @@ import importlib.util
 from pathlib import Path
 
 from ..errors import UsageError
-from . import curves, glossy, micro, phases, report, shader, skips
+from . import curves, glossy, micro, noise, phases, report, shader, skips
 
 
 def run(args, cmdline: str, progress=print) -> int:
@@ -14,6 +14,8 @@ def run(args, cmdline: str, progress=print) -> int:
     docs/bench/ and docs/BENCHMARKS.md."""
     needed = (("matplotlib",) if args.report else ("OpenEXR", "matplotlib")
               if not (args.micro or args.phases or args.skips or args.shader) else ())
+    if args.noise:
+        needed = ("OpenEXR",)
     missing = [m for m in needed if importlib.util.find_spec(m) is None]
     if missing:
         raise UsageError(f"the benchmark needs {' and '.join(missing)}: pip install -e "
@@ -51,6 +53,18 @@ def run(args, cmdline: str, progress=print) -> int:
                               args.device, progress)
         g["machine"] = report.machine_info(args.device)
         return publish("glossy", g, glossy.format_glossy(g))
+    if args.noise:
+        if args.noise not in curves.SCENES:
+            raise UsageError(f"unknown bench scene '{args.noise}'; available: "
+                             f"{', '.join(curves.SCENES)}")
+        if args.samples < 1 or args.seeds < 2 or args.bounces < 0:
+            raise UsageError("--noise needs --samples >= 1, --seeds >= 2 and --bounces >= 0")
+        d = noise.run_noise(args.noise, 8 if args.quick else args.samples,
+                            2 if args.quick else args.seeds, args.bounces,
+                            args.resolution or (16 if args.quick else 128), args.device,
+                            progress)
+        d["machine"] = report.machine_info(args.device)
+        return publish("noise", d, noise.format_noise(d))
     if args.phases or args.shader:
         from ..scenes import EXAMPLES
         name = args.phases or args.shader

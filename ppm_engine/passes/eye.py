@@ -34,8 +34,11 @@ class EyePass:
         self.scene, self.film, self.vps, self.counters = scene, film, vps, counters
         self.kernel = program.launch("eye_pass", "eye")
 
-    def enqueue(self, q, pass_index: int, options, path_indirect: bool = False) -> list:
-        """``path_indirect``: indirect light by eye paths (kernels/indirect_paths.h)."""
+    def enqueue(self, q, pass_index: int, options, path_indirect: bool = False,
+                camera_sobol: bool = False) -> list:
+        """``path_indirect``: indirect light by eye paths (kernels/indirect_paths.h);
+        ``camera_sobol``: the pixel's position from its Sobol set, only where no photons are
+        gathered (eye_pass.cl says why)."""
         f, v = self.film, self.vps
         ev = self.kernel(
             q, v.n, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
@@ -46,5 +49,5 @@ class EyePass:
             radius0=f.radius0, vp_pos=v.pos, vp_nrm=v.nrm, vp_beta=v.beta, vp_shade=v.shade,
             counters=self.counters, aux_albedo=f.aux_albedo, aux_normal=f.aux_normal,
             active=f.active, transparency=f.transparency,
-            path_indirect=np.uint32(path_indirect))
+            path_indirect=np.uint32(path_indirect), camera_sobol=np.uint32(camera_sobol))
         return [(self.kernel.label, ev)]
