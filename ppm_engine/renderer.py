@@ -79,6 +79,9 @@ class Renderer:
         self.path_indirect, self.caustic_fraction = self._choose_indirect(o, useful, caustics)
         useful = useful and (caustics or not self.path_indirect)
         self.photons_needed = useful or not o.skip_unneeded_photon_pass
+        # the pixel's position from its Sobol set where no photon can be gathered (eye_pass.cl
+        # says why not elsewhere); by the scene, not the skip: the skip changes no image
+        self.camera_sobol = not useful
         self.grid_cover = None if o.skip_unseen_photons else self.scene.bounds()
         self.passes_done = 0
         self.nan_dropped = 0
@@ -167,7 +170,7 @@ class Renderer:
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
         events = self.eye.enqueue(q, pass_index, o, self.path_indirect,
-                                  camera_sobol=not self.photons_needed)
+                                  camera_sobol=self.camera_sobol)
         emitted = 0
         if self.photons_needed:
             # the grid over the visible points: only photons use it
