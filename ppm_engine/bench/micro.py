@@ -105,9 +105,12 @@ def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
 
 
 def tracing(device, width=256, photons=1 << 18) -> dict:
-    """Eye rays and photons per second in the Cornell box (device time of the passes)."""
+    """Eye rays and photons per second in the Cornell box (device time of the passes), with
+    the paper's photons for all indirect light (Automatic would trace eye paths there and no
+    photon at all: no caustic in the box)."""
     r = Renderer(cornell_box(width, width), RenderOptions(photons_per_pass=photons,
-                                                          device=device.info.key))
+                                                          device=device.info.key,
+                                                          indirect="photons"))
     for _ in range(2):
         r.iterate()
     eye, ph = [], []
