@@ -13,7 +13,7 @@
 /* entries of the pixel filter's table: -D PPM_FILTER_TABLE_SIZE from ppm_engine/film.py */
 #define FILTER_TABLE_SIZE PPM_FILTER_TABLE_SIZE
 
-/* offset from the pixel centre: the filter table (inverse CDF) at u = bits / 2^32, lerped */
+/* offset from the pixel centre: the filter table (inverse CDF) at u in [0, 1), lerped */
 inline float filter_offset(__global const float *table, float u) {
     float x = u * (float)FILTER_TABLE_SIZE - 0.5f;
     x = clamp(x, 0.0f, (float)(FILTER_TABLE_SIZE - 1));
@@ -52,11 +52,11 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
      * set only when no photons are gathered (eye paths and no caustics possible), else the R2
      * sequence (Roberts 2018) rotated per pixel (Cranley-Patterson), whose consecutive passes
      * fall anywhere */
+    uint prng = rng_seed(seed, 0u, (uint)id, 4u);    /* the pixel's key, the same each pass */
     float4 uc;
     if (camera_sobol) {
-        uc = ld_set(pass_index, rng_seed(seed, 0u, (uint)id, 4u), 0u);
+        uc = ld_set(pass_index, prng, 0u);
     } else {
-        uint prng = rng_seed(seed, 0u, (uint)id, 4u);
         uc.x = bits_unit(rng_next(&prng) + pass_index * 3242174889u);   /* 0.7548776662 * 2^32 */
         uc.y = bits_unit(rng_next(&prng) + pass_index * 2447445413u);   /* 0.5698402910 * 2^32 */
         uc.z = rnd(&rng);

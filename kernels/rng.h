@@ -15,8 +15,9 @@ inline uint rng_next(uint *s) {
     uint word = ((*s >> ((*s >> 28u) + 4u)) ^ *s) * 277803737u;
     return (word >> 22u) ^ word;
 }
-/* uniform in [0, 1) */
-inline float rnd(uint *s) { return (float)(rng_next(s) >> 8) * (1.0f / 16777216.0f); }
+/* uniform in [0, 1) from 32 random bits (their top 24: exact in a float) */
+inline float bits_unit(uint bits) { return (float)(bits >> 8) * (1.0f / 16777216.0f); }
+inline float rnd(uint *s) { return bits_unit(rng_next(s)); }
 
 /* Low-discrepancy samples over the passes for a pixel's first path dimensions (eye paths,
  * indirect_paths.h), as Cycles' default sampler draws them: the Sobol sequence with Owen
@@ -59,9 +60,11 @@ inline uint reverse_bits(uint x) {
     x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
     return (x >> 16) | (x << 16);
 }
-/* Owen scrambling of x's bits by a hash, on x's bits reversed (Laine & Karras' permutation as
- * Burley's paper gives it): each bit of the result is flipped by a function of the seed and
- * the bits above it, so the stratification of every power-of-two prefix survives */
+/* Owen scrambling of x's bits by a hash, on x's bits reversed (Vegdahl's hash, "Building a
+ * better LK hash", 2021, in place of the Laine-Karras constants of Burley's paper: it measured
+ * closer to Cycles at the Cornell box's lamp edge, docs/BENCHMARKS.md): each bit of the result
+ * is flipped by a function of the seed and the bits above it, so the stratification of every
+ * power-of-two prefix survives */
 inline uint owen_scramble_reversed(uint xr, uint seed) {
     xr ^= xr * 0x3d20adeau;
     xr += seed;
@@ -70,7 +73,13 @@ inline uint owen_scramble_reversed(uint xr, uint seed) {
     xr ^= xr * 0x53a22864u;
     return reverse_bits(xr);
 }
-inline float bits_unit(uint bits) { return (float)(bits >> 8) * (1.0f / 16777216.0f); }
+/* dimensions 1-3 of the Sobol point `index`, bits reversed: bit i's direction numbers added */
+inline void sobol_add_bit(uint index, int i, uint *x1, uint *x2, uint *x3) {
+    uint on = 0u - ((index >> i) & 1u);
+    *x1 ^= SOBOL_V[0][i] & on;
+    *x2 ^= SOBOL_V[1][i] & on;
+    *x3 ^= SOBOL_V[2][i] & on;
+}
 /* set `set` (dimensions 4 set to 4 set + 3) of pass `pass` for the pixel's key: the pass index
  * shuffled by an Owen scramble of its low 16 bits (each power-of-two run of passes stays one
  * aligned block of Sobol points; a bijection, the bits above kept: the Sobol sum runs over 16
@@ -81,19 +90,14 @@ inline float4 ld_set(uint pass, uint key, uint set) {
     uint seed = pcg_hash(key ^ (set * 0x9E3779B9u));
     uint index = (owen_scramble_reversed(reverse_bits(pass), seed ^ 0x2f8b1e35u) & 0xFFFFu)
         | (pass & ~0xFFFFu);
+    /* bits 0-15 in a loop of fixed count (unrolled, no branch), the rest only past 65,536
+     * passes */
     uint x1 = 0u, x2 = 0u, x3 = 0u;
-    for (int i = 0; i < 16; i++) {            /* a fixed count: unrolled, no branch */
-        uint on = 0u - ((index >> i) & 1u);
-        x1 ^= SOBOL_V[0][i] & on;
-        x2 ^= SOBOL_V[1][i] & on;
-        x3 ^= SOBOL_V[2][i] & on;
-    }
-    for (int i = 16; (index >> 16) != 0u && i < 32; i++) {
-        uint on = 0u - ((index >> i) & 1u);
-        x1 ^= SOBOL_V[0][i] & on;
-        x2 ^= SOBOL_V[1][i] & on;
-        x3 ^= SOBOL_V[2][i] & on;
-    }
+    int bits = (index >> 16) != 0u ? 32 : 16;
+    for (int i = 0; i < 16; i++)
+        sobol_add_bit(index, i, &x1, &x2, &x3);
+    for (int i = 16; i < bits; i++)
+        sobol_add_bit(index, i, &x1, &x2, &x3);
     return (float4)(bits_unit(owen_scramble_reversed(index, seed ^ 0x71c3a94du)),
                     bits_unit(owen_scramble_reversed(x1, seed ^ 0xd46b0e27u)),
                     bits_unit(owen_scramble_reversed(x2, seed ^ 0x9a5f62b1u)),
