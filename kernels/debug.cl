@@ -45,6 +45,32 @@ __kernel void direct_light_at(SCENE_ARGS, __global const float4 *points, __globa
     out[i] = (float4)(E / (float)n_samples, 0.0f);
 }
 
+/* next-event estimation's emitter pick at given points (light_mesh.h pick_emitter_at) with
+ * n_u stratified numbers: counts[i * n_emitters + e] how often emitter e was picked, pmf[...]
+ * the probability the pick returned for it (-1: never picked), table[...] the probability
+ * the MIS of a ray that hits it uses (emissive_leaf_pmf; the table's for the other emitters) */
+__kernel void emitter_pick_at(SCENE_ARGS, __global const float4 *points,
+                              __global const float4 *nrm, uint n_u, __global uint *counts,
+                              __global float *pmf, __global float *table, uint n) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    int m = emitter_info->n_emitters, first = emitter_info->n_lights;
+    float3 p = points[i].xyz, N = nrm[i].xyz;
+    for (int e = 0; e < m; e++) {
+        counts[i * m + e] = 0u;
+        pmf[i * m + e] = -1.0f;
+        table[i * m + e] = e >= first && e < first + emitter_info->n_emissive
+            ? emissive_leaf_pmf(emissive[e - first], p, N, SCENE_PASS)
+            : emitter_cdf[e] - (e > 0 ? emitter_cdf[e - 1] : 0.0f);
+    }
+    for (uint k = 0; k < n_u; k++) {
+        float q;
+        int e = pick_emitter_at(p, N, ((float)k + 0.5f) / (float)n_u, SCENE_PASS, &q);
+        counts[i * m + e]++;
+        pmf[i * m + e] = q;
+    }
+}
+
 /* rng.h's low-discrepancy sets: out[k * n_pass + n] = set `set` of pass first + n for key
  * keys[k] (tests/test_indirect.py) */
 __kernel void ld_sets(__global const uint *keys, uint n_keys, uint n_pass, uint first, uint set,

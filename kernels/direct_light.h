@@ -3,8 +3,9 @@
 #include "light_types.h"
 #include "shader.h"
 
-/* Direct light at a shading point: next-event estimation (one emitter picked by power, a
- * shadow ray) and a sample of the closures, combined by multiple importance sampling (power
+/* Direct light at a shading point: next-event estimation (one emitter picked by power, among
+ * few emissive triangles by their light at the point: light_mesh.h pick_emitter_at; a shadow
+ * ray) and a sample of the closures, combined by multiple importance sampling (power
  * heuristic); and what rays see of the emitters, with the MIS weight of the sample that found
  * them.  The emitter types a program has are the feature flags of features.h (0/1): a type
  * without its flag is never dispatched to. */
@@ -58,15 +59,16 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
 }
 
 /* The emission of emissive BVH leaf `leaf` hit at (u, v) from o along d at distance t, and the
- * density next-event estimation gives that direction (pmf included). */
-inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v, SCENE_ARGS,
-                        float *pdf_light) {
+ * density next-event estimation from the vertex pv (normal nv: the point and normal it was
+ * given there) gives that direction (pmf included). */
+inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v, float3 pv,
+                        float3 nv, SCENE_ARGS, float *pdf_light) {
     *pdf_light = 0.0f;
     float4 v0 = tri_v0[leaf], e1 = tri_e1[leaf], e2 = tri_e2[leaf];
     __global const Material *m = materials + as_int(e2.w);
     if (!(m->flags & MAT_EMISSIVE)) return (float3)(0.0f);
 #if PPM_EMISSIVE
-    float pmf = emissive_leaf_pmf(leaf, SCENE_PASS);
+    float pmf = emissive_leaf_pmf(leaf, pv, nv, SCENE_PASS);
     float3 c = cross(e1.xyz, e2.xyz);
     float area2 = length(c), cos_l = area2 > 0.0f ? fabs(dot(d, c)) / area2 : 0.0f;
     if (pmf > 0.0f && cos_l > 0.0f) {
@@ -84,11 +86,13 @@ inline float world_light_pdf(float3 d, float3 n, SCENE_ARGS) {
 }
 
 /* The MIS weight of the emission of the surface hit h, found from o along d by a sample of
- * density prev_pdf (INFINITY: a camera ray or a singular lobe, weight 1). */
-inline float mesh_hit_mis(const Hit *h, float3 o, float3 d, float prev_pdf, SCENE_ARGS) {
+ * density prev_pdf (INFINITY: a camera ray or a singular lobe, weight 1) taken at vertex pv
+ * with normal nv. */
+inline float mesh_hit_mis(const Hit *h, float3 o, float3 d, float prev_pdf, float3 pv, float3 nv,
+                          SCENE_ARGS) {
     float pdf_l = 0.0f;
     if (PPM_EMISSIVE && !isinf(prev_pdf))
-        mesh_seen(h->leaf, o, d, h->t, h->u, h->v, SCENE_PASS, &pdf_l);
+        mesh_seen(h->leaf, o, d, h->t, h->u, h->v, pv, nv, SCENE_PASS, &pdf_l);
     return mis_power(prev_pdf, pdf_l);
 }
 
@@ -124,7 +128,7 @@ inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, float3 u,
                            LightSample *s, float *pmf) {
     EmitterInfo info = *emitter_info;
     if (info.n_emitters == 0) return false;
-    int e = pick_emitter(emitter_cdf, info.n_emitters, u.x, pmf);
+    int e = pick_emitter_at(p, n, u.x, SCENE_PASS, pmf);
     if (!(*pmf > 0.0f)) return false;
     float u1 = u.y, u2 = u.z;
     /* All geometry from the shadow ray's own origin: a direction computed from p but traced
@@ -185,8 +189,9 @@ inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, bool mis, SCE
 
 /* What a ray from o along d finds of the emitters (ray_type: VIS_*): the radiance of the
  * first emitter (through partly transparent surfaces, attenuated) and the density
- * next-event estimation gives d for it; n: the normal the world was sampled around. */
-inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_ARGS,
+ * next-event estimation gives d for it; p and n: the vertex the ray left and the normal
+ * next-event estimation was given there (the world is sampled around it). */
+inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 p, float3 n, SCENE_ARGS,
                             float *pdf_l) {
     float3 T = (float3)(1.0f);
     *pdf_l = 0.0f;
@@ -204,7 +209,7 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 n, SCENE_A
         }
         int mat = as_int(tri_e2[h.leaf].w);
         if (PPM_EMISSIVE && (materials[mat].flags & MAT_EMISSIVE))
-            return T * mesh_seen(h.leaf, o, d, h.t, h.u, h.v, SCENE_PASS, pdf_l);
+            return T * mesh_seen(h.leaf, o, d, h.t, h.u, h.v, p, n, SCENE_PASS, pdf_l);
 #if !PPM_TRANSPARENT
         return (float3)(0.0f);          /* an opaque surface: no emitter behind it counts */
 #endif
@@ -230,7 +235,7 @@ inline float3 direct_bsdf(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, 
     uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
     float pdf_l;
     float3 Le = emitter_along(offset_ray(p, transmit ? -sd->Ng : sd->Ng, emitter_info->offset_scale), b.wo, ray,
-                              sd->N,
+                              p, sd->N,
                               SCENE_PASS, &pdf_l);
     return b.weight * Le * mis_power(b.pdf, pdf_l);
 #else

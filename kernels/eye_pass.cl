@@ -77,7 +77,7 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
     /* the density of the sample that made this ray, and the normal its vertex sampled the world
      * around, for the MIS weight of the emitter it finds */
     float prev_pdf = INFINITY;
-    float3 prev_n = (float3)(0.0f, 0.0f, 1.0f);
+    float3 prev_n = (float3)(0.0f, 0.0f, 1.0f), prev_p = (float3)(0.0f);
     float4 vp = (float4)(0.0f);
     /* alpha: a camera ray (through transparent surfaces, and transparent glass) that reaches
      * the world on a transparent film, or a holdout, is transparency, not radiance (Cycles'
@@ -124,7 +124,7 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
             clear += (t.x + t.y + t.z) * (1.0f / 3.0f);
         }
         if (max3(sd.emission) > 0.0f)
-            L += beta * sd.emission * mesh_hit_mis(&h, o, d, prev_pdf, SCENE_PASS);
+            L += beta * sd.emission * mesh_hit_mis(&h, o, d, prev_pdf, prev_p, prev_n, SCENE_PASS);
         float sw = sd.sw_gather + sd.sw_continue;
         if (!(sw > 0.0f)) break;
         if (rnd(&rng) * sw < sd.sw_gather) {
@@ -197,7 +197,7 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
             /* the last bounce: the emitter this sample finds, and no further (Cycles ends a
              * path at the surface after its last bounce) */
             float pdf_e;
-            float3 Le = emitter_along(o, d, transmit ? VIS_TRANSMISSION : VIS_GLOSSY, sd.N,
+            float3 Le = emitter_along(o, d, transmit ? VIS_TRANSMISSION : VIS_GLOSSY, s.p, sd.N,
                                       SCENE_PASS, &pdf_e);
             L += beta * Le * (sd.continue_glossy ? mis_power(b.pdf, pdf_e) : 1.0f);
             break;
@@ -206,6 +206,7 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
         path = path_bounce(path, b.label);
         prev_pdf = sd.continue_glossy ? b.pdf : INFINITY;
         prev_n = sd.N;
+        prev_p = s.p;
         mask = transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
 #if PPM_ABSORPTION
         if (transmit) media_cross(&media, s.material, !sd.backfacing);

@@ -58,7 +58,7 @@ inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int
     int set = MASK_GATHER;           /* the closures this vertex samples */
     bool counts = true;              /* whether emitters the next ray finds are these paths' */
     float prev_pdf = INFINITY;
-    float3 prev_n = sd->N;
+    float3 prev_n = sd->N, prev_p = p;
     uint mask = VIS_DIFFUSE;
     /* Russian roulette by one number for the whole path: it survives its k-th roulette while
      * u_rr < q_1 ... q_k (each survival given the last has probability q_k, as with a number per
@@ -91,6 +91,7 @@ inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int
             counts = set == MASK_GATHER;
             prev_pdf = b.pdf;
             prev_n = sd->N;
+            prev_p = p;
             mask = bounce_visibility(b.label);
 #if PPM_ABSORPTION
             if (transmit) media_cross(media, mat, !sd->backfacing);
@@ -123,7 +124,7 @@ inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int
                                   normals),
                      SHADING_PASS);
         if (counts && max3(sd->emission) > 0.0f)
-            L += beta * sd->emission * mesh_hit_mis(&h, o, d, prev_pdf, SCENE_PASS);
+            L += beta * sd->emission * mesh_hit_mis(&h, o, d, prev_pdf, prev_p, prev_n, SCENE_PASS);
         if (depth > max_bounces) break;
         float sw = sd->sw_gather + sd->sw_continue;
         if (!(sw > 0.0f)) break;

@@ -149,6 +149,8 @@ typedef struct {
     int map_w;           /* the world's importance map (world.h; ppm_engine/world_map.py) */
     int map_h;
     float map_mean;      /* mean of the map's values (sin(theta) included) */
+    float local_center[3];   /* the emissive triangles' bounding ball where next-event */
+    float local_radius;      /* estimation picks among them locally (light_mesh.h); 0: never */
 } EmitterInfo;
 #define WORLD_HIDDEN_CAMERA 1
 

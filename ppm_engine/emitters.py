@@ -1,6 +1,9 @@
 """The emitter table the kernels sample, for photon emission and next-event estimation:
 scene lights, then emissive triangles, then the world; chosen in proportion to power, so dim
-lights get few photons and lights that cannot contribute are never sampled."""
+lights get few photons and lights that cannot contribute are never sampled.  Next-event
+estimation keeps the emissive triangles' share of the table but, where there are at most eight
+of them, picks among them by the light each gives the shading point (kernels/light_mesh.h
+pick_emitter_at)."""
 from __future__ import annotations
 
 import dataclasses
@@ -27,7 +30,15 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("map_w", np.int32),           # its importance map (world_map.WorldMap)
     ("map_h", np.int32),
     ("map_mean", np.float32),
+    # few emissive triangles: their bounding ball, near which next-event estimation picks among
+    # them by their light at the point (kernels/light_mesh.h pick_emitter_at); radius 0: never
+    ("local_center", np.float32, 3),
+    ("local_radius", np.float32),
 ])
+
+# at most this many emissive triangles are picked among locally (kernels/light_mesh.h
+# LOCAL_PICK_MAX, the size of its arrays)
+LOCAL_PICK_MAX = 8
 
 
 @dataclasses.dataclass
@@ -141,6 +152,11 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
     info["scene_center"] = center
     info["scene_radius"] = radius
     info["world_flags"] = scene.world_shader[1]
+    if 2 <= emissive_leaves.shape[0] <= LOCAL_PICK_MAX:
+        v = scene.positions[leaf_order[emissive_leaves]].reshape(-1, 3).astype(np.float64)
+        c = 0.5 * (v.min(axis=0) + v.max(axis=0))
+        info["local_center"] = c
+        info["local_radius"] = np.linalg.norm(v - c, axis=1).max()
     if world_map is not None:
         info["world_program"] = scene.world_shader[0]
         info["map_w"], info["map_h"] = world_map.width, world_map.height
