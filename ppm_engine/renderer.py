@@ -69,10 +69,10 @@ class Renderer:
         programs = dev.programs
         self.eye = EyePass(self.scene, programs.get("eye_pass.cl", self.defines), self.film,
                            self.vps, self.counters)
-        self.photons = PhotonPass(self.scene, programs.get("photon_pass.cl", self.defines),
-                                  self.photon_map, self.counters)
+        # the photon pass and the gather are built when first used: a scene whose indirect
+        # light is all eye paths never compiles them (half of a new scene's kernel builds)
+        self._photon_pass = self._gather = None
         self.hash_build = HashBuild(dev, self.photon_map, self.counters)
-        self.gather = Gather(dev, self.photon_map, self.scene, self.defines)
         self.update = ProgressiveUpdate(dev, self.film)
         useful = self.scene.photons_useful(o.max_bounces)
         caustics = self.scene.caustics_possible(o.gather_roughness)
@@ -87,6 +87,22 @@ class Renderer:
         self.nan_dropped = 0
         self.active_pixels = self.n_pixels
         self.queue.finish()
+
+    @property
+    def photons(self) -> PhotonPass:
+        """The photon pass (photon_pass.cl for the scene's features), built on first use."""
+        if self._photon_pass is None:
+            self._photon_pass = PhotonPass(
+                self.scene, self.device.programs.get("photon_pass.cl", self.defines),
+                self.photon_map, self.counters)
+        return self._photon_pass
+
+    @property
+    def gather(self) -> Gather:
+        """The gather (gather.cl for the scene's features), built on first use."""
+        if self._gather is None:
+            self._gather = Gather(self.device, self.photon_map, self.scene, self.defines)
+        return self._gather
 
     # photons of the pilot that measures the share of caustic first scatterings
     PILOT_PHOTONS = 1 << 16
