@@ -144,7 +144,7 @@ def test_bench_skips_quick(cli, tmp_path):
     rows = json.loads((tmp_path / "s.json").read_text())["rows"]
     skips = {r["skip"] for r in rows}
     for word in ("specialisation", "emits", "photon pass", "photons nobody", "converged",
-                 "nothing changed", "settings", "moved", "hidden"):
+                 "nothing changed", "settings", "moved", "hidden", "never runs"):
         assert any(word in k for k in skips), word
     assert all(r["with"] >= 0 and r["without"] > 0 for r in rows)
     assert all(r["saving"] == pytest.approx(1 - r["with"] / r["without"]) for r in rows)
@@ -153,6 +153,8 @@ def test_bench_skips_quick(cli, tmp_path):
     assert share > 50                  # the corner view: most photons are not stored
     dark = next(r for r in rows if "emits" in r["skip"])
     assert dark["with"] < 0.1 * dark["without"]          # no device work at all
+    lazy = next(r for r in rows if "never runs" in r["skip"])
+    assert lazy["without"] > lazy["with"] > 0            # the two builds cost something
     assert "<!-- bench:skips -->" in md.read_text()
 
 

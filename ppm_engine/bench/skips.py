@@ -5,7 +5,8 @@ Each row renders or sets up the same scene twice, alternating the two variants s
 machine's load affects both alike, and reports medians.  The variants "without" switch the
 skip off through the engine's public settings: RenderOptions.specialize,
 skip_unneeded_photon_pass and skip_unseen_photons, persistent data off, no noise threshold,
-an object shown instead of hidden.
+an object shown instead of hidden, the photon pass and gather built up front (their properties
+read before the first pass).
 """
 from __future__ import annotations
 
@@ -258,6 +259,58 @@ def hidden_object(device: str, quick: bool) -> dict:
                 "flags are honoured at export and in the kernels")
 
 
+# a new scene's setup and first pass with pocl's kernel cache empty, in a child process, then
+# the photon pass and the gather built as they were before they were built on first use (up
+# front, in the same process state: what the eager setup added); argv: device, resolution
+_COLD_SETUP = """
+import sys, time
+from ppm_engine.options import RenderOptions
+from ppm_engine.procedural import cornell_box
+from ppm_engine.renderer import Renderer
+device, res = sys.argv[1], int(sys.argv[2])
+t = time.perf_counter()
+r = Renderer(cornell_box(res, res), RenderOptions(device=device))
+r.iterate()
+t1 = time.perf_counter()
+r.photons, r.gather
+print(t1 - t, time.perf_counter() - t1, r.path_indirect, r.photons_needed)
+"""
+
+
+def lazy_builds(res: int, device: str, quick: bool) -> dict:
+    """Kernels a scene never runs are never built: the Cornell box, lit by eye paths with no
+    caustic possible, needs no photon pass or gather.  The time from a new Renderer to its first
+    pass with the kernel cache empty (a child process each, its own empty POCL_CACHE_DIR), and
+    the time building those two up front added (measured in the same process after the first
+    pass: a cold setup varies by seconds from run to run, more than the builds cost)."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+    setup, builds = [], []
+    for _ in range(1 if quick else 3):
+        with tempfile.TemporaryDirectory(prefix="ppm-pocl-cache-") as cache:
+            env = dict(os.environ, POCL_CACHE_DIR=cache, PYOPENCL_NO_CACHE="1",
+                       PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+            out = subprocess.run([sys.executable, "-c", _COLD_SETUP, device, str(res)],
+                                 env=env, capture_output=True, text=True, timeout=600)
+            if out.returncode != 0:
+                raise RuntimeError(f"the cold setup's child failed: {out.stderr[-2000:]}")
+            first, built, paths, photons = out.stdout.split()[-4:]
+            if paths != "True" or photons != "False":
+                raise RuntimeError("the Cornell box no longer renders by eye paths alone: "
+                                   "this row would measure nothing")
+            setup.append(float(first))
+            builds.append(float(built))
+    with_ = float(np.median(setup))
+    return _row("kernels a scene never runs are not built", f"Cornell box (eye paths, no "
+                f"caustic), {res}x{res}, a new scene with the kernel cache empty",
+                with_, with_ + float(np.median(builds)), "s to the first pass",
+                "without: the photon pass and the gather built up front (their build time, "
+                "measured after the first pass, added)")
+
+
 def run_skips(device: str = "", quick: bool = False, progress=print) -> dict:
     res = 32 if quick else 128
     passes = 3 if quick else 15
@@ -269,6 +322,8 @@ def run_skips(device: str = "", quick: bool = False, progress=print) -> dict:
     progress("skips: no photon pass")
     rows.append(no_photon_pass(res, passes, device))
     rows.append(no_caustic_photons(res, passes, device))
+    progress("skips: kernels a scene never runs")
+    rows.append(lazy_builds(res, device, quick))
     progress("skips: photons outside the visible points")
     rows.append(photons_outside(res, passes, device))
     progress("skips: adaptive sampling")
