@@ -60,7 +60,9 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
 
 /* The emission of emissive BVH leaf `leaf` hit at (u, v) from o along d at distance t, and the
  * density next-event estimation from the vertex pv (normal nv: the point and normal it was
- * given there) gives that direction (pmf included). */
+ * given there) gives that direction (pmf included).  The density is the vertex's, not the
+ * ray origin's: past a transparent surface o lies on it, and the solid angle from there made
+ * light through a Transparent BSDF or alpha 26 % bright (tests/test_analytic.py). */
 inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v, float3 pv,
                         float3 nv, SCENE_ARGS, float *pdf_light) {
     *pdf_light = 0.0f;
@@ -72,8 +74,10 @@ inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v,
     float3 c = cross(e1.xyz, e2.xyz);
     float area2 = length(c), cos_l = area2 > 0.0f ? fabs(dot(d, c)) / area2 : 0.0f;
     if (pmf > 0.0f && cos_l > 0.0f) {
-        SphTri st = spherical_triangle(o, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
-        *pdf_light = st.area > 0.0f ? pmf / st.area : pmf * t * t / (cos_l * 0.5f * area2);
+        SphTri st = spherical_triangle(pv, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
+        float3 to = o + t * d - pv;
+        *pdf_light = st.area > 0.0f ? pmf / st.area
+                                    : pmf * dot(to, to) / (cos_l * 0.5f * area2);
     }
 #endif
     return material_emission(m, as_uint(v0.w), u, v, o + t * d, SHADING_PASS);

@@ -399,6 +399,32 @@ def test_direct_light_beside_a_lamp_picks_the_near_triangle():
     assert (rel < 0.75).all(), rel
 
 
+def test_a_mesh_light_through_a_transparent_surface_lights_as_much():
+    """A 1 m square lamp (radiance 10, 1 m above the point) seen through a Transparent BSDF of
+    colour 0.5 halfway: irradiance 0.5 pi Le F (F: the point-to-parallel-square form factor).
+    Next-event estimation and the BSDF sample both cross the veil; the sample's MIS weight
+    must use next-event estimation's density from the shading point, not from the veil where
+    the ray goes on (that made it 26 % bright)."""
+    from ppm_engine.scene_arrays import NODE_TRANSPARENT
+    mb = MeshBuilder()
+    lamp = mb.material("lamp", (0, 0, 0), emission=(10.0,) * 3)
+    veil = mb.shader("veil", [dict(type=NODE_TRANSPARENT, color=(0.5, 0.5, 0.5))])
+    mb.quad((0, 0, 1), (0, 0.5, 0), (0.5, 0, 0), lamp)          # faces down
+    mb.quad((0, 0, 0.5), (2, 0, 0), (0, 2, 0), veil)
+    cam = make_camera(type=CAMERA_ORTHO, width=4, height=4,
+                      to_world=look_at((0, 0, 5), (0, 0, 0), up=(0, 1, 0)), extent=(2, 2),
+                      clip=(0.01, 100))
+    n = 64
+    pts = np.tile(np.float32([0, 0, 0, 0]), (n, 1))
+    nrm = np.tile(np.float32([0, 0, 1, 0]), (n, 1))
+    got = direct_light(mb.build(camera=cam), pts, nrm, 4000)[:, 0]
+    X = 0.5                                   # a corner's rectangle, 0.5 x 0.5 at height 1
+    corner = 2 * X / np.hypot(1, X) * np.arctan(X / np.hypot(1, X)) / (2 * np.pi)
+    ref = 0.5 * np.pi * 10.0 * 4 * corner
+    se = got.std(ddof=1) / np.sqrt(n)
+    assert abs(got.mean() - ref) < 4 * se + 0.003 * ref, (got.mean() / ref, se / ref)
+
+
 def test_direct_light_beside_a_large_emitter_has_bounded_variance():
     """The ceiling 1 cm above the Cornell box's lamp (0.5 m square, radiance 15, both sides
     emit): irradiance pi Le F with F the point-to-parallel-rectangle form factor (closed form).
