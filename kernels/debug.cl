@@ -61,7 +61,7 @@ __kernel void emitter_pick_at(SCENE_ARGS, __global const float4 *points,
         pmf[i * m + e] = -1.0f;
         table[i * m + e] = e >= first && e < first + emitter_info->n_emissive
             ? emissive_leaf_pmf(emissive[e - first], p, N, SCENE_PASS)
-            : emitter_cdf[e] - (e > 0 ? emitter_cdf[e - 1] : 0.0f);
+            : emitter_pmf(emitter_cdf, e);
     }
     for (uint k = 0; k < n_u; k++) {
         float q;

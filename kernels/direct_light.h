@@ -17,10 +17,6 @@ inline float mis_power(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-inline float emitter_pmf(__global const float *cdf, int e) {
-    return cdf[e] - (e > 0 ? cdf[e - 1] : 0.0f);
-}
-
 /* Radiance of the scene lights seen along o + t d, t < tmax (camera, glossy and transmission
  * rays; Cycles shows area lights from the front, point lights as disks or spheres, suns with
  * an angle as discs to rays that escape, ``escaped``).  Lights do not block rays: only the
@@ -66,6 +62,7 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
 inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v, float3 pv,
                         float3 nv, SCENE_ARGS, float *pdf_light) {
     *pdf_light = 0.0f;
+    float3 q = o + t * d;                                   /* the point hit */
     float4 v0 = tri_v0[leaf], e1 = tri_e1[leaf], e2 = tri_e2[leaf];
     __global const Material *m = materials + as_int(e2.w);
     if (!(m->flags & MAT_EMISSIVE)) return (float3)(0.0f);
@@ -75,12 +72,12 @@ inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v,
     float area2 = length(c), cos_l = area2 > 0.0f ? fabs(dot(d, c)) / area2 : 0.0f;
     if (pmf > 0.0f && cos_l > 0.0f) {
         SphTri st = spherical_triangle(pv, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
-        float3 to = o + t * d - pv;
+        float3 to = q - pv;
         *pdf_light = st.area > 0.0f ? pmf / st.area
                                     : pmf * dot(to, to) / (cos_l * 0.5f * area2);
     }
 #endif
-    return material_emission(m, as_uint(v0.w), u, v, o + t * d, SHADING_PASS);
+    return material_emission(m, as_uint(v0.w), u, v, q, SHADING_PASS);
 }
 
 /* The density next-event estimation gives the world in direction d from a point whose normal

@@ -15,12 +15,6 @@ inline int emissive_index(int leaf, SCENE_ARGS) {
     return -1;
 }
 
-/* angle between unit vectors, accurate near 0 and pi */
-inline float angle_between(float3 u, float3 v) {
-    return dot(u, v) < 0.0f ? PPM_PI - 2.0f * asin(fmin(length(u + v) * 0.5f, 1.0f))
-                            : 2.0f * asin(fmin(length(v - u) * 0.5f, 1.0f));
-}
-
 /* --- the pick among few emissive triangles -----------------------------------------------
  * The emitter table picks an emitter by its power, the same from every shading point.  A
  * scene lit by one emissive quad (two triangles) then picks the far triangle half the time
@@ -84,7 +78,7 @@ inline void local_weights(float3 p, float3 n, SCENE_ARGS, float *g, float *imp, 
     float gs = 0.0f, is = 0.0f;
     for (int j = 0; j < m && j < LOCAL_PICK_MAX; j++) {
         int e = first + j, leaf = emissive[j];
-        g[j] = emitter_cdf[e] - (e > 0 ? emitter_cdf[e - 1] : 0.0f);
+        g[j] = emitter_pmf(emitter_cdf, e);
         float4 v0 = tri_v0[leaf], e1 = tri_e1[leaf], e2 = tri_e2[leaf];
         float area2 = length(cross(e1.xyz, e2.xyz));
         /* g / area: the triangle's mean radiance (its power over its area), up to a constant */
@@ -117,8 +111,7 @@ inline float emissive_leaf_pmf(int leaf, float3 p, float3 n, SCENE_ARGS) {
         local_weights(p, n, SCENE_PASS, g, imp, &g_sum, &imp_sum);
         return g_sum * local_share(j, g, imp, g_sum, imp_sum);
     }
-    int e = emitter_info->n_lights + j;
-    return emitter_cdf[e] - (e > 0 ? emitter_cdf[e - 1] : 0.0f);
+    return emitter_pmf(emitter_cdf, emitter_info->n_lights + j);
 }
 
 /* Next-event estimation's pick from p (normal n) with the number u: the emitter table by
@@ -154,6 +147,12 @@ inline int pick_emitter_at(float3 p, float3 n, float u, SCENE_ARGS, float *pmf) 
  * keeps full precision for far, small triangles).  The choice depends only on the point and the
  * triangle, so mesh_direct and direct_bsdf (its MIS pdf) always agree. */
 #define SPHERICAL_MIN_SOLID_ANGLE 0.02f
+
+/* angle between unit vectors, accurate near 0 and pi */
+inline float angle_between(float3 u, float3 v) {
+    return dot(u, v) < 0.0f ? PPM_PI - 2.0f * asin(fmin(length(u + v) * 0.5f, 1.0f))
+                            : 2.0f * asin(fmin(length(v - u) * 0.5f, 1.0f));
+}
 
 typedef struct {
     float3 a, b, c;          /* unit directions to the corners */

@@ -12,6 +12,11 @@
     __global const EmitterInfo *emitter_info, __global const float *world_map
 #define SCENE_PASS BVH_PASS, normals, SHADING_PASS, lights, emitter_cdf, emissive, emitter_info, world_map
 
+/* The probability of emitter e in the power table (its step of the cdf) */
+inline float emitter_pmf(__global const float *cdf, int e) {
+    return cdf[e] - (e > 0 ? cdf[e - 1] : 0.0f);
+}
+
 /* Emitter chosen in proportion to its power (cdf built by ppm_engine/emitters.py): the lights
  * first, then the emissive triangles, then the world. */
 inline int pick_emitter(__global const float *cdf, int n, float u, float *pmf) {
@@ -20,7 +25,7 @@ inline int pick_emitter(__global const float *cdf, int n, float u, float *pmf) {
         int mid = (lo + hi) >> 1;
         if (u < cdf[mid]) hi = mid; else lo = mid + 1;
     }
-    *pmf = cdf[lo] - (lo > 0 ? cdf[lo - 1] : 0.0f);
+    *pmf = emitter_pmf(cdf, lo);
     return lo;
 }
 #endif
