@@ -5,7 +5,7 @@
 /* The closures' sample and eval, one dispatch for every pass (eye, photons, direct light, the
  * gather).  The diffuse-like closures are here; the microfacet ones in microfacet.h.  Closure
  * types a program never makes compile away (PPM_MICROFACET, PPM_SHEEN, PPM_OREN_NAYAR,
- * PPM_TRANSLUCENT, PPM_TRANSPARENT: kernels/features.h). */
+ * PPM_TRANSLUCENT, PPM_TRANSPARENT: shared.h). */
 
 /* --- Oren-Nayar: Fujii's improved model with OpenPBR's energy-preserving multiple scattering --- */
 inline float oren_nayar_g(float c) {

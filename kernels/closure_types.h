@@ -1,6 +1,7 @@
 #ifndef PPM_CLOSURE_TYPES_H
 #define PPM_CLOSURE_TYPES_H
 #include "fresnel.h"
+#include "shared.h"
 
 /* A closure: one weighted BSDF lobe at a shading point, in the shape Cycles uses (a type, an
  * RGB weight and its parameters).  The shader (kernels/shader.h) builds a short list of them
@@ -34,11 +35,9 @@
 #define LABEL_SINGULAR 16
 #define LABEL_TRANSPARENT 32
 
-/* below this alpha_x alpha_y a microfacet lobe is a perfect mirror / smooth refraction
- * (Cycles' BSDF_ROUGHNESS_SQ_THRESH: roughness below ~0.0038) */
-#define ROUGHNESS_SQ_THRESH 2e-10f
-/* closures whose sample weight is below this are not made (Cycles' CLOSURE_WEIGHT_CUTOFF) */
-#define CLOSURE_WEIGHT_CUTOFF 1e-5f
+/* (ROUGHNESS_SQ_THRESH, the alpha_x alpha_y below which a microfacet lobe is a perfect mirror
+ * or a smooth refraction, and CLOSURE_WEIGHT_CUTOFF are shared.h's: the host's node features
+ * use them too) */
 
 typedef struct {
     float3 weight;       /* RGB weight (energy compensation included) */

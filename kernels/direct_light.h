@@ -7,7 +7,7 @@
  * few emissive triangles by their light at the point: light_mesh.h pick_emitter_at; a shadow
  * ray) and a sample of the closures, combined by multiple importance sampling (power
  * heuristic); and what rays see of the emitters, with the MIS weight of the sample that found
- * them.  The emitter types a program has are the feature flags of features.h (0/1): a type
+ * them.  The emitter types a program has are the feature flags of shared.h (0/1): a type
  * without its flag is never dispatched to. */
 
 /* power heuristic weight of strategy a against b */

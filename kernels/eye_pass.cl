@@ -6,12 +6,10 @@
  * to the pixel's direct sum. */
 #include "direct_light.h"
 #include "camera.h"
-#include "counters.h"
+#include "shared.h"
 #include "medium.h"
 #include "indirect_paths.h"
 
-/* entries of the pixel filter's table: -D PPM_FILTER_TABLE_SIZE from ppm_engine/film.py */
-#define FILTER_TABLE_SIZE PPM_FILTER_TABLE_SIZE
 
 /* offset from the pixel centre: the filter table (inverse CDF) at u in [0, 1), lerped */
 inline float filter_offset(__global const float *table, float u) {

@@ -11,15 +11,12 @@
 #include "bvh.h"
 
 /* photons on a surface facing another way (thin walls, corners) are not this point's */
-#define NORMAL_COS_MIN 0.5f
 /* the gather region is a disc, not a ball: photons farther than this x r from the visible
  * point's tangent plane are not its own (a floor under a closed box would otherwise gather the
  * photons on the box's inner bottom face; a table top those under it).  The density estimate
  * over pi r^2 is unchanged on a plane; on a curved surface only r > curvature radius / 2
  * loses photons. */
-#define DISC_HALF_THICKNESS 0.25f
 /* guard for absurd radius/cell ratios (the grid setup keeps cell >= r_max / 2: <= 5^3) */
-#define MAX_CELLS_PER_AXIS 5
 
 /* The cells the gather disc can touch: the disc's own bounding box (half extent along axis k
  * r sqrt(1 - n_k^2) + t |n_k|, t the half thickness), not the sphere's.  On a floor with cells

@@ -7,14 +7,13 @@
  * Also here: the grid over this pass's visible points (bounds expanded by each point's
  * radius), computed on the device so no host round trip sits between the passes. */
 #include "hash.h"
-#include "counters.h"
+#include "shared.h"
 #include "geometry.h"
 
 /* floats as order-preserving uints, for atomic min/max */
 inline uint f2o(float f) { uint u = as_uint(f); return (u & 0x80000000u) ? ~u : (u | 0x80000000u); }
 inline float o2f(uint u) { return as_float((u & 0x80000000u) ? (u & 0x7fffffffu) : ~u); }
 
-#define BOUNDS_WG 64
 /* bounds[0..2] min, [3..5] max, [6] r_max, [7] r_min (ordered uints), [8] count */
 __kernel void bounds_init(__global uint *bounds, float4 init_lo, float4 init_hi) {
     float lo[3] = {init_lo.x, init_lo.y, init_lo.z}, hi[3] = {init_hi.x, init_hi.y, init_hi.z};

@@ -30,7 +30,6 @@ inline int emissive_index(int leaf, SCENE_ARGS) {
  * pick costs nothing (evaluated everywhere, the Cornell box's eye pass took 40 % longer).
  * The MIS of an emitter a sampled ray hits evaluates the same pmf from the same vertex
  * (mesh_seen), so the estimate stays unbiased. */
-#define LOCAL_PICK_MAX 8              /* (emitters.LOCAL_PICK_MAX) */
 #define LOCAL_PICK_NEAR 2.0f
 #define LOCAL_PICK_DEFENSIVE 0.25f
 

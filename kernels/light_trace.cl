@@ -10,7 +10,7 @@
 #include "shader.h"
 #include "direct_light.h"
 #include "camera.h"
-#include "counters.h"
+#include "shared.h"
 #include "medium.h"
 
 /* p seen by the pinhole camera: raster position (full-frame pixels, y up), the unit direction

@@ -5,7 +5,7 @@
 /* Each emitter type in one place: how camera and specular rays see it (*_seen), its sample for
  * next-event estimation (*_direct) and its photon emission (*_emit).  Which types a program
  * compiles is decided once, in the dispatchers (direct_light.h, photon_emission.h), by the
- * 0/1 feature flags of features.h; the compiler drops the functions no dispatcher reaches. */
+ * 0/1 feature flags of shared.h; the compiler drops the functions no dispatcher reaches. */
 
 /* A sample toward an emitter for next-event estimation: the contribution is
  * beta x (f cos) x E / pmf, E = the radiance arriving along wi over the density of wi (for a

@@ -4,7 +4,7 @@
 
 /* Emit one photon: an emitter picked in proportion to its power, then its origin, direction
  * and flux (already divided by all sampling pdfs).  The emitter types a program has are the
- * feature flags of features.h (0/1). */
+ * feature flags of shared.h (0/1). */
 inline bool emit_photon(SCENE_ARGS, uint *rng, float3 *o, float3 *d, float3 *flux) {
     EmitterInfo info = *emitter_info;
     if (info.n_emitters == 0) return false;

@@ -12,7 +12,7 @@
 #include "shader.h"
 #include "hash.h"
 
-#include "counters.h"
+#include "shared.h"
 #include "medium.h"
 
 __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounces, uint n_photons,

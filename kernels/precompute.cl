@@ -5,15 +5,7 @@
  * One work-item per cell; a 4-D Kronecker sequence (Roberts' R4) rotated per cell. */
 #include "closure.h"
 #include "rng.h"
-
-#define KIND_GGX_E 0
-#define KIND_GGX_EAVG 1
-#define KIND_GLASS_E 2
-#define KIND_GLASS_EAVG 3
-#define KIND_GLASS_INV_E 4
-#define KIND_GLASS_INV_EAVG 5
-#define KIND_SCHLICK_IOR_S 6
-#define KIND_SCHLICK_S 7
+#include "shared.h"
 
 /* the value of one sample: rough, mu, z the cell's coordinates, u four uniforms */
 inline float table_sample(int kind, float rough, float mu, float z, float4 u) {

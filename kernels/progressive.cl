@@ -10,7 +10,7 @@
  * way (docs/STABILITY.md: a float32 sum of a constant loses ~1e-5 in 2,000 passes, 1e-4 in
  * 10,000, and stops growing at 2^24 samples). */
 #include "geometry.h"
-#include "counters.h"
+#include "shared.h"
 
 #ifdef PPM_FP64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable

@@ -8,11 +8,9 @@
  * marked for the gather or for the path (PPM_GATHER_ROUGHNESS).  One set of functions samples
  * and evaluates the mixture for every pass. */
 
-/* microfacet lobes at least this rough (sqrt of alpha) hold visible points and photons like
- * diffuse ones; smoother ones are followed by the eye path (-D from RenderOptions) */
-#ifndef PPM_GATHER_ROUGHNESS
-#define PPM_GATHER_ROUGHNESS 0.7f
-#endif
+/* (PPM_GATHER_ROUGHNESS, shared.h: microfacet lobes at least this rough, sqrt of alpha, hold
+ * visible points and photons like diffuse ones; smoother ones are followed by the eye path;
+ * -D from RenderOptions.gather_roughness) */
 
 inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
                              float alpha, float3 emission, float3 tangent, TABLES_ARG) {

@@ -7,10 +7,7 @@
 /* The closures at one shading point (kernels/shader.h fills it in from the material's BSDF
  * nodes), with the emission, transparency and holdout that are not lobes.  At most
  * PPM_MAX_CLOSURES closures: the most the scene's materials can make (-D from
- * ppm_engine/materials.py), 16 in a program built for every feature. */
-#ifndef PPM_MAX_CLOSURES
-#define PPM_MAX_CLOSURES 16
-#endif
+ * ppm_engine/materials.py), its MAX_CLOSURES in a program built for every feature. */
 /* partly transparent surfaces a ray crosses at most (straight through, not a bounce): Cycles'
  * default Transparent Max Bounces */
 #define TRANSPARENT_MAX_BOUNCES 8

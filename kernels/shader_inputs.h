@@ -125,7 +125,7 @@ inline float3 material_transparency(int mat, uint tri, float u, float v, float3 
 inline float3 material_emission(__global const Material *m, uint tri, float u, float v,
                                 float3 P, SHADING_ARGS) {
 #if PPM_SVM
-    if (m->program > 0 && (svm[m->program].w & 1)) {
+    if (m->program > 0 && (svm[m->program].w & PROGRAM_EMISSION)) {
         Material mm = *m;
         float3 z = (float3)(0.0f);
         MATERIAL_PROGRAM(mm, stack, P, 0u, 0.0f, z, z, z, false, NO_FOOTPRINT);

@@ -1,21 +1,16 @@
 #ifndef PPM_SHADING_TABLES_H
 #define PPM_SHADING_TABLES_H
-/* The shading tables in one float buffer (ppm_engine/shading_tables.py builds it and states
- * the same layout; tests/test_closures.py checks the two agree): GGX albedos for the energy
- * compensation of multiple scattering, the Fresnel albedos of the layering, the sheen's LTC
- * fit.  Each axis samples [0, 1] at n points, read with linear interpolation (x fastest). */
-#define TAB_GGX_E 0                   /* [mu 32][rough 32]: albedo of GGX, F = 1 */
-#define TAB_GGX_EAVG 1024             /* [rough 32]: its cosine-weighted average */
-#define TAB_GLASS_E 1056              /* [z 16][mu 16][rough 16]: GGX glass, ior > 1 */
-#define TAB_GLASS_EAVG 5152           /* [z 16][rough 16] */
-#define TAB_GLASS_INV_E 5408          /* [z 16][mu 16][rough 16]: GGX glass, 1 / ior */
-#define TAB_GLASS_INV_EAVG 9504       /* [z 16][rough 16] */
-#define TAB_SCHLICK_IOR_S 9760        /* [z 16][mu 16][rough 16]: F0..1 blend of the real
-                                         Fresnel's albedo (generalised Schlick, exponent < 0) */
-#define TAB_SCHLICK_S 13856           /* [z 16][mu 16][rough 16]: the same for Schlick's
-                                         exponent 5 (1 - z) / z */
-#define TAB_SHEEN 17952               /* [3][rough 32][mu 32]: sheen LTC a, b and albedo */
-#define TAB_SIZE 21024
+#include "shared.h"
+/* The shading tables in one float buffer (ppm_engine/shading_tables.py builds it; its LAYOUT
+ * gives each table's offset, TAB_* in shared.h, and shape): GGX albedos for the energy
+ * compensation of multiple scattering (TAB_GGX_E [mu 32][rough 32], F = 1, and its
+ * cosine-weighted average TAB_GGX_EAVG [rough 32]; GGX glass for ior > 1 and 1 / ior,
+ * TAB_GLASS_E, TAB_GLASS_INV_E [z 16][mu 16][rough 16] and their averages [z 16][rough 16]),
+ * the Fresnel albedos of the layering (TAB_SCHLICK_IOR_S: the F0..1 blend of the real
+ * Fresnel's albedo, generalised Schlick with exponent < 0; TAB_SCHLICK_S: the same for
+ * Schlick's exponent 5 (1 - z) / z), the sheen's LTC fit (TAB_SHEEN [3][rough 32][mu 32]: a, b
+ * and albedo).  Each axis samples [0, 1] at n points, read with linear interpolation (x
+ * fastest). */
 
 #define TABLES_ARG __global const float *shading_tables
 

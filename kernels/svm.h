@@ -15,58 +15,11 @@
 #ifndef PPM_SVM_OPS
 #define PPM_SVM_OPS 0x7fffffffffffffffUL
 #endif
-#ifndef PPM_SVM_STACK
-#define PPM_SVM_STACK 256
-#endif
 #define SVM_HAS(op) ((PPM_SVM_OPS >> (op)) & 1)
 
-#define SVM_END 0
-#define SVM_CONST 1
-#define SVM_GEOMETRY 2
-#define SVM_IMAGE 3
-#define SVM_MAPPING 4
-#define SVM_MATH 5
-#define SVM_VECTOR_MATH 6
-#define SVM_MIX 7
-#define SVM_COMBINE 8
-#define SVM_COLOR_CONVERT 9
-#define SVM_INVERT 10
-#define SVM_GAMMA 11
-#define SVM_BRIGHT_CONTRAST 12
-#define SVM_RGB_TO_BW 13
-#define SVM_CLAMP 14
-#define SVM_MAP_RANGE 15
-#define SVM_TABLE 16
-#define SVM_HSV 17
-#define SVM_FRESNEL 18
-#define SVM_LAYER_WEIGHT 19
-#define SVM_NORMAL_MAP 20
-#define SVM_TEX_CHECKER 21            /* procedural textures: svm_textures.h */
-#define SVM_TEX_GRADIENT 22
-#define SVM_TEX_WHITE_NOISE 23
-#define SVM_TEX_NOISE 24
-#define SVM_TEX_MAGIC 25
-#define SVM_TEX_WAVE 26
-#define SVM_TEX_BRICK 27
-#define SVM_TEX_VORONOI 28
-#define SVM_TEX_LAST 28
-#define SVM_BLACKBODY 29              /* svm_color.h */
-#define SVM_WAVELENGTH 30
-#define SVM_BUMP 31                   /* the Bump node: svm_bump.h */
-#define SVM_TEX_SKY 35                /* svm_sky.h */
-#define PROGRAM_TANGENTS 2            /* header flags: a tangent-space Normal Map reads them */
-#define PROGRAM_GENERATED 4           /* Generated texture coordinates are read */
-#define PROGRAM_ATTRIBUTES 8          /* mesh attributes are read */
-#define PROGRAM_OBJECT 16             /* the object's data are read */
-#define PROGRAM_WINDOW 32             /* the Window coordinates are read (the camera's) */
-#define PROGRAM_BUMP 64               /* a Bump node reads the footprint's offsets */
 #ifndef PPM_ATTRIBUTES
 #define PPM_ATTRIBUTES 1              /* attributes per corner in `attributes` (-D: the scene's) */
 #endif
-#define MIXF_CLAMP_FACTOR 1
-#define MIXF_CLAMP_RESULT 2
-#define MIXF_SCALAR 4
-#define MIXF_VECTOR_FACTOR 8
 /* the object's matrices in the context: Mapping and Vector Transform, object-space normal maps */
 #define SVM_OBJECT_MATRICES \
     (((PPM_SVM_OPS >> SVM_MAPPING) & 1) || ((PPM_SVM_OPS >> SVM_NORMAL_MAP) & 1))

@@ -4,14 +4,8 @@
  * them; ppm_engine/shader_program.py SVM_IMAGE has the layout, export/shader_images.py compiles
  * them).  The projections and the UDIM tile choice are Cycles' (learnt from its
  * kernel/svm/image.h, util/math.h and kernel/camera/projection.h: map_to_sphere, map_to_tube,
- * the box's blend zones, the mirror ball). */
-
-#define IMAGE_FLAT 0
-#define IMAGE_EQUIRECT 1      /* Environment Texture */
-#define IMAGE_BOX 2
-#define IMAGE_SPHERE 3
-#define IMAGE_TUBE 4
-#define IMAGE_MIRROR_BALL 5   /* Environment Texture */
+ * the box's blend zones, the mirror ball); IMAGE_* (shared.h) the projection. */
+#include "shared.h"
 
 /* texture tex (1-based; 0: an image that could not be read, or a UDIM tile that does not
  * exist: Cycles' magenta) at uv.  Texels hold colours times alpha (associated, as Cycles
@@ -103,7 +97,7 @@ inline int svm_image(int4 w, __global const int4 *svm, int i, float *stack,
             c += wt.z * svm_image_lookup(textures, texels, tex,
                                          (float2)(N.z > 0.0f ? 1.0f - co.y : co.y, co.x), e.y);
     } else {
-        float2 uv = e.z == IMAGE_EQUIRECT ? direction_to_equirect(svm_safe_normalize(co))
+        float2 uv = e.z == IMAGE_EQUIRECTANGULAR ? direction_to_equirect(svm_safe_normalize(co))
                   : e.z == IMAGE_MIRROR_BALL ? image_mirror_ball_uv(svm_safe_normalize(co))
                   : e.z == IMAGE_SPHERE ? image_sphere_uv(co)
                   : e.z == IMAGE_TUBE ? image_tube_uv(co) : co.xy;

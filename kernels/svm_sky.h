@@ -3,17 +3,16 @@
 /* Cycles' Sky Texture (SVM_TEX_SKY; export/sky.py precomputes what Cycles precomputes, learnt
  * from its kernel/svm/sky.h and scene/shader_nodes.cpp SkyTextureNode, written here for OpenCL).
  * Layout: (op, out, vector, SKY_*) + (n, 0, 0, 0) + n words of float parameters:
- *   SKY_PREETHAM: sun phi, sun theta, zenith Y, x, y (the Perez normalisation folded in), then
- *                 the Perez coefficients A..E of Y, x and y (20 floats);
- *   SKY_HOSEK:    sun phi, sun theta, the X, Y, Z radiances, then the 9 distribution
- *                 parameters of X, Y and Z (32 floats);
- *   SKY_SINGLE:   the sun disc's XYZ at its bottom and top edge (6), sun elevation, rotation,
- *                 angular diameter (< 0: no disc), intensity, -(earth intersection angle),
- *                 the LUT's width and height, then its XYZ texels (3 floats each, row 0 at the
- *                 nadir). */
-#define SKY_PREETHAM 0
-#define SKY_HOSEK 1
-#define SKY_SINGLE 2
+ *   SKY_PREETHAM:     sun phi, sun theta, zenith Y, x, y (the Perez normalisation folded in),
+ *                     then the Perez coefficients A..E of Y, x and y (20 floats);
+ *   SKY_HOSEK_WILKIE: sun phi, sun theta, the X, Y, Z radiances, then the 9 distribution
+ *                     parameters of X, Y and Z (32 floats);
+ *   SKY_SINGLE_SCATTERING (and the multiple scattering sky, which shares it): the sun disc's
+ *                     XYZ at its bottom and top edge (6), sun elevation, rotation, angular
+ *                     diameter (< 0: no disc), intensity, -(earth intersection angle), the LUT's
+ *                     width and height, then its XYZ texels (3 floats each, row 0 at the
+ *                     nadir). */
+#include "shared.h"
 
 /* XYZ (D65) -> scene linear Rec.709: Blender's OCIO config (Cycles' xyz_to_rgb), clamped at 0 */
 inline float3 sky_xyz_to_rgb(float3 c) {
@@ -114,7 +113,7 @@ inline int svm_sky(int4 w, __global const int4 *svm, int i, float *stack) {
     __global const float *p = (__global const float *)(svm + i + 1);
     float3 d = svm_get3(stack, w.z);
     float3 rgb = w.w == SKY_PREETHAM ? sky_preetham(d, p)
-               : w.w == SKY_HOSEK ? sky_hosek(d, p) : sky_single(d, p);
+               : w.w == SKY_HOSEK_WILKIE ? sky_hosek(d, p) : sky_single(d, p);
     svm_put3(stack, w.y, rgb);
     return i + 1 + n;
 }

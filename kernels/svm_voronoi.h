@@ -1,5 +1,6 @@
 #ifndef PPM_SVM_VORONOI_H
 #define PPM_SVM_VORONOI_H
+#include "shared.h"
 #include "svm_noise.h"
 
 /* Cycles' Voronoi Texture (learnt from its kernel/svm/voronoi.h, written here for OpenCL): the
@@ -12,10 +13,6 @@ typedef struct {
     int dim, feature, metric, normalize;
 } TexVoronoi;
 
-#define VOR_F2 1
-#define VOR_SMOOTH_F1 2
-#define VOR_EDGE 3
-#define VOR_RADIUS 4
 
 inline float4 tex_vmask(int dim, float4 p) {
     if (dim < 4) p.w = 0.0f;
@@ -72,7 +69,7 @@ inline TexVorOut tex_voronoi_octave(const TexVoronoi *v, float4 coord) {
     float4 cellf = floor(coord), lp = coord - cellf;
     int4 cell = convert_int4(cellf);
     TexVorOut o = {0.0f, (float3)(0.0f), (float4)(0.0f)};
-    if (v->feature == VOR_SMOOTH_F1 && v->smoothness != 0.0f) {
+    if (v->feature == VORONOI_SMOOTH_F1 && v->smoothness != 0.0f) {
         float h = -1.0f, sd = 0.0f;
         float3 sc = (float3)(0.0f);
         float4 sp = (float4)(0.0f);
@@ -96,7 +93,7 @@ inline TexVorOut tex_voronoi_octave(const TexVoronoi *v, float4 coord) {
         o.position = tex_vmask(v->dim, cellf + sp);
         return o;
     }
-    bool f2 = v->feature == VOR_F2;
+    bool f2 = v->feature == VORONOI_F2;
     float d1 = FLT_MAX, d2 = FLT_MAX;
     int4 o1 = (int4)(0), o2 = (int4)(0);
     float4 p1 = (float4)(0.0f), p2 = (float4)(0.0f);
@@ -249,14 +246,14 @@ inline void tex_voronoi(TexVoronoi v, float4 coord, float *distance, float3 *col
     *distance = 0.0f; *color = (float3)(0.0f); *position = (float3)(0.0f);
     *w = 0.0f; *radius = 0.0f;
     float m = 0.5f + 0.5f * v.randomness;
-    if (v.feature == VOR_EDGE) {
+    if (v.feature == VORONOI_DISTANCE_TO_EDGE) {
         v.max_distance = m;
         *distance = tex_voronoi_edge_fractal(&v, coord);
-    } else if (v.feature == VOR_RADIUS) {
+    } else if (v.feature == VORONOI_N_SPHERE_RADIUS) {
         *radius = tex_voronoi_radius(&v, coord);
     } else {
         v.max_distance = tex_vdist(&v, (float4)(0.0f), tex_vmask(v.dim, (float4)(m)), false)
-                         * (v.feature == VOR_F2 ? 2.0f : 1.0f);
+                         * (v.feature == VORONOI_F2 ? 2.0f : 1.0f);
         TexVorOut o = tex_voronoi_fractal(&v, coord);
         *distance = o.distance;
         *color = o.color;

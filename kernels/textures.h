@@ -4,23 +4,8 @@
 
 /* Image textures (ppm_engine/export/textures.py): texels of all textures one after another as
  * half4 linear RGBA, rows bottom-up (v = 0 is the first row); UVs per triangle corner.  The
- * lookups compile to a constant 1 when no material of the scene has a texture (PPM_TEXTURES,
- * kernels/features.h). */
-
-/* mirrors scene_arrays.TEXTURE_DTYPE */
-typedef struct {
-    int offset;
-    int width;
-    int height;
-    uint flags;
-} Texture;
-#define TEX_REPEAT 0u
-#define TEX_EXTEND 1u
-#define TEX_CLIP 2u
-#define TEX_MIRROR 3u
-#define TEX_FLAG_CLOSEST 16u
-#define TEX_FLAG_SRGB 32u
-#define TEX_FLAG_CUBIC 64u
+ * lookups compile to a constant 1 when no material of the scene has a texture (PPM_TEXTURES).
+ * The Texture struct and the TEX_* codes are shared.h's. */
 
 inline float3 srgb_to_linear(float3 c) {
     c = clamp(c, 0.0f, 1.0f);

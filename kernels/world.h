@@ -6,10 +6,6 @@
  * over rows (map_h + 1 floats, v upwards), each row's CDF over columns (map_h x (map_w + 1))
  * and the map's values f (map_h x map_w: mean radiance x sin(theta) at the texel centres);
  * the density of a direction in (u, v) is f / mean(f), over solid angle / (2 pi^2 sin(theta)). */
-#ifndef PPM_WORLD_MAP
-#define PPM_WORLD_MAP PPM_ALL_FEATURES
-#endif
-
 /* whether this build and scene evaluate the world's program */
 #include "world_map.h"
 

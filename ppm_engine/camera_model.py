@@ -1,4 +1,4 @@
-"""Cameras as the kernels read them (CAMERA_DTYPE, kernels/types.h Camera): a row from the
+"""Cameras as the kernels read them (CAMERA_DTYPE, kernels/shared.h Camera): a row from the
 camera's placement, extent and film (pixel filter, transparency, exposure), and the extents of
 Cycles' perspective and orthographic cameras (sensor fit)."""
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The device counters the passes share: one uint32 each, in one buffer.  This table mirrors
-kernels/counters.h (tests/test_kernels.py reads the header and checks they agree)."""
+"""The device counters the passes share: one uint32 each, in one buffer.  The kernels' CNT_*
+indices are generated from this table (kernels/shared.h, ppm_engine/shared_header.py)."""
 from __future__ import annotations
 
 import enum

@@ -9,7 +9,7 @@ import numpy as np
 from .bvh import BVH
 from .emitters import build_emitters
 from .features import defines as feature_defines, scene_features, used_materials
-from .film import FILTER_TABLE_SIZE, filter_table
+from .film import filter_table
 from .materials import (MAT_GATHER, follow_capable, kernel_materials, kernel_nodes,
                         max_closures)
 from .shader_program import ops_define, ops_used, stack_used
@@ -110,8 +110,7 @@ class DeviceScene:
                    "PPM_SVM_STACK": max(stack_used(self.prepared.svm, starts), 1)}
         if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact
             svm["PPM_ATTRIBUTES"] = self.prepared.attributes.shape[2]
-        return features, {"PPM_FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
-                          "PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
+        return features, {"PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
                           **feature_defines(features, max_closures(self.knodes,
                                                                    self.used_materials)),
                           **svm}

@@ -14,7 +14,7 @@ from .materials import mean_emission
 from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_POINT, LIGHT_SPOT,
                            LIGHT_SUN, SceneArrays)
 
-# mirrors kernels/types.h EmitterInfo
+# the emitter table's header (kernels/shared.h EmitterInfo)
 EMITTER_INFO_DTYPE = np.dtype([
     ("n_lights", np.int32),
     ("n_emissive", np.int32),

@@ -1,4 +1,4 @@
-"""Which features a scene needs, as -D flags for the eye and photon passes (kernels/features.h).
+"""Which features a scene needs, as -D flags for the eye and photon passes (FEATURES).
 
 The programs are cached per device by (file, defines), so each feature set is built once; a
 scene without microfacet lobes runs kernels without their code (likewise sheen, Oren-Nayar,
@@ -16,6 +16,31 @@ from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHI
                            LIGHT_SPOT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION,
                            SceneArrays)
 
+# The kernels' feature flags (kernels/shared.h, generated from this table): each compiles the
+# code of one feature; a program built without -D PPM_SPECIALIZED has them all.
+FEATURES = {
+    "PPM_SHADER": "a material that is not one Lambert closure (else shader.h's short path only)",
+    "PPM_GATHER_SHADE": "a visible point whose closures are not one Lambert (the gather shades "
+                        "it)",
+    "PPM_MICROFACET": "GGX lobes (metals, glass, specular layers, coats)",
+    "PPM_SHEEN": "sheen",
+    "PPM_OREN_NAYAR": "rough diffuse",
+    "PPM_TRANSLUCENT": "translucency",
+    "PPM_TRANSPARENT": "alpha, Transparent BSDF",
+    "PPM_ANISOTROPY": "anisotropic lobes (the surface's tangents)",
+    "PPM_LIGHT_POINT": "point and spot lights",
+    "PPM_LIGHT_SUN": "sun lights",
+    "PPM_LIGHT_AREA": "area lights",
+    "PPM_EMISSIVE": "emissive triangles (and their MIS)",
+    "PPM_WORLD": "an emitting world",
+    "PPM_WORLD_MAP": "the world's shader program, importance-sampled by its map (world.h)",
+    "PPM_LIGHTS_SEEN": "lights seen by camera and specular rays",
+    "PPM_DOF": "depth of field",
+    "PPM_TEXTURES": "image textures",
+    "PPM_ABSORPTION": "glass with absorption inside (medium.h)",
+    "PPM_SVM": "shader programs (svm.h; with PPM_SVM_OPS and PPM_SVM_STACK)",
+}
+
 
 def used_materials(scene: SceneArrays, n_materials: int) -> np.ndarray:
     """Indices of the materials some triangle uses (a bincount: no sort of the triangles)."""
@@ -27,7 +52,7 @@ def used_materials(scene: SceneArrays, n_materials: int) -> np.ndarray:
 
 def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarray, emitters,
                    used: np.ndarray | None = None) -> frozenset:
-    """The features of kernels/features.h that ``scene`` uses.
+    """The features (FEATURES) that ``scene`` uses.
 
     ``kmaterials`` and ``knodes`` are the kernel materials and BSDF nodes (materials.py) and
     ``emitters`` the emitter table (emitters.build_emitters): a light of zero power is never

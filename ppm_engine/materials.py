@@ -14,24 +14,31 @@ from .scene_arrays import (NODE_DIFFUSE, NODE_EMISSION, NODE_GLASS, NODE_GLOSSY,
                            NODE_TRANSLUCENT, NODE_TRANSPARENT, SHADER_NODE_DTYPE, TEX_FLAG_SRGB)
 from .shader_program import BOUND
 
-# mirrors kernels/types.h Material
+# what a pass needs of a material before it shades a hit (kernels/shared.h Material)
 KMATERIAL_DTYPE = np.dtype([
-    ("emission", np.float32, 3),
-    ("flags", np.uint32),
-    ("emission_tex", np.int32),
-    ("node_first", np.int32),
+    ("emission", np.float32, 3),   # emitted radiance of its emission closures, before textures
+    ("flags", np.uint32),          # MAT_*
+    ("emission_tex", np.int32),    # 1-based texture of the emission (kernels/textures.h), 0 = none
+    ("node_first", np.int32),      # its BSDF nodes: shader_nodes[node_first, + node_count)
     ("node_count", np.int32),
-    ("absorption", np.float32, 3),
-    ("program", np.int32),
+    ("absorption", np.float32, 3),  # absorption coefficient inside (per metre; glass only:
+                                    # kernels/medium.h)
+    ("program", np.int32),         # first word of its shader program in svm (kernels/svm.h),
+                                   # 0 = none
 ])
 MAT_EMISSIVE = 1          # constant emission > 0: an emitter
 MAT_GATHER = 2            # some closure can hold a visible point and photons
 MAT_TRANSPARENT = 4       # partly transparent: shadow rays pass
 MAT_LAMBERT = 8           # one node making one Lambert closure: the shader's short path
 
-# a microfacet lobe smoother than this is a perfect mirror or a smooth refraction (Cycles:
-# alpha_x alpha_y <= 2e-10): such a lobe can only be followed, never evaluated
-SINGULAR_ROUGHNESS = 2e-10 ** 0.25
+# a microfacet lobe with alpha_x alpha_y below this is a perfect mirror or a smooth refraction
+# (Cycles' BSDF_ROUGHNESS_SQ_THRESH: roughness below ~0.0038): it can only be followed, never
+# evaluated (kernels/shared.h ROUGHNESS_SQ_THRESH)
+SINGULAR_ALPHA2 = 2e-10
+SINGULAR_ROUGHNESS = SINGULAR_ALPHA2 ** 0.25
+# closures whose sample weight is below this are not made (Cycles' CLOSURE_WEIGHT_CUTOFF); the
+# node inputs that make no closure below it (kernels/shader.h)
+CLOSURE_WEIGHT_CUTOFF = 1e-5
 # closures of one material beyond this are dropped (kernels/shader_data.h PPM_MAX_CLOSURES)
 MAX_CLOSURES = 16
 
@@ -75,10 +82,10 @@ def _principled_parts(n: np.ndarray) -> dict:
                                   "sheen_weight", "coat_weight", "alpha", "roughness",
                                   "coat_roughness")}
     return {
-        "sheen": (n["sheen_weight"] > 1e-5) | b["sheen_weight"],
-        "coat": (n["coat_weight"] > 1e-5) | b["coat_weight"],
-        "metal": (np.clip(n["metallic"], 0, 1) > 1e-5) | b["metallic"],
-        "glass": (np.clip(n["transmission"], 0, 1) > 1e-5) | b["transmission"],
+        "sheen": (n["sheen_weight"] > CLOSURE_WEIGHT_CUTOFF) | b["sheen_weight"],
+        "coat": (n["coat_weight"] > CLOSURE_WEIGHT_CUTOFF) | b["coat_weight"],
+        "metal": (np.clip(n["metallic"], 0, 1) > CLOSURE_WEIGHT_CUTOFF) | b["metallic"],
+        "glass": (np.clip(n["transmission"], 0, 1) > CLOSURE_WEIGHT_CUTOFF) | b["transmission"],
         "specular": ((level > 0) | b["specular_ior_level"]) & ((ior != 1.0) | b["ior"]),
         "diffuse": ((np.clip(n["metallic"], 0, 1) < 1) | b["metallic"])
                    & ((np.clip(n["transmission"], 0, 1) < 1) | b["transmission"]),
@@ -149,20 +156,21 @@ def lambert_node(nodes: np.ndarray) -> np.ndarray:
     at most emission: a Diffuse BSDF of roughness 0, a Principled BSDF with nothing but its
     diffuse base (no specular layer, metal, glass, coat, sheen, subsurface, transparency)."""
     t = nodes["type"]
-    out = (t == NODE_DIFFUSE) & (nodes["roughness"] < 1e-5) & ~bound(nodes, "roughness")
+    out = (t == NODE_DIFFUSE) & (nodes["roughness"] < CLOSURE_WEIGHT_CUTOFF) \
+        & ~bound(nodes, "roughness")
     p = t == NODE_PRINCIPLED
     if p.any():
         parts = _principled_parts(nodes[p])
         n = nodes[p]
         out[p] = ~(parts["sheen"] | parts["coat"] | parts["metal"] | parts["glass"]
                    | parts["specular"] | parts["transparent"]) \
-            & (n["subsurface_weight"] <= 0) & (n["diffuse_roughness"] < 1e-5) \
+            & (n["subsurface_weight"] <= 0) & (n["diffuse_roughness"] < CLOSURE_WEIGHT_CUTOFF) \
             & ~bound(n, "subsurface_weight") & ~bound(n, "diffuse_roughness")
     return out & ~nodes["normal"].any(axis=1)      # (the short path shades with N)
 
 
 def node_features(nodes: np.ndarray) -> set:
-    """The closure features (kernels/features.h) these nodes need."""
+    """The closure features (features.FEATURES) these nodes need."""
     f = set()
     if not nodes.size:
         return f
@@ -176,10 +184,10 @@ def node_features(nodes: np.ndarray) -> set:
         f.add("PPM_MICROFACET")
     if (t == NODE_SHEEN).any() or (parts is not None and parts["sheen"].any()):
         f.add("PPM_SHEEN")
-    rough_diffuse = ((t == NODE_DIFFUSE) & ((nodes["roughness"] >= 1e-5)
+    rough_diffuse = ((t == NODE_DIFFUSE) & ((nodes["roughness"] >= CLOSURE_WEIGHT_CUTOFF)
                                             | bound(nodes, "roughness"))).any() or (
-        parts is not None and (((p["diffuse_roughness"] >= 1e-5) | bound(p, "diffuse_roughness"))
-                               & parts["diffuse"]).any())
+        parts is not None and (((p["diffuse_roughness"] >= CLOSURE_WEIGHT_CUTOFF)
+                                | bound(p, "diffuse_roughness")) & parts["diffuse"]).any())
     if rough_diffuse:
         f.add("PPM_OREN_NAYAR")
     if (t == NODE_TRANSLUCENT).any():

@@ -6,11 +6,16 @@ from __future__ import annotations
 
 import numpy as np
 
-# mirrors kernels/types.h Grid
+# the stochastic hash's grid, written on the device by grid_setup (kernels/hash_build.cl)
 GRID_DTYPE = np.dtype([
-    ("bmin", np.float32, 3), ("bmax", np.float32, 3), ("cell_size", np.float32),
-    ("inv_cell_size", np.float32), ("r_max", np.float32), ("r_min", np.float32),
-    ("valid", np.uint32), ("pad", np.uint32),
+    ("bmin", np.float32, 3),
+    ("bmax", np.float32, 3),
+    ("cell_size", np.float32),
+    ("inv_cell_size", np.float32),
+    ("r_max", np.float32),
+    ("r_min", np.float32),
+    ("valid", np.uint32),         # the visible points of this pass
+    ("pad", np.uint32),
 ])
 
 

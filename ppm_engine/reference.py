@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-NORMAL_COS_MIN = 0.5    # kernels/gather.cl
-DISC_HALF_THICKNESS = 0.25   # kernels/gather.cl: |(photon - point) . normal| <= this x r
+# the gather's acceptance rules (kernels/gather.cl)
+from .passes.gather import DISC_HALF_THICKNESS, NORMAL_COS_MIN
 
 
 # --- rays ------------------------------------------------------------------------------------

@@ -5,9 +5,9 @@ physical units (Cycles' conventions already applied by the exporter).  The core 
 Blender; tests, the CLI and the benchmark can build a ``SceneArrays`` by hand or load one from
 ``.npz``.
 
-Structured dtypes contain only 4-byte scalars (and fixed arrays of them) so that the C structs in
-``kernels/types.h`` that mirror them have no padding (tests/test_kernels.py test_struct_layouts_match_dtypes checks the sizes
-on every device).
+Structured dtypes contain only 4-byte scalars (and fixed arrays of them) so that the C structs
+generated from them (``kernels/shared.h``, ppm_engine/shared_header.py) have no padding
+(tests/test_shared_header.py checks every field's offset on the device).
 """
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ MATERIAL_DTYPE = np.dtype([
     ("program", np.int32),    # first word of its shader program in SceneArrays.svm, 0 = none
 ])
 
-# BSDF node types (kernels/types.h NODE_*)
+# BSDF node types (kernels/shared.h NODE_*)
 NODE_PRINCIPLED = 0
 NODE_DIFFUSE = 1
 NODE_GLOSSY = 2         # Glossy BSDF (GGX or Multiscatter GGX; anisotropy in [-1, 1])
@@ -98,7 +98,7 @@ SHADER_NODE_DTYPE = np.dtype([
     ("sheen_roughness", np.float32),
     ("subsurface_weight", np.float32),
     ("diffuse_roughness", np.float32),
-    ("color_texture", np.int32),
+    ("color_texture", np.int32),        # 1-based textures multiplying color, emission, alpha
     ("emission_texture", np.int32),
     ("alpha_texture", np.int32),        # the texture's alpha channel multiplies ``alpha``
     ("bound", np.uint32),               # inputs its program drives (shader_program.BOUND)

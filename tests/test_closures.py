@@ -98,7 +98,7 @@ def view(cos_theta):
 
 # --- the tables ---------------------------------------------------------------------------------
 def test_table_layout_matches_the_kernel_header():
-    text = (KERNELS / "shading_tables.h").read_text()
+    text = (KERNELS / "shared.h").read_text()
     defs = dict(re.findall(r"#define TAB_(\w+) (\d+)", text))
     names = {"GGX_E": "ggx_E", "GGX_EAVG": "ggx_Eavg", "GLASS_E": "glass_E",
              "GLASS_EAVG": "glass_Eavg", "GLASS_INV_E": "glass_inv_E",

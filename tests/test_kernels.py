@@ -358,10 +358,10 @@ def test_progressive_update_equals_closed_form(device):
 
 
 def test_counter_table_matches_the_kernel_header():
-    """kernels/counters.h and ppm_engine/counters.py state the same indices."""
+    """kernels/shared.h (generated) and ppm_engine/counters.py state the same indices."""
     import re
     from ppm_engine.device import kernel_dir
-    text = (kernel_dir() / "counters.h").read_text()
+    text = (kernel_dir() / "shared.h").read_text()
     header = {m[1]: int(m[2]) for m in re.finditer(r"#define CNT_(\w+) (\d+)", text)}
     assert header == {c.name: int(c) for c in Counter}
     assert int(re.search(r"#define N_COUNTERS (\d+)", text)[1]) == N_COUNTERS

@@ -11,7 +11,7 @@ CORE = {"counters", "device", "device.context", "device.program", "device_scene"
         "features", "film", "materials", "emitters", "bvh", "options", "passes", "passes.eye",
         "passes.gather", "passes.hash_build", "passes.photons", "passes.update", "photon_map",
         "procedural", "analytic", "reference", "renderer", "scene_arrays", "scene_prep",
-        "stats", "world_map"}
+        "shared_header", "stats", "world_map"}
 TOOLING = ("bench", "packaging")
 
 

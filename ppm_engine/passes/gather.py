@@ -7,6 +7,14 @@ import numpy as np
 
 from ..device import SHADING_GROUP
 
+# photons on a surface facing another way (thin walls, corners) are not a visible point's: the
+# least cosine between their normals (kernels/gather.cl, reference.py)
+NORMAL_COS_MIN = 0.5
+# the gather region is a disc: photons farther than this x r from the visible point's tangent
+# plane are not its own (kernels/gather.cl says why)
+DISC_HALF_THICKNESS = 0.25
+# cells per axis a gather visits at most (the grid keeps cell >= r_max / 2: 5)
+MAX_CELLS_PER_AXIS = 5
 
 # the flags that change the gather: its shading of a visible point (the rest, lights, camera,
 # ray offsets, are the eye and photon passes'); fewer programs to build

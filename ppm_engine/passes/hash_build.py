@@ -15,6 +15,8 @@ class HashBuild:
     # bring the stochastic map's error down to the exact gather's: 2.0 (8 cells) gave 12
     # photons/entry and 30 % more error in the Cornell box, 0.5 gives ~1.4 and matches it.
     CELL_SCALE = 0.5
+    # work-group of the visible points' bounds reduction (kernels/hash_build.cl vp_bounds)
+    BOUNDS_GROUP = 64
 
     def __init__(self, device, photon_map, counters, cell_scale: float = CELL_SCALE):
         self.device, self.photon_map, self.counters = device, photon_map, counters
@@ -41,7 +43,7 @@ class HashBuild:
         return [(k.label, ev) for k, ev in (
             (self.k_bounds_init, self.k_bounds_init(q, 1, 1, bounds=pm.bounds, init_lo=lo,
                                                     init_hi=hi)),
-            (self.k_bounds, self.k_bounds(q, n, 64, vp_pos=vp_pos, radius=radius,
+            (self.k_bounds, self.k_bounds(q, n, self.BOUNDS_GROUP, vp_pos=vp_pos, radius=radius,
                                           n=np.uint32(n), bounds=pm.bounds)),
             (self.k_grid, self.k_grid(q, 1, 1, bounds=pm.bounds,
                                       cell_scale=np.float32(self.cell_scale), grid=pm.grid)))]

@@ -1,0 +1,96 @@
+"""kernels/shared.h, generated from the Python tables (ppm_engine/shared_header.py): the file is
+current, every struct field sits on the device where its dtype puts it, no kernel file defines
+again a name the header defines, and the feature flags the host sets are the header's."""
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ppm_engine import shared_header
+
+KERNELS = Path(__file__).resolve().parents[1] / "kernels"
+PKG = Path(__file__).resolve().parents[1] / "ppm_engine"
+
+
+def test_the_header_is_current():
+    """Fails after a change to a Python table until `python -m ppm_engine.shared_header` ran."""
+    assert (KERNELS / shared_header.HEADER).read_text() == shared_header.generate(), \
+        "kernels/shared.h is stale: run python -m ppm_engine.shared_header"
+
+
+def test_the_check_fails_on_a_stale_header(tmp_path, monkeypatch):
+    stale = tmp_path / "shared.h"
+    stale.write_text(shared_header.generate().replace("#define MAT_GATHER 2u",
+                                                      "#define MAT_GATHER 4u"))
+    monkeypatch.setattr(shared_header, "path", lambda: stale)
+    assert shared_header.main(["--check"]) == 1
+    assert shared_header.main([]) == 0 and shared_header.main(["--check"]) == 0
+    assert "#define MAT_GATHER 2u" in stale.read_text()
+
+
+def test_float_literals_read_back_exactly():
+    for x in (0.7, 0.25, 2e-10, 1e-5, 3.0, 1e9, -0.1, 0.0, 1 / 3):
+        lit = shared_header.c_float(x)
+        assert lit.endswith("f") and np.float32(lit[:-1]) == np.float32(x), lit
+
+
+def _structs():
+    from ppm_engine import camera_model, emitters, materials, photon_map, scene_arrays
+    return {"Light": scene_arrays.LIGHT_DTYPE, "Camera": camera_model.CAMERA_DTYPE,
+            "Material": materials.KMATERIAL_DTYPE, "ShaderNode": scene_arrays.SHADER_NODE_DTYPE,
+            "EmitterInfo": emitters.EMITTER_INFO_DTYPE, "Texture": scene_arrays.TEXTURE_DTYPE,
+            "Grid": photon_map.GRID_DTYPE}
+
+
+def test_every_struct_field_has_its_dtype_offset_on_the_device(pocl_key):
+    """offsetof and sizeof of every field of every shared struct, compiled by the device's own
+    compiler, against the NumPy dtype (the kernels read the host's bytes as these structs)."""
+    cl = pytest.importorskip("pyopencl")
+    from ppm_engine.device import get_device, kernel_dir
+    dev = get_device(pocl_key)
+    rows = [(s, f) for s, dt in _structs().items() for f in ("", *dt.names)]
+    # (a field's offset as the distance of its address from its struct's: OpenCL C has no
+    # offsetof)
+    body = "\n".join(f"    out[{i}] = (uint)((char *)&v{s}.{f} - (char *)&v{s});" if f else
+                     f"    {s} v{s};\n    out[{i}] = sizeof({s});"
+                     for i, (s, f) in enumerate(rows))
+    src = f'#include "shared.h"\n__kernel void layout(__global uint *out) {{\n{body}\n}}\n'
+    prog = cl.Program(dev.context, src).build(options=[f"-I{kernel_dir()}"])
+    out = cl.Buffer(dev.context, cl.mem_flags.WRITE_ONLY, 4 * len(rows))
+    prog.layout(dev.queue, (1,), None, out)
+    got = np.empty(len(rows), np.uint32)
+    cl.enqueue_copy(dev.queue, got, out)
+    structs = _structs()
+    want = [structs[s].itemsize if not f else structs[s].fields[f][1] for s, f in rows]
+    assert dict(zip(rows, got.tolist())) == dict(zip(rows, want))
+
+
+def _defines(text: str) -> set:
+    return set(re.findall(r"^\s*#\s*define\s+(\w+)", text, re.M))
+
+
+def test_no_kernel_file_defines_a_shared_name_again():
+    shared = _defines((KERNELS / shared_header.HEADER).read_text())
+    for f in sorted(KERNELS.glob("*.[ch]*")):
+        if f.name != shared_header.HEADER:
+            again = _defines(f.read_text()) & shared
+            assert not again, f"{f.name} defines {sorted(again)}, which shared.h defines"
+
+
+def test_the_features_the_host_sets_are_the_kernels_flags():
+    """Every PPM_* flag the host adds to a feature set (features.py, materials.py, world_map.py)
+    is in features.FEATURES, and every one of those is tested somewhere in the kernels."""
+    from ppm_engine.features import FEATURES
+    used = set()
+    for name in ("features.py", "materials.py", "world_map.py"):
+        text = (PKG / name).read_text()
+        used |= set(re.findall(r"add\(\"(PPM_\w+)\"\)", text))
+        used |= set(re.findall(r"\"(PPM_\w+)\": True", text))
+        used |= {n for tup in re.findall(r"update\(\(([^)]*)\)\)", text)
+                 for n in re.findall(r"\"(PPM_\w+)\"", tup)}
+    used -= {"PPM_SPECIALIZED"}
+    assert used and used <= set(FEATURES), used - set(FEATURES)
+    kernels = "\n".join(f.read_text() for f in KERNELS.glob("*.[ch]*")
+                        if f.name != shared_header.HEADER)
+    assert not [f for f in FEATURES if not re.search(rf"\b{f}\b", kernels)]
