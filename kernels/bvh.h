@@ -1,6 +1,7 @@
 #ifndef PPM_BVH_H
 #define PPM_BVH_H
 #include "geometry.h"
+#include "scene.h"
 
 /* Triangles in BVH leaf order, three float4 each (bvh_build.cl, reorder_triangles):
  *   v0 = (p0, as_float(original triangle index)), e1 = (p1 - p0, as_float(visibility bits)),
@@ -14,10 +15,6 @@ typedef struct {
     float t, u, v;
     int leaf;         /* index into the leaf-ordered triangle arrays, -1 = miss */
 } Hit;
-
-#define BVH_ARGS __global const float4 *nodes, __global const float4 *tri_v0, \
-                 __global const float4 *tri_e1, __global const float4 *tri_e2
-#define BVH_PASS nodes, tri_v0, tri_e1, tri_e2
 
 /* Moeller-Trumbore; returns t in (tmin, tmax) or -1 */
 inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float tmax,
@@ -38,10 +35,10 @@ inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float 
     return t;
 }
 
-inline void leaf_test(int k, float3 o, float3 d, uint mask, BVH_ARGS, Hit *hit) {
-    float4 e1 = tri_e1[k];
+inline void leaf_test(const Scene *scene, int k, float3 o, float3 d, uint mask, Hit *hit) {
+    float4 e1 = scene->tri_e1[k];
     if ((as_uint(e1.w) & mask) == 0u) return;
-    float4 v0 = tri_v0[k], e2 = tri_e2[k];
+    float4 v0 = scene->tri_v0[k], e2 = scene->tri_e2[k];
     float u, v;
     float t = tri_hit(o, d, v0.xyz, e1.xyz, e2.xyz, hit->t, &u, &v);
     if (t > 0.0f) { hit->t = t; hit->u = u; hit->v = v; hit->leaf = k; }
@@ -53,7 +50,8 @@ inline void leaf_test(int k, float3 o, float3 d, uint mask, BVH_ARGS, Hit *hit) 
  * (bound - o) * inv_d on PoCL (docs/BENCHMARKS.md).  A zero direction component becomes
  * +-2^-64 (inv_d finite, 2^64): with an infinite inv_d, bound * inf - o * inf is inf - inf =
  * NaN and an axis-parallel ray (an orthographic camera's) would miss flat boxes. */
-inline Hit bvh_intersect(float3 o, float3 d, float tmax, uint mask, bool any_hit, BVH_ARGS) {
+inline Hit bvh_intersect(const Scene *scene, float3 o, float3 d, float tmax, uint mask,
+                         bool any_hit) {
     Hit hit; hit.t = tmax; hit.u = 0.0f; hit.v = 0.0f; hit.leaf = -1;
     float3 tiny = (float3)(5.421011e-20f);        /* 2^-64 */
     float3 inv_d = 1.0f / select(d, copysign(tiny, d), isless(fabs(d), tiny));
@@ -61,7 +59,7 @@ inline Hit bvh_intersect(float3 o, float3 d, float tmax, uint mask, bool any_hit
     int stack[BVH_STACK];
     int sp = 0, node = 0;
     for (;;) {
-        __global const float4 *nd = nodes + 4 * node;
+        __global const float4 *nd = scene->nodes + 4 * node;
         float4 a = nd[0], b = nd[1], c = nd[2], e = nd[3];
         int left = as_int(a.w), right = as_int(b.w);
         float3 l0 = a.xyz * inv_d - ood, l1 = b.xyz * inv_d - ood;
@@ -72,12 +70,12 @@ inline Hit bvh_intersect(float3 o, float3 d, float tmax, uint mask, bool any_hit
         bool hl = tl <= fmin(fmin(lmx.x, lmx.y), fmin(lmx.z, hit.t));
         bool hr = tr <= fmin(fmin(rmx.x, rmx.y), fmin(rmx.z, hit.t));
         if (hl && left < 0) {
-            leaf_test(~left, o, d, mask, BVH_PASS, &hit);
+            leaf_test(scene, ~left, o, d, mask, &hit);
             if (any_hit && hit.leaf >= 0) return hit;
             hl = false;
         }
         if (hr && right < 0) {
-            leaf_test(~right, o, d, mask, BVH_PASS, &hit);
+            leaf_test(scene, ~right, o, d, mask, &hit);
             if (any_hit && hit.leaf >= 0) return hit;
             hr = false;
         }
@@ -105,17 +103,16 @@ typedef struct {
     uint tri;        /* original triangle index */
 } Surface;
 
-inline Surface surface_at(Hit h, __global const float4 *tri_v0, __global const float4 *tri_e1,
-                          __global const float4 *tri_e2, __global const float *normals) {
+inline Surface surface_at(const Scene *scene, Hit h) {
     Surface s;
-    float4 v0 = tri_v0[h.leaf], e1 = tri_e1[h.leaf], e2 = tri_e2[h.leaf];
+    float4 v0 = scene->tri_v0[h.leaf], e1 = scene->tri_e1[h.leaf], e2 = scene->tri_e2[h.leaf];
     s.p = v0.xyz + h.u * e1.xyz + h.v * e2.xyz;
     float3 ng = cross(e1.xyz, e2.xyz);
     float len = length(ng);
     s.ng = len > 0.0f ? ng / len : (float3)(0.0f, 0.0f, 1.0f);
     s.tri = as_uint(v0.w);
     s.material = as_int(e2.w);
-    __global const float *n = normals + 9 * (size_t)s.tri;
+    __global const float *n = scene->normals + 9 * (size_t)s.tri;
     float w = 1.0f - h.u - h.v;
     float3 ns = w * (float3)(n[0], n[1], n[2]) + h.u * (float3)(n[3], n[4], n[5])
               + h.v * (float3)(n[6], n[7], n[8]);

@@ -3,20 +3,24 @@
 #include "shader.h"
 #include "rng.h"
 
-inline void test_setup(ShaderData *sd, int mat, float4 wi, SHADING_ARGS) {
-    shader_setup(sd, mat, 0u, 0.0f, 0.0f, (float3)(0.0f), PATH_CAMERA, 1.0f,
-                 (float3)(0.0f, 0.0f, 1.0f),
-                 (float3)(0.0f, 0.0f, 1.0f), normalize(wi.xyz), NO_FOOTPRINT, SHADING_PASS);
+inline void test_setup(const Scene *scene, ShaderData *sd, int mat, float4 wi) {
+    Surface s;
+    s.p = (float3)(0.0f);
+    s.ng = s.ns = (float3)(0.0f, 0.0f, 1.0f);
+    s.material = mat;
+    s.tri = 0u;
+    shader_setup(scene, sd, &s, 0.0f, 0.0f, PATH_CAMERA, 1.0f, normalize(wi.xyz), NO_FOOTPRINT);
 }
 
 /* n samples of the material's closures in mask: wo (w = the mixture pdf, INFINITY for a
  * singular lobe, 0 when no direction) and the throughput weight (w = the label) */
-__kernel void shade_sample(SHADING_ARGS, int mat, float4 wi, int mask, uint seed,
+__kernel void shade_sample(SCENE_PARAMS int mat, float4 wi, int mask, uint seed,
                            __global float4 *out_wo, __global float4 *out_weight, uint n) {
+    SCENE_LOAD(scene);
     uint i = get_global_id(0);
     if (i >= n) return;
     ShaderData sd;
-    test_setup(&sd, mat, wi, SHADING_PASS);
+    test_setup(scene, &sd, mat, wi);
     uint rng = rng_seed(seed, 0u, i, 11u);
     float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
     BsdfSample b;
@@ -30,12 +34,13 @@ __kernel void shade_sample(SHADING_ARGS, int mat, float4 wi, int mask, uint seed
 }
 
 /* the mixture's f cos (xyz) and pdf (w) for directions wo */
-__kernel void shade_eval(SHADING_ARGS, int mat, float4 wi, int mask,
+__kernel void shade_eval(SCENE_PARAMS int mat, float4 wi, int mask,
                          __global const float4 *wo, __global float4 *out, uint n) {
+    SCENE_LOAD(scene);
     uint i = get_global_id(0);
     if (i >= n) return;
     ShaderData sd;
-    test_setup(&sd, mat, wi, SHADING_PASS);
+    test_setup(scene, &sd, mat, wi);
     float pdf;
     float3 f = shader_eval(&sd, normalize(wo[i].xyz), mask, &pdf);
     out[i] = (float4)(f, pdf);
@@ -43,11 +48,12 @@ __kernel void shade_eval(SHADING_ARGS, int mat, float4 wi, int mask,
 
 /* the closures made: per closure (type, gather, sample weight, 0) and (weight, 0); and the
  * emission, transparency (rows n_max, n_max + 1) */
-__kernel void shade_closures(SHADING_ARGS, int mat, float4 wi, __global float4 *out_info,
+__kernel void shade_closures(SCENE_PARAMS int mat, float4 wi, __global float4 *out_info,
                              __global float4 *out_weight, int n_max) {
+    SCENE_LOAD(scene);
     if (get_global_id(0) != 0) return;
     ShaderData sd;
-    test_setup(&sd, mat, wi, SHADING_PASS);
+    test_setup(scene, &sd, mat, wi);
     for (int k = 0; k < n_max; k++) {
         bool ok = k < sd.n;
         out_info[k] = ok ? (float4)((float)sd.c[k].type, (float)sd.c[k].gather,

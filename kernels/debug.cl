@@ -1,14 +1,17 @@
 /* Kernels for tests and micro benchmarks: plain ray queries against the BVH. */
+#include "rng.h"
 #include "bvh.h"
 
 /* hits[i] = (t, u, v, as_float(original triangle index or -1)) */
-__kernel void trace_rays(BVH_ARGS, __global const float4 *origins, __global const float4 *dirs,
-                         uint mask, int any_hit, __global float4 *hits, uint n) {
+__kernel void trace_rays(SCENE_PARAMS __global const float4 *origins,
+                         __global const float4 *dirs, uint mask, int any_hit,
+                         __global float4 *hits, uint n) {
+    SCENE_LOAD(scene);
     uint i = get_global_id(0);
     if (i >= n) return;
     float4 o = origins[i], d = dirs[i];
-    Hit h = bvh_intersect(o.xyz, d.xyz, d.w, mask, any_hit != 0, BVH_PASS);
-    int tri = h.leaf >= 0 ? (int)as_uint(tri_v0[h.leaf].w) : -1;
+    Hit h = bvh_intersect(scene, o.xyz, d.xyz, d.w, mask, any_hit != 0);
+    int tri = h.leaf >= 0 ? (int)as_uint(scene->tri_v0[h.leaf].w) : -1;
     hits[i] = (float4)(h.leaf >= 0 ? h.t : -1.0f, h.u, h.v, as_float(tri));
 }
 
@@ -25,8 +28,10 @@ __kernel void struct_sizes(__global uint *out) {
 /* direct light (the eye pass's estimate: next-event estimation and the BSDF sample with MIS,
  * averaged over n_samples) at given points, as irradiance: a white Lambert closure times pi */
 #include "direct_light.h"
-__kernel void direct_light_at(SCENE_ARGS, __global const float4 *points, __global const float4 *nrm,
-                           int n_samples, __global float4 *out, uint n) {
+__kernel void direct_light_at(SCENE_PARAMS __global const float4 *points,
+                              __global const float4 *nrm, int n_samples, __global float4 *out,
+                              uint n) {
+    SCENE_LOAD(scene);
     uint i = get_global_id(0);
     if (i >= n) return;
     uint rng = rng_seed(1u, 0u, i, 9u);
@@ -41,7 +46,7 @@ __kernel void direct_light_at(SCENE_ARGS, __global const float4 *points, __globa
     sd.sw_continue = 0.0f;
     float3 E = (float3)(0.0f);
     for (int s = 0; s < n_samples; s++)
-        E += direct_light(&sd, points[i].xyz, MASK_GATHER, SCENE_PASS, &rng);
+        E += direct_light(scene, &sd, points[i].xyz, MASK_GATHER, &rng);
     out[i] = (float4)(E / (float)n_samples, 0.0f);
 }
 
@@ -49,23 +54,24 @@ __kernel void direct_light_at(SCENE_ARGS, __global const float4 *points, __globa
  * n_u stratified numbers: counts[i * n_emitters + e] how often emitter e was picked, pmf[...]
  * the probability the pick returned for it (-1: never picked), table[...] the probability
  * the MIS of a ray that hits it uses (emissive_leaf_pmf; the table's for the other emitters) */
-__kernel void emitter_pick_at(SCENE_ARGS, __global const float4 *points,
+__kernel void emitter_pick_at(SCENE_PARAMS __global const float4 *points,
                               __global const float4 *nrm, uint n_u, __global uint *counts,
                               __global float *pmf, __global float *table, uint n) {
+    SCENE_LOAD(scene);
     uint i = get_global_id(0);
     if (i >= n) return;
-    int m = emitter_info->n_emitters, first = emitter_info->n_lights;
+    int m = scene->emitter_info->n_emitters, first = scene->emitter_info->n_lights;
     float3 p = points[i].xyz, N = nrm[i].xyz;
     for (int e = 0; e < m; e++) {
         counts[i * m + e] = 0u;
         pmf[i * m + e] = -1.0f;
-        table[i * m + e] = e >= first && e < first + emitter_info->n_emissive
-            ? emissive_leaf_pmf(emissive[e - first], p, N, SCENE_PASS)
-            : emitter_pmf(emitter_cdf, e);
+        table[i * m + e] = e >= first && e < first + scene->emitter_info->n_emissive
+            ? emissive_leaf_pmf(scene, scene->emissive[e - first], p, N)
+            : emitter_pmf(scene->emitter_cdf, e);
     }
     for (uint k = 0; k < n_u; k++) {
         float q;
-        int e = pick_emitter_at(p, N, ((float)k + 0.5f) / (float)n_u, SCENE_PASS, &q);
+        int e = pick_emitter_at(scene, p, N, ((float)k + 0.5f) / (float)n_u, &q);
         counts[i * m + e]++;
         pmf[i * m + e] = q;
     }

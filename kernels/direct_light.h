@@ -1,6 +1,9 @@
 #ifndef PPM_DIRECT_LIGHT_H
 #define PPM_DIRECT_LIGHT_H
+#include "rng.h"
 #include "light_types.h"
+#include "light_mesh.h"
+#include "world.h"
 #include "shader.h"
 
 /* Direct light at a shading point: next-event estimation (one emitter picked by power, among
@@ -24,14 +27,13 @@ inline float mis_power(float a, float b) {
  * VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY or VIS_TRANSMISSION; lights hidden from it are skipped.
  * *pdf_light: the density next-event estimation gives d from o for that light (pmf
  * included), for MIS. */
-inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
-                          __global const Light *lights, int n_lights, uint ray_type,
-                          __global const float *emitter_cdf, float *pdf_light) {
+inline float3 lights_seen(const Scene *scene, float3 o, float3 d, float tmax, bool escaped,
+                          uint ray_type, float *pdf_light) {
     float3 L = (float3)(0.0f), Lsun = (float3)(0.0f);
     float best = tmax, pdf = 0.0f;
-    int seen = -1;
+    int seen = -1, n_lights = scene->emitter_info->n_lights;
     for (int i = 0; i < n_lights; i++) {
-        Light l = lights[i];
+        Light l = scene->lights[i];
         if (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT)) continue;
         float before = best;
         if (PPM_LIGHT_AREA && (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE))
@@ -42,7 +44,7 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
             point_seen(&l, o, d, &best, &L, &pdf);
         if (best != before) seen = i;
     }
-    *pdf_light = seen >= 0 ? pdf * emitter_pmf(emitter_cdf, seen) : 0.0f;
+    *pdf_light = seen >= 0 ? pdf * emitter_pmf(scene->emitter_cdf, seen) : 0.0f;
     /* suns, behind everything: a ray that escapes the scene and meets no other light.
      * Next-event estimation samples a sun without MIS (sun_direct: pdf_dir 0), so a sun a
      * sampled direction finds counts only after a singular bounce or the camera (density
@@ -59,15 +61,15 @@ inline float3 lights_seen(float3 o, float3 d, float tmax, bool escaped,
  * given there) gives that direction (pmf included).  The density is the vertex's, not the
  * ray origin's: past a transparent surface o lies on it, and the solid angle from there made
  * light through a Transparent BSDF or alpha 26 % bright (tests/test_analytic.py). */
-inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v, float3 pv,
-                        float3 nv, SCENE_ARGS, float *pdf_light) {
+inline float3 mesh_seen(const Scene *scene, int leaf, float3 o, float3 d, float t, float u,
+                        float v, float3 pv, float3 nv, float *pdf_light) {
     *pdf_light = 0.0f;
     float3 q = o + t * d;                                   /* the point hit */
-    float4 v0 = tri_v0[leaf], e1 = tri_e1[leaf], e2 = tri_e2[leaf];
-    __global const Material *m = materials + as_int(e2.w);
+    float4 v0 = scene->tri_v0[leaf], e1 = scene->tri_e1[leaf], e2 = scene->tri_e2[leaf];
+    __global const Material *m = scene->materials + as_int(e2.w);
     if (!(m->flags & MAT_EMISSIVE)) return (float3)(0.0f);
 #if PPM_EMISSIVE
-    float pmf = emissive_leaf_pmf(leaf, pv, nv, SCENE_PASS);
+    float pmf = emissive_leaf_pmf(scene, leaf, pv, nv);
     float3 c = cross(e1.xyz, e2.xyz);
     float area2 = length(c), cos_l = area2 > 0.0f ? fabs(dot(d, c)) / area2 : 0.0f;
     if (pmf > 0.0f && cos_l > 0.0f) {
@@ -77,59 +79,62 @@ inline float3 mesh_seen(int leaf, float3 o, float3 d, float t, float u, float v,
                                     : pmf * dot(to, to) / (cos_l * 0.5f * area2);
     }
 #endif
-    return material_emission(m, as_uint(v0.w), u, v, q, SHADING_PASS);
+    return material_emission(scene, m, as_uint(v0.w), u, v, q);
 }
 
 /* The density next-event estimation gives the world in direction d from a point whose normal
  * (the one the world is sampled around) is n, its pick included. */
-inline float world_light_pdf(float3 d, float3 n, SCENE_ARGS) {
-    return world_pdf(d, n, SCENE_PASS) * emitter_pmf(emitter_cdf, emitter_info->n_emitters - 1);
+inline float world_light_pdf(const Scene *scene, float3 d, float3 n) {
+    return world_pdf(scene, d, n)
+           * emitter_pmf(scene->emitter_cdf, scene->emitter_info->n_emitters - 1);
 }
 
 /* The MIS weight of the emission of the surface hit h, found from o along d by a sample of
  * density prev_pdf (INFINITY: a camera ray or a singular lobe, weight 1) taken at vertex pv
  * with normal nv. */
-inline float mesh_hit_mis(const Hit *h, float3 o, float3 d, float prev_pdf, float3 pv, float3 nv,
-                          SCENE_ARGS) {
+inline float mesh_hit_mis(const Scene *scene, const Hit *h, float3 o, float3 d, float prev_pdf,
+                          float3 pv, float3 nv) {
     float pdf_l = 0.0f;
     if (PPM_EMISSIVE && !isinf(prev_pdf))
-        mesh_seen(h->leaf, o, d, h->t, h->u, h->v, pv, nv, SCENE_PASS, &pdf_l);
+        mesh_seen(scene, h->leaf, o, d, h->t, h->u, h->v, pv, nv, &pdf_l);
     return mis_power(prev_pdf, pdf_l);
 }
 
 /* The fraction of light a shadow ray from o along d lets through over dist: 0 at an opaque
  * surface; partly transparent surfaces (alpha, Transparent BSDF) attenuate it (at most
  * TRANSPARENT_MAX_BOUNCES of them). */
-inline float3 shadow_transmittance(float3 o, float3 d, float dist, SCENE_ARGS) {
+inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float dist) {
 #if PPM_TRANSPARENT
     float3 T = (float3)(1.0f);
     for (int i = 0; i <= TRANSPARENT_MAX_BOUNCES; i++) {
-        Hit h = bvh_intersect(o, d, dist, VIS_SHADOW, false, BVH_PASS);
+        Hit h = bvh_intersect(scene, o, d, dist, VIS_SHADOW, false);
         if (h.leaf < 0) return T;
-        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        if (i == TRANSPARENT_MAX_BOUNCES || !(materials[s.material].flags & MAT_TRANSPARENT))
+        Surface s = surface_at(scene, h);
+        if (i == TRANSPARENT_MAX_BOUNCES
+            || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
             return (float3)(0.0f);
-        T *= material_transparency(s.material, s.tri, h.u, h.v, s.p, SHADING_PASS);
+        T *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
-        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, emitter_info->offset_scale);
+        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
+                               scene->emitter_info->offset_scale);
         dist -= dot(o2 - o, d);
         o = o2;
         if (!(dist > 0.0f)) return T;
     }
     return (float3)(0.0f);
 #else
-    Hit h = bvh_intersect(o, d, dist, VIS_SHADOW, true, BVH_PASS);
+    Hit h = bvh_intersect(scene, o, d, dist, VIS_SHADOW, true);
     return (float3)(h.leaf < 0 ? 1.0f : 0.0f);
 #endif
 }
 
 /* One next-event sample from p (n: the shading normal the world is sampled around, ngf the
  * geometric normal on the side the light must come from); false when there is none. */
-inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, float3 u,
+inline bool sample_emitter(const Scene *scene, float3 p, float3 n, float3 ngf, float3 u,
                            LightSample *s, float *pmf) {
-    EmitterInfo info = *emitter_info;
+    EmitterInfo info = *scene->emitter_info;
     if (info.n_emitters == 0) return false;
-    int e = pick_emitter_at(p, n, u.x, SCENE_PASS, pmf);
+    int e = pick_emitter_at(scene, p, n, u.x, pmf);
     if (!(*pmf > 0.0f)) return false;
     float u1 = u.y, u2 = u.z;
     /* All geometry from the shadow ray's own origin: a direction computed from p but traced
@@ -139,7 +144,7 @@ inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, float3 u,
     s->dist = PPM_INF;
     s->pdf_dir = 0.0f;
     if (e < info.n_lights) {
-        Light L = lights[e];
+        Light L = scene->lights[e];
         if (PPM_LIGHT_SUN && L.type == LIGHT_SUN) sun_direct(&L, u1, u2, s);
         else if (PPM_LIGHT_POINT && (L.type == LIGHT_POINT || L.type == LIGHT_SPOT)) {
             if (!point_direct(&L, o, u1, u2, s)) return false;
@@ -147,9 +152,9 @@ inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, float3 u,
             if (!area_direct(&L, o, u1, u2, info.offset_scale, s)) return false;
         } else return false;
     } else if (PPM_EMISSIVE && e < info.n_lights + info.n_emissive) {
-        if (!mesh_direct(emissive[e - info.n_lights], o, u1, u2, SCENE_PASS, s)) return false;
+        if (!mesh_direct(scene, scene->emissive[e - info.n_lights], o, u1, u2, s)) return false;
     } else if (PPM_WORLD && info.has_world) {
-        if (!world_direct(n, u1, u2, SCENE_PASS, s)) return false;
+        if (!world_direct(scene, n, u1, u2, s)) return false;
     } else return false;
     return true;
 }
@@ -162,29 +167,29 @@ inline bool sample_emitter(float3 p, float3 n, float3 ngf, SCENE_ARGS, float3 u,
  * sample (power heuristic; mis false: alone, when no sample of the closures looks for
  * emitters), from the uniform numbers u (the emitter's pick, a point on it).  Returns the
  * radiance reflected towards sd->wi. */
-inline float3 direct_nee_u(const ShaderData *sd, float3 p, int mask, bool mis, float3 u,
-                           SCENE_ARGS) {
+inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, int mask,
+                           bool mis, float3 u) {
     LightSample s;
     float pmf;
-    if (!sample_emitter(p, sd->N, sd->Ng, SCENE_PASS, u, &s, &pmf)) return (float3)(0.0f);
+    if (!sample_emitter(scene, p, sd->N, sd->Ng, u, &s, &pmf)) return (float3)(0.0f);
     float pdf_b;
     float3 f = shader_eval(sd, s.wi, mask, &pdf_b);
     bool transmit = dot(s.wi, sd->Ng) < 0.0f;
     if (!(max3(f) > 0.0f)) return (float3)(0.0f);
-    float3 T = shadow_transmittance(offset_ray(p, transmit ? -sd->Ng : sd->Ng, emitter_info->offset_scale), s.wi,
-                                    s.dist,
-                                    SCENE_PASS);
+    float3 T = shadow_transmittance(
+        scene, offset_ray(p, transmit ? -sd->Ng : sd->Ng, scene->emitter_info->offset_scale),
+        s.wi, s.dist);
     float w = mis && s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
     return f * T * s.E * (w / pmf);
 }
 
-inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, bool mis, SCENE_ARGS,
+inline float3 direct_nee(const Scene *scene, const ShaderData *sd, float3 p, int mask, bool mis,
                          uint *rng) {
     float3 u;
     u.x = rnd(rng);
     u.y = rnd(rng);
     u.z = rnd(rng);
-    return direct_nee_u(sd, p, mask, mis, u, SCENE_PASS);
+    return direct_nee_u(scene, sd, p, mask, mis, u);
 }
 
 
@@ -192,33 +197,34 @@ inline float3 direct_nee(const ShaderData *sd, float3 p, int mask, bool mis, SCE
  * first emitter (through partly transparent surfaces, attenuated) and the density
  * next-event estimation gives d for it; p and n: the vertex the ray left and the normal
  * next-event estimation was given there (the world is sampled around it). */
-inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 p, float3 n, SCENE_ARGS,
-                            float *pdf_l) {
+inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_type, float3 p,
+                            float3 n, float *pdf_l) {
     float3 T = (float3)(1.0f);
     *pdf_l = 0.0f;
     for (int i = 0; i <= TRANSPARENT_MAX_BOUNCES; i++) {
-        Hit h = bvh_intersect(o, d, PPM_INF, ray_type, false, BVH_PASS);
+        Hit h = bvh_intersect(scene, o, d, PPM_INF, ray_type, false);
 #if PPM_LIGHTS_SEEN
-        float3 Le = lights_seen(o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, lights,
-                                emitter_info->n_lights, ray_type, emitter_cdf, pdf_l);
+        float3 Le = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, ray_type,
+                                pdf_l);
         if (max3(Le) > 0.0f) return T * Le;
 #endif
         if (h.leaf < 0) {
-            if (!(PPM_WORLD && emitter_info->has_world)) return (float3)(0.0f);
-            *pdf_l = world_light_pdf(d, n, SCENE_PASS);
-            return T * world_le(d, SCENE_PASS);
+            if (!(PPM_WORLD && scene->emitter_info->has_world)) return (float3)(0.0f);
+            *pdf_l = world_light_pdf(scene, d, n);
+            return T * world_le(scene, d);
         }
-        int mat = as_int(tri_e2[h.leaf].w);
-        if (PPM_EMISSIVE && (materials[mat].flags & MAT_EMISSIVE))
-            return T * mesh_seen(h.leaf, o, d, h.t, h.u, h.v, p, n, SCENE_PASS, pdf_l);
+        int mat = as_int(scene->tri_e2[h.leaf].w);
+        if (PPM_EMISSIVE && (scene->materials[mat].flags & MAT_EMISSIVE))
+            return T * mesh_seen(scene, h.leaf, o, d, h.t, h.u, h.v, p, n, pdf_l);
 #if !PPM_TRANSPARENT
         return (float3)(0.0f);          /* an opaque surface: no emitter behind it counts */
 #endif
-        if (!(materials[mat].flags & MAT_TRANSPARENT)) return (float3)(0.0f);
-        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        T *= material_transparency(mat, s.tri, h.u, h.v, s.p, SHADING_PASS);
+        if (!(scene->materials[mat].flags & MAT_TRANSPARENT)) return (float3)(0.0f);
+        Surface s = surface_at(scene, h);
+        T *= material_transparency(scene, mat, s.tri, h.u, h.v, s.p);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
-        o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, emitter_info->offset_scale);
+        o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
+                       scene->emitter_info->offset_scale);
     }
     return (float3)(0.0f);
 }
@@ -227,7 +233,8 @@ inline float3 emitter_along(float3 o, float3 d, uint ray_type, float3 p, float3 
  * weighted against next-event estimation's density (power heuristic; a singular lobe's fully).
  * Near a large emitter (a ceiling 1 cm above a lamp, a filament inside its bulb) and for glossy
  * lobes next-event estimation alone has large variance; this sample covers it. */
-inline float3 direct_bsdf(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, uint *rng) {
+inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, int mask,
+                          uint *rng) {
     float3 rand = (float3)(rnd(rng), rnd(rng), rnd(rng));
 #if EMITTERS_HITTABLE
     BsdfSample b;
@@ -235,9 +242,9 @@ inline float3 direct_bsdf(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, 
     bool transmit = (b.label & LABEL_TRANSMIT) != 0;
     uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
     float pdf_l;
-    float3 Le = emitter_along(offset_ray(p, transmit ? -sd->Ng : sd->Ng, emitter_info->offset_scale), b.wo, ray,
-                              p, sd->N,
-                              SCENE_PASS, &pdf_l);
+    float3 Le = emitter_along(
+        scene, offset_ray(p, transmit ? -sd->Ng : sd->Ng, scene->emitter_info->offset_scale),
+        b.wo, ray, p, sd->N, &pdf_l);
     return b.weight * Le * mis_power(b.pdf, pdf_l);
 #else
     return (float3)(0.0f);       /* nothing for the sample to find but what NEE samples */
@@ -249,15 +256,16 @@ inline float3 direct_bsdf(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, 
  * next-event estimation is poor, next to large emissive meshes (a ceiling 1 cm above a lamp);
  * with lights and the world alone next-event estimation works alone (the sample's ray would
  * mostly find nothing).  Returns the radiance towards sd->wi. */
-inline float3 direct_light(const ShaderData *sd, float3 p, int mask, SCENE_ARGS, uint *rng) {
+inline float3 direct_light(const Scene *scene, const ShaderData *sd, float3 p, int mask,
+                           uint *rng) {
     bool lambert = true;
     for (int k = 0; k < sd->n; k++)
         lambert &= !closure_in(&sd->c[k], mask) || sd->c[k].type == CLOSURE_DIFFUSE;
-    bool sample = !lambert || WORLD_PROGRAM(emitter_info);
+    bool sample = !lambert || WORLD_PROGRAM(scene->emitter_info);
 #if PPM_EMISSIVE
-    sample = sample || emitter_info->n_emissive > 0;
+    sample = sample || scene->emitter_info->n_emissive > 0;
 #endif
-    float3 L = direct_nee(sd, p, mask, sample, SCENE_PASS, rng);
-    return sample ? L + direct_bsdf(sd, p, mask, SCENE_PASS, rng) : L;
+    float3 L = direct_nee(scene, sd, p, mask, sample, rng);
+    return sample ? L + direct_bsdf(scene, sd, p, mask, rng) : L;
 }
 #endif

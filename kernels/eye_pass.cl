@@ -4,6 +4,7 @@
  * estimation and a sample of those closures (MIS).  At each vertex one of the two is chosen in
  * proportion to the closures' sample weights.  Emission and background seen along the way go
  * to the pixel's direct sum. */
+#include "rng.h"
 #include "direct_light.h"
 #include "camera.h"
 #include "shared.h"
@@ -20,7 +21,7 @@ inline float filter_offset(__global const float *table, float u) {
     return mix(table[k], table[k + 1], t);
 }
 
-__kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
+__kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed,
                        int max_bounces, float initial_radius, float auto_radius_pixels,
                        __global const float *filter_table,
                        __global float4 *direct, __global float *radius, __global float *radius0,
@@ -29,7 +30,8 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
                        __global float4 *aux_albedo, __global float4 *aux_normal,
                        __global const uint *active, __global float *transparency,
                        uint path_indirect, uint camera_sobol) {
-    __global const Camera *cam = camera;           /* the scene's (shader_data.h SHADING_ARGS) */
+    SCENE_LOAD(scene);
+    __global const Camera *cam = scene->camera;
     int id = get_global_id(0);
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;
@@ -88,16 +90,14 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
     media_init(&media);
 #endif
     for (int depth = 0, transparent = 0;;) {
-        Hit h = bvh_intersect(o, d, tmax, mask, false, BVH_PASS);
+        Hit h = bvh_intersect(scene, o, d, tmax, mask, false);
 #if PPM_ABSORPTION
         /* the segment inside a medium (lights seen inside one: attenuated as far as the hit) */
-        if (h.leaf >= 0) beta *= media_transmittance(&media, materials, h.t);
+        if (h.leaf >= 0) beta *= media_transmittance(&media, scene->materials, h.t);
 #endif
         float pdf_l = 0.0f;
 #if PPM_LIGHTS_SEEN
-        float3 Ls = lights_seen(o, d, h.leaf < 0 ? tmax : h.t, h.leaf < 0, lights,
-                                emitter_info->n_lights,
-                                mask, emitter_cdf, &pdf_l);
+        float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? tmax : h.t, h.leaf < 0, mask, &pdf_l);
         L += beta * Ls * mis_power(prev_pdf, pdf_l);
 #endif
         if (h.leaf < 0) {
@@ -105,24 +105,24 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
                 clear += (beta.x + beta.y + beta.z) * (1.0f / 3.0f);
                 break;
             }
-            if (mask == VIS_CAMERA && (emitter_info->world_flags & WORLD_HIDDEN_CAMERA)) break;
-            pdf_l = PPM_WORLD && emitter_info->has_world && !isinf(prev_pdf)
-                ? world_light_pdf(d, prev_n, SCENE_PASS) : 0.0f;
-            L += beta * world_le(d, SCENE_PASS) * mis_power(prev_pdf, pdf_l);
+            if (mask == VIS_CAMERA && (scene->emitter_info->world_flags & WORLD_HIDDEN_CAMERA))
+                break;
+            pdf_l = PPM_WORLD && scene->emitter_info->has_world && !isinf(prev_pdf)
+                ? world_light_pdf(scene, d, prev_n) : 0.0f;
+            L += beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l);
             break;
         }
         path_len += h.t;
-        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        Surface s = surface_at(scene, h);
         float foot_r = diff.x + path_len * diff.y;
-        shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
-                     footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf], foot_r, normals),
-                     SHADING_PASS);
+        shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, -d,
+                     footprint_at(scene, s.tri, h.leaf, h.u, h.v, foot_r));
         if (film_clear && max3(sd.holdout) > 0.0f) {
             float3 t = beta * sd.holdout;
             clear += (t.x + t.y + t.z) * (1.0f / 3.0f);
         }
         if (max3(sd.emission) > 0.0f)
-            L += beta * sd.emission * mesh_hit_mis(&h, o, d, prev_pdf, prev_p, prev_n, SCENE_PASS);
+            L += beta * sd.emission * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n);
         float sw = sd.sw_gather + sd.sw_continue;
         if (!(sw > 0.0f)) break;
         if (rnd(&rng) * sw < sd.sw_gather) {
@@ -130,7 +130,7 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
             float3 bvp = beta * (sw / sd.sw_gather);
             /* direct light: next-event estimation and a sample of the closures (MIS); with
              * path_indirect the continuing path's (indirect_paths below) */
-            if (!path_indirect) L += bvp * direct_light(&sd, s.p, MASK_GATHER, SCENE_PASS, &rng);
+            if (!path_indirect) L += bvp * direct_light(scene, &sd, s.p, MASK_GATHER, &rng);
             vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
             vp_nrm[id] = (float4)(sd.N, as_float(path));    /* (the gather shades it again) */
             float3 albedo = (float3)(0.0f);
@@ -159,25 +159,25 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
             /* direct and indirect light by path tracing (indirect_paths.h); the photons bring
              * caustics */
             if (path_indirect)
-                L += indirect_paths(&sd, s.p, s.material, bvp, depth, path, max_bounces,
+                L += indirect_paths(scene, &sd, s.p, s.material, bvp, depth, path, max_bounces,
                                     pass_index, rng_seed(seed, 0u, (uint)id, 5u),
 #if PPM_ABSORPTION
                                     &media,
 #endif
-                                    SCENE_PASS, &rng);
+                                    &rng);
             break;
         }
         /* the path goes on through the other closures (mirrors, glass, smooth glossy lobes,
          * transparency), weighted by 1 / their probability */
         beta *= sw / sd.sw_continue;
         if (sd.continue_glossy)
-            L += beta * direct_nee(&sd, s.p, MASK_CONTINUE, true, SCENE_PASS, &rng);
+            L += beta * direct_nee(scene, &sd, s.p, MASK_CONTINUE, true, &rng);
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
         if (!shader_sample(&sd, MASK_CONTINUE, rand, &b)) break;
         beta *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
-        o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng, emitter_info->offset_scale);
+        o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng, scene->emitter_info->offset_scale);
         d = b.wo;
         tmax = PPM_INF;
         if (!(max3(beta) > 0.0f)) break;
@@ -195,8 +195,8 @@ __kernel void eye_pass(SCENE_ARGS, uint pass_index, uint seed,
             /* the last bounce: the emitter this sample finds, and no further (Cycles ends a
              * path at the surface after its last bounce) */
             float pdf_e;
-            float3 Le = emitter_along(o, d, transmit ? VIS_TRANSMISSION : VIS_GLOSSY, s.p, sd.N,
-                                      SCENE_PASS, &pdf_e);
+            float3 Le = emitter_along(scene, o, d, transmit ? VIS_TRANSMISSION : VIS_GLOSSY, s.p,
+                                      sd.N, &pdf_e);
             L += beta * Le * (sd.continue_glossy ? mis_power(b.pdf, pdf_e) : 1.0f);
             break;
         }

@@ -38,10 +38,6 @@ inline float cell_dist2(float3 x, long3 c, const Grid *g) {
     return dot(dd, dd);
 }
 
-/* the scene arguments the gather needs to shade a visible point again */
-#define GATHER_SCENE_ARGS __global const float4 *tri_v0, __global const float4 *tri_e1, \
-    __global const float4 *tri_e2, __global const float *normals, SHADING_ARGS
-
 /* A visible point's shading for the gather: its closures, and whether they are all Lambert
  * (then f is one constant, lambert_f). */
 typedef struct {
@@ -54,8 +50,8 @@ typedef struct {
     bool transmits;
 } GatherPoint;
 
-inline void gather_point(float4 vp, float4 nrm, float4 shade, float foot_r, GatherPoint *gp,
-                         GATHER_SCENE_ARGS) {
+inline void gather_point(const Scene *scene, float4 vp, float4 nrm, float4 shade, float foot_r,
+                         GatherPoint *gp) {
     gp->nrm = nrm.xyz;
     gp->transmits = vp.w > 1.5f;
     gp->lambert = true;
@@ -68,11 +64,9 @@ inline void gather_point(float4 vp, float4 nrm, float4 shade, float foot_r, Gath
     h.u = shade.x;
     h.v = shade.y;
     h.t = 0.0f;
-    Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-    shader_setup(&gp->sd, s.material, s.tri, h.u, h.v, s.p, as_uint(nrm.w), 0.0f, s.ng, s.ns,
-                 unpack_unit(as_uint(shade.w)),
-                 footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf], foot_r, normals),
-                 SHADING_PASS);
+    Surface s = surface_at(scene, h);
+    shader_setup(scene, &gp->sd, &s, h.u, h.v, as_uint(nrm.w), 0.0f,
+                 unpack_unit(as_uint(shade.w)), footprint_at(scene, s.tri, h.leaf, h.u, h.v, foot_r));
     gp->lambert_f = (float3)(0.0f);
     for (int k = 0; k < gp->sd.n; k++) {
         const Closure *c = &gp->sd.c[k];
@@ -113,20 +107,20 @@ inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l) {
     return cos_l > 0.0f ? pf.xyz * gp->lambert_f : (float3)(0.0f);
 }
 
-__kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nrm,
+__kernel void gather(SCENE_PARAMS __global const float4 *vp_pos, __global const float4 *vp_nrm,
                      __global const float4 *vp_shade, __global const float4 *vp_beta,
                      __global const float *radius,
                      __global const Grid *grid, __global const ulong *table, uint table_mask,
                      __global const float4 *ph_pos, __global const float4 *ph_flux,
-                     __global float4 *gathered, uint n, GATHER_SCENE_ARGS) {
+                     __global float4 *gathered, uint n) {
+    SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 vp = vp_pos[id];
     Grid g = *grid;
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     GatherPoint gp;
-    gather_point(vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp,
-                 tri_v0, tri_e1, tri_e2, normals, SHADING_PASS);
+    gather_point(scene, vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
@@ -154,21 +148,21 @@ __kernel void gather(__global const float4 *vp_pos, __global const float4 *vp_nr
 }
 
 /* Exact gather (reference mode): every photon of every cell the disc overlaps. */
-__kernel void gather_exact(__global const float4 *vp_pos, __global const float4 *vp_nrm,
-                           __global const float4 *vp_shade, __global const float4 *vp_beta,
-                           __global const float *radius,
+__kernel void gather_exact(SCENE_PARAMS __global const float4 *vp_pos,
+                           __global const float4 *vp_nrm, __global const float4 *vp_shade,
+                           __global const float4 *vp_beta, __global const float *radius,
                            __global const Grid *grid, __global const uint *ranges,
                            __global const uint *sorted_ids, uint table_mask,
                            __global const float4 *ph_pos, __global const float4 *ph_flux,
-                           __global float4 *gathered, uint n, GATHER_SCENE_ARGS) {
+                           __global float4 *gathered, uint n) {
+    SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 vp = vp_pos[id];
     Grid g = *grid;
     if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
     GatherPoint gp;
-    gather_point(vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp,
-                 tri_v0, tri_e1, tri_e2, normals, SHADING_PASS);
+    gather_point(scene, vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;

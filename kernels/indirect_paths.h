@@ -1,5 +1,6 @@
 #ifndef PPM_INDIRECT_PATHS_H
 #define PPM_INDIRECT_PATHS_H
+#include "rng.h"
 #include "direct_light.h"
 #include "camera.h"
 #include "medium.h"
@@ -46,12 +47,12 @@ inline float4 indirect_set(int vertex, uint which, uint pass, uint key, uint *rn
 /* Light reaching the visible point p (material mat, closures sd, weight beta towards the pixel,
  * reached after depth bounces by the ray `path`) by next-event estimation there and paths that
  * continue from it; pass and key: the pixel's low-discrepancy stream.  sd is overwritten. */
-inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int depth,
-                             uint path, int max_bounces, uint pass, uint key,
+inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int mat, float3 beta,
+                             int depth, uint path, int max_bounces, uint pass, uint key,
 #if PPM_ABSORPTION
                              Media *media,
 #endif
-                             SCENE_ARGS, uint *rng) {
+                             uint *rng) {
     float3 L = (float3)(0.0f);
     float beta0 = max3(beta);
     if (!(beta0 > 0.0f)) return L;
@@ -70,7 +71,7 @@ inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int
     for (int vertex = 0, transparent = 0;; vertex++) {
         if (set == MASK_GATHER) {
             float3 u = (float3)(ua.z, ua.x, ua.y);
-            L += beta * direct_nee_u(sd, p, MASK_GATHER, EMITTERS_HITTABLE, u, SCENE_PASS);
+            L += beta * direct_nee_u(scene, sd, p, MASK_GATHER, EMITTERS_HITTABLE, u);
         }
         float4 ub = indirect_set(vertex, 1u, pass, key, rng);
         if (vertex == 0) u_rr = ub.w;
@@ -79,7 +80,7 @@ inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int
         if (!shader_sample(sd, set, rand, &b)) break;
         beta *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
-        float3 o = offset_ray(p, transmit ? -sd->Ng : sd->Ng, emitter_info->offset_scale);
+        float3 o = offset_ray(p, transmit ? -sd->Ng : sd->Ng, scene->emitter_info->offset_scale);
         float3 d = b.wo;
         if (b.label & LABEL_TRANSPARENT) {
             /* straight through: no scattering, the ray keeps its type and MIS state */
@@ -98,33 +99,32 @@ inline float3 indirect_paths(ShaderData *sd, float3 p, int mat, float3 beta, int
 #endif
         }
         if (!(max3(beta) > 0.0f)) break;
-        Hit h = bvh_intersect(o, d, PPM_INF, mask, false, BVH_PASS);
+        Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
 #if PPM_ABSORPTION
-        if (h.leaf >= 0) beta *= media_transmittance(media, materials, h.t);
+        if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);
 #endif
         float pdf_l = 0.0f;
 #if PPM_LIGHTS_SEEN
         if (counts) {
-            float3 Ls = lights_seen(o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, lights,
-                                    emitter_info->n_lights, mask, emitter_cdf, &pdf_l);
+            float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, mask,
+                                    &pdf_l);
             L += beta * Ls * mis_power(prev_pdf, pdf_l);
         }
 #endif
         if (h.leaf < 0) {
-            if (counts && PPM_WORLD && emitter_info->has_world) {
-                pdf_l = !isinf(prev_pdf) ? world_light_pdf(d, prev_n, SCENE_PASS) : 0.0f;
-                L += beta * world_le(d, SCENE_PASS) * mis_power(prev_pdf, pdf_l);
+            if (counts && PPM_WORLD && scene->emitter_info->has_world) {
+                pdf_l = !isinf(prev_pdf) ? world_light_pdf(scene, d, prev_n) : 0.0f;
+                L += beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l);
             }
             break;
         }
-        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        shader_setup(sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
-                     footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
-                                  SVM_FOOTPRINT ? camera_footprint_at(camera, s.p) : 0.0f,
-                                  normals),
-                     SHADING_PASS);
+        Surface s = surface_at(scene, h);
+        shader_setup(scene, sd, &s, h.u, h.v, path, h.t, -d,
+                     footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                  SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p)
+                                                : 0.0f));
         if (counts && max3(sd->emission) > 0.0f)
-            L += beta * sd->emission * mesh_hit_mis(&h, o, d, prev_pdf, prev_p, prev_n, SCENE_PASS);
+            L += beta * sd->emission * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n);
         if (depth > max_bounces) break;
         float sw = sd->sw_gather + sd->sw_continue;
         if (!(sw > 0.0f)) break;

@@ -1,14 +1,16 @@
 #ifndef PPM_LIGHT_MESH_H
 #define PPM_LIGHT_MESH_H
-/* --- emissive triangles (mesh lights; part of light_types.h) ---------------------------------
+#include "light_types.h"
+#include "shader_inputs.h"
+/* --- emissive triangles (mesh lights) ------------------------------------------------------
  * Both sides emit.  Seen by rays as the surfaces they are (the passes add their emission). */
 
 /* The index of emissive BVH leaf k among the emissive triangles (-1 when it is not one):
  * emissive[] holds the emissive leaves in ascending order (ppm_engine/emitters.py). */
-inline int emissive_index(int leaf, SCENE_ARGS) {
-    int lo = 0, hi = emitter_info->n_emissive - 1;
+inline int emissive_index(const Scene *scene, int leaf) {
+    int lo = 0, hi = scene->emitter_info->n_emissive - 1;
     while (lo <= hi) {
-        int mid = (lo + hi) >> 1, v = emissive[mid];
+        int mid = (lo + hi) >> 1, v = scene->emissive[mid];
         if (v == leaf) return mid;
         if (v < leaf) lo = mid + 1; else hi = mid - 1;
     }
@@ -33,10 +35,11 @@ inline int emissive_index(int leaf, SCENE_ARGS) {
 #define LOCAL_PICK_NEAR 2.0f
 #define LOCAL_PICK_DEFENSIVE 0.25f
 
-inline bool local_pick_at(float3 p, SCENE_ARGS) {
-    float r = emitter_info->local_radius * LOCAL_PICK_NEAR;
-    if (!(r > 0.0f) || emitter_info->n_emissive > LOCAL_PICK_MAX) return false;
-    float3 v = p - F3(emitter_info->local_center);
+inline bool local_pick_at(const Scene *scene, float3 p) {
+    __global const EmitterInfo *info = scene->emitter_info;
+    float r = info->local_radius * LOCAL_PICK_NEAR;
+    if (!(r > 0.0f) || info->n_emissive > LOCAL_PICK_MAX) return false;
+    float3 v = p - F3(info->local_center);
     return dot(v, v) < r * r;
 }
 
@@ -71,14 +74,14 @@ inline float projected_solid_angle(float3 p, float3 n, float3 p0, float3 p1, flo
 
 /* the power pick's probabilities g[j] of the emissive triangles and their sum, and their
  * importance at p (normal n) imp[j] and its sum (local_pick_at only) */
-inline void local_weights(float3 p, float3 n, SCENE_ARGS, float *g, float *imp, float *g_sum,
-                          float *imp_sum) {
-    int first = emitter_info->n_lights, m = emitter_info->n_emissive;
+inline void local_weights(const Scene *scene, float3 p, float3 n, float *g, float *imp,
+                          float *g_sum, float *imp_sum) {
+    int first = scene->emitter_info->n_lights, m = scene->emitter_info->n_emissive;
     float gs = 0.0f, is = 0.0f;
     for (int j = 0; j < m && j < LOCAL_PICK_MAX; j++) {
-        int e = first + j, leaf = emissive[j];
-        g[j] = emitter_pmf(emitter_cdf, e);
-        float4 v0 = tri_v0[leaf], e1 = tri_e1[leaf], e2 = tri_e2[leaf];
+        int e = first + j, leaf = scene->emissive[j];
+        g[j] = emitter_pmf(scene->emitter_cdf, e);
+        float4 v0 = scene->tri_v0[leaf], e1 = scene->tri_e1[leaf], e2 = scene->tri_e2[leaf];
         float area2 = length(cross(e1.xyz, e2.xyz));
         /* g / area: the triangle's mean radiance (its power over its area), up to a constant */
         float w = area2 > 0.0f
@@ -102,31 +105,32 @@ inline float local_share(int j, const float *g, const float *imp, float g_sum, f
 
 /* The probability that next-event estimation from p (normal n, as sample_emitter is given
  * them) picks emissive BVH leaf k as the emitter (0 when it is not one). */
-inline float emissive_leaf_pmf(int leaf, float3 p, float3 n, SCENE_ARGS) {
-    int j = emissive_index(leaf, SCENE_PASS);
+inline float emissive_leaf_pmf(const Scene *scene, int leaf, float3 p, float3 n) {
+    int j = emissive_index(scene, leaf);
     if (j < 0) return 0.0f;
-    if (local_pick_at(p, SCENE_PASS)) {
+    if (local_pick_at(scene, p)) {
         float g[LOCAL_PICK_MAX], imp[LOCAL_PICK_MAX], g_sum, imp_sum;
-        local_weights(p, n, SCENE_PASS, g, imp, &g_sum, &imp_sum);
+        local_weights(scene, p, n, g, imp, &g_sum, &imp_sum);
         return g_sum * local_share(j, g, imp, g_sum, imp_sum);
     }
-    return emitter_pmf(emitter_cdf, emitter_info->n_lights + j);
+    return emitter_pmf(scene->emitter_cdf, scene->emitter_info->n_lights + j);
 }
 
 /* Next-event estimation's pick from p (normal n) with the number u: the emitter table by
  * power, and within the emissive triangles the local pick when there are few (its number:
  * where u fell in the group's range of the table, rescaled). */
-inline int pick_emitter_at(float3 p, float3 n, float u, SCENE_ARGS, float *pmf) {
-    int e = pick_emitter(emitter_cdf, emitter_info->n_emitters, u, pmf);
-    int first = emitter_info->n_lights;
-    if (!(PPM_EMISSIVE && e >= first && local_pick_at(p, SCENE_PASS)
-          && e < first + emitter_info->n_emissive))
+inline int pick_emitter_at(const Scene *scene, float3 p, float3 n, float u, float *pmf) {
+    __global const EmitterInfo *info = scene->emitter_info;
+    int e = pick_emitter(scene->emitter_cdf, info->n_emitters, u, pmf);
+    int first = info->n_lights;
+    if (!(PPM_EMISSIVE && e >= first && local_pick_at(scene, p)
+          && e < first + info->n_emissive))
         return e;
     float g[LOCAL_PICK_MAX], imp[LOCAL_PICK_MAX], g_sum, imp_sum;
-    local_weights(p, n, SCENE_PASS, g, imp, &g_sum, &imp_sum);
-    float c0 = first > 0 ? emitter_cdf[first - 1] : 0.0f;
+    local_weights(scene, p, n, g, imp, &g_sum, &imp_sum);
+    float c0 = first > 0 ? scene->emitter_cdf[first - 1] : 0.0f;
     float v = clamp((u - c0) / g_sum, 0.0f, 1.0f), acc = 0.0f;
-    int m = emitter_info->n_emissive, j = 0;
+    int m = info->n_emissive, j = 0;
     for (; j < m - 1; j++) {
         float q = local_share(j, g, imp, g_sum, imp_sum);
         if (v < acc + q && q > 0.0f) break;
@@ -205,14 +209,14 @@ inline float3 sample_spherical_triangle(const SphTri *t, float u0, float u1) {
 }
 
 /* Next-event sample of emissive BVH leaf k from origin o. */
-inline bool mesh_direct(int k, float3 o, float u1, float u2, SCENE_ARGS,
+inline bool mesh_direct(const Scene *scene, int k, float3 o, float u1, float u2,
                         LightSample *s) {
-    float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
+    float4 v0 = scene->tri_v0[k], e1 = scene->tri_e1[k], e2 = scene->tri_e2[k];
     float3 c = cross(e1.xyz, e2.xyz);
     float area2 = length(c);
     if (!(area2 > 0.0f)) return false;
     float3 nt = c / area2;
-    __global const Material *me = materials + as_int(e2.w);
+    __global const Material *me = scene->materials + as_int(e2.w);
     SphTri st = spherical_triangle(o, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
     float2 b;
     float3 q;
@@ -233,7 +237,8 @@ inline bool mesh_direct(int k, float3 o, float u1, float u2, SCENE_ARGS,
         b = sample_triangle(u1, u2);
         q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
     }
-    q = offset_ray(q, dot(o - q, nt) >= 0.0f ? nt : -nt, emitter_info->offset_scale);    /* on our side of it */
+    q = offset_ray(q, dot(o - q, nt) >= 0.0f ? nt : -nt,
+                   scene->emitter_info->offset_scale);                 /* on our side of it */
     float3 tq = q - o;
     float dq2 = dot(tq, tq);
     s->dist = st.area > 0.0f ? dot(tq, s->wi) : sqrt(dq2);   /* along wi: short of the emitter */
@@ -245,15 +250,15 @@ inline bool mesh_direct(int k, float3 o, float u1, float u2, SCENE_ARGS,
         s->E = cos_l * 0.5f * area2 / dq2;
         s->pdf_dir = cos_l > 0.0f ? dq2 / (cos_l * 0.5f * area2) : 0.0f;
     }
-    s->E = s->E * material_emission(me, as_uint(v0.w), b.x, b.y, q, SHADING_PASS);
+    s->E = s->E * material_emission(scene, me, as_uint(v0.w), b.x, b.y, q);
     return true;
 }
 
 /* A photon from emissive BVH leaf k: a uniform point, a side with probability 1/2 each, a
  * cosine-weighted direction. */
-inline bool mesh_emit(int k, float pmf, float u1, float u2, float u3, float u4, SCENE_ARGS,
-                      float3 *o, float3 *d, float3 *flux) {
-    float4 v0 = tri_v0[k], e1 = tri_e1[k], e2 = tri_e2[k];
+inline bool mesh_emit(const Scene *scene, int k, float pmf, float u1, float u2, float u3,
+                      float u4, float3 *o, float3 *d, float3 *flux) {
+    float4 v0 = scene->tri_v0[k], e1 = scene->tri_e1[k], e2 = scene->tri_e2[k];
     float2 b = sample_triangle(u1, u2);
     float3 q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
     float3 cr = cross(e1.xyz, e2.xyz);
@@ -264,9 +269,9 @@ inline bool mesh_emit(int k, float pmf, float u1, float u2, float u3, float u4, 
     float uu = u3 < 0.5f ? 2.0f * u3 : 2.0f * u3 - 1.0f;
     nt *= side;
     *d = sample_cosine_hemisphere(nt, uu, u4);
-    *o = offset_ray(q, nt, emitter_info->offset_scale);
-    __global const Material *me = materials + as_int(e2.w);
-    *flux = material_emission(me, as_uint(v0.w), b.x, b.y, q, SHADING_PASS)
+    *o = offset_ray(q, nt, scene->emitter_info->offset_scale);
+    __global const Material *me = scene->materials + as_int(e2.w);
+    *flux = material_emission(scene, me, as_uint(v0.w), b.x, b.y, q)
             * (2.0f * PPM_PI * 0.5f * area2 / pmf);
     return true;
 }

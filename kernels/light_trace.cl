@@ -6,6 +6,7 @@
  * into the pixels the pixel filter reaches.  It renders the paths that reach the camera from a
  * non-singular vertex (L (S|D)* D E in Heckbert's notation); what the camera sees through mirrors
  * and glass it cannot, and lt_coverage marks those pixels. */
+#include "rng.h"
 #include "photon_emission.h"
 #include "shader.h"
 #include "direct_light.h"
@@ -92,15 +93,16 @@ inline void splat(__global const Camera *cam, __global float *image, __global co
     }
 }
 
-__kernel void light_trace(SCENE_ARGS, uint pass_index, uint seed, int max_bounces,
+__kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
                           uint n_photons, __global const float *filter_density, int n_table,
                           float reach, __global float *image, __global uint *counters) {
+    SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n_photons) return;
-    __global const Camera *cam = camera;
+    __global const Camera *cam = scene->camera;
     uint rng = rng_seed(seed, pass_index, id, 5u);
     float3 o, d, flux;
-    if (!emit_photon(SCENE_PASS, &rng, &o, &d, &flux)) return;
+    if (!emit_photon(scene, &rng, &o, &d, &flux)) return;
     uint mask = VIS_SHADOW;
 #if PPM_ABSORPTION
     Media media;
@@ -109,40 +111,38 @@ __kernel void light_trace(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
     ShaderData sd;
     uint path = 0u;
     for (int bounce = 0, transparent = 0; bounce <= max_bounces;) {
-        Hit h = bvh_intersect(o, d, PPM_INF, mask, false, BVH_PASS);
+        Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
         if (h.leaf < 0) break;
         float3 before = flux;
 #if PPM_ABSORPTION
-        flux *= media_transmittance(&media, materials, h.t);
+        flux *= media_transmittance(&media, scene->materials, h.t);
 #endif
-        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        Surface s = surface_at(scene, h);
         /* the connection to the camera: the closures as the camera sees them */
         float px, py, dist, we;
         float3 wc;
         if (camera_project(cam, s.p, reach, &px, &py, &wc, &dist, &we)) {
             ShaderData sc;
-            shader_setup(&sc, s.material, s.tri, h.u, h.v, s.p, PATH_CAMERA, h.t, s.ng, s.ns,
-                         wc, footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
-                                          SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f,
-                                          normals),
-                         SHADING_PASS);
+            shader_setup(scene, &sc, &s, h.u, h.v, PATH_CAMERA, h.t, wc,
+                         footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                      SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f));
             float pdf;
             float3 f = shader_eval(&sc, -d, MASK_ALL, &pdf);     /* f cos(light side) */
             float cos_lg = fabs(dot(s.ng, d)), cos_cg = fabs(dot(s.ng, wc));
             if (max3(f) > 0.0f && cos_lg > 0.0f) {
                 bool front = dot(wc, s.ng) > 0.0f;
-                float3 org = offset_ray(s.p, front ? s.ng : -s.ng, emitter_info->offset_scale);
-                float3 T = shadow_transmittance(org, wc, dist * 0.9999f, SCENE_PASS);
+                float3 org = offset_ray(s.p, front ? s.ng : -s.ng,
+                                        scene->emitter_info->offset_scale);
+                float3 T = shadow_transmittance(scene, org, wc, dist * 0.9999f);
                 float3 c = flux * f * T * (cos_cg / cos_lg * we);
                 if (max3(T) > 0.0f && isfinite(c.x) && isfinite(c.y) && isfinite(c.z))
                     splat(cam, image, filter_density, n_table, reach, px, py, c);
             }
         }
         if (bounce == max_bounces) break;
-        shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
-                     footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
-                                  SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f, normals),
-                     SHADING_PASS);
+        shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, -d,
+                     footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                  SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f));
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
         if (!shader_sample(&sd, MASK_ALL, rand, &b)) break;
@@ -164,7 +164,7 @@ __kernel void light_trace(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             if (transmit) media_cross(&media, s.material, dot(d, s.ng) < 0.0f);
 #endif
         }
-        o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng, emitter_info->offset_scale);
+        o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng, scene->emitter_info->offset_scale);
         d = b.wo;
         float q = fmin(1.0f, max3(flux) / (max3(before) * measure));
         if (!(q > 0.0f) || rnd(&rng) >= q) break;
@@ -175,9 +175,10 @@ __kernel void light_trace(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
 /* Which pixels light tracing renders: 1 where the camera ray through the pixel centre first
  * meets a surface without emission whose closures are all evaluable (no mirror, glass,
  * transparency or smooth glossy lobe the eye pass would follow), else 0. */
-__kernel void lt_coverage(SCENE_ARGS, __global float *covered) {
+__kernel void lt_coverage(SCENE_PARAMS __global float *covered) {
+    SCENE_LOAD(scene);
     int id = get_global_id(0);
-    __global const Camera *cam = camera;
+    __global const Camera *cam = scene->camera;
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;
     float px = (float)(cam->region[0] + id % rw) + 0.5f;
@@ -185,15 +186,14 @@ __kernel void lt_coverage(SCENE_ARGS, __global float *covered) {
     float3 o, d;
     float tmax;
     camera_ray(cam, px, py, 0.5f, 0.5f, &o, &d, &tmax);
-    Hit h = bvh_intersect(o, d, tmax, VIS_CAMERA, false, BVH_PASS);
+    Hit h = bvh_intersect(scene, o, d, tmax, VIS_CAMERA, false);
     float ok = 0.0f;
     if (h.leaf >= 0) {
-        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
+        Surface s = surface_at(scene, h);
         ShaderData sd;
-        shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, PATH_CAMERA, h.t, s.ng, s.ns, -d,
-                     footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
-                                  SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f, normals),
-                     SHADING_PASS);
+        shader_setup(scene, &sd, &s, h.u, h.v, PATH_CAMERA, h.t, -d,
+                     footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                  SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f));
         ok = (sd.sw_continue <= 0.0f && max3(sd.emission) <= 0.0f) ? 1.0f : 0.0f;
     }
     covered[id] = ok;

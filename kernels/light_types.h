@@ -1,11 +1,13 @@
 #ifndef PPM_LIGHT_TYPES_H
 #define PPM_LIGHT_TYPES_H
+#include "geometry.h"
 #include "scene.h"
 
 /* Each emitter type in one place: how camera and specular rays see it (*_seen), its sample for
  * next-event estimation (*_direct) and its photon emission (*_emit).  Which types a program
  * compiles is decided once, in the dispatchers (direct_light.h, photon_emission.h), by the
- * 0/1 feature flags of shared.h; the compiler drops the functions no dispatcher reaches. */
+ * 0/1 feature flags of shared.h; the compiler drops the functions no dispatcher reaches.
+ * Emissive triangles are light_mesh.h's, the world world.h's. */
 
 /* A sample toward an emitter for next-event estimation: the contribution is
  * beta x (f cos) x E / pmf, E = the radiance arriving along wi over the density of wi (for a
@@ -225,8 +227,4 @@ inline void area_emit(const Light *L, float pmf, float u1, float u2, float u3, f
     *o = offset_ray(q, nl, scale);
     *flux = F3(L->emit) * (PPM_PI * area_light_area(L) / pmf);
 }
-
-#include "light_mesh.h"
-
-#include "world.h"
 #endif

@@ -7,6 +7,7 @@
  * indirect_paths.h) a photon lives on only if its first scattering is by a followed closure;
  * with capacity 0 (a pilot) photons are only classified at their first scattering and counted
  * (CNT_CAUSTIC, CNT_DIFFUSE_FIRST). */
+#include "rng.h"
 #include "photon_emission.h"
 #include "camera.h"
 #include "shader.h"
@@ -15,17 +16,18 @@
 #include "shared.h"
 #include "medium.h"
 
-__kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounces, uint n_photons,
-                          __global const Grid *grid, uint capacity, __global float4 *ph_pos,
-                          __global float4 *ph_flux, __global uint *counters,
-                          uint caustics_only) {
+__kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
+                          uint n_photons, __global const Grid *grid, uint capacity,
+                          __global float4 *ph_pos, __global float4 *ph_flux,
+                          __global uint *counters, uint caustics_only) {
+    SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n_photons) return;
     Grid g = *grid;
     if (g.valid == 0u && capacity > 0u) return;
     uint rng = rng_seed(seed, pass_index, id, 2u);
     float3 o, d, flux;
-    if (!emit_photon(SCENE_PASS, &rng, &o, &d, &flux)) return;
+    if (!emit_photon(scene, &rng, &o, &d, &flux)) return;
     uint mask = VIS_SHADOW;    /* the light's own segment: objects that cast no shadow let it by */
 #if PPM_ABSORPTION
     Media media;
@@ -35,14 +37,14 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
     bool direct = true;       /* nothing but transparent surfaces crossed yet */
     uint path = 0u;           /* the Light Path node's view: light's rays are no camera rays */
     for (int bounce = 0, transparent = 0; bounce <= max_bounces;) {
-        Hit h = bvh_intersect(o, d, PPM_INF, mask, false, BVH_PASS);
+        Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
         if (h.leaf < 0) break;
         float3 before = flux;             /* Russian roulette below: this bounce's albedo */
 #if PPM_ABSORPTION
-        flux *= media_transmittance(&media, materials, h.t);      /* the segment's medium */
+        flux *= media_transmittance(&media, scene->materials, h.t);   /* the segment's medium */
 #endif
-        Surface s = surface_at(h, tri_v0, tri_e1, tri_e2, normals);
-        Material mt = materials[s.material];
+        Surface s = surface_at(scene, h);
+        Material mt = scene->materials[s.material];
         /* a Lambert material's one closure without the closure list (shader.h's short path:
          * the same closure, sampled the same way) */
 #if PPM_SHADER
@@ -53,17 +55,16 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
         float3 color = (float3)(0.0f), N, Ng;
         bool gather;
         if (lambert) {
-            color = lambert_weight(shader_nodes + mt.node_first, s.tri, h.u, h.v, TEXTURE_PASS);
+            color = lambert_weight(scene, scene->shader_nodes + mt.node_first, s.tri, h.u, h.v);
             bool back = dot(d, s.ng) > 0.0f;
             N = back ? -s.ns : s.ns;
             Ng = back ? -s.ng : s.ng;
             gather = fabs(avg3(color)) >= CLOSURE_WEIGHT_CUTOFF;
         } else {
-            shader_setup(&sd, s.material, s.tri, h.u, h.v, s.p, path, h.t, s.ng, s.ns, -d,
-                         footprint_at(s.tri, h.u, h.v, tri_e1[h.leaf], tri_e2[h.leaf],
-                                      SVM_FOOTPRINT ? camera_footprint_at(camera, s.p) : 0.0f,
-                                      normals),
-                         SHADING_PASS);
+            shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, -d,
+                         footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                      SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p)
+                                                    : 0.0f));
             N = sd.N;
             Ng = sd.Ng;
             gather = sd.sw_gather > 0.0f;
@@ -140,7 +141,7 @@ __kernel void photon_pass(SCENE_ARGS, uint pass_index, uint seed, int max_bounce
             if (transmit) media_cross(&media, s.material, dot(d, s.ng) < 0.0f);
 #endif
         }
-        o = offset_ray(s.p, transmit ? -Ng : Ng, emitter_info->offset_scale);
+        o = offset_ray(s.p, transmit ? -Ng : Ng, scene->emitter_info->offset_scale);
         d = b.wo;
         /* Russian roulette keeps photon power roughly constant: survival is the scattering's
          * albedo (times the medium's transmittance).  The change of measure of refraction is

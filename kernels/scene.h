@@ -1,16 +1,28 @@
 #ifndef PPM_SCENE_H
 #define PPM_SCENE_H
-#include "bvh.h"
-#include "rng.h"
-#include "shader.h"
+#include "types.h"
 
-/* Everything a pass kernel needs to see the scene: BVH, shading normals, materials with their
- * BSDF nodes and the shading tables, emitters, textures and UVs (ppm_engine/device_scene.py
- * binds them by these names). */
-#define SCENE_ARGS BVH_ARGS, __global const float *normals, SHADING_ARGS, \
-    __global const Light *lights, __global const float *emitter_cdf, __global const int *emissive, \
-    __global const EmitterInfo *emitter_info, __global const float *world_map
-#define SCENE_PASS BVH_PASS, normals, SHADING_PASS, lights, emitter_cdf, emissive, emitter_info, world_map
+/* The scene as one value in the kernels.  SCENE_DATA (shared.h, generated from
+ * ppm_engine/device_scene.py SCENE_BUFFERS) lists the scene's buffers once; from it come
+ *   - SCENE_PARAMS, the parameters of every kernel that reads the scene (first in its list;
+ *     the host binds them by name, device/program.py Launch),
+ *   - Scene, one struct of __global pointers, and SCENE_LOAD(scene), which fills one from the
+ *     parameters at the kernel's entry: OpenCL 1.2 cannot pass pointers inside a struct
+ *     argument, so a private struct built at entry is what every helper takes
+ *     (`const Scene *scene`), as Cycles' OpenCL kernels took their KernelGlobals.
+ * A new buffer is one row of SCENE_BUFFERS; nothing here changes. */
+#define SCENE_FIELD(T, name) __global const T *name;
+typedef struct {
+    SCENE_DATA(SCENE_FIELD)
+} Scene;
+
+#define SCENE_PARAM(T, name) __global const T *name,
+#define SCENE_PARAMS SCENE_DATA(SCENE_PARAM)
+
+#define SCENE_VALUE(T, name) name,
+#define SCENE_LOAD(scene)                             \
+    const Scene scene##_value = {SCENE_DATA(SCENE_VALUE)}; \
+    const Scene *scene = &scene##_value
 
 /* The probability of emitter e in the power table (its step of the cdf) */
 inline float emitter_pmf(__global const float *cdf, int e) {

@@ -1,5 +1,6 @@
 #ifndef PPM_SHADER_H
 #define PPM_SHADER_H
+#include "bvh.h"
 #include "shader_inputs.h"
 
 /* The shader: a hit's closures from its material's BSDF nodes (scene_arrays.SHADER_NODE_DTYPE,
@@ -157,52 +158,53 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
     }
 }
 
-/* Closures at a hit of material mat: triangle tri at barycentrics (u, v), position P, reached
- * by the ray `path` (light_path.h) after a last segment of length path_length, stored normals
- * ng and ns (ns on ng's side), wi towards the viewer, the ray's footprint fp there (the Bump
+/* Closures at a hit at barycentrics (u, v) of the surface s (its material, triangle, position
+ * and stored normals: bvh.h surface_at), reached by the ray `path` (light_path.h) after a last
+ * segment of length path_length, wi towards the viewer, the ray's footprint fp there (the Bump
  * node's, svm_bump.h). */
-inline void shader_setup(ShaderData *sd, int mat, uint tri, float u, float v, float3 P,
-                         uint path, float path_length, float3 ng, float3 ns, float3 wi,
-                         Footprint fp, SHADING_ARGS) {
+inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, float u, float v,
+                         uint path, float path_length, float3 wi, Footprint fp) {
+    int mat = s->material;
+    uint tri = s->tri;
+    float3 P = s->p, ng = s->ng, ns = s->ns;
     sd->n = 0;
     sd->emission = sd->transparent = sd->holdout = (float3)(0.0f);
     sd->wi = wi;
     sd->backfacing = dot(wi, ng) < 0.0f;
     sd->Ng = sd->backfacing ? -ng : ng;
     sd->N = sd->backfacing ? -ns : ns;
-    Material m = materials[mat];
+    Material m = scene->materials[mat];
 #if PPM_SHADER
     if (m.flags & MAT_LAMBERT) {
 #else
     {                                   /* every material is one Lambert closure */
 #endif
         /* the short path for the commonest material: what the loop below makes of it */
-        __global const ShaderNode *nd = shader_nodes + m.node_first;
+        __global const ShaderNode *nd = scene->shader_nodes + m.node_first;
         sd->emission = F3(nd->emission) * nd->weight
-                       * texture_tint(nd->emission_texture, tri, u, v, TEXTURE_PASS);
-        int k = shader_alloc(sd, CLOSURE_DIFFUSE, lambert_weight(nd, tri, u, v, TEXTURE_PASS),
-                             sd->N);
+                       * texture_tint(scene, nd->emission_texture, tri, u, v);
+        int k = shader_alloc(sd, CLOSURE_DIFFUSE, lambert_weight(scene, nd, tri, u, v), sd->N);
         sd->sw_gather = k >= 0 ? sd->c[k].sample_weight : 0.0f;
         if (k >= 0) sd->c[k].gather = 1;
         sd->sw_continue = 0.0f;
         sd->gather_transmits = sd->continue_glossy = false;
         return;
     }
-    float3 tangent = surface_tangent(tri, u, v, sd->N, tangents);
+    float3 tangent = surface_tangent(scene, tri, u, v, sd->N);
     MATERIAL_PROGRAM(m, stack, P, path, path_length, sd->N, sd->Ng, wi, sd->backfacing, fp);
     for (int i = 0; i < m.node_count; i++) {
         MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;
-        float3 color = F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS);
+        float3 color = F3(nd->color) * texture_tint(scene, nd->color_texture, tri, u, v);
         float3 emission = F3(nd->emission)
-                          * texture_tint(nd->emission_texture, tri, u, v, TEXTURE_PASS);
+                          * texture_tint(scene, nd->emission_texture, tri, u, v);
         if (nd->type == NODE_PRINCIPLED) {
-            float alpha = clamp(nd->alpha * texture_alpha(nd->alpha_texture, tri, u, v,
-                                                          TEXTURE_PASS), 0.0f, 1.0f);
+            float alpha = clamp(nd->alpha * texture_alpha(scene, nd->alpha_texture, tri, u, v),
+                                0.0f, 1.0f);
             principled_setup(sd, nd, fmax(color, 0.0f), alpha, emission, tangent,
-                             shading_tables);
+                             scene->shading_tables);
         } else {
-            bsdf_node_setup(sd, nd, color, emission, tangent, shading_tables);
+            bsdf_node_setup(sd, nd, color, emission, tangent, scene->shading_tables);
         }
     }
     sd->sw_gather = sd->sw_continue = 0.0f;

@@ -29,14 +29,6 @@ typedef struct {
                              there); singular ones cannot */
 } ShaderData;
 
-#define SHADING_ARGS __global const Material *materials, __global const ShaderNode *shader_nodes, \
-    TABLES_ARG, TEXTURE_ARGS, __global const float *tangents, __global const int4 *svm, \
-    __global const float4 *uv_tangents, __global const float *generated, \
-    __global const float4 *attributes, __global const int *tri_object, \
-    __global const float4 *objects, __global const Camera *camera
-#define SHADING_PASS materials, shader_nodes, shading_tables, TEXTURE_PASS, tangents, svm, \
-    uv_tangents, generated, attributes, tri_object, objects, camera
-
 /* the BSDF node the setup functions read: a private copy with the program's inputs written in
  * (kernels/svm.h) when the scene has shader programs, else the buffer's row */
 #if PPM_SVM

@@ -24,26 +24,26 @@ inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
     return T;
 }
 
-/* Material m's shader program run at a shading point (normals, view and footprint fp as
- * svm_context), into the private array `stack`; and node i of m with the inputs its program drives written in.
- * Without shader programs in the build (PPM_SVM 0) they read the buffer's rows. */
+/* Material m's shader program run at a shading point of the enclosing function's `scene`,
+ * triangle `tri` at barycentrics (`u`, `v`) (position P, normals, view and footprint fp as
+ * svm_context_base and svm_context_fill take them), into the private array `stack`; and node
+ * i of m with the inputs its program drives written in.  Without shader programs in the build
+ * (PPM_SVM 0) they read the buffer's rows. */
 #if PPM_SVM
 #define MATERIAL_PROGRAM(m, stack, P, path, len, N, Ng, I, back, fp)                          \
     float stack[PPM_SVM_STACK];                                                              \
     if ((m).program > 0) {                                                                   \
-        SvmContext cx_ = svm_context(svm, (m).program, tri, u, v, P, path, len, N, Ng, I,   \
-                                     back, fp, uvs,                                          \
-                                     uv_tangents, generated, attributes, tri_object,         \
-                                     objects, camera);                                       \
-        svm_eval(svm, (m).program, stack, &cx_, TEXTURE_PASS);                               \
+        SvmContext cx_ = svm_context_base((float2)(0.0f), P, path, len, N, Ng, I, back);     \
+        svm_context_fill(&cx_, scene, (m).program, tri, u, v, fp);                           \
+        svm_eval(scene, (m).program, stack, &cx_);                                           \
     }
 #define MATERIAL_NODE(nd, m, i, stack)                                                        \
-    ShaderNode nd##_row = shader_nodes[(m).node_first + (i)];                                \
-    if ((m).program > 0) svm_bind(svm, (m).program, (i), &nd##_row, stack);                 \
+    ShaderNode nd##_row = scene->shader_nodes[(m).node_first + (i)];                         \
+    if ((m).program > 0) svm_bind(scene->svm, (m).program, (i), &nd##_row, stack);          \
     NODE_PTR nd = &nd##_row
 #else
 #define MATERIAL_PROGRAM(m, stack, P, path, len, N, Ng, I, back, fp) const float *stack = 0
-#define MATERIAL_NODE(nd, m, i, stack) NODE_PTR nd = shader_nodes + (m).node_first + (i)
+#define MATERIAL_NODE(nd, m, i, stack) NODE_PTR nd = scene->shader_nodes + (m).node_first + (i)
 #endif
 
 /* Cycles' ensure_valid_specular_reflection (learnt from its bsdf_util.h): N raised towards Ng
@@ -71,19 +71,18 @@ inline float3 node_normal(const ShaderData *sd, float3 n) {
 }
 
 /* the weight of the one Lambert closure of a MAT_LAMBERT material's node */
-inline float3 lambert_weight(__global const ShaderNode *nd, uint tri, float u, float v,
-                             TEXTURE_ARGS) {
-    return fmax(F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS), 0.0f)
+inline float3 lambert_weight(const Scene *scene, __global const ShaderNode *nd, uint tri,
+                             float u, float v) {
+    return fmax(F3(nd->color) * texture_tint(scene, nd->color_texture, tri, u, v), 0.0f)
            * nd->weight;
 }
 
 /* The default tangent of anisotropic closures at barycentrics (u, v) of triangle tri: the
  * exported radial tangent (scene_arrays.SceneArrays.tangents) made orthogonal to N, as Cycles'
  * Tangent node; 0 without anisotropy (PPM_ANISOTROPY) */
-inline float3 surface_tangent(uint tri, float u, float v, float3 N,
-                              __global const float *tangents) {
+inline float3 surface_tangent(const Scene *scene, uint tri, float u, float v, float3 N) {
 #if PPM_ANISOTROPY
-    __global const float *t = tangents + 9 * (size_t)tri;
+    __global const float *t = scene->tangents + 9 * (size_t)tri;
     float w = 1.0f - u - v;
     float3 r = w * (float3)(t[0], t[1], t[2]) + u * (float3)(t[3], t[4], t[5])
              + v * (float3)(t[6], t[7], t[8]);
@@ -97,21 +96,21 @@ inline float3 surface_tangent(uint tri, float u, float v, float3 N,
 
 /* The transparency (1 - alpha) of material mat at a surface point, without the closures: what
  * shadow rays are let through (Principled Alpha, Transparent BSDF; view-independent). */
-inline float3 material_transparency(int mat, uint tri, float u, float v, float3 P,
-                                    SHADING_ARGS) {
+inline float3 material_transparency(const Scene *scene, int mat, uint tri, float u, float v,
+                                    float3 P) {
     float3 T = (float3)(0.0f);
-    Material m = materials[mat];
+    Material m = scene->materials[mat];
     float3 z = (float3)(0.0f);            /* (no view direction or normal for a shadow ray) */
     MATERIAL_PROGRAM(m, stack, P, PATH_SHADOW, 0.0f, z, z, z, false, NO_FOOTPRINT);
     for (int i = 0; i < m.node_count; i++) {
         MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;
         if (nd->type == NODE_PRINCIPLED) {
-            float a = clamp(nd->alpha * texture_alpha(nd->alpha_texture, tri, u, v, TEXTURE_PASS),
+            float a = clamp(nd->alpha * texture_alpha(scene, nd->alpha_texture, tri, u, v),
                             0.0f, 1.0f);
             T += (float3)(nd->weight * (1.0f - a));
         } else if (nd->type == NODE_TRANSPARENT) {
-            T += fmax(F3(nd->color) * texture_tint(nd->color_texture, tri, u, v, TEXTURE_PASS)
+            T += fmax(F3(nd->color) * texture_tint(scene, nd->color_texture, tri, u, v)
                       * nd->weight, (float3)(0.0f));
         }
     }
@@ -122,10 +121,10 @@ inline float3 material_transparency(int mat, uint tri, float u, float v, float3 
  * samples see it: its constant emission times its emission texture, or, when its shader program
  * drives an emission (PROGRAM_EMISSION), the emission nodes evaluated there (the Principled's
  * under its alpha; the view-dependent sheen and coat left out, as materials.node_emission). */
-inline float3 material_emission(__global const Material *m, uint tri, float u, float v,
-                                float3 P, SHADING_ARGS) {
+inline float3 material_emission(const Scene *scene, __global const Material *m, uint tri,
+                                float u, float v, float3 P) {
 #if PPM_SVM
-    if (m->program > 0 && (svm[m->program].w & PROGRAM_EMISSION)) {
+    if (m->program > 0 && (scene->svm[m->program].w & PROGRAM_EMISSION)) {
         Material mm = *m;
         float3 z = (float3)(0.0f);
         MATERIAL_PROGRAM(mm, stack, P, 0u, 0.0f, z, z, z, false, NO_FOOTPRINT);
@@ -136,16 +135,16 @@ inline float3 material_emission(__global const Material *m, uint tri, float u, f
                 || (nd->type != NODE_EMISSION && nd->type != NODE_PRINCIPLED))
                 continue;
             float3 e = fmax(F3(nd->emission), 0.0f) * nd->weight
-                       * texture_tint(nd->emission_texture, tri, u, v, TEXTURE_PASS);
+                       * texture_tint(scene, nd->emission_texture, tri, u, v);
             if (nd->type == NODE_PRINCIPLED)
-                e *= clamp(nd->alpha * texture_alpha(nd->alpha_texture, tri, u, v, TEXTURE_PASS),
+                e *= clamp(nd->alpha * texture_alpha(scene, nd->alpha_texture, tri, u, v),
                            0.0f, 1.0f);
             E += e;
         }
         return E;
     }
 #endif
-    return F3(m->emission) * texture_tint(m->emission_tex, tri, u, v, TEXTURE_PASS);
+    return F3(m->emission) * texture_tint(scene, m->emission_tex, tri, u, v);
 }
 
 #endif

@@ -633,4 +633,33 @@ typedef struct {
     uint pad;
 } Grid;
 
+/* --- the scene's buffers (ppm_engine/device_scene.py SCENE_BUFFERS), in the kernels' parameter
+ * order: X(element type, name); kernels/scene.h makes the kernels' parameters and the Scene
+ * struct of them */
+#define SCENE_DATA(X) \
+    X(float4, nodes)             /* BVH nodes: both children's boxes per node (kernels/bvh.h) */ \
+    X(float4, tri_v0)            /* triangles in BVH leaf order: p0, original index */ \
+    X(float4, tri_e1)            /* triangles: p1 - p0, visibility bits */ \
+    X(float4, tri_e2)            /* triangles: p2 - p0, material */ \
+    X(float, normals)            /* shading normals (3 corners per triangle) */ \
+    X(Material, materials)       /* materials */ \
+    X(ShaderNode, shader_nodes)  /* shader nodes */ \
+    X(float, shading_tables)     /* shading tables */ \
+    X(Texture, textures)         /* textures */ \
+    X(half, texels)              /* image textures (RGBA texels) */ \
+    X(float, uvs)                /* UVs (3 corners per triangle) */ \
+    X(float, tangents)           /* tangents (3 corners per triangle) */ \
+    X(int4, svm)                 /* shader programs */ \
+    X(float4, uv_tangents)       /* UV tangents (3 corners per triangle) */ \
+    X(float, generated)          /* Generated coordinates */ \
+    X(float4, attributes)        /* mesh attributes */ \
+    X(int, tri_object)           /* triangles' objects */ \
+    X(float4, objects)           /* objects */ \
+    X(Camera, camera)            /* camera */ \
+    X(Light, lights)             /* lights */ \
+    X(float, emitter_cdf)        /* emitter table (power CDF) */ \
+    X(int, emissive)             /* emissive triangles' BVH leaves */ \
+    X(EmitterInfo, emitter_info) /* emitter table header */ \
+    X(float, world_map)          /* world importance map */
+
 #endif

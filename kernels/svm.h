@@ -1,73 +1,49 @@
 #ifndef PPM_SVM_H
 #define PPM_SVM_H
-#include "geometry.h"
+#include "scene.h"
 #include "camera.h"
 #include "light_path.h"
+#include "textures.h"
+#include "svm_types.h"
+#include "svm_util.h"
+#include "svm_context.h"
+#include "svm_bump.h"
 #include "svm_color.h"
 #include "svm_nodes.h"
-#include "textures.h"
-
-/* The shader program interpreter (ppm_engine/shader_program.py has the layout; the exporter's
- * export/shader_graph.py compiles a material's node graph into it): value nodes evaluated into a
- * private stack of floats, then the BSDF nodes' inputs read from it (svm_bind).  Built only for
- * scenes with a program (PPM_SVM), with the op codes the scene's programs use (PPM_SVM_OPS:
- * bit per op, a ulong) and the stack they need (PPM_SVM_STACK floats). */
-#ifndef PPM_SVM_OPS
-#define PPM_SVM_OPS 0x7fffffffffffffffUL
-#endif
-#define SVM_HAS(op) ((PPM_SVM_OPS >> (op)) & 1)
-
-#ifndef PPM_ATTRIBUTES
-#define PPM_ATTRIBUTES 1              /* attributes per corner in `attributes` (-D: the scene's) */
-#endif
-/* the object's matrices in the context: Mapping and Vector Transform, object-space normal maps */
-#define SVM_OBJECT_MATRICES \
-    (((PPM_SVM_OPS >> SVM_MAPPING) & 1) || ((PPM_SVM_OPS >> SVM_NORMAL_MAP) & 1))
-
-#include "svm_context.h"
-
-inline float3 svm_get3(const float *s, int k) { return (float3)(s[k], s[k + 1], s[k + 2]); }
-inline void svm_put3(float *s, int k, float3 v) { s[k] = v.x; s[k + 1] = v.y; s[k + 2] = v.z; }
-
-/* Cycles' fresnel_dielectric_cos: the Fresnel reflectance at cosine c for relative index eta
- * (1 under total internal reflection) */
-inline float svm_fresnel_cos(float c, float eta) {
-    c = fabs(c);
-    float g2 = eta * eta - 1.0f + c * c;
-    if (!(g2 > 0.0f)) return 1.0f;
-    float g = sqrt(g2), A = (g - c) / (g + c), B = (c * (g + c) - 1.0f) / (c * (g - c) + 1.0f);
-    return 0.5f * A * A * (1.0f + B * B);
-}
-
-/* Cycles' equirectangular projection (learnt from its direction_to_equirectangular): +X at
- * u = 0.5, +Y at u = 0.25, the zenith at v = 1 */
-inline float2 direction_to_equirect(float3 d) {
-    if (!(dot(d, d) > 0.0f)) return (float2)(0.0f);
-    return (float2)(0.5f - atan2(d.y, d.x) * (0.5f / PPM_PI),
-                    1.0f - acos(clamp(d.z / length(d), -1.0f, 1.0f)) * (1.0f / PPM_PI));
-}
-inline float3 equirect_to_direction(float u, float v) {
-    float phi = PPM_PI * (1.0f - 2.0f * u), theta = PPM_PI * (1.0f - v);
-    return (float3)(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
-}
-
-/* a baked ramp or curve at x in [lo, hi] (linear between entries, or the entry below) */
-inline float4 svm_table(__global const int4 *t, int n, float x, float lo, float hi, int interp) {
-    float f = hi > lo ? (x - lo) / (hi - lo) : 0.0f;
-    f = clamp(isfinite(f) ? f : 0.0f, 0.0f, 1.0f) * (float)(n - 1);
-    int i = min((int)f, n - 1);
-    float4 a = as_float4(t[i]);
-    if (!interp || i >= n - 1) return a;
-    return mix(a, as_float4(t[i + 1]), f - (float)i);
-}
-
 #include "svm_textures.h"
 #include "svm_image.h"
 #include "svm_sky.h"
 
+/* The shader program interpreter (ppm_engine/shader_program.py has the layout; the exporter's
+ * export/shader_graph.py compiles a material's node graph into it): value nodes evaluated into a
+ * private stack of floats, then the BSDF nodes' inputs read from it (svm_bind).  Built only for
+ * scenes with a program (PPM_SVM), with the op codes the scene's programs use (PPM_SVM_OPS,
+ * svm_types.h) and the stack they need (PPM_SVM_STACK floats). */
+
+/* The context of a shading point of triangle tri at barycentrics (u, v) for the program at word
+ * p, completed from cx = svm_context_base(...) (N and Ng on the viewer's side, I towards the
+ * viewer; all 0 where no direction is known: shadow rays, emitter samples): the per-corner
+ * data only where the program reads them, their changes over the footprint fp where it has a
+ * Bump node (svm_bump.h). */
+inline void svm_context_fill(SvmContext *cx, const Scene *scene, int p, uint tri, float u,
+                             float v, Footprint fp) {
+    __global const int4 *svm = scene->svm;
+    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_WINDOW))
+        cx->window = camera_window(scene->camera, cx->P);
+    if (SVM_HAS(SVM_NORMAL_MAP) && p > 0 && (svm[p].w & PROGRAM_TANGENTS)) {
+        __global const float4 *t = scene->uv_tangents + 3 * (size_t)tri;
+        cx->tangent = (1.0f - u - v) * t[0] + u * t[1] + v * t[2];
+    }
+    svm_corner_data(cx, scene, p, tri, u, v, cx->P);
+#if SVM_HAS_BUMP
+    if (p > 0 && (svm[p].w & PROGRAM_BUMP) && fp.r > 0.0f)
+        svm_footprint_offsets(cx, scene, p, tri, u, v, fp);
+#endif
+}
+
 /* Runs the value ops of the program at word p into stack */
-inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmContext *ctx,
-                     TEXTURE_ARGS) {
+inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *ctx) {
+    __global const int4 *svm = scene->svm;
     int4 h = svm[p];
     int i = p + 1 + h.x, end = p + h.y;
     while (i < end) {
@@ -104,7 +80,7 @@ inline void svm_eval(__global const int4 *svm, int p, float *stack, const SvmCon
                 svm_put3(stack, w.y, x.xyz);
             }
         } else if (SVM_HAS(SVM_IMAGE) && op == SVM_IMAGE) {
-            i = svm_image(w, svm, i, stack, textures, texels);         /* svm_image.h */
+            i = svm_image(scene, w, i, stack);                        /* svm_image.h */
         } else if (SVM_HAS(SVM_MAPPING) && op == SVM_MAPPING) {
             float4 r0 = as_float4(svm[i]), r1 = as_float4(svm[i + 1]), r2 = as_float4(svm[i + 2]);
             i += 3;
@@ -274,12 +250,12 @@ inline void svm_bind(__global const int4 *svm, int p, int node, ShaderNode *nd,
 /* The radiance of the world's program at word p along direction d (Cycles' background shader
  * data: P = d, N = Ng = I = -d; export/world.py binds colour x strength as its one input; no
  * object, no mesh attributes) */
-inline float3 svm_world(__global const int4 *svm, int p, float3 d, TEXTURE_ARGS) {
+inline float3 svm_world(const Scene *scene, int p, float3 d) {
     SvmContext cx = svm_context_base((float2)(0.0f), d, 0u, 0.0f, -d, -d, -d, false);
     cx.generated = d;
     float stack[PPM_SVM_STACK];
-    svm_eval(svm, p, stack, &cx, TEXTURE_PASS);
-    float3 L = svm_get3(stack, svm[p + 1].w);
+    svm_eval(scene, p, stack, &cx);
+    float3 L = svm_get3(stack, scene->svm[p + 1].w);
     return (isfinite(L.x) && isfinite(L.y) && isfinite(L.z)) ? L : (float3)(0.0f);
 }
 #endif

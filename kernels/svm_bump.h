@@ -1,8 +1,9 @@
 #ifndef PPM_SVM_BUMP_H
 #define PPM_SVM_BUMP_H
+#include "svm_context.h"
 
 /* The Bump node, as Cycles evaluates it (learnt from its svm_node_set_bump and the SVM
- * compiler's refine_bump_nodes; included by kernels/svm_context.h).
+ * compiler's refine_bump_nodes).
  *
  * The exporter (export/shader_bump.py) emits the node's Height sub-graph three times: as it is
  * (the centre), and with every position-dependent input (Position, Object and Camera
@@ -37,12 +38,8 @@ inline void svm_orthonormals(float3 N, float3 *a, float3 *b) {
 /* The context's changes over the footprint's offsets dP[k] = r a, r b: the barycentric offsets
  * that move the point by dP[k] in the triangle's plane (Cramer's rule on dP/du, dP/dv), and
  * the per-corner data there (all linear over the triangle: exact finite differences). */
-inline void svm_footprint_offsets(SvmContext *cx, __global const int4 *svm, int p, uint tri,
-                                  float u, float v, Footprint fp, __global const float *uvs,
-                                  __global const float *generated,
-                                  __global const float4 *attributes,
-                                  __global const int *tri_object,
-                                  __global const float4 *objects) {
+inline void svm_footprint_offsets(SvmContext *cx, const Scene *scene, int p, uint tri,
+                                  float u, float v, Footprint fp) {
     float3 a, b;
     svm_orthonormals(cx->Ng, &a, &b);
     float3 n = cross(fp.dpdu, fp.dpdv);
@@ -54,8 +51,7 @@ inline void svm_footprint_offsets(SvmContext *cx, __global const int4 *svm, int 
         float3 D = fp.r * (k == 0 ? a : b);
         float du = dot(cross(D, fp.dpdv), n) / nn, dv = dot(cross(fp.dpdu, D), n) / nn;
         SvmContext o = *cx;
-        svm_corner_data(&o, svm, p, tri, u + du, v + dv, cx->P + D, uvs, generated,
-                        attributes, tri_object, objects);
+        svm_corner_data(&o, scene, p, tri, u + du, v + dv, cx->P + D);
         cx->dP[k] = D;
         cx->dP_object[k] = o.P_object - cx->P_object;
         cx->dgenerated[k] = o.generated - cx->generated;

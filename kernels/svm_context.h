@@ -1,13 +1,13 @@
 #ifndef PPM_SVM_CONTEXT_H
 #define PPM_SVM_CONTEXT_H
+#include "scene.h"
+#include "textures.h"
+#include "svm_types.h"
+#include "svm_util.h"
 
-/* The shading point as a shader program reads it (included by kernels/svm.h after the op
- * codes and flags): its context, built per hit from the scene's per-corner arrays, and the
- * Normal Map node, which reads the context's frame. */
-
-#define SVM_HAS_BUMP ((PPM_SVM_OPS >> SVM_BUMP) & 1)
-/* whether a build reads footprints at all (callers skip computing them otherwise) */
-#define SVM_FOOTPRINT (PPM_SVM && SVM_HAS_BUMP)
+/* The shading point as a shader program reads it: its context, built per hit from the scene's
+ * per-corner arrays (svm.h svm_context_fill puts it together), and the Normal Map node, which
+ * reads the context's frame. */
 
 /* The ray footprint at a shading point, for the Bump node: the triangle's edges dP/du and dP/dv
  * (world; barycentrics as surface_at's), the radius of Cycles' compact ray differential there
@@ -30,13 +30,13 @@ inline Footprint footprint(float3 dpdu, float3 dpdv, float r) {
 }
 #define NO_FOOTPRINT footprint((float3)(0.0f), (float3)(0.0f), 0.0f)
 
-/* the footprint of radius r at barycentrics (u, v) of triangle tri (original index; its edges
- * e1, e2 from the BVH's leaf, its corner normals from `normals`) */
-inline Footprint footprint_at(uint tri, float u, float v, float4 e1, float4 e2, float r,
-                              __global const float *normals) {
-    Footprint f = footprint(e1.xyz, e2.xyz, r);
+/* the footprint of radius r at barycentrics (u, v) of triangle tri (original index) at BVH
+ * leaf `leaf` (its edges), from the triangle's corner normals */
+inline Footprint footprint_at(const Scene *scene, uint tri, int leaf, float u, float v,
+                              float r) {
+    Footprint f = footprint(scene->tri_e1[leaf].xyz, scene->tri_e2[leaf].xyz, r);
     if (!SVM_FOOTPRINT) return f;
-    __global const float *c = normals + 9 * (size_t)tri;
+    __global const float *c = scene->normals + 9 * (size_t)tri;
     float3 n0 = (float3)(c[0], c[1], c[2]), n1 = (float3)(c[3], c[4], c[5]),
            n2 = (float3)(c[6], c[7], c[8]);
     f.n = (1.0f - u - v) * n0 + u * n1 + v * n2;
@@ -111,19 +111,19 @@ inline SvmContext svm_context_base(float2 uv, float3 P, uint path, float path_le
 /* The per-corner data of the context at barycentrics (u, v) and position P, where the program
  * at word p reads them: the UV map (always), Generated coordinates, the object's data, mesh
  * attributes. */
-inline void svm_corner_data(SvmContext *cx, __global const int4 *svm, int p, uint tri, float u,
-                            float v, float3 P, __global const float *uvs,
-                            __global const float *generated, __global const float4 *attributes,
-                            __global const int *tri_object, __global const float4 *objects) {
-    cx->uv = surface_uv(uvs, tri, u, v);
+inline void svm_corner_data(SvmContext *cx, const Scene *scene, int p, uint tri, float u,
+                            float v, float3 P) {
+    __global const int4 *svm = scene->svm;
+    cx->uv = surface_uv(scene->uvs, tri, u, v);
     float w = 1.0f - u - v;
     if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_GENERATED)) {
-        __global const float *g = generated + 9 * (size_t)tri;
+        __global const float *g = scene->generated + 9 * (size_t)tri;
         cx->generated = w * (float3)(g[0], g[1], g[2]) + u * (float3)(g[3], g[4], g[5])
                         + v * (float3)(g[6], g[7], g[8]);
     }
-    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_OBJECT) && tri_object[tri] >= 0) {
-        __global const float4 *o = objects + 9 * (size_t)tri_object[tri];
+    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_OBJECT)
+        && scene->tri_object[tri] >= 0) {
+        __global const float4 *o = scene->objects + 9 * (size_t)scene->tri_object[tri];
         float4 h = (float4)(P, 1.0f);
         cx->P_object = (float3)(dot(o[0], h), dot(o[1], h), dot(o[2], h));
         cx->object[0] = o[3];
@@ -138,40 +138,10 @@ inline void svm_corner_data(SvmContext *cx, __global const int4 *svm, int p, uin
     }
     if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_ATTRIBUTES)) {
         for (int k = 0; k < PPM_ATTRIBUTES; k++) {
-            __global const float4 *a = attributes + 3 * PPM_ATTRIBUTES * (size_t)tri + k;
+            __global const float4 *a = scene->attributes + 3 * PPM_ATTRIBUTES * (size_t)tri + k;
             cx->attr[k] = w * a[0] + u * a[PPM_ATTRIBUTES] + v * a[2 * PPM_ATTRIBUTES];
         }
     }
-}
-
-#include "svm_bump.h"
-
-/* The context of a shading point of triangle tri at barycentrics (u, v) for the program at word
- * p: N and Ng on the viewer's side, I towards the viewer (all 0 where no direction is known:
- * shadow rays, emitter samples); the per-corner data only where the program reads them; their
- * changes over the footprint where it has a Bump node (svm_bump.h). */
-inline SvmContext svm_context(__global const int4 *svm, int p, uint tri, float u, float v,
-                              float3 P, uint path, float path_length, float3 N, float3 Ng,
-                              float3 I, bool backfacing, Footprint fp, __global const float *uvs,
-                              __global const float4 *uv_tangents, __global const float *generated,
-                              __global const float4 *attributes,
-                              __global const int *tri_object, __global const float4 *objects,
-                              __global const Camera *camera) {
-    SvmContext cx = svm_context_base((float2)(0.0f), P, path, path_length, N, Ng, I,
-                                     backfacing);
-    if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_WINDOW))
-        cx.window = camera_window(camera, P);
-    if (SVM_HAS(SVM_NORMAL_MAP) && p > 0 && (svm[p].w & PROGRAM_TANGENTS)) {
-        __global const float4 *t = uv_tangents + 3 * (size_t)tri;
-        cx.tangent = (1.0f - u - v) * t[0] + u * t[1] + v * t[2];
-    }
-    svm_corner_data(&cx, svm, p, tri, u, v, P, uvs, generated, attributes, tri_object, objects);
-#if SVM_HAS_BUMP
-    if (p > 0 && (svm[p].w & PROGRAM_BUMP) && fp.r > 0.0f)
-        svm_footprint_offsets(&cx, svm, p, tri, u, v, fp, uvs, generated, attributes,
-                              tri_object, objects);
-#endif
-    return cx;
 }
 
 /* Cycles' Normal Map node (learnt from its svm_node_normal_map): the colour's tangent-space

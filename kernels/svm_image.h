@@ -6,17 +6,18 @@
  * kernel/svm/image.h, util/math.h and kernel/camera/projection.h: map_to_sphere, map_to_tube,
  * the box's blend zones, the mirror ball); IMAGE_* (shared.h) the projection. */
 #include "shared.h"
+#include "textures.h"
+#include "svm_util.h"
 
 /* texture tex (1-based; 0: an image that could not be read, or a UDIM tile that does not
  * exist: Cycles' magenta) at uv.  Texels hold colours times alpha (associated, as Cycles
  * stores them): Cycles' Color output as is, or divided by the alpha where the node's Alpha
  * output is linked (unassociate); then an 8-bit sRGB image's colour decoded. */
-inline float4 svm_image_lookup(__global const Texture *textures, __global const half *texels,
-                               int tex, float2 uv, int unassociate) {
+inline float4 svm_image_lookup(const Scene *scene, int tex, float2 uv, int unassociate) {
     if (tex <= 0) return (float4)(1.0f, 0.0f, 1.0f, 1.0f);
-    float4 c = texture_rgba_encoded(textures, texels, tex, uv);
+    float4 c = texture_rgba_encoded(scene, tex, uv);
     if (unassociate && c.w != 0.0f && c.w != 1.0f) c.xyz /= c.w;
-    if (textures[tex - 1].flags & TEX_FLAG_SRGB) c.xyz = srgb_to_linear(c.xyz);
+    if (scene->textures[tex - 1].flags & TEX_FLAG_SRGB) c.xyz = srgb_to_linear(c.xyz);
     return c;
 }
 
@@ -75,8 +76,8 @@ inline float3 image_box_weights(float3 N, float b) {
 /* SVM_IMAGE: w = (op, colour slot, alpha slot, vector slot), then (texture, unassociate,
  * projection, tile words), (blend bits, normal slot, 0, 0) and the UDIM tiles two a word
  * (tile, texture, tile, texture); returns the next op's word */
-inline int svm_image(int4 w, __global const int4 *svm, int i, float *stack,
-                     __global const Texture *textures, __global const half *texels) {
+inline int svm_image(const Scene *scene, int4 w, int i, float *stack) {
+    __global const int4 *svm = scene->svm;
     int4 e = svm[i], f = svm[i + 1];
     int next = i + 2 + e.w;
     float4 c = (float4)(1.0f);
@@ -88,13 +89,13 @@ inline int svm_image(int4 w, __global const int4 *svm, int i, float *stack,
         float3 wt = image_box_weights(N, as_float(f.x));
         c = (float4)(0.0f);
         if (wt.x > 0.0f)
-            c += wt.x * svm_image_lookup(textures, texels, tex,
+            c += wt.x * svm_image_lookup(scene, tex,
                                          (float2)(N.x < 0.0f ? 1.0f - co.y : co.y, co.z), e.y);
         if (wt.y > 0.0f)
-            c += wt.y * svm_image_lookup(textures, texels, tex,
+            c += wt.y * svm_image_lookup(scene, tex,
                                          (float2)(N.y > 0.0f ? 1.0f - co.x : co.x, co.z), e.y);
         if (wt.z > 0.0f)
-            c += wt.z * svm_image_lookup(textures, texels, tex,
+            c += wt.z * svm_image_lookup(scene, tex,
                                          (float2)(N.z > 0.0f ? 1.0f - co.y : co.y, co.x), e.y);
     } else {
         float2 uv = e.z == IMAGE_EQUIRECTANGULAR ? direction_to_equirect(svm_safe_normalize(co))
@@ -118,7 +119,7 @@ inline int svm_image(int4 w, __global const int4 *svm, int i, float *stack,
                 }
             }
         }
-        c = svm_image_lookup(textures, texels, tex, uv, e.y);
+        c = svm_image_lookup(scene, tex, uv, e.y);
     }
 #endif
     svm_put3(stack, w.y, c.xyz);

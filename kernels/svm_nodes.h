@@ -1,6 +1,7 @@
 #ifndef PPM_SVM_NODES_H
 #define PPM_SVM_NODES_H
-#include "types.h"
+#include "shared.h"
+#include "svm_util.h"
 
 /* The arithmetic of the value nodes, as Cycles evaluates them (its kernel/svm/math_util.h,
  * mix.h, util/color.h: learnt from there, written here); op numbers mirror
@@ -81,10 +82,6 @@ inline float svm_math(int op, float a, float b, float c) {
 
 inline float3 svm_safe_div3(float3 a, float3 b) {
     return (float3)(svm_safe_div(a.x, b.x), svm_safe_div(a.y, b.y), svm_safe_div(a.z, b.z));
-}
-inline float3 svm_safe_normalize(float3 a) {
-    float l = length(a);
-    return l != 0.0f ? a / l : (float3)(0.0f);
 }
 
 /* Vector Math: the vector result, *value the float one (DOT_PRODUCT, DISTANCE, LENGTH) */

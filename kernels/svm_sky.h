@@ -13,6 +13,7 @@
  *                     width and height, then its XYZ texels (3 floats each, row 0 at the
  *                     nadir). */
 #include "shared.h"
+#include "svm_util.h"
 
 /* XYZ (D65) -> scene linear Rec.709: Blender's OCIO config (Cycles' xyz_to_rgb), clamped at 0 */
 inline float3 sky_xyz_to_rgb(float3 c) {

@@ -1,12 +1,14 @@
 #ifndef PPM_SVM_TEXTURES_H
 #define PPM_SVM_TEXTURES_H
+#include "shared.h"
+#include "svm_types.h"
+#include "svm_util.h"
 #include "svm_noise.h"
 #include "svm_voronoi.h"
 
 /* Cycles' procedural texture nodes as shader program ops (SVM_TEX_*: svm.h; layouts in
  * ppm_engine/shader_program.py), learnt from its kernel/svm/checker.h, gradient.h,
- * white_noise.h, noisetex.h, magic.h, wave.h and brick.h and written here for OpenCL.  Included
- * by svm.h after its op codes and stack helpers. */
+ * white_noise.h, noisetex.h, magic.h, wave.h and brick.h and written here for OpenCL. */
 
 /* A float input: its stack slot, or (slot -1) the constant whose bits are in `value` */
 inline float tex_in(const float *stack, int slot, int value) {

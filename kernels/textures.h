@@ -1,6 +1,6 @@
 #ifndef PPM_TEXTURES_H
 #define PPM_TEXTURES_H
-#include "types.h"
+#include "scene.h"
 
 /* Image textures (ppm_engine/export/textures.py): texels of all textures one after another as
  * half4 linear RGBA, rows bottom-up (v = 0 is the first row); UVs per triangle corner.  The
@@ -12,10 +12,6 @@ inline float3 srgb_to_linear(float3 c) {
     return select(pow((c + 0.055f) * (1.0f / 1.055f), (float3)(2.4f)), c * (1.0f / 12.92f),
                   islessequal(c, (float3)(0.04045f)));
 }
-
-#define TEXTURE_ARGS __global const Texture *textures, __global const half *texels, \
-                     __global const float *uvs
-#define TEXTURE_PASS textures, texels, uvs
 
 /* texel column/row for an integer coordinate under the extension mode; -1 outside (CLIP) */
 inline int tex_wrap(int i, int n, uint mode) {
@@ -54,9 +50,9 @@ inline float4 tex_row4(__global const half *texels, const Texture *t, int x0, in
  * bilinear between texel centres (as Cycles' 'Linear' interpolation), the nearest texel
  * ('Closest') or the bicubic B-spline over 4 x 4 texels ('Cubic', 'Smart'), each texel read
  * through the extension mode (CLIP: 0 outside) */
-inline float4 texture_rgba_encoded(__global const Texture *textures, __global const half *texels,
-                                   int tex1, float2 uv) {
-    Texture t = textures[tex1 - 1];
+inline float4 texture_rgba_encoded(const Scene *scene, int tex1, float2 uv) {
+    __global const half *texels = scene->texels;
+    Texture t = scene->textures[tex1 - 1];
     float x = uv.x * (float)t.width, y = uv.y * (float)t.height;
     x = isfinite(x) ? clamp(x, -1.0e9f, 1.0e9f) : 0.0f;     /* int conversions stay defined */
     y = isfinite(y) ? clamp(y, -1.0e9f, 1.0e9f) : 0.0f;
@@ -78,15 +74,13 @@ inline float4 texture_rgba_encoded(__global const Texture *textures, __global co
 
 /* linear RGB and alpha: sRGB texels decoded after the interpolation, as Cycles does for 8-bit
  * sRGB images */
-inline float4 texture_rgba(__global const Texture *textures, __global const half *texels,
-                           int tex1, float2 uv) {
-    float4 c = texture_rgba_encoded(textures, texels, tex1, uv);
-    if (textures[tex1 - 1].flags & TEX_FLAG_SRGB) c.xyz = srgb_to_linear(c.xyz);
+inline float4 texture_rgba(const Scene *scene, int tex1, float2 uv) {
+    float4 c = texture_rgba_encoded(scene, tex1, uv);
+    if (scene->textures[tex1 - 1].flags & TEX_FLAG_SRGB) c.xyz = srgb_to_linear(c.xyz);
     return c;
 }
-inline float3 texture_rgb(__global const Texture *textures, __global const half *texels,
-                          int tex1, float2 uv) {
-    return texture_rgba(textures, texels, tex1, uv).xyz;
+inline float3 texture_rgb(const Scene *scene, int tex1, float2 uv) {
+    return texture_rgba(scene, tex1, uv).xyz;
 }
 
 /* UV at barycentrics (u, v) of original triangle tri (p = p0 + u (p1 - p0) + v (p2 - p0)) */
@@ -98,19 +92,19 @@ inline float2 surface_uv(__global const float *uvs, uint tri, float u, float v) 
 
 /* the factor a texture tex1 (a BSDF node's colour or emission texture) puts on its input at a
  * surface point: the texture at the point's UV, 1 without a texture */
-inline float3 texture_tint(int tex1, uint tri, float u, float v, TEXTURE_ARGS) {
+inline float3 texture_tint(const Scene *scene, int tex1, uint tri, float u, float v) {
 #if PPM_TEXTURES
-    if (tex1 > 0) return texture_rgb(textures, texels, tex1, surface_uv(uvs, tri, u, v));
+    if (tex1 > 0) return texture_rgb(scene, tex1, surface_uv(scene->uvs, tri, u, v));
 #endif
     return (float3)(1.0f);
 }
 
 /* the alpha channel of texture tex1 at a surface point (an Image Texture's Alpha output on a
  * BSDF's Alpha input), 1 without a texture */
-inline float texture_alpha(int tex1, uint tri, float u, float v, TEXTURE_ARGS) {
+inline float texture_alpha(const Scene *scene, int tex1, uint tri, float u, float v) {
 #if PPM_TEXTURES
     if (tex1 > 0)
-        return clamp(texture_rgba(textures, texels, tex1, surface_uv(uvs, tri, u, v)).w, 0.0f,
+        return clamp(texture_rgba(scene, tex1, surface_uv(scene->uvs, tri, u, v)).w, 0.0f,
                      1.0f);
 #endif
     return 1.0f;

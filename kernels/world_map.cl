@@ -2,11 +2,13 @@
  * program at the centre of each texel of a w x h lat-long map (Cycles' equirectangular
  * directions, row 0 at the nadir), as Cycles bakes its background map; the texels near a sun
  * disc averaged over sub x sub points. */
+#include "svm.h"
 #include "world_map.h"
 #include "rng.h"
 
-__kernel void world_bake(__global const int4 *svm, TEXTURE_ARGS, int program, int w, int h,
-                         float4 sun, int sub, __global float4 *out) {
+__kernel void world_bake(SCENE_PARAMS int program, int w, int h, float4 sun, int sub,
+                         __global float4 *out) {
+    SCENE_LOAD(scene);
     int id = get_global_id(0);
     if (id >= w * h) return;
     int i = id / w, j = id % w;
@@ -19,11 +21,11 @@ __kernel void world_bake(__global const int4 *svm, TEXTURE_ARGS, int program, in
             for (int b = 0; b < sub; b++) {
                 float3 e = equirect_to_direction(((float)j + ((float)b + 0.5f) / (float)sub) / w,
                                                  ((float)i + ((float)a + 0.5f) / (float)sub) / h);
-                L += svm_world(svm, program, e, TEXTURE_PASS);
+                L += svm_world(scene, program, e);
             }
         L /= (float)(sub * sub);
     } else {
-        L = svm_world(svm, program, d, TEXTURE_PASS);
+        L = svm_world(scene, program, d);
     }
     out[id] = (float4)(L, 0.0f);
 }

@@ -1,6 +1,6 @@
 #ifndef PPM_WORLD_MAP_H
 #define PPM_WORLD_MAP_H
-#include "svm.h"
+#include "svm_util.h"
 
 /* The world's importance map (layout: world.h), sampled and evaluated: a w x h map whose
  * values have mean `mean`. */

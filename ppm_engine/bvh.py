@@ -78,6 +78,12 @@ class BVH:
         q.finish()
         self.build_seconds = time.perf_counter() - t0
 
+    @property
+    def args(self) -> dict:
+        """Its buffers by their names among the scene's (device_scene.SCENE_BUFFERS)."""
+        return dict(nodes=self.nodes, tri_v0=self.tri_v0, tri_e1=self.tri_e1,
+                    tri_e2=self.tri_e2)
+
     def _ploc(self, pos, n: int) -> None:
         """PLOC over the Morton-sorted leaves (kernels/bvh_build.cl): rounds of nearest
         neighbours in a window, mutual pairs merged, survivors compacted by a pyopencl scan."""

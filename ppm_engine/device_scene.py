@@ -1,22 +1,98 @@
 """The scene on one device: the prepared arrays (scene_prep.py), the BVH, and the materials,
 emitters, lights, textures, camera and pixel filter as buffers; the feature flags the passes'
-kernels are specialised with (features.py); and ``args``, the scene arguments every pass kernel
-takes (kernels/scene.h SCENE_ARGS), by name."""
+kernels are specialised with (features.py); and ``args``, the scene's buffers by name.
+
+SCENE_BUFFERS lists those buffers once.  kernels/shared.h gets it as the X-macro SCENE_DATA
+(ppm_engine/shared_header.py), from which kernels/scene.h makes the kernels' scene parameters
+and the one struct every helper reads them from (``const Scene *scene``); Launch binds them by
+name from ``args``.  A new buffer is one row here and its source in ``DeviceScene.upload``."""
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
 from .bvh import BVH
-from .emitters import build_emitters
+from .camera_model import CAMERA_DTYPE
+from .emitters import EMITTER_INFO_DTYPE, build_emitters
 from .features import defines as feature_defines, scene_features, used_materials
 from .film import filter_table
-from .materials import (MAT_GATHER, follow_capable, kernel_materials, kernel_nodes,
-                        max_closures)
+from .materials import (KMATERIAL_DTYPE, MAT_GATHER, follow_capable, kernel_materials,
+                        kernel_nodes, max_closures)
 from .shader_program import ops_define, ops_used, stack_used
 from .shading_tables import load as shading_tables
-from .scene_arrays import LIGHT_DTYPE, TEXTURE_DTYPE, SceneArrays
+from .scene_arrays import LIGHT_DTYPE, SHADER_NODE_DTYPE, TEXTURE_DTYPE, SceneArrays
 from .scene_prep import offset_scale, prepare_scene
 from .world_map import bake, build_map, map_size
+
+_F4, _I4 = np.dtype((np.float32, 4)), np.dtype((np.int32, 4))
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneBuffer:
+    name: str             # the kernels' parameter and field name (scene->name)
+    element: np.dtype     # one element as the kernels read it (its C type: shared_header)
+    what: str             # what it holds (the upload's label, the header's comment)
+    fill: int = 0         # the value of the one element that stands for an empty array
+
+
+# The scene's buffers, in the kernels' parameter order.
+SCENE_BUFFERS = (
+    SceneBuffer("nodes", _F4, "BVH nodes: both children's boxes per node (kernels/bvh.h)"),
+    SceneBuffer("tri_v0", _F4, "triangles in BVH leaf order: p0, original index"),
+    SceneBuffer("tri_e1", _F4, "triangles: p1 - p0, visibility bits"),
+    SceneBuffer("tri_e2", _F4, "triangles: p2 - p0, material"),
+    SceneBuffer("normals", np.dtype(np.float32), "shading normals (3 corners per triangle)"),
+    SceneBuffer("materials", KMATERIAL_DTYPE, "materials"),
+    SceneBuffer("shader_nodes", SHADER_NODE_DTYPE, "shader nodes"),
+    SceneBuffer("shading_tables", np.dtype(np.float32), "shading tables"),
+    SceneBuffer("textures", TEXTURE_DTYPE, "textures"),
+    SceneBuffer("texels", np.dtype(np.float16), "image textures (RGBA texels)"),
+    SceneBuffer("uvs", np.dtype(np.float32), "UVs (3 corners per triangle)"),
+    SceneBuffer("tangents", np.dtype(np.float32), "tangents (3 corners per triangle)"),
+    SceneBuffer("svm", _I4, "shader programs"),
+    SceneBuffer("uv_tangents", _F4, "UV tangents (3 corners per triangle)"),
+    SceneBuffer("generated", np.dtype(np.float32), "Generated coordinates"),
+    SceneBuffer("attributes", _F4, "mesh attributes"),
+    SceneBuffer("tri_object", np.dtype(np.int32), "triangles' objects", fill=-1),
+    SceneBuffer("objects", _F4, "objects"),
+    SceneBuffer("camera", CAMERA_DTYPE, "camera"),
+    SceneBuffer("lights", LIGHT_DTYPE, "lights"),
+    SceneBuffer("emitter_cdf", np.dtype(np.float32), "emitter table (power CDF)"),
+    SceneBuffer("emissive", np.dtype(np.int32), "emissive triangles' BVH leaves"),
+    SceneBuffer("emitter_info", EMITTER_INFO_DTYPE, "emitter table header"),
+    SceneBuffer("world_map", np.dtype(np.float32), "world importance map"),
+)
+
+
+def _one(b: SceneBuffer) -> np.ndarray:
+    """One element of ``b``'s fill value: what stands for an empty array (OpenCL has no empty
+    buffer) or a buffer a kernel is run without."""
+    a = np.zeros(1, b.element)
+    if b.fill:
+        a[...] = b.fill
+    return a
+
+
+def _as_elements(array: np.ndarray, b: SceneBuffer) -> np.ndarray:
+    """``array`` checked to hold elements of ``b`` (its dtype the element's base type, its last
+    axis the vector's length), or one element (``_one``) for an empty one."""
+    a = np.ascontiguousarray(array)
+    base, shape = b.element.base, b.element.shape
+    if a.dtype != base or (shape and a.shape[-len(shape):] != shape):
+        raise TypeError(f"scene buffer {b.name}: {a.dtype}{a.shape} is not made of {b.element}")
+    return a if a.size else _one(b)
+
+
+def placeholders(device, **given) -> dict:
+    """The scene's buffers by name for kernels run without a DeviceScene (tests, the world
+    map's bake, a gather with nothing to shade): ``given`` ones (device buffers), and for the
+    rest one element each of their fill value."""
+    unknown = set(given) - {b.name for b in SCENE_BUFFERS}
+    if unknown:
+        raise TypeError(f"not scene buffers: {sorted(unknown)}")
+    return {b.name: given[b.name] if b.name in given else device.upload(_one(b), b.what)
+            for b in SCENE_BUFFERS}
 
 
 class DeviceScene:
@@ -28,7 +104,6 @@ class DeviceScene:
 
     def upload(self, scene: SceneArrays, prepared: SceneArrays | None = None) -> None:
         """Everything but the BVH: materials, emitters, lights, camera, pixel filter."""
-        up = self.device.upload
         self.scene = scene
         if prepared is None:
             prepared, self.warnings = prepare_scene(scene)
@@ -38,52 +113,36 @@ class DeviceScene:
         self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
         self.offset_scale = offset_scale(prepared)
         b = self.bvh
-        lights = prepared.lights if prepared.lights.shape[0] else np.zeros(1, LIGHT_DTYPE)
-        # names and order: kernels/scene.h SCENE_ARGS (the BVH's own: kernels/bvh.h BVH_ARGS)
-        args = dict(
-            nodes=b.nodes, tri_v0=b.tri_v0, tri_e1=b.tri_e1, tri_e2=b.tri_e2,
-            normals=up(prepared.normals, "shading normals"),
-            # kernels/shader_data.h SHADING_ARGS
-            materials=up(self.kmaterials, "materials"),
-            shader_nodes=up(self.knodes if self.knodes.size else np.zeros(1, self.knodes.dtype),
-                            "shader nodes"),
-            shading_tables=up(shading_tables(), "shading tables"),
-            textures=up(prepared.textures if prepared.textures.size
-                        else np.zeros(1, TEXTURE_DTYPE), "textures"),
-            texels=up(prepared.texels if prepared.texels.size
-                      else np.zeros((1, 4), np.float16), "image textures"),
-            uvs=up(prepared.uvs, "UVs"),
-            tangents=up(prepared.tangents if prepared.tangents.size
-                        else np.zeros(9, np.float32), "tangents"),
-            svm=up(prepared.svm, "shader programs"),
-            uv_tangents=up(prepared.uv_tangents if prepared.uv_tangents.size
-                           else np.zeros(4, np.float32), "UV tangents"),
-            generated=up(prepared.generated if prepared.generated.size
-                         else np.zeros(3, np.float32), "Generated coordinates"),
-            attributes=up(prepared.attributes if prepared.attributes.size
-                          else np.zeros(4, np.float32), "mesh attributes"),
-            tri_object=up(prepared.object if prepared.object.size else np.full(1, -1, np.int32),
-                          "triangles' objects"),
-            objects=up(prepared.objects if prepared.objects.size else np.zeros(4, np.float32),
-                       "objects"),
-            camera=up(prepared.camera, "camera"))
+        # each scene buffer's source (SCENE_BUFFERS): the BVH's are on the device already
+        args = self._upload(
+            **b.args, normals=prepared.normals, materials=self.kmaterials, shader_nodes=self.knodes,
+            shading_tables=shading_tables(), textures=prepared.textures,
+            texels=prepared.texels, uvs=prepared.uvs, tangents=prepared.tangents,
+            svm=prepared.svm, uv_tangents=prepared.uv_tangents, generated=prepared.generated,
+            attributes=prepared.attributes, tri_object=prepared.object, objects=prepared.objects,
+            camera=prepared.camera)
+        # the world's map is baked with the shading buffers; the emitter table needs its power
         self.world_map = self._world_map(prepared, args)
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,
                                             self.world_map)
         em.info["offset_scale"] = self.offset_scale
-        self.args = dict(
-            args,
-            lights=up(lights, "lights"),
-            emitter_cdf=up(em.cdf if em.cdf.size else np.zeros(1, np.float32), "emitters"),
-            emissive=up(em.emissive_leaves if em.emissive_leaves.size else np.zeros(1, np.int32),
-                        "emissive triangles"),
-            emitter_info=up(em.info, "emitters"),
-            world_map=up(self.world_map.buffer if self.world_map is not None
-                         else np.zeros(4, np.float32), "world map"))
+        args.update(self._upload(
+            lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
+            emitter_info=em.info,
+            world_map=(self.world_map.buffer if self.world_map is not None
+                       else np.zeros(0, np.float32))))
+        self.args = {b.name: args[b.name] for b in SCENE_BUFFERS}
         self.camera = args["camera"]
-        self.filter_table = up(filter_table(float(prepared.camera["filter_width"][0]),
-                                             int(prepared.camera["filter_type"][0])),
-                               "pixel filter")
+        self.filter_table = self.device.upload(
+            filter_table(float(prepared.camera["filter_width"][0]),
+                         int(prepared.camera["filter_type"][0])), "pixel filter")
+
+    def _upload(self, **sources) -> dict:
+        """Scene buffers by name (SCENE_BUFFERS) from arrays, or device buffers as they are."""
+        rows = {b.name: b for b in SCENE_BUFFERS}
+        return {name: a if not isinstance(a, np.ndarray) else
+                self.device.upload(_as_elements(a, rows[name]), rows[name].what)
+                for name, a in sources.items()}
 
     def _world_map(self, prepared: SceneArrays, args: dict):
         """The world program's importance map baked on the device, or None (a constant
@@ -92,7 +151,8 @@ class DeviceScene:
         if ws[0] <= 0:
             return None
         w, h = map_size(int(ws[2]), int(ws[3]))
-        return build_map(bake(self.device, args, prepared.svm, int(ws[0]), w, h))
+        return build_map(bake(self.device, placeholders(self.device, **args), prepared.svm,
+                              int(ws[0]), w, h))
 
     def kernel_defines(self, specialize: bool, gather_roughness: float = 0.7
                        ) -> tuple[frozenset | None, dict]:

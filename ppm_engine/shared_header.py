@@ -270,8 +270,29 @@ def generate() -> str:
     for ctype, dtype, module, name in structs:
         origin = f"ppm_engine/{module.__name__.rsplit('.', 1)[-1]}.py {name}"
         out += _struct(ctype, dtype, origin, _field_comments(module, name)) + [""]
-    out += ["#endif"]
+    out += _scene_data({dtype: ctype for ctype, dtype, _, _ in structs}) + ["", "#endif"]
     return "\n".join(out) + "\n"
+
+
+def _scene_data(struct_types: dict) -> list[str]:
+    """The scene's buffers as the X-macro SCENE_DATA(X): X(element type, name) for each."""
+    from .device_scene import SCENE_BUFFERS
+    vector = {np.dtype((np.float32, 4)): "float4", np.dtype((np.int32, 4)): "int4",
+              np.dtype(np.float16): "half"}
+    rows = []
+    for b in SCENE_BUFFERS:
+        ctype = struct_types.get(b.element) or vector.get(b.element) or _C_TYPES[b.element]
+        rows.append((f"X({ctype}, {b.name})", b.what))
+    width = max(len(x) for x, _ in rows) + 1
+    lines = _comment("--- the scene's buffers (ppm_engine/device_scene.py SCENE_BUFFERS), in the "
+                     "kernels' parameter order: X(element type, name); kernels/scene.h makes "
+                     "the kernels' parameters and the Scene struct of them") + \
+        ["#define SCENE_DATA(X) \\"]
+    for k, (x, what) in enumerate(rows):
+        end = " \\" if k < len(rows) - 1 else ""
+        line = f"    {x:<{width}}/* {what} */"
+        lines.append(line + end if len(line + end) <= WIDTH else f"    {x}{end}")
+    return lines
 
 
 def path() -> Path:

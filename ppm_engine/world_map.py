@@ -122,16 +122,15 @@ SUN_SUPERSAMPLING = 8      # points per side of a texel near a sun disc
 
 def bake(device, args: dict, svm: np.ndarray, program: int, width: int, height: int) -> np.ndarray:
     """The world's radiance (h, w, 3) at the map's texel centres (near a sun disc: the mean
-    over the texel, sun_hint), evaluated on ``device``; ``args``: the scene's buffers (svm,
-    textures, texels, uvs)."""
+    over the texel, sun_hint), evaluated on ``device``; ``args``: the scene's buffers by name
+    (device_scene.SCENE_BUFFERS; the program reads svm and the textures)."""
     import pyopencl as cl
     prog = device.programs.get("world_map.cl", bake_defines(svm, program))
     kernel = prog.launch("world_bake", "world map")
     n = width * height
     out = device.buffer(16 * n, "world map")
     q = device.queue
-    kernel(q, n, svm=args["svm"], textures=args["textures"], texels=args["texels"],
-           uvs=args["uvs"], program=np.int32(program), w=np.int32(width), h=np.int32(height),
+    kernel(q, n, **args, program=np.int32(program), w=np.int32(width), h=np.int32(height),
            sun=sun_hint(svm, program, width, height), sub=np.int32(SUN_SUPERSAMPLING), out=out)
     rgba = np.empty((height, width, 4), np.float32)
     cl.enqueue_copy(q, rgba, out).wait()

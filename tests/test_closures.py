@@ -12,6 +12,7 @@ import pytest
 cl = pytest.importorskip("pyopencl")
 
 from ppm_engine import shading_tables as st  # noqa: E402
+from ppm_engine.device_scene import placeholders  # noqa: E402
 from ppm_engine.materials import kernel_materials, kernel_nodes  # noqa: E402
 from ppm_engine.scene_arrays import (CAMERA_DTYPE, MATERIAL_DTYPE, NODE_DIFFUSE,  # noqa: E402
                                      NODE_GLASS, NODE_GLOSSY, NODE_METALLIC, NODE_PRINCIPLED,
@@ -42,24 +43,20 @@ class Shading:
         kmat = kernel_materials(np.zeros(len(materials), MATERIAL_DTYPE), nodes)
         up = device.upload
         tangent = np.tile(np.float32([1, 0, 0]), 3)       # the surface's tangent: +x
-        self.args = [up(kmat, "m"), up(nodes, "n"), up(st.load(), "t"),
-                     up(np.zeros(4, np.int32), "tx"), up(np.zeros((1, 4), np.float16), "tl"),
-                     up(np.zeros(6, np.float32), "uv"), up(tangent, "tangents"),
-                     up(np.zeros((1, 4), np.int32), "no shader programs"),
-                     up(np.zeros(4, np.float32), "no UV tangents"),
-                     up(np.zeros(3, np.float32), "no Generated coordinates"),
-                     up(np.zeros(4, np.float32), "no mesh attributes"),
-                     up(np.full(1, -1, np.int32), "no objects"), up(np.zeros(4, np.float32), "o"),
-                     up(np.zeros(1, CAMERA_DTYPE), "camera")]
+        # the materials at a point at the origin (closure_test.cl); no texture, no program
+        self.args = placeholders(device, materials=up(kmat, "m"), shader_nodes=up(nodes, "n"),
+                                 shading_tables=up(st.load(), "t"),
+                                 uvs=up(np.zeros(6, np.float32), "uv"),
+                                 tangents=up(tangent, "tangents"))
         self.prog = device.programs.get("closure_test.cl")
 
     def sample(self, mat, wi, n, seed=1, mask=MASK_ALL):
         q = self.device.queue
         wo = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 16 * n)
         w = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 16 * n)
-        self.prog.shade_sample(q, (-(-n // 64) * 64,), (64,), *self.args, np.int32(mat),
-                               np.float32([*wi, 0]), np.int32(mask), np.uint32(seed), wo, w,
-                               np.uint32(n))
+        self.prog.launch("shade_sample", "test")(
+            q, n, 64, **self.args, mat=np.int32(mat), wi=np.float32([*wi, 0]),
+            mask=np.int32(mask), seed=np.uint32(seed), out_wo=wo, out_weight=w, n=np.uint32(n))
         a, b = np.empty((n, 4), np.float32), np.empty((n, 4), np.float32)
         cl.enqueue_copy(q, a, wo)
         cl.enqueue_copy(q, b, w)
@@ -71,9 +68,9 @@ class Shading:
         wo4 = np.zeros((n, 4), np.float32)
         wo4[:, :3] = wo
         out = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 16 * n)
-        self.prog.shade_eval(q, (-(-n // 64) * 64,), (64,), *self.args, np.int32(mat),
-                             np.float32([*wi, 0]), np.int32(mask), self.device.upload(wo4, "wo"),
-                             out, np.uint32(n))
+        self.prog.launch("shade_eval", "test")(
+            q, n, 64, **self.args, mat=np.int32(mat), wi=np.float32([*wi, 0]),
+            mask=np.int32(mask), wo=self.device.upload(wo4, "wo"), out=out, n=np.uint32(n))
         r = np.empty((n, 4), np.float32)
         cl.enqueue_copy(q, r, out)
         return r
@@ -82,8 +79,9 @@ class Shading:
         q = self.device.queue
         info = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 16 * n_max)
         wgt = cl.Buffer(self.device.context, cl.mem_flags.WRITE_ONLY, 16 * (n_max + 2))
-        self.prog.shade_closures(q, (1,), None, *self.args, np.int32(mat), np.float32([*wi, 0]),
-                                 info, wgt, np.int32(n_max))
+        self.prog.launch("shade_closures", "test")(
+            q, 1, 1, **self.args, mat=np.int32(mat), wi=np.float32([*wi, 0]), out_info=info,
+            out_weight=wgt, n_max=np.int32(n_max))
         a, b = np.empty((n_max, 4), np.float32), np.empty((n_max + 2, 4), np.float32)
         cl.enqueue_copy(q, a, info)
         cl.enqueue_copy(q, b, wgt)

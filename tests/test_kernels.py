@@ -8,6 +8,7 @@ import pyopencl as cl  # noqa: E402
 from ppm_engine import reference as ref  # noqa: E402
 from ppm_engine.bvh import BVH  # noqa: E402
 from ppm_engine.device import get_device, list_devices  # noqa: E402
+from ppm_engine.device_scene import placeholders  # noqa: E402
 from ppm_engine.emitters import EMITTER_INFO_DTYPE  # noqa: E402
 from ppm_engine.materials import KMATERIAL_DTYPE  # noqa: E402
 from ppm_engine.counters import N_COUNTERS, Counter  # noqa: E402
@@ -62,9 +63,9 @@ def _trace(device, bvh, o, d, tmax, any_hit=False, mask=0xFFFFFFFF):
     ob = _upload(device, np.c_[o, np.zeros(n)].astype(np.float32))
     db = _upload(device, np.c_[d, tmax].astype(np.float32))
     hits = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n)
-    device.programs.get("debug.cl").trace_rays(
-        device.queue, (n,), None, bvh.nodes, bvh.tri_v0, bvh.tri_e1, bvh.tri_e2, ob, db,
-        np.uint32(mask), np.int32(any_hit), hits, np.uint32(n))
+    device.programs.get("debug.cl").launch("trace_rays", "test")(
+        device.queue, n, **placeholders(device, **bvh.args), origins=ob, dirs=db,
+        mask=np.uint32(mask), any_hit=np.int32(any_hit), hits=hits, n=np.uint32(n))
     h = _read(device, hits, (n, 4), np.float32)
     return h[:, 0], h[:, 3].view(np.int32)
 

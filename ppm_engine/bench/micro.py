@@ -16,6 +16,7 @@ from ..blender_io import ensure_registered
 from ..bvh import BVH
 from ..counters import N_COUNTERS, Counter
 from ..device import get_device
+from ..device_scene import placeholders
 from ..options import RenderOptions
 from ..passes import Gather, HashBuild, unshaded
 from ..photon_map import GRID_DTYPE, PhotonMap
@@ -135,11 +136,12 @@ def _rays_per_second(device, bvh, n=1 << 16) -> float:
     dd[:, :3], dd[:, 3] = d, 1e30
     ob, db = device.upload(o, "rays"), device.upload(dd, "rays")
     hits = device.buffer(16 * n, "hits")
-    k = device.programs.get("debug.cl").trace_rays
+    k = device.programs.get("debug.cl").launch("trace_rays", "bench")
+    scene = placeholders(device, **bvh.args)
 
     def once():
-        ev = k(device.queue, (n,), None, bvh.nodes, bvh.tri_v0, bvh.tri_e1, bvh.tri_e2, ob, db,
-               np.uint32(0xFFFFFFFF), np.int32(0), hits, np.uint32(n))
+        ev = k(device.queue, n, None, **scene, origins=ob, dirs=db, mask=np.uint32(0xFFFFFFFF),
+               any_hit=np.int32(0), hits=hits, n=np.uint32(n))
         ev.wait()
         return n / ((ev.profile.end - ev.profile.start) * 1e-9)
     return _median(once, repeat=5, warmup=1)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..device import SHADING_GROUP
+from ..device_scene import placeholders
 
 # photons on a surface facing another way (thin walls, corners) are not a visible point's: the
 # least cosine between their normals (kernels/gather.cl, reference.py)
@@ -41,11 +42,6 @@ def unshaded(device, n: int):
     return device.upload(shade, "visible points")
 
 
-# the gather's own arguments (the rest are the scene's: kernels/gather.cl GATHER_SCENE_ARGS)
-_OWN = {"vp_pos", "vp_nrm", "vp_shade", "vp_beta", "radius", "grid", "table", "ranges", "sorted_ids",
-        "table_mask", "ph_pos", "ph_flux", "gathered", "n"}
-
-
 class Gather:
     def __init__(self, device, photon_map, scene=None, defines: dict | None = None):
         """``scene``: the DeviceScene (the gather shades its visible points again) and
@@ -57,12 +53,7 @@ class Gather:
         p = device.programs.get("gather.cl", defines)
         self.k_gather = p.launch("gather", "gather")
         self.k_exact = p.launch("gather_exact", "gather")
-        names = set(self.k_gather.names) - _OWN
-        if scene is not None:
-            self.scene_args = {k: scene.args[k] for k in names}
-        else:
-            self._dummy = device.buffer(64, "gather without a scene")
-            self.scene_args = dict.fromkeys(names, self._dummy)
+        self.scene_args = scene.args if scene is not None else placeholders(device)
 
     def enqueue(self, q, vp_pos, vp_nrm, vp_shade, radius, gathered, n: int,
                 vp_beta=None) -> list:

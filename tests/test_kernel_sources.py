@@ -1,0 +1,98 @@
+"""The kernel sources' shape: every header compiles on its own (it includes what it uses, with
+every feature and with none), and no helper function takes more than 12 parameters once the
+preprocessor has expanded its macros (the scene reaches helpers as one `const Scene *`)."""
+import re
+from pathlib import Path
+
+import pytest
+
+KERNELS = Path(__file__).resolve().parents[1] / "kernels"
+MAX_PARAMS = 12
+
+
+def _strip(text: str) -> str:
+    """The source without comments (strings do not occur in kernel code)."""
+    text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
+    return re.sub(r"//[^\n]*", " ", text)
+
+
+def _macros(text: str) -> dict:
+    """Object-like macros: name -> body (continued lines joined)."""
+    text = _strip(text).replace("\\\n", " ")
+    return {m[1]: m[2].strip() for m in re.finditer(r"^\s*#\s*define\s+(\w+)(?!\()\s*(.*)$",
+                                                     text, re.M)}
+
+
+def _split(params: str) -> list[str]:
+    out, depth, cur = [], 0, ""
+    for ch in params:
+        depth += ch == "("
+        depth -= ch == ")"
+        if ch == "," and depth == 0:
+            out.append(cur)
+            cur = ""
+        else:
+            cur += ch
+    out.append(cur)
+    return [p.strip() for p in out if p.strip() and p.strip() != "void"]
+
+
+def helper_params(text: str, macros: dict) -> dict:
+    """{helper function: its parameters after macro expansion} for the inline functions of a
+    source; a parameter that is a function-like macro's call stays one entry ending in '('."""
+    code = _strip(text)
+    code = re.sub(r"^\s*#.*?(?<!\\)$", " ", code, flags=re.M | re.S)   # directives
+    found = {}
+    for m in re.finditer(r"\binline\b[^;{}()]*?\b(\w+)\s*\(([^{};]*?)\)\s*\{", code):
+        params = _split(m[2])
+        expanded, seen = [], 0
+        while params:
+            p = params.pop(0)
+            if p in macros and seen < 64:          # a macro that stands for parameters
+                params = _split(macros[p]) + params
+                seen += 1
+            else:
+                expanded.append(p)
+        found[m[1]] = expanded
+    return found
+
+
+def test_the_parameter_count_sees_through_macros():
+    src = "#define ARGS int a, \\\n    int b\n#define MORE ARGS, int c\ninline void f(MORE, int d) {}\n"
+    assert helper_params(src, _macros(src)) == {"f": ["int a", "int b", "int c", "int d"]}
+
+
+def test_no_helper_takes_more_than_twelve_parameters():
+    sources = {f.name: f.read_text() for f in sorted(KERNELS.glob("*.[ch]*"))}
+    macros = {}
+    for text in sources.values():
+        macros.update(_macros(text))
+    too_many = {}
+    for name, text in sources.items():
+        for fn, params in helper_params(text, macros).items():
+            if len(params) > MAX_PARAMS:
+                too_many[f"{name} {fn}"] = len(params)
+    assert not too_many, too_many
+
+
+HEADERS = sorted(f.name for f in KERNELS.glob("*.h"))
+
+
+@pytest.fixture(scope="module")
+def device(pocl_key):
+    from ppm_engine.device import get_device
+    return get_device(pocl_key)
+
+
+@pytest.mark.parametrize("header", HEADERS)
+def test_every_header_compiles_alone(device, header):
+    """The header first and alone in a program, built with every feature and with none (a
+    specialised build): it includes what it uses, wherever it is included from."""
+    cl = pytest.importorskip("pyopencl")
+    from ppm_engine.device import kernel_dir
+    src = f'#include "{header}"\n__kernel void probe(__global int *out) {{ out[0] = 0; }}\n'
+    for defines in ([], ["-DPPM_SPECIALIZED"]):
+        try:
+            cl.Program(device.context, src).build(options=[f"-I{kernel_dir()}", *defines])
+        except cl.RuntimeError as e:
+            pytest.fail(f"{header} alone ({' '.join(defines) or 'every feature'}):\n{e}")
