@@ -411,11 +411,21 @@
 #define MAP_RANGE_SMOOTHSTEP 2
 #define MAP_RANGE_SMOOTHERSTEP 3
 
-/* Mapping types (shader_program.py MAPPING_TYPES) */
+/* Mapping and Vector Transform kinds (shader_program.py MAPPING_TYPES, MAPPING_OBJECT) */
 #define MAPPING_POINT 0
 #define MAPPING_TEXTURE 1
 #define MAPPING_VECTOR 2
 #define MAPPING_NORMAL 3
+#define MAPPING_TO_OBJECT_POINT 4
+#define MAPPING_TO_OBJECT_VECTOR 5
+#define MAPPING_TO_OBJECT_NORMAL 6
+#define MAPPING_TO_WORLD_POINT 7
+#define MAPPING_TO_WORLD_VECTOR 8
+#define MAPPING_TO_WORLD_NORMAL 9
+
+/* Clamp types (shader_program.py CLAMP_TYPES) */
+#define CLAMP_MINMAX 0
+#define CLAMP_RANGE 1
 
 /* Normal Map spaces (shader_program.py NORMAL_MAP_SPACES) */
 #define NORMAL_MAP_TANGENT 0

@@ -55,27 +55,35 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
             stack[w.y] = c.x;
             if (w.z > 1) { stack[w.y + 1] = c.y; stack[w.y + 2] = c.z; }
         } else if (SVM_HAS(SVM_GEOMETRY) && op == SVM_GEOMETRY) {
-            int what = w.z & 255;       /* (bits 8-9: at the Bump's offset 1 or 2, w.w its width) */
-            float3 v = what == 0 ? (float3)(ctx->uv, 0.0f) : what == 1 ? ctx->N
-                     : what == 2 ? ctx->Ng : what == 3 ? ctx->I
-                     : what == 5 ? ctx->generated
-                     : what == 6 ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
-                     : what == 7 ? ctx->P : what == 8 ? ctx->P_object : what == 15 ? ctx->window
-                     : what == 9 ? ctx->object[0].xyz : what == 10 ? ctx->object[1].xyz
+            /* GEOM_*; at the Bump's offset k = 1, 2: what + k GEOM_BUMP_OFFSET, w.w its width */
+            int what = w.z % GEOM_BUMP_OFFSET;
+            float3 v = what == GEOM_UV ? (float3)(ctx->uv, 0.0f) : what == GEOM_NORMAL ? ctx->N
+                     : what == GEOM_TRUE_NORMAL ? ctx->Ng : what == GEOM_INCOMING ? ctx->I
+                     : what == GEOM_GENERATED ? ctx->generated
+                     : what == GEOM_REFLECTION ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
+                     : what == GEOM_POSITION ? ctx->P : what == GEOM_OBJECT ? ctx->P_object
+                     : what == GEOM_WINDOW ? ctx->window
+                     : what == GEOM_OBJECT_LOCATION ? ctx->object[0].xyz
+                     : what == GEOM_OBJECT_COLOR ? ctx->object[1].xyz
                      : (float3)(ctx->backfacing);
             float4 x = (float4)(v, 0.0f);
-            if (what >= 16)                               /* mesh attribute k */
-                x = ctx->attr[min((what - 16) & 7, PPM_ATTRIBUTES - 1)];
-            if (what >= 24) x.x = x.w;
+            if (what >= GEOM_ATTRIBUTE)                   /* mesh attribute k */
+                x = ctx->attr[min((what - GEOM_ATTRIBUTE) & (MAX_ATTRIBUTES - 1),
+                                  PPM_ATTRIBUTES - 1)];
+            if (what >= GEOM_ATTRIBUTE_ALPHA) x.x = x.w;
 #if SVM_HAS_BUMP
-            if (w.z >= 256) x = svm_bump_input(ctx, what, (w.z >> 8) - 1, as_float(w.w), x);
+            if (w.z >= GEOM_BUMP_OFFSET)
+                x = svm_bump_input(ctx, what, w.z / GEOM_BUMP_OFFSET - 1, as_float(w.w), x);
 #endif
-            if (what == 14) {                             /* Light Path output w.w */
+            if (what == GEOM_LIGHT_PATH) {                /* Light Path output w.w */
                 stack[w.y] = path_output(ctx->path, ctx->path_length, w.w);
-            } else if (what == 4 || (what >= 11 && what <= 13) || what >= 24) {
-                stack[w.y] = what == 4 ? ctx->backfacing : what == 11 ? ctx->object[1].w
-                           : what == 12 ? ctx->object[0].w : what == 13 ? ctx->object[2].x
-                           : x.x;
+            } else if (what == GEOM_BACKFACING
+                       || (what >= GEOM_OBJECT_ALPHA && what <= GEOM_OBJECT_RANDOM)
+                       || what >= GEOM_ATTRIBUTE_ALPHA) {
+                stack[w.y] = what == GEOM_BACKFACING ? ctx->backfacing
+                           : what == GEOM_OBJECT_ALPHA ? ctx->object[1].w
+                           : what == GEOM_OBJECT_INDEX ? ctx->object[0].w
+                           : what == GEOM_OBJECT_RANDOM ? ctx->object[2].x : x.x;
             } else {
                 svm_put3(stack, w.y, x.xyz);
             }
@@ -86,20 +94,23 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
             i += 3;
             int t = w.w;
 #if SVM_OBJECT_MATRICES
-            if (t >= 4) {             /* the object's own matrices (MAPPING_OBJECT_*) */
-                const float4 *m = t < 7 ? ctx->to_object : ctx->to_world;
-                const float4 *n = t < 7 ? ctx->to_world : ctx->to_object;
-                bool normal = t == 6 || t == 9;
+            if (t >= MAPPING_TO_OBJECT_POINT) {     /* the object's own matrices */
+                bool to_object = t < MAPPING_TO_WORLD_POINT;
+                const float4 *m = to_object ? ctx->to_object : ctx->to_world;
+                const float4 *n = to_object ? ctx->to_world : ctx->to_object;
+                bool normal = t == MAPPING_TO_OBJECT_NORMAL || t == MAPPING_TO_WORLD_NORMAL;
                 r0 = normal ? (float4)(n[0].x, n[1].x, n[2].x, 0.0f) : m[0];
                 r1 = normal ? (float4)(n[0].y, n[1].y, n[2].y, 0.0f) : m[1];
                 r2 = normal ? (float4)(n[0].z, n[1].z, n[2].z, 0.0f) : m[2];
-                t = t == 4 || t == 7 ? 0 : t == 5 || t == 8 ? 2 : 3;
+                t = t == MAPPING_TO_OBJECT_POINT || t == MAPPING_TO_WORLD_POINT ? MAPPING_POINT
+                  : t == MAPPING_TO_OBJECT_VECTOR || t == MAPPING_TO_WORLD_VECTOR ? MAPPING_VECTOR
+                  : MAPPING_NORMAL;
             }
 #endif
-            float4 v = (float4)(svm_get3(stack, w.z), t == 0 ? 1.0f : 0.0f);
-            if (t == 1) v.w = 1.0f;
+            float4 v = (float4)(svm_get3(stack, w.z), t == MAPPING_POINT ? 1.0f : 0.0f);
+            if (t == MAPPING_TEXTURE) v.w = 1.0f;
             float3 o = (float3)(dot(r0, v), dot(r1, v), dot(r2, v));
-            if (t == 3) o = svm_safe_normalize(o);
+            if (t == MAPPING_NORMAL) o = svm_safe_normalize(o);
             svm_put3(stack, w.y, o);
         } else if (SVM_HAS(SVM_MATH) && op == SVM_MATH) {
             int4 e = svm[i++];
@@ -136,8 +147,8 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
             svm_put3(stack, w.y, r);
         } else if (SVM_HAS(SVM_COLOR_CONVERT) && op == SVM_COLOR_CONVERT) {
             float3 c = svm_get3(stack, w.z);
-            c = w.w == 0 ? rgb_to_hsv(c) : w.w == 1 ? hsv_to_rgb(c)
-              : w.w == 2 ? rgb_to_hsl(c) : hsl_to_rgb(c);
+            c = w.w == COLOR_RGB_TO_HSV ? rgb_to_hsv(c) : w.w == COLOR_HSV_TO_RGB ? hsv_to_rgb(c)
+              : w.w == COLOR_RGB_TO_HSL ? rgb_to_hsl(c) : hsl_to_rgb(c);
             svm_put3(stack, w.y, c);
         } else if (SVM_HAS(SVM_INVERT) && op == SVM_INVERT) {
             float3 c = svm_get3(stack, w.w);
@@ -159,7 +170,7 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
         } else if (SVM_HAS(SVM_CLAMP) && op == SVM_CLAMP) {
             int4 e = svm[i++];
             float lo = stack[w.w], hi = stack[e.x];
-            if (e.y == 1 && lo > hi) { float t = lo; lo = hi; hi = t; }
+            if (e.y == CLAMP_RANGE && lo > hi) { float t = lo; lo = hi; hi = t; }
             stack[w.y] = fmin(fmax(stack[w.z], lo), hi);
         } else if (SVM_HAS(SVM_MAP_RANGE) && op == SVM_MAP_RANGE) {
             int4 e = svm[i], f = svm[i + 1];
@@ -171,7 +182,7 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
             __global const int4 *t = svm + i + 2;
             i += 2 + w.w;
             float lo = as_float(e.z), hi = as_float(e.w), fac = stack[g.x];
-            if (e.x == 0) {                                 /* ramp, float curve */
+            if (e.x == TABLE_SCALAR) {                      /* ramp, float curve */
                 float4 r = svm_table(t, w.w, stack[w.z], lo, hi, e.y);
                 svm_put3(stack, w.y, r.xyz);
                 if (fac != 1.0f) stack[w.y] = mix(stack[w.z], r.x, fac);

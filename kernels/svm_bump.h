@@ -66,15 +66,18 @@ inline void svm_footprint_offsets(SvmContext *cx, const Scene *scene, int p, uin
  * normal interpolated there, as Cycles) at offset k of the footprint, scaled by the filter
  * width fw */
 inline float4 svm_bump_input(const SvmContext *cx, int what, int k, float fw, float4 x) {
-    if (what == 1) {
+    if (what == GEOM_NORMAL) {
         float3 n = cx->n_smooth + fw * cx->dn[k];
         return dot(n, n) > 0.0f ? (float4)(normalize(n), 0.0f) : x;
     }
-    float3 d = what == 0 ? (float3)(cx->duv[k], 0.0f) : what == 5 ? cx->dgenerated[k]
-             : what == 7 ? cx->dP[k] : what == 8 ? cx->dP_object[k] : (float3)(0.0f);
-    if (what >= 16) {
-        float4 da = cx->dattr[k][min((what - 16) & 7, PPM_ATTRIBUTES - 1)];
-        return what >= 24 ? (float4)(x.x + fw * da.w, 0.0f, 0.0f, 0.0f) : x + fw * da;
+    float3 d = what == GEOM_UV ? (float3)(cx->duv[k], 0.0f)
+             : what == GEOM_GENERATED ? cx->dgenerated[k] : what == GEOM_POSITION ? cx->dP[k]
+             : what == GEOM_OBJECT ? cx->dP_object[k] : (float3)(0.0f);
+    if (what >= GEOM_ATTRIBUTE) {
+        float4 da = cx->dattr[k][min((what - GEOM_ATTRIBUTE) & (MAX_ATTRIBUTES - 1),
+                                     PPM_ATTRIBUTES - 1)];
+        return what >= GEOM_ATTRIBUTE_ALPHA ? (float4)(x.x + fw * da.w, 0.0f, 0.0f, 0.0f)
+                                            : x + fw * da;
     }
     return (float4)(x.xyz + fw * d, x.w);
 }

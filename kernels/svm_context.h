@@ -145,15 +145,15 @@ inline void svm_corner_data(SvmContext *cx, const Scene *scene, int p, uint tri,
 }
 
 /* Cycles' Normal Map node (learnt from its svm_node_normal_map): the colour's tangent-space
- * normal (space 0) in the frame of the UV tangent, the interpolated normal and their
- * bitangent, the strength applied in tangent space; or a world-space normal (spaces 1-4:
+ * normal (NORMAL_MAP_TANGENT) in the frame of the UV tangent, the interpolated normal and their
+ * bitangent, the strength applied in tangent space; or a world-space normal (the other spaces:
  * object and world, Blender's object and world with y and z negated; object space through
  * the object's inverse transpose) interpolated from N by the strength.  On the
  * viewer's side; N itself where the result is degenerate or no tangent exists. */
 inline float3 svm_normal_map(const SvmContext *cx, int space, float3 color, float strength) {
     float3 c = 2.0f * color - 1.0f, N;
     bool back = cx->backfacing > 0.0f;
-    if (space == 0) {
+    if (space == NORMAL_MAP_TANGENT) {
         float3 T = cx->tangent.xyz;
         if (!(dot(T, T) > 0.0f)) return cx->N;
         float3 n = back ? -cx->N : cx->N;
@@ -163,17 +163,17 @@ inline float3 svm_normal_map(const SvmContext *cx, int space, float3 color, floa
         float3 B = (cx->tangent.w < 0.0f ? -1.0f : 1.0f) * cross(n, T);
         N = svm_safe_normalize(c.x * T + c.y * B + c.z * n);
     } else {
-        if (space >= 3) c.yz = -c.yz;
+        if (space == NORMAL_MAP_BLENDER_OBJECT || space == NORMAL_MAP_BLENDER_WORLD) c.yz = -c.yz;
         N = svm_safe_normalize(c);
 #if SVM_OBJECT_MATRICES
-        /* object space (1, 3): to world by the inverse transpose of the object's matrix */
-        if (space == 1 || space == 3)
+        /* object space: to world by the inverse transpose of the object's matrix */
+        if (space == NORMAL_MAP_OBJECT || space == NORMAL_MAP_BLENDER_OBJECT)
             N = svm_safe_normalize(N.x * cx->to_object[0].xyz + N.y * cx->to_object[1].xyz
                                    + N.z * cx->to_object[2].xyz);
 #endif
     }
     if (back) N = -N;
-    if (space != 0 && strength != 1.0f)
+    if (space != NORMAL_MAP_TANGENT && strength != 1.0f)
         N = svm_safe_normalize(cx->N + (N - cx->N) * fmax(strength, 0.0f));
     return (dot(N, N) > 0.0f && all(isfinite(N))) ? N : cx->N;
 }

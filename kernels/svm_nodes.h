@@ -4,9 +4,9 @@
 #include "svm_util.h"
 
 /* The arithmetic of the value nodes, as Cycles evaluates them (its kernel/svm/math_util.h,
- * mix.h, util/color.h: learnt from there, written here); op numbers mirror
- * ppm_engine/shader_program.py (MATH_OPS, VMATH_OPS, MIX_OPS), which folds constants with the
- * same formulas. */
+ * mix.h, util/color.h: learnt from there, written here); the operations are shared.h's
+ * MATH_*, VMATH_*, MIX_* (ppm_engine/shader_program.py MATH_OPS, VMATH_OPS, MIX_OPS, which
+ * folds constants with the same formulas). */
 
 inline float svm_safe_div(float a, float b) { return b != 0.0f ? a / b : 0.0f; }
 inline float svm_safe_mod(float a, float b) { return b != 0.0f ? fmod(a, b) : 0.0f; }
@@ -35,47 +35,47 @@ inline float svm_sign(float a) { return a == 0.0f ? 0.0f : copysign(1.0f, a); }
 
 inline float svm_math(int op, float a, float b, float c) {
     switch (op) {
-    case 0: return a + b;
-    case 1: return a - b;
-    case 2: return a * b;
-    case 3: return svm_safe_div(a, b);
-    case 4: return a * b + c;
-    case 5: return svm_safe_pow(a, b);
-    case 6: return (a > 0.0f && b > 0.0f && b != 1.0f) ? log(a) / log(b) : 0.0f;
-    case 7: return a > 0.0f ? sqrt(a) : 0.0f;
-    case 8: return a > 0.0f ? 1.0f / sqrt(a) : 0.0f;
-    case 9: return fabs(a);
-    case 10: return exp(a);
-    case 11: return fmin(a, b);
-    case 12: return fmax(a, b);
-    case 13: return a < b ? 1.0f : 0.0f;
-    case 14: return a > b ? 1.0f : 0.0f;
-    case 15: return svm_sign(a);
-    case 16: return (a == b || fabs(a - b) <= fmax(c, FLT_EPSILON)) ? 1.0f : 0.0f;
-    case 17: return svm_smoothmin(a, b, c);
-    case 18: return -svm_smoothmin(-a, -b, c);
-    case 19: return floor(a + 0.5f);
-    case 20: return floor(a);
-    case 21: return ceil(a);
-    case 22: return trunc(a);
-    case 23: return a - floor(a);
-    case 24: return svm_safe_mod(a, b);
-    case 25: return b != 0.0f ? a - floor(a / b) * b : 0.0f;
-    case 26: return svm_wrap(a, b, c);
-    case 27: return floor(svm_safe_div(a, b)) * b;
-    case 28: return svm_pingpong(a, b);
-    case 29: return sin(a);
-    case 30: return cos(a);
-    case 31: return tan(a);
-    case 32: return asin(clamp(a, -1.0f, 1.0f));
-    case 33: return acos(clamp(a, -1.0f, 1.0f));
-    case 34: return atan(a);
-    case 35: return (a == 0.0f && b == 0.0f) ? 0.0f : atan2(a, b);
-    case 36: return sinh(a);
-    case 37: return cosh(a);
-    case 38: return tanh(a);
-    case 39: return a * (PPM_PI / 180.0f);
-    case 40: return a * (180.0f / PPM_PI);
+    case MATH_ADD: return a + b;
+    case MATH_SUBTRACT: return a - b;
+    case MATH_MULTIPLY: return a * b;
+    case MATH_DIVIDE: return svm_safe_div(a, b);
+    case MATH_MULTIPLY_ADD: return a * b + c;
+    case MATH_POWER: return svm_safe_pow(a, b);
+    case MATH_LOGARITHM: return (a > 0.0f && b > 0.0f && b != 1.0f) ? log(a) / log(b) : 0.0f;
+    case MATH_SQRT: return a > 0.0f ? sqrt(a) : 0.0f;
+    case MATH_INVERSE_SQRT: return a > 0.0f ? 1.0f / sqrt(a) : 0.0f;
+    case MATH_ABSOLUTE: return fabs(a);
+    case MATH_EXPONENT: return exp(a);
+    case MATH_MINIMUM: return fmin(a, b);
+    case MATH_MAXIMUM: return fmax(a, b);
+    case MATH_LESS_THAN: return a < b ? 1.0f : 0.0f;
+    case MATH_GREATER_THAN: return a > b ? 1.0f : 0.0f;
+    case MATH_SIGN: return svm_sign(a);
+    case MATH_COMPARE: return (a == b || fabs(a - b) <= fmax(c, FLT_EPSILON)) ? 1.0f : 0.0f;
+    case MATH_SMOOTH_MIN: return svm_smoothmin(a, b, c);
+    case MATH_SMOOTH_MAX: return -svm_smoothmin(-a, -b, c);
+    case MATH_ROUND: return floor(a + 0.5f);
+    case MATH_FLOOR: return floor(a);
+    case MATH_CEIL: return ceil(a);
+    case MATH_TRUNC: return trunc(a);
+    case MATH_FRACT: return a - floor(a);
+    case MATH_MODULO: return svm_safe_mod(a, b);
+    case MATH_FLOORED_MODULO: return b != 0.0f ? a - floor(a / b) * b : 0.0f;
+    case MATH_WRAP: return svm_wrap(a, b, c);
+    case MATH_SNAP: return floor(svm_safe_div(a, b)) * b;
+    case MATH_PINGPONG: return svm_pingpong(a, b);
+    case MATH_SINE: return sin(a);
+    case MATH_COSINE: return cos(a);
+    case MATH_TANGENT: return tan(a);
+    case MATH_ARCSINE: return asin(clamp(a, -1.0f, 1.0f));
+    case MATH_ARCCOSINE: return acos(clamp(a, -1.0f, 1.0f));
+    case MATH_ARCTANGENT: return atan(a);
+    case MATH_ARCTAN2: return (a == 0.0f && b == 0.0f) ? 0.0f : atan2(a, b);
+    case MATH_SINH: return sinh(a);
+    case MATH_COSH: return cosh(a);
+    case MATH_TANH: return tanh(a);
+    case MATH_RADIANS: return a * (PPM_PI / 180.0f);
+    case MATH_DEGREES: return a * (180.0f / PPM_PI);
     }
     return 0.0f;
 }
@@ -88,39 +88,39 @@ inline float3 svm_safe_div3(float3 a, float3 b) {
 inline float3 svm_vector_math(int op, float3 a, float3 b, float3 c, float s, float *value) {
     *value = 0.0f;
     switch (op) {
-    case 0: return a + b;
-    case 1: return a - b;
-    case 2: return a * b;
-    case 3: return svm_safe_div3(a, b);
-    case 4: return a * b + c;
-    case 5: return cross(a, b);
-    case 6: { float l = dot(b, b); return l != 0.0f ? b * (dot(a, b) / l) : (float3)(0.0f); }
-    case 7: { float3 n = svm_safe_normalize(b); return a - 2.0f * dot(n, a) * n; }
-    case 8: {                                  /* refract a through normal b, index s */
+    case VMATH_ADD: return a + b;
+    case VMATH_SUBTRACT: return a - b;
+    case VMATH_MULTIPLY: return a * b;
+    case VMATH_DIVIDE: return svm_safe_div3(a, b);
+    case VMATH_MULTIPLY_ADD: return a * b + c;
+    case VMATH_CROSS_PRODUCT: return cross(a, b);
+    case VMATH_PROJECT: { float l = dot(b, b); return l != 0.0f ? b * (dot(a, b) / l) : (float3)(0.0f); }
+    case VMATH_REFLECT: { float3 n = svm_safe_normalize(b); return a - 2.0f * dot(n, a) * n; }
+    case VMATH_REFRACT: {                                  /* refract a through normal b, index s */
         float3 n = svm_safe_normalize(b);
         float d = dot(n, a), k = 1.0f - s * s * (1.0f - d * d);
         return k < 0.0f ? (float3)(0.0f) : s * a - (s * d + sqrt(k)) * n;
     }
-    case 9: return dot(c, b) < 0.0f ? a : -a;
-    case 10: *value = dot(a, b); return (float3)(0.0f);
-    case 11: *value = distance(a, b); return (float3)(0.0f);
-    case 12: *value = length(a); return (float3)(0.0f);
-    case 13: return a * s;
-    case 14: return svm_safe_normalize(a);
-    case 15: return fabs(a);
-    case 16: return (float3)(svm_safe_pow(a.x, b.x), svm_safe_pow(a.y, b.y), svm_safe_pow(a.z, b.z));
-    case 17: return (float3)(svm_sign(a.x), svm_sign(a.y), svm_sign(a.z));
-    case 18: return fmin(a, b);
-    case 19: return fmax(a, b);
-    case 20: return floor(a);
-    case 21: return ceil(a);
-    case 22: return a - floor(a);
-    case 23: return (float3)(svm_safe_mod(a.x, b.x), svm_safe_mod(a.y, b.y), svm_safe_mod(a.z, b.z));
-    case 24: return (float3)(svm_wrap(a.x, b.x, c.x), svm_wrap(a.y, b.y, c.y), svm_wrap(a.z, b.z, c.z));
-    case 25: return floor(svm_safe_div3(a, b)) * b;
-    case 26: return sin(a);
-    case 27: return cos(a);
-    case 28: return tan(a);
+    case VMATH_FACEFORWARD: return dot(c, b) < 0.0f ? a : -a;
+    case VMATH_DOT_PRODUCT: *value = dot(a, b); return (float3)(0.0f);
+    case VMATH_DISTANCE: *value = distance(a, b); return (float3)(0.0f);
+    case VMATH_LENGTH: *value = length(a); return (float3)(0.0f);
+    case VMATH_SCALE: return a * s;
+    case VMATH_NORMALIZE: return svm_safe_normalize(a);
+    case VMATH_ABSOLUTE: return fabs(a);
+    case VMATH_POWER: return (float3)(svm_safe_pow(a.x, b.x), svm_safe_pow(a.y, b.y), svm_safe_pow(a.z, b.z));
+    case VMATH_SIGN: return (float3)(svm_sign(a.x), svm_sign(a.y), svm_sign(a.z));
+    case VMATH_MINIMUM: return fmin(a, b);
+    case VMATH_MAXIMUM: return fmax(a, b);
+    case VMATH_FLOOR: return floor(a);
+    case VMATH_CEIL: return ceil(a);
+    case VMATH_FRACTION: return a - floor(a);
+    case VMATH_MODULO: return (float3)(svm_safe_mod(a.x, b.x), svm_safe_mod(a.y, b.y), svm_safe_mod(a.z, b.z));
+    case VMATH_WRAP: return (float3)(svm_wrap(a.x, b.x, c.x), svm_wrap(a.y, b.y, c.y), svm_wrap(a.z, b.z, c.z));
+    case VMATH_SNAP: return floor(svm_safe_div3(a, b)) * b;
+    case VMATH_SINE: return sin(a);
+    case VMATH_COSINE: return cos(a);
+    case VMATH_TANGENT: return tan(a);
     }
     return (float3)(0.0f);
 }
@@ -180,37 +180,37 @@ inline float3 svm_mix_color(int mode, float t, float3 a, float3 b) {
     float tm = 1.0f - t;
     float3 o = a;
     switch (mode) {
-    case 0: return mix(a, b, t);
-    case 1: return a + t * b;
-    case 2: return a * (tm + t * b);
-    case 3: return a - t * b;
-    case 4: return 1.0f - (tm + t * (1.0f - b)) * (1.0f - a);
-    case 5:
+    case MIX_MIX: return mix(a, b, t);
+    case MIX_ADD: return a + t * b;
+    case MIX_MULTIPLY: return a * (tm + t * b);
+    case MIX_SUBTRACT: return a - t * b;
+    case MIX_SCREEN: return 1.0f - (tm + t * (1.0f - b)) * (1.0f - a);
+    case MIX_DIVIDE:
         o.x = b.x != 0.0f ? tm * a.x + t * a.x / b.x : a.x;
         o.y = b.y != 0.0f ? tm * a.y + t * a.y / b.y : a.y;
         o.z = b.z != 0.0f ? tm * a.z + t * a.z / b.z : a.z;
         return o;
-    case 6: return mix(a, fabs(a - b), t);
-    case 7: return fmax(mix(a, a + b - 2.0f * a * b, t), 0.0f);
-    case 8: return mix(a, fmin(a, b), t);
-    case 9: return mix(a, fmax(a, b), t);
-    case 10:
+    case MIX_DIFFERENCE: return mix(a, fabs(a - b), t);
+    case MIX_EXCLUSION: return fmax(mix(a, a + b - 2.0f * a * b, t), 0.0f);
+    case MIX_DARKEN: return mix(a, fmin(a, b), t);
+    case MIX_LIGHTEN: return mix(a, fmax(a, b), t);
+    case MIX_OVERLAY:
         o = select(1.0f - (tm + 2.0f * t * (1.0f - b)) * (1.0f - a), a * (tm + 2.0f * t * b),
                    isless(a, (float3)(0.5f)));
         return o;
-    case 11: {
+    case MIX_DODGE: {
         float3 d = 1.0f - t * b;
         float3 q = select(a / d, (float3)(1.0f), islessequal(d, (float3)(0.0f)));
         q = fmin(q, 1.0f);
         return select(q, a, isequal(a, (float3)(0.0f)));
     }
-    case 12: {
+    case MIX_BURN: {
         float3 d = tm + t * b;
         float3 q = 1.0f - (1.0f - a) / d;
         q = clamp(q, 0.0f, 1.0f);
         return select(q, (float3)(0.0f), islessequal(d, (float3)(0.0f)));
     }
-    case 13: {
+    case MIX_HUE: {
         float3 hb = rgb_to_hsv(b);
         if (hb.y != 0.0f) {
             float3 ha = rgb_to_hsv(a);
@@ -219,7 +219,7 @@ inline float3 svm_mix_color(int mode, float t, float3 a, float3 b) {
         }
         return a;
     }
-    case 14: {
+    case MIX_SATURATION: {
         float3 ha = rgb_to_hsv(a);
         if (ha.y != 0.0f) {
             float3 hb = rgb_to_hsv(b);
@@ -228,12 +228,12 @@ inline float3 svm_mix_color(int mode, float t, float3 a, float3 b) {
         }
         return a;
     }
-    case 15: {
+    case MIX_VALUE: {
         float3 ha = rgb_to_hsv(a), hb = rgb_to_hsv(b);
         ha.z = tm * ha.z + t * hb.z;
         return hsv_to_rgb(ha);
     }
-    case 16: {
+    case MIX_COLOR: {
         float3 hb = rgb_to_hsv(b);
         if (hb.y != 0.0f) {
             float3 ha = rgb_to_hsv(a);
@@ -243,11 +243,11 @@ inline float3 svm_mix_color(int mode, float t, float3 a, float3 b) {
         }
         return a;
     }
-    case 17: {
+    case MIX_SOFT_LIGHT: {
         float3 scr = 1.0f - (1.0f - b) * (1.0f - a);
         return tm * a + t * ((1.0f - a) * b * a + a * scr);
     }
-    case 18: return a + t * (2.0f * b + -1.0f);
+    case MIX_LINEAR_LIGHT: return a + t * (2.0f * b + -1.0f);
     }
     return a;
 }
@@ -266,15 +266,15 @@ inline float svm_map_range(int type, bool clamp_result, float v, float fmin_, fl
                                                          : clamp(0.0f, tmax, tmin)) : 0.0f;
     float f = 0.0f;
     {
-        if (type == 0) {
+        if (type == MAP_RANGE_LINEAR) {
             f = (v - fmin_) / (fmax_ - fmin_);
-        } else if (type == 1) {
+        } else if (type == MAP_RANGE_STEPPED) {
             f = (v - fmin_) / (fmax_ - fmin_);
             f = steps > 0.0f ? floor(f * (steps + 1.0f)) / steps : 0.0f;
-        } else if (type == 2) {
+        } else if (type == MAP_RANGE_SMOOTHSTEP) {
             f = fmin_ > fmax_ ? 1.0f - svm_smoothstep(fmax_, fmin_, v)
                               : svm_smoothstep(fmin_, fmax_, v);
-        } else {
+        } else {                                      /* MAP_RANGE_SMOOTHERSTEP */
             float t = fmin_ > fmax_ ? clamp((v - fmax_) / (fmin_ - fmax_), 0.0f, 1.0f)
                                     : clamp((v - fmin_) / (fmax_ - fmin_), 0.0f, 1.0f);
             t = t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f);

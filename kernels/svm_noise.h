@@ -222,15 +222,17 @@ inline float tex_ridged_multi_fractal(int dim, float4 p, float detail, float rou
     return value;
 }
 
-/* the Noise Texture's types (shader_program.NOISE_TYPES) */
+/* the Noise Texture's types (NOISE_*) */
 inline float tex_noise_select(int dim, int type, float4 p, float detail, float rough, float lacun,
                               float offset, float gain, bool normalize) {
     switch (type) {
-    case 1: return tex_multi_fractal(dim, p, detail, rough, lacun);
-    case 2: return tex_hybrid_multi_fractal(dim, p, detail, rough, lacun, offset, gain);
-    case 3: return tex_ridged_multi_fractal(dim, p, detail, rough, lacun, offset, gain);
-    case 4: return tex_hetero_terrain(dim, p, detail, rough, lacun, offset);
-    default: return tex_fbm(dim, p, detail, rough, lacun, normalize);
+    case NOISE_MULTIFRACTAL: return tex_multi_fractal(dim, p, detail, rough, lacun);
+    case NOISE_HYBRID_MULTIFRACTAL:
+        return tex_hybrid_multi_fractal(dim, p, detail, rough, lacun, offset, gain);
+    case NOISE_RIDGED_MULTIFRACTAL:
+        return tex_ridged_multi_fractal(dim, p, detail, rough, lacun, offset, gain);
+    case NOISE_HETERO_TERRAIN: return tex_hetero_terrain(dim, p, detail, rough, lacun, offset);
+    default: return tex_fbm(dim, p, detail, rough, lacun, normalize);       /* NOISE_FBM */
     }
 }
 

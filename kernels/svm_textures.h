@@ -30,17 +30,20 @@ inline float tex_checker(float3 p) {
     return ((xi % 2 == yi % 2) == (zi % 2)) ? 1.0f : 0.0f;
 }
 
-/* Gradient (shader_program.GRADIENT_TYPES), unclamped */
+/* Gradient (GRADIENT_*), unclamped */
 inline float tex_gradient(float3 p, int type) {
     switch (type) {
-    case 0: return p.x;
-    case 1: { float r = fmax(p.x, 0.0f); return r * r; }
-    case 2: { float r = clamp(p.x, 0.0f, 1.0f), t = r * r; return 3.0f * t - 2.0f * t * r; }
-    case 3: return (p.x + p.y) * 0.5f;
-    case 4: return atan2(p.y, p.x) / (2.0f * M_PI_F) + 0.5f;
-    default: {
+    case GRADIENT_LINEAR: return p.x;
+    case GRADIENT_QUADRATIC: { float r = fmax(p.x, 0.0f); return r * r; }
+    case GRADIENT_EASING: {
+        float r = clamp(p.x, 0.0f, 1.0f), t = r * r;
+        return 3.0f * t - 2.0f * t * r;
+    }
+    case GRADIENT_DIAGONAL: return (p.x + p.y) * 0.5f;
+    case GRADIENT_RADIAL: return atan2(p.y, p.x) / (2.0f * M_PI_F) + 0.5f;
+    default: {                             /* GRADIENT_QUADRATIC_SPHERE, GRADIENT_SPHERICAL */
         float r = fmax(0.999999f - sqrt(dot(p, p)), 0.0f);
-        return type == 5 ? r * r : r;
+        return type == GRADIENT_QUADRATIC_SPHERE ? r * r : r;
     }
     }
 }
@@ -72,19 +75,20 @@ inline float3 tex_magic(float3 p, float scale, int depth, float dist) {
     return (float3)(0.5f - x, 0.5f - y, 0.5f - z);
 }
 
-/* Wave: bands or rings (shader_program.WAVE_*), distorted by fBm noise */
+/* Wave: bands or rings, distorted by fBm noise; opt = (WAVE_TYPE_*, WAVE_BANDS_*,
+ * WAVE_RINGS_*, WAVE_PROFILE_*) */
 inline float tex_wave(int4 opt, float3 p, float dist, float detail, float dscale, float drough,
                       float phase) {
     p = (p + 0.000001f) * 0.999999f;
     float n;
-    if (opt.x == 0) {
-        n = opt.y == 0 ? p.x * 20.0f : opt.y == 1 ? p.y * 20.0f : opt.y == 2 ? p.z * 20.0f
-          : (p.x + p.y + p.z) * 10.0f;
+    if (opt.x == WAVE_TYPE_BANDS) {
+        n = opt.y == WAVE_BANDS_X ? p.x * 20.0f : opt.y == WAVE_BANDS_Y ? p.y * 20.0f
+          : opt.y == WAVE_BANDS_Z ? p.z * 20.0f : (p.x + p.y + p.z) * 10.0f;
     } else {
         float3 r = p;
-        if (opt.z == 0) r.x = 0.0f;
-        else if (opt.z == 1) r.y = 0.0f;
-        else if (opt.z == 2) r.z = 0.0f;
+        if (opt.z == WAVE_RINGS_X) r.x = 0.0f;
+        else if (opt.z == WAVE_RINGS_Y) r.y = 0.0f;
+        else if (opt.z == WAVE_RINGS_Z) r.z = 0.0f;
         n = sqrt(dot(r, r)) * 20.0f;
     }
     n += phase;
@@ -93,9 +97,9 @@ inline float tex_wave(int4 opt, float3 p, float dist, float detail, float dscale
         detail = fmin(detail, 15.0f);        /* (Cycles' bound for every other detail) */
         n += dist * (tex_fbm(3, q, detail, drough, 2.0f, true) * 2.0f - 1.0f);
     }
-    if (opt.w == 0) return 0.5f + 0.5f * sin(n - M_PI_2_F);
+    if (opt.w == WAVE_PROFILE_SIN) return 0.5f + 0.5f * sin(n - M_PI_2_F);
     n /= 2.0f * M_PI_F;
-    if (opt.w == 1) return n - floor(n);
+    if (opt.w == WAVE_PROFILE_SAW) return n - floor(n);
     return fabs(n - floor(n + 0.5f)) * 2.0f;
 }
 

@@ -25,16 +25,16 @@ inline float4 tex_vmask(int dim, float4 p) {
 inline float tex_vdist(const TexVoronoi *v, float4 a, float4 b, bool bound) {
     float4 d = fabs(a - b);
     switch (v->metric) {
-    case 1: return d.x + d.y + d.z + d.w;
-    case 2: return fmax(fmax(d.x, d.y), fmax(d.z, d.w));
-    case 3: {
+    case VORONOI_MANHATTAN: return d.x + d.y + d.z + d.w;
+    case VORONOI_CHEBYCHEV: return fmax(fmax(d.x, d.y), fmax(d.z, d.w));
+    case VORONOI_MINKOWSKI: {
         float e = v->exponent, s = pow(d.x, e);
         if (v->dim >= 2) s += pow(d.y, e);
         if (v->dim >= 3) s += pow(d.z, e);
         if (v->dim >= 4) s += pow(d.w, e);
         return bound ? s : pow(s, 1.0f / e);
     }
-    default: {
+    default: {                                               /* VORONOI_EUCLIDEAN */
         float s = dot(d, d);
         return bound ? s : sqrt(s);
     }

@@ -150,6 +150,11 @@ MIX_OPS = ("MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN", "DIVIDE", "DIFFERENCE
 MIX = {name: i for i, name in enumerate(MIX_OPS)}
 MAP_RANGE_TYPES = {"LINEAR": 0, "STEPPED": 1, "SMOOTHSTEP": 2, "SMOOTHERSTEP": 3}
 MAPPING_TYPES = {"POINT": 0, "TEXTURE": 1, "VECTOR": 2, "NORMAL": 3}
+# SVM_MAPPING's kinds past MAPPING_TYPES: by the shading object's own matrices (kernels/svm.h),
+# a point, a direction or a normal into the object's space or out of it to the world
+MAPPING_OBJECT = {"TO_OBJECT_POINT": 4, "TO_OBJECT_VECTOR": 5, "TO_OBJECT_NORMAL": 6,
+                  "TO_WORLD_POINT": 7, "TO_WORLD_VECTOR": 8, "TO_WORLD_NORMAL": 9}
+CLAMP_TYPES = {"MINMAX": 0, "RANGE": 1}
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
                      "BLENDER_WORLD": 4}
 # texture node options (Blender's enum names; kernels/svm_textures.h)

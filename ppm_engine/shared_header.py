@@ -214,8 +214,11 @@ def generate() -> str:
                     _prefixed("MIX_", sp.MIX_OPS)),
             _family("Map Range types (shader_program.py MAP_RANGE_TYPES)",
                     _prefixed("MAP_RANGE_", sp.MAP_RANGE_TYPES)),
-            _family("Mapping types (shader_program.py MAPPING_TYPES)",
-                    _prefixed("MAPPING_", sp.MAPPING_TYPES)),
+            _family("Mapping and Vector Transform kinds (shader_program.py MAPPING_TYPES, "
+                    "MAPPING_OBJECT)", _prefixed("MAPPING_", sp.MAPPING_TYPES)
+                    + _prefixed("MAPPING_", sp.MAPPING_OBJECT)),
+            _family("Clamp types (shader_program.py CLAMP_TYPES)",
+                    _prefixed("CLAMP_", sp.CLAMP_TYPES)),
             _family("Normal Map spaces (shader_program.py NORMAL_MAP_SPACES)",
                     _prefixed("NORMAL_MAP_", sp.NORMAL_MAP_SPACES)),
             _family("image projections (shader_program.py IMAGE_PROJECTIONS)",

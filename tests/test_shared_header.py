@@ -94,3 +94,11 @@ def test_the_features_the_host_sets_are_the_kernels_flags():
     kernels = "\n".join(f.read_text() for f in KERNELS.glob("*.[ch]*")
                         if f.name != shared_header.HEADER)
     assert not [f for f in FEATURES if not re.search(rf"\b{f}\b", kernels)]
+
+
+def test_switches_over_shared_codes_name_them():
+    """A switch of the kernels picks by a shared.h name (MATH_*, MIX_*, NOISE_*...), never by
+    a bare number that would silently mean another operation when a Python table changes."""
+    bare = [f"{f.name}: {m[0]}" for f in sorted(KERNELS.glob("*.[ch]*"))
+            for m in re.finditer(r"\bcase\s+-?\d+\s*:", f.read_text())]
+    assert not bare, bare

@@ -10,7 +10,9 @@ from ..shader_program import (GEOM_BACKFACING, GEOM_INCOMING, GEOM_LIGHT_PATH, G
                               GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT_COLOR, GEOM_OBJECT_INDEX,
                               GEOM_OBJECT_LOCATION, GEOM_OBJECT_RANDOM, GEOM_POSITION,
                               GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, GEOM_WINDOW,
-                              LIGHT_PATH_OUTPUTS, NORMAL_MAP_SPACES, PROGRAM_OBJECT,
+                              LIGHT_PATH_OUTPUTS, MAPPING_OBJECT, MAPPING_TYPES,
+                              NORMAL_MAP_SPACES,
+                              PROGRAM_OBJECT,
                               PROGRAM_TANGENTS, SVM_GEOMETRY, SVM_MAPPING, SVM_NORMAL_MAP, f2i)
 from .shader_values import Val, width
 
@@ -25,14 +27,14 @@ def _rgb(c, node, out, ctx):
 
 def _transform(c, v: Val, m, kind: int) -> Val:
     """An SVM_MAPPING op: ``v`` by the rows of the 3x4 (or 4x4) matrix ``m`` as a point (kind
-    0), a direction (2) or a normal (3: normalised); kinds 4-9 use the shading object's own
-    matrices (MAPPING_OBJECT: point, direction, normal to object space, then to world)."""
+    0), a direction (2) or a normal (3: normalised); the MAPPING_OBJECT kinds use the shading
+    object's own matrices (point, direction, normal to object space, then to world)."""
     s, o = c.slot(v), c.alloc(3)
     c.ops.append((SVM_MAPPING, o, s, kind))
     rows = np.zeros((3, 4)) if m is None else np.asarray(m, np.float64)[:3]
     for r in range(3):
         c.ops.append(tuple(f2i(float(x)) for x in rows[r]))
-    if kind >= 4:
+    if kind in MAPPING_OBJECT.values():
         c.flags |= PROGRAM_OBJECT
     return Val(3, slot=o)
 
@@ -54,19 +56,19 @@ def _camera(c, to_camera: bool, kind: int, node):
 def _vector_transform(c, node, out, ctx):
     """Vector Transform between world, object and camera space, as Cycles chains them."""
     v = c.inp(node, "Vector", ctx, 3)
-    kind = {"POINT": 0, "VECTOR": 2, "NORMAL": 3}.get(node.vector_type, 0)
+    kind = MAPPING_TYPES.get(node.vector_type, MAPPING_TYPES["POINT"])   # (no TEXTURE here)
     frm, to = node.convert_from, node.convert_to
-    obj = {0: 0, 2: 1, 3: 2}[kind]
+    obj = {MAPPING_TYPES[k]: i for i, k in enumerate(("POINT", "VECTOR", "NORMAL"))}[kind]
     if frm == "WORLD" and to == "CAMERA":
         v = _transform(c, v, _camera(c, True, kind, node), kind)
     elif frm == "WORLD" and to == "OBJECT":
-        v = _transform(c, v, None, 4 + obj)
+        v = _transform(c, v, None, MAPPING_OBJECT["TO_OBJECT_POINT"] + obj)
     elif frm == "CAMERA" and to in ("WORLD", "OBJECT"):
         v = _transform(c, v, _camera(c, False, kind, node), kind)
         if to == "OBJECT":
-            v = _transform(c, v, None, 4 + obj)
+            v = _transform(c, v, None, MAPPING_OBJECT["TO_OBJECT_POINT"] + obj)
     elif frm == "OBJECT" and to in ("WORLD", "CAMERA"):
-        v = _transform(c, v, None, 7 + obj)
+        v = _transform(c, v, None, MAPPING_OBJECT["TO_WORLD_POINT"] + obj)
         if to == "CAMERA":
             v = _transform(c, v, _camera(c, True, kind, node), kind)
     return v
@@ -87,7 +89,8 @@ def _tex_coord(c, node, out, ctx):
         inv = np.linalg.inv(np.array(node.object.matrix_world, np.float64))
         return _transform(c, c.geometry(GEOM_POSITION), inv, 0)
     if out.name == "Normal":                    # the shading normal in object space
-        return _transform(c, c.geometry(GEOM_NORMAL, moved=True), None, 6)
+        return _transform(c, c.geometry(GEOM_NORMAL, moved=True), None,
+                          MAPPING_OBJECT["TO_OBJECT_NORMAL"])
     what = {"UV": GEOM_UV, "Reflection": GEOM_REFLECTION,
             "Window": None if world else GEOM_WINDOW}.get(out.name)
     if what is None:

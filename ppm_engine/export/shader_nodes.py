@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shader_program import (COLOR_HSL_TO_RGB, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL,
+from ..shader_program import (CLAMP_TYPES, COLOR_HSL_TO_RGB, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL,
                               COLOR_RGB_TO_HSV, MAPPING_TYPES, MAP_RANGE_TYPES, MATH, MIX,
                               MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT, MIXF_SCALAR,
                               MIXF_VECTOR_FACTOR, SVM_BRIGHT_CONTRAST, SVM_CLAMP,
@@ -234,7 +234,7 @@ def _hsv(c, node, out, ctx):
 
 def _clamp(c, node, out, ctx):
     v, lo, hi = (c.inp(node, k, ctx, 1) for k in ("Value", "Min", "Max"))
-    t = 1 if node.clamp_type == "RANGE" else 0
+    t = CLAMP_TYPES.get(node.clamp_type, CLAMP_TYPES["MINMAX"])
     if v.is_const and lo.is_const and hi.is_const:
         a, b = lo.const[0], hi.const[0]
         if t == 1 and a > b:
