@@ -19,12 +19,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 IMG = ROOT / "docs" / "accuracy"
 
-from ppm_engine import analytic as A  # noqa: E402
-from ppm_engine.options import RenderOptions  # noqa: E402
-from ppm_engine.procedural import MeshBuilder, cornell_box, look_at  # noqa: E402
-from ppm_engine.renderer import Renderer  # noqa: E402
-from ppm_engine.camera_model import make_camera, perspective_extent  # noqa: E402
-from ppm_engine.scene_arrays import LIGHT_DTYPE, LIGHT_POINT  # noqa: E402
+from ppm_engine import analytic as A
+from ppm_engine.camera_model import make_camera, perspective_extent
+from ppm_engine.options import RenderOptions
+from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.renderer import Renderer
+from ppm_engine.scene_arrays import LIGHT_DTYPE, LIGHT_POINT
 
 
 def save_png(name, img, scale=None):
@@ -91,7 +91,8 @@ def main():
     m = mb.material("furnace", (rho,) * 3, emission=(Le,) * 3)
     mb.sphere((0, 0, 0), 1.0, m, 24, 12, smooth=False, inward=True)
     ext = perspective_extent(32, 32, 20, 36)
-    scene = mb.build(camera=make_camera(width=32, height=32, to_world=look_at((0, 0, 0), (1, 0.2, 0.1)),
+    scene = mb.build(camera=make_camera(width=32, height=32,
+                                        to_world=look_at((0, 0, 0), (1, 0.2, 0.1)),
                                         extent=ext[:2], clip=(0.01, 100)))
     img, secs, _ = render(scene, 400, photons_per_pass=1 << 14, max_bounces=64)
     exact = Le / (1 - rho)
@@ -160,7 +161,8 @@ slope **{slope(marks, errs):.2f}**.
     mb = MeshBuilder()
     mb.quad((0, 0, 0), (50, 0, 0), (0, 50, 0), mb.material("plane", (0.5,) * 3))
     L = np.zeros(1, LIGHT_DTYPE)
-    L["type"], L["emit"], L["position"], L["direction"] = LIGHT_POINT, 100 / (4 * np.pi), (0.3, -0.2, 1.5), (0, 0, -1)
+    L["type"], L["emit"] = LIGHT_POINT, 100 / (4 * np.pi)
+    L["position"], L["direction"] = (0.3, -0.2, 1.5), (0, 0, -1)
     from ppm_engine.scene_arrays import CAMERA_ORTHO
     scene = mb.build(camera=make_camera(type=CAMERA_ORTHO, width=W, height=W,
                                         to_world=look_at((0, 0, 10), (0, 0, 0), up=(0, 1, 0)),
@@ -189,7 +191,8 @@ the same way in `test_analytic.py`.
 
 def cycles_sections() -> str:
     """Light types and the Cornell box against Cycles, through Blender."""
-    import bpy  # noqa: F401
+    import bpy
+
     import ppm_engine
     from ppm_engine.engine import PPMRenderEngine
     if not PPMRenderEngine.is_registered:
@@ -216,7 +219,8 @@ def cycles_sections() -> str:
         ref = exr_render(tmp / "c.exr")
         C.configure_tiny(scene, key, width=32, height=32, passes=512, photons=256)
         ours = exr_render(tmp / "p.exr")
-        rows.append(f"| {case} | {ref.mean():.4f} | {ours.mean():.4f} | {(ours.mean() / ref.mean() - 1) * 100:+.2f} % |")
+        rows.append(f"| {case} | {ref.mean():.4f} | {ours.mean():.4f} | "
+                    f"{(ours.mean() / ref.mean() - 1) * 100:+.2f} % |")
     out = ["""## 5. Each Blender light type against Cycles
 
 A diffuse floor (albedo 0.5) under one light, 32×32, Cycles 2048 samples vs ours 512 passes
@@ -241,9 +245,9 @@ A diffuse floor (albedo 0.5) under one light, 32×32, Cycles 2048 samples vs our
     errs, marks = [], (10, 40, 160, 640)
     arr = cornell_box(64, 64)
     # the paper's photons, and the default (eye paths: the box has no caustics)
-    img_p, secs_p, outs_p = render(arr, max(marks), marks, photons_per_pass=1 << 16,
+    _img_p, secs_p, outs_p = render(arr, max(marks), marks, photons_per_pass=1 << 16,
                                    indirect="photons")
-    img, secs, outs = render(arr, max(marks), marks)
+    _img, secs, outs = render(arr, max(marks), marks)
     # leave out the lamp and the ceiling within 3 px of it: the lamp's edge pixels measure only
     # anti-aliasing (its radiance is 15, a third of the image's energy), and the ceiling strip
     # it lights from 1 cm away carries the light sampling's largest variance
@@ -301,8 +305,8 @@ def stochastic_section() -> str:
         imgs, phase = [], {"hash": [], "gather": []}
         ppe = []
         for seed in range(4):
-            r = Renderer(scene, RenderOptions(photons_per_pass=1 << 14, seed=seed, exact_gather=exact,
-                                              indirect="photons"))
+            r = Renderer(scene, RenderOptions(photons_per_pass=1 << 14, seed=seed,
+                                              exact_gather=exact, indirect="photons"))
             for _ in range(3):
                 r.iterate()
             for _ in range(30):

@@ -142,8 +142,9 @@ def main(argv=None) -> int:
             print(f"{path}: not found (the shared scenes are outside the repository)",
                   file=sys.stderr)
             return 2
-        _cached(a.cache, f"{name}.cycles", lambda: render_cycles(path, a.size, a.spp))
-        _cached(a.cache, f"{name}.mask", lambda: render_cycles(path, a.size, a.spp, mask=True))
+        _cached(a.cache, f"{name}.cycles", lambda p=path: render_cycles(p, a.size, a.spp))
+        _cached(a.cache, f"{name}.mask",
+                lambda p=path: render_cycles(p, a.size, a.spp, mask=True))
         if a.label:
             img = render_ours(path, a.size, a.passes)
             np.save(a.cache / f"{name}.{a.label}.npy", img)

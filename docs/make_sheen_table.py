@@ -112,6 +112,7 @@ def _scene(roughness: float, sun=None):
 def _render(roughness: float, sun=None) -> np.ndarray:
     """The value seen at the centre of each quad (N,)."""
     import bpy
+
     from ppm_engine.blender_io import read_exr, set_output
     scene, total = _scene(roughness, sun)
     with tempfile.TemporaryDirectory() as tmp:

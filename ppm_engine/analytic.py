@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .procedural import MeshBuilder, look_at
 from .camera_model import make_camera
+from .procedural import MeshBuilder, look_at
 from .scene_arrays import CAMERA_ORTHO, LIGHT_DTYPE, LIGHT_POINT
 
 ALBEDO = 0.5
@@ -16,7 +16,8 @@ ALBEDO = 0.5
 
 def _point_light(P, pos):
     L = np.zeros(1, LIGHT_DTYPE)
-    L["type"], L["emit"], L["position"], L["direction"] = LIGHT_POINT, P / (4 * np.pi), pos, (0, 0, -1)
+    L["type"], L["emit"] = LIGHT_POINT, P / (4 * np.pi)
+    L["position"], L["direction"] = pos, (0, 0, -1)
     return L
 
 
@@ -134,7 +135,8 @@ def glass_slab_radiance(W=24, absorption=(0.0, 0.0, 0.0)):
     rho = np.hypot(x - lx, y - ly)
     th = np.interp(rho, rho_tab, theta)
     dth = 1e-6
-    drho = (rho_of(th + dth) - rho_of(np.maximum(th - dth, 0))) / (th + dth - np.maximum(th - dth, 0))
+    th_lo = np.maximum(th - dth, 0)
+    drho = (rho_of(th + dth) - rho_of(th_lo)) / (th + dth - th_lo)
     cos_i = np.cos(th)
     cos_t = np.sqrt(1 - (np.sin(th) / n) ** 2)
     T = (1 - fresnel(cos_i, n)) * (1 - fresnel(cos_t, 1 / n))

@@ -52,7 +52,8 @@ class BVH:
 
         codes = device.buffer(4 * n, "Morton codes")
         ids = device.buffer(4 * n, "triangle ids")
-        ev = prog.morton_codes(q, (global_size(n),), None, pos, np.uint32(n), cmin, cscale, codes, ids)
+        ev = prog.morton_codes(q, (global_size(n),), None, pos, np.uint32(n), cmin, cscale, codes,
+                               ids)
         ev.wait()
         import pyopencl.array as cla
         keys_a = cla.Array(q, (n,), np.uint32, data=codes)
@@ -139,8 +140,8 @@ class BVH:
         prog.bottom_up_boxes(q, (global_size(n),), None, pos, ids, np.int32(n), self.left,
                              self.right, self.parent_int, self.parent_leaf, leaf_min, leaf_max,
                              node_min, node_max, arrivals)
-        prog.pack_nodes(q, (global_size(n - 1),), None, np.int32(n), self.left, self.right, leaf_min,
-                        leaf_max, node_min, node_max, self.nodes)
+        prog.pack_nodes(q, (global_size(n - 1),), None, np.int32(n), self.left, self.right,
+                        leaf_min, leaf_max, node_min, node_max, self.nodes)
         prog.reorder_triangles(q, (global_size(n),), None, pos, ids, mat, vis, np.int32(n),
                                self.tri_v0, self.tri_e1, self.tri_e2)
         import pyopencl.array as cla

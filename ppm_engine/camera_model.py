@@ -12,9 +12,11 @@ CAMERA_DTYPE = np.dtype([
     ("type", np.int32),               # CAMERA_PERSP | CAMERA_ORTHO
     ("width", np.int32),              # full frame in pixels (resolution percentage applied)
     ("height", np.int32),
-    ("region", np.int32, 4),          # x0, y0, w, h of the rendered rectangle (border), pixels, y up
+    ("region", np.int32, 4),          # x0, y0, w, h of the rendered rectangle (border), pixels,
+                                      # y up
     ("to_world", np.float32, (3, 4)), # camera-to-world rows, scale removed; camera looks down -Z
-    ("extent", np.float32, 2),        # w_ext, h_ext: view-plane size at distance 1 (ortho: in units)
+    ("extent", np.float32, 2),        # w_ext, h_ext: view-plane size at distance 1 (ortho: in
+                                      # units)
     ("shift", np.float32, 2),         # shift_x * fit, shift_y * fit
     ("clip", np.float32, 2),          # clip_start, clip_end (planar depth)
     ("aperture_radius", np.float32),  # 0 = pinhole
@@ -60,8 +62,8 @@ def perspective_extent(width: int, height: int, lens_mm: float, sensor_mm: float
                        fit: str = "AUTO", sensor_height_mm: float | None = None,
                        pixel_aspect=(1.0, 1.0)) -> tuple[float, float, float]:
     """Cycles' view plane: (w_ext, h_ext, fit) at distance 1, as Cycles' camera (sensor
-    fit AUTO: the larger image side gets the sensor width; tests/test_export.py checks it against Blender's
-    projection).
+    fit AUTO: the larger image side gets the sensor width; tests/test_export.py checks it against
+    Blender's projection).
 
     ``fit`` is the fitted dimension's extent; the camera shift is ``shift * fit``."""
     return _fit_extent(width, height, None, lens_mm, sensor_mm, fit, sensor_height_mm, pixel_aspect)

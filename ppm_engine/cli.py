@@ -60,11 +60,14 @@ def _build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("render", help="render a .blend with the PPM engine")
     r.add_argument("scene", help="the .blend file (its scripts are never run)")
-    r.add_argument("-o", "--output", required=True, help="output image, .png (8-bit) or .exr (32-bit float)")
+    r.add_argument("-o", "--output", required=True,
+                   help="output image, .png (8-bit) or .exr (32-bit float)")
     r.add_argument("--passes", type=int, help="number of SPPM passes")
     r.add_argument("--time-limit", type=float, help="stop after this many seconds (0 = no limit)")
-    r.add_argument("--resolution", type=_parse_resolution, metavar="WxH", help="image size (at 100%%)")
-    r.add_argument("--device", help="OpenCL device: a key from 'devices', part of its name, or DEFAULT")
+    r.add_argument("--resolution", type=_parse_resolution, metavar="WxH",
+                   help="image size (at 100%%)")
+    r.add_argument("--device",
+                   help="OpenCL device: a key from 'devices', part of its name, or DEFAULT")
     r.add_argument("--photons", type=int, help="photons per pass (default: the file's setting, "
                    "normally automatic: one per pixel)")
     r.add_argument("--seed", type=int, help="random seed")

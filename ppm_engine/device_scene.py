@@ -15,14 +15,21 @@ import numpy as np
 from .bvh import BVH
 from .camera_model import CAMERA_DTYPE
 from .emitters import EMITTER_INFO_DTYPE, build_emitters
-from .features import defines as feature_defines, scene_features, used_materials
+from .features import defines as feature_defines
+from .features import scene_features, used_materials
 from .film import filter_table
-from .materials import (KMATERIAL_DTYPE, MAT_GATHER, follow_capable, kernel_materials,
-                        kernel_nodes, max_closures)
-from .shader_program import ops_define, ops_used, stack_used
-from .shading_tables import load as shading_tables
+from .materials import (
+    KMATERIAL_DTYPE,
+    MAT_GATHER,
+    follow_capable,
+    kernel_materials,
+    kernel_nodes,
+    max_closures,
+)
 from .scene_arrays import LIGHT_DTYPE, SHADER_NODE_DTYPE, TEXTURE_DTYPE, SceneArrays
 from .scene_prep import offset_scale, prepare_scene
+from .shader_program import ops_define, ops_used, stack_used
+from .shading_tables import load as shading_tables
 from .world_map import bake, build_map, map_size
 
 _F4, _I4 = np.dtype((np.float32, 4)), np.dtype((np.int32, 4))

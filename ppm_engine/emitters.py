@@ -11,8 +11,14 @@ import dataclasses
 import numpy as np
 
 from .materials import mean_emission
-from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_POINT, LIGHT_SPOT,
-                           LIGHT_SUN, SceneArrays)
+from .scene_arrays import (
+    LIGHT_AREA_ELLIPSE,
+    LIGHT_AREA_RECT,
+    LIGHT_POINT,
+    LIGHT_SPOT,
+    LIGHT_SUN,
+    SceneArrays,
+)
 
 # the emitter table's header (kernels/shared.h EmitterInfo)
 EMITTER_INFO_DTYPE = np.dtype([
@@ -67,7 +73,8 @@ def spot_solid_angle(cos_half: np.ndarray, smooth: np.ndarray) -> np.ndarray:
     t = np.linspace(0.0, 1.0, 257)[None, :]
     c = cos_half[:, None] + (1.0 - cos_half[:, None]) * t
     with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(smooth[:, None] > 0, np.clip((c - cos_half[:, None]) / smooth[:, None], 0, 1), 1.0)
+        x = np.where(smooth[:, None] > 0,
+                     np.clip((c - cos_half[:, None]) / smooth[:, None], 0, 1), 1.0)
     att = x * x * (3 - 2 * x)
     return 2 * np.pi * (1.0 - cos_half) * np.trapz(att, t, axis=1)
 
@@ -76,7 +83,8 @@ def light_power(lights: np.ndarray, scene_radius: float) -> np.ndarray:
     emit = lights["emit"].astype(np.float64).mean(axis=1)
     t = lights["type"]
     ax, ay = lights["axis_x"].astype(np.float64), lights["axis_y"].astype(np.float64)
-    area = np.linalg.norm(np.cross(ax, ay), axis=1) * np.where(t == LIGHT_AREA_ELLIPSE, np.pi / 4, 1.0)
+    area = np.linalg.norm(np.cross(ax, ay), axis=1) \
+        * np.where(t == LIGHT_AREA_ELLIPSE, np.pi / 4, 1.0)
     p = np.zeros(lights.shape[0])
     p = np.where(t == LIGHT_POINT, 4 * np.pi * emit, p)
     spot = t == LIGHT_SPOT

@@ -11,10 +11,19 @@ from __future__ import annotations
 import numpy as np
 
 from .materials import MAT_GATHER, MAT_LAMBERT, anisotropic_nodes, node_features
+from .scene_arrays import (
+    LIGHT_AREA_ELLIPSE,
+    LIGHT_AREA_RECT,
+    LIGHT_HIDDEN_SHIFT,
+    LIGHT_POINT,
+    LIGHT_SPOT,
+    LIGHT_SUN,
+    VIS_CAMERA,
+    VIS_GLOSSY,
+    VIS_TRANSMISSION,
+    SceneArrays,
+)
 from .shader_program import SVM_IMAGE, ops_used
-from .scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_HIDDEN_SHIFT, LIGHT_POINT,
-                           LIGHT_SPOT, LIGHT_SUN, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION,
-                           SceneArrays)
 
 # The kernels' feature flags (kernels/shared.h, generated from this table): each compiles the
 # code of one feature; a program built without -D PPM_SPECIALIZED has them all.
@@ -116,5 +125,5 @@ def defines(features, closures: int | None = None) -> dict:
     ``closures``: the most closures a material of the scene makes (materials.max_closures)."""
     if features is None:
         return {}
-    return {"PPM_SPECIALIZED": True, **{name: True for name in features},
+    return {"PPM_SPECIALIZED": True, **dict.fromkeys(features, True),
             **({"PPM_MAX_CLOSURES": int(closures)} if closures else {})}

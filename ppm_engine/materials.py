@@ -9,9 +9,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from .scene_arrays import (NODE_DIFFUSE, NODE_EMISSION, NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT,
-                           NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN,
-                           NODE_TRANSLUCENT, NODE_TRANSPARENT, SHADER_NODE_DTYPE, TEX_FLAG_SRGB)
+from .scene_arrays import (
+    NODE_DIFFUSE,
+    NODE_EMISSION,
+    NODE_GLASS,
+    NODE_GLOSSY,
+    NODE_HOLDOUT,
+    NODE_METALLIC,
+    NODE_PRINCIPLED,
+    NODE_REFRACTION,
+    NODE_SHEEN,
+    NODE_TRANSLUCENT,
+    NODE_TRANSPARENT,
+    SHADER_NODE_DTYPE,
+    TEX_FLAG_SRGB,
+)
 from .shader_program import BOUND
 
 # what a pass needs of a material before it shades a hit (kernels/shared.h Material)
@@ -270,6 +282,7 @@ def mean_emission(kmaterials: np.ndarray, textures: np.ndarray, texels: np.ndarr
         rgb = np.nan_to_num(texels[int(t["offset"]):int(t["offset"]) + n, :3].astype(np.float64),
                             nan=0.0, posinf=0.0).clip(0)
         if int(t["flags"]) & TEX_FLAG_SRGB:
-            rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((np.minimum(rgb, 1) + 0.055) / 1.055) ** 2.4)
+            rgb = np.where(rgb <= 0.04045, rgb / 12.92,
+                           ((np.minimum(rgb, 1) + 0.055) / 1.055) ** 2.4)
         em[k] *= rgb.mean(axis=0)
     return em

@@ -69,7 +69,7 @@ class RenderOptions:
     noise_threshold: float = LIMITS["noise_threshold"][2]
     device: str = ""               # OpenCL device name (substring); "" = default choice
     indirect: str = "auto"         # INDIRECT_MODES
-    exact_gather: bool = False     # debug/reference mode: gather every photon, not the stochastic map
+    exact_gather: bool = False     # reference mode: gather every photon, not the stochastic map
     # microfacet lobes at least this rough hold visible points and photons (the gather evaluates
     # them); smoother ones are followed by the eye path.  Chosen by measurement
     # (docs/BENCHMARKS.md, "Glossy surfaces"); a setting to measure with, not in the UI.
@@ -82,7 +82,7 @@ class RenderOptions:
     skip_unseen_photons: bool = True   # False: the photon grid covers the whole scene, so photons
                                        # outside the visible points' bounds are stored too
 
-    def validate(self) -> "RenderOptions":
+    def validate(self) -> RenderOptions:
         for name, (lo, hi, _default, _desc) in LIMITS.items():
             v = getattr(self, name)
             if name == "photons_per_pass" and v is None:
@@ -107,5 +107,5 @@ class RenderOptions:
             return int(self.photons_per_pass)
         return int(min(max(pixels, AUTO_PHOTONS_MIN), AUTO_PHOTONS_MAX))
 
-    def replace(self, **changes) -> "RenderOptions":
+    def replace(self, **changes) -> RenderOptions:
         return dataclasses.replace(self, **changes)

@@ -5,8 +5,17 @@ from __future__ import annotations
 import numpy as np
 
 from .camera_model import make_camera, perspective_extent
-from .scene_arrays import (CAMERA_PERSP, LIGHT_DTYPE, MATERIAL_DTYPE, NODE_DIFFUSE,
-                           NODE_PRINCIPLED, SHADER_NODE_DTYPE, VIS_ALL, SceneArrays, shader_node)
+from .scene_arrays import (
+    CAMERA_PERSP,
+    LIGHT_DTYPE,
+    MATERIAL_DTYPE,
+    NODE_DIFFUSE,
+    NODE_PRINCIPLED,
+    SHADER_NODE_DTYPE,
+    VIS_ALL,
+    SceneArrays,
+    shader_node,
+)
 
 
 class MeshBuilder:

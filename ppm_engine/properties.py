@@ -29,7 +29,7 @@ def refresh_devices() -> list[tuple[str, str, str, int]]:
     try:
         from .device import list_devices
         devices = list_devices()
-    except Exception as e:  # no OpenCL platform, broken driver: only DEFAULT (the render reports it)
+    except Exception as e:  # no OpenCL platform, a broken driver: DEFAULT only (the render says)
         print(f"PPM: could not list OpenCL devices: {e}", file=sys.stderr)
         devices = []
     for d in devices:
@@ -45,7 +45,8 @@ def _device_items_cb(self, context):
 
 def _int(name: str, **kw):
     lo, hi, default, desc = LIMITS[name]
-    return IntProperty(name=kw.pop("label"), description=desc, min=lo, max=hi, default=default, **kw)
+    return IntProperty(name=kw.pop("label"), description=desc, min=lo, max=hi, default=default,
+                       **kw)
 
 
 def _float(name: str, **kw):
@@ -62,8 +63,8 @@ def _photons_set_by_hand(self, context):
 
 class PPMSettings(bpy.types.PropertyGroup):
     passes: _int("passes", label="Passes", soft_max=4096)
-    time_limit: _float("time_limit", label="Time Limit", subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE",
-                       soft_max=3600.0, step=100)
+    time_limit: _float("time_limit", label="Time Limit", subtype="TIME_ABSOLUTE",
+                       unit="TIME_ABSOLUTE", soft_max=3600.0, step=100)
     auto_photons: BoolProperty(
         name="Automatic Photon Count",
         description=(f"Emit one photon per pixel of the image each pass (the paper's 512x512 "
@@ -99,7 +100,8 @@ class PPMSettings(bpy.types.PropertyGroup):
     )
     device: EnumProperty(
         name="Device",
-        description="OpenCL device that renders (Default: a GPU if present, else the PoCL CPU device)",
+        description="OpenCL device that renders (Default: a GPU if present, else the PoCL CPU "
+                    "device)",
         items=_device_items_cb,
     )
 

@@ -94,7 +94,8 @@ def ppm_update(alpha, M, phi, N, R, tau):
     active = M > 0
     n_new = np.where(active, N + alpha * M, N)
     ratio = np.where(active, n_new / np.where(active, N + M, 1.0), 1.0)
-    return n_new, R * np.sqrt(ratio), (tau + np.where(active[..., None], phi, 0.0)) * ratio[..., None]
+    tau_new = (tau + np.where(active[..., None], phi, 0.0)) * ratio[..., None]
+    return n_new, R * np.sqrt(ratio), tau_new
 
 
 def pack_unit(n):

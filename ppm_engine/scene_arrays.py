@@ -16,9 +16,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .camera_model import (CAMERA_DTYPE, CAMERA_ORTHO, CAMERA_PERSP,  # noqa: F401 (re-exported)
-                           FILM_TRANSPARENT, FILM_TRANSPARENT_GLASS, FILTER_BLACKMAN_HARRIS,
-                           FILTER_BOX, FILTER_GAUSSIAN)
+from .camera_model import (  # noqa: F401 (re-exported)
+    CAMERA_DTYPE,
+    CAMERA_ORTHO,
+    CAMERA_PERSP,
+    FILM_TRANSPARENT,
+    FILM_TRANSPARENT_GLASS,
+    FILTER_BLACKMAN_HARRIS,
+    FILTER_BOX,
+    FILTER_GAUSSIAN,
+)
 
 # --- triangle visibility bits (Blender's Object.visible_* ray flags) -------------------------
 VIS_CAMERA = 1
@@ -184,12 +191,15 @@ LIGHT_DTYPE = np.dtype([
     ("emit", np.float32, 3),
     ("position", np.float32, 3),      # world position (sun: unused)
     ("direction", np.float32, 3),     # unit vector the light points along (object -Z)
-    ("axis_x", np.float32, 3),        # AREA: full edge vector along X (size x scale); SPOT: scaled X column
+    ("axis_x", np.float32, 3),        # AREA: full edge vector along X (size x scale); SPOT: scaled
+                                      # X column
     ("axis_y", np.float32, 3),        # AREA: full edge vector along Y; SPOT: scaled Y column
-    ("radius", np.float32),           # POINT/SPOT: sphere radius; SUN: half of the angular diameter (rad)
+    ("radius", np.float32),           # POINT/SPOT: sphere radius; SUN: half of the angular
+                                      # diameter (rad)
     ("spot_cos_half", np.float32),    # SPOT: cos(spot_size / 2)
     ("spot_smooth", np.float32),      # SPOT: (1 - cos(spot_size / 2)) * spot_blend
-    ("spot_scale_z", np.float32),     # SPOT: 1 / |scaled Z column| (cone measured in the scaled frame)
+    ("spot_scale_z", np.float32),     # SPOT: 1 / |scaled Z column| (cone measured in the scaled
+                                      # frame)
 ])
 
 # fields whose default is not zero (files written before the field existed)
@@ -310,7 +320,7 @@ class SceneArrays:
                 raise ValueError(f"SceneArrays.{name}: expected float32 (0, 3, {k}) or "
                                  f"({t}, 3, {k}), got {a.dtype}{a.shape}")
         if self.svm.dtype != np.int32 or self.svm.ndim != 2 or self.svm.shape[1] != 4 \
-                or not (0 <= self.materials["program"]).all() \
+                or not (self.materials["program"] >= 0).all() \
                 or (self.materials["program"] >= self.svm.shape[0]).any():
             raise ValueError("SceneArrays.svm: expected int32 (W, 4) holding every program")
         ws = self.world_shader
@@ -321,7 +331,8 @@ class SceneArrays:
         if self.texels.dtype != np.float16 or self.texels.ndim != 2 or self.texels.shape[1] != 4:
             raise ValueError("SceneArrays.texels: expected float16 (N, 4)")
         tx = self.textures
-        if tx.size and ((tx["width"] < 1).any() or (tx["height"] < 1).any() or (tx["offset"] < 0).any()
+        if tx.size and ((tx["width"] < 1).any() or (tx["height"] < 1).any()
+                        or (tx["offset"] < 0).any()
                         or (tx["offset"].astype(np.int64) + tx["width"].astype(np.int64)
                             * tx["height"] > self.texels.shape[0]).any()):
             raise ValueError("SceneArrays.textures: a texture lies outside the texels")
@@ -350,7 +361,7 @@ class SceneArrays:
                             warnings=np.array(self.warnings, dtype=str))
 
     @classmethod
-    def load(cls, path: str | Path) -> "SceneArrays":
+    def load(cls, path: str | Path) -> SceneArrays:
         with np.load(path, allow_pickle=False) as z:
             kw = {k: z[k] for k in z.files}
         mats = kw.get("materials")
@@ -369,7 +380,7 @@ class SceneArrays:
         kw["warnings"] = tuple(str(s) for s in kw.get("warnings", ()))
         return cls(**kw)
 
-    def replace(self, **changes) -> "SceneArrays":
+    def replace(self, **changes) -> SceneArrays:
         return dataclasses.replace(self, **changes)
 
     def nodes_of(self, material: int | str) -> np.ndarray:

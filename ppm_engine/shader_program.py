@@ -40,8 +40,10 @@ SVM_GAMMA = 11         # (op, out, color, gamma)
 SVM_BRIGHT_CONTRAST = 12  # (op, out, color, bright) + (contrast, 0, 0, 0)
 SVM_RGB_TO_BW = 13     # (op, out, color, 0)
 SVM_CLAMP = 14         # (op, out, value, min) + (max, type, 0, 0)
-SVM_MAP_RANGE = 15     # (op, out, value, from_min) + (from_max, to_min, to_max, steps) + (type, clamp, 0, 0)
-SVM_TABLE = 16         # (op, out, in, n) + (mode, interp, 0, 0) + n words (r, g, b, a): ramps, curves
+SVM_MAP_RANGE = 15     # (op, out, value, from_min) + (from_max, to_min, to_max, steps)
+#                        + (type, clamp, 0, 0)
+SVM_TABLE = 16         # (op, out, in, n) + (mode, interp, 0, 0) + n words (r, g, b, a): ramps,
+#                        curves
 SVM_HSV = 17           # (op, out, color, fac) + (hue, saturation, value, 0)
 SVM_FRESNEL = 18       # (op, out, ior, 0)
 SVM_LAYER_WEIGHT = 19  # (op, out_fresnel, blend, out_facing)

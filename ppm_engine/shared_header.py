@@ -2,7 +2,7 @@
 the Python tables so that each value is written once.
 
     python -m ppm_engine.shared_header           # writes kernels/shared.h again
-    python -m ppm_engine.shared_header --check   # exit 1 when it is stale (tests/test_shared_header.py)
+    python -m ppm_engine.shared_header --check   # exit 1 when it is stale
 
 The header holds, each with the table it comes from: the kernels' feature flags and build
 parameters (``#ifndef`` defaults: a program built without ``-D`` flags has every feature), the
@@ -103,7 +103,7 @@ def _field_comments(module, name: str) -> dict[str, str]:
 def _struct(ctype: str, dtype: np.dtype, origin: str, comments: dict[str, str]) -> list[str]:
     lines = [f"/* mirrors {origin} */", "typedef struct {"]
     for fname in dtype.names:
-        ft, off = dtype.fields[fname][:2]
+        ft, _off = dtype.fields[fname][:2]
         base, shape = (ft.subdtype if ft.subdtype else (ft, ()))
         count = int(np.prod(shape)) if shape else 0
         decl = f"    {_C_TYPES[np.dtype(base)]} {fname}{f'[{count}]' if count else ''};"

@@ -4,7 +4,7 @@ renders, the CIE 1931 colour matching functions), so that the data live in one p
 from __future__ import annotations
 
 import re
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -13,7 +13,7 @@ from .device.program import kernel_dir
 _F32 = np.float32
 
 
-@lru_cache(maxsize=None)
+@cache
 def _table(name: str) -> np.ndarray:
     """The float32 values of the ``__constant float NAME[...] = {...}`` array in svm_color.h."""
     src = re.sub(r"/\*.*?\*/", "", (kernel_dir() / "svm_color.h").read_text(), flags=re.S)
@@ -24,7 +24,7 @@ def _table(name: str) -> np.ndarray:
                      if x.strip()], _F32)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _xyz_to_rec709() -> np.ndarray:
     src = (kernel_dir() / "svm_color.h").read_text()
     rows = [re.search(r"#define XYZ_TO_REC709_" + c + r" \(float3\)\(([^)]*)\)", src).group(1)

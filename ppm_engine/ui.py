@@ -23,7 +23,7 @@ class PPMPanel:
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "render"
-    COMPAT_ENGINES = {ENGINE_ID}
+    COMPAT_ENGINES = {ENGINE_ID}   # noqa: RUF012 -- Blender reads it from the class, never mutated
 
     @classmethod
     def poll(cls, context):

@@ -10,8 +10,17 @@ import dataclasses
 
 import numpy as np
 
-from .shader_program import (SKY_TYPES, SVM_END, SVM_IMAGE, SVM_OPS, SVM_TEX_SKY, op_words,
-                             ops_define, ops_used, stack_used)
+from .shader_program import (
+    SKY_TYPES,
+    SVM_END,
+    SVM_IMAGE,
+    SVM_OPS,
+    SVM_TEX_SKY,
+    op_words,
+    ops_define,
+    ops_used,
+    stack_used,
+)
 
 DEFAULT_WIDTH = 512        # without an Environment Texture (Cycles: 1024)
 MAX_WIDTH = 1024           # the cap of the automatic resolution (an environment image's width)
@@ -36,7 +45,7 @@ def map_size(width: int, height: int) -> tuple[int, int]:
     if width <= 0 or height <= 0:
         return DEFAULT_WIDTH, DEFAULT_WIDTH // 2
     w = min(int(width), MAX_WIDTH)
-    h = max(1, min(int(height), int(round(height * w / width)), MAX_WIDTH))
+    h = max(1, min(int(height), round(height * w / width), MAX_WIDTH))
     return max(w, 1), h
 
 

@@ -88,7 +88,7 @@ def test_tinted_glass_as_cycles_renders_it(bpy, tiny, cycles, render_exr, tmp_pa
     assert tinted.sum() > 40
     np.testing.assert_allclose(ours[tinted].mean(axis=0), ref[tinted].mean(axis=0), rtol=0.06)
     # 8 x 8 blocks over the lit image
-    b = lambda im: im.reshape(W // 8, 8, W // 8, 8, 3).mean(axis=(1, 3))  # noqa: E731
+    b = lambda im: im.reshape(W // 8, 8, W // 8, 8, 3).mean(axis=(1, 3))
     lit = b(ref).mean(axis=-1) > 0.05 * ref.mean()
     assert np.abs(b(ours) - b(ref))[lit].max() < 0.06 * b(ref)[lit].max(), \
         (b(ours)[..., 0], b(ref)[..., 0])

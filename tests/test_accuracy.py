@@ -1,5 +1,7 @@
 """Accuracy against exact answers: caustics through a mirror and a glass slab, and the error
 falling as passes grow (issue: accurate, and proven so).  docs/ACCURACY.md has the numbers."""
+import itertools
+
 import numpy as np
 import pytest
 
@@ -75,7 +77,7 @@ def test_mirror_caustic_converges_over_thousands_of_passes():
     marks = (10, 30, 100, 300, 1000, 2000)
     imgs = progressive(A.mirror_caustic(W), marks, max_bounces=1)
     errs = [rel_rmse(imgs[k], ref) for k in marks]
-    assert all(a > b for a, b in zip(errs, errs[1:])), errs
+    assert all(a > b for a, b in itertools.pairwise(errs)), errs
     assert errs[4] < 0.5 * errs[2] and slope(marks, errs) < -0.3
 
 

@@ -5,13 +5,21 @@ standard error of the mean."""
 import numpy as np
 import pytest
 
+from ppm_engine.camera_model import make_camera, perspective_extent
 from ppm_engine.device import SHADING_GROUP
 from ppm_engine.options import RenderOptions
 from ppm_engine.procedural import MeshBuilder, look_at
 from ppm_engine.renderer import Renderer
-from ppm_engine.camera_model import make_camera, perspective_extent
-from ppm_engine.scene_arrays import (CAMERA_ORTHO, LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_SUN,
-                                     LIGHT_DTYPE, LIGHT_FLAG_SOFT_FALLOFF, LIGHT_POINT, LIGHT_SPOT)
+from ppm_engine.scene_arrays import (
+    CAMERA_ORTHO,
+    LIGHT_AREA_ELLIPSE,
+    LIGHT_AREA_RECT,
+    LIGHT_DTYPE,
+    LIGHT_FLAG_SOFT_FALLOFF,
+    LIGHT_POINT,
+    LIGHT_SPOT,
+    LIGHT_SUN,
+)
 
 
 def render(scene, passes, seed=0, **opts):
@@ -155,8 +163,9 @@ def test_point_light_soft_falloff_matches_cycles_disk_model():
             p = np.array([x[j, i], y[j, i], 0.0])
             towards = p - np.array([0, 0, h])
             towards /= np.linalg.norm(towards)
-            ref[j, i] = albedo / np.pi * disk_irradiance(p, np.array([0, 0, 1.0]), np.array([0, 0, h]),
-                                                       r, I / (np.pi * r * r), towards)
+            ref[j, i] = albedo / np.pi * disk_irradiance(p, np.array([0, 0, 1.0]),
+                                                       np.array([0, 0, h]), r,
+                                                       I / (np.pi * r * r), towards)
     # on axis the closed form
     on_axis = disk_irradiance(np.zeros(3), np.array([0, 0, 1.0]), np.array([0, 0, h]), r,
                               I / (np.pi * r * r), np.array([0, 0, -1.0]))
@@ -302,9 +311,9 @@ def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
     (1 - d) I_j / sum I + d g_j / sum g, I_j its unoccluded irradiance at the point (mean
     radiance times the integral of cos over it, negative below the horizon, clamped at 0), g_j
     its power, d = 1/4 (the power pick alone where no triangle lights the point, and beyond
-    twice the triangles' bounding ball, where their light is in proportion to power).  Checked against the pick's frequencies over stratified numbers, the
-    pmf it returns, the pmf the MIS of a ray that hits the triangle uses, and I_j by Monte
-    Carlo over each triangle's area."""
+    twice the triangles' bounding ball, where their light is in proportion to power).  Checked
+    against the pick's frequencies over stratified numbers, the pmf it returns, the pmf the MIS
+    of a ray that hits the triangle uses, and I_j by Monte Carlo over each triangle's area."""
     import pyopencl as cl
     mb = MeshBuilder()
     grey = mb.material("grey", (0.5, 0.5, 0.5))
@@ -316,8 +325,9 @@ def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
                      [[-0.5, 1.0, -0.3], [0.5, 1.2, -0.2], [0.0, 1.5, 0.6]]])
     for t, m in zip(tris, lamps):
         mb.add(t[None], m)
-    cam = make_camera(type=CAMERA_ORTHO, width=4, height=4, to_world=look_at((0, 0, 5), (0, 0, 0), up=(0, 1, 0)),
-                      extent=(2, 2), clip=(0.01, 100))
+    cam = make_camera(type=CAMERA_ORTHO, width=4, height=4,
+                      to_world=look_at((0, 0, 5), (0, 0, 0), up=(0, 1, 0)), extent=(2, 2),
+                      clip=(0.01, 100))
     pt = light(LIGHT_POINT, emit=(3.0,) * 3, position=(2, 2, 3))
     scene = mb.build(camera=cam, lights=pt, world=(0.2, 0.2, 0.2))
     pts = np.float32([[0, 0, 0, 0], [0.5, 0.3, 0.02, 0], [-0.3, 0.8, 0.01, 0], [0.6, 0.3, 0.7, 0],

@@ -89,7 +89,8 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         # the targets' ratio: the mean RMSE over the seeds of ours and Cycles at that budget
         o, cy = c["ours"][at], c["cycles"][at]
         assert o["seeds"] == cy["seeds"] == [1, 2, 3]
-        assert len(set(o["image_rmse_seeds"])) == 3 and o["image_rmse_seeds"][0] == o["image"]["rmse"]
+        assert len(set(o["image_rmse_seeds"])) == 3
+        assert o["image_rmse_seeds"][0] == o["image"]["rmse"]
         assert r["image_rmse_seeds"] == pytest.approx(
             np.mean(o["image_rmse_seeds"]) / np.mean(cy["image_rmse_seeds"]), rel=1e-6)
         assert "seeds" not in c["ours"][0] and "seeds" not in c["ours_photons"][at]

@@ -4,8 +4,8 @@
   footprint are exact whatever the footprint, so every pixel of a plane has one bumped normal):
   diffuse planes under a sun without size, direct light only, strengths 1 and 0.5, Invert, a
   driven Distance, a Normal Map feeding the Bump, a Bump feeding a Bump, a turned plane, the
-  Generated and UV coordinates, a mesh attribute, a plane seen from behind; compared per pixel (1e-3 relative: the only difference left is
-  float rounding).
+  Generated and UV coordinates, a mesh attribute, a plane seen from behind; compared per pixel
+  (1e-3 relative: the only difference left is float rounding).
 - A Noise Texture's height seen through a perspective camera: compared per 8 x 8 block.
 - A height varying within a few pixels across a wide Filter Width: the footprint's radius and
   orientation, compared per column, orthographic, in perspective and seen in a mirror.
@@ -38,7 +38,7 @@ def _diffuse(mat):
 def _node(t, idname, links=(), **props):
     n = t.nodes.new(idname)
     for k, v in props.items():
-        if k in n.inputs.keys():
+        if k in n.inputs:
             n.inputs[k].default_value = v
         else:
             setattr(n, k, v)
@@ -370,13 +370,13 @@ def test_bump_constant_height_folds():
     v.outputs[0].default_value = 0.3
     b = _bump(t, v.outputs[0], Distance=0.5)
     t.links.new(b.outputs[0], d.inputs["Normal"])
-    row, nodes, program = read_material(mat, warnings.append)
+    _row, nodes, program = read_material(mat, warnings.append)
     assert program is None and not warnings
     assert not np.any(nodes[0]["normal"]) and nodes[0]["bound"] == 0
     # with a Normal Map on its Normal, the Bump is the Normal Map
     nm = _node(t, "ShaderNodeNormalMap", space="WORLD")
     t.links.new(nm.outputs[0], b.inputs["Normal"])
-    row, nodes, program = read_material(mat, warnings.append)
+    _row, nodes, program = read_material(mat, warnings.append)
     assert program is not None
     ops = _ops(program)
     assert "normal_map" in ops and "bump" not in ops
@@ -399,11 +399,11 @@ def test_displacement_output_is_warned():
     from ppm_engine.export.materials import read_material
     bpy.ops.wm.read_factory_settings(use_empty=True)
     mat = bpy.data.materials.new("displaced")
-    t, d = _diffuse(mat)
+    t, _d = _diffuse(mat)
     noise = t.nodes.new("ShaderNodeTexNoise")
     disp = _node(t, "ShaderNodeDisplacement", [("Height", noise.outputs["Fac"])])
     t.links.new(disp.outputs[0], t.nodes["Material Output"].inputs["Displacement"])
     warnings = []
-    row, nodes, program = read_material(mat, warnings.append)
+    _row, _nodes, program = read_material(mat, warnings.append)
     assert program is None
     assert len(warnings) == 1 and "Displacement" in warnings[0] and "displaced" in warnings[0]

@@ -84,7 +84,8 @@ def test_render_animation_and_frame_numbers(bpy, cli, example_blend, exr, tmp_pa
 
 def test_render_device_by_name_part(cli, example_blend, tmp_path):
     out = tmp_path / "default.png"
-    proc = cli("render", example_blend("cornell_box"), "-o", out, *RENDER_TINY, "--device", "DEFAULT")
+    proc = cli("render", example_blend("cornell_box"), "-o", out, *RENDER_TINY, "--device",
+               "DEFAULT")
     assert proc.returncode == 0, proc.stderr
     assert out.is_file()
 
@@ -122,7 +123,8 @@ def test_unsupported_output_format(cli, example_blend, tmp_path):
 
 
 def test_engine_error_becomes_one_line(bpy, cli, tmp_path):
-    """A scene the engine refuses (its camera is an Empty): the engine's ERROR report, no traceback."""
+    """A scene the engine refuses (its camera is an Empty): the engine's ERROR report, no
+    traceback."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     cam = bpy.data.objects.new("NotACamera", None)

@@ -11,13 +11,23 @@ import pytest
 
 cl = pytest.importorskip("pyopencl")
 
-from ppm_engine import shading_tables as st  # noqa: E402
-from ppm_engine.device_scene import placeholders  # noqa: E402
-from ppm_engine.materials import kernel_materials, kernel_nodes  # noqa: E402
-from ppm_engine.scene_arrays import (CAMERA_DTYPE, MATERIAL_DTYPE, NODE_DIFFUSE,  # noqa: E402
-                                     NODE_GLASS, NODE_GLOSSY, NODE_METALLIC, NODE_PRINCIPLED,
-                                     NODE_REFRACTION, NODE_SHEEN, NODE_TRANSLUCENT,
-                                     NODE_TRANSPARENT, NODE_FLAG_CONDUCTOR, shader_node)
+from ppm_engine import shading_tables as st
+from ppm_engine.device_scene import placeholders
+from ppm_engine.materials import kernel_materials, kernel_nodes
+from ppm_engine.scene_arrays import (
+    MATERIAL_DTYPE,
+    NODE_DIFFUSE,
+    NODE_FLAG_CONDUCTOR,
+    NODE_GLASS,
+    NODE_GLOSSY,
+    NODE_METALLIC,
+    NODE_PRINCIPLED,
+    NODE_REFRACTION,
+    NODE_SHEEN,
+    NODE_TRANSLUCENT,
+    NODE_TRANSPARENT,
+    shader_node,
+)
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
 MASK_ALL = 3
@@ -212,7 +222,7 @@ def _chi2_sf(x, k):
     return math.exp(-z + a * math.log(z) - math.lgamma(a)) * h
 
 
-@pytest.mark.parametrize("name", [m for m in MATERIALS])
+@pytest.mark.parametrize("name", list(MATERIALS))
 @pytest.mark.parametrize("cos_view", [0.85, 0.35])
 def test_sampled_directions_follow_the_pdf(shading, name, cos_view):
     """Chi-square of the sampled directions (24 x 24 bins in cos theta, phi) against the
@@ -270,7 +280,7 @@ def test_smooth_glass_picks_reflection_by_fresnel(device):
 
 # --- white furnaces: a closure's albedo by its own samples --------------------------------------
 def _albedo(shading, mat, cos_view, n=1 << 18):
-    wo, w = shading.sample(mat, view(cos_view), n)
+    _wo, w = shading.sample(mat, view(cos_view), n)
     return w[:, :3].sum(axis=0) / n
 
 

@@ -45,7 +45,7 @@ def test_bulb_box_is_lit_through_the_glass(open_example, tiny, cycles, render_ex
     # brightness against Cycles (its own noise on this scene is large: 10 % allowed)
     cycles(scene, 512, W)
     ref = render_exr(tmp_path / "cycles.exr")
-    lum = lambda im: im.mean(axis=-1)  # noqa: E731
+    lum = lambda im: im.mean(axis=-1)
     keep = (lum(ref) < 50) & (lum(lit) < 50)           # leave out the directly seen filament
     assert lum(lit)[keep & walls].mean() == pytest.approx(lum(ref)[keep & walls].mean(), rel=0.1)
 

@@ -130,7 +130,7 @@ def test_invalid_settings_are_refused(bpy, example_blend, tiny, exr, session_dir
     assert not (session_dir / "refused.exr").exists()
 
 
-# --- renders ---------------------------------------------------------------------------------------
+# --- renders -----------------------------------------------------------------------------------
 def test_cornell_box_renders_to_exr(bpy, example_blend, tiny, exr, session_dir):
     scene = _open(bpy, example_blend("cornell_box"))
     tiny(scene, width=32, height=24)
@@ -205,7 +205,8 @@ class _Result:
         self.resolution_x, self.resolution_y = w, h
         self.rect = _Rect(w * h * 4)
         self.merged = None
-        self.layers = [types.SimpleNamespace(passes={"Combined": types.SimpleNamespace(rect=self.rect)})]
+        combined = types.SimpleNamespace(rect=self.rect)
+        self.layers = [types.SimpleNamespace(passes={"Combined": combined})]
 
 
 class _Engine:

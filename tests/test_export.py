@@ -5,19 +5,39 @@ import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
-from mathutils import Vector  # noqa: E402
+from mathutils import Vector
 
-from ppm_engine.errors import SceneError  # noqa: E402
-from ppm_engine.export import export_scene  # noqa: E402
-from ppm_engine.scene_arrays import (CAMERA_ORTHO, FILM_TRANSPARENT,  # noqa: E402
-                                     FILM_TRANSPARENT_GLASS, FILTER_BLACKMAN_HARRIS, FILTER_BOX,
-                                     FILTER_GAUSSIAN, LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT,
-                                     LIGHT_FLAG_SOFT_FALLOFF, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN,
-                                     NODE_DIFFUSE, NODE_EMISSION, NODE_FLAG_CONDUCTOR,
-                                     NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT, NODE_METALLIC,
-                                     NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN,
-                                     NODE_TRANSLUCENT, NODE_TRANSPARENT, VIS_CAMERA, VIS_SHADOW,
-                                     SceneArrays)
+from ppm_engine.errors import SceneError
+from ppm_engine.export import export_scene
+from ppm_engine.scene_arrays import (
+    CAMERA_ORTHO,
+    FILM_TRANSPARENT,
+    FILM_TRANSPARENT_GLASS,
+    FILTER_BLACKMAN_HARRIS,
+    FILTER_BOX,
+    FILTER_GAUSSIAN,
+    LIGHT_AREA_ELLIPSE,
+    LIGHT_AREA_RECT,
+    LIGHT_FLAG_SOFT_FALLOFF,
+    LIGHT_POINT,
+    LIGHT_SPOT,
+    LIGHT_SUN,
+    NODE_DIFFUSE,
+    NODE_EMISSION,
+    NODE_FLAG_CONDUCTOR,
+    NODE_GLASS,
+    NODE_GLOSSY,
+    NODE_HOLDOUT,
+    NODE_METALLIC,
+    NODE_PRINCIPLED,
+    NODE_REFRACTION,
+    NODE_SHEEN,
+    NODE_TRANSLUCENT,
+    NODE_TRANSPARENT,
+    VIS_CAMERA,
+    VIS_SHADOW,
+    SceneArrays,
+)
 
 
 @pytest.fixture
@@ -59,7 +79,8 @@ def test_point_light_cycles_units(empty):
     add_light('POINT', energy=100.0, color=(1, 0.5, 0.25), shadow_soft_size=0.2, exposure=1.0)
     L = export().lights
     assert L.shape == (1,) and L["type"][0] == LIGHT_POINT
-    np.testing.assert_allclose(L["emit"][0], np.array([1, 0.5, 0.25]) * 200 / (4 * np.pi), rtol=1e-6)
+    np.testing.assert_allclose(L["emit"][0], np.array([1, 0.5, 0.25]) * 200 / (4 * np.pi),
+                               rtol=1e-6)
     assert L["radius"][0] == pytest.approx(0.2) and L["flags"][0] & LIGHT_FLAG_SOFT_FALLOFF
     np.testing.assert_allclose(L["position"][0], (0, 0, 3))
 
@@ -82,7 +103,8 @@ def test_sun_light(empty):
     L = export().lights[0]
     assert L["type"] == LIGHT_SUN and L["radius"] == pytest.approx(math.radians(1))
     np.testing.assert_allclose(L["emit"], 3.0, rtol=1e-6)
-    np.testing.assert_allclose(L["direction"], (0, math.sin(math.radians(30)), -math.cos(math.radians(30))),
+    np.testing.assert_allclose(L["direction"],
+                               (0, math.sin(math.radians(30)), -math.cos(math.radians(30))),
                                atol=1e-6)
 
 
@@ -328,8 +350,8 @@ def test_flat_normals_follow_faces(empty):
     o = add_plane(size=2.0)
     o.rotation_euler = (math.radians(90), 0, 0)
     s = export()
-    np.testing.assert_allclose(s.normals.reshape(-1, 3), np.tile([0, -1, 0], (6, 1))[:s.n_triangles * 3],
-                               atol=1e-6)
+    np.testing.assert_allclose(s.normals.reshape(-1, 3),
+                               np.tile([0, -1, 0], (6, 1))[:s.n_triangles * 3], atol=1e-6)
 
 
 def test_nan_vertices_are_dropped_with_a_warning(empty):
@@ -389,7 +411,7 @@ def test_perspective_camera_matches_blender_projection(empty, fit, shift, aspect
     scene.render.resolution_percentage = pct
     s = export()
     W, H = s.camera["width"][0], s.camera["height"][0]
-    assert (W, H) == (int(64 * pct / 100), int(48 * pct / 100))
+    assert (int(64 * pct / 100), int(48 * pct / 100)) == (W, H)
     rng = np.random.default_rng(0)
     for _ in range(20):
         p = Vector(rng.uniform(-2, 2, 3))
@@ -444,6 +466,7 @@ def test_film_settings_are_cycles_film(empty, kind, width, expect):
 def test_film_settings_not_a_number_are_refused():
     """A film exposure or filter width that is not a number: a SceneError naming the setting."""
     from types import SimpleNamespace
+
     from ppm_engine.export.camera import film_settings
     for name in ("film_exposure", "filter_width"):
         cycles = SimpleNamespace(**{name: float("nan")})
@@ -455,6 +478,7 @@ def test_film_settings_not_a_number_are_refused():
 def test_film_settings_without_cycles_are_its_defaults():
     """Without the Cycles add-on (no scene.cycles): Cycles' defaults."""
     from types import SimpleNamespace
+
     from ppm_engine.export.camera import film_settings
     f = film_settings(SimpleNamespace(render=SimpleNamespace(film_transparent=False)))
     assert f == dict(filter_type=FILTER_BLACKMAN_HARRIS, filter_width=1.5, film_transparent=0,

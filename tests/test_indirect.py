@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from ppm_engine import analytic
-from ppm_engine.options import RenderOptions, SettingsError
 from ppm_engine.camera_model import make_camera, perspective_extent
+from ppm_engine.options import RenderOptions, SettingsError
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
-from ppm_engine.scene_arrays import CAMERA_PERSP
 from ppm_engine.renderer import Renderer
+from ppm_engine.scene_arrays import CAMERA_PERSP
 
 
 def renders(scene, passes, seeds, **opts):
@@ -187,6 +187,7 @@ def _sobol_directions():
 
 def _ld_sets(keys, passes, first_pass=0, set_index=0):
     import pyopencl as cl
+
     from ppm_engine.device.context import get_device
     dev = get_device("")
     keys = np.asarray(keys, np.uint32)
@@ -209,14 +210,14 @@ def test_low_discrepancy_sets():
     """rng.h's ld_set: its direction numbers are Joe & Kuo's; a pixel's first 2^m passes (and
     any aligned run of 2^m, also past the 16 shuffled bits) put one point in each of 2^m equal
     cells of every dimension, the first two dimensions form a (0, m, 2)-net (one point in
-    every elementary box of area 2^-m), the other pairs (t, m, 2)-nets with t <= 2; over pixels each pass's numbers are uniform and two
-    sets are independent."""
+    every elementary box of area 2^-m), the other pairs (t, m, 2)-nets with t <= 2; over pixels
+    each pass's numbers are uniform and two sets are independent."""
     import re
     from pathlib import Path
     text = (Path(__file__).parents[1] / "kernels" / "rng.h").read_text()
     body = text[text.index("SOBOL_V[3][32] = {"):]
     table = [int(v, 16) for v in re.findall(r"0x([0-9a-f]{8})u", body[:body.index("};")])]
-    assert table == sum(_sobol_directions(), [])
+    assert table == [v for row in _sobol_directions() for v in row]
     keys = (np.arange(1, 9, dtype=np.uint64) * 2654435761 % 2 ** 32).astype(np.uint32)
     for first in (0, 1 << 16):
         pts = _ld_sets(keys, 1024, first)

@@ -58,7 +58,8 @@ def helper_params(text: str, macros: dict) -> dict:
 
 
 def test_the_parameter_count_sees_through_macros():
-    src = "#define ARGS int a, \\\n    int b\n#define MORE ARGS, int c\ninline void f(MORE, int d) {}\n"
+    src = ("#define ARGS int a, \\\n    int b\n#define MORE ARGS, int c\n"
+           "inline void f(MORE, int d) {}\n")
     assert helper_params(src, _macros(src)) == {"f": ["int a", "int b", "int c", "int d"]}
 
 

@@ -3,20 +3,20 @@ import numpy as np
 import pytest
 
 pytest.importorskip("pyopencl")
-import pyopencl as cl  # noqa: E402
+import pyopencl as cl
 
-from ppm_engine import reference as ref  # noqa: E402
-from ppm_engine.bvh import BVH  # noqa: E402
-from ppm_engine.device import get_device, list_devices  # noqa: E402
-from ppm_engine.device_scene import placeholders  # noqa: E402
-from ppm_engine.emitters import EMITTER_INFO_DTYPE  # noqa: E402
-from ppm_engine.materials import KMATERIAL_DTYPE  # noqa: E402
-from ppm_engine.counters import N_COUNTERS, Counter  # noqa: E402
-from ppm_engine.passes import Gather, HashBuild, unshaded  # noqa: E402
-from ppm_engine.photon_map import GRID_DTYPE, PhotonMap  # noqa: E402
-from ppm_engine.procedural import MeshBuilder, look_at  # noqa: E402
-from ppm_engine.camera_model import make_camera  # noqa: E402
-from ppm_engine.scene_arrays import CAMERA_DTYPE, LIGHT_DTYPE  # noqa: E402
+from ppm_engine import reference as ref
+from ppm_engine.bvh import BVH
+from ppm_engine.camera_model import make_camera
+from ppm_engine.counters import N_COUNTERS, Counter
+from ppm_engine.device import get_device, list_devices
+from ppm_engine.device_scene import placeholders
+from ppm_engine.emitters import EMITTER_INFO_DTYPE
+from ppm_engine.materials import KMATERIAL_DTYPE
+from ppm_engine.passes import Gather, HashBuild, unshaded
+from ppm_engine.photon_map import GRID_DTYPE, PhotonMap
+from ppm_engine.procedural import MeshBuilder, look_at
+from ppm_engine.scene_arrays import CAMERA_DTYPE, LIGHT_DTYPE
 
 DEVICES = [d.key for d in list_devices()]
 
@@ -130,8 +130,8 @@ def test_bvh_axis_parallel_rays_equal_brute_force(device):
     zero[np.arange(n), axis] = False
     o[zero] = 0.0
     tmax = np.full(n, 1e30)
-    t, idx = _trace(device, bvh, o, d, tmax)
-    t_ref, i_ref = ref.closest_hits(o, d, tmax, scene.positions)
+    t, _idx = _trace(device, bvh, o, d, tmax)
+    t_ref, _i_ref = ref.closest_hits(o, d, tmax, scene.positions)
     assert (t_ref >= 0).sum() > n // 4
     assert ((t < 0) == (t_ref < 0)).mean() > 0.999
     both = (t >= 0) & (t_ref >= 0)
@@ -177,7 +177,7 @@ def test_bvh_visibility_mask(device):
     tmax = np.full(1000, 1e30)
     t, idx = _trace(device, bvh, o, d, tmax, mask=1)
     keep = vis == 1
-    t_ref, i_ref = ref.closest_hits(o, d, tmax, scene.positions[keep])
+    t_ref, _i_ref = ref.closest_hits(o, d, tmax, scene.positions[keep])
     assert ((t >= 0) == (t_ref >= 0)).mean() > 0.999
     assert (vis[idx[t >= 0]] == 1).all()
 
@@ -220,9 +220,9 @@ def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None, exact=False,
     rad = _upload(device, radius)
     hb = HashBuild(device, pm, counters, cell_scale=cell_scale)
     hb.grid(q, vp_pos, rad, n_vp)
-    return dict(pm=pm, hb=hb, gather=Gather(device, pm), ph=ph, flux=flux, up=up, wi=wi, vp=vp, radius=radius, counters=counters,
-                vp_pos=vp_pos, vp_nrm=vp_nrm, vp_shade=unshaded(device, n_vp), rad=rad,
-                n_vp=n_vp)
+    return dict(pm=pm, hb=hb, gather=Gather(device, pm), ph=ph, flux=flux, up=up, wi=wi, vp=vp,
+                radius=radius, counters=counters, vp_pos=vp_pos, vp_nrm=vp_nrm,
+                vp_shade=unshaded(device, n_vp), rad=rad, n_vp=n_vp)
 
 
 def test_grid_bounds_cover_visible_points(device):
@@ -286,7 +286,7 @@ def test_stochastic_gather_is_unbiased(device, table, cell_scale):
     an entry shared by two cells is counted twice, or the selection is not uniform)."""
     s = _photon_setup(device, np.random.default_rng(4 if table is None else 5), table=table,
                       cell_scale=cell_scale)
-    pm, q = s["pm"], device.queue
+    q = device.queue
     n_vp = s["n_vp"]
     gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
     trials = 200
@@ -317,7 +317,7 @@ def test_exact_gather_equals_brute_force(device, table):
     """The reference mode (photons sorted by entry with RadixSort) finds exactly the photons a
     brute-force range search finds."""
     s = _photon_setup(device, np.random.default_rng(6), n_ph=5000, table=table, exact=True)
-    pm, q, n_vp = s["pm"], device.queue, s["n_vp"]
+    q, n_vp = device.queue, s["n_vp"]
     gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
     s["hb"].build(q, 0, 0)
     s["gather"].enqueue(q, s["vp_pos"], s["vp_nrm"], s["vp_shade"], s["rad"], gathered, n_vp)
@@ -342,7 +342,7 @@ def test_progressive_update_equals_closed_form(device):
     R = rng.uniform(1e-3, 1, n).astype(np.float32)
     tau = rng.uniform(0, 100, (n, 3)).astype(np.float32)
     alpha = 0.7
-    f4 = lambda a, w=0: np.c_[a, np.full(n, w)].astype(np.float32)  # noqa: E731
+    f4 = lambda a, w=0: np.c_[a, np.full(n, w)].astype(np.float32)
     vp_pos = _upload(device, np.c_[np.zeros((n, 3)), valid].astype(np.float32))
     bufs = dict(beta=_upload(device, f4(beta)), g=_upload(device, np.c_[phi, M].astype(np.float32)),
                 R=_upload(device, R), N=_upload(device, N), tau=_upload(device, f4(tau)))
@@ -361,6 +361,7 @@ def test_progressive_update_equals_closed_form(device):
 def test_counter_table_matches_the_kernel_header():
     """kernels/shared.h (generated) and ppm_engine/counters.py state the same indices."""
     import re
+
     from ppm_engine.device import kernel_dir
     text = (kernel_dir() / "shared.h").read_text()
     header = {m[1]: int(m[2]) for m in re.finditer(r"#define CNT_(\w+) (\d+)", text)}

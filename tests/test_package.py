@@ -51,7 +51,8 @@ def test_linux_zip_installs_enables_and_renders(tmp_path):
     repo.mkdir(parents=True)
     proc = subprocess.run([sys.executable, str(blender_ext_tool()), "install-files",
                            "--local-dir", str(repo), str(zips[0])], capture_output=True, text=True)
-    assert proc.returncode == 0 and "ERROR" not in proc.stdout + proc.stderr, proc.stdout + proc.stderr
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0 and "ERROR" not in out, out
     assert (repo / "ppm_engine" / "kernels" / "gather.cl").is_file()
 
     home = tmp_path / "home"
@@ -60,7 +61,8 @@ def test_linux_zip_installs_enables_and_renders(tmp_path):
     env.update(BLENDER_USER_RESOURCES=str(user), HOME=str(home))
     enable = """
         import bpy
-        assert bpy.ops.preferences.addon_enable(module="bl_ext.user_default.ppm_engine") == {'FINISHED'}
+        assert bpy.ops.preferences.addon_enable(
+            module="bl_ext.user_default.ppm_engine") == {'FINISHED'}
         bpy.ops.wm.save_userpref()
         print("ENABLED")
     """
@@ -69,13 +71,15 @@ def test_linux_zip_installs_enables_and_renders(tmp_path):
     # a fresh process: the wheels' site-packages now exist before import, so they win
     render = f"""
         import bpy, numpy as np
-        assert bpy.ops.preferences.addon_enable(module="bl_ext.user_default.ppm_engine") == {{'FINISHED'}}
+        assert bpy.ops.preferences.addon_enable(
+            module="bl_ext.user_default.ppm_engine") == {{'FINISHED'}}
         import pyopencl
         print("PYOPENCL", pyopencl.__file__)
         import bl_ext.user_default.ppm_engine.ppm_engine as ext
         print("ENGINE", ext.__file__)
         bpy.ops.wm.read_factory_settings(use_empty=False)
-        assert bpy.ops.preferences.addon_enable(module="bl_ext.user_default.ppm_engine") == {{'FINISHED'}}
+        assert bpy.ops.preferences.addon_enable(
+            module="bl_ext.user_default.ppm_engine") == {{'FINISHED'}}
         sc = bpy.context.scene
         sc.render.engine = "PPM"
         assert sc.render.engine == "PPM"

@@ -4,11 +4,11 @@ import re
 import numpy as np
 import pytest
 
+from ppm_engine.camera_model import make_camera
 from ppm_engine.errors import DeviceError
 from ppm_engine.options import RenderOptions, SettingsError
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.renderer import Renderer
-from ppm_engine.camera_model import make_camera
 from ppm_engine.scene_arrays import NODE_PRINCIPLED, SceneArrays
 
 
@@ -130,8 +130,8 @@ def test_stochastic_hash_and_exact_gather_converge_to_the_same_image():
     for exact in (False, True):
         imgs, photon_terms = [], []
         for seed in range(8):
-            r = Renderer(scene, RenderOptions(photons_per_pass=1 << 12, seed=seed, indirect="photons",
-                                              exact_gather=exact))
+            r = Renderer(scene, RenderOptions(photons_per_pass=1 << 12, seed=seed,
+                                              indirect="photons", exact_gather=exact))
             for _ in range(25):
                 r.iterate()
             imgs.append(blocks(r.image()[..., :3].mean(axis=-1)))
@@ -170,7 +170,8 @@ def test_pixel_filter_table_samples_cycles_blackman_harris():
     assert np.allclose(np.diff(box), 1 / len(box), atol=1e-6)          # uniform in the pixel
     w = 1.5
     t = filter_table(w)
-    assert -w < t.min() < -0.7 * w and 0.7 * w < t.max() < w       # thin tails: u = 0.5/256 at 0.75 w
+    # thin tails: u = 0.5/256 at 0.75 w
+    assert -w < t.min() < -0.7 * w and 0.7 * w < t.max() < w
     assert np.all(np.diff(t) > 0) and abs(t.mean()) < 1e-6
     # the table's samples have the filter's variance
     x = np.linspace(-w, w, 20001)

@@ -6,12 +6,22 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.export.materials import read_material                 # noqa: E402
-from ppm_engine.shader_program import (BOUND, FIELD_WORD, GEOM_WINDOW,  # noqa: E402
-                                       MAX_STACK, PROGRAM_WINDOW, SVM_BLACKBODY, SVM_GEOMETRY,
-                                       SVM_MATH, SVM_RGB_TO_BW, SVM_WAVELENGTH, ops_used)
-from ppm_engine.spectra import blackbody_rgb, wavelength_rgb     # noqa: E402
-from ppm_engine.scene_arrays import shader_node                  # noqa: E402
+from ppm_engine.export.materials import read_material
+from ppm_engine.scene_arrays import shader_node
+from ppm_engine.shader_program import (
+    BOUND,
+    FIELD_WORD,
+    GEOM_WINDOW,
+    MAX_STACK,
+    PROGRAM_WINDOW,
+    SVM_BLACKBODY,
+    SVM_GEOMETRY,
+    SVM_MATH,
+    SVM_RGB_TO_BW,
+    SVM_WAVELENGTH,
+    ops_used,
+)
+from ppm_engine.spectra import blackbody_rgb, wavelength_rgb
 
 
 def _material(name="M"):
@@ -52,7 +62,7 @@ def test_constant_graph_folds_to_constants():
     rgb = t.nodes.new("ShaderNodeRGB")
     rgb.outputs[0].default_value = (0.2, 0.4, 0.6, 1.0)
     t.links.new(rgb.outputs[0], p.inputs["Base Color"])
-    row, (node,), program, warnings = _read(mat)
+    _row, (node,), program, warnings = _read(mat)
     assert program is None and node["bound"] == 0 and not warnings
     assert node["roughness"] == pytest.approx(np.sqrt(0.6), rel=1e-6)
     np.testing.assert_allclose(node["color"], (0.2, 0.4, 0.6), rtol=1e-6)
@@ -66,7 +76,7 @@ def test_driven_inputs_bound_and_the_program_laid_out():
     m = _math(t, "MULTIPLY", sep.outputs[2], vb=0.5)
     t.links.new(m.outputs[0], p.inputs["Roughness"])
     t.links.new(m.outputs[0], p.inputs["Metallic"])
-    row, (node,), program, warnings = _read(mat)
+    _row, (node,), program, warnings = _read(mat)
     assert program is not None and not warnings
     n_binds, n_words, stack, _ = program[0]
     assert n_words == program.shape[0] and 0 < stack <= MAX_STACK
@@ -107,7 +117,7 @@ def test_node_groups_inlined_and_reroutes_followed():
     geo = t.nodes.new("ShaderNodeNewGeometry")
     t.links.new(geo.outputs["Backfacing"], node2.inputs[0])
     t.links.new(node2.outputs[0], p.inputs["Metallic"])
-    row, (bsdf,), program, warnings = _read(mat)
+    _row, (bsdf,), program, warnings = _read(mat)
     assert not warnings
     assert bsdf["roughness"] == pytest.approx(0.4)          # folded through the group
     assert bsdf["bound"] == BOUND["metallic"] and _ops(program).count(SVM_MATH) == 1
@@ -118,7 +128,7 @@ def test_unsupported_node_warned_once_with_its_default():
     odd = t.nodes.new("ShaderNodeWireframe")
     t.links.new(odd.outputs[0], p.inputs["Roughness"])
     t.links.new(odd.outputs[0], p.inputs["Metallic"])
-    row, (bsdf,), program, warnings = _read(mat)
+    _row, (bsdf,), _program, warnings = _read(mat)
     assert sum(odd.name in w and "Odd" in w for w in warnings) == 1
     assert bsdf["roughness"] == pytest.approx(odd.outputs[0].default_value)
 
@@ -132,7 +142,7 @@ def test_blackbody_and_wavelength_fold_or_run_and_window_flags_the_program():
     t.links.new(bb.outputs[0], p.inputs["Base Color"])
     t.links.new(wl.outputs[0], p.inputs["Emission Color"])
     p.inputs["Emission Strength"].default_value = 1.0
-    row, (node,), program, warnings = _read(mat)
+    _row, (node,), program, warnings = _read(mat)
     assert program is None and not warnings
     np.testing.assert_allclose(node["color"], blackbody_rgb(3000.0), rtol=1e-6)
     np.testing.assert_allclose(node["emission"], wavelength_rgb(550.0), rtol=1e-6)
@@ -146,7 +156,7 @@ def test_blackbody_and_wavelength_fold_or_run_and_window_flags_the_program():
     k = _math(t, "MULTIPLY", sep.outputs[0], vb=10000.0)
     t.links.new(k.outputs[0], bb.inputs[0])
     t.links.new(sep.outputs[1], wl.inputs[0])
-    row, (node,), program, warnings = _read(mat)
+    _row, (node,), program, warnings = _read(mat)
     assert not warnings and program[0, 3] & PROGRAM_WINDOW
     ops = _ops(program)
     assert SVM_BLACKBODY in ops and SVM_WAVELENGTH in ops
@@ -162,14 +172,14 @@ def test_a_muted_node_passes_its_input_through_and_colour_converts_to_float():
     inv.mute = True
     t.links.new(rgb.outputs[0], inv.inputs["Color"])
     t.links.new(inv.outputs[0], p.inputs["Roughness"])
-    row, (bsdf,), program, warnings = _read(mat)
+    _row, (bsdf,), program, _warnings = _read(mat)
     assert program is None
     # colour -> float by luminance (Cycles' Rec. 709 weights)
     assert bsdf["roughness"] == pytest.approx(0.2126729 * 0.1 + 0.7151522 * 0.5
                                               + 0.0721750 * 0.9, rel=1e-5)
     bw = t.nodes.new("ShaderNodeTexCoord")
     t.links.new(bw.outputs["UV"], inv.inputs["Color"])
-    row, (bsdf,), program, warnings = _read(mat)
+    _row, (bsdf,), program, _warnings = _read(mat)
     assert SVM_RGB_TO_BW not in _ops(program)             # UV is a vector: averaged
 
 
@@ -181,7 +191,7 @@ def test_a_cycle_is_cut():
     b = _math(t, "ADD", a.outputs[0], vb=0.1)
     t.links.new(b.outputs[0], a.inputs[0])
     t.links.new(b.outputs[0], p.inputs["Roughness"])
-    row, (bsdf,), program, warnings = _read(mat)
+    _row, (bsdf,), program, _warnings = _read(mat)
     assert program is None
     assert bsdf["roughness"] == pytest.approx(0.2) or bsdf["roughness"] == pytest.approx(0.1)
 
@@ -195,7 +205,7 @@ def test_linked_mix_shader_factor_drives_the_weights():
     t.links.new(p.outputs[0], mix.inputs[1])
     t.links.new(glossy.outputs[0], mix.inputs[2])
     t.links.new(mix.outputs[0], t.nodes["Material Output"].inputs["Surface"])
-    row, nodes, program, warnings = _read(mat)
+    _row, nodes, program, _warnings = _read(mat)
     assert len(nodes) == 2 and all(n["bound"] & BOUND["weight"] for n in nodes)
     assert program[0, 0] == 2
 
@@ -204,10 +214,10 @@ def test_too_large_a_graph_falls_back_to_constants():
     mat, t, p = _material("Big")
     geo = t.nodes.new("ShaderNodeNewGeometry")
     prev = geo.outputs["Backfacing"]
-    for k in range(MAX_STACK + 8):
+    for _ in range(MAX_STACK + 8):
         prev = _math(t, "ADD", prev, vb=0.001).outputs[0]
     t.links.new(prev, p.inputs["Roughness"])
-    row, (bsdf,), program, warnings = _read(mat)
+    _row, (bsdf,), program, warnings = _read(mat)
     assert program is None and bsdf["bound"] == 0
     assert any("Big" in w and str(MAX_STACK) in w for w in warnings)
     assert bsdf["roughness"] == pytest.approx(p.inputs["Roughness"].default_value)

@@ -239,7 +239,8 @@ def test_color_and_converter_nodes_as_cycles(render_direct, tmp_path):
                                 in_5=3.0).outputs[0]
 
     cases = {
-        "separate HSV": sep("HSV", 0), "separate HSL s": sep("HSL", 1), "separate RGB": sep("RGB", 2),
+        "separate HSV": sep("HSV", 0), "separate HSL s": sep("HSL", 1),
+        "separate RGB": sep("RGB", 2),
         "combine HSV": comb("HSV"), "combine HSL": comb("HSL"), "combine RGB": comb("RGB"),
         "invert": lambda i: i.node("ShaderNodeInvert", [(0, i.x), (1, i.A)]).outputs[0],
         "gamma": lambda i: i.node("ShaderNodeGamma", [(0, i.A), (1, i.s)]).outputs[0],
@@ -578,7 +579,8 @@ def test_map_range_vector_as_cycles(render_direct, tmp_path):
             fmin, fmax = ((0.9, 0.8, 0.7), (0.1, 0.3, 0.2)) if reverse else \
                 ((0.1, 0.2, -0.1), (0.8, 0.7, 1.2))
             for name, v in (("From_Min_FLOAT3", fmin), ("From_Max_FLOAT3", fmax),
-                            ("To_Min_FLOAT3", (-1.0, 0.5, 2.0)), ("To_Max_FLOAT3", (2.0, -0.5, 3.0)),
+                            ("To_Min_FLOAT3", (-1.0, 0.5, 2.0)),
+                            ("To_Max_FLOAT3", (2.0, -0.5, 3.0)),
                             ("Steps_FLOAT3", (3.0, 4.0, 5.0))):
                 next(s for s in n.inputs if s.identifier == name).default_value = v
             return n.outputs["Vector"]

@@ -13,7 +13,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_shader_nodes import _compare  # noqa: E402
+from test_shader_nodes import _compare
 
 
 def spread(i, s=4.0, o=0.0):
@@ -222,10 +222,16 @@ def test_no_texture_code_without_textures():
     import re
 
     import numpy as np
+
     from ppm_engine import shader_program as sp
     from ppm_engine.export.materials import read_material
-    from ppm_engine.shader_program import (OP_EXTRA, SVM_TEX_CHECKER, SVM_TEX_LAST,
-                                           SVM_TEX_NOISE, ops_used)
+    from ppm_engine.shader_program import (
+        OP_EXTRA,
+        SVM_TEX_CHECKER,
+        SVM_TEX_LAST,
+        SVM_TEX_NOISE,
+        ops_used,
+    )
     tex_bits = sum(1 << op for op in range(SVM_TEX_CHECKER, SVM_TEX_LAST + 1))
     assert SVM_TEX_LAST <= 30 and all(op in OP_EXTRA for op in
                                       range(SVM_TEX_CHECKER, SVM_TEX_LAST + 1))

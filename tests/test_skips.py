@@ -4,14 +4,25 @@ import numpy as np
 import pytest
 
 from ppm_engine import analytic
+from ppm_engine.camera_model import make_camera, perspective_extent
 from ppm_engine.options import RenderOptions
 from ppm_engine.passes import ProgressiveUpdate
 from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.renderer import Renderer
-from ppm_engine.camera_model import make_camera, perspective_extent
-from ppm_engine.scene_arrays import (LIGHT_AREA_RECT, LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT, LIGHT_POINT,
-                                     LIGHT_SUN, NODE_DIFFUSE, NODE_PRINCIPLED, NODE_SHEEN,
-                                     NODE_TRANSLUCENT, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION)
+from ppm_engine.scene_arrays import (
+    LIGHT_AREA_RECT,
+    LIGHT_DTYPE,
+    LIGHT_HIDDEN_SHIFT,
+    LIGHT_POINT,
+    LIGHT_SUN,
+    NODE_DIFFUSE,
+    NODE_PRINCIPLED,
+    NODE_SHEEN,
+    NODE_TRANSLUCENT,
+    VIS_CAMERA,
+    VIS_GLOSSY,
+    VIS_TRANSMISSION,
+)
 
 
 def _light(kind, emit, position=(0, 0, 1.5), direction=(0, 0, -1), radius=0.0, size=0.3,
@@ -92,7 +103,7 @@ def test_closure_features_follow_the_materials():
     """Each closure's code is compiled only for scenes whose materials make it; a plastic (a
     rough specular layer over diffuse) is shaded by the gather, a mirror is not."""
     base = {"PPM_LIGHT_POINT"}
-    f = lambda **n: _features(_materials_room(**n)) - base      # noqa: E731
+    f = lambda **n: _features(_materials_room(**n)) - base
     assert f(type=NODE_DIFFUSE) == set()                        # one Lambert: the short path
     assert f(type=NODE_DIFFUSE, roughness=0.5) == {"PPM_SHADER", "PPM_GATHER_SHADE",
                                                    "PPM_OREN_NAYAR"}
@@ -107,8 +118,10 @@ def test_closure_features_follow_the_materials():
 
 def test_specialised_kernels_are_separate_programs():
     a = Renderer(cornell_box(8, 8), RenderOptions(indirect="photons", photons_per_pass=256))
-    b = Renderer(cornell_box(8, 8, bulb=True), RenderOptions(indirect="photons", photons_per_pass=256))
-    c = Renderer(cornell_box(8, 8), RenderOptions(indirect="photons", photons_per_pass=256, specialize=False))
+    b = Renderer(cornell_box(8, 8, bulb=True),
+                 RenderOptions(indirect="photons", photons_per_pass=256))
+    c = Renderer(cornell_box(8, 8),
+                 RenderOptions(indirect="photons", photons_per_pass=256, specialize=False))
     assert a.features != b.features and c.features is None
     assert len({r.eye.kernel.kernel.program.int_ptr for r in (a, b, c)}) == 3
     for r in (a, b, c):
@@ -138,8 +151,8 @@ def test_specialised_kernels_render_the_same_image(name):
     scene = SCENES[name]()
     imgs = []
     for specialize in (True, False):
-        r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=2048, seed=4, specialize=specialize,
-                                          exact_gather=True))
+        r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=2048, seed=4,
+                                          specialize=specialize, exact_gather=True))
         for _ in range(4):
             s = r.iterate()
         assert s.nan_dropped == 0
@@ -198,7 +211,8 @@ def test_lights_without_power_are_never_sampled():
 
 def test_adaptive_sampling_stops_converged_pixels_and_keeps_their_value():
     scene = cornell_box(24, 24)
-    r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=4096, seed=3, noise_threshold=0.03))
+    r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=4096, seed=3,
+                                      noise_threshold=0.03))
     active, imgs = [], []
     for _ in range(400):
         s = r.iterate()
@@ -207,7 +221,8 @@ def test_adaptive_sampling_stops_converged_pixels_and_keeps_their_value():
         if s.converged:
             break
     active = np.array(active)
-    assert (active[:ProgressiveUpdate.ADAPTIVE_MIN_PASSES - 1] == 24 * 24).all()   # none before 32 passes
+    # none before 32 passes
+    assert (active[:ProgressiveUpdate.ADAPTIVE_MIN_PASSES - 1] == 24 * 24).all()
     assert (np.diff(active) <= 0).all() and active[-1] < 0.5 * 24 * 24     # most stop
     assert "% converged" in s.line(400)
     # a pixel that stopped keeps its value; the still active ones keep changing
@@ -215,7 +230,8 @@ def test_adaptive_sampling_stops_converged_pixels_and_keeps_their_value():
     stopped = ~act_a
     # no pixel that gathers photons stopped with a large radius (its bias is not noise)
     R, R0, N = (r.film.read(k) for k in ("radius", "radius0", "nstat"))
-    assert ((N[~act_b] == 0) | (R[~act_b] <= ProgressiveUpdate.ADAPTIVE_MAX_RADIUS * R0[~act_b])).all()
+    small = R[~act_b] <= ProgressiveUpdate.ADAPTIVE_MAX_RADIUS * R0[~act_b]
+    assert ((N[~act_b] == 0) | small).all()
     assert stopped.any() and act_b.sum() <= act_a.sum()
     np.testing.assert_array_equal(img_a[stopped], img_b[stopped])
     # and the image is the non-adaptive one within noise (stopping pixels adds no bias)

@@ -10,7 +10,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 sys.path.insert(0, str(Path(__file__).parent))
-from test_shader_nodes import T, _image, _view  # noqa: E402
+from test_shader_nodes import T, _image, _view
 
 
 def _sun(props):
@@ -170,8 +170,8 @@ def _offset(sun, angle):
 @pytest.mark.parametrize("model", ["SINGLE_SCATTERING",
                                    pytest.param("MULTIPLE_SCATTERING", marks=pytest.mark.slow)])
 def test_sun_disc_as_cycles(model, cycles, render_exr, tmp_path, tiny):
-    """The sun disc of a single- or multiple-scattering world (its Vector is then unavailable: the ray's
-    direction), seen by an orthographic camera (every ray one direction): at the centre, at
+    """The sun disc of a single- or multiple-scattering world (its Vector is then unavailable: the
+    ray's direction), seen by an orthographic camera (every ray one direction): at the centre, at
     0.5 and 0.95 of its radius (limb darkening, the colour between its lower and upper
     edge), outside it; a sun on the horizon whose disc the Earth cuts (above and below the
     intersection angle).  Each within 1e-3 of Cycles (the disc's colour: double against

@@ -5,7 +5,6 @@ Until photons' Russian roulette left refraction's change of measure out of its s
 probability, each pane let 0.44 of the photons through carrying 2.25x the flux: the right mean
 with a variance growing as 2.25^n, so that 10 panes rendered at 0.67 of Cycles' brightness and
 20 at 0.02 in any affordable number of passes."""
-import numpy as np
 import pytest
 
 W = 24
@@ -14,8 +13,14 @@ W = 24
 def _panes(bpy, n, gap=0.005, thickness=0.001):
     """A white floor under n glass panes (3 x 3 m, 0.2 m up) and a 3 m square area light 0.6 m
     up; the camera between the floor and the first pane, looking down."""
-    from ppm_engine.scenes.cornell_box import (box, camera_world_render, glass, lambert,
-                                               new_scene, quad)
+    from ppm_engine.scenes.cornell_box import (
+        box,
+        camera_world_render,
+        glass,
+        lambert,
+        new_scene,
+        quad,
+    )
     scene = new_scene(None)
     quad(scene, "Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)],
          lambert("Floor", (0.8, 0.8, 0.8)))

@@ -6,21 +6,20 @@ import numpy as np
 import pytest
 
 pytest.importorskip("pyopencl")
-import pyopencl as cl  # noqa: E402
+import pyopencl as cl
 
-from ppm_engine import reference as ref  # noqa: E402
-from ppm_engine.device import get_device  # noqa: E402
-from ppm_engine.errors import DeviceError  # noqa: E402
-from ppm_engine.options import RenderOptions  # noqa: E402
-from ppm_engine.counters import N_COUNTERS, Counter  # noqa: E402
-from ppm_engine.passes import Gather, HashBuild, unshaded  # noqa: E402
-from ppm_engine.photon_map import PhotonMap  # noqa: E402
-from ppm_engine.procedural import MeshBuilder, cornell_box, look_at  # noqa: E402
-from ppm_engine.renderer import Renderer  # noqa: E402
-from ppm_engine.scene_prep import prepare_scene  # noqa: E402
-from ppm_engine.camera_model import make_camera, perspective_extent  # noqa: E402
-from ppm_engine.scene_arrays import (CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT,  # noqa: E402
-                                     LIGHT_SPOT, LIGHT_SUN)
+from ppm_engine import reference as ref
+from ppm_engine.camera_model import make_camera, perspective_extent
+from ppm_engine.counters import N_COUNTERS, Counter
+from ppm_engine.device import get_device
+from ppm_engine.errors import DeviceError
+from ppm_engine.options import RenderOptions
+from ppm_engine.passes import Gather, HashBuild, unshaded
+from ppm_engine.photon_map import PhotonMap
+from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.renderer import Renderer
+from ppm_engine.scene_arrays import CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
+from ppm_engine.scene_prep import prepare_scene
 
 
 @pytest.fixture(scope="module")
@@ -94,7 +93,7 @@ def _long_run(passes, check_every):
                 assert np.isfinite(R).all() and (R > 0).all(), p
                 assert np.isfinite(N).all() and (N >= 0).all(), p
                 if prev_r is not None:
-                    assert (R <= prev_r).all() and (N >= prev_n).all(), p   # never grow / shrink
+                    assert (prev_r >= R).all() and (prev_n <= N).all(), p   # never grow / shrink
                 prev_r, prev_n = R, N
                 means[p] = r.image()[..., :3].mean()
         assert s.nan_dropped == 0 and s.photons_emitted == passes * 256
@@ -138,7 +137,7 @@ def test_scale_and_translation_give_the_same_image(scale, offset):
     base, _, _ = render(_transformed_cornell(1.0, 0.0), passes=16, photons=8192, seed=1)
     other_seed, _, _ = render(_transformed_cornell(1.0, 0.0), passes=16, photons=8192, seed=7)
     moved, _, _ = render(_transformed_cornell(scale, offset), passes=16, photons=8192, seed=1)
-    d = lambda x, y: float(np.sqrt(np.mean((blocks(x) - blocks(y)) ** 2)))  # noqa: E731
+    d = lambda x, y: float(np.sqrt(np.mean((blocks(x) - blocks(y)) ** 2)))
     noise = d(other_seed, base)          # what two seeds of the same scene differ by
     assert noise > 0
     # an independent realisation differs by ~noise (+-25 % over 16 blocks); 2x is > 3 sigma
@@ -171,7 +170,7 @@ def _map(device, ph, vp, radius, exact=False, wi=None):
         flux4.view(np.uint32)[:n_ph, 3] = ref.pack_unit(wi)
     cl.enqueue_copy(q, pm.ph_pos, pos4)
     cl.enqueue_copy(q, pm.ph_flux, flux4)
-    mk = lambda a: cl.Buffer(device.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,  # noqa: E731
+    mk = lambda a: cl.Buffer(device.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
                              hostbuf=np.ascontiguousarray(a))
     counters = np.zeros(N_COUNTERS, np.uint32)
     counters[Counter.STORED] = n_ph
@@ -195,7 +194,7 @@ def test_every_photon_in_one_cell(device):
     ph = np.c_[np.random.default_rng(0).uniform(-1e-6, 1e-6, (5000, 2)), np.zeros(5000)]
     vp = np.array([[0.0, 0.0, 0.0], [0.005, 0.0, 0.0], [1.0, 1.0, 0.0]])
     for exact in (False, True):
-        pm, got, M_ref = _map(device, ph, vp, [0.01, 0.01, 0.01], exact=exact)
+        _pm, got, M_ref = _map(device, ph, vp, [0.01, 0.01, 0.01], exact=exact)
         assert np.isfinite(got).all()
         assert M_ref.tolist() == [5000, 5000, 0]
         # the exact map finds all; the stochastic one counts the entry's n for its one photon
@@ -229,7 +228,7 @@ def test_negative_coordinates_and_photons_outside_the_grid(device):
     rng = np.random.default_rng(2)
     vp = np.c_[rng.uniform(-3, -1, (300, 2)), np.full(300, -7.0)]
     ph = np.c_[rng.uniform(-4, 0, (20000, 2)), np.full(20000, -7.0)]   # a third outside
-    pm, got, M_ref = _map(device, ph, vp, np.full(300, 0.05), exact=True)
+    _pm, got, M_ref = _map(device, ph, vp, np.full(300, 0.05), exact=True)
     assert M_ref.sum() > 1000
     assert (got[:, 3] == M_ref).mean() > 0.99
 
@@ -253,7 +252,7 @@ def test_no_photon_reaches_anything():
 @pytest.mark.parametrize("r0", [1e-30, 1e-20, 1e-12])
 def test_radius_that_underflows(r0):
     """R^2 underflows float32 (1e-30, 1e-20) or 1/R^2 is huge: no NaN/Inf enters the film."""
-    img, stats, radius = render(cornell_box(8, 8), passes=4, initial_radius=r0)
+    _img, _stats, radius = render(cornell_box(8, 8), passes=4, initial_radius=r0)
     assert (radius > 0).all() and (radius <= r0).all()
 
 
@@ -272,7 +271,8 @@ def test_degenerate_duplicate_and_non_manifold_geometry():
                     [[0, 0, 0.5], [0, 0.3, 0.5], [0.0, 0.1, 0.1]]], np.float32)
     add = np.concatenate([zero_area, line, p[:2], fin]).astype(np.float32)  # p[:2]: the floor again
     n_add = add.shape[0]
-    extra_n = np.concatenate([np.zeros((2 * k, 3, 3)), s.normals[:2], np.tile([0, 1.0, 0], (3, 3, 1))])
+    extra_n = np.concatenate([np.zeros((2 * k, 3, 3)), s.normals[:2],
+                              np.tile([0, 1.0, 0], (3, 3, 1))])
     s2 = s.replace(positions=np.concatenate([p, add]),
                    normals=np.concatenate([s.normals, extra_n.astype(np.float32)]),
                    uvs=np.zeros((p.shape[0] + n_add, 3, 2), np.float32),
@@ -362,10 +362,10 @@ def test_camera_inside_glass_with_a_light_enclosed():
 
 
 def test_zero_power_and_huge_lights_scale_linearly():
-    zero, stats0, _ = render(floor_scene(lights=point_light((0, 0, 1.5), 0.0)), passes=4)
+    zero, _stats0, _ = render(floor_scene(lights=point_light((0, 0, 1.5), 0.0)), passes=4)
     assert zero.max() == 0.0
     a, _, _ = render(floor_scene(lights=point_light((0, 0, 1.5), 100.0)), passes=4, seed=5)
-    b, stats, _ = render(floor_scene(lights=point_light((0, 0, 1.5), 1e9)), passes=4, seed=5)
+    b, _stats, _ = render(floor_scene(lights=point_light((0, 0, 1.5), 1e9)), passes=4, seed=5)
     np.testing.assert_allclose(b / 1e7, a, rtol=1e-3, atol=1e-6 * a.max())
 
 
@@ -424,7 +424,7 @@ def test_one_by_one_image(indirect):
 def test_photons_per_pass_over_the_device_limit_is_refused_with_a_message(pocl_key, monkeypatch):
     dev = get_device(pocl_key)
     monkeypatch.setattr(dev, "max_alloc", 1 << 20)        # a device that allows 1 MiB buffers
-    with pytest.raises(DeviceError, match="photons per pass|MAX_MEM_ALLOC_SIZE"):
+    with pytest.raises(DeviceError, match=r"photons per pass|MAX_MEM_ALLOC_SIZE"):
         Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=1 << 16, device=pocl_key))
     monkeypatch.undo()
     r = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=1 << 10, device=pocl_key))

@@ -23,7 +23,8 @@ def device(pocl_key):
 def _up(device, a):
     import pyopencl as cl
     a = np.ascontiguousarray(a)
-    return cl.Buffer(device.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=a)
+    return cl.Buffer(device.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR,
+                     hostbuf=a)
 
 
 def _per_pass_values(passes, n, seed=0):
@@ -46,6 +47,7 @@ def _naive_float32_sum(v):
 
 def _run_direct(device, fp64, passes):
     import pyopencl as cl
+
     from ppm_engine.film import Film
     from ppm_engine.passes import ProgressiveUpdate
     film = Film(device, 4, 4, fp64=fp64)
@@ -95,6 +97,7 @@ def _constant_density(device, fp64, passes, kernel):
     whatever the radii did.  kernel = 'film_update' (the film) or 'progressive_update' (the
     paper's tau update in float32, kept as the closed-form reference)."""
     import pyopencl as cl
+
     from ppm_engine.film import Film
     from ppm_engine.passes import ProgressiveUpdate
     n, q = 16, device.queue

@@ -6,19 +6,26 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.export import export_scene  # noqa: E402
-from ppm_engine.export.textures import srgb_to_linear  # noqa: E402
-from ppm_engine.options import RenderOptions  # noqa: E402
-from ppm_engine.procedural import MeshBuilder, look_at  # noqa: E402
-from ppm_engine.renderer import Renderer  # noqa: E402
-from ppm_engine.camera_model import make_camera  # noqa: E402
-from ppm_engine.scene_arrays import (CAMERA_ORTHO, TEX_CLIP, TEX_FLAG_CLOSEST,  # noqa: E402
-                                     TEX_FLAG_SRGB, TEX_REPEAT, TEXTURE_DTYPE)
+from ppm_engine.camera_model import make_camera
+from ppm_engine.export import export_scene
+from ppm_engine.export.textures import srgb_to_linear
+from ppm_engine.options import RenderOptions
+from ppm_engine.procedural import MeshBuilder, look_at
+from ppm_engine.renderer import Renderer
+from ppm_engine.scene_arrays import (
+    CAMERA_ORTHO,
+    TEX_CLIP,
+    TEX_FLAG_CLOSEST,
+    TEX_FLAG_SRGB,
+    TEX_REPEAT,
+    TEXTURE_DTYPE,
+)
 
 # a 4 x 2 image, rows bottom-up (Blender's order), values on the 8-bit grid
-PIXELS = np.array([[[0.0, 0.2, 0.4, 1], [1.0, 0.0, 0.0, 1], [0.0, 1.0, 0.0, 1], [0.0, 0.0, 1.0, 1]],
-                   [[1.0, 1.0, 1.0, 1], [0.5, 0.5, 0.5, 1], [0.2, 0.6, 0.8, 1], [0.8, 0.4, 0.1, 1]]],
-                  np.float32)
+PIXELS = np.array([[[0.0, 0.2, 0.4, 1], [1.0, 0.0, 0.0, 1], [0.0, 1.0, 0.0, 1],
+                    [0.0, 0.0, 1.0, 1]],
+                   [[1.0, 1.0, 1.0, 1], [0.5, 0.5, 0.5, 1], [0.2, 0.6, 0.8, 1],
+                    [0.8, 0.4, 0.1, 1]]], np.float32)
 PIXELS = np.round(PIXELS * 255) / 255
 
 
@@ -86,7 +93,7 @@ def test_packed_image_reads_like_a_generated_one():
 
 
 def test_external_image_file_and_a_missing_one(tmp_path):
-    scene, img = _scene_with_texture()
+    _scene, img = _scene_with_texture()
     png = tmp_path / "tex.png"
     img.filepath_raw = str(png)
     img.file_format = 'PNG'
@@ -159,7 +166,7 @@ def test_textured_scene_as_bright_as_cycles(cycles, render_exr, tmp_path):
     """A plane with an 8-bit sRGB texture on its base colour, lit by a sun, and a textured
     emissive panel: our image agrees with Cycles' per quarter of the image (UV orientation,
     sRGB decoding, the emission texture as a light)."""
-    scene, img = _scene_with_texture()
+    scene, _img = _scene_with_texture()
     big = bpy.data.images.new("Checker", 64, 64)
     yy, xx = np.mgrid[0:64, 0:64]
     check = (((xx // 16) + (yy // 16)) % 2).astype(np.float32)
@@ -186,7 +193,7 @@ def test_textured_scene_as_bright_as_cycles(cycles, render_exr, tmp_path):
     ours = render_exr(tmp_path / "ours.exr")
     # 4 x 4 pixel blocks: each lies inside one checker tile (8 x 8 pixels), so a texture
     # flipped or turned would swap the colours of whole blocks
-    q = lambda a: a.reshape(8, 4, 8, 4, 3).mean(axis=(1, 3))     # noqa: E731
+    q = lambda a: a.reshape(8, 4, 8, 4, 3).mean(axis=(1, 3))
     assert np.ptp(q(ref)[..., 0]) > 0.2                            # the checker really shows
     np.testing.assert_allclose(q(ours), q(ref), rtol=0.03, atol=0.003)
 
@@ -240,10 +247,10 @@ def _tex(image, vector=None, out="Color", **props):
 def test_cubic_every_extension_as_cycles(render_direct, tmp_path):
     """Cubic (and Smart) interpolation: a 5 x 3 texture read at random points of [-1, 2]^2, so
     the 4 x 4 B-spline and every extension mode's borders show."""
-    img = lambda: _small_image("Small", 5, 3, 7)                              # noqa: E731
-    srgb = lambda: _small_image("Bytes", 4, 3, 8, float_buffer=False)         # noqa: E731
-    alpha = lambda: _small_image("Alpha", 3, 4, 9, alpha=True)                # noqa: E731
-    wide = lambda i: _spread(i, 3.0, -1.0)                                    # noqa: E731
+    img = lambda: _small_image("Small", 5, 3, 7)
+    srgb = lambda: _small_image("Bytes", 4, 3, 8, float_buffer=False)
+    alpha = lambda: _small_image("Alpha", 3, 4, 9, alpha=True)
+    wide = lambda i: _spread(i, 3.0, -1.0)
     cases = {f"cubic {e}": _tex(img, wide, interpolation="Cubic", extension=e)
              for e in ("REPEAT", "EXTEND", "CLIP", "MIRROR")}
     cases.update({
@@ -281,8 +288,8 @@ def test_box_sphere_and_tube_projections_as_cycles(render_direct, tmp_path):
     """Box projection: the object-space normal picks or blends the three planar projections
     (every face and sign with Projection Blend 0; each blend zone, edges and corner, with 0.4);
     Sphere and Tube projections of random points in the unit box."""
-    img = lambda: _small_image("Small", 5, 3, 7)                              # noqa: E731
-    unit = lambda i: _spread(i, 1.0, 0.0)                                     # noqa: E731
+    img = lambda: _small_image("Small", 5, 3, 7)
+    unit = lambda i: _spread(i, 1.0, 0.0)
     cases = {}
     for blend in (0.0, 0.4):
         for name, n in BOX_NORMALS.items():
@@ -327,7 +334,7 @@ def test_udim_tiles_as_cycles(render_direct, tmp_path):
     """A UDIM image: each tile its own texture, chosen by the UV's integer parts (1001 + u +
     10 v, truncated); a tile without a file and a tile not in the image are magenta, as in
     Cycles; a plane whose UVs span tiles 1001 and 1002, read with Closest (one texel a pixel)."""
-    img = lambda: _udim(tmp_path)                                             # noqa: E731
+    img = lambda: _udim(tmp_path)
 
     def span(me):                                   # u in [0, 2]: both tiles across the plane
         uv = np.empty(2 * len(me.loops), np.float32)
@@ -469,7 +476,7 @@ def test_alpha_association_as_cycles(render_direct, tmp_path):
             img = bpy.data.images.load(str(tmp_path / "alpha.png"))
             img.name = "png"
         return img
-    wide = lambda i: _spread(i, 3.0, -1.0)                                    # noqa: E731
+    wide = lambda i: _spread(i, 3.0, -1.0)
     cases = {}
     for kind, fb in (("float", True), ("8-bit", False), ("png", None)):
         img = png if fb is None else (lambda fb=fb, kind=kind: _alpha_image(kind, fb))
@@ -482,7 +489,7 @@ def test_alpha_association_as_cycles(render_direct, tmp_path):
 
 def test_environment_projections_as_cycles(render_direct, tmp_path):
     """The Environment Texture at random directions: equirectangular and mirror ball."""
-    img = lambda: _small_image("Small", 5, 3, 7)                              # noqa: E731
+    img = lambda: _small_image("Small", 5, 3, 7)
 
     def env(projection, interpolation):
         def build(i):

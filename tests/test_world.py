@@ -11,8 +11,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 sys.path.insert(0, str(Path(__file__).parent))
-from test_materials import _both, _compare, _light_world_camera  # noqa: E402  (the same scenes' set-up)
-from test_skips import _room  # noqa: E402
+from test_materials import _both, _compare, _light_world_camera
+from test_skips import _room
+
 SUN = (0.3, 0.75)   # the spot's (u, v): above the horizon, to the side
 
 
@@ -125,6 +126,7 @@ def test_map_sampling_follows_the_map_and_its_density_integrates_to_one():
     map (chi-square), carry the density world_map_pdf gives them (and the NumPy mirror), and
     that density integrates to 1 over the sphere."""
     import pyopencl as cl
+
     from ppm_engine.world_map import direction_to_uv, map_pdf
     dev, m = _map_device()
     n = 1 << 18

@@ -57,8 +57,7 @@ import numpy as np
 
 from .. import session
 from ..blender_io import cycles_reference, ensure_registered, read_exr, set_output
-from ..scenes import build_example
-from ..scenes import furnace
+from ..scenes import build_example, furnace
 from ..scenes.bulb_box import BULB_CENTER
 from . import luxcore
 from .report import machine_info
@@ -259,6 +258,7 @@ class Bench:
         """A light-traced image of the current scene for ``seconds`` (whole passes): (RGB image
         top-down, wall seconds, info, coverage top-down)."""
         import bpy
+
         from ..export import export_scene
         from ..light_tracer import LightTracer
         t = time.perf_counter()
@@ -363,8 +363,9 @@ class Bench:
                     row["image_rmse_seeds"] = per_seed
                     row["image_rmse_mean"] = float(np.mean(per_seed))
                 rows.append(row)
-                self.progress(f"[{name}] {curve:11s} {budget:6.2f} s: RMSE {row['image']['rmse']:.4g}"
-                              f" (rel {row['image']['rel_rmse']:.3f}), caustic RMSE "
+                self.progress(f"[{name}] {curve:11s} {budget:6.2f} s: RMSE "
+                              f"{row['image']['rmse']:.4g} (rel {row['image']['rel_rmse']:.3f}), "
+                              "caustic RMSE "
                               f"{row['caustic']['rmse']:.4g}, wall {wall:.1f} s"
                               + (f", {info['passes']} passes" if "passes" in info else "")
                               + (f", mean RMSE of seeds {row['seeds']}: "

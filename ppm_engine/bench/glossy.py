@@ -100,6 +100,7 @@ def _ours(arrays, options: RenderOptions, seconds: float) -> tuple[np.ndarray, i
 def run_glossy(seconds: float, res: int, ref_samples: int, values=DEFAULT_VALUES,
                device: str = "", progress=print) -> dict:
     import bpy
+
     from ..export import export_scene
     scene = build_scene(res)
     folder = Path(tempfile.mkdtemp(prefix="ppm-glossy-"))
@@ -107,7 +108,7 @@ def run_glossy(seconds: float, res: int, ref_samples: int, values=DEFAULT_VALUES
     ref = _cycles(scene, folder / "ref.exr", samples=ref_samples)
     ref_s = time.perf_counter() - t
     progress(f"glossy: reference ({ref_samples} samples) in {ref_s:.0f} s")
-    rmse = lambda img: float(np.sqrt(np.mean((img - ref).astype(np.float64) ** 2)))  # noqa: E731
+    rmse = lambda img: float(np.sqrt(np.mean((img - ref).astype(np.float64) ** 2)))
     out = {"seconds": seconds, "resolution": res, "reference_samples": ref_samples,
            "reference_seconds": ref_s, "mean": float(ref.mean())}
     out["cycles"] = rmse(_cycles(scene, folder / "cycles.exr", seconds=seconds))

@@ -205,7 +205,7 @@ def material_props(mat) -> tuple[dict, list[float] | None]:
                 "exteriorior": 1.0, "cauchyb": 0.0}, None
     if kind != "ShaderNodeBsdfPrincipled":
         raise Unsupported(f"material '{mat.name}': {kind} is not translated")
-    g = lambda name, default=None: _input(node, name, default)      # noqa: E731
+    g = lambda name, default=None: _input(node, name, default)
     strength = g("Emission Strength", 0.0)
     if strength > 0:
         emission = (np.array(g("Emission Color")) * strength).tolist()
@@ -414,7 +414,7 @@ def camera_props(scene, depsgraph) -> dict:
     # splats invert the same map): its image lies one pixel too high.  The window moves down by
     # one pixel to put it back (measured: the lowest RMSE against the light-traced reference
     # at no shift, instead of at one row, with this)
-    w, h = _film_size(scene)
+    _w, h = _film_size(scene)
     dy = (y1 - y0) / h
     y0, y1 = y0 - dy, y1 - dy
     props = {"scene.camera.type": "perspective",

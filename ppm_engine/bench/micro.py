@@ -14,6 +14,7 @@ import numpy as np
 from .. import session
 from ..blender_io import ensure_registered
 from ..bvh import BVH
+from ..camera_model import make_camera
 from ..counters import N_COUNTERS, Counter
 from ..device import get_device
 from ..device_scene import placeholders
@@ -23,7 +24,6 @@ from ..photon_map import GRID_DTYPE, PhotonMap
 from ..procedural import MeshBuilder, cornell_box, look_at
 from ..reference import pack_unit
 from ..renderer import Renderer
-from ..camera_model import make_camera
 
 PAPER = {
     "hash_build_200k_ms": (2.5, "Radeon HD 4850 (paper)"),
@@ -159,7 +159,7 @@ def bvh_build(device, n_tris: int) -> dict:
     for method in ("ploc", "lbvh"):
         built = []
 
-        def once():
+        def once(built=built, method=method):
             t = time.perf_counter()
             built.append(BVH(device, scene, method=method))
             return (time.perf_counter() - t) * 1e3
@@ -200,12 +200,14 @@ def format_micro(m: dict) -> str:
     lines.append(f"eye rays: {t['eye_rays_per_s']:.3g}/s   photons traced: "
                  f"{t['photons_per_s']:.3g}/s")
     for b in m["bvh"]:
-        lines.append(f"BVH build {b['triangles']:>9,} triangles: PLOC {b['ploc_build_ms_wall']:.1f} ms"
-                     f" (wall, {b['ploc_rays_per_s']:.3g} rays/s), LBVH "
+        lines.append(f"BVH build {b['triangles']:>9,} triangles: PLOC "
+                     f"{b['ploc_build_ms_wall']:.1f} ms (wall, {b['ploc_rays_per_s']:.3g} rays/s), "
+                     "LBVH "
                      f"{b['lbvh_build_ms_wall']:.1f} ms ({b['lbvh_rays_per_s']:.3g} rays/s)")
     if "export" in m:
         e = m["export"]
-        lines.append(f"export_scene {e['triangles']:>9,} triangles: {e['export_s_wall']:.3f} s (wall)")
+        lines.append(f"export_scene {e['triangles']:>9,} triangles: {e['export_s_wall']:.3f} s "
+                     "(wall)")
     if "first_image" in m:
         f = m["first_image"]
         lines.append(f"render() to first image ({f['scene']}, warm caches): "
@@ -248,10 +250,11 @@ def export_big_mesh(n_triangles: int = 1_000_000, repeat: int = 3) -> dict:
     """Wall time of ppm_engine.export.export_scene for one mesh of ~n_triangles (plus a camera
     and a light) in an otherwise empty file; median of ``repeat`` after one warm-up."""
     import bpy
+
     from ..export import export_scene
     from ..scenes.cornell_box import lambert, new_scene
     scene = new_scene(None)
-    mesh = _big_mesh(int(round(math.sqrt(n_triangles / 2))) + 1)
+    mesh = _big_mesh(round(math.sqrt(n_triangles / 2)) + 1)
     mesh.materials.append(lambert("Grey", (0.5, 0.5, 0.5)))
     obj = bpy.data.objects.new("Big", mesh)
     scene.collection.objects.link(obj)
@@ -294,7 +297,8 @@ def first_image(scene_name: str = "bulb_box", device: str = "", repeat: int = 3)
     for k in range(repeat + 1):
         stamp = []
         t0 = time.perf_counter()
-        with session.listening(lambda text, fraction: stamp.append(time.perf_counter())):
+        with session.listening(lambda text, fraction, stamp=stamp:
+                               stamp.append(time.perf_counter())):
             bpy.ops.render.render(write_still=False)
         if k == 0:
             continue                    # warm-up: programs built, caches filled

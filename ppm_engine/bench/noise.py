@@ -44,7 +44,7 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
                     scene.ppm.passes = passes
                     scene.ppm.time_limit = 0
                     scene.ppm.max_bounces = bounces
-                img, w, info = render(scene, Path(tmp) / f"{engine}_{seed}.exr")
+                img, w, _info = render(scene, Path(tmp) / f"{engine}_{seed}.exr")
                 imgs.append(img)
                 wall.append(w)
             images[engine], walls[engine] = np.asarray(imgs, np.float64), wall

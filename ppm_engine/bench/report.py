@@ -29,6 +29,7 @@ def machine_info(device_name: str = "") -> dict:
         pass
     try:
         import pyopencl as cl
+
         from ..device import get_device
         dev = get_device(device_name)
         info["opencl_device"] = dev.info.name
@@ -37,7 +38,7 @@ def machine_info(device_name: str = "") -> dict:
         for p in cl.get_platforms():
             if p.name == dev.info.platform:
                 info["opencl_platform_version"] = p.version
-    except Exception as e:          # noqa: BLE001 -- informational only
+    except Exception as e:
         info["opencl_error"] = str(e)
     return info
 
@@ -154,8 +155,9 @@ def ratio_table(result: dict) -> str:
         ph = f"{r['photons_image_rmse']:.3f}" if "photons_image_rmse" in r else "–"
         sd = (f"{r['image_rmse_seeds']:.3f} ({len(r['seeds'])})" if "image_rmse_seeds" in r
               else "–")
-        lines.append(f"| {name} | {r.get('indirect', 'photons')} | {r['image_rmse']:.3f} | {sd} | {r['image_rmse_corrected']:.3f} | "
-                     f"{r['caustic_rmse']:.3f} | {mn} | {lx} | {ph} | {tgt} | {met} |")
+        lines.append(f"| {name} | {r.get('indirect', 'photons')} | {r['image_rmse']:.3f} | {sd} | "
+                     f"{r['image_rmse_corrected']:.3f} | {r['caustic_rmse']:.3f} | {mn} | {lx} | "
+                     f"{ph} | {tgt} | {met} |")
     # LuxCore's curve: its converged brightness (a bias raises its RMSE) or why it is missing
     for name, s in result["scenes"].items():
         b = s.get("bias_check", {}).get("luxcore_longest_mean_over_reference")

@@ -61,7 +61,7 @@ def run_shader(scene_name: str, resolution: int = 128, passes: int = 8, warmup: 
              f"{renderers['program'].photons_per_pass} photons per pass, {warmup} warm-up + "
              f"{passes} timed passes each, interleaved")
     stats = {k: [] for k in renderers}
-    wall = {k: 0.0 for k in renderers}
+    wall = dict.fromkeys(renderers, 0.0)
     for i in range(warmup + passes):
         for k, r in renderers.items():
             t = time.perf_counter()

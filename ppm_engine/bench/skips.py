@@ -16,10 +16,10 @@ import numpy as np
 
 from .. import session
 from ..blender_io import ensure_registered
+from ..camera_model import make_camera, perspective_extent
 from ..options import RenderOptions
 from ..procedural import MeshBuilder, cornell_box, look_at
 from ..renderer import Renderer
-from ..camera_model import make_camera, perspective_extent
 from ..scene_arrays import LIGHT_DTYPE, LIGHT_POINT
 
 

@@ -3,5 +3,13 @@ kernels launched with arguments bound by name."""
 from .context import Device, DeviceInfo, get_device, list_devices
 from .program import SHADING_GROUP, Launch, global_size, kernel_dir
 
-__all__ = ["Device", "DeviceInfo", "get_device", "list_devices", "Launch", "global_size",
-           "SHADING_GROUP", "kernel_dir"]
+__all__ = [
+           "SHADING_GROUP",
+           "Device",
+           "DeviceInfo",
+           "Launch",
+           "get_device",
+           "global_size",
+           "kernel_dir",
+           "list_devices",
+]

@@ -22,7 +22,8 @@ def _cl():
     try:
         import pyopencl as cl
     except ImportError as e:  # pragma: no cover - the package depends on it
-        raise DeviceError(f"pyopencl is not installed ({e}); install the engine's requirements") from e
+        raise DeviceError(f"pyopencl is not installed ({e}); install the engine's "
+                          "requirements") from e
     return cl
 
 
@@ -53,11 +54,11 @@ def list_devices() -> list[DeviceInfo]:
     return [info for info, _ in _enumerate()]
 
 
-_devices: dict[str, "Device"] = {}
+_devices: dict[str, Device] = {}
 _lock = threading.Lock()
 
 
-def get_device(name: str = "") -> "Device":
+def get_device(name: str = "") -> Device:
     """The shared Device for ``name`` (a key from list_devices(), or a case-insensitive
     substring of a device or platform name; "" or "DEFAULT": a GPU if present, else a CPU)."""
     found = _enumerate()
@@ -95,7 +96,8 @@ class Device:
         self.max_alloc = int(cl_device.max_mem_alloc_size)
         self.global_mem = int(cl_device.global_mem_size)
         ext = cl_device.extensions
-        self.int64_atomics = "cl_khr_int64_extended_atomics" in ext and "cl_khr_int64_base_atomics" in ext
+        self.int64_atomics = ("cl_khr_int64_extended_atomics" in ext
+                              and "cl_khr_int64_base_atomics" in ext)
         self.programs = ProgramCache(self.context, cl_device)
         self._algorithms = {}
 

@@ -3,27 +3,35 @@
     arrays = export_scene(depsgraph, engine)     # engine optional: warnings are also reported
 
 Everything is read with attribute-API ``foreach_get`` into buffers of the stored dtype
-(a Python loop over a million vertices would take seconds); the per-object work is a handful of NumPy calls, never a loop over
-vertices or triangles.  Mesh data is read once per evaluated mesh and transformed per instance.
+(a Python loop over a million vertices would take seconds); the per-object work is a handful of
+NumPy calls, never a loop over vertices or triangles.  Mesh data is read once per evaluated mesh
+and transformed per instance.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..errors import SceneError
-from ..scene_arrays import (LIGHT_DTYPE, LIGHT_HIDDEN_SHIFT, VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY, VIS_SHADOW,
-                            VIS_TRANSMISSION, SceneArrays)
+from ..scene_arrays import (
+    LIGHT_DTYPE,
+    LIGHT_HIDDEN_SHIFT,
+    VIS_CAMERA,
+    VIS_DIFFUSE,
+    VIS_GLOSSY,
+    VIS_SHADOW,
+    VIS_TRANSMISSION,
+    SceneArrays,
+)
+from ..shader_program import PROGRAM_ATTRIBUTES, PROGRAM_GENERATED, PROGRAM_OBJECT, PROGRAM_TANGENTS
 from .camera import export_camera
 from .lights import export_light
-from ..shader_program import (PROGRAM_ATTRIBUTES, PROGRAM_GENERATED, PROGRAM_OBJECT,
-                              PROGRAM_TANGENTS)
 from .material_table import MaterialTable
-from .objects import object_row
 from .mesh import GEOMETRY_TYPES, MeshCache, transform_part
+from .objects import object_row
 from .textures import TextureTable
 from .world import export_world
 
-__all__ = ["export_scene", "Warnings"]
+__all__ = ["Warnings", "export_scene"]
 
 _VIS_FLAGS = (("visible_camera", VIS_CAMERA), ("visible_diffuse", VIS_DIFFUSE),
               ("visible_glossy", VIS_GLOSSY), ("visible_transmission", VIS_TRANSMISSION),

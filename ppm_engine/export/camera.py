@@ -5,11 +5,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import SceneError
 from ..camera_model import make_camera, ortho_extent, perspective_extent
-from ..scene_arrays import (CAMERA_ORTHO, CAMERA_PERSP, FILM_TRANSPARENT,
-                            FILM_TRANSPARENT_GLASS, FILTER_BLACKMAN_HARRIS, FILTER_BOX,
-                            FILTER_GAUSSIAN)
+from ..errors import SceneError
+from ..scene_arrays import (
+    CAMERA_ORTHO,
+    CAMERA_PERSP,
+    FILM_TRANSPARENT,
+    FILM_TRANSPARENT_GLASS,
+    FILTER_BLACKMAN_HARRIS,
+    FILTER_BOX,
+    FILTER_GAUSSIAN,
+)
 
 
 def render_size(render) -> tuple[int, int]:

@@ -6,13 +6,21 @@ import math
 
 import numpy as np
 
-from ..scene_arrays import (LIGHT_AREA_ELLIPSE, LIGHT_AREA_RECT, LIGHT_DTYPE,
-                            LIGHT_FLAG_SOFT_FALLOFF, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN)
+from ..scene_arrays import (
+    LIGHT_AREA_ELLIPSE,
+    LIGHT_AREA_RECT,
+    LIGHT_DTYPE,
+    LIGHT_FLAG_SOFT_FALLOFF,
+    LIGHT_POINT,
+    LIGHT_SPOT,
+    LIGHT_SUN,
+)
 
 
 def strength(light) -> np.ndarray:
     """colour x energy x 2^exposure (x blackbody colour when enabled), as Cycles."""
-    c = np.array(light.color[:3], np.float64) * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
+    c = np.array(light.color[:3], np.float64) * light.energy \
+        * 2.0 ** getattr(light, "exposure", 0.0)
     if getattr(light, "use_temperature", False) and hasattr(light, "temperature_color"):
         c = c * np.array(light.temperature_color[:3], np.float64)
     return c

@@ -58,7 +58,7 @@ class MaterialTable:
 
     def anisotropic(self, slots: np.ndarray) -> bool:
         """Whether a material of these (global) slots is anisotropic: it needs tangents."""
-        for k in set(int(i) for i in slots):
+        for k in {int(i) for i in slots}:
             rows = [shader_node(**n) if isinstance(n, dict) else n for n in self.nodes[k]]
             if rows and anisotropic_nodes(np.concatenate(rows)).any():
                 return True

@@ -16,12 +16,25 @@ import sys
 
 import numpy as np
 
-from .shader_graph import Compiler, Graph
+from ..scene_arrays import (
+    MATERIAL_DTYPE,
+    NODE_DIFFUSE,
+    NODE_EMISSION,
+    NODE_FLAG_CONDUCTOR,
+    NODE_FLAG_MULTI_GGX,
+    NODE_GLASS,
+    NODE_GLOSSY,
+    NODE_HOLDOUT,
+    NODE_METALLIC,
+    NODE_PRINCIPLED,
+    NODE_REFRACTION,
+    NODE_SHEEN,
+    NODE_TRANSLUCENT,
+    NODE_TRANSPARENT,
+    shader_node,
+)
 from ..shader_program import MAX_STACK
-from ..scene_arrays import (MATERIAL_DTYPE, NODE_DIFFUSE, NODE_EMISSION, NODE_FLAG_CONDUCTOR,
-                            NODE_FLAG_MULTI_GGX, NODE_GLASS, NODE_GLOSSY, NODE_HOLDOUT,
-                            NODE_METALLIC, NODE_PRINCIPLED, NODE_REFRACTION, NODE_SHEEN,
-                            NODE_TRANSLUCENT, NODE_TRANSPARENT, shader_node)
+from .shader_graph import Compiler, Graph
 
 DEFAULT_NAME = "(default grey)"
 _MAX_DEPTH = 64
@@ -111,7 +124,7 @@ class _Reader:
             row[field] = default
             return
         if self.textures is not None and not self.ctx:
-            tex, constant = self.textures.from_socket(sock, name, self.name)
+            tex, _constant = self.textures.from_socket(sock, name, self.name)
             if tex and (scale is None or scale.is_const):
                 row[field], row[texture_field] = (1.0, 1.0, 1.0), tex
                 if scale is not None:

@@ -320,7 +320,8 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
     mat = slot_map[slot]
     if good is not None:
         mat = mat[good]
-    return dict(positions=p.astype(np.float32, copy=False), normals=n.astype(np.float32, copy=False),
+    return dict(positions=p.astype(np.float32, copy=False),
+                normals=n.astype(np.float32, copy=False),
                 uvs=np.ascontiguousarray(uvs, np.float32), material=mat.astype(np.int32),
                 visibility=np.full(p.shape[0], visibility, np.uint32),
                 tangents=np.ascontiguousarray(tg, np.float32),

@@ -14,14 +14,39 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shader_program import (BOUND, FIELD_WORD, GEOM_ATTRIBUTE, GEOM_ATTRIBUTE_ALPHA,
-                              GEOM_BACKFACING, GEOM_BUMP_OFFSET, GEOM_GENERATED, GEOM_NORMAL,
-                              GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT_INDEX,
-                              GEOM_OBJECT_RANDOM, GEOM_POSITION, GEOM_UV, GEOM_WINDOW, MATH,
-                              MAX_ATTRIBUTES, MAX_STACK, PROGRAM_ATTRIBUTES, PROGRAM_EMISSION,
-                              PROGRAM_GENERATED, PROGRAM_OBJECT, PROGRAM_WINDOW, SVM_COMBINE,
-                              SVM_CONST, SVM_END, SVM_GEOMETRY, SVM_MATH, SVM_RGB_TO_BW, f2i,
-                              fold_math)
+from ..shader_program import (
+    BOUND,
+    FIELD_WORD,
+    GEOM_ATTRIBUTE,
+    GEOM_ATTRIBUTE_ALPHA,
+    GEOM_BACKFACING,
+    GEOM_BUMP_OFFSET,
+    GEOM_GENERATED,
+    GEOM_NORMAL,
+    GEOM_OBJECT,
+    GEOM_OBJECT_ALPHA,
+    GEOM_OBJECT_INDEX,
+    GEOM_OBJECT_RANDOM,
+    GEOM_POSITION,
+    GEOM_UV,
+    GEOM_WINDOW,
+    MATH,
+    MAX_ATTRIBUTES,
+    MAX_STACK,
+    PROGRAM_ATTRIBUTES,
+    PROGRAM_EMISSION,
+    PROGRAM_GENERATED,
+    PROGRAM_OBJECT,
+    PROGRAM_WINDOW,
+    SVM_COMBINE,
+    SVM_CONST,
+    SVM_END,
+    SVM_GEOMETRY,
+    SVM_MATH,
+    SVM_RGB_TO_BW,
+    f2i,
+    fold_math,
+)
 from .shader_bump import BUMP_NODES
 from .shader_images import IMAGE_NODES
 from .shader_inputs import INPUT_NODES

@@ -6,14 +6,33 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shader_program import (GEOM_BACKFACING, GEOM_INCOMING, GEOM_LIGHT_PATH, GEOM_NORMAL,
-                              GEOM_OBJECT, GEOM_OBJECT_ALPHA, GEOM_OBJECT_COLOR, GEOM_OBJECT_INDEX,
-                              GEOM_OBJECT_LOCATION, GEOM_OBJECT_RANDOM, GEOM_POSITION,
-                              GEOM_REFLECTION, GEOM_TRUE_NORMAL, GEOM_UV, GEOM_WINDOW,
-                              LIGHT_PATH_OUTPUTS, MAPPING_OBJECT, MAPPING_TYPES,
-                              NORMAL_MAP_SPACES,
-                              PROGRAM_OBJECT,
-                              PROGRAM_TANGENTS, SVM_GEOMETRY, SVM_MAPPING, SVM_NORMAL_MAP, f2i)
+from ..shader_program import (
+    GEOM_BACKFACING,
+    GEOM_INCOMING,
+    GEOM_LIGHT_PATH,
+    GEOM_NORMAL,
+    GEOM_OBJECT,
+    GEOM_OBJECT_ALPHA,
+    GEOM_OBJECT_COLOR,
+    GEOM_OBJECT_INDEX,
+    GEOM_OBJECT_LOCATION,
+    GEOM_OBJECT_RANDOM,
+    GEOM_POSITION,
+    GEOM_REFLECTION,
+    GEOM_TRUE_NORMAL,
+    GEOM_UV,
+    GEOM_WINDOW,
+    LIGHT_PATH_OUTPUTS,
+    MAPPING_OBJECT,
+    MAPPING_TYPES,
+    NORMAL_MAP_SPACES,
+    PROGRAM_OBJECT,
+    PROGRAM_TANGENTS,
+    SVM_GEOMETRY,
+    SVM_MAPPING,
+    SVM_NORMAL_MAP,
+    f2i,
+)
 from .shader_values import Val, width
 
 

@@ -8,14 +8,41 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shader_program import (CLAMP_TYPES, COLOR_HSL_TO_RGB, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL,
-                              COLOR_RGB_TO_HSV, MAPPING_TYPES, MAP_RANGE_TYPES, MATH, MIX,
-                              MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT, MIXF_SCALAR,
-                              MIXF_VECTOR_FACTOR, SVM_BRIGHT_CONTRAST, SVM_CLAMP,
-                              SVM_COLOR_CONVERT, SVM_FRESNEL, SVM_GAMMA, SVM_HSV,
-                              SVM_INVERT, SVM_LAYER_WEIGHT, SVM_MAPPING, SVM_MAP_RANGE, SVM_MIX,
-                              SVM_RGB_TO_BW, SVM_TABLE, SVM_VECTOR_MATH, TABLE_RGB, TABLE_SCALAR,
-                              TABLE_SIZE, TABLE_VECTOR, VMATH, f2i)
+from ..shader_program import (
+    CLAMP_TYPES,
+    COLOR_HSL_TO_RGB,
+    COLOR_HSV_TO_RGB,
+    COLOR_RGB_TO_HSL,
+    COLOR_RGB_TO_HSV,
+    MAP_RANGE_TYPES,
+    MAPPING_TYPES,
+    MATH,
+    MIX,
+    MIXF_CLAMP_FACTOR,
+    MIXF_CLAMP_RESULT,
+    MIXF_SCALAR,
+    MIXF_VECTOR_FACTOR,
+    SVM_BRIGHT_CONTRAST,
+    SVM_CLAMP,
+    SVM_COLOR_CONVERT,
+    SVM_FRESNEL,
+    SVM_GAMMA,
+    SVM_HSV,
+    SVM_INVERT,
+    SVM_LAYER_WEIGHT,
+    SVM_MAP_RANGE,
+    SVM_MAPPING,
+    SVM_MIX,
+    SVM_RGB_TO_BW,
+    SVM_TABLE,
+    SVM_VECTOR_MATH,
+    TABLE_RGB,
+    TABLE_SCALAR,
+    TABLE_SIZE,
+    TABLE_VECTOR,
+    VMATH,
+    f2i,
+)
 from .shader_values import Val, width
 
 

@@ -13,11 +13,26 @@ module does not import shader_graph (which imports it).
 """
 from __future__ import annotations
 
-from ..shader_program import (GRADIENT_TYPES, NOISE_TYPES, SVM_MAPPING, SVM_TEX_BRICK,
-                              SVM_TEX_CHECKER, SVM_TEX_GRADIENT, SVM_TEX_MAGIC, SVM_TEX_NOISE,
-                              SVM_TEX_VORONOI, SVM_TEX_WAVE, SVM_TEX_WHITE_NOISE,
-                              VORONOI_FEATURES, VORONOI_METRICS, WAVE_BANDS, WAVE_PROFILES,
-                              WAVE_RINGS, WAVE_TYPES, f2i)
+from ..shader_program import (
+    GRADIENT_TYPES,
+    NOISE_TYPES,
+    SVM_MAPPING,
+    SVM_TEX_BRICK,
+    SVM_TEX_CHECKER,
+    SVM_TEX_GRADIENT,
+    SVM_TEX_MAGIC,
+    SVM_TEX_NOISE,
+    SVM_TEX_VORONOI,
+    SVM_TEX_WAVE,
+    SVM_TEX_WHITE_NOISE,
+    VORONOI_FEATURES,
+    VORONOI_METRICS,
+    WAVE_BANDS,
+    WAVE_PROFILES,
+    WAVE_RINGS,
+    WAVE_TYPES,
+    f2i,
+)
 
 _N_OUT = {"RGBA": 3, "VECTOR": 3}
 

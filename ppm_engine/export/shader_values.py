@@ -5,7 +5,7 @@ from __future__ import annotations
 
 class Val:
     """A value in the program: a constant (tuple of floats) or stack slots; n = 1 or 3."""
-    __slots__ = ("const", "slot", "n")
+    __slots__ = ("const", "n", "slot")
 
     def __init__(self, n, const=None, slot=None):
         self.n, self.const, self.slot = n, const, slot
@@ -15,7 +15,7 @@ class Val:
         return self.const is not None
 
     def __repr__(self):
-        return f"Val({self.n}, {self.const if self.is_const else 'slot %d' % self.slot})"
+        return f"Val({self.n}, {self.const if self.is_const else f'slot {self.slot:d}'})"
 
 
 class ShadingNormal(Val):

@@ -30,6 +30,7 @@ from ..shader_program import SKY_TYPES, SVM_TEX_SKY
 from .shader_textures import _texture_mapping
 from .shader_values import Val
 
+
 def _perez(p, theta: float, gamma: float) -> float:
     return (1.0 + p[0] * math.exp(p[1] / math.cos(theta))) * (
         1.0 + p[2] * math.exp(p[3] * gamma) + p[4] * math.cos(gamma) ** 2)

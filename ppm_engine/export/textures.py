@@ -12,13 +12,22 @@ read: warned, magenta as in Cycles).
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
 
 import numpy as np
 
-from ..scene_arrays import (TEX_CLIP, TEX_EXTEND, TEX_FLAG_CLOSEST, TEX_FLAG_CUBIC,
-                            TEX_FLAG_SRGB, TEX_MIRROR, TEX_REPEAT, TEXTURE_DTYPE)
+from ..scene_arrays import (
+    TEX_CLIP,
+    TEX_EXTEND,
+    TEX_FLAG_CLOSEST,
+    TEX_FLAG_CUBIC,
+    TEX_FLAG_SRGB,
+    TEX_MIRROR,
+    TEX_REPEAT,
+    TEXTURE_DTYPE,
+)
 
 MISSING = (1.0, 0.0, 1.0)          # Cycles' colour for an image it cannot load
 _EXTENSION = {"REPEAT": TEX_REPEAT, "EXTEND": TEX_EXTEND, "CLIP": TEX_CLIP,
@@ -115,10 +124,7 @@ class TextureTable:
             return 0, MISSING
         flags = _EXTENSION.get(getattr(node, "extension", "REPEAT"), TEX_REPEAT)
         flags |= _INTERPOLATION.get(node.interpolation, 0)
-        if image.source == "TILED":
-            tile = tile or 1001
-        else:
-            tile = 0
+        tile = (tile or 1001) if image.source == "TILED" else 0
         key = (image.name_full, tile, flags)
         if key not in self._index:
             texels, srgb, (w, h) = (self._read_tile(image, tile, material) if tile
@@ -184,10 +190,8 @@ class TextureTable:
     def _read(self, image, material: str, label: str = ""):
         w, h = image.size
         if w == 0 or h == 0:
-            try:                           # not loaded yet (a render loads it lazily)
+            with contextlib.suppress(RuntimeError):   # not loaded yet (a render loads it lazily)
                 image.reload()
-            except RuntimeError:
-                pass
             w, h = image.size
         if w == 0 or h == 0 or not image.has_data:
             where = f" ('{image.filepath}')" if image.filepath else ""

@@ -19,5 +19,12 @@ from .hash_build import HashBuild
 from .photons import PhotonPass
 from .update import ProgressiveUpdate
 
-__all__ = ["EyePass", "VisiblePoints", "PhotonPass", "HashBuild", "Gather", "ProgressiveUpdate",
-           "unshaded"]
+__all__ = [
+           "EyePass",
+           "Gather",
+           "HashBuild",
+           "PhotonPass",
+           "ProgressiveUpdate",
+           "VisiblePoints",
+           "unshaded",
+]

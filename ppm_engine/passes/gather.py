@@ -67,7 +67,8 @@ class Gather:
                       ph_flux=pm.ph_flux, gathered=gathered, n=np.uint32(n),
                       **self.scene_args)
         if pm.exact:
-            ev = self.k_exact(q, n, SHADING_GROUP, **common, ranges=pm.ranges, sorted_ids=pm.sorted[1].data)
+            ev = self.k_exact(q, n, SHADING_GROUP, **common, ranges=pm.ranges,
+                              sorted_ids=pm.sorted[1].data)
         else:
             ev = self.k_gather(q, n, SHADING_GROUP, **common, table=pm.table)
         return [("gather", ev)]

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 
 import bpy
+
 import numpy as np
 
 from .cornell_box import camera_world_render, glass, lambert, new_scene, quad, sphere

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 import bpy
+
 import bmesh
 
 WHITE = (0.73, 0.73, 0.73)
