@@ -17,8 +17,8 @@ typedef struct {
 } Hit;
 
 /* Moeller-Trumbore; returns t in (tmin, tmax) or -1 */
-inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float tmax,
-                     float *u, float *v) {
+inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float tmax, float *u,
+                     float *v) {
     float3 p = cross(d, e2);
     float det = dot(e1, p);
     if (det == 0.0f || !isfinite(det)) return -1.0f;
@@ -31,7 +31,8 @@ inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float 
     if (vv < 0.0f || uu + vv > 1.0f) return -1.0f;
     float t = dot(e2, q) * inv;
     if (!(t > 0.0f && t < tmax)) return -1.0f;
-    *u = uu; *v = vv;
+    *u = uu;
+    *v = vv;
     return t;
 }
 
@@ -41,7 +42,12 @@ inline void leaf_test(const Scene *scene, int k, float3 o, float3 d, uint mask, 
     float4 v0 = scene->tri_v0[k], e2 = scene->tri_e2[k];
     float u, v;
     float t = tri_hit(o, d, v0.xyz, e1.xyz, e2.xyz, hit->t, &u, &v);
-    if (t > 0.0f) { hit->t = t; hit->u = u; hit->v = v; hit->leaf = k; }
+    if (t > 0.0f) {
+        hit->t = t;
+        hit->u = u;
+        hit->v = v;
+        hit->leaf = k;
+    }
 }
 
 /* Closest hit along o + t d, 0 < t < tmax, among triangles whose visibility has a bit of mask.
@@ -52,7 +58,11 @@ inline void leaf_test(const Scene *scene, int k, float3 o, float3 d, uint mask, 
  * NaN and an axis-parallel ray (an orthographic camera's) would miss flat boxes. */
 inline Hit bvh_intersect(const Scene *scene, float3 o, float3 d, float tmax, uint mask,
                          bool any_hit) {
-    Hit hit; hit.t = tmax; hit.u = 0.0f; hit.v = 0.0f; hit.leaf = -1;
+    Hit hit;
+    hit.t = tmax;
+    hit.u = 0.0f;
+    hit.v = 0.0f;
+    hit.leaf = -1;
     float3 tiny = (float3)(5.421011e-20f);        /* 2^-64 */
     float3 inv_d = 1.0f / select(d, copysign(tiny, d), isless(fabs(d), tiny));
     float3 ood = o * inv_d;
@@ -115,7 +125,7 @@ inline Surface surface_at(const Scene *scene, Hit h) {
     __global const float *n = scene->normals + 9 * (size_t)s.tri;
     float w = 1.0f - h.u - h.v;
     float3 ns = w * (float3)(n[0], n[1], n[2]) + h.u * (float3)(n[3], n[4], n[5])
-              + h.v * (float3)(n[6], n[7], n[8]);
+                + h.v * (float3)(n[6], n[7], n[8]);
     float nl = length(ns);
     ns = (nl > 0.0f && isfinite(nl)) ? ns / nl : s.ng;
     s.ns = dot(ns, s.ng) < 0.0f ? -ns : ns;

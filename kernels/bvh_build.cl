@@ -17,7 +17,8 @@ __kernel void morton_codes(__global const float *pos, uint n, float4 cmin, float
     uint i = get_global_id(0);
     if (i >= n) return;
     __global const float *p = pos + 9 * (size_t)i;
-    float3 c = ((float3)(p[0], p[1], p[2]) + (float3)(p[3], p[4], p[5]) + (float3)(p[6], p[7], p[8]))
+    float3 c = ((float3)(p[0], p[1], p[2]) + (float3)(p[3], p[4], p[5])
+                + (float3)(p[6], p[7], p[8]))
                * (1.0f / 3.0f);
     float3 q = clamp((c - cmin.xyz) * cscale.xyz, 0.0f, 1023.0f);
     if (!isfinite(q.x) || !isfinite(q.y) || !isfinite(q.z)) q = (float3)(0.0f);
@@ -59,23 +60,26 @@ __kernel void build_hierarchy(__global const uint *codes, int n, __global int *l
     int rc = (max(i, j) == gamma + 1) ? ~(gamma + 1) : gamma + 1;
     left[i] = lc;
     right[i] = rc;
-    if (lc < 0) parent_leaf[~lc] = i; else parent_int[lc] = i;
-    if (rc < 0) parent_leaf[~rc] = i; else parent_int[rc] = i;
+    if (lc < 0) parent_leaf[~lc] = i;
+    else parent_int[lc] = i;
+    if (rc < 0) parent_leaf[~rc] = i;
+    else parent_int[rc] = i;
     if (i == 0) parent_int[0] = -1;
 }
 
 /* Leaf boxes, then up the tree: the second child to arrive at a node computes its box
  * (an atomic counter per node; the first arrival stops). */
-__kernel void bottom_up_boxes(__global const float *pos, __global const uint *sorted_ids, int n,
-                              __global const int *left, __global const int *right,
-                              __global const int *parent_int, __global const int *parent_leaf,
-                              __global volatile float4 *leaf_min, __global volatile float4 *leaf_max,
-                              __global volatile float4 *node_min, __global volatile float4 *node_max,
-                              __global volatile uint *arrivals) {
+__kernel void
+bottom_up_boxes(__global const float *pos, __global const uint *sorted_ids, int n,
+                __global const int *left, __global const int *right, __global const int *parent_int,
+                __global const int *parent_leaf, __global volatile float4 *leaf_min,
+                __global volatile float4 *leaf_max, __global volatile float4 *node_min,
+                __global volatile float4 *node_max, __global volatile uint *arrivals) {
     int k = get_global_id(0);
     if (k >= n) return;
     __global const float *p = pos + 9 * (size_t)sorted_ids[k];
-    float3 a = (float3)(p[0], p[1], p[2]), b = (float3)(p[3], p[4], p[5]), c = (float3)(p[6], p[7], p[8]);
+    float3 a = (float3)(p[0], p[1], p[2]), b = (float3)(p[3], p[4], p[5]),
+           c = (float3)(p[6], p[7], p[8]);
     leaf_min[k] = (float4)(fmin(a, fmin(b, c)), 0.0f);
     leaf_max[k] = (float4)(fmax(a, fmax(b, c)), 0.0f);
     int node = parent_leaf[k];
@@ -115,7 +119,8 @@ __kernel void reorder_triangles(__global const float *pos, __global const uint *
     if (k >= n) return;
     uint t = sorted_ids[k];
     __global const float *p = pos + 9 * (size_t)t;
-    float3 a = (float3)(p[0], p[1], p[2]), b = (float3)(p[3], p[4], p[5]), c = (float3)(p[6], p[7], p[8]);
+    float3 a = (float3)(p[0], p[1], p[2]), b = (float3)(p[3], p[4], p[5]),
+           c = (float3)(p[6], p[7], p[8]);
     tri_v0[k] = (float4)(a, as_float(t));
     tri_e1[k] = (float4)(b - a, as_float(visibility[t]));
     tri_e2[k] = (float4)(c - a, as_float(material[t]));
@@ -145,7 +150,8 @@ __kernel void ploc_init(__global const float *pos, __global const uint *sorted_i
     int k = get_global_id(0);
     if (k >= n) return;
     __global const float *p = pos + 9 * (size_t)sorted_ids[k];
-    float3 a = (float3)(p[0], p[1], p[2]), b = (float3)(p[3], p[4], p[5]), c = (float3)(p[6], p[7], p[8]);
+    float3 a = (float3)(p[0], p[1], p[2]), b = (float3)(p[3], p[4], p[5]),
+           c = (float3)(p[6], p[7], p[8]);
     float3 lo = fmin(a, fmin(b, c)), hi = fmax(a, fmax(b, c));
     /* a NaN corner (scenes are cleaned before, but stay safe) must not poison the areas */
     cl_min[k] = (float4)(select(lo, (float3)(0.0f), isnan(lo)), 0.0f);
@@ -167,7 +173,10 @@ __kernel void ploc_nearest(__global const float4 *cl_min, __global const float4 
     for (int j = j0; j <= j1; j++) {
         if (j == i) continue;
         float a = box_area(fmin(lo, cl_min[j]), fmax(hi, cl_max[j]));
-        if (a < best) { best = a; bj = j; }
+        if (a < best) {
+            best = a;
+            bj = j;
+        }
     }
     nn[i] = bj;
 }
@@ -186,8 +195,10 @@ __kernel void ploc_merge(__global float4 *cl_min, __global float4 *cl_max, __glo
             int a = cl_id[i], b = cl_id[j];
             left[node] = a;
             right[node] = b;
-            if (a < 0) parent_leaf[~a] = node; else parent_int[a] = node;
-            if (b < 0) parent_leaf[~b] = node; else parent_int[b] = node;
+            if (a < 0) parent_leaf[~a] = node;
+            else parent_int[a] = node;
+            if (b < 0) parent_leaf[~b] = node;
+            else parent_int[b] = node;
             if (node == 0) parent_int[0] = -1;
             cl_min[i] = fmin(cl_min[i], cl_min[j]);
             cl_max[i] = fmax(cl_max[i], cl_max[j]);

@@ -86,8 +86,9 @@ inline float camera_pixel_size(__global const Camera *cam) {
 inline float camera_dD(__global const Camera *cam, float3 d) {
     float ex = cam->extent[0] / (float)cam->width, ey = cam->extent[1] / (float)cam->height;
     float3 n = normalize(d);
-    return 0.5f * (length(normalize(d + (float3)(ex, 0.0f, 0.0f)) - n)
-                   + length(normalize(d + (float3)(0.0f, ey, 0.0f)) - n));
+    return 0.5f
+           * (length(normalize(d + (float3)(ex, 0.0f, 0.0f)) - n)
+              + length(normalize(d + (float3)(0.0f, ey, 0.0f)) - n));
 }
 
 /* (dP, dD) of the camera ray through pixel position (px, py), as Cycles makes it (from the

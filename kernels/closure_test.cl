@@ -34,8 +34,8 @@ __kernel void shade_sample(SCENE_PARAMS int mat, float4 wi, int mask, uint seed,
 }
 
 /* the mixture's f cos (xyz) and pdf (w) for directions wo */
-__kernel void shade_eval(SCENE_PARAMS int mat, float4 wi, int mask,
-                         __global const float4 *wo, __global float4 *out, uint n) {
+__kernel void shade_eval(SCENE_PARAMS int mat, float4 wi, int mask, __global const float4 *wo,
+                         __global float4 *out, uint n) {
     SCENE_LOAD(scene);
     uint i = get_global_id(0);
     if (i >= n) return;
@@ -57,7 +57,8 @@ __kernel void shade_closures(SCENE_PARAMS int mat, float4 wi, __global float4 *o
     for (int k = 0; k < n_max; k++) {
         bool ok = k < sd.n;
         out_info[k] = ok ? (float4)((float)sd.c[k].type, (float)sd.c[k].gather,
-                                    sd.c[k].sample_weight, 0.0f) : (float4)(-1.0f);
+                                    sd.c[k].sample_weight, 0.0f)
+                         : (float4)(-1.0f);
         out_weight[k] = ok ? (float4)(sd.c[k].weight, 0.0f) : (float4)(0.0f);
     }
     out_weight[n_max] = (float4)(sd.emission, 0.0f);

@@ -10,7 +10,8 @@
  * where a photon goes); N faces wi.  eval returns f x |cos(N, wo)| without the weight. */
 #define CLOSURE_NONE 0
 #define CLOSURE_DIFFUSE 1          /* Lambert */
-#define CLOSURE_OREN_NAYAR 2       /* energy-preserving Oren-Nayar (Fujii; OpenPBR's multiple
+#define CLOSURE_OREN_NAYAR \
+    2       /* energy-preserving Oren-Nayar (Fujii; OpenPBR's multiple
                                       scattering term) */
 #define CLOSURE_TRANSLUCENT 3      /* Lambert transmission */
 #define CLOSURE_SHEEN 4            /* Zeltner et al. 2022's microfiber sheen (an LTC) */
@@ -22,9 +23,9 @@
 /* Fresnel of a microfacet closure */
 #define FRESNEL_NONE 0             /* 1 (refraction only: 0 under total internal reflection) */
 #define FRESNEL_DIELECTRIC 1       /* the real dielectric Fresnel */
-#define FRESNEL_SCHLICK_IOR 2      /* the real Fresnel remapped to [f0, f90] (Principled, Glass) */
-#define FRESNEL_F82 3              /* F82-tint (Principled metal, Metallic BSDF) */
-#define FRESNEL_CONDUCTOR 4        /* complex index n + i k (Metallic BSDF, physical) */
+#define FRESNEL_SCHLICK_IOR 2 /* the real Fresnel remapped to [f0, f90] (Principled, Glass) */
+#define FRESNEL_F82 3 /* F82-tint (Principled metal, Metallic BSDF) */
+#define FRESNEL_CONDUCTOR 4 /* complex index n + i k (Metallic BSDF, physical) */
 
 /* what a sampled direction is (the ray type that follows, MIS) */
 #define LABEL_NONE 0
@@ -40,21 +41,21 @@
  * use them too) */
 
 typedef struct {
-    float3 weight;       /* RGB weight (energy compensation included) */
-    float3 N;            /* normal, on the side of wi */
-    float3 T;            /* microfacet: tangent (anisotropy); sheen: its frame's X (towards wi) */
-    float3 f0;           /* Fresnel f0 (Schlick-IOR, F82) or conductor n; Oren-Nayar: the
+    float3 weight; /* RGB weight (energy compensation included) */
+    float3 N; /* normal, on the side of wi */
+    float3 T; /* microfacet: tangent (anisotropy); sheen: its frame's X (towards wi) */
+    float3 f0; /* Fresnel f0 (Schlick-IOR, F82) or conductor n; Oren-Nayar: the
                             multiple scattering term */
-    float3 f90;          /* Schlick-IOR f90, F82 B, conductor k */
-    float3 refl_tint;    /* Schlick-IOR: tints of reflection and transmission */
+    float3 f90; /* Schlick-IOR f90, F82 B, conductor k */
+    float3 refl_tint; /* Schlick-IOR: tints of reflection and transmission */
     float3 trans_tint;
     float sample_weight; /* probability of being sampled, up to the sum over the closures */
     float alpha_x, alpha_y;
-    float ior;           /* microfacet: relative index (1 / ior from the back);
+    float ior; /* microfacet: relative index (1 / ior from the back);
                             Oren-Nayar: A; sheen: the LTC's a */
-    float energy_scale;  /* microfacet: 1 / E (multiple scattering); Oren-Nayar: B; sheen: b */
+    float energy_scale; /* microfacet: 1 / E (multiple scattering); Oren-Nayar: B; sheen: b */
     int type;
     int fresnel;
-    int gather;          /* 1: the visible point's gather evaluates it; 0: paths continue */
+    int gather; /* 1: the visible point's gather evaluates it; 0: paths continue */
 } Closure;
 #endif

@@ -3,9 +3,8 @@
 #include "bvh.h"
 
 /* hits[i] = (t, u, v, as_float(original triangle index or -1)) */
-__kernel void trace_rays(SCENE_PARAMS __global const float4 *origins,
-                         __global const float4 *dirs, uint mask, int any_hit,
-                         __global float4 *hits, uint n) {
+__kernel void trace_rays(SCENE_PARAMS __global const float4 *origins, __global const float4 *dirs,
+                         uint mask, int any_hit, __global float4 *hits, uint n) {
     SCENE_LOAD(scene);
     uint i = get_global_id(0);
     if (i >= n) return;
@@ -66,8 +65,8 @@ __kernel void emitter_pick_at(SCENE_PARAMS __global const float4 *points,
         counts[i * m + e] = 0u;
         pmf[i * m + e] = -1.0f;
         table[i * m + e] = e >= first && e < first + scene->emitter_info->n_emissive
-            ? emissive_leaf_pmf(scene, scene->emissive[e - first], p, N)
-            : emitter_pmf(scene->emitter_cdf, e);
+                               ? emissive_leaf_pmf(scene, scene->emissive[e - first], p, N)
+                               : emitter_pmf(scene->emitter_cdf, e);
     }
     for (uint k = 0; k < n_u; k++) {
         float q;

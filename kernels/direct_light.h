@@ -40,8 +40,7 @@ inline float3 lights_seen(const Scene *scene, float3 o, float3 d, float tmax, bo
             area_seen(&l, o, d, &best, &L, &pdf);
         else if (PPM_LIGHT_SUN && l.type == LIGHT_SUN) {
             if (escaped) Lsun += sun_seen(&l, d);
-        } else if (PPM_LIGHT_POINT)
-            point_seen(&l, o, d, &best, &L, &pdf);
+        } else if (PPM_LIGHT_POINT) point_seen(&l, o, d, &best, &L, &pdf);
         if (best != before) seen = i;
     }
     *pdf_light = seen >= 0 ? pdf * emitter_pmf(scene->emitter_cdf, seen) : 0.0f;
@@ -61,8 +60,8 @@ inline float3 lights_seen(const Scene *scene, float3 o, float3 d, float tmax, bo
  * given there) gives that direction (pmf included).  The density is the vertex's, not the
  * ray origin's: past a transparent surface o lies on it, and the solid angle from there made
  * light through a Transparent BSDF or alpha 26 % bright (tests/test_analytic.py). */
-inline float3 mesh_seen(const Scene *scene, int leaf, float3 o, float3 d, float t, float u,
-                        float v, float3 pv, float3 nv, float *pdf_light) {
+inline float3 mesh_seen(const Scene *scene, int leaf, float3 o, float3 d, float t, float u, float v,
+                        float3 pv, float3 nv, float *pdf_light) {
     *pdf_light = 0.0f;
     float3 q = o + t * d;                                   /* the point hit */
     float4 v0 = scene->tri_v0[leaf], e1 = scene->tri_e1[leaf], e2 = scene->tri_e2[leaf];
@@ -75,8 +74,7 @@ inline float3 mesh_seen(const Scene *scene, int leaf, float3 o, float3 d, float 
     if (pmf > 0.0f && cos_l > 0.0f) {
         SphTri st = spherical_triangle(pv, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz);
         float3 to = q - pv;
-        *pdf_light = st.area > 0.0f ? pmf / st.area
-                                    : pmf * dot(to, to) / (cos_l * 0.5f * area2);
+        *pdf_light = st.area > 0.0f ? pmf / st.area : pmf * dot(to, to) / (cos_l * 0.5f * area2);
     }
 #endif
     return material_emission(scene, m, as_uint(v0.w), u, v, q);
@@ -110,8 +108,7 @@ inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float
         Hit h = bvh_intersect(scene, o, d, dist, VIS_SHADOW, false);
         if (h.leaf < 0) return T;
         Surface s = surface_at(scene, h);
-        if (i == TRANSPARENT_MAX_BOUNCES
-            || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
+        if (i == TRANSPARENT_MAX_BOUNCES || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
             return (float3)(0.0f);
         T *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
@@ -167,8 +164,8 @@ inline bool sample_emitter(const Scene *scene, float3 p, float3 n, float3 ngf, f
  * sample (power heuristic; mis false: alone, when no sample of the closures looks for
  * emitters), from the uniform numbers u (the emitter's pick, a point on it).  Returns the
  * radiance reflected towards sd->wi. */
-inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, int mask,
-                           bool mis, float3 u) {
+inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, int mask, bool mis,
+                           float3 u) {
     LightSample s;
     float pmf;
     if (!sample_emitter(scene, p, sd->N, sd->Ng, u, &s, &pmf)) return (float3)(0.0f);
@@ -176,9 +173,10 @@ inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, i
     float3 f = shader_eval(sd, s.wi, mask, &pdf_b);
     bool transmit = dot(s.wi, sd->Ng) < 0.0f;
     if (!(max3(f) > 0.0f)) return (float3)(0.0f);
-    float3 T = shadow_transmittance(
-        scene, offset_ray(p, transmit ? -sd->Ng : sd->Ng, scene->emitter_info->offset_scale),
-        s.wi, s.dist);
+    float3 T = shadow_transmittance(scene,
+                                    offset_ray(p, transmit ? -sd->Ng : sd->Ng,
+                                               scene->emitter_info->offset_scale),
+                                    s.wi, s.dist);
     float w = mis && s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
     return f * T * s.E * (w / pmf);
 }
@@ -191,7 +189,6 @@ inline float3 direct_nee(const Scene *scene, const ShaderData *sd, float3 p, int
     u.z = rnd(rng);
     return direct_nee_u(scene, sd, p, mask, mis, u);
 }
-
 
 /* What a ray from o along d finds of the emitters (ray_type: VIS_*): the radiance of the
  * first emitter (through partly transparent surfaces, attenuated) and the density
@@ -223,8 +220,7 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
         Surface s = surface_at(scene, h);
         T *= material_transparency(scene, mat, s.tri, h.u, h.v, s.p);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
-        o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
-                       scene->emitter_info->offset_scale);
+        o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, scene->emitter_info->offset_scale);
     }
     return (float3)(0.0f);
 }
@@ -233,8 +229,7 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
  * weighted against next-event estimation's density (power heuristic; a singular lobe's fully).
  * Near a large emitter (a ceiling 1 cm above a lamp, a filament inside its bulb) and for glossy
  * lobes next-event estimation alone has large variance; this sample covers it. */
-inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, int mask,
-                          uint *rng) {
+inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, int mask, uint *rng) {
     float3 rand = (float3)(rnd(rng), rnd(rng), rnd(rng));
 #if EMITTERS_HITTABLE
     BsdfSample b;
@@ -242,9 +237,10 @@ inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, in
     bool transmit = (b.label & LABEL_TRANSMIT) != 0;
     uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
     float pdf_l;
-    float3 Le = emitter_along(
-        scene, offset_ray(p, transmit ? -sd->Ng : sd->Ng, scene->emitter_info->offset_scale),
-        b.wo, ray, p, sd->N, &pdf_l);
+    float3 Le = emitter_along(scene,
+                              offset_ray(p, transmit ? -sd->Ng : sd->Ng,
+                                         scene->emitter_info->offset_scale),
+                              b.wo, ray, p, sd->N, &pdf_l);
     return b.weight * Le * mis_power(b.pdf, pdf_l);
 #else
     return (float3)(0.0f);       /* nothing for the sample to find but what NEE samples */

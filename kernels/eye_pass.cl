@@ -11,7 +11,6 @@
 #include "medium.h"
 #include "indirect_paths.h"
 
-
 /* offset from the pixel centre: the filter table (inverse CDF) at u in [0, 1), lerped */
 inline float filter_offset(__global const float *table, float u) {
     float x = u * (float)FILTER_TABLE_SIZE - 0.5f;
@@ -21,15 +20,14 @@ inline float filter_offset(__global const float *table, float u) {
     return mix(table[k], table[k + 1], t);
 }
 
-__kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed,
-                       int max_bounces, float initial_radius, float auto_radius_pixels,
-                       __global const float *filter_table,
-                       __global float4 *direct, __global float *radius, __global float *radius0,
-                       __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
-                       __global float4 *vp_shade, __global uint *counters,
-                       __global float4 *aux_albedo, __global float4 *aux_normal,
-                       __global const uint *active, __global float *transparency,
-                       uint path_indirect, uint camera_sobol) {
+__kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
+                       float initial_radius, float auto_radius_pixels,
+                       __global const float *filter_table, __global float4 *direct,
+                       __global float *radius, __global float *radius0, __global float4 *vp_pos,
+                       __global float4 *vp_nrm, __global float4 *vp_beta, __global float4 *vp_shade,
+                       __global uint *counters, __global float4 *aux_albedo,
+                       __global float4 *aux_normal, __global const uint *active,
+                       __global float *transparency, uint path_indirect, uint camera_sobol) {
     SCENE_LOAD(scene);
     __global const Camera *cam = scene->camera;
     int id = get_global_id(0);
@@ -108,7 +106,8 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed,
             if (mask == VIS_CAMERA && (scene->emitter_info->world_flags & WORLD_HIDDEN_CAMERA))
                 break;
             pdf_l = PPM_WORLD && scene->emitter_info->has_world && !isinf(prev_pdf)
-                ? world_light_pdf(scene, d, prev_n) : 0.0f;
+                        ? world_light_pdf(scene, d, prev_n)
+                        : 0.0f;
             L += beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l);
             break;
         }
@@ -132,7 +131,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed,
              * path_indirect the continuing path's (indirect_paths below) */
             if (!path_indirect) L += bvp * direct_light(scene, &sd, s.p, MASK_GATHER, &rng);
             vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
-            vp_nrm[id] = (float4)(sd.N, as_float(path));    /* (the gather shades it again) */
+            vp_nrm[id] = (float4)(sd.N, as_float(path)); /* (the gather shades it again) */
             float3 albedo = (float3)(0.0f);
             bool lambert = true;
             for (int k = 0; k < sd.n; k++) {
@@ -145,7 +144,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed,
                 vp_beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), foot_r);
                 vp_shade[id] = (float4)(0.0f, 0.0f, as_float(-1), 0.0f);
             } else {
-                vp_beta[id] = (float4)(bvp, foot_r);   /* (w: the gather's footprint) */
+                vp_beta[id] = (float4)(bvp, foot_r); /* (w: the gather's footprint) */
                 vp_shade[id] = (float4)(h.u, h.v, as_float(h.leaf), as_float(pack_unit(sd.wi)));
             }
             /* denoising passes: albedo through the specular chain, world-space normal */
@@ -170,8 +169,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed,
         /* the path goes on through the other closures (mirrors, glass, smooth glossy lobes,
          * transparency), weighted by 1 / their probability */
         beta *= sw / sd.sw_continue;
-        if (sd.continue_glossy)
-            L += beta * direct_nee(scene, &sd, s.p, MASK_CONTINUE, true, &rng);
+        if (sd.continue_glossy) L += beta * direct_nee(scene, &sd, s.p, MASK_CONTINUE, true, &rng);
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
         if (!shader_sample(&sd, MASK_CONTINUE, rand, &b)) break;
@@ -189,8 +187,8 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed,
             continue;
         }
         film_clear = film_clear && (cam->film_transparent & FILM_TRANSPARENT_GLASS)
-            && (b.label & LABEL_TRANSMIT) && !(b.label & LABEL_DIFFUSE)
-            && b.roughness2 <= cam->glass_roughness * cam->glass_roughness;
+                     && (b.label & LABEL_TRANSMIT) && !(b.label & LABEL_DIFFUSE)
+                     && b.roughness2 <= cam->glass_roughness * cam->glass_roughness;
         if (depth >= max_bounces) {
             /* the last bounce: the emitter this sample finds, and no further (Cycles ends a
              * path at the surface after its last bounce) */

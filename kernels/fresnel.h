@@ -70,7 +70,7 @@ inline float fresnel_conductor1(float cos_i, float n, float k) {
     float a2 = fmax(0.5f * (t2 + t1), 0.0f), a = sqrt(a2);
     float rs = (t2 + c2 - 2.0f * a * cos_i) / (t2 + c2 + 2.0f * a * cos_i);
     float rp = rs * (c2 * t2 + s2 * s2 - 2.0f * a * cos_i * s2)
-                  / (c2 * t2 + s2 * s2 + 2.0f * a * cos_i * s2);
+               / (c2 * t2 + s2 * s2 + 2.0f * a * cos_i * s2);
     float r = 0.5f * (rs + rp);
     return isfinite(r) ? clamp(r, 0.0f, 1.0f) : 1.0f;
 }

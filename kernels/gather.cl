@@ -23,8 +23,8 @@
  * of r_max / 2 that is 5 x 5 x 2 cells instead of 5^3. */
 inline void disc_cells(float3 x, float3 n, float r, const Grid *g, long3 *lo, long3 *hi) {
     float3 an = fabs(n);
-    float3 h = fmin((float3)(r), r * sqrt(fmax(1.0f - an * an, 0.0f))
-                                 + (DISC_HALF_THICKNESS * r) * an);
+    float3 h = fmin((float3)(r),
+                    r * sqrt(fmax(1.0f - an * an, 0.0f)) + (DISC_HALF_THICKNESS * r) * an);
     *lo = cell_of(x - h, g);
     *hi = min(cell_of(x + h, g), *lo + (long)(MAX_CELLS_PER_AXIS - 1));
 }
@@ -65,8 +65,8 @@ inline void gather_point(const Scene *scene, float4 vp, float4 nrm, float4 shade
     h.v = shade.y;
     h.t = 0.0f;
     Surface s = surface_at(scene, h);
-    shader_setup(scene, &gp->sd, &s, h.u, h.v, as_uint(nrm.w), 0.0f,
-                 unpack_unit(as_uint(shade.w)), footprint_at(scene, s.tri, h.leaf, h.u, h.v, foot_r));
+    shader_setup(scene, &gp->sd, &s, h.u, h.v, as_uint(nrm.w), 0.0f, unpack_unit(as_uint(shade.w)),
+                 footprint_at(scene, s.tri, h.leaf, h.u, h.v, foot_r));
     gp->lambert_f = (float3)(0.0f);
     for (int k = 0; k < gp->sd.n; k++) {
         const Closure *c = &gp->sd.c[k];
@@ -109,16 +109,18 @@ inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l) {
 
 __kernel void gather(SCENE_PARAMS __global const float4 *vp_pos, __global const float4 *vp_nrm,
                      __global const float4 *vp_shade, __global const float4 *vp_beta,
-                     __global const float *radius,
-                     __global const Grid *grid, __global const ulong *table, uint table_mask,
-                     __global const float4 *ph_pos, __global const float4 *ph_flux,
-                     __global float4 *gathered, uint n) {
+                     __global const float *radius, __global const Grid *grid,
+                     __global const ulong *table, uint table_mask, __global const float4 *ph_pos,
+                     __global const float4 *ph_flux, __global float4 *gathered, uint n) {
     SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 vp = vp_pos[id];
     Grid g = *grid;
-    if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
+    if (vp.w <= 0.0f || g.valid == 0u) {
+        gathered[id] = (float4)(0.0f);
+        return;
+    }
     GatherPoint gp;
     gather_point(scene, vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp);
     float3 x = vp.xyz;
@@ -128,22 +130,22 @@ __kernel void gather(SCENE_PARAMS __global const float4 *vp_pos, __global const 
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
     for (long cz = lo.z; cz <= hi.z; cz++)
-    for (long cy = lo.y; cy <= hi.y; cy++)
-    for (long cx = lo.x; cx <= hi.x; cx++) {
-        long3 c = (long3)(cx, cy, cz);
-        if (cell_dist2(x, c, &g) > r2) continue;          /* a corner cell the disc misses */
-        uint h = cell_hash(c, table_mask);
-        uint cnt = ENTRY_COUNT(table, h);
-        if (cnt == 0u) continue;
-        uint pi = ENTRY_INDEX(table, h);
-        float4 pf;
-        float cos_l;
-        if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi, c, &g,
-                             &pf, &cos_l))
-            continue;
-        M += (float)cnt;
-        phi += (float)cnt * photon_term(&gp, pf, cos_l);
-    }
+        for (long cy = lo.y; cy <= hi.y; cy++)
+            for (long cx = lo.x; cx <= hi.x; cx++) {
+                long3 c = (long3)(cx, cy, cz);
+                if (cell_dist2(x, c, &g) > r2) continue; /* a corner cell the disc misses */
+                uint h = cell_hash(c, table_mask);
+                uint cnt = ENTRY_COUNT(table, h);
+                if (cnt == 0u) continue;
+                uint pi = ENTRY_INDEX(table, h);
+                float4 pf;
+                float cos_l;
+                if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi, c, &g,
+                                     &pf, &cos_l))
+                    continue;
+                M += (float)cnt;
+                phi += (float)cnt * photon_term(&gp, pf, cos_l);
+            }
     gathered[id] = (float4)(phi, M);
 }
 
@@ -160,7 +162,10 @@ __kernel void gather_exact(SCENE_PARAMS __global const float4 *vp_pos,
     if (id >= n) return;
     float4 vp = vp_pos[id];
     Grid g = *grid;
-    if (vp.w <= 0.0f || g.valid == 0u) { gathered[id] = (float4)(0.0f); return; }
+    if (vp.w <= 0.0f || g.valid == 0u) {
+        gathered[id] = (float4)(0.0f);
+        return;
+    }
     GatherPoint gp;
     gather_point(scene, vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp);
     float3 x = vp.xyz;
@@ -170,21 +175,21 @@ __kernel void gather_exact(SCENE_PARAMS __global const float4 *vp_pos,
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
     for (long cz = lo.z; cz <= hi.z; cz++)
-    for (long cy = lo.y; cy <= hi.y; cy++)
-    for (long cx = lo.x; cx <= hi.x; cx++) {
-        if (cell_dist2(x, (long3)(cx, cy, cz), &g) > r2) continue;
-        uint h = cell_hash((long3)(cx, cy, cz), table_mask);
-        uint end = ranges[2 * h + 1];
-        for (uint s = ranges[2 * h]; s < end; s++) {
-            uint pi = sorted_ids[s];
-            float4 pf;
-            float cos_l;
-            if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi,
-                                 (long3)(cx, cy, cz), &g, &pf, &cos_l))
-                continue;
-            M += 1.0f;
-            phi += photon_term(&gp, pf, cos_l);
-        }
-    }
+        for (long cy = lo.y; cy <= hi.y; cy++)
+            for (long cx = lo.x; cx <= hi.x; cx++) {
+                if (cell_dist2(x, (long3)(cx, cy, cz), &g) > r2) continue;
+                uint h = cell_hash((long3)(cx, cy, cz), table_mask);
+                uint end = ranges[2 * h + 1];
+                for (uint s = ranges[2 * h]; s < end; s++) {
+                    uint pi = sorted_ids[s];
+                    float4 pf;
+                    float cos_l;
+                    if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi,
+                                         (long3)(cx, cy, cz), &g, &pf, &cos_l))
+                        continue;
+                    M += 1.0f;
+                    phi += photon_term(&gp, pf, cos_l);
+                }
+            }
     gathered[id] = (float4)(phi, M);
 }

@@ -67,8 +67,13 @@ inline float2 sample_disk(float u1, float u2) {
     float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
     if (a == 0.0f && b == 0.0f) return (float2)(0.0f, 0.0f);
     float r, phi;
-    if (fabs(a) > fabs(b)) { r = a; phi = (PPM_PI / 4.0f) * (b / a); }
-    else { r = b; phi = (PPM_PI / 2.0f) - (PPM_PI / 4.0f) * (a / b); }
+    if (fabs(a) > fabs(b)) {
+        r = a;
+        phi = (PPM_PI / 4.0f) * (b / a);
+    } else {
+        r = b;
+        phi = (PPM_PI / 2.0f) - (PPM_PI / 4.0f) * (a / b);
+    }
     return (float2)(r * cos(phi), r * sin(phi));
 }
 
@@ -81,7 +86,8 @@ inline float2 sample_triangle(float u1, float u2) {
 inline uint pack_unit(float3 n) {
     n /= (fabs(n.x) + fabs(n.y) + fabs(n.z));
     float2 e = n.z >= 0.0f ? n.xy
-        : (float2)((1.0f - fabs(n.y)) * copysign(1.0f, n.x), (1.0f - fabs(n.x)) * copysign(1.0f, n.y));
+                           : (float2)((1.0f - fabs(n.y)) * copysign(1.0f, n.x),
+                                      (1.0f - fabs(n.x)) * copysign(1.0f, n.y));
     uint2 q = convert_uint2_sat_rte((e * 0.5f + 0.5f) * 65535.0f);
     return q.x | (q.y << 16);
 }

@@ -22,7 +22,7 @@ inline uint cell_hash(long3 c, uint mask) {
 
 inline bool in_grid(float3 p, const Grid *g) {
     return g->valid > 0u && p.x >= g->bmin[0] && p.y >= g->bmin[1] && p.z >= g->bmin[2]
-        && p.x <= g->bmax[0] && p.y <= g->bmax[1] && p.z <= g->bmax[2];
+           && p.x <= g->bmax[0] && p.y <= g->bmax[1] && p.z <= g->bmax[2];
 }
 
 /* Entry layout: 16 bytes per entry, count and chosen photon side by side so that the build

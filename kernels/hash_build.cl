@@ -11,29 +11,39 @@
 #include "geometry.h"
 
 /* floats as order-preserving uints, for atomic min/max */
-inline uint f2o(float f) { uint u = as_uint(f); return (u & 0x80000000u) ? ~u : (u | 0x80000000u); }
+inline uint f2o(float f) {
+    uint u = as_uint(f);
+    return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+}
 inline float o2f(uint u) { return as_float((u & 0x80000000u) ? (u & 0x7fffffffu) : ~u); }
 
 /* bounds[0..2] min, [3..5] max, [6] r_max, [7] r_min (ordered uints), [8] count */
 __kernel void bounds_init(__global uint *bounds, float4 init_lo, float4 init_hi) {
     float lo[3] = {init_lo.x, init_lo.y, init_lo.z}, hi[3] = {init_hi.x, init_hi.y, init_hi.z};
-    for (int k = 0; k < 3; k++) { bounds[k] = f2o(lo[k]); bounds[3 + k] = f2o(hi[k]); }
+    for (int k = 0; k < 3; k++) {
+        bounds[k] = f2o(lo[k]);
+        bounds[3 + k] = f2o(hi[k]);
+    }
     bounds[6] = 0u;
     bounds[7] = 0xffffffffu;
     bounds[8] = 0u;
 }
 
-__kernel __attribute__((reqd_work_group_size(BOUNDS_WG, 1, 1)))
-void vp_bounds(__global const float4 *vp_pos, __global const float *radius, uint n,
-               __global uint *bounds) {
-    __local uint lmin[3][BOUNDS_WG], lmax[3][BOUNDS_WG], lr[BOUNDS_WG], lrmin[BOUNDS_WG], lc[BOUNDS_WG];
+__kernel __attribute__((reqd_work_group_size(BOUNDS_WG, 1, 1))) void
+vp_bounds(__global const float4 *vp_pos, __global const float *radius, uint n,
+          __global uint *bounds) {
+    __local uint lmin[3][BOUNDS_WG], lmax[3][BOUNDS_WG], lr[BOUNDS_WG], lrmin[BOUNDS_WG],
+        lc[BOUNDS_WG];
     uint id = get_global_id(0), l = get_local_id(0);
     float4 p = id < n ? vp_pos[id] : (float4)(0.0f);
     bool ok = id < n && p.w > 0.0f;
     float r = ok ? radius[id] : 0.0f;
-    lmin[0][l] = ok ? f2o(p.x - r) : 0xffffffffu; lmax[0][l] = ok ? f2o(p.x + r) : 0u;
-    lmin[1][l] = ok ? f2o(p.y - r) : 0xffffffffu; lmax[1][l] = ok ? f2o(p.y + r) : 0u;
-    lmin[2][l] = ok ? f2o(p.z - r) : 0xffffffffu; lmax[2][l] = ok ? f2o(p.z + r) : 0u;
+    lmin[0][l] = ok ? f2o(p.x - r) : 0xffffffffu;
+    lmax[0][l] = ok ? f2o(p.x + r) : 0u;
+    lmin[1][l] = ok ? f2o(p.y - r) : 0xffffffffu;
+    lmax[1][l] = ok ? f2o(p.y + r) : 0u;
+    lmin[2][l] = ok ? f2o(p.z - r) : 0xffffffffu;
+    lmax[2][l] = ok ? f2o(p.z + r) : 0u;
     lr[l] = ok ? f2o(r) : 0u;
     lrmin[l] = ok ? f2o(r) : 0xffffffffu;
     lc[l] = ok ? 1u : 0u;
@@ -51,7 +61,10 @@ void vp_bounds(__global const float4 *vp_pos, __global const float *radius, uint
         barrier(CLK_LOCAL_MEM_FENCE);
     }
     if (l == 0 && lc[0] > 0u) {
-        for (int k = 0; k < 3; k++) { atomic_min(&bounds[k], lmin[k][0]); atomic_max(&bounds[3 + k], lmax[k][0]); }
+        for (int k = 0; k < 3; k++) {
+            atomic_min(&bounds[k], lmin[k][0]);
+            atomic_max(&bounds[3 + k], lmax[k][0]);
+        }
         atomic_max(&bounds[6], lr[0]);
         atomic_min(&bounds[7], lrmin[0]);
         atomic_add(&bounds[8], lc[0]);
@@ -63,14 +76,21 @@ void vp_bounds(__global const float4 *vp_pos, __global const float *radius, uint
 __kernel void grid_setup(__global const uint *bounds, float cell_scale, __global Grid *grid) {
     Grid g;
     g.valid = bounds[8];
-    for (int k = 0; k < 3; k++) { g.bmin[k] = o2f(bounds[k]); g.bmax[k] = o2f(bounds[3 + k]); }
+    for (int k = 0; k < 3; k++) {
+        g.bmin[k] = o2f(bounds[k]);
+        g.bmax[k] = o2f(bounds[3 + k]);
+    }
     g.r_max = g.valid ? o2f(bounds[6]) : 0.0f;
     g.r_min = g.valid ? o2f(bounds[7]) : 0.0f;
     float cs = fmax(fmax(cell_scale, 0.5f) * g.r_max, FLT_MIN);
     g.cell_size = cs;
     g.inv_cell_size = 1.0f / cs;
     g.pad = 0u;
-    if (!g.valid) for (int k = 0; k < 3; k++) { g.bmin[k] = 0.0f; g.bmax[k] = 0.0f; }
+    if (!g.valid)
+        for (int k = 0; k < 3; k++) {
+            g.bmin[k] = 0.0f;
+            g.bmax[k] = 0.0f;
+        }
     *grid = g;
 }
 
@@ -91,9 +111,9 @@ inline uint photon_key(uint seed, uint pass, uint i) { return rng_seed(seed, pas
 #define PPM_BUILD_BATCH 1
 #endif
 
-__kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
-                         uint capacity, __global const Grid *grid, uint table_mask, uint pass_index,
-                         uint seed, __global ulong *table) {
+__kernel void hash_build(__global const float4 *ph_pos, __global uint *counters, uint capacity,
+                         __global const Grid *grid, uint table_mask, uint pass_index, uint seed,
+                         __global ulong *table) {
     uint n = min(counters[CNT_STORED], capacity);
     uint i0 = get_global_id(0) * PPM_BUILD_BATCH;
     if (i0 >= n) return;
@@ -122,15 +142,15 @@ __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
     }
     if (occupied) atomic_add(&counters[CNT_OCCUPIED], occupied);
 #if PPM_BUILD_BATCH > 1
-    if (touch == 0xffffffffu) counters[CNT_SINK] = 0u;     /* keeps the loads; practically never true */
+    if (touch == 0xffffffffu) counters[CNT_SINK] = 0u; /* keeps the loads; practically never true */
 #endif
 }
 
 #ifndef PPM_INT64_ATOMICS
 /* second pass of the 32-bit fallback: the photon whose key won writes its index */
-__kernel void hash_pick(__global const float4 *ph_pos, __global const uint *counters,
-                        uint capacity, __global const Grid *grid, uint table_mask, uint pass_index,
-                        uint seed, __global ulong *table) {
+__kernel void hash_pick(__global const float4 *ph_pos, __global const uint *counters, uint capacity,
+                        __global const Grid *grid, uint table_mask, uint pass_index, uint seed,
+                        __global ulong *table) {
     uint i = get_global_id(0);
     if (i >= min(counters[CNT_STORED], capacity)) return;
     Grid g = *grid;
@@ -148,8 +168,9 @@ __kernel void exact_keys(__global const float4 *ph_pos, __global const uint *cou
     uint i = get_global_id(0);
     if (i >= capacity) return;
     Grid g = *grid;
-    keys[i] = i < min(counters[CNT_STORED], capacity) ? cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask)
-                                              : table_mask + 1u;
+    keys[i] = i < min(counters[CNT_STORED], capacity)
+                  ? cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask)
+                  : table_mask + 1u;
     ids[i] = i;
 }
 

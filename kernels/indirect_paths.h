@@ -121,8 +121,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         Surface s = surface_at(scene, h);
         shader_setup(scene, sd, &s, h.u, h.v, path, h.t, -d,
                      footprint_at(scene, s.tri, h.leaf, h.u, h.v,
-                                  SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p)
-                                                : 0.0f));
+                                  SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p) : 0.0f));
         if (counts && max3(sd->emission) > 0.0f)
             L += beta * sd->emission * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n);
         if (depth > max_bounces) break;

@@ -12,7 +12,8 @@ inline int emissive_index(const Scene *scene, int leaf) {
     while (lo <= hi) {
         int mid = (lo + hi) >> 1, v = scene->emissive[mid];
         if (v == leaf) return mid;
-        if (v < leaf) lo = mid + 1; else hi = mid - 1;
+        if (v < leaf) lo = mid + 1;
+        else hi = mid - 1;
     }
     return -1;
 }
@@ -49,8 +50,13 @@ inline bool local_pick_at(const Scene *scene, float3 p) {
 inline float atan2_fast(float y, float x) {
     float ax = fabs(x), mx = fmax(ax, y), mn = fmin(ax, y);
     float t = mx > 0.0f ? mn / mx : 0.0f, t2 = t * t;
-    float r = t * (0.99997726f + t2 * (-0.33262347f + t2 * (0.19354346f + t2 * (-0.11643287f
-              + t2 * (0.05265332f - t2 * 0.01172120f)))));
+    float r = t
+              * (0.99997726f
+                 + t2
+                       * (-0.33262347f
+                          + t2
+                                * (0.19354346f
+                                   + t2 * (-0.11643287f + t2 * (0.05265332f - t2 * 0.01172120f)))));
     if (y > ax) r = 0.5f * PPM_PI - r;
     return x < 0.0f ? PPM_PI - r : r;
 }
@@ -61,7 +67,9 @@ inline float projected_solid_angle(float3 p, float3 n, float3 p0, float3 p1, flo
     float3 a = p0 - p, b = p1 - p, c = p2 - p;
     float la = length(a), lb = length(b), lc = length(c);
     if (!(la > 0.0f && lb > 0.0f && lc > 0.0f)) return 0.0f;
-    a /= la; b /= lb; c /= lc;
+    a /= la;
+    b /= lb;
+    c /= lc;
     float3 nab = cross(a, b), nbc = cross(b, c), nca = cross(c, a);
     float lab = length(nab), lbc = length(nbc), lca = length(nca), s = 0.0f;
     /* (the angle between two unit vectors from their cross and dot products) */
@@ -85,8 +93,9 @@ inline void local_weights(const Scene *scene, float3 p, float3 n, float *g, floa
         float area2 = length(cross(e1.xyz, e2.xyz));
         /* g / area: the triangle's mean radiance (its power over its area), up to a constant */
         float w = area2 > 0.0f
-            ? g[j] / area2 * projected_solid_angle(p, n, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz)
-            : 0.0f;
+                      ? g[j] / area2
+                            * projected_solid_angle(p, n, v0.xyz, v0.xyz + e1.xyz, v0.xyz + e2.xyz)
+                      : 0.0f;
         imp[j] = isfinite(w) ? w : 0.0f;
         gs += g[j];
         is += imp[j];
@@ -123,8 +132,7 @@ inline int pick_emitter_at(const Scene *scene, float3 p, float3 n, float u, floa
     __global const EmitterInfo *info = scene->emitter_info;
     int e = pick_emitter(scene->emitter_cdf, info->n_emitters, u, pmf);
     int first = info->n_lights;
-    if (!(PPM_EMISSIVE && e >= first && local_pick_at(scene, p)
-          && e < first + info->n_emissive))
+    if (!(PPM_EMISSIVE && e >= first && local_pick_at(scene, p) && e < first + info->n_emissive))
         return e;
     float g[LOCAL_PICK_MAX], imp[LOCAL_PICK_MAX], g_sum, imp_sum;
     local_weights(scene, p, n, g, imp, &g_sum, &imp_sum);
@@ -177,11 +185,15 @@ inline SphTri spherical_triangle(float3 o, float3 p0, float3 p1, float3 p2) {
         t.alpha = 0.0f;
         return t;
     }
-    t.a = normalize(p0 - o); t.b = normalize(p1 - o); t.c = normalize(p2 - o);
+    t.a = normalize(p0 - o);
+    t.b = normalize(p1 - o);
+    t.c = normalize(p2 - o);
     float3 n_ab = cross(t.a, t.b), n_bc = cross(t.b, t.c), n_ca = cross(t.c, t.a);
     float l_ab = length(n_ab), l_bc = length(n_bc), l_ca = length(n_ca);
     if (!(l_ab > 1e-7f && l_bc > 1e-7f && l_ca > 1e-7f)) return t;
-    n_ab /= l_ab; n_bc /= l_bc; n_ca /= l_ca;
+    n_ab /= l_ab;
+    n_bc /= l_bc;
+    n_ca /= l_ca;
     t.alpha = angle_between(n_ab, -n_ca);
     float A = t.alpha + angle_between(n_bc, -n_ab) + angle_between(n_ca, -n_bc) - PPM_PI;
     t.area = (A > SPHERICAL_MIN_SOLID_ANGLE && A < 2.0f * PPM_PI && isfinite(A)) ? A : 0.0f;
@@ -209,8 +221,7 @@ inline float3 sample_spherical_triangle(const SphTri *t, float u0, float u1) {
 }
 
 /* Next-event sample of emissive BVH leaf k from origin o. */
-inline bool mesh_direct(const Scene *scene, int k, float3 o, float u1, float u2,
-                        LightSample *s) {
+inline bool mesh_direct(const Scene *scene, int k, float3 o, float u1, float u2, LightSample *s) {
     float4 v0 = scene->tri_v0[k], e1 = scene->tri_e1[k], e2 = scene->tri_e2[k];
     float3 c = cross(e1.xyz, e2.xyz);
     float area2 = length(c);
@@ -256,8 +267,8 @@ inline bool mesh_direct(const Scene *scene, int k, float3 o, float u1, float u2,
 
 /* A photon from emissive BVH leaf k: a uniform point, a side with probability 1/2 each, a
  * cosine-weighted direction. */
-inline bool mesh_emit(const Scene *scene, int k, float pmf, float u1, float u2, float u3,
-                      float u4, float3 *o, float3 *d, float3 *flux) {
+inline bool mesh_emit(const Scene *scene, int k, float pmf, float u1, float u2, float u3, float u4,
+                      float3 *o, float3 *d, float3 *flux) {
     float4 v0 = scene->tri_v0[k], e1 = scene->tri_e1[k], e2 = scene->tri_e2[k];
     float2 b = sample_triangle(u1, u2);
     float3 q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;

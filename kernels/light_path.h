@@ -28,8 +28,9 @@ inline uint path_add(uint p, int k) { return path_count(p, k) < 31u ? p + (1u <<
 /* the state after a bounce with sample label `label` */
 inline uint path_bounce(uint p, int label) {
     p = path_add(p, PATH_DEPTH);
-    uint f = (label & LABEL_DIFFUSE) ? PATH_DIFFUSE : (label & LABEL_GLOSSY) ? PATH_GLOSSY
-           : (PATH_GLOSSY | PATH_SINGULAR);
+    uint f = (label & LABEL_DIFFUSE)  ? PATH_DIFFUSE
+             : (label & LABEL_GLOSSY) ? PATH_GLOSSY
+                                      : (PATH_GLOSSY | PATH_SINGULAR);
     if (label & LABEL_TRANSMIT) {
         f |= PATH_TRANSMIT;
         p = path_add(p, PATH_TRANSMISSION_DEPTH);
@@ -51,8 +52,8 @@ inline float path_output(uint p, float length, int k) {
     if (k == LIGHT_PATH_RAY_LENGTH) return length;
     if (k == LIGHT_PATH_PORTAL_DEPTH) return 0.0f;
     /* the depths, from LIGHT_PATH_RAY_DEPTH on */
-    const int field[5] = {PATH_DEPTH, PATH_DIFFUSE_DEPTH, PATH_GLOSSY_DEPTH,
-                          PATH_TRANSPARENT_DEPTH, PATH_TRANSMISSION_DEPTH};
+    const int field[5] = {PATH_DEPTH, PATH_DIFFUSE_DEPTH, PATH_GLOSSY_DEPTH, PATH_TRANSPARENT_DEPTH,
+                          PATH_TRANSMISSION_DEPTH};
     return (float)path_count(p, field[clamp(k - LIGHT_PATH_RAY_DEPTH, 0, 4)]);
 }
 #endif

@@ -19,8 +19,8 @@
  * radiance at p to the film's measure (pixel area), without the pixel filter:
  * 1 / (d^2 cos^3 theta A_pixel) for a perspective camera, 1 / A_pixel for an orthographic one.
  * False when p is behind, outside the clip range or outside the frame's filter reach. */
-inline bool camera_project(__global const Camera *cam, float3 p, float reach, float *px,
-                           float *py, float3 *to_cam, float *dist, float *we) {
+inline bool camera_project(__global const Camera *cam, float3 p, float reach, float *px, float *py,
+                           float3 *to_cam, float *dist, float *we) {
     __global const float *m = cam->to_world;
     float3 c = (float3)(m[3], m[7], m[11]);
     float3 ax = (float3)(m[0], m[4], m[8]), ay = (float3)(m[1], m[5], m[9]),
@@ -48,13 +48,16 @@ inline bool camera_project(__global const Camera *cam, float3 p, float reach, fl
     *px = ((xc - cam->shift[0]) / cam->extent[0] + 0.5f) * (float)cam->width;
     *py = ((yc - cam->shift[1]) / cam->extent[1] + 0.5f) * (float)cam->height;
     float x0 = (float)cam->region[0], y0 = (float)cam->region[1];
-    return *px > x0 - reach && *px < x0 + (float)cam->region[2] + reach
-        && *py > y0 - reach && *py < y0 + (float)cam->region[3] + reach;
+    return *px > x0 - reach && *px < x0 + (float)cam->region[2] + reach && *py > y0 - reach
+           && *py < y0 + (float)cam->region[3] + reach;
 }
 
 /* float atomic add (compare-and-swap on the bits) */
 inline void atomic_add_float(volatile __global float *a, float v) {
-    union { uint u; float f; } old, new_;
+    union {
+        uint u;
+        float f;
+    } old, new_;
     do {
         old.f = *a;
         new_.f = old.f + v;
@@ -93,9 +96,9 @@ inline void splat(__global const Camera *cam, __global float *image, __global co
     }
 }
 
-__kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
-                          uint n_photons, __global const float *filter_density, int n_table,
-                          float reach, __global float *image, __global uint *counters) {
+__kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounces, uint n_photons,
+                          __global const float *filter_density, int n_table, float reach,
+                          __global float *image, __global uint *counters) {
     SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n_photons) return;

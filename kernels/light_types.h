@@ -15,8 +15,8 @@
 typedef struct {
     float3 wi;               /* unit direction from the shading point's offset origin */
     float3 E;
-    float dist;              /* shadow ray length: ends just short of the emitter (PPM_INF: none) */
-    float pdf_dir;           /* solid-angle density of wi (MIS against the BSDF sample); 0 for
+    float dist; /* shadow ray length: ends just short of the emitter (PPM_INF: none) */
+    float pdf_dir; /* solid-angle density of wi (MIS against the BSDF sample); 0 for
                                 emitters no ray can hit (points, suns) */
 } LightSample;
 
@@ -25,7 +25,7 @@ inline void sun_direct(const Light *L, float u1, float u2, LightSample *s) {
     float3 to_sun = -F3(L->direction);
     if (L->radius > 0.0f) {
         float sh = sin(0.5f * L->radius), ch = cos(0.5f * L->radius);
-        s->wi = sample_cone(to_sun, 2.0f * sh * sh, u1, u2);     /* 1 - cos r, stably */
+        s->wi = sample_cone(to_sun, 2.0f * sh * sh, u1, u2); /* 1 - cos r, stably */
         /* disc radiance E/(pi sin^2 r) times the cone's solid angle 2 pi (1 - cos r):
          * 4 sin^2(r/2) / sin^2 r = 1 / cos^2(r/2) */
         s->E = F3(L->emit) / (ch * ch);
@@ -75,7 +75,8 @@ inline float spot_attenuation(const Light *L, float3 dir_from_light) {
 
 /* a spot whose frame is uniformly scaled has a round cone we can sample directly */
 inline float spot_sample_cos(const Light *L) {
-    float sx = length(F3(L->axis_x)) * L->spot_scale_z, sy = length(F3(L->axis_y)) * L->spot_scale_z;
+    float sx = length(F3(L->axis_x)) * L->spot_scale_z,
+          sy = length(F3(L->axis_y)) * L->spot_scale_z;
     return (fabs(sx - 1.0f) < 1e-4f && fabs(sy - 1.0f) < 1e-4f) ? L->spot_cos_half : -1.0f;
 }
 
@@ -89,7 +90,7 @@ inline void point_seen(const Light *l, float3 o, float3 d, float *best, float3 *
     if (l->flags & LIGHT_FLAG_SOFT_FALLOFF) {
         float3 nl = o - c;
         float dl = length(nl);
-        if (!(dl > l->radius)) return;                    /* starts inside */
+        if (!(dl > l->radius)) return; /* starts inside */
         nl /= dl;
         float denom = dot(d, nl);
         if (denom >= 0.0f) return;
@@ -99,17 +100,17 @@ inline void point_seen(const Light *l, float3 o, float3 d, float *best, float3 *
         if (dot(q, q) > l->radius * l->radius) return;
         *best = t;
         *Le = F3(l->emit) / (PPM_PI * l->radius * l->radius);
-        *pdf = t * t / (-denom * PPM_PI * l->radius * l->radius);    /* point_direct's disk */
+        *pdf = t * t / (-denom * PPM_PI * l->radius * l->radius); /* point_direct's disk */
     } else {
         float3 oc = o - c;
         float b = dot(oc, d), cc = dot(oc, oc) - l->radius * l->radius;
         float disc = b * b - cc;
-        if (disc < 0.0f || cc < 0.0f) return;            /* missed, or starts inside */
+        if (disc < 0.0f || cc < 0.0f) return; /* missed, or starts inside */
         float t = -b - sqrt(disc);
         if (!(t > 0.0f && t < *best)) return;
         *best = t;
         *Le = F3(l->emit) / (PPM_PI * l->radius * l->radius);
-        float x = l->radius * l->radius / (cc + l->radius * l->radius);  /* sin^2 of the cone */
+        float x = l->radius * l->radius / (cc + l->radius * l->radius); /* sin^2 of the cone */
         *pdf = (1.0f + sqrt(fmax(0.0f, 1.0f - x))) / (2.0f * PPM_PI * x); /* 1 / (2 pi (1 - cos)) */
     }
 }
@@ -141,7 +142,7 @@ inline bool point_direct(const Light *L, float3 o, float u1, float u2, LightSamp
         s->wi = sample_cone(w0, x / (1.0f + root), u1, u2);
         float bb = dot(s->wi, to);
         s->dist = bb - sqrt(fmax(0.0f, bb * bb - (d2 - r * r)));
-        s->E = I * (2.0f / (d2 * (1.0f + root)));   /* I 2 pi (1 - cos) / (pi r^2) */
+        s->E = I * (2.0f / (d2 * (1.0f + root))); /* I 2 pi (1 - cos) / (pi r^2) */
         s->pdf_dir = (1.0f + root) / (2.0f * PPM_PI * x);
     } else {
         s->wi = w0;
@@ -188,7 +189,7 @@ inline float3 area_light_point(const Light *L, float u1, float u2) {
 inline void area_seen(const Light *l, float3 o, float3 d, float *best, float3 *Le, float *pdf) {
     float3 c = F3(l->position), nl = F3(l->direction);
     float denom = dot(d, nl);
-    if (denom >= 0.0f) return;                             /* emits along its -Z only */
+    if (denom >= 0.0f) return; /* emits along its -Z only */
     float t = dot(c - o, nl) / denom;
     if (!(t > 0.0f && t < *best)) return;
     float3 q = o + t * d - c;
@@ -199,14 +200,13 @@ inline void area_seen(const Light *l, float3 o, float3 d, float *best, float3 *L
     if (inside) {
         *best = t;
         *Le = F3(l->emit);
-        *pdf = t * t / (-denom * area_light_area(l));          /* area_direct's density */
+        *pdf = t * t / (-denom * area_light_area(l)); /* area_direct's density */
     }
 }
 
-inline bool area_direct(const Light *L, float3 o, float u1, float u2, float scale,
-                        LightSample *s) {
+inline bool area_direct(const Light *L, float3 o, float u1, float u2, float scale, LightSample *s) {
     float3 nl = F3(L->direction);
-    float3 q = offset_ray(area_light_point(L, u1, u2), nl, scale);   /* in front of it */
+    float3 q = offset_ray(area_light_point(L, u1, u2), nl, scale); /* in front of it */
     float3 tq = q - o;
     float dq2 = dot(tq, tq);
     s->dist = sqrt(dq2);

@@ -128,8 +128,8 @@ inline float3 microfacet_eval(const Closure *c, float3 wi, float3 wo, float *pdf
     if (!(sum > 0.0f)) return (float3)(0.0f);
     float D, li, lo;
     microfacet_terms(c, h, wi, wo, refract, &D, &li, &lo);
-    float common = D / cos_ni * (refract ? sqr(c->ior * inv_len) * fabs(cos_hi * dot(h, wo))
-                                         : 0.25f);
+    float common = D / cos_ni
+                   * (refract ? sqr(c->ior * inv_len) * fabs(cos_hi * dot(h, wo)) : 0.25f);
     float pr = avg3(R) / sum;
     *pdf = common * (refract ? 1.0f - pr : pr) / (1.0f + li);
     return (refract ? T : R) * (common / (1.0f + li + lo) * c->energy_scale);
@@ -166,8 +166,8 @@ inline int microfacet_sample(const Closure *c, float3 ng, float3 wi, float3 rand
     if (!singular) {
         float D, li, lo;
         microfacet_terms(c, h, wi, *wo, refract, &D, &li, &lo);
-        float common = D / cos_ni * (refract ? fabs(cos_hi * cos_ho)
-                                               / sqr(cos_ho + cos_hi / c->ior) : 0.25f);
+        float common = D / cos_ni
+                       * (refract ? fabs(cos_hi * cos_ho) / sqr(cos_ho + cos_hi / c->ior) : 0.25f);
         *pdf *= common / (1.0f + li);
         *eval *= common / (1.0f + li + lo);
     }
@@ -219,10 +219,9 @@ inline void microfacet_preserve_energy(Closure *c, float3 wi, float3 fss, TABLES
     } else {
         bool inv = c->ior < 1.0f;
         float ior = inv ? 1.0f / c->ior : c->ior, z = sqrt(fabs((ior - 1.0f) / (ior + 1.0f)));
-        E = table_3d(shading_tables, inv ? TAB_GLASS_INV_E : TAB_GLASS_E, rough, mu, z,
-                     16, 16, 16);
-        Eavg = table_2d(shading_tables, inv ? TAB_GLASS_INV_EAVG : TAB_GLASS_EAVG, rough, z,
-                        16, 16);
+        E = table_3d(shading_tables, inv ? TAB_GLASS_INV_E : TAB_GLASS_E, rough, mu, z, 16, 16, 16);
+        Eavg = table_2d(shading_tables, inv ? TAB_GLASS_INV_EAVG : TAB_GLASS_EAVG, rough, z, 16,
+                        16);
     }
     E = fmax(E, 1e-3f);
     float missing = (1.0f - E) / E;

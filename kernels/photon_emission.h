@@ -27,8 +27,7 @@ inline bool emit_photon(const Scene *scene, uint *rng, float3 *o, float3 *d, flo
             area_emit(&L, pmf, u1, u2, u3, u4, info.offset_scale, o, d, flux);
         else return false;
     } else if (PPM_EMISSIVE && e < info.n_lights + info.n_emissive) {
-        if (!mesh_emit(scene, scene->emissive[e - info.n_lights], pmf, u1, u2, u3, u4, o, d,
-                       flux))
+        if (!mesh_emit(scene, scene->emissive[e - info.n_lights], pmf, u1, u2, u3, u4, o, d, flux))
             return false;
     } else if (PPM_WORLD && info.has_world) {
         if (!world_emit(scene, pmf, u1, u2, u3, u4, o, d, flux)) return false;

@@ -16,10 +16,9 @@
 #include "shared.h"
 #include "medium.h"
 
-__kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
-                          uint n_photons, __global const Grid *grid, uint capacity,
-                          __global float4 *ph_pos, __global float4 *ph_flux,
-                          __global uint *counters, uint caustics_only) {
+__kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces, uint n_photons,
+                          __global const Grid *grid, uint capacity, __global float4 *ph_pos,
+                          __global float4 *ph_flux, __global uint *counters, uint caustics_only) {
     SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n_photons) return;
@@ -28,20 +27,20 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
     uint rng = rng_seed(seed, pass_index, id, 2u);
     float3 o, d, flux;
     if (!emit_photon(scene, &rng, &o, &d, &flux)) return;
-    uint mask = VIS_SHADOW;    /* the light's own segment: objects that cast no shadow let it by */
+    uint mask = VIS_SHADOW; /* the light's own segment: objects that cast no shadow let it by */
 #if PPM_ABSORPTION
     Media media;
     media_init(&media);
 #endif
     ShaderData sd;
-    bool direct = true;       /* nothing but transparent surfaces crossed yet */
-    uint path = 0u;           /* the Light Path node's view: light's rays are no camera rays */
+    bool direct = true; /* nothing but transparent surfaces crossed yet */
+    uint path = 0u; /* the Light Path node's view: light's rays are no camera rays */
     for (int bounce = 0, transparent = 0; bounce <= max_bounces;) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
         if (h.leaf < 0) break;
-        float3 before = flux;             /* Russian roulette below: this bounce's albedo */
+        float3 before = flux; /* Russian roulette below: this bounce's albedo */
 #if PPM_ABSORPTION
-        flux *= media_transmittance(&media, scene->materials, h.t);   /* the segment's medium */
+        flux *= media_transmittance(&media, scene->materials, h.t); /* the segment's medium */
 #endif
         Surface s = surface_at(scene, h);
         Material mt = scene->materials[s.material];
@@ -117,7 +116,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
             break;
         }
         if (capacity == 0u && set == MASK_CONTINUE && !(b.label & LABEL_TRANSPARENT)) {
-            atomic_inc(&counters[CNT_CAUSTIC]);   /* a pilot (Renderer.caustic_fraction_pilot) */
+            atomic_inc(&counters[CNT_CAUSTIC]); /* a pilot (Renderer.caustic_fraction_pilot) */
             return;
         }
         flux *= b.weight;
@@ -129,7 +128,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
             measure = 1.0f / (b.eta * b.eta);
             flux *= measure;
         }
-        if (b.label & LABEL_TRANSPARENT) {      /* not a bounce (Cycles' transparent bounces) */
+        if (b.label & LABEL_TRANSPARENT) { /* not a bounce (Cycles' transparent bounces) */
             if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
             path = path_transparent(path);
         } else {

@@ -24,7 +24,8 @@ inline float table_sample(int kind, float rough, float mu, float z, float4 u) {
     c.type = glass ? CLOSURE_GGX_GLASS : CLOSURE_GGX_REFLECT;
     c.fresnel = glass ? FRESNEL_DIELECTRIC : FRESNEL_NONE;
     c.ior = kind == KIND_GLASS_INV_E || kind == KIND_GLASS_INV_EAVG ? 1.0f / ior
-          : kind == KIND_SCHLICK_S ? 1.0f : (glass || kind == KIND_SCHLICK_IOR_S ? ior : 1.0f);
+            : kind == KIND_SCHLICK_S ? 1.0f
+                                     : (glass || kind == KIND_SCHLICK_IOR_S ? ior : 1.0f);
     float3 wi = (float3)(sqrt(fmax(0.0f, 1.0f - mu * mu)), 0.0f, mu);
     float3 eval, wo;
     float pdf, eta;

@@ -46,8 +46,7 @@ inline void ppm_update(float alpha, float M, float3 phi, float *N, float *R, flo
 /* The closed form on (N, R, tau) buffers (tests/test_kernels.py); the renderer uses film_update. */
 __kernel void progressive_update(__global const float4 *vp_pos, __global const float4 *vp_beta,
                                  __global const float4 *gathered, __global float *radius,
-                                 __global float *nstat, __global float4 *tau, float alpha,
-                                 uint n) {
+                                 __global float *nstat, __global float4 *tau, float alpha, uint n) {
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 g = gathered[id];
@@ -67,9 +66,8 @@ __kernel void progressive_update(__global const float4 *vp_pos, __global const f
  * is: nothing non-finite ever enters the sums.  gathered[id] is overwritten with this pass's
  * photon term (Phi / R^2, 0 when none) for film_add_sample. */
 __kernel void film_update(__global const float4 *vp_pos, __global const float4 *vp_beta,
-                          __global float4 *gathered, __global float *radius,
-                          __global float *nstat, __global float4 *photon_sum, float alpha,
-                          uint n) {
+                          __global float4 *gathered, __global float *radius, __global float *nstat,
+                          __global float4 *photon_sum, float alpha, uint n) {
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 g = gathered[id];
@@ -99,8 +97,8 @@ __kernel void film_update(__global const float4 *vp_pos, __global const float4 *
  * count (for film_resolve) and its noise (film_error).  photons: emitted this pass (0: no
  * photon pass, gathered is not read). */
 __kernel void film_add_sample(__global const float4 *direct_pass, __global const float4 *gathered,
-                              __global const uint *active, uint photons,
-                              __global float4 *direct, __global float4 *moments, uint n) {
+                              __global const uint *active, uint photons, __global float4 *direct,
+                              __global float4 *moments, uint n) {
     uint id = get_global_id(0);
     if (id >= n || !active[id]) return;
     float4 v = direct_pass[id];
@@ -139,7 +137,7 @@ __kernel void film_error(__global const float4 *moments, __global const float *n
     acc4 m = acc_get(moments, id);
     float k = (float)m.w;
     if (k < (float)max(min_passes, 2u)
-            || (nstat[id] > 0.0f && radius[id] > max_radius * radius0[id])) {
+        || (nstat[id] > 0.0f && radius[id] > max_radius * radius0[id])) {
         error[id] = INFINITY;
         return;
     }

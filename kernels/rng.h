@@ -36,7 +36,8 @@ inline float rnd(uint *s) { return bits_unit(rng_next(s)); }
 /* SOBOL_V[d - 1][i]: the direction number of bit i of the index in dimension d = 1, 2, 3, its
  * bits reversed (dimension 0, the van der Corput sequence, is the index's bits reversed): the
  * values are built and scrambled in reversed order, one reversal each instead of three
- * (tests/test_indirect.py derives the table) */
+ * (tests/test_indirect.py derives the table; the formatter leaves its rows) */
+/* clang-format off */
 __constant uint SOBOL_V[3][32] = {
     {0x00000001u, 0x00000003u, 0x00000005u, 0x0000000fu, 0x00000011u, 0x00000033u, 0x00000055u,
      0x000000ffu, 0x00000101u, 0x00000303u, 0x00000505u, 0x00000f0fu, 0x00001111u, 0x00003333u,
@@ -53,6 +54,7 @@ __constant uint SOBOL_V[3][32] = {
      0x00004041u, 0x0000a0c3u, 0x0001f104u, 0x0002e28au, 0x000457dfu, 0x000c9baeu, 0x0011a105u,
      0x002a7289u, 0x0079e7dbu, 0x00b6dba4u, 0x0100011au, 0x030002a7u, 0x0400079eu, 0x0a000b6du,
      0x1f001001u, 0x2e003003u, 0x45004004u, 0xc900a00au}};
+/* clang-format on */
 inline uint reverse_bits(uint x) {
     x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
     x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
@@ -89,15 +91,13 @@ inline void sobol_add_bit(uint index, int i, uint *x1, uint *x2, uint *x3) {
 inline float4 ld_set(uint pass, uint key, uint set) {
     uint seed = pcg_hash(key ^ (set * 0x9E3779B9u));
     uint index = (owen_scramble_reversed(reverse_bits(pass), seed ^ 0x2f8b1e35u) & 0xFFFFu)
-        | (pass & ~0xFFFFu);
+                 | (pass & ~0xFFFFu);
     /* bits 0-15 in a loop of fixed count (unrolled, no branch), the rest only past 65,536
      * passes */
     uint x1 = 0u, x2 = 0u, x3 = 0u;
     int bits = (index >> 16) != 0u ? 32 : 16;
-    for (int i = 0; i < 16; i++)
-        sobol_add_bit(index, i, &x1, &x2, &x3);
-    for (int i = 16; i < bits; i++)
-        sobol_add_bit(index, i, &x1, &x2, &x3);
+    for (int i = 0; i < 16; i++) sobol_add_bit(index, i, &x1, &x2, &x3);
+    for (int i = 16; i < bits; i++) sobol_add_bit(index, i, &x1, &x2, &x3);
     return (float4)(bits_unit(owen_scramble_reversed(index, seed ^ 0x71c3a94du)),
                     bits_unit(owen_scramble_reversed(x1, seed ^ 0xd46b0e27u)),
                     bits_unit(owen_scramble_reversed(x2, seed ^ 0x9a5f62b1u)),

@@ -20,7 +20,7 @@ typedef struct {
 #define SCENE_PARAMS SCENE_DATA(SCENE_PARAM)
 
 #define SCENE_VALUE(T, name) name,
-#define SCENE_LOAD(scene)                             \
+#define SCENE_LOAD(scene)                                  \
     const Scene scene##_value = {SCENE_DATA(SCENE_VALUE)}; \
     const Scene *scene = &scene##_value
 
@@ -35,7 +35,8 @@ inline int pick_emitter(__global const float *cdf, int n, float u, float *pmf) {
     int lo = 0, hi = n - 1;
     while (lo < hi) {
         int mid = (lo + hi) >> 1;
-        if (u < cdf[mid]) hi = mid; else lo = mid + 1;
+        if (u < cdf[mid]) hi = mid;
+        else lo = mid + 1;
     }
     *pmf = emitter_pmf(cdf, lo);
     return lo;

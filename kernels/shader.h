@@ -13,8 +13,8 @@
  * visible points and photons like diffuse ones; smoother ones are followed by the eye path;
  * -D from RenderOptions.gather_roughness) */
 
-inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
-                             float alpha, float3 emission, float3 tangent, TABLES_ARG) {
+inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alpha, float3 emission,
+                             float3 tangent, TABLES_ARG) {
     float w1 = nd->weight;
     float3 w = (float3)(w1), N = node_normal(sd, F3(nd->normal)),
            cbase = fmin(base, (float3)(1.0f));
@@ -47,8 +47,9 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
             microfacet_sample_weight(sd, k, shading_tables);
             microfacet_preserve_energy(c, sd->wi, (float3)(fresnel_dielectric_fss(cior)),
                                        shading_tables);
-            w = layering_weight(c->weight * microfacet_albedo(c, sd->wi, true, false,
-                                                              shading_tables), w);
+            w = layering_weight(c->weight
+                                    * microfacet_albedo(c, sd->wi, true, false, shading_tables),
+                                w);
         }
         float3 tint = fmax(F3(nd->coat_tint), (float3)(0.0f));
         if (tint.x != 1.0f || tint.y != 1.0f || tint.z != 1.0f) {
@@ -86,8 +87,10 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
             sd->c[k].T = T;
             schlick_ior_setup(sd, k, f0 * spec_tint, (float3)(1.0f), (float3)(0.0f), multi,
                               shading_tables);
-            w = layering_weight(sd->c[k].weight * microfacet_albedo(&sd->c[k], sd->wi, true,
-                                                                   false, shading_tables), w);
+            w = layering_weight(sd->c[k].weight
+                                    * microfacet_albedo(&sd->c[k], sd->wi, true, false,
+                                                        shading_tables),
+                                w);
         }
     }
     /* subsurface scattering renders as diffuse with the (clamped) base colour */
@@ -96,8 +99,8 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base,
 }
 
 /* the BSDF nodes other than the Principled */
-inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
-                            float3 emission, float3 tangent, TABLES_ARG) {
+inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color, float3 emission,
+                            float3 tangent, TABLES_ARG) {
     float w1 = nd->weight, rough = clamp(nd->roughness, 0.0f, 1.0f);
     float3 N = node_normal(sd, F3(nd->normal)), w = (float3)(w1);
     bool multi = (nd->flags & NODE_FLAG_MULTI_GGX) != 0, has_t = dot(tangent, tangent) > 0.0f;
@@ -124,8 +127,8 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
         if (k >= 0) {
             sd->c[k].T = has_t ? rotate_tangent(tangent, N, nd->anisotropic_rotation)
                                : (float3)(0.0f);
-            if (multi) microfacet_preserve_energy(&sd->c[k], sd->wi, fmax(color, 0.0f),
-                                                  shading_tables);
+            if (multi)
+                microfacet_preserve_energy(&sd->c[k], sd->wi, fmax(color, 0.0f), shading_tables);
         }
     } else if (t == NODE_METALLIC) {
         float2 al = aniso_alphas(rough, clamp(nd->anisotropic, 0.0f, 1.0f), has_t);
@@ -140,8 +143,11 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color,
             c->f90 = kk;
             microfacet_sample_weight(sd, k, shading_tables);
             float3 F0 = fresnel_conductor(1.0f, n, kk), F82 = fresnel_conductor(1.0f / 7.0f, n, kk);
-            if (multi) microfacet_preserve_energy(c, sd->wi, sat3(fresnel_f82_fss(F0,
-                                                  fresnel_f82_b_from_f82(F0, F82))), shading_tables);
+            if (multi)
+                microfacet_preserve_energy(c, sd->wi,
+                                           sat3(fresnel_f82_fss(F0,
+                                                                fresnel_f82_b_from_f82(F0, F82))),
+                                           shading_tables);
         } else {
             f82_setup(sd, k, sat3(color), sat3(F3(nd->edge_tint)), multi, shading_tables);
         }
@@ -196,8 +202,7 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
         MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;
         float3 color = F3(nd->color) * texture_tint(scene, nd->color_texture, tri, u, v);
-        float3 emission = F3(nd->emission)
-                          * texture_tint(scene, nd->emission_texture, tri, u, v);
+        float3 emission = F3(nd->emission) * texture_tint(scene, nd->emission_texture, tri, u, v);
         if (nd->type == NODE_PRINCIPLED) {
             float alpha = clamp(nd->alpha * texture_alpha(scene, nd->alpha_texture, tri, u, v),
                                 0.0f, 1.0f);
@@ -212,13 +217,14 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
     for (int k = 0; k < sd->n; k++) {
         Closure *c = &sd->c[k];
         bool micro = c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS;
-        c->gather = c->type == CLOSURE_TRANSPARENT ? 0
-                  : !micro || (!microfacet_singular(c)
-                               && microfacet_rough(c) >= PPM_GATHER_ROUGHNESS);
+        c->gather = c->type == CLOSURE_TRANSPARENT
+                        ? 0
+                        : !micro
+                              || (!microfacet_singular(c)
+                                  && microfacet_rough(c) >= PPM_GATHER_ROUGHNESS);
         if (c->gather) {
             sd->sw_gather += c->sample_weight;
-            sd->gather_transmits |= c->type == CLOSURE_TRANSLUCENT
-                                    || c->type == CLOSURE_GGX_GLASS
+            sd->gather_transmits |= c->type == CLOSURE_TRANSLUCENT || c->type == CLOSURE_GGX_GLASS
                                     || c->type == CLOSURE_GGX_REFRACT;
         } else {
             sd->sw_continue += c->sample_weight;
@@ -300,8 +306,9 @@ typedef struct {
 /* The visibility class of the ray a sampled bounce makes (light_path.h's ray types; as in
  * Cycles, a transmission is a transmission ray even when diffuse). */
 inline uint bounce_visibility(int label) {
-    return (label & LABEL_TRANSMIT) ? VIS_TRANSMISSION
-         : (label & LABEL_DIFFUSE) ? VIS_DIFFUSE : VIS_GLOSSY;
+    return (label & LABEL_TRANSMIT)  ? VIS_TRANSMISSION
+           : (label & LABEL_DIFFUSE) ? VIS_DIFFUSE
+                                     : VIS_GLOSSY;
 }
 
 /* A direction from the closures in mask, picked in proportion to their sample weights. */

@@ -138,8 +138,8 @@ inline void f82_setup(ShaderData *sd, int k, float3 f0, float3 tint, bool multi,
     c->f90 = (tint.x == 1.0f && tint.y == 1.0f && tint.z == 1.0f) ? (float3)(0.0f)
                                                                   : fresnel_f82_b(f0, tint);
     microfacet_sample_weight(sd, k, shading_tables);
-    if (multi) microfacet_preserve_energy(c, sd->wi, fresnel_f82_fss(c->f0, c->f90),
-                                          shading_tables);
+    if (multi)
+        microfacet_preserve_energy(c, sd->wi, fresnel_f82_fss(c->f0, c->f90), shading_tables);
 }
 
 inline void shader_diffuse(ShaderData *sd, float3 w, float3 N, float roughness, float3 color) {

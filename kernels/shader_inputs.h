@@ -30,16 +30,16 @@ inline float3 rotate_tangent(float3 T, float3 N, float rotation) {
  * i of m with the inputs its program drives written in.  Without shader programs in the build
  * (PPM_SVM 0) they read the buffer's rows. */
 #if PPM_SVM
-#define MATERIAL_PROGRAM(m, stack, P, path, len, N, Ng, I, back, fp)                          \
-    float stack[PPM_SVM_STACK];                                                              \
-    if ((m).program > 0) {                                                                   \
-        SvmContext cx_ = svm_context_base((float2)(0.0f), P, path, len, N, Ng, I, back);     \
-        svm_context_fill(&cx_, scene, (m).program, tri, u, v, fp);                           \
-        svm_eval(scene, (m).program, stack, &cx_);                                           \
+#define MATERIAL_PROGRAM(m, stack, P, path, len, N, Ng, I, back, fp)                     \
+    float stack[PPM_SVM_STACK];                                                          \
+    if ((m).program > 0) {                                                               \
+        SvmContext cx_ = svm_context_base((float2)(0.0f), P, path, len, N, Ng, I, back); \
+        svm_context_fill(&cx_, scene, (m).program, tri, u, v, fp);                       \
+        svm_eval(scene, (m).program, stack, &cx_);                                       \
     }
-#define MATERIAL_NODE(nd, m, i, stack)                                                        \
-    ShaderNode nd##_row = scene->shader_nodes[(m).node_first + (i)];                         \
-    if ((m).program > 0) svm_bind(scene->svm, (m).program, (i), &nd##_row, stack);          \
+#define MATERIAL_NODE(nd, m, i, stack)                                             \
+    ShaderNode nd##_row = scene->shader_nodes[(m).node_first + (i)];               \
+    if ((m).program > 0) svm_bind(scene->svm, (m).program, (i), &nd##_row, stack); \
     NODE_PTR nd = &nd##_row
 #else
 #define MATERIAL_PROGRAM(m, stack, P, path, len, N, Ng, I, back, fp) const float *stack = 0
@@ -71,8 +71,8 @@ inline float3 node_normal(const ShaderData *sd, float3 n) {
 }
 
 /* the weight of the one Lambert closure of a MAT_LAMBERT material's node */
-inline float3 lambert_weight(const Scene *scene, __global const ShaderNode *nd, uint tri,
-                             float u, float v) {
+inline float3 lambert_weight(const Scene *scene, __global const ShaderNode *nd, uint tri, float u,
+                             float v) {
     return fmax(F3(nd->color) * texture_tint(scene, nd->color_texture, tri, u, v), 0.0f)
            * nd->weight;
 }
@@ -85,7 +85,7 @@ inline float3 surface_tangent(const Scene *scene, uint tri, float u, float v, fl
     __global const float *t = scene->tangents + 9 * (size_t)tri;
     float w = 1.0f - u - v;
     float3 r = w * (float3)(t[0], t[1], t[2]) + u * (float3)(t[3], t[4], t[5])
-             + v * (float3)(t[6], t[7], t[8]);
+               + v * (float3)(t[6], t[7], t[8]);
     float3 c = cross(r, N);
     float l = length(c);
     return l > 1e-12f ? cross(N, c / l) : (float3)(0.0f);
@@ -106,12 +106,13 @@ inline float3 material_transparency(const Scene *scene, int mat, uint tri, float
         MATERIAL_NODE(nd, m, i, stack);
         if (!(nd->weight > 0.0f)) continue;
         if (nd->type == NODE_PRINCIPLED) {
-            float a = clamp(nd->alpha * texture_alpha(scene, nd->alpha_texture, tri, u, v),
-                            0.0f, 1.0f);
+            float a = clamp(nd->alpha * texture_alpha(scene, nd->alpha_texture, tri, u, v), 0.0f,
+                            1.0f);
             T += (float3)(nd->weight * (1.0f - a));
         } else if (nd->type == NODE_TRANSPARENT) {
             T += fmax(F3(nd->color) * texture_tint(scene, nd->color_texture, tri, u, v)
-                      * nd->weight, (float3)(0.0f));
+                          * nd->weight,
+                      (float3)(0.0f));
         }
     }
     return T;
@@ -121,8 +122,8 @@ inline float3 material_transparency(const Scene *scene, int mat, uint tri, float
  * samples see it: its constant emission times its emission texture, or, when its shader program
  * drives an emission (PROGRAM_EMISSION), the emission nodes evaluated there (the Principled's
  * under its alpha; the view-dependent sheen and coat left out, as materials.node_emission). */
-inline float3 material_emission(const Scene *scene, __global const Material *m, uint tri,
-                                float u, float v, float3 P) {
+inline float3 material_emission(const Scene *scene, __global const Material *m, uint tri, float u,
+                                float v, float3 P) {
 #if PPM_SVM
     if (m->program > 0 && (scene->svm[m->program].w & PROGRAM_EMISSION)) {
         Material mm = *m;
@@ -131,14 +132,13 @@ inline float3 material_emission(const Scene *scene, __global const Material *m, 
         float3 E = (float3)(0.0f);
         for (int i = 0; i < mm.node_count; i++) {
             MATERIAL_NODE(nd, mm, i, stack);
-            if (!(nd->weight > 0.0f)
-                || (nd->type != NODE_EMISSION && nd->type != NODE_PRINCIPLED))
+            if (!(nd->weight > 0.0f) || (nd->type != NODE_EMISSION && nd->type != NODE_PRINCIPLED))
                 continue;
             float3 e = fmax(F3(nd->emission), 0.0f) * nd->weight
                        * texture_tint(scene, nd->emission_texture, tri, u, v);
             if (nd->type == NODE_PRINCIPLED)
-                e *= clamp(nd->alpha * texture_alpha(scene, nd->alpha_texture, tri, u, v),
-                           0.0f, 1.0f);
+                e *= clamp(nd->alpha * texture_alpha(scene, nd->alpha_texture, tri, u, v), 0.0f,
+                           1.0f);
             E += e;
         }
         return E;

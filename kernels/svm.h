@@ -25,8 +25,8 @@
  * viewer; all 0 where no direction is known: shadow rays, emitter samples): the per-corner
  * data only where the program reads them, their changes over the footprint fp where it has a
  * Bump node (svm_bump.h). */
-inline void svm_context_fill(SvmContext *cx, const Scene *scene, int p, uint tri, float u,
-                             float v, Footprint fp) {
+inline void svm_context_fill(SvmContext *cx, const Scene *scene, int p, uint tri, float u, float v,
+                             Footprint fp) {
     __global const int4 *svm = scene->svm;
     if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_WINDOW))
         cx->window = camera_window(scene->camera, cx->P);
@@ -53,19 +53,25 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
         if (SVM_HAS(SVM_CONST) && op == SVM_CONST) {
             float4 c = as_float4(svm[i++]);
             stack[w.y] = c.x;
-            if (w.z > 1) { stack[w.y + 1] = c.y; stack[w.y + 2] = c.z; }
+            if (w.z > 1) {
+                stack[w.y + 1] = c.y;
+                stack[w.y + 2] = c.z;
+            }
         } else if (SVM_HAS(SVM_GEOMETRY) && op == SVM_GEOMETRY) {
             /* GEOM_*; at the Bump's offset k = 1, 2: what + k GEOM_BUMP_OFFSET, w.w its width */
             int what = w.z % GEOM_BUMP_OFFSET;
-            float3 v = what == GEOM_UV ? (float3)(ctx->uv, 0.0f) : what == GEOM_NORMAL ? ctx->N
-                     : what == GEOM_TRUE_NORMAL ? ctx->Ng : what == GEOM_INCOMING ? ctx->I
-                     : what == GEOM_GENERATED ? ctx->generated
-                     : what == GEOM_REFLECTION ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
-                     : what == GEOM_POSITION ? ctx->P : what == GEOM_OBJECT ? ctx->P_object
-                     : what == GEOM_WINDOW ? ctx->window
-                     : what == GEOM_OBJECT_LOCATION ? ctx->object[0].xyz
-                     : what == GEOM_OBJECT_COLOR ? ctx->object[1].xyz
-                     : (float3)(ctx->backfacing);
+            float3 v = what == GEOM_UV                ? (float3)(ctx->uv, 0.0f)
+                       : what == GEOM_NORMAL          ? ctx->N
+                       : what == GEOM_TRUE_NORMAL     ? ctx->Ng
+                       : what == GEOM_INCOMING        ? ctx->I
+                       : what == GEOM_GENERATED       ? ctx->generated
+                       : what == GEOM_REFLECTION      ? 2.0f * dot(ctx->N, ctx->I) * ctx->N - ctx->I
+                       : what == GEOM_POSITION        ? ctx->P
+                       : what == GEOM_OBJECT          ? ctx->P_object
+                       : what == GEOM_WINDOW          ? ctx->window
+                       : what == GEOM_OBJECT_LOCATION ? ctx->object[0].xyz
+                       : what == GEOM_OBJECT_COLOR    ? ctx->object[1].xyz
+                                                      : (float3)(ctx->backfacing);
             float4 x = (float4)(v, 0.0f);
             if (what >= GEOM_ATTRIBUTE)                   /* mesh attribute k */
                 x = ctx->attr[min((what - GEOM_ATTRIBUTE) & (MAX_ATTRIBUTES - 1),
@@ -80,10 +86,11 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
             } else if (what == GEOM_BACKFACING
                        || (what >= GEOM_OBJECT_ALPHA && what <= GEOM_OBJECT_RANDOM)
                        || what >= GEOM_ATTRIBUTE_ALPHA) {
-                stack[w.y] = what == GEOM_BACKFACING ? ctx->backfacing
-                           : what == GEOM_OBJECT_ALPHA ? ctx->object[1].w
-                           : what == GEOM_OBJECT_INDEX ? ctx->object[0].w
-                           : what == GEOM_OBJECT_RANDOM ? ctx->object[2].x : x.x;
+                stack[w.y] = what == GEOM_BACKFACING      ? ctx->backfacing
+                             : what == GEOM_OBJECT_ALPHA  ? ctx->object[1].w
+                             : what == GEOM_OBJECT_INDEX  ? ctx->object[0].w
+                             : what == GEOM_OBJECT_RANDOM ? ctx->object[2].x
+                                                          : x.x;
             } else {
                 svm_put3(stack, w.y, x.xyz);
             }
@@ -103,8 +110,9 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
                 r1 = normal ? (float4)(n[0].y, n[1].y, n[2].y, 0.0f) : m[1];
                 r2 = normal ? (float4)(n[0].z, n[1].z, n[2].z, 0.0f) : m[2];
                 t = t == MAPPING_TO_OBJECT_POINT || t == MAPPING_TO_WORLD_POINT ? MAPPING_POINT
-                  : t == MAPPING_TO_OBJECT_VECTOR || t == MAPPING_TO_WORLD_VECTOR ? MAPPING_VECTOR
-                  : MAPPING_NORMAL;
+                    : t == MAPPING_TO_OBJECT_VECTOR || t == MAPPING_TO_WORLD_VECTOR
+                        ? MAPPING_VECTOR
+                        : MAPPING_NORMAL;
             }
 #endif
             float4 v = (float4)(svm_get3(stack, w.z), t == MAPPING_POINT ? 1.0f : 0.0f);
@@ -147,8 +155,10 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
             svm_put3(stack, w.y, r);
         } else if (SVM_HAS(SVM_COLOR_CONVERT) && op == SVM_COLOR_CONVERT) {
             float3 c = svm_get3(stack, w.z);
-            c = w.w == COLOR_RGB_TO_HSV ? rgb_to_hsv(c) : w.w == COLOR_HSV_TO_RGB ? hsv_to_rgb(c)
-              : w.w == COLOR_RGB_TO_HSL ? rgb_to_hsl(c) : hsl_to_rgb(c);
+            c = w.w == COLOR_RGB_TO_HSV   ? rgb_to_hsv(c)
+                : w.w == COLOR_HSV_TO_RGB ? hsv_to_rgb(c)
+                : w.w == COLOR_RGB_TO_HSL ? rgb_to_hsl(c)
+                                          : hsl_to_rgb(c);
             svm_put3(stack, w.y, c);
         } else if (SVM_HAS(SVM_INVERT) && op == SVM_INVERT) {
             float3 c = svm_get3(stack, w.w);
@@ -170,7 +180,11 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
         } else if (SVM_HAS(SVM_CLAMP) && op == SVM_CLAMP) {
             int4 e = svm[i++];
             float lo = stack[w.w], hi = stack[e.x];
-            if (e.y == CLAMP_RANGE && lo > hi) { float t = lo; lo = hi; hi = t; }
+            if (e.y == CLAMP_RANGE && lo > hi) {
+                float t = lo;
+                lo = hi;
+                hi = t;
+            }
             stack[w.y] = fmin(fmax(stack[w.z], lo), hi);
         } else if (SVM_HAS(SVM_MAP_RANGE) && op == SVM_MAP_RANGE) {
             int4 e = svm[i], f = svm[i + 1];
@@ -228,9 +242,9 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
             int4 e = svm[i], f = svm[i + 1];
             i += 2;
             float3 n_in = w.z >= 0 ? svm_get3(stack, w.z) : ctx->N;
-            svm_put3(stack, w.y, svm_bump_normal(ctx, n_in, stack[e.x], stack[e.y], stack[e.z],
-                                                 stack[e.w], stack[w.w], f.x != 0,
-                                                 as_float(f.y)));
+            svm_put3(stack, w.y,
+                     svm_bump_normal(ctx, n_in, stack[e.x], stack[e.y], stack[e.z], stack[e.w],
+                                     stack[w.w], f.x != 0, as_float(f.y)));
 #endif
         } else if (op >= SVM_TEX_CHECKER && op <= SVM_TEX_LAST) {
             i = svm_texture(op, w, svm, i, stack);

@@ -38,8 +38,8 @@ inline void svm_orthonormals(float3 N, float3 *a, float3 *b) {
 /* The context's changes over the footprint's offsets dP[k] = r a, r b: the barycentric offsets
  * that move the point by dP[k] in the triangle's plane (Cramer's rule on dP/du, dP/dv), and
  * the per-corner data there (all linear over the triangle: exact finite differences). */
-inline void svm_footprint_offsets(SvmContext *cx, const Scene *scene, int p, uint tri,
-                                  float u, float v, Footprint fp) {
+inline void svm_footprint_offsets(SvmContext *cx, const Scene *scene, int p, uint tri, float u,
+                                  float v, Footprint fp) {
     float3 a, b;
     svm_orthonormals(cx->Ng, &a, &b);
     float3 n = cross(fp.dpdu, fp.dpdv);
@@ -70,9 +70,11 @@ inline float4 svm_bump_input(const SvmContext *cx, int what, int k, float fw, fl
         float3 n = cx->n_smooth + fw * cx->dn[k];
         return dot(n, n) > 0.0f ? (float4)(normalize(n), 0.0f) : x;
     }
-    float3 d = what == GEOM_UV ? (float3)(cx->duv[k], 0.0f)
-             : what == GEOM_GENERATED ? cx->dgenerated[k] : what == GEOM_POSITION ? cx->dP[k]
-             : what == GEOM_OBJECT ? cx->dP_object[k] : (float3)(0.0f);
+    float3 d = what == GEOM_UV          ? (float3)(cx->duv[k], 0.0f)
+               : what == GEOM_GENERATED ? cx->dgenerated[k]
+               : what == GEOM_POSITION  ? cx->dP[k]
+               : what == GEOM_OBJECT    ? cx->dP_object[k]
+                                        : (float3)(0.0f);
     if (what >= GEOM_ATTRIBUTE) {
         float4 da = cx->dattr[k][min((what - GEOM_ATTRIBUTE) & (MAX_ATTRIBUTES - 1),
                                      PPM_ATTRIBUTES - 1)];

@@ -12,6 +12,7 @@
  * computed here from first principles (5 nm CIE data) differs from the fit by up to 1.2e-3,
  * and Cycles renders the fit.  Rows: r (a, b, c), g (a, b, c), b (a, b, c, d). */
 #define BLACKBODY_INTERVALS 7
+/* clang-format off */
 __constant float BLACKBODY_FROM[BLACKBODY_INTERVALS] = {
     800.0f, 965.0f, 1167.0f, 1449.0f, 1902.0f, 3315.0f, 6365.0f};
 __constant float BLACKBODY_FIT[BLACKBODY_INTERVALS * 10] = {
@@ -79,6 +80,7 @@ __constant float CIE_1931[81 * 3] = {
     /* 740 */ 0.0007f, 0.0002f, 0.0000f, 0.0005f, 0.0002f, 0.0000f, 0.0003f, 0.0001f, 0.0000f,
     /* 755 */ 0.0002f, 0.0001f, 0.0000f, 0.0002f, 0.0001f, 0.0000f, 0.0001f, 0.0000f, 0.0000f,
     /* 770 */ 0.0001f, 0.0000f, 0.0000f, 0.0001f, 0.0000f, 0.0000f, 0.0000f, 0.0000f, 0.0000f};
+/* clang-format on */
 
 /* CIE XYZ (D65) to linear Rec.709: the matrix of Blender's colour configuration ("Linear
  * Rec.709" from "Linear CIE-XYZ D65"), what Cycles' xyz_to_rgb is in Blender's default
@@ -119,7 +121,8 @@ inline float3 svm_wavelength(float lambda) {
     __constant const float *a = CIE_1931 + 3 * i;
     float3 xyz = mix((float3)(a[0], a[1], a[2]), (float3)(a[3], a[4], a[5]), t);
     float3 c = (float3)(dot(XYZ_TO_REC709_R, xyz), dot(XYZ_TO_REC709_G, xyz),
-                        dot(XYZ_TO_REC709_B, xyz)) * (1.0f / 2.52f);
+                        dot(XYZ_TO_REC709_B, xyz))
+               * (1.0f / 2.52f);
     return fmax(c, (float3)(0.0f));
 }
 #endif

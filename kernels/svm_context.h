@@ -32,8 +32,7 @@ inline Footprint footprint(float3 dpdu, float3 dpdv, float r) {
 
 /* the footprint of radius r at barycentrics (u, v) of triangle tri (original index) at BVH
  * leaf `leaf` (its edges), from the triangle's corner normals */
-inline Footprint footprint_at(const Scene *scene, uint tri, int leaf, float u, float v,
-                              float r) {
+inline Footprint footprint_at(const Scene *scene, uint tri, int leaf, float u, float v, float r) {
     Footprint f = footprint(scene->tri_e1[leaf].xyz, scene->tri_e2[leaf].xyz, r);
     if (!SVM_FOOTPRINT) return f;
     __global const float *c = scene->normals + 9 * (size_t)tri;
@@ -111,8 +110,8 @@ inline SvmContext svm_context_base(float2 uv, float3 P, uint path, float path_le
 /* The per-corner data of the context at barycentrics (u, v) and position P, where the program
  * at word p reads them: the UV map (always), Generated coordinates, the object's data, mesh
  * attributes. */
-inline void svm_corner_data(SvmContext *cx, const Scene *scene, int p, uint tri, float u,
-                            float v, float3 P) {
+inline void svm_corner_data(SvmContext *cx, const Scene *scene, int p, uint tri, float u, float v,
+                            float3 P) {
     __global const int4 *svm = scene->svm;
     cx->uv = surface_uv(scene->uvs, tri, u, v);
     float w = 1.0f - u - v;

@@ -33,7 +33,8 @@ inline float2 image_tube_uv(float3 co) {
     co = 2.0f * co - 1.0f;
     float r = sqrt(co.x * co.x + co.y * co.y);
     if (!(r > 0.0f)) return (float2)(0.0f);
-    return (float2)(0.5f - 0.5f * atan2(co.x / r, co.y / r) * (1.0f / PPM_PI), 0.5f * (co.z + 1.0f));
+    return (float2)(0.5f - 0.5f * atan2(co.x / r, co.y / r) * (1.0f / PPM_PI),
+                    0.5f * (co.z + 1.0f));
 }
 
 /* the mirror ball (Cycles' direction_to_mirrorball): the ball's normal halfway between the
@@ -89,19 +90,23 @@ inline int svm_image(const Scene *scene, int4 w, int i, float *stack) {
         float3 wt = image_box_weights(N, as_float(f.x));
         c = (float4)(0.0f);
         if (wt.x > 0.0f)
-            c += wt.x * svm_image_lookup(scene, tex,
-                                         (float2)(N.x < 0.0f ? 1.0f - co.y : co.y, co.z), e.y);
+            c += wt.x
+                 * svm_image_lookup(scene, tex, (float2)(N.x < 0.0f ? 1.0f - co.y : co.y, co.z),
+                                    e.y);
         if (wt.y > 0.0f)
-            c += wt.y * svm_image_lookup(scene, tex,
-                                         (float2)(N.y > 0.0f ? 1.0f - co.x : co.x, co.z), e.y);
+            c += wt.y
+                 * svm_image_lookup(scene, tex, (float2)(N.y > 0.0f ? 1.0f - co.x : co.x, co.z),
+                                    e.y);
         if (wt.z > 0.0f)
-            c += wt.z * svm_image_lookup(scene, tex,
-                                         (float2)(N.z > 0.0f ? 1.0f - co.y : co.y, co.x), e.y);
+            c += wt.z
+                 * svm_image_lookup(scene, tex, (float2)(N.z > 0.0f ? 1.0f - co.y : co.y, co.x),
+                                    e.y);
     } else {
         float2 uv = e.z == IMAGE_EQUIRECTANGULAR ? direction_to_equirect(svm_safe_normalize(co))
-                  : e.z == IMAGE_MIRROR_BALL ? image_mirror_ball_uv(svm_safe_normalize(co))
-                  : e.z == IMAGE_SPHERE ? image_sphere_uv(co)
-                  : e.z == IMAGE_TUBE ? image_tube_uv(co) : co.xy;
+                    : e.z == IMAGE_MIRROR_BALL   ? image_mirror_ball_uv(svm_safe_normalize(co))
+                    : e.z == IMAGE_SPHERE        ? image_sphere_uv(co)
+                    : e.z == IMAGE_TUBE          ? image_tube_uv(co)
+                                                 : co.xy;
         if (e.w > 0) {                  /* UDIM: the tile 1001 + u + 10 v, uv within it */
             tex = 0;
             float u = isfinite(uv.x) ? clamp(uv.x, -1.0f, 16.0f) : -1.0f;

@@ -94,9 +94,15 @@ inline float3 svm_vector_math(int op, float3 a, float3 b, float3 c, float s, flo
     case VMATH_DIVIDE: return svm_safe_div3(a, b);
     case VMATH_MULTIPLY_ADD: return a * b + c;
     case VMATH_CROSS_PRODUCT: return cross(a, b);
-    case VMATH_PROJECT: { float l = dot(b, b); return l != 0.0f ? b * (dot(a, b) / l) : (float3)(0.0f); }
-    case VMATH_REFLECT: { float3 n = svm_safe_normalize(b); return a - 2.0f * dot(n, a) * n; }
-    case VMATH_REFRACT: {                                  /* refract a through normal b, index s */
+    case VMATH_PROJECT: {
+        float l = dot(b, b);
+        return l != 0.0f ? b * (dot(a, b) / l) : (float3)(0.0f);
+    }
+    case VMATH_REFLECT: {
+        float3 n = svm_safe_normalize(b);
+        return a - 2.0f * dot(n, a) * n;
+    }
+    case VMATH_REFRACT: { /* refract a through normal b, index s */
         float3 n = svm_safe_normalize(b);
         float d = dot(n, a), k = 1.0f - s * s * (1.0f - d * d);
         return k < 0.0f ? (float3)(0.0f) : s * a - (s * d + sqrt(k)) * n;
@@ -108,15 +114,18 @@ inline float3 svm_vector_math(int op, float3 a, float3 b, float3 c, float s, flo
     case VMATH_SCALE: return a * s;
     case VMATH_NORMALIZE: return svm_safe_normalize(a);
     case VMATH_ABSOLUTE: return fabs(a);
-    case VMATH_POWER: return (float3)(svm_safe_pow(a.x, b.x), svm_safe_pow(a.y, b.y), svm_safe_pow(a.z, b.z));
+    case VMATH_POWER:
+        return (float3)(svm_safe_pow(a.x, b.x), svm_safe_pow(a.y, b.y), svm_safe_pow(a.z, b.z));
     case VMATH_SIGN: return (float3)(svm_sign(a.x), svm_sign(a.y), svm_sign(a.z));
     case VMATH_MINIMUM: return fmin(a, b);
     case VMATH_MAXIMUM: return fmax(a, b);
     case VMATH_FLOOR: return floor(a);
     case VMATH_CEIL: return ceil(a);
     case VMATH_FRACTION: return a - floor(a);
-    case VMATH_MODULO: return (float3)(svm_safe_mod(a.x, b.x), svm_safe_mod(a.y, b.y), svm_safe_mod(a.z, b.z));
-    case VMATH_WRAP: return (float3)(svm_wrap(a.x, b.x, c.x), svm_wrap(a.y, b.y, c.y), svm_wrap(a.z, b.z, c.z));
+    case VMATH_MODULO:
+        return (float3)(svm_safe_mod(a.x, b.x), svm_safe_mod(a.y, b.y), svm_safe_mod(a.z, b.z));
+    case VMATH_WRAP:
+        return (float3)(svm_wrap(a.x, b.x, c.x), svm_wrap(a.y, b.y, c.y), svm_wrap(a.z, b.z, c.z));
     case VMATH_SNAP: return floor(svm_safe_div3(a, b)) * b;
     case VMATH_SINE: return sin(a);
     case VMATH_COSINE: return cos(a);
@@ -262,8 +271,9 @@ inline float svm_smoothstep(float e0, float e1, float x) {
 /* Map Range (float): LINEAR, STEPPED, SMOOTHSTEP, SMOOTHERSTEP */
 inline float svm_map_range(int type, bool clamp_result, float v, float fmin_, float fmax_,
                            float tmin, float tmax, float steps) {
-    if (fmax_ == fmin_) return clamp_result ? (tmax > tmin ? clamp(0.0f, tmin, tmax)
-                                                         : clamp(0.0f, tmax, tmin)) : 0.0f;
+    if (fmax_ == fmin_)
+        return clamp_result ? (tmax > tmin ? clamp(0.0f, tmin, tmax) : clamp(0.0f, tmax, tmin))
+                            : 0.0f;
     float f = 0.0f;
     {
         if (type == MAP_RANGE_LINEAR) {
@@ -274,7 +284,7 @@ inline float svm_map_range(int type, bool clamp_result, float v, float fmin_, fl
         } else if (type == MAP_RANGE_SMOOTHSTEP) {
             f = fmin_ > fmax_ ? 1.0f - svm_smoothstep(fmax_, fmin_, v)
                               : svm_smoothstep(fmin_, fmax_, v);
-        } else {                                      /* MAP_RANGE_SMOOTHERSTEP */
+        } else { /* MAP_RANGE_SMOOTHERSTEP */
             float t = fmin_ > fmax_ ? clamp((v - fmax_) / (fmin_ - fmax_), 0.0f, 1.0f)
                                     : clamp((v - fmin_) / (fmax_ - fmin_), 0.0f, 1.0f);
             t = t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f);
@@ -282,8 +292,7 @@ inline float svm_map_range(int type, bool clamp_result, float v, float fmin_, fl
         }
     }
     float r = tmin + f * (tmax - tmin);
-    if (clamp_result)
-        r = tmax > tmin ? clamp(r, tmin, tmax) : clamp(r, tmax, tmin);
+    if (clamp_result) r = tmax > tmin ? clamp(r, tmin, tmax) : clamp(r, tmax, tmin);
     return r;
 }
 #endif

@@ -17,22 +17,41 @@ inline uint tex_jenkins(int n, uint4 k) {
     if (n >= 2) b += k.y;
     if (n >= 3) c += k.z;
     if (n == 4) {                                    /* lookup3's mix, then the 4th key */
-        a -= c; a ^= rotate(c, 4u);  c += b;
-        b -= a; b ^= rotate(a, 6u);  a += c;
-        c -= b; c ^= rotate(b, 8u);  b += a;
-        a -= c; a ^= rotate(c, 16u); c += b;
-        b -= a; b ^= rotate(a, 19u); a += c;
-        c -= b; c ^= rotate(b, 4u);  b += a;
+        a -= c;
+        a ^= rotate(c, 4u);
+        c += b;
+        b -= a;
+        b ^= rotate(a, 6u);
+        a += c;
+        c -= b;
+        c ^= rotate(b, 8u);
+        b += a;
+        a -= c;
+        a ^= rotate(c, 16u);
+        c += b;
+        b -= a;
+        b ^= rotate(a, 19u);
+        a += c;
+        c -= b;
+        c ^= rotate(b, 4u);
+        b += a;
         a += k.w;
     }
     /* lookup3's final */
-    c ^= b; c -= rotate(b, 14u);
-    a ^= c; a -= rotate(c, 11u);
-    b ^= a; b -= rotate(a, 25u);
-    c ^= b; c -= rotate(b, 16u);
-    a ^= c; a -= rotate(c, 4u);
-    b ^= a; b -= rotate(a, 14u);
-    c ^= b; c -= rotate(b, 24u);
+    c ^= b;
+    c -= rotate(b, 14u);
+    a ^= c;
+    a -= rotate(c, 11u);
+    b ^= a;
+    b -= rotate(a, 25u);
+    c ^= b;
+    c -= rotate(b, 16u);
+    a ^= c;
+    a -= rotate(c, 4u);
+    b ^= a;
+    b -= rotate(a, 14u);
+    c ^= b;
+    c -= rotate(b, 24u);
     return c;
 }
 
@@ -44,12 +63,18 @@ inline float tex_hashf(int n, float4 k) {
 /* `n` floats hashed to a colour (hash_float[234]_to_float3): below 4 dimensions the key
  * extended by 1 and by 2, in 4 its components shuffled */
 inline float3 tex_hashf3(int n, float4 k) {
-    if (n == 4)
-        return (float3)(tex_hashf(4, k), tex_hashf(4, k.zxwy), tex_hashf(4, k.wzyx));
+    if (n == 4) return (float3)(tex_hashf(4, k), tex_hashf(4, k.zxwy), tex_hashf(4, k.wzyx));
     float4 k1 = k, k2 = k;
-    if (n == 1) { k1.y = 1.0f; k2.y = 2.0f; }
-    else if (n == 2) { k1.z = 1.0f; k2.z = 2.0f; }
-    else { k1.w = 1.0f; k2.w = 2.0f; }
+    if (n == 1) {
+        k1.y = 1.0f;
+        k2.y = 2.0f;
+    } else if (n == 2) {
+        k1.z = 1.0f;
+        k2.z = 2.0f;
+    } else {
+        k1.w = 1.0f;
+        k2.w = 2.0f;
+    }
     return (float3)(tex_hashf(n, k), tex_hashf(n + 1, k1), tex_hashf(n + 1, k2));
 }
 
@@ -123,7 +148,8 @@ inline float tex_perlin(int dim, float4 p) {
         for (int k = 0; k < n; k++)
             v[k] = tex_corner(dim, c, d, (int4)(k & 1, (k >> 1) & 1, (k >> 2) & 1, wk));
         for (int k = 0; k < n / 2; k++) v[k] = mix(v[2 * k], v[2 * k + 1], u.x);
-        if (dim >= 2) for (int k = 0; k < n / 4; k++) v[k] = mix(v[2 * k], v[2 * k + 1], u.y);
+        if (dim >= 2)
+            for (int k = 0; k < n / 4; k++) v[k] = mix(v[2 * k], v[2 * k + 1], u.y);
         if (dim >= 3) v[0] = mix(v[0], v[1], u.z);
         r = wk ? mix(r, v[0], u.w) : v[0];
     }
@@ -136,8 +162,10 @@ inline float tex_snoise(int dim, float4 p) {
                          isgreaterequal(fabs(p), (float4)(1000000.0f)));
     p = fmod(p, (float4)(100000.0f)) + corr;
     /* (each dimension its own call: a constant dim unrolls the corner loops into registers) */
-    float r = dim == 1 ? tex_perlin(1, p) : dim == 2 ? tex_perlin(2, p)
-            : dim == 3 ? tex_perlin(3, p) : tex_perlin(4, p);
+    float r = dim == 1   ? tex_perlin(1, p)
+              : dim == 2 ? tex_perlin(2, p)
+              : dim == 3 ? tex_perlin(3, p)
+                         : tex_perlin(4, p);
     return r * (dim == 1 ? 0.25f : dim == 2 ? 0.6616f : dim == 3 ? 0.9820f : 0.8344f);
 }
 
@@ -239,12 +267,16 @@ inline float tex_noise_select(int dim, int type, float4 p, float detail, float r
 /* The random offset in [100, 200] per axis that seeds a distortion or a colour channel
  * (random_float[1234]_offset) */
 inline float4 tex_seed_offset(int dim, float seed) {
-    if (dim == 1) return (float4)(100.0f + tex_hashf(1, (float4)(seed, 0.0f, 0.0f, 0.0f)) * 100.0f,
-                                  0.0f, 0.0f, 0.0f);
+    if (dim == 1)
+        return (float4)(100.0f + tex_hashf(1, (float4)(seed, 0.0f, 0.0f, 0.0f)) * 100.0f, 0.0f,
+                        0.0f, 0.0f);
     float4 o = (float4)(0.0f);
     for (int k = 0; k < dim; k++) {
         float h = 100.0f + tex_hashf(2, (float4)(seed, (float)k, 0.0f, 0.0f)) * 100.0f;
-        if (k == 0) o.x = h; else if (k == 1) o.y = h; else if (k == 2) o.z = h; else o.w = h;
+        if (k == 0) o.x = h;
+        else if (k == 1) o.y = h;
+        else if (k == 2) o.z = h;
+        else o.w = h;
     }
     return o;
 }

@@ -19,18 +19,19 @@
 inline float3 sky_xyz_to_rgb(float3 c) {
     return fmax((float3)(3.2409699f * c.x - 1.5373832f * c.y - 0.4986108f * c.z,
                          -0.9692436f * c.x + 1.8759675f * c.y + 0.0415551f * c.z,
-                         0.0556301f * c.x - 0.2039770f * c.y + 1.0569715f * c.z), 0.0f);
+                         0.0556301f * c.x - 0.2039770f * c.y + 1.0569715f * c.z),
+                0.0f);
 }
 
 /* Hosek & Wilkie, "An Analytic Model for Full Spectral Sky-Dome Radiance" (2012): the
  * distribution of one channel with parameters c[0..8] */
 inline float sky_hosek_channel(__global const float *c, float cos_theta, float gamma,
                                float cos_gamma) {
-    float mie = (1.0f + cos_gamma * cos_gamma) /
-                pow(1.0f + c[8] * c[8] - 2.0f * c[8] * cos_gamma, 1.5f);
-    return (1.0f + c[0] * exp(c[1] / (cos_theta + 0.01f))) *
-           (c[2] + c[3] * exp(c[4] * gamma) + c[5] * cos_gamma * cos_gamma + c[6] * mie +
-            c[7] * sqrt(cos_theta));
+    float mie = (1.0f + cos_gamma * cos_gamma)
+                / pow(1.0f + c[8] * c[8] - 2.0f * c[8] * cos_gamma, 1.5f);
+    return (1.0f + c[0] * exp(c[1] / (cos_theta + 0.01f)))
+           * (c[2] + c[3] * exp(c[4] * gamma) + c[5] * cos_gamma * cos_gamma + c[6] * mie
+              + c[7] * sqrt(cos_theta));
 }
 
 /* the angle gamma between direction d (theta: its polar angle) and the sun, and the clamped
@@ -54,8 +55,8 @@ inline float3 sky_hosek(float3 d, __global const float *p) {
 /* Preetham, Shirley & Smits, "A Practical Analytic Model for Daylight" (1999): Perez et al.'s
  * distribution with coefficients p[0..4] */
 inline float sky_perez(__global const float *p, float cos_theta, float gamma, float cos_gamma) {
-    return (1.0f + p[0] * exp(p[1] / cos_theta)) *
-           (1.0f + p[2] * exp(p[3] * gamma) + p[4] * cos_gamma * cos_gamma);
+    return (1.0f + p[0] * exp(p[1] / cos_theta))
+           * (1.0f + p[2] * exp(p[3] * gamma) + p[4] * cos_gamma * cos_gamma);
 }
 
 inline float3 sky_preetham(float3 d, __global const float *p) {
@@ -113,8 +114,9 @@ inline int svm_sky(int4 w, __global const int4 *svm, int i, float *stack) {
     int n = svm[i].x;
     __global const float *p = (__global const float *)(svm + i + 1);
     float3 d = svm_get3(stack, w.z);
-    float3 rgb = w.w == SKY_PREETHAM ? sky_preetham(d, p)
-               : w.w == SKY_HOSEK_WILKIE ? sky_hosek(d, p) : sky_single(d, p);
+    float3 rgb = w.w == SKY_PREETHAM       ? sky_preetham(d, p)
+                 : w.w == SKY_HOSEK_WILKIE ? sky_hosek(d, p)
+                                           : sky_single(d, p);
     svm_put3(stack, w.y, rgb);
     return i + 1 + n;
 }

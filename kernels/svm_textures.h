@@ -20,8 +20,12 @@ inline float4 tex_in4(const float *stack, int4 slots, int4 values) {
                     tex_in(stack, slots.z, values.z), tex_in(stack, slots.w, values.w));
 }
 
-inline void tex_out(float *stack, int slot, float v) { if (slot >= 0) stack[slot] = v; }
-inline void tex_out3(float *stack, int slot, float3 v) { if (slot >= 0) svm_put3(stack, slot, v); }
+inline void tex_out(float *stack, int slot, float v) {
+    if (slot >= 0) stack[slot] = v;
+}
+inline void tex_out3(float *stack, int slot, float3 v) {
+    if (slot >= 0) svm_put3(stack, slot, v);
+}
 
 /* Checker: 1 on the cells whose integer coordinates' parities agree, else 0 */
 inline float tex_checker(float3 p) {
@@ -34,7 +38,10 @@ inline float tex_checker(float3 p) {
 inline float tex_gradient(float3 p, int type) {
     switch (type) {
     case GRADIENT_LINEAR: return p.x;
-    case GRADIENT_QUADRATIC: { float r = fmax(p.x, 0.0f); return r * r; }
+    case GRADIENT_QUADRATIC: {
+        float r = fmax(p.x, 0.0f);
+        return r * r;
+    }
     case GRADIENT_EASING: {
         float r = clamp(p.x, 0.0f, 1.0f), t = r * r;
         return 3.0f * t - 2.0f * t * r;
@@ -56,7 +63,9 @@ inline float3 tex_magic(float3 p, float scale, int depth, float dist) {
     float y = cos((-px + py - pz) * 5.0f * scale);
     float z = -cos((-px - py + pz) * 5.0f * scale);
     if (depth > 0) {
-        x *= dist; y *= dist; z *= dist;
+        x *= dist;
+        y *= dist;
+        z *= dist;
         y = -cos(x - y + z) * dist;
         if (depth > 1) x = cos(x - y - z) * dist;
         if (depth > 2) z = sin(-x - y - z) * dist;
@@ -70,7 +79,9 @@ inline float3 tex_magic(float3 p, float scale, int depth, float dist) {
     }
     if (dist != 0.0f) {
         dist *= 2.0f;
-        x /= dist; y /= dist; z /= dist;
+        x /= dist;
+        y /= dist;
+        z /= dist;
     }
     return (float3)(0.5f - x, 0.5f - y, 0.5f - z);
 }
@@ -82,8 +93,10 @@ inline float tex_wave(int4 opt, float3 p, float dist, float detail, float dscale
     p = (p + 0.000001f) * 0.999999f;
     float n;
     if (opt.x == WAVE_TYPE_BANDS) {
-        n = opt.y == WAVE_BANDS_X ? p.x * 20.0f : opt.y == WAVE_BANDS_Y ? p.y * 20.0f
-          : opt.y == WAVE_BANDS_Z ? p.z * 20.0f : (p.x + p.y + p.z) * 10.0f;
+        n = opt.y == WAVE_BANDS_X   ? p.x * 20.0f
+            : opt.y == WAVE_BANDS_Y ? p.y * 20.0f
+            : opt.y == WAVE_BANDS_Z ? p.z * 20.0f
+                                    : (p.x + p.y + p.z) * 10.0f;
     } else {
         float3 r = p;
         if (opt.z == WAVE_RINGS_X) r.x = 0.0f;
@@ -153,10 +166,10 @@ inline float tex_noise(int dim, int type, float4 p, float4 a, float4 b, bool nor
     if (want_color) {
         float seed = (float)dim;                  /* the seeds after the distortion's */
         *color = (float3)(value,
-                          tex_noise_select(dim, type, p + tex_seed_offset(dim, seed), detail,
-                                           rough, lacun, offset, gain, normalize),
-                          tex_noise_select(dim, type, p + tex_seed_offset(dim, seed + 1.0f),
-                                           detail, rough, lacun, offset, gain, normalize));
+                          tex_noise_select(dim, type, p + tex_seed_offset(dim, seed), detail, rough,
+                                           lacun, offset, gain, normalize),
+                          tex_noise_select(dim, type, p + tex_seed_offset(dim, seed + 1.0f), detail,
+                                           rough, lacun, offset, gain, normalize));
     }
     return value;
 }
@@ -182,8 +195,9 @@ inline int svm_texture(int op, int4 w, __global const int4 *svm, int i, float *s
         int4 e = svm[i];
         int dim = e.x;
         float wv = tex_in(stack, e.y, e.z);
-        float4 k = dim == 1 ? (float4)(wv, 0.0f, 0.0f, 0.0f)
-                 : dim == 2 ? (float4)(co.xy, 0.0f, 0.0f) : (float4)(co, dim == 4 ? wv : 0.0f);
+        float4 k = dim == 1   ? (float4)(wv, 0.0f, 0.0f, 0.0f)
+                   : dim == 2 ? (float4)(co.xy, 0.0f, 0.0f)
+                              : (float4)(co, dim == 4 ? wv : 0.0f);
         tex_out(stack, w.y, tex_hashf(dim, k));
         if (w.z >= 0) svm_put3(stack, w.z, tex_hashf3(dim, k));
         return i + 1;
@@ -194,8 +208,9 @@ inline int svm_texture(int op, int4 w, __global const int4 *svm, int i, float *s
         int dim = opt.x;
         float3 v = co * a.y;
         float wv = a.x * a.y;
-        float4 p = dim == 1 ? (float4)(wv, 0.0f, 0.0f, 0.0f)
-                 : dim == 2 ? (float4)(v.xy, 0.0f, 0.0f) : (float4)(v, dim == 4 ? wv : 0.0f);
+        float4 p = dim == 1   ? (float4)(wv, 0.0f, 0.0f, 0.0f)
+                   : dim == 2 ? (float4)(v.xy, 0.0f, 0.0f)
+                              : (float4)(v, dim == 4 ? wv : 0.0f);
         float3 color;
         float f = tex_noise(dim, opt.y, p, a, b, opt.z != 0, &color, w.z >= 0);
         tex_out(stack, w.y, f);

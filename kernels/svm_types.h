@@ -12,7 +12,7 @@
 #endif
 #define SVM_HAS(op) ((PPM_SVM_OPS >> (op)) & 1)
 #ifndef PPM_ATTRIBUTES
-#define PPM_ATTRIBUTES 1              /* attributes per corner in `attributes` (-D: the scene's) */
+#define PPM_ATTRIBUTES 1 /* attributes per corner in `attributes` (-D: the scene's) */
 #endif
 /* the object's matrices in the context: Mapping and Vector Transform, object-space normal maps */
 #define SVM_OBJECT_MATRICES (SVM_HAS(SVM_MAPPING) || SVM_HAS(SVM_NORMAL_MAP))

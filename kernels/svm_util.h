@@ -10,7 +10,11 @@ inline float3 svm_safe_normalize(float3 a) {
     return l != 0.0f ? a / l : (float3)(0.0f);
 }
 inline float3 svm_get3(const float *s, int k) { return (float3)(s[k], s[k + 1], s[k + 2]); }
-inline void svm_put3(float *s, int k, float3 v) { s[k] = v.x; s[k + 1] = v.y; s[k + 2] = v.z; }
+inline void svm_put3(float *s, int k, float3 v) {
+    s[k] = v.x;
+    s[k + 1] = v.y;
+    s[k + 2] = v.z;
+}
 
 /* Cycles' fresnel_dielectric_cos: the Fresnel reflectance at cosine c for relative index eta
  * (1 under total internal reflection) */

@@ -13,7 +13,6 @@ typedef struct {
     int dim, feature, metric, normalize;
 } TexVoronoi;
 
-
 inline float4 tex_vmask(int dim, float4 p) {
     if (dim < 4) p.w = 0.0f;
     if (dim < 3) p.z = 0.0f;
@@ -34,17 +33,15 @@ inline float tex_vdist(const TexVoronoi *v, float4 a, float4 b, bool bound) {
         if (v->dim >= 4) s += pow(d.w, e);
         return bound ? s : pow(s, 1.0f / e);
     }
-    default: {                                               /* VORONOI_EUCLIDEAN */
-        float s = dot(d, d);
-        return bound ? s : sqrt(s);
+    default: { /* VORONOI_EUCLIDEAN */ float s = dot(d, d); return bound ? s : sqrt(s);
     }
     }
 }
 
 /* the feature point of a cell, in [0, 1] per axis before randomness, and its colour */
 inline float4 tex_vpoint(int dim, int4 cell) {
-    if (dim == 1) return (float4)(tex_hashf(1, (float4)((float)cell.x, 0.0f, 0.0f, 0.0f)),
-                                  0.0f, 0.0f, 0.0f);
+    if (dim == 1)
+        return (float4)(tex_hashf(1, (float4)((float)cell.x, 0.0f, 0.0f, 0.0f)), 0.0f, 0.0f, 0.0f);
     return tex_pcg(dim, cell);
 }
 
@@ -54,15 +51,19 @@ inline float3 tex_vcolor(int dim, int4 cell) {
     return tex_pcg(dim == 2 ? 3 : dim, cell).xyz;
 }
 
-#define VOR_LOOP(r, c)                                                                    \
-    int4 R = (int4)(r, v->dim >= 2 ? r : 0, v->dim >= 3 ? r : 0, v->dim >= 4 ? r : 0);  \
-    for (int ow = -R.w; ow <= R.w; ow++)                                                  \
-    for (int oz = -R.z; oz <= R.z; oz++)                                                  \
-    for (int oy = -R.y; oy <= R.y; oy++)                                                  \
-    for (int ox = -R.x; ox <= R.x; ox++) {                                                \
-        int4 c = (int4)(ox, oy, oz, ow);
+#define VOR_LOOP(r, c)                                                                 \
+    int4 R = (int4)(r, v->dim >= 2 ? r : 0, v->dim >= 3 ? r : 0, v->dim >= 4 ? r : 0); \
+    for (int ow = -R.w; ow <= R.w; ow++)                                               \
+        for (int oz = -R.z; oz <= R.z; oz++)                                           \
+            for (int oy = -R.y; oy <= R.y; oy++)                                       \
+                for (int ox = -R.x; ox <= R.x; ox++) {                                 \
+                    int4 c = (int4)(ox, oy, oz, ow);
 
-typedef struct { float distance; float3 color; float4 position; } TexVorOut;
+typedef struct {
+    float distance;
+    float3 color;
+    float4 position;
+} TexVorOut;
 
 /* F1, F2 or Smooth F1 of one octave at coord */
 inline TexVorOut tex_voronoi_octave(const TexVoronoi *v, float4 coord) {
@@ -74,44 +75,54 @@ inline TexVorOut tex_voronoi_octave(const TexVoronoi *v, float4 coord) {
         float3 sc = (float3)(0.0f);
         float4 sp = (float4)(0.0f);
         VOR_LOOP(2, off)
-            float4 pt = convert_float4(off) + tex_vpoint(v->dim, cell + off) * v->randomness;
-            float d = tex_vdist(v, pt, lp, false);
-            if (h == -1.0f) {
-                h = 1.0f;
-            } else {
-                float x = 0.5f + 0.5f * (sd - d) / v->smoothness;
-                h = x < 0.0f ? 0.0f : x >= 1.0f ? 1.0f : (3.0f - 2.0f * x) * (x * x);
-            }
-            float corr = v->smoothness * h * (1.0f - h);
-            sd = mix(sd, d, h) - corr;
-            corr /= 1.0f + 3.0f * v->smoothness;
-            sc = mix(sc, tex_vcolor(v->dim, cell + off), h) - corr;
-            sp = mix(sp, pt, h) - corr;
-        }
-        o.distance = sd;
-        o.color = sc;
-        o.position = tex_vmask(v->dim, cellf + sp);
-        return o;
-    }
-    bool f2 = v->feature == VORONOI_F2;
-    float d1 = FLT_MAX, d2 = FLT_MAX;
-    int4 o1 = (int4)(0), o2 = (int4)(0);
-    float4 p1 = (float4)(0.0f), p2 = (float4)(0.0f);
-    VOR_LOOP(1, off)
         float4 pt = convert_float4(off) + tex_vpoint(v->dim, cell + off) * v->randomness;
-        float d = tex_vdist(v, pt, lp, !f2);
-        if (d < d1) {
-            d2 = d1; o2 = o1; p2 = p1;
-            d1 = d; o1 = off; p1 = pt;
-        } else if (f2 && d < d2) {
-            d2 = d; o2 = off; p2 = pt;
+        float d = tex_vdist(v, pt, lp, false);
+        if (h == -1.0f) {
+            h = 1.0f;
+        } else {
+            float x = 0.5f + 0.5f * (sd - d) / v->smoothness;
+            h = x < 0.0f ? 0.0f : x >= 1.0f ? 1.0f : (3.0f - 2.0f * x) * (x * x);
         }
+        float corr = v->smoothness * h * (1.0f - h);
+        sd = mix(sd, d, h) - corr;
+        corr /= 1.0f + 3.0f * v->smoothness;
+        sc = mix(sc, tex_vcolor(v->dim, cell + off), h) - corr;
+        sp = mix(sp, pt, h) - corr;
     }
-    if (f2) { d1 = d2; o1 = o2; p1 = p2; }
-    o.distance = f2 ? d1 : tex_vdist(v, p1, lp, false);
-    o.color = tex_vcolor(v->dim, cell + o1);
-    o.position = p1 + cellf;
+    o.distance = sd;
+    o.color = sc;
+    o.position = tex_vmask(v->dim, cellf + sp);
     return o;
+}
+bool f2 = v->feature == VORONOI_F2;
+float d1 = FLT_MAX, d2 = FLT_MAX;
+int4 o1 = (int4)(0), o2 = (int4)(0);
+float4 p1 = (float4)(0.0f), p2 = (float4)(0.0f);
+VOR_LOOP(1, off)
+float4 pt = convert_float4(off) + tex_vpoint(v->dim, cell + off) * v->randomness;
+float d = tex_vdist(v, pt, lp, !f2);
+if (d < d1) {
+    d2 = d1;
+    o2 = o1;
+    p2 = p1;
+    d1 = d;
+    o1 = off;
+    p1 = pt;
+} else if (f2 && d < d2) {
+    d2 = d;
+    o2 = off;
+    p2 = pt;
+}
+}
+if (f2) {
+    d1 = d2;
+    o1 = o2;
+    p1 = p2;
+}
+o.distance = f2 ? d1 : tex_vdist(v, p1, lp, false);
+o.color = tex_vcolor(v->dim, cell + o1);
+o.position = p1 + cellf;
+return o;
 }
 
 /* Distance to Edge of one octave */
@@ -127,21 +138,23 @@ inline float tex_voronoi_edge(const TexVoronoi *v, float4 coord) {
     float4 closest = (float4)(0.0f);
     float best = FLT_MAX;
     VOR_LOOP(1, off)
-        float4 to = convert_float4(off) + tex_vpoint(v->dim, cell + off) * v->randomness - lp;
-        float d = dot(to, to);
-        if (d < best) { best = d; closest = to; }
+    float4 to = convert_float4(off) + tex_vpoint(v->dim, cell + off) * v->randomness - lp;
+    float d = dot(to, to);
+    if (d < best) {
+        best = d;
+        closest = to;
     }
-    best = FLT_MAX;
-    {
-        VOR_LOOP(1, off)
-            float4 to = convert_float4(off) + tex_vpoint(v->dim, cell + off) * v->randomness
-                        - lp;
-            float4 perp = to - closest;
-            if (dot(perp, perp) > 0.0001f)
-                best = fmin(best, dot((closest + to) / 2.0f, perp / sqrt(dot(perp, perp))));
-        }
-    }
-    return best;
+}
+best = FLT_MAX;
+{
+    VOR_LOOP(1, off)
+    float4 to = convert_float4(off) + tex_vpoint(v->dim, cell + off) * v->randomness - lp;
+    float4 perp = to - closest;
+    if (dot(perp, perp) > 0.0001f)
+        best = fmin(best, dot((closest + to) / 2.0f, perp / sqrt(dot(perp, perp))));
+}
+}
+return best;
 }
 
 /* N-Sphere Radius: half the distance from the nearest point to its own nearest point */
@@ -152,22 +165,29 @@ inline float tex_voronoi_radius(const TexVoronoi *v, float4 coord) {
     int4 closest_off = (int4)(0);
     float best = FLT_MAX;
     VOR_LOOP(1, off)
-        float4 pt = convert_float4(off) + tex_vpoint(v->dim, cell + off) * v->randomness;
-        float4 d = pt - lp;
-        if (dot(d, d) < best) { best = dot(d, d); closest = pt; closest_off = off; }
+    float4 pt = convert_float4(off) + tex_vpoint(v->dim, cell + off) * v->randomness;
+    float4 d = pt - lp;
+    if (dot(d, d) < best) {
+        best = dot(d, d);
+        closest = pt;
+        closest_off = off;
     }
-    best = FLT_MAX;
-    {
-        VOR_LOOP(1, off)
-            if (ox == 0 && oy == 0 && oz == 0 && ow == 0) continue;
-            int4 c = off + closest_off;
-            float4 pt = convert_float4(c) + tex_vpoint(v->dim, cell + c) * v->randomness;
-            float4 d = closest - pt;
-            if (dot(d, d) < best) { best = dot(d, d); next = pt; }
-        }
+}
+best = FLT_MAX;
+{
+    VOR_LOOP(1, off)
+    if (ox == 0 && oy == 0 && oz == 0 && ow == 0) continue;
+    int4 c = off + closest_off;
+    float4 pt = convert_float4(c) + tex_vpoint(v->dim, cell + c) * v->randomness;
+    float4 d = closest - pt;
+    if (dot(d, d) < best) {
+        best = dot(d, d);
+        next = pt;
     }
-    float4 d = next - closest;
-    return sqrt(dot(d, d)) / 2.0f;
+}
+}
+float4 d = next - closest;
+return sqrt(dot(d, d)) / 2.0f;
 }
 
 /* The fractal sum of F1/F2/Smooth F1 octaves (fBm-like, with lerps for the position) */
@@ -195,8 +215,7 @@ inline TexVorOut tex_voronoi_fractal(const TexVoronoi *v, float4 coord) {
                 max_amp = mix(max_amp, max_amp + amp, rmd);
                 out.distance = mix(out.distance, out.distance + oc.distance * amp, rmd);
                 out.color = mix(out.color, out.color + oc.color * amp, rmd);
-                out.position = mix(out.position, mix(out.position, oc.position / scale, amp),
-                                   rmd);
+                out.position = mix(out.position, mix(out.position, oc.position / scale, amp), rmd);
             }
         }
     }
@@ -243,8 +262,11 @@ inline void tex_voronoi(TexVoronoi v, float4 coord, float *distance, float3 *col
     v.smoothness = clamp(v.smoothness / 2.0f, 0.0f, 0.5f);
     if (v.dim == 1) v.metric = 0;                    /* 1D: the distance is |a - b| */
     coord = tex_vmask(v.dim, coord * v.scale);
-    *distance = 0.0f; *color = (float3)(0.0f); *position = (float3)(0.0f);
-    *w = 0.0f; *radius = 0.0f;
+    *distance = 0.0f;
+    *color = (float3)(0.0f);
+    *position = (float3)(0.0f);
+    *w = 0.0f;
+    *radius = 0.0f;
     float m = 0.5f + 0.5f * v.randomness;
     if (v.feature == VORONOI_DISTANCE_TO_EDGE) {
         v.max_distance = m;
@@ -257,8 +279,13 @@ inline void tex_voronoi(TexVoronoi v, float4 coord, float *distance, float3 *col
         TexVorOut o = tex_voronoi_fractal(&v, coord);
         *distance = o.distance;
         *color = o.color;
-        if (v.dim == 1) { *w = o.position.x; }        /* 1D: the position is W */
-        else { *position = o.position.xyz; *w = o.position.w; }
+        if (v.dim == 1) {
+            *w = o.position.x;
+        }        /* 1D: the position is W */
+        else {
+            *position = o.position.xyz;
+            *w = o.position.w;
+        }
     }
 }
 #endif

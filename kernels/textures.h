@@ -37,13 +37,14 @@ inline float4 tex_fetch(__global const half *texels, const Texture *t, int x, in
  * non-negative, summing to 1) */
 inline float4 tex_bspline(float t) {
     float s = 1.0f - t, t2 = t * t, t3 = t2 * t;
-    return (float4)(s * s * s, 3.0f * t3 - 6.0f * t2 + 4.0f, -3.0f * t3 + 3.0f * t2 + 3.0f * t + 1.0f,
-                    t3) * (1.0f / 6.0f);
+    return (float4)(s * s * s, 3.0f * t3 - 6.0f * t2 + 4.0f,
+                    -3.0f * t3 + 3.0f * t2 + 3.0f * t + 1.0f, t3)
+           * (1.0f / 6.0f);
 }
 
 inline float4 tex_row4(__global const half *texels, const Texture *t, int x0, int y, float4 w) {
     return w.x * tex_fetch(texels, t, x0 - 1, y) + w.y * tex_fetch(texels, t, x0, y)
-         + w.z * tex_fetch(texels, t, x0 + 1, y) + w.w * tex_fetch(texels, t, x0 + 2, y);
+           + w.z * tex_fetch(texels, t, x0 + 1, y) + w.w * tex_fetch(texels, t, x0 + 2, y);
 }
 
 /* RGBA of texture tex1 (1-based) at uv as stored (sRGB-encoded colour for TEX_FLAG_SRGB):
@@ -64,8 +65,8 @@ inline float4 texture_rgba_encoded(const Scene *scene, int tex1, float2 uv) {
     if (t.flags & TEX_FLAG_CUBIC) {
         float4 wx = tex_bspline(ax), wy = tex_bspline(ay);
         return wy.x * tex_row4(texels, &t, x0, y0 - 1, wx) + wy.y * tex_row4(texels, &t, x0, y0, wx)
-             + wy.z * tex_row4(texels, &t, x0, y0 + 1, wx)
-             + wy.w * tex_row4(texels, &t, x0, y0 + 2, wx);
+               + wy.z * tex_row4(texels, &t, x0, y0 + 1, wx)
+               + wy.w * tex_row4(texels, &t, x0, y0 + 2, wx);
     }
     float4 a = mix(tex_fetch(texels, &t, x0, y0), tex_fetch(texels, &t, x0 + 1, y0), ax);
     float4 b = mix(tex_fetch(texels, &t, x0, y0 + 1), tex_fetch(texels, &t, x0 + 1, y0 + 1), ax);
@@ -104,8 +105,7 @@ inline float3 texture_tint(const Scene *scene, int tex1, uint tri, float u, floa
 inline float texture_alpha(const Scene *scene, int tex1, uint tri, float u, float v) {
 #if PPM_TEXTURES
     if (tex1 > 0)
-        return clamp(texture_rgba(scene, tex1, surface_uv(scene->uvs, tri, u, v)).w, 0.0f,
-                     1.0f);
+        return clamp(texture_rgba(scene, tex1, surface_uv(scene->uvs, tri, u, v)).w, 0.0f, 1.0f);
 #endif
     return 1.0f;
 }

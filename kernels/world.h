@@ -37,7 +37,8 @@ inline bool world_direct(const Scene *scene, float3 n, float u1, float u2, Light
     if (WORLD_PROGRAM(scene->emitter_info)) {
         EmitterInfo info = *scene->emitter_info;
         if (!world_map_sample(info.map_w, info.map_h, info.map_mean, scene->world_map, u1, u2,
-                              &s->wi, &s->pdf_dir)) return false;
+                              &s->wi, &s->pdf_dir))
+            return false;
         s->E = world_le(scene, s->wi) / s->pdf_dir;
         return true;
     }
@@ -58,8 +59,9 @@ inline bool world_emit(const Scene *scene, float pmf, float u1, float u2, float 
         EmitterInfo info = *scene->emitter_info;
         float3 wi;
         float pdf;
-        if (!world_map_sample(info.map_w, info.map_h, info.map_mean, scene->world_map, u3, u4,
-                              &wi, &pdf)) return false;
+        if (!world_map_sample(info.map_w, info.map_h, info.map_mean, scene->world_map, u3, u4, &wi,
+                              &pdf))
+            return false;
         dir = -wi;
         scale = world_le(scene, wi) * (PPM_PI * R * R / (pdf * pmf));
     } else {

@@ -9,7 +9,8 @@ inline int cdf_find(__global const float *cdf, int n, float x, float *t) {
     int lo = 0, hi = n - 1;
     while (lo < hi) {
         int mid = (lo + hi + 1) >> 1;
-        if (cdf[mid] <= x) lo = mid; else hi = mid - 1;
+        if (cdf[mid] <= x) lo = mid;
+        else hi = mid - 1;
     }
     float a = cdf[lo], b = cdf[lo + 1];
     *t = b > a ? clamp((x - a) / (b - a), 0.0f, 1.0f) : 0.5f;
@@ -37,8 +38,7 @@ inline bool world_map_sample(int w, int h, float mean, __global const float *map
     *wi = equirect_to_direction(u, v);
     float s = sin(PPM_PI * v);
     float f = map[(h + 1) + h * (w + 1) + i * w + j];
-    *pdf = s > 0.0f && mean > 0.0f
-        ? f / (mean * 2.0f * PPM_PI * PPM_PI * s) : 0.0f;
+    *pdf = s > 0.0f && mean > 0.0f ? f / (mean * 2.0f * PPM_PI * PPM_PI * s) : 0.0f;
     return *pdf > 0.0f;
 }
 
