@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
+KERNEL_FILES = sorted(f for f in KERNELS.iterdir() if f.suffix in (".h", ".cl"))
 MAX_PARAMS = 12
 
 
@@ -64,7 +65,7 @@ def test_the_parameter_count_sees_through_macros():
 
 
 def test_no_helper_takes_more_than_twelve_parameters():
-    sources = {f.name: f.read_text() for f in sorted(KERNELS.glob("*.[ch]*"))}
+    sources = {f.name: f.read_text() for f in KERNEL_FILES}
     macros = {}
     for text in sources.values():
         macros.update(_macros(text))
@@ -97,3 +98,23 @@ def test_every_header_compiles_alone(device, header):
             cl.Program(device.context, src).build(options=[f"-I{kernel_dir()}", *defines])
         except cl.RuntimeError as e:
             pytest.fail(f"{header} alone ({' '.join(defines) or 'every feature'}):\n{e}")
+
+
+def _clang_format():
+    import shutil
+    import sys
+    return (shutil.which("clang-format", path=str(Path(sys.executable).parent))
+            or shutil.which("clang-format"))
+
+
+def test_kernels_are_formatted():
+    """Every kernel file as kernels/.clang-format formats it (clang-format from the test extra;
+    format one with `clang-format -i --style=file kernels/NAME`)."""
+    import subprocess
+    exe = _clang_format()
+    if exe is None:
+        pytest.skip("clang-format is not installed (pip install -e \".[test]\")")
+    files = [str(f) for f in KERNEL_FILES]
+    proc = subprocess.run([exe, "--dry-run", "-Werror", "--style=file", *files],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]

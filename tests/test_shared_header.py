@@ -10,6 +10,7 @@ import pytest
 from ppm_engine import shared_header
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
+KERNEL_FILES = sorted(f for f in KERNELS.iterdir() if f.suffix in (".h", ".cl"))
 PKG = Path(__file__).resolve().parents[1] / "ppm_engine"
 
 
@@ -72,7 +73,7 @@ def _defines(text: str) -> set:
 
 def test_no_kernel_file_defines_a_shared_name_again():
     shared = _defines((KERNELS / shared_header.HEADER).read_text())
-    for f in sorted(KERNELS.glob("*.[ch]*")):
+    for f in KERNEL_FILES:
         if f.name != shared_header.HEADER:
             again = _defines(f.read_text()) & shared
             assert not again, f"{f.name} defines {sorted(again)}, which shared.h defines"
@@ -91,7 +92,7 @@ def test_the_features_the_host_sets_are_the_kernels_flags():
                  for n in re.findall(r"\"(PPM_\w+)\"", tup)}
     used -= {"PPM_SPECIALIZED"}
     assert used and used <= set(FEATURES), used - set(FEATURES)
-    kernels = "\n".join(f.read_text() for f in KERNELS.glob("*.[ch]*")
+    kernels = "\n".join(f.read_text() for f in KERNEL_FILES
                         if f.name != shared_header.HEADER)
     assert not [f for f in FEATURES if not re.search(rf"\b{f}\b", kernels)]
 
@@ -99,6 +100,6 @@ def test_the_features_the_host_sets_are_the_kernels_flags():
 def test_switches_over_shared_codes_name_them():
     """A switch of the kernels picks by a shared.h name (MATH_*, MIX_*, NOISE_*...), never by
     a bare number that would silently mean another operation when a Python table changes."""
-    bare = [f"{f.name}: {m[0]}" for f in sorted(KERNELS.glob("*.[ch]*"))
+    bare = [f"{f.name}: {m[0]}" for f in KERNEL_FILES
             for m in re.finditer(r"\bcase\s+-?\d+\s*:", f.read_text())]
     assert not bare, bare
