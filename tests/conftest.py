@@ -165,3 +165,78 @@ def render_direct(cycles, tiny, render_exr):
         scene.ppm.max_bounces = 0
         return render_exr(folder / "ours.exr"), ref
     return run
+
+
+# --- test tiers ---------------------------------------------------------------------------------
+# (markers in pytest.ini; README "Tests" has the commands)
+#   blender  needs the bpy module: any test using the `bpy` fixture, directly or through another
+#   cycles   renders a Cycles reference in the test: it calls the `cycles` or `render_direct`
+#            fixture, blender_io.cycles_reference or cycles_settings, or sets the engine to
+#            CYCLES, in its body or in a function of its module that it calls
+#   bench, gpu, slow: marked where they are (the benchmark's tooling; the tests to run on a lent
+#            GPU, on every OpenCL device; the long variants)
+_CYCLES_CALLS = {"cycles", "render_direct", "cycles_reference", "cycles_settings"}
+
+
+def _renders_cycles(module) -> set:
+    """The names of the functions of a test module that render with Cycles, directly or through
+    the module's other functions."""
+    import ast
+    import inspect
+    try:
+        tree = ast.parse(inspect.getsource(module))
+    except (OSError, TypeError):
+        return set()
+    calls, direct = {}, set()
+    for fn in ast.walk(tree):
+        if not isinstance(fn, ast.FunctionDef):
+            continue
+        names = set()
+        for node in ast.walk(fn):
+            if isinstance(node, ast.Call):
+                f = node.func
+                names.add(f.id if isinstance(f, ast.Name) else
+                          f.attr if isinstance(f, ast.Attribute) else "")
+            elif (isinstance(node, ast.Assign) and isinstance(node.value, ast.Constant)
+                  and node.value.value == "CYCLES"):
+                direct.add(fn.name)
+        calls[fn.name] = names
+        if names & _CYCLES_CALLS:
+            direct.add(fn.name)
+    found, grew = set(direct), True
+    while grew:
+        grew = False
+        for name, names in calls.items():
+            if name not in found and names & found:
+                found.add(name)
+                grew = True
+    return found
+
+
+QUICK_SKIPS = ("cycles", "bench", "package")
+
+
+def pytest_addoption(parser):
+    parser.addoption("--quick", action="store_true",
+                     help="the edit-test loop: the default run without the tests that render "
+                          f"Cycles references, run the benchmark or build packages "
+                          f"({', '.join(QUICK_SKIPS)}); about a minute with a warm kernel cache")
+
+
+def pytest_collection_modifyitems(config, items):
+    seen = {}
+    for item in items:
+        module = getattr(item, "module", None)
+        if module is not None and module not in seen:
+            seen[module] = _renders_cycles(module)
+        fixtures = set(getattr(item, "fixturenames", ()))
+        if "bpy" in fixtures:
+            item.add_marker(pytest.mark.blender)
+        fn = getattr(item, "originalname", item.name)
+        if fixtures & {"cycles", "render_direct"} or fn in seen.get(module, ()):
+            item.add_marker(pytest.mark.cycles)
+    if config.getoption("--quick"):
+        skipped = [i for i in items if any(i.get_closest_marker(m) for m in QUICK_SKIPS)]
+        if skipped:
+            config.hook.pytest_deselected(items=skipped)
+            items[:] = [i for i in items if i not in set(skipped)]

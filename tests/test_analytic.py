@@ -61,6 +61,7 @@ def furnace_scene(rho, Le, W=16):
     return mb.build(camera=cam)
 
 
+@pytest.mark.gpu
 @pytest.mark.parametrize("indirect", ["photons", "paths"])
 @pytest.mark.parametrize("rho", [0.3, 0.7])
 def test_furnace_radiance_is_le_over_one_minus_rho(rho, indirect):

@@ -12,6 +12,8 @@ import pytest
 pytest.importorskip("OpenEXR")
 pytest.importorskip("matplotlib")
 
+pytestmark = pytest.mark.bench
+
 
 def _finite_numbers(obj):
     if isinstance(obj, dict):

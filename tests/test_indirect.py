@@ -206,6 +206,7 @@ def _ld_sets(keys, passes, first_pass=0, set_index=0):
 T_VALUES = {(0, 1): 0, (0, 2): 1, (1, 2): 1, (0, 3): 2, (1, 3): 2, (2, 3): 2}
 
 
+@pytest.mark.gpu
 def test_low_discrepancy_sets():
     """rng.h's ld_set: its direction numbers are Joe & Kuo's; a pixel's first 2^m passes (and
     any aligned run of 2^m, also past the 16 shuffled bits) put one point in each of 2^m equal

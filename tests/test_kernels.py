@@ -20,6 +20,8 @@ from ppm_engine.scene_arrays import CAMERA_DTYPE, LIGHT_DTYPE
 
 DEVICES = [d.key for d in list_devices()]
 
+pytestmark = pytest.mark.gpu      # every kernel on every OpenCL device found, GPUs included
+
 
 @pytest.fixture(params=DEVICES, scope="module")
 def device(request):

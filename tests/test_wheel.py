@@ -13,6 +13,8 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 
+pytestmark = pytest.mark.package
+
 
 def _run(args, cwd, timeout=600):
     env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
