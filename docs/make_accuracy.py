@@ -366,7 +366,7 @@ R' = R·√((N+αM)/(N+M)), τ' = (τ+Φ)·R'²/R² on random inputs to float32 
   at the offset origin but kept the direction computed from the surface point, so it met a
   planar emitter's own plane (offset / cos) too early: the ceiling beside the Cornell box lamp
   was black and the whole image 4 % darker than Cycles. Shadow rays are now built from their
-  origin and end just in front of the emitter (`test_analytic.py::test_grazing_emitter_*`).
+  origin and end just in front of the emitter (`test_direct_light.py::test_grazing_emitter_*`).
 - **A light inside glass was 2.25× too dark against Cycles.** Cycles does not compress
   radiance by η² at refraction; our camera paths did. For paths that start and end in air the
   conventions agree; for an emitter inside glass (the bulb box) they differ by η². We follow

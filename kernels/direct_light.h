@@ -59,7 +59,7 @@ inline float3 lights_seen(const Scene *scene, float3 o, float3 d, float tmax, bo
  * density next-event estimation from the vertex pv (normal nv: the point and normal it was
  * given there) gives that direction (pmf included).  The density is the vertex's, not the
  * ray origin's: past a transparent surface o lies on it, and the solid angle from there made
- * light through a Transparent BSDF or alpha 26 % bright (tests/test_analytic.py). */
+ * light through a Transparent BSDF or alpha 26 % bright (tests/test_direct_light.py). */
 inline float3 mesh_seen(const Scene *scene, int leaf, float3 o, float3 d, float t, float u, float v,
                         float3 pv, float3 nv, float *pdf_light) {
     *pdf_light = 0.0f;

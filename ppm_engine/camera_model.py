@@ -62,8 +62,8 @@ def perspective_extent(width: int, height: int, lens_mm: float, sensor_mm: float
                        fit: str = "AUTO", sensor_height_mm: float | None = None,
                        pixel_aspect=(1.0, 1.0)) -> tuple[float, float, float]:
     """Cycles' view plane: (w_ext, h_ext, fit) at distance 1, as Cycles' camera (sensor
-    fit AUTO: the larger image side gets the sensor width; tests/test_export.py checks it against
-    Blender's projection).
+    fit AUTO: the larger image side gets the sensor width; tests/test_export_camera.py checks it
+    against Blender's projection).
 
     ``fit`` is the fitted dimension's extent; the camera shift is ``shift * fit``."""
     return _fit_extent(width, height, None, lens_mm, sensor_mm, fit, sensor_height_mm, pixel_aspect)

@@ -1,5 +1,6 @@
 """Shared fixtures: the engine registered once in this process, a session temp folder, the
-example .blend files, the PoCL device key, tiny render settings and a CLI runner."""
+example .blend files, the PoCL device key, tiny render settings, a CLI runner and the
+exporter's empty scene with a camera."""
 import os
 import subprocess
 import sys
@@ -61,6 +62,20 @@ def example_blend(bpy, session_dir):
             made[name] = path
         return made[name]
     return get
+
+
+@pytest.fixture
+def empty():
+    """The exporter's tests (test_export*.py): factory settings, no objects but a camera,
+    64 x 48 pixels; the scene."""
+    bpy = pytest.importorskip("bpy")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    return scene
 
 
 @pytest.fixture(scope="session")

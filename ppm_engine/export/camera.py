@@ -1,5 +1,5 @@
 """The scene camera -> CAMERA_DTYPE, exactly Cycles' rays (sensor fit, shift,
-clipping, depth of field; tests/test_export.py checks the projection against
+clipping, depth of field; tests/test_export_camera.py checks the projection against
 Blender's own)."""
 from __future__ import annotations
 

@@ -1,0 +1,229 @@
+"""Blender scene -> SceneArrays: geometry and instancing (transforms, collection and geometry
+nodes instances, linked duplicates read once, mirrored objects, text and curves), smooth and
+flat normals, UVs, NaN vertices dropped, visibility flags, and the render depsgraph (objects and
+lights hidden from the render, warnings reported); the helpers are test_export.py's."""
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from ppm_engine.export import export_scene
+from ppm_engine.scene_arrays import LIGHT_POINT, VIS_CAMERA, VIS_SHADOW
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_export import add_light, add_plane, export
+
+
+# --- geometry -----------------------------------------------------------------------------------
+def test_transform_instancing_and_normals(empty):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=8, ring_count=4, radius=1.0)
+    src = bpy.context.active_object
+    src.data.shade_smooth()
+    coll = bpy.data.collections.new("Inst")
+    bpy.context.scene.collection.children.link(coll)
+    bpy.context.scene.collection.objects.unlink(src)
+    coll.objects.link(src)
+    bpy.context.view_layer.layer_collection.children["Inst"].exclude = True
+    for i in range(3):
+        e = bpy.data.objects.new(f"E{i}", None)
+        e.instance_type = 'COLLECTION'
+        e.instance_collection = coll
+        e.location = (10 * i, 0, 0)
+        e.scale = (2, 2, 2)
+        bpy.context.scene.collection.objects.link(e)
+    s = export()
+    n_one = 8 * 2 + 8 * 2 * 2                 # two triangle fans + two quad rings of 8
+    assert s.n_triangles == 3 * n_one
+    c = s.positions.mean(axis=1)
+    for i in range(3):
+        mine = np.abs(c[:, 0] - 10 * i) < 5
+        assert mine.sum() == n_one
+        r = np.linalg.norm(s.positions[mine] - (10 * i, 0, 0), axis=2)
+        np.testing.assert_allclose(r, 2.0, rtol=1e-5)            # scaled by 2
+        # smooth (angle-weighted vertex) normals: unit length, within a few degrees of radial
+        d = s.positions[mine] - (10 * i, 0, 0)
+        d /= np.linalg.norm(d, axis=2, keepdims=True)
+        np.testing.assert_allclose(np.linalg.norm(s.normals[mine], axis=2), 1.0, rtol=1e-5)
+        assert ((s.normals[mine] * d).sum(2) > 0.99).all()
+        assert len({tuple(n) for n in s.normals[mine].reshape(-1, 3).round(4)}) > 8   # not flat
+
+
+def test_flat_normals_follow_faces(empty):
+    o = add_plane(size=2.0)
+    o.rotation_euler = (math.radians(90), 0, 0)
+    s = export()
+    np.testing.assert_allclose(s.normals.reshape(-1, 3),
+                               np.tile([0, -1, 0], (6, 1))[:s.n_triangles * 3], atol=1e-6)
+
+
+def test_nan_vertices_are_dropped_with_a_warning(empty):
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=4, size=2)
+    o = bpy.context.active_object
+    o.name = "Broken"
+    before = export()
+    pos = np.zeros(3 * len(o.data.vertices), np.float32)
+    o.data.attributes["position"].data.foreach_get("vector", pos)
+    corner = pos[:3].copy()
+    using = np.isclose(before.positions, corner).all(axis=2).any(axis=1).sum()
+    assert 1 <= using <= 2
+    pos[0] = np.nan
+    o.data.attributes["position"].data.foreach_set("vector", pos)
+    s = export()
+    assert s.n_triangles == before.n_triangles - using and np.isfinite(s.positions).all()
+    assert any("Broken" in w and "NaN" in w for w in s.warnings)
+
+
+def test_visibility_flags(empty):
+    a = add_plane("Seen")
+    b = add_plane("NoShadow", loc=(5, 0, 0))
+    b.visible_shadow = False
+    c = add_plane("NoCamera", loc=(10, 0, 0))
+    c.visible_camera = False
+    s = export()
+    cx = s.positions[:, :, 0].mean(1)
+    vis = {name: s.visibility[np.abs(cx - x) < 2] for name, x in
+           (("Seen", 0), ("NoShadow", 5), ("NoCamera", 10))}
+    assert (vis["Seen"] & VIS_SHADOW).all() and (vis["Seen"] & VIS_CAMERA).all()
+    assert not (vis["NoShadow"] & VIS_SHADOW).any() and (vis["NoShadow"] & VIS_CAMERA).all()
+    assert not (vis["NoCamera"] & VIS_CAMERA).any()
+    assert a.visible_camera      # (hide_render is honoured by the render depsgraph: test_e2e.py)
+
+
+def test_uvs_follow_the_corners(empty):
+    add_plane(size=2.0)                               # primitive plane: uv = (x + 1) / 2
+    s = export()
+    np.testing.assert_allclose(s.uvs, (s.positions[:, :, :2] + 1) / 2, atol=1e-6)
+
+
+def test_mirrored_instance_keeps_normals_and_winding(empty):
+    o = add_plane(size=2.0)
+    o.scale = (-1, 1, 1)
+    s = export()
+    np.testing.assert_allclose(s.normals.reshape(-1, 3), np.tile([0, 0, 1], (s.n_triangles * 3, 1)),
+                               atol=1e-6)
+    p = s.positions.astype(np.float64)
+    ng = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    assert (ng[:, 2] > 0).all()                       # winding agrees with the shading normal
+
+
+def test_linked_duplicates_read_the_mesh_once(empty, monkeypatch):
+    import ppm_engine.export.mesh as mesh_mod
+    calls = []
+    real = mesh_mod.read_mesh
+    monkeypatch.setattr(mesh_mod, "read_mesh", lambda m: calls.append(m.name) or real(m))
+    bpy.ops.mesh.primitive_cube_add(size=2.0)
+    src = bpy.context.active_object
+    for i in range(1, 40):
+        d = src.copy()                                # linked duplicate: same mesh datablock
+        d.location = (3 * i, 0, 0)
+        d.rotation_euler = (0, 0, 0.1 * i)
+        bpy.context.scene.collection.objects.link(d)
+    s = export()
+    assert s.n_triangles == 40 * 12 and len(calls) == 1
+    for i in (0, 17, 39):                             # each copy is a rotated 2 m cube at 3 i
+        mine = np.abs(s.positions.mean(1)[:, 0] - 3 * i) < 1.5
+        local = s.positions[mine].reshape(-1, 3) - (3 * i, 0, 0)
+        rz = np.array([[np.cos(0.1 * i), np.sin(0.1 * i)], [-np.sin(0.1 * i), np.cos(0.1 * i)]])
+        back = local[:, :2] @ rz.T                    # undo the rotation
+        np.testing.assert_allclose(np.abs(back), 1.0, atol=1e-5)
+        np.testing.assert_allclose(np.abs(local[:, 2]), 1.0, atol=1e-6)
+
+
+def test_geometry_nodes_instances(empty):
+    bpy.ops.mesh.primitive_plane_add()
+    host = bpy.context.active_object
+    host.name = "GNHost"
+    tree = bpy.data.node_groups.new("GN", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
+    tree.interface.new_socket("Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
+    out = tree.nodes.new("NodeGroupOutput")
+    line = tree.nodes.new("GeometryNodeMeshLine")
+    line.inputs["Count"].default_value = 5
+    line.inputs["Offset"].default_value = (2.0, 0.0, 0.0)
+    cube = tree.nodes.new("GeometryNodeMeshCube")
+    inst = tree.nodes.new("GeometryNodeInstanceOnPoints")
+    tree.links.new(line.outputs["Mesh"], inst.inputs["Points"])
+    tree.links.new(cube.outputs["Mesh"], inst.inputs["Instance"])
+    tree.links.new(inst.outputs["Instances"], out.inputs[0])
+    mod = host.modifiers.new("GN", 'NODES')
+    mod.node_group = tree
+    s = export()
+    assert s.n_triangles == 5 * 12
+    centres = np.unique(s.positions.reshape(-1, 12, 3, 3).mean(axis=(1, 2)).round(4), axis=0)
+    np.testing.assert_allclose(centres, [(2 * i, 0, 0) for i in range(5)], atol=1e-5)
+
+
+def test_text_and_curve_objects_become_triangles(empty):
+    txt = bpy.data.objects.new("Txt", bpy.data.curves.new("Txt", 'FONT'))
+    txt.data.body = "Hi"
+    bpy.context.scene.collection.objects.link(txt)
+    cu = bpy.data.curves.new("Tube", 'CURVE')
+    cu.bevel_depth = 0.1
+    sp = cu.splines.new('POLY')
+    sp.points.add(1)
+    sp.points[1].co = (0, 0, 2, 1)
+    tube = bpy.data.objects.new("Tube", cu)
+    tube.location = (5, 0, 0)
+    bpy.context.scene.collection.objects.link(tube)
+    s = export()
+    cx = s.positions[:, :, 0].mean(1)
+    assert (cx < 3).sum() > 10 and (cx > 4).sum() > 10 and np.isfinite(s.normals).all()
+    np.testing.assert_allclose(np.linalg.norm(s.normals, axis=2), 1.0, rtol=1e-5)
+
+
+# --- the real render depsgraph ------------------------------------------------------------------
+class _Probe(bpy.types.RenderEngine):
+    """Test-only engine: exports the render depsgraph, writes a black result."""
+    bl_idname = "PPM_EXPORT_PROBE"
+    bl_label = "export probe"
+    result = None
+
+    def render(self, depsgraph):
+        try:
+            type(self).result = export_scene(depsgraph, self)
+        finally:
+            r = self.begin_result(0, 0, self.resolution_x, self.resolution_y)
+            self.end_result(r)
+
+
+@pytest.fixture
+def probe(empty):
+    bpy.utils.register_class(_Probe)
+    empty.render.engine = _Probe.bl_idname
+    empty.render.resolution_x = empty.render.resolution_y = 8
+    _Probe.result = None
+
+    def run():
+        bpy.ops.render.render()
+        assert _Probe.result is not None
+        return _Probe.result
+    yield run
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.utils.unregister_class(_Probe)
+
+
+def test_render_depsgraph_honours_hide_render_and_reports(probe, capfd):
+    add_plane("Shown")
+    h = add_plane("Hidden", loc=(5, 0, 0))
+    h.hide_render = True
+    v = add_plane("ViewportHidden", loc=(10, 0, 0))
+    v.hide_viewport = True                            # still rendered
+    add_light('POINT', "Lamp")
+    off = add_light('SUN', "OffLamp")
+    off.hide_render = True
+    toon = bpy.data.materials.new("ToonProbe")
+    t = toon.node_tree
+    t.nodes.remove(t.nodes["Principled BSDF"])
+    t.links.new(t.nodes.new("ShaderNodeBsdfToon").outputs[0],
+                t.nodes["Material Output"].inputs["Surface"])
+    bpy.data.objects["Shown"].data.materials.append(toon)
+    s = probe()
+    cx = np.sort(np.unique(s.positions[:, :, 0].mean(1).round(3)))
+    assert s.n_triangles == 4 and set(np.round(cx / 5).astype(int)) == {0, 2}
+    assert s.lights.shape == (1,) and s.lights[0]["type"] == LIGHT_POINT
+    assert any("ToonProbe" in w for w in s.warnings)
+    assert "Warning: Material 'ToonProbe'" in "".join(capfd.readouterr())
