@@ -235,7 +235,7 @@ def test_no_texture_code_without_textures():
     tex_bits = sum(1 << op for op in range(SVM_TEX_CHECKER, SVM_TEX_LAST + 1))
     assert SVM_TEX_LAST <= 30 and all(op in OP_EXTRA for op in
                                       range(SVM_TEX_CHECKER, SVM_TEX_LAST + 1))
-    header = (Path(__file__).resolve().parents[1] / "kernels" / "shared.h").read_text()
+    header = (Path(__file__).resolve().parents[1] / "kernels" / "shared_svm.h").read_text()
     defines = dict(re.findall(r"#define (SVM_TEX_\w+) (\d+)", header))
     # (the procedural textures, SVM_TEX_LAST and the Sky Texture's SVM_TEX_SKY)
     assert len(defines) == SVM_TEX_LAST - SVM_TEX_CHECKER + 3

@@ -1,6 +1,7 @@
-"""kernels/shared.h, generated from the Python tables (ppm_engine/shared_header.py): the file is
-current, every struct field sits on the device where its dtype puts it, no kernel file defines
-again a name the header defines, and the feature flags the host sets are the header's."""
+"""kernels/shared.h and shared_svm.h, generated from the Python tables
+(ppm_engine/shared_header.py): the files are current, every struct field sits on the device
+where its dtype puts it, no kernel file defines again a name the headers define, and the feature
+flags the host sets are the header's."""
 import re
 from pathlib import Path
 
@@ -11,23 +12,28 @@ from ppm_engine import shared_header
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
 KERNEL_FILES = sorted(f for f in KERNELS.iterdir() if f.suffix in (".h", ".cl"))
+GENERATED = (shared_header.HEADER, shared_header.SVM_HEADER)
 PKG = Path(__file__).resolve().parents[1] / "ppm_engine"
 
 
-def test_the_header_is_current():
+def test_the_headers_are_current():
     """Fails after a change to a Python table until `python -m ppm_engine.shared_header` ran."""
-    assert (KERNELS / shared_header.HEADER).read_text() == shared_header.generate(), \
-        "kernels/shared.h is stale: run python -m ppm_engine.shared_header"
+    generated = shared_header.generate_all()
+    assert set(generated) == set(GENERATED)
+    for name, text in generated.items():
+        assert (KERNELS / name).read_text() == text, \
+            f"kernels/{name} is stale: run python -m ppm_engine.shared_header"
 
 
 def test_the_check_fails_on_a_stale_header(tmp_path, monkeypatch):
-    stale = tmp_path / "shared.h"
-    stale.write_text(shared_header.generate().replace("#define MAT_GATHER 2u",
-                                                      "#define MAT_GATHER 4u"))
-    monkeypatch.setattr(shared_header, "path", lambda: stale)
+    for name, text in shared_header.generate_all().items():
+        (tmp_path / name).write_text(text)
+    stale = tmp_path / shared_header.SVM_HEADER
+    stale.write_text(stale.read_text().replace("#define MATH_SINE 29", "#define MATH_SINE 30"))
+    monkeypatch.setattr(shared_header, "folder", lambda: tmp_path)
     assert shared_header.main(["--check"]) == 1
     assert shared_header.main([]) == 0 and shared_header.main(["--check"]) == 0
-    assert "#define MAT_GATHER 2u" in stale.read_text()
+    assert "#define MATH_SINE 29" in stale.read_text()
 
 
 def test_float_literals_read_back_exactly():
@@ -84,9 +90,9 @@ def _defines(text: str) -> set:
 
 
 def test_no_kernel_file_defines_a_shared_name_again():
-    shared = _defines((KERNELS / shared_header.HEADER).read_text())
+    shared = set().union(*(_defines((KERNELS / name).read_text()) for name in GENERATED))
     for f in KERNEL_FILES:
-        if f.name != shared_header.HEADER:
+        if f.name not in GENERATED:
             again = _defines(f.read_text()) & shared
             assert not again, f"{f.name} defines {sorted(again)}, which shared.h defines"
 
@@ -104,8 +110,7 @@ def test_the_features_the_host_sets_are_the_kernels_flags():
                  for n in re.findall(r"\"(PPM_\w+)\"", tup)}
     used -= {"PPM_SPECIALIZED"}
     assert used and used <= set(FEATURES), used - set(FEATURES)
-    kernels = "\n".join(f.read_text() for f in KERNEL_FILES
-                        if f.name != shared_header.HEADER)
+    kernels = "\n".join(f.read_text() for f in KERNEL_FILES if f.name not in GENERATED)
     assert not [f for f in FEATURES if not re.search(rf"\b{f}\b", kernels)]
 
 
