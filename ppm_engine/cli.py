@@ -7,8 +7,9 @@
     python -m ppm_engine devices
     python -m ppm_engine example NAME OUT.blend
     python -m ppm_engine package [-o dist] [--platforms linux-x64,...]
-    python -m ppm_engine bench [--quick] [--times S ...] [--resolution N] [--micro]
-                               [--phases SCENE] [--skips] [--noise SCENE] (docs/BENCHMARKS.md)
+    python -m ppm_engine bench [--quick] [--times S ...] [--out DIR] [--micro]
+                               [--phases SCENE] [--skips] [--noise SCENE] ... (its own
+                               arguments: ppm_engine/bench/command.py; docs/BENCHMARKS.md)
 
 Rendering a .blend is batch.py (its scripts are never run), the benchmark is the bench
 subpackage and the extension zips are packaging.py; the last two are not part of the extension
@@ -96,54 +97,22 @@ def _build_parser() -> argparse.ArgumentParser:
                         "macos-arm64,macos-x64)")
     k.add_argument("--wheel-cache", default=None, help="folder to keep downloaded wheels in")
 
-    b = sub.add_parser("bench", help="benchmark: error against time vs Cycles, --micro, --phases")
-    b.add_argument("--times", type=float, nargs="+", metavar="S",
-                   help="time budgets in seconds (default 2 4 8 16 32)")
-    b.add_argument("--resolution", type=int, metavar="N", help="square image size (default 128; "
-                   "--phases: 256)")
-    b.add_argument("--scenes", nargs="+", metavar="NAME", help="scenes (default: all four)")
-    b.add_argument("--ref-seconds", type=float, metavar="S",
-                   help="seconds per reference half (default 2 x the longest budget)")
-    b.add_argument("--photons", type=int, help="photons per pass (default: the engine's)")
-    b.add_argument("--device", default="", help="OpenCL device for our engine")
-    b.add_argument("--quick", action="store_true", help="tiny sizes (seconds): what CI runs")
-    b.add_argument("--micro", action="store_true", help="the micro benchmarks instead")
-    b.add_argument("--skips", action="store_true",
-                   help="what each skip of work a scene does not need saves, with and without")
-    b.add_argument("--phases", metavar="SCENE", help="per-phase breakdown of a pass of SCENE")
-    b.add_argument("--glossy", action="store_true",
-                   help="which glossy lobes to gather: error at equal time per gather roughness "
-                        "(the budget: --times S, default 8)")
-    b.add_argument("--shader", metavar="SCENE",
-                   help="what the shader programs cost per pass of SCENE (its colours computed "
-                        "by a node graph against the same constants)")
-    b.add_argument("--noise", metavar="SCENE",
-                   help="noise per sample of a bench scene, ours against Cycles at the same "
-                        "samples per pixel (--samples, --seeds, --bounces), and each one's "
-                        "samples per second")
-    b.add_argument("--samples", type=int, default=550,
-                   help="--noise: samples (our passes) per pixel (default 550)")
-    b.add_argument("--seeds", type=int, default=4, help="--noise: seeds per engine (default 4)")
-    b.add_argument("--bounces", type=int, default=12,
-                   help="--noise: bounces for both engines (0: direct light only; default 12)")
-    b.add_argument("--report", metavar="JSON",
-                   help="write the tables and plot again from a run's JSON (no rendering): "
-                        "the same figures, the current report's layout and targets")
-    b.add_argument("--passes", type=int, default=8,
-                   help="--phases, --shader: timed passes (default 8)")
-    b.add_argument("--json", metavar="PATH", help="JSON output (default docs/bench/bench.json, "
-                   "micro.json or phases.json)")
-    b.add_argument("--plot", metavar="PATH", help="plot (default docs/bench/error_vs_time.png)")
-    b.add_argument("--markdown", metavar="PATH", help="markdown file whose <!-- bench:NAME --> "
-                   "block gets the tables (default docs/BENCHMARKS.md)")
+    # the benchmark parses its own arguments (ppm_engine/bench/command.py): main() hands them
+    # over before this parser sees them; this entry lists the command in --help
+    sub.add_parser("bench", add_help=False,
+                   help="benchmark: error against time vs Cycles, --micro, --phases ... "
+                        "(python -m ppm_engine bench --help)")
     return p
 
 
 def main(argv=None) -> int:
-    args = _build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
     try:
+        if argv[:1] == ["bench"]:
+            return cmd_bench(argv[1:])
+        args = _build_parser().parse_args(argv)
         return {"render": cmd_render, "devices": cmd_devices, "example": cmd_example,
-                "package": cmd_package, "bench": cmd_bench}[args.command](args)
+                "package": cmd_package}[args.command](args)
     except (UsageError, SettingsError) as e:
         _say(f"error: {e}")
         return EXIT_USAGE
@@ -223,9 +192,9 @@ def cmd_package(args) -> int:
     return 0
 
 
-def cmd_bench(args) -> int:
-    """python -m ppm_engine bench [--quick] [--micro | --phases SCENE | --skips] ..."""
+def cmd_bench(argv: list[str]) -> int:
+    """python -m ppm_engine bench [--quick] [--micro | --phases SCENE | --skips] ... (the
+    benchmark's own parser: ppm_engine/bench/command.py)"""
     command = _tool("bench.command", "the benchmark")
-    cmdline = ("python -m ppm_engine " + " ".join(sys.argv[1:]) if sys.argv[1:]
-               else "python -m ppm_engine bench")
-    return command.run(args, cmdline, progress=_say)
+    cmdline = " ".join(["python -m ppm_engine bench", *argv])
+    return command.main(argv, cmdline, progress=_say)

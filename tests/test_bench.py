@@ -231,3 +231,20 @@ def test_bench_shader_quick(cli, tmp_path):
     assert d["ns_per_pixel_eye"] == pytest.approx(
         d["delta_ms"]["eye"] * 1e6 / d["resolution"] ** 2, rel=1e-9)
     assert "<!-- bench:shader -->" in md.read_text()
+
+
+def test_bench_arguments_are_the_bench_s_and_its_outputs_go_where_pointed(cli, tmp_path,
+                                                                         monkeypatch):
+    """The benchmark parses its own arguments (the core CLI hands them over): its --help lists
+    them, a wrong one is refused with exit 2; outputs go to --out, else the checkout's docs/
+    when run from a checkout, else ./ppm_bench (an installed package has no docs/)."""
+    p = cli("bench", "--help")
+    assert p.returncode == 0 and "--out DIR" in p.stdout and "--noise SCENE" in p.stdout
+    p = cli("bench", "--no-such-flag")
+    assert p.returncode == 2 and "unrecognized arguments: --no-such-flag" in p.stderr
+    from ppm_engine.bench import command, report
+    assert command.output_dir(str(tmp_path / "x")) == tmp_path / "x"
+    assert command.output_dir(None) == report.DOCS            # this checkout
+    monkeypatch.setattr(report, "DOCS", tmp_path / "no_checkout" / "docs")
+    monkeypatch.chdir(tmp_path)
+    assert command.output_dir(None) == tmp_path / command.DEFAULT_OUT

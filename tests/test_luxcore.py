@@ -48,7 +48,7 @@ def test_luxcore_mirror_caustic_matches_light_tracing(bpy, pocl_key, tmp_path):
     assert abs(ratio_caustic - 1) < CAUSTIC_TOL, ratio_caustic
 
     # the same pixels, rows top-down: LuxCore's bottom-up rows flipped, and its film's
-    # one-row offset (luxcore.camera_props) undone -- one row off, upside down or mirrored
+    # one-row offset (luxcore_scene.camera_props) undone -- one row off, upside down or mirrored
     # is several times further from the reference (measured: 0.026 against >= 0.093)
     def rmse(a):
         return float(np.sqrt(np.mean((a - lt)[cover] ** 2)))

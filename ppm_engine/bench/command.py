@@ -1,17 +1,88 @@
-"""``python -m ppm_engine bench ...``: the arguments the CLI parsed -> one benchmark run ->
-its JSON, plot and markdown blocks (report.py)."""
+"""``python -m ppm_engine bench ...``: the benchmark's own arguments (the core CLI hands them
+over unparsed) -> one benchmark run -> its JSON, plot and markdown blocks (report.py), in the
+folder --out names: by default the checkout's docs/ when run from a checkout, else
+./ppm_bench."""
 from __future__ import annotations
 
+import argparse
 import importlib.util
 from pathlib import Path
 
 from ..errors import UsageError
 from . import curves, glossy, micro, noise, phases, report, shader, skips
 
+# where a run from an installed package (no checkout beside it) writes, in the current folder
+DEFAULT_OUT = "ppm_bench"
+
+
+def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentParser:
+    b = argparse.ArgumentParser(
+        prog=prog, description="Benchmark: error against time against Cycles (and LuxCore on "
+        "the mirror caustic), or --micro, --phases, --skips, --noise ... (docs/BENCHMARKS.md)")
+    b.add_argument("--times", type=float, nargs="+", metavar="S",
+                   help="time budgets in seconds (default 2 4 8 16 32)")
+    b.add_argument("--resolution", type=int, metavar="N", help="square image size (default 128; "
+                   "--phases: 256)")
+    b.add_argument("--scenes", nargs="+", metavar="NAME", help="scenes (default: all of them)")
+    b.add_argument("--ref-seconds", type=float, metavar="S",
+                   help="seconds per reference half (default 2 x the longest budget)")
+    b.add_argument("--photons", type=int, help="photons per pass (default: the engine's)")
+    b.add_argument("--device", default="", help="OpenCL device for our engine")
+    b.add_argument("--quick", action="store_true", help="tiny sizes (seconds): what CI runs")
+    b.add_argument("--micro", action="store_true", help="the micro benchmarks instead")
+    b.add_argument("--skips", action="store_true",
+                   help="what each skip of work a scene does not need saves, with and without")
+    b.add_argument("--phases", metavar="SCENE", help="per-phase breakdown of a pass of SCENE")
+    b.add_argument("--glossy", action="store_true",
+                   help="which glossy lobes to gather: error at equal time per gather roughness "
+                        "(the budget: --times S, default 8)")
+    b.add_argument("--shader", metavar="SCENE",
+                   help="what the shader programs cost per pass of SCENE (its colours computed "
+                        "by a node graph against the same constants)")
+    b.add_argument("--noise", metavar="SCENE",
+                   help="noise per sample of a bench scene, ours against Cycles at the same "
+                        "samples per pixel (--samples, --seeds, --bounces), and each one's "
+                        "samples per second")
+    b.add_argument("--samples", type=int, default=550,
+                   help="--noise: samples (our passes) per pixel (default 550)")
+    b.add_argument("--seeds", type=int, default=4, help="--noise: seeds per engine (default 4)")
+    b.add_argument("--bounces", type=int, default=12,
+                   help="--noise: bounces for both engines (0: direct light only; default 12)")
+    b.add_argument("--report", metavar="JSON",
+                   help="write the tables and plot again from a run's JSON (no rendering): "
+                        "the same figures, the current report's layout and targets")
+    b.add_argument("--passes", type=int, default=8,
+                   help="--phases, --shader: timed passes (default 8)")
+    b.add_argument("--out", metavar="DIR",
+                   help="folder of the outputs: BENCHMARKS.md (the tables, each in its "
+                        "<!-- bench:NAME --> block), bench/NAME.json and the plot (default: "
+                        f"the checkout's docs/ when run from a checkout, else ./{DEFAULT_OUT})")
+    b.add_argument("--json", metavar="PATH", help="JSON output (default OUT/bench/bench.json, "
+                   "micro.json, phases.json ...)")
+    b.add_argument("--plot", metavar="PATH", help="plot (default OUT/bench/error_vs_time.png)")
+    b.add_argument("--markdown", metavar="PATH", help="markdown file whose <!-- bench:NAME --> "
+                   "block gets the tables (default OUT/BENCHMARKS.md)")
+    return b
+
+
+def output_dir(out: str | None) -> Path:
+    """The folder the outputs go to: ``out``, else the checkout's docs/ (the package run from
+    a checkout, with docs/BENCHMARKS.md beside it), else DEFAULT_OUT in the current folder."""
+    if out:
+        return Path(out)
+    if (report.DOCS / "BENCHMARKS.md").is_file():
+        return report.DOCS
+    return Path.cwd() / DEFAULT_OUT
+
+
+def main(argv: list[str], cmdline: str, progress=print) -> int:
+    """Parse the benchmark's arguments and run it (argparse exits 2 on bad arguments)."""
+    return run(build_parser().parse_args(argv), cmdline, progress)
+
 
 def run(args, cmdline: str, progress=print) -> int:
-    """Run the benchmark the arguments ask for; outputs go to --json/--plot/--markdown or
-    docs/bench/ and docs/BENCHMARKS.md."""
+    """Run the benchmark the arguments ask for; outputs go to --json/--plot/--markdown or the
+    output folder's bench/ and BENCHMARKS.md (output_dir)."""
     needed = (("matplotlib",) if args.report else ("OpenEXR", "matplotlib")
               if not (args.micro or args.phases or args.skips or args.shader) else ())
     if args.noise:
@@ -22,15 +93,18 @@ def run(args, cmdline: str, progress=print) -> int:
                          f"\".[bench]\" (or pip install {' '.join(missing)})")
     if args.photons is not None and args.photons < 1:
         raise UsageError("--photons must be at least 1")
-    md_path = Path(args.markdown) if args.markdown else report.DOCS / "BENCHMARKS.md"
+    out = output_dir(args.out)
+    md_path = Path(args.markdown) if args.markdown else out / "BENCHMARKS.md"
 
     def publish(name: str, data: dict, text: str, block: str | None = None) -> int:
-        """Print a result, write its JSON (--json or docs/bench/NAME.json) and its markdown
+        """Print a result, write its JSON (--json or OUT/bench/NAME.json) and its markdown
         block (the command line, then ``block`` or ``text``)."""
         data["command"] = cmdline
         print(text)
-        report.write_json(data, args.json or report.DOCS / "bench" / f"{name}.json")
+        json_path = args.json or out / "bench" / f"{name}.json"
+        report.write_json(data, json_path)
         report.replace_block(md_path, name, f"`{cmdline}`\n\n{block or text}")
+        progress(f"wrote {json_path}, {md_path}")
         return 0
 
     if args.micro:
@@ -96,8 +170,8 @@ def run(args, cmdline: str, progress=print) -> int:
             raise UsageError(f"{args.report} is not the JSON of a 'python -m ppm_engine bench' "
                              "run")
         result["ratios"] = curves.ratios(result, result["ratios_at"])
-        return _write_curves(result, result.get("command", cmdline), args, md_path, progress,
-                             json_out=False)
+        return _write_curves(result, result.get("command", cmdline), args, out, md_path,
+                             progress, json_out=False)
     q = curves.QUICK if args.quick else {}
     times = tuple(args.times) if args.times else q.get("times", curves.DEFAULT_TIMES)
     if any(t <= 0 for t in times):
@@ -111,15 +185,15 @@ def run(args, cmdline: str, progress=print) -> int:
     result = curves.run_bench(times, res, scenes, args.ref_seconds or q.get("ref_seconds"),
                               args.device, args.photons or q.get("photons"), progress)
     result["command"] = cmdline
-    return _write_curves(result, cmdline, args, md_path, progress)
+    return _write_curves(result, cmdline, args, out, md_path, progress)
 
 
-def _write_curves(result: dict, cmdline: str, args, md_path: Path, progress,
+def _write_curves(result: dict, cmdline: str, args, out: Path, md_path: Path, progress,
                   json_out: bool = True) -> int:
     """The run's JSON, plot and markdown tables (the block starts with the command that
     rendered the figures)."""
-    json_path = Path(args.json) if args.json else report.DOCS / "bench" / "bench.json"
-    plot_path = Path(args.plot) if args.plot else report.DOCS / "bench" / "error_vs_time.png"
+    json_path = Path(args.json) if args.json else out / "bench" / "bench.json"
+    plot_path = Path(args.plot) if args.plot else out / "bench" / "error_vs_time.png"
     if json_out:
         report.write_json(result, json_path)
     report.plot(result, plot_path)

@@ -58,10 +58,9 @@ import numpy as np
 from .. import session
 from ..blender_io import cycles_reference, ensure_registered, read_exr, set_output
 from ..scenes import build_example, furnace
-from ..scenes.bulb_box import BULB_CENTER
 from . import luxcore
 from .report import machine_info
-from .scenes import CAUSTIC_MASKS, MNEE_OBJECTS
+from .scenes import CAUSTIC_MASKS, MNEE_OBJECTS, caustic_mask, excluded_pixels
 
 DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
@@ -89,84 +88,7 @@ SEEDED_CURVES = ("ours", "cycles")
 QUICK = dict(times=(0.25, 0.5), resolution=16, ref_seconds=1.0, photons=1 << 13)
 
 
-# --- images and masks -------------------------------------------------------------------------
-def camera_rays(scene, w: int, h: int):
-    """(origin (3,), directions (h, w, 3)) through the pixel centres, rows top-down."""
-    cam = scene.camera
-    m = np.array(cam.matrix_world)
-    frame = np.array([tuple(v) for v in cam.data.view_frame(scene=scene)])  # tr, br, bl, tl
-    tr, br, bl, tl = frame
-    u = (np.arange(w) + 0.5) / w
-    v = (np.arange(h) + 0.5) / h
-    top = tl[None, :] + u[:, None] * (tr - tl)[None, :]
-    bottom = bl[None, :] + u[:, None] * (br - bl)[None, :]
-    local = top[None, :, :] + v[:, None, None] * (bottom - top)[None, :, :]   # (h, w, 3)
-    d = local @ m[:3, :3].T
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    return m[:3, 3].copy(), d
-
-
-def _sphere_t(o, d, center, radius):
-    """Nearest positive hit distance of rays o + t d with a sphere (inf where none)."""
-    oc = o - np.asarray(center, float)
-    b = d @ oc
-    c = oc @ oc - radius * radius
-    disc = b * b - c
-    s = np.sqrt(np.maximum(disc, 0.0))
-    t0, t1 = -b - s, -b + s
-    t = np.where(t0 > 1e-6, t0, np.where(t1 > 1e-6, t1, np.inf))
-    return np.where(disc > 0, t, np.inf)
-
-
-def caustic_mask(scene, name: str, w: int, h: int) -> np.ndarray:
-    """Boolean (h, w): the scene's caustic pixels (scenes.CAUSTIC_MASKS), top-down."""
-    spec = CAUSTIC_MASKS[name]
-    if spec["kind"] == "all":
-        return np.ones((h, w), bool)
-    o, d = camera_rays(scene, w, h)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_floor = np.where(d[..., 2] < 0, -o[2] / d[..., 2], np.inf)
-    p = o + t_floor[..., None] * d
-    mask = np.isfinite(t_floor) & (np.abs(p[..., 0]) <= 2) & (np.abs(p[..., 1]) <= 2)
-    for center, radius in spec["occluders"]:
-        mask &= _sphere_t(o, d, center, radius) > t_floor
-    if spec["kind"] == "disk":
-        c = np.asarray(spec["center"], float)
-        mask &= np.hypot(p[..., 0] - c[0], p[..., 1] - c[1]) <= spec["radius"]
-    else:           # floor points whose segment to the light's mirror image crosses the mirror
-        corners = np.asarray(spec["corners"], float)
-        img = np.asarray(spec["light_image"], float)
-        n = np.cross(corners[1] - corners[0], corners[2] - corners[0])
-        n /= np.linalg.norm(n)
-        seg = img - p
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = ((corners[0] - p) @ n) / (seg @ n)
-        q = p + s[..., None] * seg
-        inside = (s > 0) & (s < 1)
-        for k in range(4):
-            a, b = corners[k], corners[(k + 1) % 4]
-            inside &= (np.cross(b - a, q - a) @ n) >= 0
-        # ... and the mirror does not hide the point from the camera
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tm = ((corners[0] - o) @ n) / (d @ n)
-        qm = o + tm[..., None] * d
-        hidden = (tm > 0) & (tm < t_floor)
-        for k in range(4):
-            a, b = corners[k], corners[(k + 1) % 4]
-            hidden &= (np.cross(b - a, qm - a) @ n) >= 0
-        mask &= inside & ~hidden
-    return mask
-
-
-def excluded_pixels(scene, name: str, w: int, h: int) -> np.ndarray:
-    """Pixels left out of every figure: those that see the bulb of the bulb box."""
-    if name != "bulb_box":
-        return np.zeros((h, w), bool)
-    o, d = camera_rays(scene, w, h)
-    # the bulb's radius is 0.15; a pixel margin keeps its anti-aliased edge out too
-    return np.isfinite(_sphere_t(o, d, BULB_CENTER, 0.15 + 1.5 * 2.0 / w))
-
-
+# --- errors ----------------------------------------------------------------------------------
 def errors(img, ref, pixels, ref_noise=0.0) -> dict:
     """RMSE over RGB, relative RMSE (RMSE / mean of ref) and the noise-corrected RMSE."""
     if not pixels.any():
