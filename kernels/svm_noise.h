@@ -10,6 +10,8 @@
 /* --- hashes ------------------------------------------------------------------------------- */
 
 /* Bob Jenkins' lookup3 hash of `n` (1 to 4) 32-bit keys, as Cycles' hash_uint[234] */
+/* (lookup3's rounds three to a line, as Bob Jenkins writes them) */
+/* clang-format off */
 inline uint tex_jenkins(int n, uint4 k) {
     uint a, b, c;
     a = b = c = 0xdeadbeefu + ((uint)n << 2) + 13u;
@@ -17,43 +19,25 @@ inline uint tex_jenkins(int n, uint4 k) {
     if (n >= 2) b += k.y;
     if (n >= 3) c += k.z;
     if (n == 4) {                                    /* lookup3's mix, then the 4th key */
-        a -= c;
-        a ^= rotate(c, 4u);
-        c += b;
-        b -= a;
-        b ^= rotate(a, 6u);
-        a += c;
-        c -= b;
-        c ^= rotate(b, 8u);
-        b += a;
-        a -= c;
-        a ^= rotate(c, 16u);
-        c += b;
-        b -= a;
-        b ^= rotate(a, 19u);
-        a += c;
-        c -= b;
-        c ^= rotate(b, 4u);
-        b += a;
+        a -= c; a ^= rotate(c, 4u);  c += b;
+        b -= a; b ^= rotate(a, 6u);  a += c;
+        c -= b; c ^= rotate(b, 8u);  b += a;
+        a -= c; a ^= rotate(c, 16u); c += b;
+        b -= a; b ^= rotate(a, 19u); a += c;
+        c -= b; c ^= rotate(b, 4u);  b += a;
         a += k.w;
     }
     /* lookup3's final */
-    c ^= b;
-    c -= rotate(b, 14u);
-    a ^= c;
-    a -= rotate(c, 11u);
-    b ^= a;
-    b -= rotate(a, 25u);
-    c ^= b;
-    c -= rotate(b, 16u);
-    a ^= c;
-    a -= rotate(c, 4u);
-    b ^= a;
-    b -= rotate(a, 14u);
-    c ^= b;
-    c -= rotate(b, 24u);
+    c ^= b; c -= rotate(b, 14u);
+    a ^= c; a -= rotate(c, 11u);
+    b ^= a; b -= rotate(a, 25u);
+    c ^= b; c -= rotate(b, 16u);
+    a ^= c; a -= rotate(c, 4u);
+    b ^= a; b -= rotate(a, 14u);
+    c ^= b; c -= rotate(b, 24u);
     return c;
 }
+/* clang-format on */
 
 /* `n` floats (their bits) hashed to [0, 1] (hash_float[234]_to_float) */
 inline float tex_hashf(int n, float4 k) {
