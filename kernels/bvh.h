@@ -36,10 +36,12 @@ inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float 
     return t;
 }
 
-inline void leaf_test(const Scene *scene, int k, float3 o, float3 d, uint mask, Hit *hit) {
-    float4 e1 = scene->tri_e1[k];
+inline void leaf_test(__global const float4 *tri_v0, __global const float4 *tri_e1,
+                      __global const float4 *tri_e2, int k, float3 o, float3 d, uint mask,
+                      Hit *hit) {
+    float4 e1 = tri_e1[k];
     if ((as_uint(e1.w) & mask) == 0u) return;
-    float4 v0 = scene->tri_v0[k], e2 = scene->tri_e2[k];
+    float4 v0 = tri_v0[k], e2 = tri_e2[k];
     float u, v;
     float t = tri_hit(o, d, v0.xyz, e1.xyz, e2.xyz, hit->t, &u, &v);
     if (t > 0.0f) {
@@ -55,9 +57,14 @@ inline void leaf_test(const Scene *scene, int k, float3 o, float3 d, uint mask, 
  * bound * inv_d - o * inv_d (one multiply-add per plane): 1.5x the rays per second of
  * (bound - o) * inv_d on PoCL (docs/BENCHMARKS.md).  A zero direction component becomes
  * +-2^-64 (inv_d finite, 2^64): with an infinite inv_d, bound * inf - o * inf is inf - inf =
- * NaN and an axis-parallel ray (an orthographic camera's) would miss flat boxes. */
+ * NaN and an axis-parallel ray (an orthographic camera's) would miss flat boxes.  The BVH's
+ * arrays are read from the scene once, into locals: the loop stores to private memory (the
+ * stack, the hit), which a compiler cannot tell apart from the Scene struct the pointer
+ * reaches, so a field read in the loop would be read again at every node. */
 inline Hit bvh_intersect(const Scene *scene, float3 o, float3 d, float tmax, uint mask,
                          bool any_hit) {
+    __global const float4 *nodes = scene->nodes, *tri_v0 = scene->tri_v0, *tri_e1 = scene->tri_e1,
+                          *tri_e2 = scene->tri_e2;
     Hit hit;
     hit.t = tmax;
     hit.u = 0.0f;
@@ -69,7 +76,7 @@ inline Hit bvh_intersect(const Scene *scene, float3 o, float3 d, float tmax, uin
     int stack[BVH_STACK];
     int sp = 0, node = 0;
     for (;;) {
-        __global const float4 *nd = scene->nodes + 4 * node;
+        __global const float4 *nd = nodes + 4 * node;
         float4 a = nd[0], b = nd[1], c = nd[2], e = nd[3];
         int left = as_int(a.w), right = as_int(b.w);
         float3 l0 = a.xyz * inv_d - ood, l1 = b.xyz * inv_d - ood;
@@ -80,12 +87,12 @@ inline Hit bvh_intersect(const Scene *scene, float3 o, float3 d, float tmax, uin
         bool hl = tl <= fmin(fmin(lmx.x, lmx.y), fmin(lmx.z, hit.t));
         bool hr = tr <= fmin(fmin(rmx.x, rmx.y), fmin(rmx.z, hit.t));
         if (hl && left < 0) {
-            leaf_test(scene, ~left, o, d, mask, &hit);
+            leaf_test(tri_v0, tri_e1, tri_e2, ~left, o, d, mask, &hit);
             if (any_hit && hit.leaf >= 0) return hit;
             hl = false;
         }
         if (hr && right < 0) {
-            leaf_test(scene, ~right, o, d, mask, &hit);
+            leaf_test(tri_v0, tri_e1, tri_e2, ~right, o, d, mask, &hit);
             if (any_hit && hit.leaf >= 0) return hit;
             hr = false;
         }
