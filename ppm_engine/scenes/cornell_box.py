@@ -82,11 +82,26 @@ def box(scene, name, lo, hi, material):
     return _link(scene, name, mesh, material)
 
 
+def _sort(seq, key) -> None:
+    """A bmesh sequence in the order of ``key`` (bmesh sorts by a number: the rank)."""
+    seq.index_update()
+    items = list(seq)
+    rank = [0] * len(items)
+    for r, e in enumerate(sorted(items, key=key)):
+        rank[e.index] = r
+    seq.sort(key=lambda e: rank[e.index])
+    seq.index_update()
+
+
 def sphere(scene, name, center, radius, material, segments=32, rings=16):
     """Smooth-shaded UV sphere (bmesh: no operator context needed)."""
     mesh = bpy.data.meshes.new(name)
     bm = bmesh.new()
     bmesh.ops.create_uvsphere(bm, u_segments=segments, v_segments=rings, radius=radius)
+    # bmesh orders the sphere's elements differently from one process to the next: sorted, the
+    # mesh (and so a render of it with a given seed) is the same in every run
+    _sort(bm.verts, lambda v: tuple(v.co))
+    _sort(bm.faces, lambda f: sorted(v.index for v in f.verts))
     bm.to_mesh(mesh)
     bm.free()
     mesh.shade_smooth()
