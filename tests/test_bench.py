@@ -248,3 +248,20 @@ def test_bench_arguments_are_the_bench_s_and_its_outputs_go_where_pointed(cli, t
     monkeypatch.setattr(report, "DOCS", tmp_path / "no_checkout" / "docs")
     monkeypatch.chdir(tmp_path)
     assert command.output_dir(None) == tmp_path / command.DEFAULT_OUT
+
+
+def test_digest_is_the_same_for_the_same_code_and_compare_finds_a_change(bpy, tmp_path):
+    """bench --digest's fingerprint: two renders of a scene lit by eye paths alone (no photon
+    order involved) give the same digests, and compare() names a digest that changed."""
+    import json
+
+    from ppm_engine.bench import digest
+    runs = [digest.run_digest(scenes=("cornell_box",), configs=("paths",),
+                              progress=lambda *a: None) for _ in range(2)]
+    assert runs[0]["images"] == runs[1]["images"] and len(runs[0]["images"]) == 3
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(runs[0]))
+    assert digest.compare(runs[1], str(path))[1] == 0
+    runs[1]["images"]["cornell_box/paths"] = "0" * 16
+    text, n = digest.compare(runs[1], str(path))
+    assert n == 1 and "differs: cornell_box/paths" in text

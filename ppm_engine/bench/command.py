@@ -9,7 +9,7 @@ import importlib.util
 from pathlib import Path
 
 from ..errors import UsageError
-from . import curves, glossy, micro, noise, phases, report, shader, skips
+from . import curves, digest, glossy, micro, noise, phases, report, shader, skips
 
 # where a run from an installed package (no checkout beside it) writes, in the current folder
 DEFAULT_OUT = "ppm_bench"
@@ -53,6 +53,12 @@ def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentP
                         "the same figures, the current report's layout and targets")
     b.add_argument("--passes", type=int, default=8,
                    help="--phases, --shader: timed passes (default 8)")
+    b.add_argument("--digest", action="store_true",
+                   help="a fingerprint of the images (every example scene and a material zoo, "
+                        "each indirect-light mode): SHA-256 per image, to show a change keeps "
+                        "every pixel (run with POCL_MAX_PTHREAD_COUNT=1; bench/digest.py)")
+    b.add_argument("--compare", metavar="JSON",
+                   help="--digest: compare with an earlier digest's JSON (exit 1 if one differs)")
     b.add_argument("--out", metavar="DIR",
                    help="folder of the outputs: BENCHMARKS.md (the tables, each in its "
                         "<!-- bench:NAME --> block), bench/NAME.json and the plot (default: "
@@ -84,7 +90,8 @@ def run(args, cmdline: str, progress=print) -> int:
     """Run the benchmark the arguments ask for; outputs go to --json/--plot/--markdown or the
     output folder's bench/ and BENCHMARKS.md (output_dir)."""
     needed = (("matplotlib",) if args.report else ("OpenEXR", "matplotlib")
-              if not (args.micro or args.phases or args.skips or args.shader) else ())
+              if not (args.micro or args.phases or args.skips or args.shader or args.digest)
+              else ())
     if args.noise:
         needed = ("OpenEXR",)
     missing = [m for m in needed if importlib.util.find_spec(m) is None]
@@ -107,6 +114,18 @@ def run(args, cmdline: str, progress=print) -> int:
         progress(f"wrote {json_path}, {md_path}")
         return 0
 
+    if args.digest:
+        from ..blender_io import ensure_registered
+        ensure_registered()
+        d = digest.run_digest(args.device, progress=progress)
+        json_path = args.json or out / "bench" / "digest.json"
+        report.write_json(d, json_path)
+        progress(f"wrote {json_path}")
+        if args.compare:
+            text, n_differ = digest.compare(d, args.compare)
+            print(text)
+            return 1 if n_differ else 0
+        return 0
     if args.micro:
         m = micro.run_micro(args.device, quick=args.quick, progress=progress)
         m.update(micro.run_micro_blender(args.device, quick=args.quick, progress=progress))
