@@ -53,12 +53,12 @@ def c_float(x: float) -> str:
 
 def _comment(text: str, indent: str = "", width: int = WIDTH) -> list[str]:
     """``text`` as a C comment of lines at most ``width`` long."""
-    lines = textwrap.wrap(text, width - len(indent) - 3)
-    if len(lines) == 1 and len(lines[0]) + len(indent) + 6 <= width:
-        return [f"{indent}/* {lines[0]} */"]
-    lines = textwrap.wrap(text, width - len(indent) - 6)
-    return ([f"{indent}/* {lines[0]}"] + [f"{indent} * {line}" for line in lines[1:-1]]
-            + [f"{indent} * {lines[-1]} */"] if len(lines) > 1 else [f"{indent}/* {lines[0]} */"])
+    one = f"{indent}/* {text} */"
+    if len(one) <= width:
+        return [one]
+    lines = textwrap.wrap(text, width - len(indent) - 6)      # (room for " * " and " */")
+    return [f"{indent}/* {lines[0]}", *(f"{indent} * {line}" for line in lines[1:-1]),
+            f"{indent} * {lines[-1]} */"]
 
 
 def _family(comment: str, items, suffix: str = "") -> list[str]:
