@@ -139,7 +139,7 @@ Log-log slope of the error against passes: **{slope(marks, errs):.2f}**; at 1000
     W = 48
     ref = A.glass_slab_radiance(W)
     marks = (10, 30, 100, 300, 1000)
-    img, secs, out = render(A.glass_slab(W), 1000, marks, photons_per_pass=1 << 16, max_bounces=2)
+    img, secs, out = render(A.glass_slab(W), 1000, marks, photons_per_pass=1 << 16, max_bounces=4)
     errs = [rel_rmse(out[k][..., 0], ref) for k in marks]
     md.append(f"""## 3. Refraction through a glass slab
 

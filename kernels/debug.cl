@@ -39,13 +39,14 @@ __kernel void direct_light_at(SCENE_PARAMS __global const float4 *points,
     sd.n = 0;
     sd.N = sd.Ng = sd.wi = N;
     sd.backfacing = sd.gather_transmits = sd.continue_glossy = false;
+    sd.crossings = scene->light_paths->transparent_max_bounces;
     int k = shader_alloc(&sd, CLOSURE_DIFFUSE, (float3)(PPM_PI), N);
     sd.c[k].gather = 1;
     sd.sw_gather = sd.c[k].sample_weight;
     sd.sw_continue = 0.0f;
     float3 E = (float3)(0.0f);
     for (int s = 0; s < n_samples; s++)
-        E += direct_light(scene, &sd, points[i].xyz, MASK_GATHER, &rng);
+        E += direct_light(scene, &sd, points[i].xyz, MASK_GATHER, (float3)(1.0f), 0.0f, &rng);
     out[i] = (float4)(E / (float)n_samples, 0.0f);
 }
 

@@ -99,16 +99,18 @@ inline float mesh_hit_mis(const Scene *scene, const Hit *h, float3 o, float3 d, 
 }
 
 /* The fraction of light a shadow ray from o along d lets through over dist: 0 at an opaque
- * surface; partly transparent surfaces (alpha, Transparent BSDF) attenuate it (at most
- * TRANSPARENT_MAX_BOUNCES of them). */
-inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float dist) {
+ * surface; partly transparent surfaces (alpha, Transparent BSDF) attenuate it, at most
+ * `crossings` of them (as Blender 5.0's Cycles renders: the Light Paths' transparent limit
+ * less the path's crossings, ShaderData.crossings). */
+inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float dist,
+                                   int crossings) {
 #if PPM_TRANSPARENT
     float3 T = (float3)(1.0f);
-    for (int i = 0; i <= TRANSPARENT_MAX_BOUNCES; i++) {
+    for (int i = 0; i <= crossings; i++) {
         Hit h = bvh_intersect(scene, o, d, dist, VIS_SHADOW, false);
         if (h.leaf < 0) return T;
         Surface s = surface_at(scene, h);
-        if (i == TRANSPARENT_MAX_BOUNCES || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
+        if (i == crossings || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
             return (float3)(0.0f);
         T *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
@@ -176,7 +178,7 @@ inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, i
     float3 T = shadow_transmittance(scene,
                                     offset_ray(p, transmit ? -sd->Ng : sd->Ng,
                                                scene->emitter_info->offset_scale),
-                                    s.wi, s.dist);
+                                    s.wi, s.dist, sd->crossings);
     float w = mis && s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
     return f * T * s.E * (w / pmf);
 }
@@ -191,14 +193,14 @@ inline float3 direct_nee(const Scene *scene, const ShaderData *sd, float3 p, int
 }
 
 /* What a ray from o along d finds of the emitters (ray_type: VIS_*): the radiance of the
- * first emitter (through partly transparent surfaces, attenuated) and the density
- * next-event estimation gives d for it; p and n: the vertex the ray left and the normal
- * next-event estimation was given there (the world is sampled around it). */
+ * first emitter (through at most `crossings` partly transparent surfaces, attenuated) and the
+ * density next-event estimation gives d for it; p and n: the vertex the ray left and the
+ * normal next-event estimation was given there (the world is sampled around it). */
 inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_type, float3 p,
-                            float3 n, float *pdf_l) {
+                            float3 n, int crossings, float *pdf_l) {
     float3 T = (float3)(1.0f);
     *pdf_l = 0.0f;
-    for (int i = 0; i <= TRANSPARENT_MAX_BOUNCES; i++) {
+    for (int i = 0; i <= crossings; i++) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, ray_type, false);
 #if PPM_LIGHTS_SEEN
         float3 Le = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, ray_type,
@@ -216,7 +218,8 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
 #if !PPM_TRANSPARENT
         return (float3)(0.0f);          /* an opaque surface: no emitter behind it counts */
 #endif
-        if (!(scene->materials[mat].flags & MAT_TRANSPARENT)) return (float3)(0.0f);
+        if (i == crossings || !(scene->materials[mat].flags & MAT_TRANSPARENT))
+            return (float3)(0.0f);
         Surface s = surface_at(scene, h);
         T *= material_transparency(scene, mat, s.tri, h.u, h.v, s.p);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
@@ -240,20 +243,21 @@ inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, in
     float3 Le = emitter_along(scene,
                               offset_ray(p, transmit ? -sd->Ng : sd->Ng,
                                          scene->emitter_info->offset_scale),
-                              b.wo, ray, p, sd->N, &pdf_l);
+                              b.wo, ray, p, sd->N, sd->crossings, &pdf_l);
     return b.weight * Le * mis_power(b.pdf, pdf_l);
 #else
     return (float3)(0.0f);       /* nothing for the sample to find but what NEE samples */
 #endif
 }
 
-/* Direct light at shading point p for the closures in mask: next-event estimation and one
- * sample of those closures, combined by MIS.  For Lambert closures the sample only pays where
+/* Direct light at shading point p for the closures in mask, times the path weight beta:
+ * next-event estimation and one sample of those closures, combined by MIS, each clamped to
+ * `limit` (light_path.h clamp_sample; 0: not).  For Lambert closures the sample only pays where
  * next-event estimation is poor, next to large emissive meshes (a ceiling 1 cm above a lamp);
  * with lights and the world alone next-event estimation works alone (the sample's ray would
  * mostly find nothing).  Returns the radiance towards sd->wi. */
 inline float3 direct_light(const Scene *scene, const ShaderData *sd, float3 p, int mask,
-                           uint *rng) {
+                           float3 beta, float limit, uint *rng) {
     bool lambert = true;
     for (int k = 0; k < sd->n; k++)
         lambert &= !closure_in(&sd->c[k], mask) || sd->c[k].type == CLOSURE_DIFFUSE;
@@ -261,7 +265,7 @@ inline float3 direct_light(const Scene *scene, const ShaderData *sd, float3 p, i
 #if PPM_EMISSIVE
     sample = sample || scene->emitter_info->n_emissive > 0;
 #endif
-    float3 L = direct_nee(scene, sd, p, mask, sample, rng);
-    return sample ? L + direct_bsdf(scene, sd, p, mask, rng) : L;
+    float3 L = clamp_sample(beta * direct_nee(scene, sd, p, mask, sample, rng), limit);
+    return sample ? L + clamp_sample(beta * direct_bsdf(scene, sd, p, mask, rng), limit) : L;
 }
 #endif

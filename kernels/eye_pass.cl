@@ -20,14 +20,14 @@ inline float filter_offset(__global const float *table, float u) {
     return mix(table[k], table[k + 1], t);
 }
 
-__kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
-                       float initial_radius, float auto_radius_pixels,
-                       __global const float *filter_table, __global float4 *direct,
-                       __global float *radius, __global float *radius0, __global float4 *vp_pos,
-                       __global float4 *vp_nrm, __global float4 *vp_beta, __global float4 *vp_shade,
-                       __global uint *counters, __global float4 *aux_albedo,
-                       __global float4 *aux_normal, __global const uint *active,
-                       __global float *transparency, uint path_indirect, uint camera_sobol) {
+__kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_radius,
+                       float auto_radius_pixels, __global const float *filter_table,
+                       __global float4 *direct, __global float *radius, __global float *radius0,
+                       __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
+                       __global float4 *vp_shade, __global uint *counters,
+                       __global float4 *aux_albedo, __global float4 *aux_normal,
+                       __global const uint *active, __global float *transparency,
+                       uint path_indirect, uint camera_sobol) {
     SCENE_LOAD(scene);
     __global const Camera *cam = scene->camera;
     int id = get_global_id(0);
@@ -87,8 +87,12 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
     Media media;
     media_init(&media);
 #endif
+    __global const LightPaths *lp = scene->light_paths;
+    int term = TERM_NONE; /* past a Light Paths limit: how the path ends (light_path.h) */
     for (int depth = 0, transparent = 0;;) {
         Hit h = bvh_intersect(scene, o, d, tmax, mask, false);
+        /* the clamp of what this ray finds: direct after at most one bounce (light_path.h) */
+        float clamp_found = clamp_limit(depth - 1, lp);
 #if PPM_ABSORPTION
         /* the segment inside a medium (lights seen inside one: attenuated as far as the hit) */
         if (h.leaf >= 0) beta *= media_transmittance(&media, scene->materials, h.t);
@@ -96,7 +100,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
         float pdf_l = 0.0f;
 #if PPM_LIGHTS_SEEN
         float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? tmax : h.t, h.leaf < 0, mask, &pdf_l);
-        L += beta * Ls * mis_power(prev_pdf, pdf_l);
+        L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l), clamp_found);
 #endif
         if (h.leaf < 0) {
             if (film_clear && cam->film_transparent) {
@@ -108,7 +112,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
             pdf_l = PPM_WORLD && scene->emitter_info->has_world && !isinf(prev_pdf)
                         ? world_light_pdf(scene, d, prev_n)
                         : 0.0f;
-            L += beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l);
+            L += clamp_sample(beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l), clamp_found);
             break;
         }
         path_len += h.t;
@@ -121,7 +125,21 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
             clear += (t.x + t.y + t.z) * (1.0f / 3.0f);
         }
         if (max3(sd.emission) > 0.0f)
-            L += beta * sd.emission * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n);
+            L += clamp_sample(beta * sd.emission
+                                  * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n),
+                              clamp_found);
+        if (term != TERM_NONE) {
+            /* past a limit: the emission above, and after the last bounce on through the
+             * surface's transparency (Cycles' TERMINATE_AFTER_TRANSPARENT) */
+            if (term == TERM_ON_NEXT_SURFACE || !(max3(sd.transparent) > 0.0f)) break;
+            beta *= sd.transparent;
+            if (!(max3(beta) > 0.0f)) break;
+            o = offset_ray(s.p, -sd.Ng, scene->emitter_info->offset_scale);
+            tmax = PPM_INF;
+            path = path_transparent(path);
+            term = max(term, path_limit_transparent(++transparent, lp));
+            continue;
+        }
         float sw = sd.sw_gather + sd.sw_continue;
         if (!(sw > 0.0f)) break;
         if (rnd(&rng) * sw < sd.sw_gather) {
@@ -129,7 +147,8 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
             float3 bvp = beta * (sw / sd.sw_gather);
             /* direct light: next-event estimation and a sample of the closures (MIS); with
              * path_indirect the continuing path's (indirect_paths below) */
-            if (!path_indirect) L += bvp * direct_light(scene, &sd, s.p, MASK_GATHER, &rng);
+            if (!path_indirect)
+                L += direct_light(scene, &sd, s.p, MASK_GATHER, bvp, clamp_limit(depth, lp), &rng);
             vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
             vp_nrm[id] = (float4)(sd.N, as_float(path)); /* (the gather shades it again) */
             float3 albedo = (float3)(0.0f);
@@ -158,8 +177,8 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
             /* direct and indirect light by path tracing (indirect_paths.h); the photons bring
              * caustics */
             if (path_indirect)
-                L += indirect_paths(scene, &sd, s.p, s.material, bvp, depth, path, max_bounces,
-                                    pass_index, rng_seed(seed, 0u, (uint)id, 5u),
+                L += indirect_paths(scene, &sd, s.p, s.material, bvp, depth, path, pass_index,
+                                    rng_seed(seed, 0u, (uint)id, 5u),
 #if PPM_ABSORPTION
                                     &media,
 #endif
@@ -169,7 +188,9 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
         /* the path goes on through the other closures (mirrors, glass, smooth glossy lobes,
          * transparency), weighted by 1 / their probability */
         beta *= sw / sd.sw_continue;
-        if (sd.continue_glossy) L += beta * direct_nee(scene, &sd, s.p, MASK_CONTINUE, true, &rng);
+        if (sd.continue_glossy)
+            L += clamp_sample(beta * direct_nee(scene, &sd, s.p, MASK_CONTINUE, true, &rng),
+                              clamp_limit(depth, lp));
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
         if (!shader_sample(&sd, MASK_CONTINUE, rand, &b)) break;
@@ -182,24 +203,16 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces,
         if (b.label & LABEL_TRANSPARENT) {
             /* straight through: not a bounce (as Cycles' transparent bounces), the ray keeps
              * its type and its MIS state */
-            if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
             path = path_transparent(path);
+            term = path_limit_transparent(++transparent, lp);
             continue;
         }
         film_clear = film_clear && (cam->film_transparent & FILM_TRANSPARENT_GLASS)
                      && (b.label & LABEL_TRANSMIT) && !(b.label & LABEL_DIFFUSE)
                      && b.roughness2 <= cam->glass_roughness * cam->glass_roughness;
-        if (depth >= max_bounces) {
-            /* the last bounce: the emitter this sample finds, and no further (Cycles ends a
-             * path at the surface after its last bounce) */
-            float pdf_e;
-            float3 Le = emitter_along(scene, o, d, transmit ? VIS_TRANSMISSION : VIS_GLOSSY, s.p,
-                                      sd.N, &pdf_e);
-            L += beta * Le * (sd.continue_glossy ? mis_power(b.pdf, pdf_e) : 1.0f);
-            break;
-        }
         depth++;
         path = path_bounce(path, b.label);
+        term = path_limit(path, depth, lp); /* past it: the emitter this sample finds only */
         prev_pdf = sd.continue_glossy ? b.pdf : INFINITY;
         prev_n = sd.N;
         prev_p = s.p;

@@ -45,14 +45,23 @@ typedef struct {
     ShaderData sd;
 #endif
     float3 nrm;
+    uint path;          /* the ray that reached the point (light_path.h) */
+    float3 beta;        /* its path weight (with the albedo / pi of a Lambert point) */
+    __global const LightPaths *lp;
+    float limit;        /* Clamp Indirect's limit on a sample's r + g + b (0: none) */
     float3 lambert_f;
     bool lambert;
     bool transmits;
 } GatherPoint;
 
-inline void gather_point(const Scene *scene, float4 vp, float4 nrm, float4 shade, float foot_r,
+inline void gather_point(const Scene *scene, float4 vp, float4 nrm, float4 shade, float4 beta,
                          GatherPoint *gp) {
+    float foot_r = SVM_FOOTPRINT ? beta.w : 0.0f;
     gp->nrm = nrm.xyz;
+    gp->path = as_uint(nrm.w);
+    gp->beta = beta.xyz;
+    gp->lp = scene->light_paths;
+    gp->limit = gp->lp->clamp_indirect;
     gp->transmits = vp.w > 1.5f;
     gp->lambert = true;
     gp->lambert_f = (float3)(1.0f);
@@ -95,23 +104,50 @@ inline bool photon_accepted(float3 x, float3 nrm, bool transmits, float r2, floa
     return transmits ? fabs(*cos_l) >= 1e-6f : *cos_l > 0.0f;
 }
 
-/* an accepted photon's flux times the point's BSDF for its direction */
-inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l) {
+/* An accepted photon's flux times the point's BSDF for its direction, through the closures
+ * whose bounce keeps the whole path within the Light Paths limits (light_path.h path_join of
+ * the point's and the photon's paths, pe.x), clamped as Cycles clamps the camera path that
+ * finds the same light: that path's sample is the point's path weight, times the point's
+ * sample weight f cos / pdf for the photon's direction, times the radiance the photon's light
+ * path carries (its flux times pe.y; photon_emission.h), and a sample over Clamp Indirect's
+ * limit is scaled down to it (light_path.h clamp_sample).  For the caustics a camera path
+ * finds through mirrors and glass that sample is exactly Cycles'; photons from a point or a
+ * sun of no size (which no camera path finds) and every photon without clamping are kept
+ * whole. */
+inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l, uint2 pe) {
+    uint kinds = path_join(gp->path, pe.x, gp->lp);
+    if (kinds == 0u) return (float3)(0.0f);
+    float3 f, ratio;              /* f cos / cos; the sample weight f cos / pdf over beta's */
 #if PPM_GATHER_SHADE
     if (!gp->lambert) {
         float pdf;
-        return pf.xyz * shader_eval(&gp->sd, unpack_unit(as_uint(pf.w)), MASK_GATHER, &pdf)
-               * (1.0f / fabs(cos_l));
-    }
+        float3 fc = shader_eval_kinds(&gp->sd, unpack_unit(as_uint(pf.w)), MASK_GATHER, kinds,
+                                      &pdf);
+        f = fc * (1.0f / fabs(cos_l));
+        ratio = pdf > 0.0f ? fc * (1.0f / pdf) : (float3)(0.0f);
+    } else
 #endif
-    return cos_l > 0.0f ? pf.xyz * gp->lambert_f : (float3)(0.0f);
+    {
+        if (!(cos_l > 0.0f && (kinds & JOIN_DIFFUSE))) return (float3)(0.0f);
+        f = gp->lambert_f;
+        ratio = PPM_PI * gp->lambert_f;
+    }
+    float3 term = pf.xyz * f;
+    float rs = as_float(pe.y);
+    if (gp->limit > 0.0f && rs > 0.0f) {
+        float3 x = gp->beta * ratio * pf.xyz * rs;
+        float s = fabs(x.x) + fabs(x.y) + fabs(x.z);
+        if (s > gp->limit) term *= gp->limit / s;
+    }
+    return term;
 }
 
 __kernel void gather(SCENE_PARAMS __global const float4 *vp_pos, __global const float4 *vp_nrm,
                      __global const float4 *vp_shade, __global const float4 *vp_beta,
                      __global const float *radius, __global const Grid *grid,
                      __global const ulong *table, uint table_mask, __global const float4 *ph_pos,
-                     __global const float4 *ph_flux, __global float4 *gathered, uint n) {
+                     __global const float4 *ph_flux, __global const uint2 *ph_path,
+                     __global float4 *gathered, uint n) {
     SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n) return;
@@ -122,7 +158,7 @@ __kernel void gather(SCENE_PARAMS __global const float4 *vp_pos, __global const 
         return;
     }
     GatherPoint gp;
-    gather_point(scene, vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp);
+    gather_point(scene, vp, vp_nrm[id], vp_shade[id], vp_beta[id], &gp);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
@@ -144,7 +180,7 @@ __kernel void gather(SCENE_PARAMS __global const float4 *vp_pos, __global const 
                                      &pf, &cos_l))
                     continue;
                 M += (float)cnt;
-                phi += (float)cnt * photon_term(&gp, pf, cos_l);
+                phi += (float)cnt * photon_term(&gp, pf, cos_l, ph_path[pi]);
             }
     gathered[id] = (float4)(phi, M);
 }
@@ -156,7 +192,7 @@ __kernel void gather_exact(SCENE_PARAMS __global const float4 *vp_pos,
                            __global const Grid *grid, __global const uint *ranges,
                            __global const uint *sorted_ids, uint table_mask,
                            __global const float4 *ph_pos, __global const float4 *ph_flux,
-                           __global float4 *gathered, uint n) {
+                           __global const uint2 *ph_path, __global float4 *gathered, uint n) {
     SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n) return;
@@ -167,7 +203,7 @@ __kernel void gather_exact(SCENE_PARAMS __global const float4 *vp_pos,
         return;
     }
     GatherPoint gp;
-    gather_point(scene, vp, vp_nrm[id], vp_shade[id], SVM_FOOTPRINT ? vp_beta[id].w : 0.0f, &gp);
+    gather_point(scene, vp, vp_nrm[id], vp_shade[id], vp_beta[id], &gp);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
@@ -188,7 +224,7 @@ __kernel void gather_exact(SCENE_PARAMS __global const float4 *vp_pos,
                                          (long3)(cx, cy, cz), &g, &pf, &cos_l))
                         continue;
                     M += 1.0f;
-                    phi += photon_term(&gp, pf, cos_l);
+                    phi += photon_term(&gp, pf, cos_l, ph_path[pi]);
                 }
             }
     gathered[id] = (float4)(phi, M);

@@ -22,8 +22,8 @@
  *
  * Russian roulette as Cycles plays it (survival sqrt of the path's throughput relative to the
  * visible point's), decided by one number for the whole path; bounces counted from the camera
- * as in the eye pass: the vertex after max_bounces bounces only adds the emitters its last
- * sample found.  The numbers of the first twelve vertices are low-discrepancy over the passes
+ * as in the eye pass, and a path past a Light Paths limit only adds the emitters its last
+ * sample found (through transparent surfaces after its last bounce; light_path.h).  The numbers of the first twelve vertices are low-discrepancy over the passes
  * (Owen-scrambled Sobol sets, as Cycles' default sampler; rng.h ld_set).  In a closed emissive
  * sphere (the benchmark's furnace) both estimators, next-event estimation and the cosine
  * sample, are constant: all of its noise is Russian roulette's, and the roulette's one number
@@ -48,7 +48,7 @@ inline float4 indirect_set(int vertex, uint which, uint pass, uint key, uint *rn
  * reached after depth bounces by the ray `path`) by next-event estimation there and paths that
  * continue from it; pass and key: the pixel's low-discrepancy stream.  sd is overwritten. */
 inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int mat, float3 beta,
-                             int depth, uint path, int max_bounces, uint pass, uint key,
+                             int depth, uint path, uint pass, uint key,
 #if PPM_ABSORPTION
                              Media *media,
 #endif
@@ -68,10 +68,13 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
      * (0.0010 with the Sobol numbers) and the Cornell box's stayed */
     float u_rr = 0.0f, survive = 1.0f;
     float4 ua = indirect_set(0, 0u, pass, key, rng);
-    for (int vertex = 0, transparent = 0;; vertex++) {
+    __global const LightPaths *lp = scene->light_paths;
+    int term = TERM_NONE; /* past a Light Paths limit: how the path ends (light_path.h) */
+    for (int vertex = 0, transparent = (int)path_count(path, PATH_TRANSPARENT_DEPTH);; vertex++) {
         if (set == MASK_GATHER) {
             float3 u = (float3)(ua.z, ua.x, ua.y);
-            L += beta * direct_nee_u(scene, sd, p, MASK_GATHER, EMITTERS_HITTABLE, u);
+            L += clamp_sample(beta * direct_nee_u(scene, sd, p, MASK_GATHER, EMITTERS_HITTABLE, u),
+                              clamp_limit(depth, lp));
         }
         float4 ub = indirect_set(vertex, 1u, pass, key, rng);
         if (vertex == 0) u_rr = ub.w;
@@ -84,11 +87,12 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         float3 d = b.wo;
         if (b.label & LABEL_TRANSPARENT) {
             /* straight through: no scattering, the ray keeps its type and MIS state */
-            if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
             path = path_transparent(path);
+            term = path_limit_transparent(++transparent, lp);
         } else {
             depth++;
             path = path_bounce(path, b.label);
+            term = path_limit(path, depth, lp);
             counts = set == MASK_GATHER;
             prev_pdf = b.pdf;
             prev_n = sd->N;
@@ -108,13 +112,39 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         if (counts) {
             float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, mask,
                                     &pdf_l);
-            L += beta * Ls * mis_power(prev_pdf, pdf_l);
+            L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l), clamp_limit(depth - 1, lp));
         }
 #endif
+        while (h.leaf >= 0 && term == TERM_AFTER_TRANSPARENT) {
+            /* past a bounce limit: on through transparent surfaces to an emitter (Cycles'
+             * TERMINATE_AFTER_TRANSPARENT), whose emission counts below */
+            Surface s = surface_at(scene, h);
+            if (!(scene->materials[s.material].flags & MAT_TRANSPARENT)) break;
+            if (counts && (scene->materials[s.material].flags & MAT_EMISSIVE)) break;
+            beta *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
+            if (!(max3(beta) > 0.0f)) return L;
+            o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
+                           scene->emitter_info->offset_scale);
+            path = path_transparent(path);
+            term = max(term, path_limit_transparent(++transparent, lp));
+            h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
+#if PPM_ABSORPTION
+            if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);
+#endif
+#if PPM_LIGHTS_SEEN
+            if (counts) {
+                float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, mask,
+                                        &pdf_l);
+                L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l),
+                                  clamp_limit(depth - 1, lp));
+            }
+#endif
+        }
         if (h.leaf < 0) {
             if (counts && PPM_WORLD && scene->emitter_info->has_world) {
                 pdf_l = !isinf(prev_pdf) ? world_light_pdf(scene, d, prev_n) : 0.0f;
-                L += beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l);
+                L += clamp_sample(beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l),
+                                  clamp_limit(depth - 1, lp));
             }
             break;
         }
@@ -123,8 +153,10 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
                      footprint_at(scene, s.tri, h.leaf, h.u, h.v,
                                   SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p) : 0.0f));
         if (counts && max3(sd->emission) > 0.0f)
-            L += beta * sd->emission * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n);
-        if (depth > max_bounces) break;
+            L += clamp_sample(beta * sd->emission
+                                  * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n),
+                              clamp_limit(depth - 1, lp));
+        if (term != TERM_NONE) break;  /* past a limit: that emission only */
         float sw = sd->sw_gather + sd->sw_continue;
         if (!(sw > 0.0f)) break;
         /* Russian roulette as Cycles plays it: after the hit's emission, before its next-event

@@ -105,7 +105,9 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
     __global const Camera *cam = scene->camera;
     uint rng = rng_seed(seed, pass_index, id, 5u);
     float3 o, d, flux;
-    if (!emit_photon(scene, &rng, &o, &d, &flux)) return;
+    float rs;
+    float2 nee;
+    if (!emit_photon(scene, &rng, &o, &d, &flux, &rs, &nee)) return;
     uint mask = VIS_SHADOW;
 #if PPM_ABSORPTION
     Media media;
@@ -136,7 +138,8 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
                 bool front = dot(wc, s.ng) > 0.0f;
                 float3 org = offset_ray(s.p, front ? s.ng : -s.ng,
                                         scene->emitter_info->offset_scale);
-                float3 T = shadow_transmittance(scene, org, wc, dist * 0.9999f);
+                float3 T = shadow_transmittance(scene, org, wc, dist * 0.9999f,
+                                                scene->light_paths->transparent_max_bounces);
                 float3 c = flux * f * T * (cos_cg / cos_lg * we);
                 if (max3(T) > 0.0f && isfinite(c.x) && isfinite(c.y) && isfinite(c.z))
                     splat(cam, image, filter_density, n_table, reach, px, py, c);
@@ -157,7 +160,7 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
             flux *= measure;
         }
         if (b.label & LABEL_TRANSPARENT) {
-            if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
+            if (++transparent > scene->light_paths->transparent_max_bounces) break;
             path = path_transparent(path);
         } else {
             bounce++;

@@ -16,9 +16,10 @@
 #include "shared.h"
 #include "medium.h"
 
-__kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounces, uint n_photons,
+__kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photons,
                           __global const Grid *grid, uint capacity, __global float4 *ph_pos,
-                          __global float4 *ph_flux, __global uint *counters, uint caustics_only) {
+                          __global float4 *ph_flux, __global uint2 *ph_path,
+                          __global uint *counters, uint caustics_only) {
     SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n_photons) return;
@@ -26,7 +27,9 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
     if (g.valid == 0u && capacity > 0u) return;
     uint rng = rng_seed(seed, pass_index, id, 2u);
     float3 o, d, flux;
-    if (!emit_photon(scene, &rng, &o, &d, &flux)) return;
+    float rs; /* the radiance its light path carries over its flux (the clamp, gather.cl) */
+    float2 nee;
+    if (!emit_photon(scene, &rng, &o, &d, &flux, &rs, &nee)) return;
     uint mask = VIS_SHADOW; /* the light's own segment: objects that cast no shadow let it by */
 #if PPM_ABSORPTION
     Media media;
@@ -35,10 +38,18 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
     ShaderData sd;
     bool direct = true; /* nothing but transparent surfaces crossed yet */
     uint path = 0u; /* the Light Path node's view: light's rays are no camera rays */
+    /* the bounces the Light Paths limits count (light_path.h path_join): all after the light's
+     * first scattering, which a camera path reaches by next-event estimation; the type bits
+     * those of the last scattering */
+    uint ppath = 0u;
+    __global const LightPaths *lp = scene->light_paths;
+    int max_bounces = lp->max_bounces;
+    float reach = 0.0f; /* from the emitter to the light's first scattering */
     for (int bounce = 0, transparent = 0; bounce <= max_bounces;) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
         if (h.leaf < 0) break;
         float3 before = flux; /* Russian roulette below: this bounce's albedo */
+        if (direct) reach += h.t;
 #if PPM_ABSORPTION
         flux *= media_transmittance(&media, scene->materials, h.t); /* the segment's medium */
 #endif
@@ -78,6 +89,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
                 if (k < capacity) {
                     ph_pos[k] = (float4)(s.p, as_float(pack_unit(N)));
                     ph_flux[k] = (float4)(flux, as_float(pack_unit(-d)));
+                    ph_path[k] = (uint2)(ppath, as_uint(rs));
                 } else {
                     atomic_inc(&counters[CNT_OVERFLOW]);
                 }
@@ -100,6 +112,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
                 break;
             }
             flux *= (sg + sc) / sc;
+            rs *= sc / (sg + sc);
             set = MASK_CONTINUE;
         }
         if (bounce == max_bounces) break;
@@ -127,11 +140,24 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
         if (transmit && b.eta != 1.0f) {
             measure = 1.0f / (b.eta * b.eta);
             flux *= measure;
+            rs /= measure; /* camera paths carry no such factor */
         }
         if (b.label & LABEL_TRANSPARENT) { /* not a bounce (Cycles' transparent bounces) */
-            if (++transparent > TRANSPARENT_MAX_BOUNCES) break;
+            if (++transparent > lp->transparent_max_bounces) break;
             path = path_transparent(path);
+            ppath = path_transparent(ppath);
         } else {
+            if (direct && rs > 0.0f && !(b.label & LABEL_SINGULAR)) {
+                /* A camera path reaches the light from this first scattering by next-event
+                 * estimation as much as by its sample (MIS): its sample is about f cos over the
+                 * larger of the two densities, where the chain above assumed the sample's */
+                float p_b = lambert ? fabs(dot(N, d)) * (1.0f / PPM_PI) : b.pdf;
+                float p_l = nee.x * reach * reach + nee.y;
+                rs *= p_b / fmax(p_l, p_b);
+            }
+            ppath = direct ? (ppath & ~127u) | path_kind(b.label) : path_bounce(ppath, b.label);
+            /* past a limit of its kind: no visible point's path can take it */
+            if (path_limit(ppath, bounce, lp) != TERM_NONE) break;
             bounce++;
             path = path_bounce(path, b.label);
             direct = false;
@@ -151,5 +177,6 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
         float q = fmin(1.0f, max3(flux) / (max3(before) * measure));
         if (!(q > 0.0f) || rnd(&rng) >= q) break;
         flux /= q;
+        rs *= q;
     }
 }

@@ -176,6 +176,9 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
     sd->n = 0;
     sd->emission = sd->transparent = sd->holdout = (float3)(0.0f);
     sd->wi = wi;
+    sd->crossings = max(scene->light_paths->transparent_max_bounces
+                            - (int)path_count(path, PATH_TRANSPARENT_DEPTH),
+                        0);
     sd->backfacing = dot(wi, ng) < 0.0f;
     sd->Ng = sd->backfacing ? -ng : ng;
     sd->N = sd->backfacing ? -ns : ns;
@@ -274,6 +277,33 @@ inline float3 closure_eval_bumped(const ShaderData *sd, const Closure *c, float3
     float b = bump_shadowing(sd, c, wo, true);
     if (b == 0.0f) *p = 0.0f;
     return e * b;
+}
+
+/* the kind of bounce (light_path.h JOIN_*) closure c makes towards wo */
+inline uint closure_join_kind(const ShaderData *sd, const Closure *c, float3 wo) {
+    if (dot(wo, sd->Ng) < 0.0f) return JOIN_TRANSMIT;
+    return c->type >= CLOSURE_DIFFUSE && c->type <= CLOSURE_SHEEN ? JOIN_DIFFUSE : JOIN_GLOSSY;
+}
+
+/* shader_eval of the closures in mask whose bounce towards wo is of the kinds given (JOIN_*:
+ * the Light Paths limits, light_path.h path_join); the density still that of all in mask */
+inline float3 shader_eval_kinds(const ShaderData *sd, float3 wo, int mask, uint kinds, float *pdf) {
+    float3 f = (float3)(0.0f);
+    float sum_pdf = 0.0f, sum_sw = 0.0f;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        if (!closure_in(c, mask)) continue;
+        sum_sw += c->sample_weight;
+        if (kinds != JOIN_ALL && !(closure_join_kind(sd, c, wo) & kinds)) continue;
+        float p;
+        float3 e = closure_eval_bumped(sd, c, wo, &p);
+        if (p != 0.0f) {
+            f += c->weight * e;
+            sum_pdf += p * c->sample_weight;
+        }
+    }
+    *pdf = sum_sw > 0.0f ? sum_pdf / sum_sw : 0.0f;
+    return f;
 }
 
 inline float3 shader_eval(const ShaderData *sd, float3 wo, int mask, float *pdf) {

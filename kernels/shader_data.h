@@ -8,10 +8,6 @@
  * nodes), with the emission, transparency and holdout that are not lobes.  At most
  * PPM_MAX_CLOSURES closures: the most the scene's materials can make (-D from
  * ppm_engine/materials.py), its MAX_CLOSURES in a program built for every feature. */
-/* partly transparent surfaces a ray crosses at most (straight through, not a bounce): Cycles'
- * default Transparent Max Bounces */
-#define TRANSPARENT_MAX_BOUNCES 8
-
 typedef struct {
     Closure c[PPM_MAX_CLOSURES];
     int n;
@@ -27,6 +23,8 @@ typedef struct {
     bool gather_transmits;/* a gather closure transmits (light from behind counts) */
     bool continue_glossy; /* a closure the path follows can be evaluated (next-event estimation
                              there); singular ones cannot */
+    int crossings;        /* transparent surfaces a ray sampled here may still cross (the Light
+                             Paths' transparent limit less the path's crossings) */
 } ShaderData;
 
 /* the BSDF node the setup functions read: a private copy with the program's inputs written in

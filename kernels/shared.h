@@ -134,6 +134,10 @@
 #define FILM_TRANSPARENT 1
 #define FILM_TRANSPARENT_GLASS 2
 
+/* the Light Paths' caustics toggles (ppm_engine/light_paths.py LP_*) */
+#define LP_CAUSTICS_REFLECTIVE 1u
+#define LP_CAUSTICS_REFRACTIVE 2u
+
 /* material flags (ppm_engine/materials.py MAT_*) */
 #define MAT_EMISSIVE 1u
 #define MAT_GATHER 2u
@@ -272,6 +276,21 @@ typedef struct {
     float exposure;         /* Cycles' film exposure: the image's scale */
 } Camera;
 
+/* mirrors ppm_engine/light_paths.py LIGHT_PATHS_DTYPE */
+typedef struct {
+    int max_bounces;        /* Total: bounces of any kind */
+    int diffuse_bounces;
+    int glossy_bounces;     /* glossy and singular reflections */
+    int transmission_bounces; /* transmissions (glass, translucency) */
+    int volume_bounces;     /* kept; this engine scatters in no volume */
+    int transparent_max_bounces; /* transparent surfaces a path crosses */
+    /* Cycles' limit on a sample's r + g + b (3 x the setting; 0: off): light with no bounce */
+    float clamp_direct;
+    float clamp_indirect;   /* the same for light with one bounce or more */
+    float filter_glossy;    /* Filter Glossy: read, not applied */
+    uint flags;             /* LP_CAUSTICS_REFLECTIVE | LP_CAUSTICS_REFRACTIVE */
+} LightPaths;
+
 /* mirrors ppm_engine/materials.py KMATERIAL_DTYPE */
 typedef struct {
     float emission[3];      /* emitted radiance of its emission closures, before textures */
@@ -385,6 +404,7 @@ typedef struct {
     X(int, tri_object)           /* triangles' objects */ \
     X(float4, objects)           /* objects */ \
     X(Camera, camera)            /* camera */ \
+    X(LightPaths, light_paths)   /* Light Paths settings */ \
     X(Light, lights)             /* lights */ \
     X(float, emitter_cdf)        /* emitter table (power CDF) */ \
     X(int, emissive)             /* emissive triangles' BVH leaves */ \

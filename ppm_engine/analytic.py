@@ -86,9 +86,12 @@ SLAB = dict(P=100.0, light=(0.0, 0.0, 1.5), ior=1.5, bottom=0.3, thickness=0.4,
 
 
 def glass_slab(W=24, absorption=(0.0, 0.0, 0.0)):
-    """A point light above a glass slab over a diffuse floor.  Render with max_bounces=2: the
-    light reaches the floor only by refraction through both faces (no internal reflections,
-    no light back from the floor), the camera sees the floor through both faces.
+    """A point light above a glass slab over a diffuse floor.  Render with max_bounces=4: the
+    light reaches the floor only by refraction through both faces, the camera sees the floor
+    through both faces (Cycles counts four bounces: the camera's two refractions, the floor's
+    and the light's refraction out of the slab; the one into it reaches the light), and no
+    path with an internal reflection (two more bounces at least) or light back from the floor
+    (two more) is in.
     ``absorption``: the glass's absorption coefficient per metre, RGB."""
     c = SLAB
     mb = MeshBuilder()

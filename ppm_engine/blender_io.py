@@ -50,6 +50,16 @@ def read_exr(path) -> np.ndarray:
         return np.asarray(rgba[0], dtype=np.float32)
 
 
+def unbiased_light_paths(scene, bounces: int = 12) -> None:
+    """The scene's Light Paths (scene.cycles, which both engines read) for comparisons:
+    ``bounces`` of every kind, no clamping, no Filter Glossy, caustics on."""
+    c = scene.cycles
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.blur_glossy = 0.0
+    c.caustics_reflective = c.caustics_refractive = True
+
+
 def cycles_reference(scene, *, samples: int | None = None, seconds: float = 0.0,
                      seed: int = 1, bounces: int = 12) -> None:
     """Cycles with the same light transport as this engine, for comparisons: CPU, ``bounces``
@@ -62,9 +72,6 @@ def cycles_reference(scene, *, samples: int | None = None, seconds: float = 0.0,
     c.samples = samples if samples is not None else 1 << 24
     c.time_limit = seconds
     c.use_adaptive_sampling = c.use_denoising = False
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.blur_glossy = 0.0
-    c.caustics_reflective = c.caustics_refractive = True
+    unbiased_light_paths(scene, bounces)
     c.seed = seed
     c.use_animated_seed = False

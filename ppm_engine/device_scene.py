@@ -18,6 +18,7 @@ from .emitters import EMITTER_INFO_DTYPE, build_emitters
 from .features import defines as feature_defines
 from .features import scene_features, used_materials
 from .film import filter_table
+from .light_paths import LIGHT_PATHS_DTYPE, engine_defaults
 from .materials import (
     KMATERIAL_DTYPE,
     MAT_GATHER,
@@ -41,6 +42,7 @@ class SceneBuffer:
     element: np.dtype     # one element as the kernels read it (its C type: shared_header)
     what: str             # what it holds (the upload's label, the header's comment)
     fill: int = 0         # the value of the one element that stands for an empty array
+    default: object = None  # or a function making that element (a struct's defaults)
 
 
 # The scene's buffers, in the kernels' parameter order.
@@ -64,6 +66,8 @@ SCENE_BUFFERS = (
     SceneBuffer("tri_object", np.dtype(np.int32), "triangles' objects", fill=-1),
     SceneBuffer("objects", _F4, "objects"),
     SceneBuffer("camera", CAMERA_DTYPE, "camera"),
+    SceneBuffer("light_paths", LIGHT_PATHS_DTYPE, "Light Paths settings",
+                default=engine_defaults),
     SceneBuffer("lights", LIGHT_DTYPE, "lights"),
     SceneBuffer("emitter_cdf", np.dtype(np.float32), "emitter table (power CDF)"),
     SceneBuffer("emissive", np.dtype(np.int32), "emissive triangles' BVH leaves"),
@@ -72,9 +76,14 @@ SCENE_BUFFERS = (
 )
 
 
+_ROWS = {b.name: b for b in SCENE_BUFFERS}
+
+
 def _one(b: SceneBuffer) -> np.ndarray:
     """One element of ``b``'s fill value: what stands for an empty array (OpenCL has no empty
     buffer) or a buffer a kernel is run without."""
+    if b.default is not None:
+        return b.default()
     a = np.zeros(1, b.element)
     if b.fill:
         a[...] = b.fill
@@ -127,7 +136,7 @@ class DeviceScene:
             texels=prepared.texels, uvs=prepared.uvs, tangents=prepared.tangents,
             svm=prepared.svm, uv_tangents=prepared.uv_tangents, generated=prepared.generated,
             attributes=prepared.attributes, tri_object=prepared.object, objects=prepared.objects,
-            camera=prepared.camera)
+            camera=prepared.camera, light_paths=prepared.light_paths)
         # the world's map is baked with the shading buffers; the emitter table needs its power
         self.world_map = self._world_map(prepared, args)
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,
@@ -140,6 +149,7 @@ class DeviceScene:
                        else np.zeros(0, np.float32))))
         self.args = {b.name: args[b.name] for b in SCENE_BUFFERS}
         self.camera = args["camera"]
+        self.light_paths = prepared.light_paths
         self.filter_table = self.device.upload(
             filter_table(float(prepared.camera["filter_width"][0]),
                          int(prepared.camera["filter_type"][0])), "pixel filter")
@@ -182,12 +192,24 @@ class DeviceScene:
                                                                    self.used_materials)),
                           **svm}
 
-    def photons_useful(self, max_bounces: int) -> bool:
-        """Whether photon passes can add anything: something emits, paths may bounce, and some
-        surface has a closure the gather evaluates (photons are stored, and visible points
-        made, only there)."""
+    def set_light_paths(self, lp: np.ndarray) -> None:
+        """The Light Paths record the kernels read from now on (a render's: the scene's, or
+        with RenderOptions.max_bounces in force; light_paths.with_max_bounces)."""
+        if lp.tobytes() != self.light_paths.tobytes():
+            self.light_paths = lp
+            self.args["light_paths"] = self.device.upload(
+                _as_elements(lp, _ROWS["light_paths"]), _ROWS["light_paths"].what)
+
+    def photons_useful(self) -> bool:
+        """Whether photon passes can add anything: something emits, paths may bounce (the
+        visible point's own bounce is a diffuse, glossy or transmission one), and some surface
+        has a closure the gather evaluates (photons are stored, and visible points made, only
+        there)."""
+        lp = self.light_paths[0]
+        bounce = lp["max_bounces"] > 0 and max(lp["diffuse_bounces"], lp["glossy_bounces"],
+                                               lp["transmission_bounces"]) > 0
         diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_GATHER).any())
-        return bool(self.emitters.info["n_emitters"][0] > 0 and max_bounces > 0 and diffuse)
+        return bool(self.emitters.info["n_emitters"][0] > 0 and bounce and diffuse)
 
     def caustics_possible(self, gather_roughness: float) -> bool:
         """Whether some surface has a closure eye paths follow (materials.follow_capable): the

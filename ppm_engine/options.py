@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 
 from .errors import PPMError
+from .light_paths import MAX_BOUNCES_LIMIT
 
 
 class SettingsError(PPMError, ValueError):
@@ -27,7 +28,6 @@ LIMITS = {
                        "footprint at each visible point)"),
     "alpha": (0.0, 1.0, 0.7,
               "Fraction of new photons kept per pass; smaller shrinks the radius faster"),
-    "max_bounces": (0, 1024, 12, "Maximum bounces of eye and photon paths"),
     "seed": (0, 2**31 - 1, 0, "Random seed"),
     "noise_threshold": (0.0, 1.0, 0.0,
                         "Stop sampling a pixel once its estimated noise is below this (as Cycles' "
@@ -64,7 +64,10 @@ class RenderOptions:
     photons_per_pass: int | None = None   # None: automatic (photons_for)
     initial_radius: float = LIMITS["initial_radius"][2]
     alpha: float = LIMITS["alpha"][2]
-    max_bounces: int = LIMITS["max_bounces"][2]
+    # None: the scene's Light Paths (SceneArrays.light_paths: its Cycles settings); a number:
+    # every bounce limit (total and per kind, not the transparent one) for this render, for
+    # tests, analytic scenes and the benchmark (light_paths.with_max_bounces)
+    max_bounces: int | None = None
     seed: int = LIMITS["seed"][2]
     noise_threshold: float = LIMITS["noise_threshold"][2]
     device: str = ""               # OpenCL device name (substring); "" = default choice
@@ -91,6 +94,11 @@ class RenderOptions:
                 raise SettingsError(f"{name} must be a number, got {v!r}")
             if v != v or not (lo <= v <= hi):
                 raise SettingsError(f"{name} = {v!r} is outside [{lo}, {hi}]")
+        b = self.max_bounces
+        if b is not None and (isinstance(b, bool) or not isinstance(b, int)
+                              or not 0 <= b <= MAX_BOUNCES_LIMIT):
+            raise SettingsError(f"max_bounces = {b!r} must be None (the scene's Light Paths) "
+                                f"or a whole number from 0 to {MAX_BOUNCES_LIMIT}")
         if self.indirect not in INDIRECT_MODES:
             raise SettingsError(f"indirect = {self.indirect!r} must be one of "
                                 f"{', '.join(INDIRECT_MODES)}")

@@ -40,6 +40,12 @@ class PhotonMap:
         self.capacity = int(capacity)
         self.ph_pos = dev.buffer(16 * self.capacity, "photon map")
         self.ph_flux = dev.buffer(16 * self.capacity, "photon map")
+        # the photon's bounces as the Light Paths limits count them (kernels/light_path.h) and
+        # the radiance its light path carries over its flux (the clamp; kernels/gather.cl);
+        # zero: no bounce, no clamp, what photons written by hand (tests, benchmarks) stand for
+        self.ph_path = dev.buffer(8 * self.capacity, "photon map")
+        import pyopencl as cl
+        cl.enqueue_fill_buffer(dev.queue, self.ph_path, np.uint32(0), 0, 8 * self.capacity)
         self.table_size = next_pow2(self.capacity)
         self.table = dev.buffer(16 * self.table_size, "hash table")   # layout: kernels/hash.h
         if self.exact:

@@ -79,7 +79,6 @@ class PPMSettings(bpy.types.PropertyGroup):
                            soft_max=10.0, precision=4)
     # validate() wants 0 < alpha < 1; the soft limits keep the slider inside that
     alpha: _float("alpha", label="Alpha", subtype="FACTOR", soft_min=0.01, soft_max=0.99)
-    max_bounces: _int("max_bounces", label="Max Bounces", soft_max=64)
     seed: _int("seed", label="Seed")
     noise_threshold: _float("noise_threshold", label="Noise Threshold", soft_max=0.1,
                             precision=4, step=0.1)
@@ -115,7 +114,6 @@ def to_options(settings) -> RenderOptions:
         photons_per_pass=None if settings.auto_photons else int(settings.photons_per_pass),
         initial_radius=float(settings.initial_radius),
         alpha=float(settings.alpha),
-        max_bounces=int(settings.max_bounces),
         seed=int(settings.seed),
         noise_threshold=float(settings.noise_threshold),
         indirect=str(settings.indirect).lower(),

@@ -17,6 +17,7 @@ from .counters import N_COUNTERS, PER_PASS, Counter
 from .device import get_device
 from .device_scene import DeviceScene
 from .film import Film
+from .light_paths import with_max_bounces
 from .options import AUTO_PHOTONS_CAUSTIC_FRACTION, RenderOptions
 from .passes import EyePass, Gather, HashBuild, PhotonPass, ProgressiveUpdate, VisiblePoints
 from .photon_map import GRID_DTYPE, PhotonMap
@@ -74,7 +75,8 @@ class Renderer:
         self._photon_pass = self._gather = None
         self.hash_build = HashBuild(dev, self.photon_map, self.counters)
         self.update = ProgressiveUpdate(dev, self.film)
-        useful = self.scene.photons_useful(o.max_bounces)
+        self.scene.set_light_paths(with_max_bounces(self.scene.scene.light_paths, o.max_bounces))
+        useful = self.scene.photons_useful()
         caustics = self.scene.caustics_possible(o.gather_roughness)
         self.path_indirect, self.caustic_fraction = self._choose_indirect(o, useful, caustics)
         useful = useful and (caustics or not self.path_indirect)
@@ -119,7 +121,7 @@ class Renderer:
             return True, 0.0
         if not photons_useful:
             return True, None
-        key = (o.gather_roughness, o.max_bounces, o.seed)
+        key = (o.gather_roughness, self.scene.light_paths.tobytes(), o.seed)
         if self._pilot is None or self._pilot[0] != key:    # a re-render of the same scene
             self._pilot = (key, self.caustic_fraction_pilot(o))   # keeps its pilot
         f = self._pilot[1]

@@ -26,6 +26,7 @@ from .camera_model import (  # noqa: F401 (re-exported)
     FILTER_BOX,
     FILTER_GAUSSIAN,
 )
+from .light_paths import LIGHT_PATHS_DTYPE, check_light_paths, engine_defaults
 
 # --- triangle visibility bits (Blender's Object.visible_* ray flags) -------------------------
 VIS_CAMERA = 1
@@ -258,6 +259,9 @@ class SceneArrays:
     # ``world``), WORLD_HIDDEN_CAMERA, and the largest Environment Texture's width and height
     # (0: none; the importance map's automatic resolution, world_map.map_size)
     world_shader: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4, np.int32))
+    # (1,) LIGHT_PATHS_DTYPE: the scene's Light Paths settings (bounces, clamping, caustics;
+    # light_paths.py), from its Cycles settings; the engine's defaults for a scene without
+    light_paths: np.ndarray = dataclasses.field(default_factory=engine_defaults)
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -295,12 +299,16 @@ class SceneArrays:
                 raise ValueError(f"SceneArrays.{name}: expected {dtype.__name__}{shape}, "
                                  f"got {a.dtype}{a.shape}")
         for name, dt in (("materials", MATERIAL_DTYPE), ("shader_nodes", SHADER_NODE_DTYPE),
-                         ("lights", LIGHT_DTYPE), ("camera", CAMERA_DTYPE)):
+                         ("lights", LIGHT_DTYPE), ("camera", CAMERA_DTYPE),
+                         ("light_paths", LIGHT_PATHS_DTYPE)):
             a = getattr(self, name)
             if a.dtype != dt or a.ndim != 1:
                 raise ValueError(f"SceneArrays.{name}: expected a 1-D array of its dtype")
         if self.camera.shape != (1,):
             raise ValueError("SceneArrays.camera must hold exactly one camera")
+        if self.light_paths.shape != (1,):
+            raise ValueError("SceneArrays.light_paths must hold exactly one record")
+        check_light_paths(self.light_paths)
         if self.materials.shape[0] < 1:
             raise ValueError("SceneArrays.materials must hold at least one material")
         ob, obs = self.object, self.objects
@@ -371,7 +379,8 @@ class SceneArrays:
             kw["materials"] = _with_fields(mats, MATERIAL_DTYPE)
         # files written before a field existed: the missing fields are zero (their default)
         for name, dt in (("materials", MATERIAL_DTYPE), ("lights", LIGHT_DTYPE),
-                         ("camera", CAMERA_DTYPE), ("shader_nodes", SHADER_NODE_DTYPE)):
+                         ("camera", CAMERA_DTYPE), ("shader_nodes", SHADER_NODE_DTYPE),
+                         ("light_paths", LIGHT_PATHS_DTYPE)):
             a = kw.get(name)
             if a is not None and a.dtype.names and a.dtype != dt \
                     and set(a.dtype.names) < set(dt.names):

@@ -91,14 +91,16 @@ def _scene_changed(depsgraph) -> bool:
 
 def _render_key(depsgraph) -> tuple:
     """What the depsgraph does not report and the export depends on: frame, resolution,
-    border, Cycles' film settings (pixel filter, transparency, exposure), layer, camera.  (Our
-    settings are not in it: changing them re-renders without re-export.)"""
+    border, Cycles' film settings (pixel filter, transparency, exposure) and Light Paths, layer,
+    camera.  (Our settings are not in it: changing them re-renders without re-export.)"""
     from .export.camera import film_settings
+    from .light_paths import from_cycles
     scene, r = depsgraph.scene, depsgraph.scene.render
     return (scene.frame_current, r.resolution_x, r.resolution_y,
             r.resolution_percentage, r.pixel_aspect_x, r.pixel_aspect_y, r.use_border,
             r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y,
             tuple(film_settings(scene).values()),
+            from_cycles(getattr(scene, "cycles", None)).tobytes(),
             depsgraph.view_layer.name, scene.camera.name if scene.camera else None)
 
 

@@ -125,7 +125,7 @@ def _struct(ctype: str, dtype: np.dtype, origin: str, comments: dict[str, str]) 
 # --- the header ----------------------------------------------------------------------------
 def generate() -> str:
     """The text of kernels/shared.h from the Python tables."""
-    from . import camera_model, counters, emitters, features, materials, photon_map
+    from . import camera_model, counters, emitters, features, light_paths, materials, photon_map
     from . import scene_arrays as sa
     from . import shader_program as sp
     from . import shading_tables as st
@@ -171,6 +171,8 @@ def generate() -> str:
                     [("WORLD_HIDDEN_CAMERA", sa.WORLD_HIDDEN_CAMERA)]),
             _family("camera types and film flags (ppm_engine/camera_model.py)",
                     _constants(camera_model, "CAMERA_") + _constants(camera_model, "FILM_")),
+            _family("the Light Paths' caustics toggles (ppm_engine/light_paths.py LP_*)",
+                    _constants(light_paths, "LP_"), "u"),
             _family("material flags (ppm_engine/materials.py MAT_*)",
                     _constants(materials, "MAT_"), "u"),
             _family("BSDF node types (scene_arrays.py NODE_*)",
@@ -218,6 +220,7 @@ def generate() -> str:
 
     structs = [("Light", sa.LIGHT_DTYPE, sa, "LIGHT_DTYPE"),
                ("Camera", camera_model.CAMERA_DTYPE, camera_model, "CAMERA_DTYPE"),
+               ("LightPaths", light_paths.LIGHT_PATHS_DTYPE, light_paths, "LIGHT_PATHS_DTYPE"),
                ("Material", materials.KMATERIAL_DTYPE, materials, "KMATERIAL_DTYPE"),
                ("ShaderNode", sa.SHADER_NODE_DTYPE, sa, "SHADER_NODE_DTYPE"),
                ("EmitterInfo", emitters.EMITTER_INFO_DTYPE, emitters, "EMITTER_INFO_DTYPE"),

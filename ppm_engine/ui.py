@@ -16,6 +16,12 @@ EXTRA_BUILTIN_PANELS = (
     "CYCLES_RENDER_PT_film",
     "CYCLES_RENDER_PT_film_pixel_filter",
     "CYCLES_RENDER_PT_film_transparency",
+    # Cycles' Light Paths: bounces, clamping, caustics (ppm_engine/light_paths.py); not its
+    # Fast GI, which the engine does not approximate
+    "CYCLES_RENDER_PT_light_paths",
+    "CYCLES_RENDER_PT_light_paths_max_bounces",
+    "CYCLES_RENDER_PT_light_paths_clamping",
+    "CYCLES_RENDER_PT_light_paths_caustics",
 )
 
 
@@ -56,7 +62,7 @@ class PPM_PT_photons(PPMPanel, bpy.types.Panel):
         row = col.row()
         row.active = not settings.auto_photons
         row.prop(settings, "photons_per_pass")
-        _draw_props(self.layout, settings, ("indirect", "initial_radius", "alpha", "max_bounces"))
+        _draw_props(self.layout, settings, ("indirect", "initial_radius", "alpha"))
 
 
 class PPM_PT_device(PPMPanel, bpy.types.Panel):

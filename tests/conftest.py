@@ -177,7 +177,6 @@ def render_direct(cycles, tiny, render_exr):
         scene.cycles.max_bounces = 0
         ref = render_exr(folder / "cycles.exr")
         tiny(scene, width=width, height=height, passes=passes, photons=photons)
-        scene.ppm.max_bounces = 0
         return render_exr(folder / "ours.exr"), ref
     return run
 

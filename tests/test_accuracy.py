@@ -55,7 +55,7 @@ def test_glass_slab_matches_snell_and_fresnel():
     is an independent float64 computation (Snell, Fresnel, ray-tube Jacobian)."""
     W = 24
     ref = A.glass_slab_radiance(W)
-    imgs = progressive(A.glass_slab(W), (25, 100, 400), max_bounces=2)
+    imgs = progressive(A.glass_slab(W), (25, 100, 400), max_bounces=4)
     img = imgs[400]
     assert img.mean() == pytest.approx(ref.mean(), rel=0.01)
     # the falloff: centre vs rim of the view within 3 %
@@ -90,7 +90,7 @@ def test_absorbing_glass_slab_matches_beer_lambert():
     sigma = (0.5, 1.5, 3.5)
     ref = A.glass_slab_radiance(W, absorption=sigma)
     r = Renderer(A.glass_slab(W, absorption=sigma),
-                 RenderOptions(photons_per_pass=1 << 15, max_bounces=2, seed=1))
+                 RenderOptions(photons_per_pass=1 << 15, max_bounces=4, seed=1))
     assert "PPM_ABSORPTION" in r.features
     clear = Renderer(A.glass_slab(W), RenderOptions(photons_per_pass=1024))
     assert "PPM_MICROFACET" in clear.features and "PPM_ABSORPTION" not in clear.features

@@ -296,7 +296,6 @@ def test_bump_footprint_after_a_mirror_per_column_as_cycles(cycles, render_exr, 
     c.max_bounces = c.glossy_bounces = 1
     ref = render_exr(tmp_path / "cycles.exr")
     tiny(scene, width=32, height=32, passes=16, photons=64)
-    scene.ppm.max_bounces = 1
     ours = render_exr(tmp_path / "ours.exr")
     cols = [x.mean(axis=(0, 2)) for x in (ours, ref)]
     err = np.abs(cols[0] - cols[1]) / cols[1]

@@ -35,7 +35,7 @@ def test_bulb_box_is_lit_through_the_glass(open_example, tiny, cycles, render_ex
     scene = open_example("bulb_box")
     tiny(scene, width=W, height=W, passes=40, photons=1 << 13)
     lit = render_exr(tmp_path / "lit.exr")
-    scene.ppm.max_bounces = 0
+    scene.cycles.max_bounces = 0
     direct = render_exr(tmp_path / "direct.exr")
     walls = np.ones((W, W), bool)
     walls[:, W // 2 - 5:W // 2 + 5] = False           # the bulb and ball column

@@ -95,13 +95,14 @@ def test_panels_opt_in_and_out(bpy):
     import ppm_engine
     from ppm_engine import ui
     extra = [getattr(bpy.types, name) for name in ui.EXTRA_BUILTIN_PANELS]
-    assert len(extra) == 7
+    assert len(extra) == 11
     for panel in extra + [bpy.types.RENDER_PT_format, bpy.types.RENDER_PT_color_management]:
         assert "PPM" in panel.COMPAT_ENGINES, panel
-    # Cycles' film panels only: the other Cycles panels (which share one base class) are not
-    # this engine's
+    # Cycles' film and Light Paths panels only (not its Fast GI): the other Cycles panels
+    # (which share one base class) are not this engine's
     assert "PPM" in bpy.types.CYCLES_RENDER_PT_film_pixel_filter.COMPAT_ENGINES
-    for name in ("CYCLES_RENDER_PT_sampling", "CYCLES_RENDER_PT_light_paths",
+    assert "PPM" in bpy.types.CYCLES_RENDER_PT_light_paths_clamping.COMPAT_ENGINES
+    for name in ("CYCLES_RENDER_PT_sampling", "CYCLES_RENDER_PT_light_paths_fast_gi",
                  "CYCLES_MATERIAL_PT_surface"):
         assert "PPM" not in getattr(bpy.types, name).COMPAT_ENGINES, name
     assert "CYCLES" in bpy.types.CYCLES_RENDER_PT_film.COMPAT_ENGINES

@@ -60,7 +60,6 @@ def _both(scene, cycles, tiny, exr, tmp_path, samples, photons=64):
     scene.cycles.max_bounces = 0
     ref = _render(scene, exr, tmp_path / "cycles.exr")
     tiny(scene, width=W, height=W, passes=samples, photons=photons)
-    scene.ppm.max_bounces = 0
     return _render(scene, exr, tmp_path / "ours.exr"), ref
 
 

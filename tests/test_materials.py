@@ -262,7 +262,6 @@ def _both(scene, cycles, render_exr, tmp_path, tiny, *, samples, passes, bounces
     c.transparent_max_bounces = max(bounces, 8)
     ref = render_exr(tmp_path / "cycles.exr")
     tiny(scene, width=W, height=W, passes=passes, photons=photons)
-    scene.ppm.max_bounces = bounces
     ours = render_exr(tmp_path / "ours.exr")
     return ours, ref
 

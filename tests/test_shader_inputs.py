@@ -196,7 +196,7 @@ def test_light_path_as_cycles(cycles, render_exr, tmp_path, tiny):
     scene.render.resolution_y = h
     ref = render_exr(tmp_path / "cycles.exr")
     tiny(scene, width=w, height=h, passes=2, photons=64)
-    scene.ppm.max_bounces = 4
+    scene.cycles.max_bounces = 4
     ours = render_exr(tmp_path / "ours.exr")
     inner = np.zeros((h, w), bool)                  # each plane's pixels, two from its edges
     for r in range(4):

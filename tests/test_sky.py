@@ -198,7 +198,7 @@ def test_sun_disc_as_cycles(model, cycles, render_exr, tmp_path, tiny):
         cycles(scene, 1, width=2)
         ref = render_exr(tmp_path / "cycles.exr")
         tiny(scene, width=2, height=2, passes=1, photons=64)
-        scene.ppm.max_bounces = 0
+        scene.cycles.max_bounces = 0
         ours = render_exr(tmp_path / "ours.exr")
         values.append((ours[0, 0], ref[0, 0]))
     ours, ref = np.array(values).transpose(1, 0, 2)

@@ -47,7 +47,6 @@ def _ratio(bpy, tiny, cycles, render_exr, tmp_path, n, passes):
     c.max_bounces = c.transmission_bounces = c.glossy_bounces = c.diffuse_bounces = 256
     ref = render_exr(tmp_path / f"cycles{n}.exr").mean()
     tiny(scene, width=W, height=W, passes=passes, photons=1 << 15)
-    scene.ppm.max_bounces = 256
     ours = render_exr(tmp_path / f"ppm{n}.exr").mean()
     return ours / ref
 

@@ -23,7 +23,7 @@ BRIGHT = 1.0          # radiance above which a pixel counts as an emitter or its
 
 def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int = 12,
               resolution: int = 128, device: str = "", progress=print) -> dict:
-    from ..blender_io import cycles_reference, ensure_registered
+    from ..blender_io import cycles_reference, ensure_registered, unbiased_light_paths
     from .curves import Bench, ppm_settings, render
     ensure_registered()
     if seeds < 2:
@@ -43,7 +43,7 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
                     ppm_settings(scene, 0, seed, device, None)
                     scene.ppm.passes = passes
                     scene.ppm.time_limit = 0
-                    scene.ppm.max_bounces = bounces
+                    unbiased_light_paths(scene, bounces)
                 img, w, _info = render(scene, Path(tmp) / f"{engine}_{seed}.exr")
                 imgs.append(img)
                 wall.append(w)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SceneError
+from ..light_paths import from_cycles
 from ..scene_arrays import (
     LIGHT_DTYPE,
     LIGHT_HIDDEN_SHIFT,
@@ -135,6 +136,7 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                    uvs=np.zeros((0, 3, 2), np.float32), material=np.zeros(0, np.int32),
                    visibility=np.zeros(0, np.uint32))
     tex_table, texels = textures.arrays()
+    light_paths = from_cycles(getattr(scene, "cycles", None))    # Light Paths (SceneError)
     try:
         return SceneArrays(**cat, materials=materials.array(),
                            shader_nodes=materials.node_array(), lights=light_arr, camera=camera,
@@ -142,7 +144,7 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                            warnings=tuple(warn), textures=tex_table, texels=texels,
                            objects=(np.stack(objects) if objects
                                     else np.zeros((0, 9, 4), np.float32)),
-                           svm=svm, world_shader=world_shader)
+                           svm=svm, world_shader=world_shader, light_paths=light_paths)
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
 

@@ -42,8 +42,7 @@ class EyePass:
         f, v = self.film, self.vps
         ev = self.kernel(
             q, v.n, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
-            seed=np.uint32(options.seed), max_bounces=np.int32(options.max_bounces),
-            initial_radius=np.float32(options.initial_radius),
+            seed=np.uint32(options.seed), initial_radius=np.float32(options.initial_radius),
             auto_radius_pixels=np.float32(self.AUTO_RADIUS_PIXELS),
             filter_table=self.scene.filter_table, direct=f.direct_pass, radius=f.radius,
             radius0=f.radius0, vp_pos=v.pos, vp_nrm=v.nrm, vp_beta=v.beta, vp_shade=v.shade,

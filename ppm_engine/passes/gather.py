@@ -64,7 +64,8 @@ class Gather:
         common = dict(vp_pos=vp_pos, vp_nrm=vp_nrm, vp_shade=vp_shade,
                       vp_beta=vp_nrm if vp_beta is None else vp_beta, radius=radius,
                       grid=pm.grid, table_mask=pm.table_mask, ph_pos=pm.ph_pos,
-                      ph_flux=pm.ph_flux, gathered=gathered, n=np.uint32(n),
+                      ph_flux=pm.ph_flux, ph_path=pm.ph_path, gathered=gathered,
+                      n=np.uint32(n),
                       **self.scene_args)
         if pm.exact:
             ev = self.k_exact(q, n, SHADING_GROUP, **common, ranges=pm.ranges,

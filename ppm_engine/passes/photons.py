@@ -20,9 +20,9 @@ class PhotonPass:
         pm = self.photon_map
         ev = self.kernel(
             q, n_photons, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
-            seed=np.uint32(options.seed), max_bounces=np.int32(options.max_bounces),
-            n_photons=np.uint32(n_photons), grid=pm.grid,
+            seed=np.uint32(options.seed), n_photons=np.uint32(n_photons), grid=pm.grid,
             capacity=np.uint32(0 if pilot else pm.capacity),
-            ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, counters=self.counters,
+            ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, ph_path=pm.ph_path,
+            counters=self.counters,
             caustics_only=np.uint32(caustics_only or pilot))
         return [(self.kernel.label, ev)]
