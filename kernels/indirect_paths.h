@@ -152,6 +152,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         shader_setup(scene, sd, &s, h.u, h.v, path, h.t, -d,
                      footprint_at(scene, s.tri, h.leaf, h.u, h.v,
                                   SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p) : 0.0f));
+        if (path & PATH_DIFFUSE) shader_caustics_off(sd, lp); /* the caustics toggles */
         if (counts && max3(sd->emission) > 0.0f)
             L += clamp_sample(beta * sd->emission
                                   * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n),

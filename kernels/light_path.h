@@ -82,10 +82,21 @@ inline int path_limit_transparent(int n, __global const LightPaths *lp) {
  * the visible point; p: the photon's state (the bounces after the light's first scattering,
  * which Cycles would reach by next-event estimation and so not count).  The transparent
  * crossings of both parts count together. */
-#define JOIN_DIFFUSE 1u    /* a diffuse reflection at the visible point */
-#define JOIN_GLOSSY 2u     /* a glossy reflection */
-#define JOIN_TRANSMIT 4u   /* a transmission, diffuse or glossy */
-#define JOIN_ALL 7u
+#define JOIN_DIFFUSE 1u          /* a diffuse reflection at the visible point */
+#define JOIN_GLOSSY 2u           /* a glossy reflection */
+#define JOIN_DIFFUSE_TRANSMIT 4u /* a diffuse transmission */
+#define JOIN_GLOSSY_TRANSMIT 8u  /* a glossy transmission */
+#define JOIN_ALL 15u
+
+/* Reflective / Refractive Caustics off (Cycles' caustics toggles): a glossy reflection / a
+ * glossy transmission right after a diffuse bounce, from the camera, is not made.  Whether a
+ * bounce of type bits f (glossy or singular) is such a one, were the next bounce towards the
+ * camera diffuse. */
+inline bool path_caustic_off(uint f, __global const LightPaths *lp) {
+    if (!(f & PATH_GLOSSY)) return false;
+    return (f & PATH_TRANSMIT) ? !(lp->flags & LP_CAUSTICS_REFRACTIVE)
+                               : !(lp->flags & LP_CAUSTICS_REFLECTIVE);
+}
 inline uint path_join(uint e, uint p, __global const LightPaths *lp) {
     int total = (int)(path_count(e, PATH_DEPTH) + path_count(p, PATH_DEPTH)) + 1;
     int tr = (int)(path_count(e, PATH_TRANSPARENT_DEPTH) + path_count(p, PATH_TRANSPARENT_DEPTH));
@@ -95,9 +106,12 @@ inline uint path_join(uint e, uint p, __global const LightPaths *lp) {
     if (total > lp->max_bounces || tr > lp->transparent_max_bounces || d > lp->diffuse_bounces
         || g > lp->glossy_bounces || t > lp->transmission_bounces)
         return 0u;
-    return (d < lp->diffuse_bounces ? JOIN_DIFFUSE : 0u)
-           | (g < lp->glossy_bounces ? JOIN_GLOSSY : 0u)
-           | (t < lp->transmission_bounces ? JOIN_TRANSMIT : 0u);
+    uint k = (d < lp->diffuse_bounces ? JOIN_DIFFUSE : 0u)
+             | (g < lp->glossy_bounces ? JOIN_GLOSSY : 0u)
+             | (t < lp->transmission_bounces ? JOIN_DIFFUSE_TRANSMIT | JOIN_GLOSSY_TRANSMIT : 0u);
+    /* the photon's last bounce, a caustic one that is off: not after a diffuse bounce here */
+    if (path_caustic_off(p & 127u, lp)) k &= ~(JOIN_DIFFUSE | JOIN_DIFFUSE_TRANSMIT);
+    return k;
 }
 
 /* Cycles' Clamp Direct and Clamp Indirect: a sample's contribution (its path weight times what

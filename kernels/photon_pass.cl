@@ -155,6 +155,9 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
                 float p_l = nee.x * reach * reach + nee.y;
                 rs *= p_b / fmax(p_l, p_b);
             }
+            /* a caustic bounce that is off (Reflective / Refractive Caustics) before this diffuse
+             * one: light no camera path carries (light_path.h path_caustic_off) */
+            if (!direct && (b.label & LABEL_DIFFUSE) && path_caustic_off(ppath & 127u, lp)) break;
             ppath = direct ? (ppath & ~127u) | path_kind(b.label) : path_bounce(ppath, b.label);
             /* past a limit of its kind: no visible point's path can take it */
             if (path_limit(ppath, bounce, lp) != TERM_NONE) break;

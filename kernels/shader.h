@@ -164,6 +164,24 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color, float3 em
     }
 }
 
+/* The sample weights of the gathered and the followed closures, and what they hold */
+inline void shader_sums(ShaderData *sd) {
+    sd->sw_gather = sd->sw_continue = 0.0f;
+    sd->gather_transmits = sd->continue_glossy = false;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        bool micro = c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS;
+        if (c->gather) {
+            sd->sw_gather += c->sample_weight;
+            sd->gather_transmits |= c->type == CLOSURE_TRANSLUCENT || c->type == CLOSURE_GGX_GLASS
+                                    || c->type == CLOSURE_GGX_REFRACT;
+        } else {
+            sd->sw_continue += c->sample_weight;
+            sd->continue_glossy |= micro && !microfacet_singular(c);
+        }
+    }
+}
+
 /* Closures at a hit at barycentrics (u, v) of the surface s (its material, triangle, position
  * and stored normals: bvh.h surface_at), reached by the ray `path` (light_path.h) after a last
  * segment of length path_length, wi towards the viewer, the ray's footprint fp there (the Bump
@@ -215,8 +233,6 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
             bsdf_node_setup(sd, nd, color, emission, tangent, scene->shading_tables);
         }
     }
-    sd->sw_gather = sd->sw_continue = 0.0f;
-    sd->gather_transmits = sd->continue_glossy = false;
     for (int k = 0; k < sd->n; k++) {
         Closure *c = &sd->c[k];
         bool micro = c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS;
@@ -225,15 +241,8 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
                         : !micro
                               || (!microfacet_singular(c)
                                   && microfacet_rough(c) >= PPM_GATHER_ROUGHNESS);
-        if (c->gather) {
-            sd->sw_gather += c->sample_weight;
-            sd->gather_transmits |= c->type == CLOSURE_TRANSLUCENT || c->type == CLOSURE_GGX_GLASS
-                                    || c->type == CLOSURE_GGX_REFRACT;
-        } else {
-            sd->sw_continue += c->sample_weight;
-            sd->continue_glossy |= micro && !microfacet_singular(c);
-        }
     }
+    shader_sums(sd);
 }
 
 /* which closures a mixture function looks at */
@@ -281,8 +290,31 @@ inline float3 closure_eval_bumped(const ShaderData *sd, const Closure *c, float3
 
 /* the kind of bounce (light_path.h JOIN_*) closure c makes towards wo */
 inline uint closure_join_kind(const ShaderData *sd, const Closure *c, float3 wo) {
-    if (dot(wo, sd->Ng) < 0.0f) return JOIN_TRANSMIT;
-    return c->type >= CLOSURE_DIFFUSE && c->type <= CLOSURE_SHEEN ? JOIN_DIFFUSE : JOIN_GLOSSY;
+    bool diffuse = c->type >= CLOSURE_DIFFUSE && c->type <= CLOSURE_SHEEN;
+    if (dot(wo, sd->Ng) < 0.0f) return diffuse ? JOIN_DIFFUSE_TRANSMIT : JOIN_GLOSSY_TRANSMIT;
+    return diffuse ? JOIN_DIFFUSE : JOIN_GLOSSY;
+}
+
+/* Reflective / Refractive Caustics off (light_path.h path_caustic_off) at a surface a ray from
+ * a diffuse bounce reached: its glossy reflections (its refractions) are not made, as Cycles
+ * makes them: a Principled glass loses that part (its tint is zero), a Glass BSDF only when
+ * both are off.  For eye paths (the caller knows the ray came from a diffuse bounce). */
+inline void shader_caustics_off(ShaderData *sd, __global const LightPaths *lp) {
+    bool refl = (lp->flags & LP_CAUSTICS_REFLECTIVE) != 0;
+    bool refr = (lp->flags & LP_CAUSTICS_REFRACTIVE) != 0;
+    if (refl && refr) return;
+    for (int k = 0; k < sd->n; k++) {
+        Closure *c = &sd->c[k];
+        if ((c->type == CLOSURE_GGX_REFLECT && !refl) || (c->type == CLOSURE_GGX_REFRACT && !refr)
+            || (c->type == CLOSURE_GGX_GLASS && !refl && !refr)) {
+            c->weight = (float3)(0.0f);
+            c->sample_weight = 0.0f;
+        } else if (c->type == CLOSURE_GGX_GLASS && c->fresnel == FRESNEL_SCHLICK_IOR) {
+            if (!refl) c->refl_tint = (float3)(0.0f);
+            if (!refr) c->trans_tint = (float3)(0.0f);
+        }
+    }
+    shader_sums(sd);
 }
 
 /* shader_eval of the closures in mask whose bounce towards wo is of the kinds given (JOIN_*:
