@@ -110,7 +110,7 @@
 #define TABLE_SCALAR 0
 #define TABLE_RGB 1
 #define TABLE_VECTOR 2
-#define TABLE_SIZE 256
+#define TABLE_SIZE 257
 
 /* Math node operations (shader_program.py MATH_OPS) */
 #define MATH_ADD 0

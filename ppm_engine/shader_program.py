@@ -131,7 +131,7 @@ COLOR_RGB_TO_HSV, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL, COLOR_HSL_TO_RGB = 0, 1, 2
 
 MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT, MIXF_SCALAR, MIXF_VECTOR_FACTOR = 1, 2, 4, 8
 TABLE_SCALAR, TABLE_RGB, TABLE_VECTOR = 0, 1, 2   # ramp/float curve, RGB curves, vector curves
-TABLE_SIZE = 256                                  # entries of a baked ramp or curve (Cycles')
+TABLE_SIZE = 257     # entries of a baked ramp or curve: Cycles' RAMP_TABLE_SIZE + 1, at i / 256
 
 # Math node operations (Blender's enum names; kernels/svm_nodes.h MATH_*)
 MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM",

@@ -285,6 +285,17 @@ def test_ramps_curves_and_mapping_as_cycles(render_direct, tmp_path):
             return n.outputs[out]
         return build
 
+    def ramp_at_stop(i):
+        """A constant ramp read just below and above its stop at 1/4: Cycles bakes 257 entries
+        at i / 256 (a table of 256 at i / 255 gave the first colour up to 64 / 255)."""
+        n = i.node("ShaderNodeValToRGB", [(0, _map_range(i, 0.2451, 0.2551))])
+        r = n.color_ramp
+        r.interpolation = "CONSTANT"
+        r.elements[0].color = (0.1, 0.5, 0.9, 1.0)
+        r.elements[1].position = 0.25
+        r.elements[1].color = (1.0, 0.2, 0.0, 1.0)
+        return n.outputs["Color"]
+
     def curve(kind):
         def build(i):
             n = i.node(kind, [(1, i.A if kind != "ShaderNodeFloatCurve" else i.x)])
@@ -304,6 +315,7 @@ def test_ramps_curves_and_mapping_as_cycles(render_direct, tmp_path):
             return n.outputs[0]
         return build
     cases = {"ramp linear": ramp("LINEAR"), "ramp constant": ramp("CONSTANT"),
+             "ramp constant at its stop": ramp_at_stop,
              "ramp alpha": ramp("LINEAR", "Alpha"), "float curve": curve("ShaderNodeFloatCurve"),
              "rgb curves": curve("ShaderNodeRGBCurve"),
              "vector curves": curve("ShaderNodeVectorCurve"),
