@@ -99,6 +99,62 @@ def test_uvs_follow_the_corners(empty):
     np.testing.assert_allclose(s.uvs, (s.positions[:, :, :2] + 1) / 2, atol=1e-6)
 
 
+def _two_uv_maps(plane):
+    """A second UV map on the plane, u and v swapped and mirrored, selected for editing while
+    the first stays the one rendered (the camera icon)."""
+    me = plane.data
+    me.uv_layers.new(name="Second")
+    first, second = me.uv_layers["UVMap"], me.uv_layers["Second"]
+    uv = np.empty(2 * len(first.data), np.float32)
+    first.data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    second.data.foreach_set("uv", np.stack([1.0 - uv[:, 1], uv[:, 0]], -1).ravel())
+    me.uv_layers.active = me.uv_layers["Second"]
+    me.uv_layers["UVMap"].active_render = True
+    return uv
+
+
+def test_uvs_and_tangents_of_the_rendered_uv_map(empty):
+    """Cycles reads the UV map marked for rendering (active_render, its ATTR_STD_UV) where a
+    node names none, not the one selected for editing: the UVs and the Normal Map's tangents
+    both come from it."""
+    plane = add_plane()
+    first = _two_uv_maps(plane)
+    m = bpy.data.materials.new("nm")
+    t = m.node_tree
+    nm = t.nodes.new("ShaderNodeNormalMap")
+    t.links.new(nm.outputs[0], t.nodes["Principled BSDF"].inputs["Normal"])
+    plane.data.materials.append(m)
+    s = export()
+    loops = np.array([lt.loops[:] for lt in plane.data.loop_triangles]).ravel()
+    np.testing.assert_allclose(s.uvs.reshape(-1, 2), first[loops], atol=1e-6)
+    # the first map's u runs along +x: so does its tangent (the second's along -y)
+    assert (s.uv_tangents[..., 0] > 0.99).all(), s.uv_tangents[0]
+
+
+def test_the_rendered_uv_map_as_cycles(empty, cycles, render_exr, tiny, tmp_path):
+    """The same choice against Cycles: a plane emitting its UV coordinates (u, v, 0), seen
+    from above, per pixel."""
+    plane = add_plane()
+    _two_uv_maps(plane)
+    m = bpy.data.materials.new("uv")
+    t = m.node_tree
+    t.nodes.remove(t.nodes["Principled BSDF"])
+    tc, em = t.nodes.new("ShaderNodeTexCoord"), t.nodes.new("ShaderNodeEmission")
+    t.links.new(tc.outputs["UV"], em.inputs["Color"])
+    t.links.new(em.outputs[0], t.nodes["Material Output"].inputs["Surface"])
+    plane.data.materials.append(m)
+    cam = empty.camera
+    cam.data.type, cam.data.ortho_scale = "ORTHO", 2.0
+    cam.location, cam.rotation_euler = (0.0, 0.0, 3.0), (0.0, 0.0, 0.0)
+    cycles(empty, 64, width=8)
+    empty.cycles.pixel_filter_type, empty.cycles.filter_width = "BOX", 1.0
+    ref = render_exr(tmp_path / "cycles.exr")
+    tiny(empty, width=8, height=8, passes=64)
+    ours = render_exr(tmp_path / "ours.exr")
+    assert np.abs(ours - ref).max() < 0.03, np.abs(ours - ref).max()   # the other map: 0.7
+
+
 def test_mirrored_instance_keeps_normals_and_winding(empty):
     o = add_plane(size=2.0)
     o.scale = (-1, 1, 1)

@@ -70,7 +70,7 @@ def read_mesh(mesh) -> LocalMesh:
         normals = cn.reshape(-1, 3)[tri_loops].reshape(n_tri, 3, 3)
 
     uvs = None
-    uv_layer = mesh.uv_layers.active
+    uv_layer = render_uv_layer(mesh)
     if uv_layer is not None:
         uv = _attr(mesh, uv_layer.name, n_loops, 2, np.float32, "vector")
         if uv is not None:
@@ -85,13 +85,21 @@ def read_mesh(mesh) -> LocalMesh:
                      slot.astype(np.int32, copy=False), texspace, tri_loops)
 
 
+def render_uv_layer(mesh):
+    """The UV map Cycles reads where a node names none (UVs, the Normal Map's tangents): the
+    one marked for rendering (the camera icon in the UV Maps list: active_render, Cycles'
+    ATTR_STD_UV), not the one selected for editing; None without UV maps."""
+    layers = mesh.uv_layers
+    return next((uv for uv in layers if uv.active_render), layers.active)
+
+
 def read_uv_tangents(mesh, local: LocalMesh, warn) -> np.ndarray:
-    """(T, 3, 4) object-space tangents of the active UV map at the corners and their bitangent
+    """(T, 3, 4) object-space tangents of the rendered UV map at the corners and their bitangent
     signs: Blender's MikkTSpace (``calc_tangents``), the tangent attribute Cycles' Normal Map
     reads; zeros (the normal map then leaves the normal alone, as Cycles without tangents)
     where they cannot be computed."""
     out = np.zeros((local.n_triangles, 3, 4), np.float32)
-    uv = mesh.uv_layers.active
+    uv = render_uv_layer(mesh)
     if uv is None or local.tri_loops is None:
         warn(f"Mesh '{mesh.name}' has no UV map: its tangent-space normal maps are not applied")
         return out

@@ -120,8 +120,8 @@ def _tex_coord(c, node, out, ctx):
 
 
 def _named_uv_map(c, node, name: str) -> None:
-    """Warns when a node names a UV map other than the one exported (the mesh's active map)
-    on a mesh that uses the material and has both."""
+    """Warns when a node names a UV map other than the one exported (the mesh's rendered map,
+    export/mesh.py render_uv_layer) on a mesh that uses the material and has both."""
     if not name or c.datablock is None:
         return
     key = ("uv name", name)
@@ -129,12 +129,14 @@ def _named_uv_map(c, node, name: str) -> None:
         return
     c.memo[key] = True
     import bpy
+
+    from .mesh import render_uv_layer
     for me in bpy.data.meshes:
-        active = me.uv_layers.active
+        active = render_uv_layer(me)
         if (active is not None and active.name != name and name in me.uv_layers
                 and c.datablock.name in me.materials):
             c.warn(f"'{node.name}' names the UV map '{name}' of mesh '{me.name}'; this engine "
-                   f"reads its active UV map '{active.name}'")
+                   f"reads the UV map it renders, '{active.name}'")
             return
 
 
