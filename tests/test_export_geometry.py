@@ -77,6 +77,20 @@ def test_nan_vertices_are_dropped_with_a_warning(empty):
     assert any("Broken" in w and "NaN" in w for w in s.warnings)
 
 
+def test_adaptive_subdivision_renders_the_modifier_levels_with_a_warning(empty):
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1)
+    o = bpy.context.active_object
+    o.name = "Diced"
+    mod = o.modifiers.new("Subdivision", "SUBSURF")
+    mod.levels = mod.render_levels = 1
+    assert export().n_triangles == 20 * 3 * 2          # 3 quads per triangle, 2 triangles each
+    assert not any("adaptive" in w for w in export().warnings)
+    mod.use_adaptive_subdivision = True
+    s = export()
+    assert s.n_triangles == 120
+    assert any("Diced" in w and "adaptive subdivision" in w for w in s.warnings)
+
+
 def test_visibility_flags(empty):
     a = add_plane("Seen")
     b = add_plane("NoShadow", loc=(5, 0, 0))

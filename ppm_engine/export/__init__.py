@@ -87,6 +87,10 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
             if not inst.show_self:          # e.g. particle instancer hidden for render
                 continue
             m = np.array(inst.matrix_world, dtype=np.float64)    # copy inside the loop
+            if any(getattr(md, "use_adaptive_subdivision", False) for md in obj.modifiers
+                   if md.type == 'SUBSURF'):
+                warn(f"Object '{obj.name}': adaptive subdivision renders at the modifier's "
+                     "render levels here (Cycles dices it per pixel)")
             mesh = meshes.get(obj)
             if mesh is None or mesh.n_triangles == 0:
                 continue
