@@ -54,6 +54,8 @@ typedef struct {
     float ior; /* microfacet: relative index (1 / ior from the back);
                             Oren-Nayar: A; sheen: the LTC's a */
     float energy_scale; /* microfacet: 1 / E (multiple scattering); Oren-Nayar: B; sheen: b */
+    float3 fss; /* microfacet with multiple scattering: the Fresnel's average (its
+                            darkening); x < 0: none (microfacet_adjoint) */
     int type;
     int fresnel;
     int gather; /* 1: the visible point's gather evaluates it; 0: paths continue */

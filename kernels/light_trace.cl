@@ -151,7 +151,7 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
                                   SVM_FOOTPRINT ? camera_footprint_at(cam, s.p) : 0.0f));
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
-        if (!shader_sample(&sd, MASK_ALL, rand, &b)) break;
+        if (!shader_sample_light(&sd, MASK_ALL, rand, &b, scene->shading_tables)) break;
         flux *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
         float measure = 1.0f;

@@ -208,29 +208,60 @@ inline float3 microfacet_albedo(const Closure *c, float3 wi, bool reflection, bo
     return R + T;
 }
 
+/* Multiple scattering (Kulla & Conty, as Cycles): the single-scattering albedo E of c seen at
+ * cosine mu, from the side of its normal (back: from the other side, where the relative index
+ * is 1 / ior), and *Eavg, its average over the hemisphere. */
+inline float microfacet_E(const Closure *c, float mu, bool back, float *Eavg, TABLES_ARG) {
+    float rough = microfacet_rough(c), E;
+    if (c->type == CLOSURE_GGX_REFLECT) {
+        E = table_2d(shading_tables, TAB_GGX_E, rough, mu, 32, 32);
+        *Eavg = table_1d(shading_tables, TAB_GGX_EAVG, rough, 32);
+    } else {
+        bool inv = (c->ior < 1.0f) != back;
+        float ior = c->ior < 1.0f ? 1.0f / c->ior : c->ior,
+              z = sqrt(fabs((ior - 1.0f) / (ior + 1.0f)));
+        E = table_3d(shading_tables, inv ? TAB_GLASS_INV_E : TAB_GLASS_E, rough, mu, z, 16, 16, 16);
+        *Eavg = table_2d(shading_tables, inv ? TAB_GLASS_INV_EAVG : TAB_GLASS_EAVG, rough, z, 16,
+                         16);
+    }
+    return fmax(E, 1e-3f);
+}
+
+/* The factor multiple scattering puts on c's single scattering for a view at cosine mu: 1 / E,
+ * darkened for a coloured average Fresnel fss (1 + fms (1 - E) / E) */
+inline float3 microfacet_compensation(const Closure *c, float3 fss, float mu, bool back,
+                                      TABLES_ARG) {
+    float Eavg, E = microfacet_E(c, mu, back, &Eavg, shading_tables);
+    float3 fms = fss * Eavg / ((float3)(1.0f) - fss * (1.0f - Eavg));
+    return (float3)(1.0f) + fms * ((1.0f - E) / E);
+}
+
 /* Multiple scattering: scale by 1 / E(view) and darken by Kulla & Conty's term for a coloured
  * average Fresnel fss. */
 inline void microfacet_preserve_energy(Closure *c, float3 wi, float3 fss, TABLES_ARG) {
     if (microfacet_singular(c)) return;          /* a smooth lobe keeps all: E = 1 */
-    float mu = dot(wi, c->N), rough = microfacet_rough(c), E, Eavg;
-    if (c->type == CLOSURE_GGX_REFLECT) {
-        E = table_2d(shading_tables, TAB_GGX_E, rough, mu, 32, 32);
-        Eavg = table_1d(shading_tables, TAB_GGX_EAVG, rough, 32);
-    } else {
-        bool inv = c->ior < 1.0f;
-        float ior = inv ? 1.0f / c->ior : c->ior, z = sqrt(fabs((ior - 1.0f) / (ior + 1.0f)));
-        E = table_3d(shading_tables, inv ? TAB_GLASS_INV_E : TAB_GLASS_E, rough, mu, z, 16, 16, 16);
-        Eavg = table_2d(shading_tables, inv ? TAB_GLASS_INV_EAVG : TAB_GLASS_EAVG, rough, z, 16,
-                        16);
-    }
-    E = fmax(E, 1e-3f);
-    float missing = (1.0f - E) / E;
-    c->energy_scale = 1.0f + missing;
+    float Eavg, E = microfacet_E(c, dot(wi, c->N), false, &Eavg, shading_tables);
+    c->energy_scale = 1.0f / E;
+    c->fss = fss;
     if (fss.x != 1.0f || fss.y != 1.0f || fss.z != 1.0f) {
         float3 fms = fss * Eavg / ((float3)(1.0f) - fss * (1.0f - Eavg));
-        float3 darkening = ((float3)(1.0f) + fms * missing) / c->energy_scale;
+        float3 darkening = E + fms * (1.0f - E);        /* (1 + fms (1 - E) / E) x E */
         c->weight *= darkening;
         c->sample_weight *= avg3(darkening);
     }
+}
+
+/* The adjoint of multiple scattering for light going from wi to wo (photons): the compensation
+ * depends on the view, so c set up for the view wi is not reciprocal; a camera path that meets
+ * the same two directions comes from wo and uses the compensation for wo.  The factor that turns
+ * c's f(wi, wo) into that one (1 without multiple scattering).  Rough glass from inside keeps a
+ * third more than from outside: without it, photons through rough glass lost half of their
+ * light against camera paths (docs/SHADING.md). */
+inline float3 microfacet_adjoint(const Closure *c, float3 wi, float3 wo, TABLES_ARG) {
+    if (c->fss.x < 0.0f || microfacet_singular(c)) return (float3)(1.0f);
+    float mu_o = dot(wo, c->N);
+    bool back = mu_o < 0.0f;
+    return microfacet_compensation(c, c->fss, fabs(mu_o), back, shading_tables)
+           / microfacet_compensation(c, c->fss, dot(wi, c->N), false, shading_tables);
 }
 #endif

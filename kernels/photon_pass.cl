@@ -125,7 +125,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
             b.weight = color;
             b.label = LABEL_REFLECT | LABEL_DIFFUSE;
             b.eta = 1.0f;
-        } else if (!shader_sample(&sd, set, rand, &b)) {
+        } else if (!shader_sample_light(&sd, set, rand, &b, scene->shading_tables)) {
             break;
         }
         if (capacity == 0u && set == MASK_CONTINUE && !(b.label & LABEL_TRANSPARENT)) {

@@ -374,7 +374,20 @@ inline uint bounce_visibility(int label) {
 }
 
 /* A direction from the closures in mask, picked in proportion to their sample weights. */
-inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSample *s) {
+/* closure c's adjoint factor for light from sd->wi to wo (1 for camera paths: adjoint null) */
+inline float3 closure_adjoint(const ShaderData *sd, const Closure *c, float3 wo,
+                              __global const float *adjoint) {
+#if PPM_MICROFACET
+    if (adjoint != 0 && c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS)
+        return microfacet_adjoint(c, sd->wi, wo, adjoint);
+#endif
+    return (float3)(1.0f);
+}
+
+/* shader_sample, and shader_sample_light: light's paths (photons), whose throughput is the
+ * adjoint of the camera's (closure_adjoint; adjoint: the shading tables) */
+inline bool shader_sample_with(const ShaderData *sd, int mask, float3 rand, BsdfSample *s,
+                               __global const float *adjoint) {
     if (sd->n == 1) {                       /* one closure: no pick, no mixture */
         const Closure *c = &sd->c[0];
         if (!closure_in(c, mask)) return false;
@@ -385,7 +398,7 @@ inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSampl
         if (!(s->label & LABEL_TRANSMIT)) eval *= bump_shadowing(sd, c, s->wo, false);
         s->roughness2 = c->alpha_x * c->alpha_y;
         s->pdf = (s->label & LABEL_SINGULAR) ? INFINITY : pdf;
-        s->weight = c->weight * eval / pdf;
+        s->weight = c->weight * eval * closure_adjoint(sd, c, s->wo, adjoint) / pdf;
         return true;
     }
     float sum_sw = 0.0f;
@@ -420,7 +433,7 @@ inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSampl
         s->weight = c->weight * eval * (sum_sw / (pdf * c->sample_weight));
         return true;
     }
-    float3 f = c->weight * eval;
+    float3 f = c->weight * eval * closure_adjoint(sd, c, s->wo, adjoint);
     float sum_pdf = pdf * c->sample_weight;
     for (int k = 0; k < sd->n; k++) {
         const Closure *o = &sd->c[k];
@@ -428,12 +441,21 @@ inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSampl
         float p;
         float3 e = closure_eval_bumped(sd, o, s->wo, &p);
         if (p != 0.0f) {
-            f += o->weight * e;
+            f += o->weight * e * closure_adjoint(sd, o, s->wo, adjoint);
             sum_pdf += p * o->sample_weight;
         }
     }
     s->pdf = sum_pdf / sum_sw;
     s->weight = f / s->pdf;
     return true;
+}
+
+inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSample *s) {
+    return shader_sample_with(sd, mask, rand, s, (__global const float *)0);
+}
+
+inline bool shader_sample_light(const ShaderData *sd, int mask, float3 rand, BsdfSample *s,
+                                TABLES_ARG) {
+    return shader_sample_with(sd, mask, rand, s, shading_tables);
 }
 #endif

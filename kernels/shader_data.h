@@ -51,6 +51,7 @@ inline int shader_alloc(ShaderData *sd, int type, float3 w, float3 N) {
     c->alpha_x = c->alpha_y = 0.0f;
     c->ior = 1.0f;
     c->energy_scale = 1.0f;
+    c->fss = (float3)(-1.0f);
     c->fresnel = FRESNEL_NONE;
     c->gather = 0;
     return sd->n++;
