@@ -53,21 +53,19 @@ __kernel void direct_light_at(SCENE_PARAMS __global const float4 *points,
 /* next-event estimation's emitter pick at given points (light_mesh.h pick_emitter_at) with
  * n_u stratified numbers: counts[i * n_emitters + e] how often emitter e was picked, pmf[...]
  * the probability the pick returned for it (-1: never picked), table[...] the probability
- * the MIS of a ray that hits it uses (emissive_leaf_pmf; the table's for the other emitters) */
+ * the MIS of a ray that hits it uses (light_mesh.h emitter_pmf_at) */
 __kernel void emitter_pick_at(SCENE_PARAMS __global const float4 *points,
                               __global const float4 *nrm, uint n_u, __global uint *counts,
                               __global float *pmf, __global float *table, uint n) {
     SCENE_LOAD(scene);
     uint i = get_global_id(0);
     if (i >= n) return;
-    int m = scene->emitter_info->n_emitters, first = scene->emitter_info->n_lights;
+    int m = scene->emitter_info->n_emitters;
     float3 p = points[i].xyz, N = nrm[i].xyz;
     for (int e = 0; e < m; e++) {
         counts[i * m + e] = 0u;
         pmf[i * m + e] = -1.0f;
-        table[i * m + e] = e >= first && e < first + scene->emitter_info->n_emissive
-                               ? emissive_leaf_pmf(scene, scene->emissive[e - first], p, N)
-                               : emitter_pmf(scene->emitter_cdf, e);
+        table[i * m + e] = emitter_pmf_at(scene, e, p, N);
     }
     for (uint k = 0; k < n_u; k++) {
         float q;

@@ -26,24 +26,68 @@ inline float mis_power(float a, float b) {
  * nearest one in front of the surface hit counts.  ray_type:
  * VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY or VIS_TRANSMISSION; lights hidden from it are skipped.
  * *pdf_light: the density next-event estimation gives d from o for that light (pmf
- * included), for MIS. */
+ * included: from the vertex pv of normal nv the ray left, the light tree's), for MIS. */
+/* light i seen along o + t d (lights_seen): the nearest so far in *best, its radiance and
+ * density, *seen its index; a sun's radiance summed in *Lsun when the ray escaped */
+inline void light_seen(const Scene *scene, int i, float3 o, float3 d, bool escaped, uint ray_type,
+                       float *best, float3 *L, float *pdf, int *seen, float3 *Lsun) {
+    Light l = scene->lights[i];
+    if (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT)) return;
+    float before = *best;
+    if (PPM_LIGHT_AREA && (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE))
+        area_seen(&l, o, d, best, L, pdf);
+    else if (PPM_LIGHT_SUN && l.type == LIGHT_SUN) {
+        if (escaped) *Lsun += sun_seen(&l, d);
+    } else if (PPM_LIGHT_POINT) point_seen(&l, o, d, best, L, pdf);
+    if (*best != before) *seen = i;
+}
+
+/* whether o + t d meets the box [lo, hi] for some t in [0, tmax] */
+inline bool ray_box(float3 o, float3 inv_d, float3 lo, float3 hi, float tmax) {
+    float3 t0 = (lo - o) * inv_d, t1 = (hi - o) * inv_d;
+    float3 a = fmin(t0, t1), b = fmax(t0, t1);
+    float near = fmax(fmax(a.x, a.y), fmax(a.z, 0.0f)), far = fmin(fmin(b.x, b.y), fmin(b.z, tmax));
+    return near <= far;
+}
+
 inline float3 lights_seen(const Scene *scene, float3 o, float3 d, float tmax, bool escaped,
-                          uint ray_type, float *pdf_light) {
+                          uint ray_type, float3 pv, float3 nv, float *pdf_light) {
     float3 L = (float3)(0.0f), Lsun = (float3)(0.0f);
     float best = tmax, pdf = 0.0f;
     int seen = -1, n_lights = scene->emitter_info->n_lights;
-    for (int i = 0; i < n_lights; i++) {
-        Light l = scene->lights[i];
-        if (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT)) continue;
-        float before = best;
-        if (PPM_LIGHT_AREA && (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE))
-            area_seen(&l, o, d, &best, &L, &pdf);
-        else if (PPM_LIGHT_SUN && l.type == LIGHT_SUN) {
-            if (escaped) Lsun += sun_seen(&l, d);
-        } else if (PPM_LIGHT_POINT) point_seen(&l, o, d, &best, &L, &pdf);
-        if (best != before) seen = i;
+    if (scene->emitter_info->n_tree > 0) {
+        /* many lights: the light tree's boxes (which hold the lights whole) as a BVH, then the
+         * suns when the ray escaped */
+        __global const LightTreeNode *tree = scene->light_tree;
+        float3 inv_d = 1.0f / d;
+        int stack[LIGHT_TREE_STACK], top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            int k = stack[--top];
+            if (!ray_box(o, inv_d, F3(tree[k].bmin), F3(tree[k].bmax), best)) continue;
+            int c = tree[k].child;
+            if (c < 0) {
+                if (-1 - c < n_lights)
+                    light_seen(scene, -1 - c, o, d, escaped, ray_type, &best, &L, &pdf, &seen,
+                               &Lsun);
+            } else if (top + 2 <= LIGHT_TREE_STACK) {
+                stack[top++] = c + 1;
+                stack[top++] = c;
+            }
+        }
+        if (escaped && scene->emitter_info->n_suns > 0)
+            for (int i = 0; i < n_lights; i++)
+                if (scene->lights[i].type == LIGHT_SUN)
+                    light_seen(scene, i, o, d, escaped, ray_type, &best, &L, &pdf, &seen, &Lsun);
+    } else {
+        for (int i = 0; i < n_lights; i++)
+            light_seen(scene, i, o, d, escaped, ray_type, &best, &L, &pdf, &seen, &Lsun);
     }
-    *pdf_light = seen >= 0 ? pdf * emitter_pmf(scene->emitter_cdf, seen) : 0.0f;
+    __global const EmitterInfo *info = scene->emitter_info;
+    *pdf_light = seen < 0 ? 0.0f
+                 : scene->emitter_leaf[seen] >= 0 && info->n_tree > 0
+                     ? pdf * info->tree_share * light_tree_pmf(scene, seen, pv, nv)
+                     : pdf * emitter_pmf_far(scene, seen);
     /* suns, behind everything: a ray that escapes the scene and meets no other light.
      * Next-event estimation samples a sun without MIS (sun_direct: pdf_dir 0), so a sun a
      * sampled direction finds counts only after a singular bounce or the camera (density
@@ -83,8 +127,7 @@ inline float3 mesh_seen(const Scene *scene, int leaf, float3 o, float3 d, float 
 /* The density next-event estimation gives the world in direction d from a point whose normal
  * (the one the world is sampled around) is n, its pick included. */
 inline float world_light_pdf(const Scene *scene, float3 d, float3 n) {
-    return world_pdf(scene, d, n)
-           * emitter_pmf(scene->emitter_cdf, scene->emitter_info->n_emitters - 1);
+    return world_pdf(scene, d, n) * emitter_pmf_far(scene, scene->emitter_info->n_emitters - 1);
 }
 
 /* The MIS weight of the emission of the surface hit h, found from o along d by a sample of
@@ -203,7 +246,7 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
     for (int i = 0; i <= crossings; i++) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, ray_type, false);
 #if PPM_LIGHTS_SEEN
-        float3 Le = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, ray_type,
+        float3 Le = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, ray_type, p, n,
                                 pdf_l);
         if (max3(Le) > 0.0f) return T * Le;
 #endif

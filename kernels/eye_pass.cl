@@ -99,7 +99,8 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
 #endif
         float pdf_l = 0.0f;
 #if PPM_LIGHTS_SEEN
-        float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? tmax : h.t, h.leaf < 0, mask, &pdf_l);
+        float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? tmax : h.t, h.leaf < 0, mask, prev_p,
+                                prev_n, &pdf_l);
         L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l), clamp_found);
 #endif
         if (h.leaf < 0) {

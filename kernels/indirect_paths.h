@@ -111,7 +111,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
 #if PPM_LIGHTS_SEEN
         if (counts) {
             float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, mask,
-                                    &pdf_l);
+                                    prev_p, prev_n, &pdf_l);
             L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l), clamp_limit(depth - 1, lp));
         }
 #endif
@@ -134,7 +134,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
 #if PPM_LIGHTS_SEEN
             if (counts) {
                 float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, mask,
-                                        &pdf_l);
+                                        prev_p, prev_n, &pdf_l);
                 L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l),
                                   clamp_limit(depth - 1, lp));
             }

@@ -1,5 +1,6 @@
 #ifndef PPM_LIGHT_MESH_H
 #define PPM_LIGHT_MESH_H
+#include "light_tree.h"
 #include "light_types.h"
 #include "shader_inputs.h"
 /* --- emissive triangles (mesh lights) ------------------------------------------------------
@@ -117,6 +118,8 @@ inline float local_share(int j, const float *g, const float *imp, float g_sum, f
 inline float emissive_leaf_pmf(const Scene *scene, int leaf, float3 p, float3 n) {
     int j = emissive_index(scene, leaf);
     if (j < 0) return 0.0f;
+    __global const EmitterInfo *info = scene->emitter_info;
+    if (info->n_tree > 0) return info->tree_share * light_tree_pmf(scene, info->n_lights + j, p, n);
     if (local_pick_at(scene, p)) {
         float g[LOCAL_PICK_MAX], imp[LOCAL_PICK_MAX], g_sum, imp_sum;
         local_weights(scene, p, n, g, imp, &g_sum, &imp_sum);
@@ -125,11 +128,35 @@ inline float emissive_leaf_pmf(const Scene *scene, int leaf, float3 p, float3 n)
     return emitter_pmf(scene->emitter_cdf, scene->emitter_info->n_lights + j);
 }
 
+/* The probability next-event estimation from p (normal n) picks emitter e (a light, an
+ * emissive triangle, the world: the emitter table's order) */
+inline float emitter_pmf_at(const Scene *scene, int e, float3 p, float3 n) {
+    __global const EmitterInfo *info = scene->emitter_info;
+    if (e >= info->n_lights && e < info->n_lights + info->n_emissive)
+        return emissive_leaf_pmf(scene, scene->emissive[e - info->n_lights], p, n);
+    if (info->n_tree > 0 && scene->emitter_leaf[e] >= 0)
+        return info->tree_share * light_tree_pmf(scene, e, p, n);
+    return emitter_pmf_far(scene, e);
+}
+
 /* Next-event estimation's pick from p (normal n) with the number u: the emitter table by
  * power, and within the emissive triangles the local pick when there are few (its number:
  * where u fell in the group's range of the table, rescaled). */
 inline int pick_emitter_at(const Scene *scene, float3 p, float3 n, float u, float *pmf) {
     __global const EmitterInfo *info = scene->emitter_info;
+    if (info->n_tree > 0) {
+        /* the light tree's members by their importance at p, suns and the world by power */
+        float share = info->tree_share;
+        if (u < share) {
+            int e = light_tree_sample(scene, p, n, clamp(u / share, 0.0f, 0.99999994f), pmf);
+            *pmf *= share;
+            return e;
+        }
+        int e = pick_emitter(scene->far_cdf, info->n_emitters,
+                             clamp((u - share) / (1.0f - share), 0.0f, 0.99999994f), pmf);
+        *pmf *= 1.0f - share;
+        return e;
+    }
     int e = pick_emitter(scene->emitter_cdf, info->n_emitters, u, pmf);
     int first = info->n_lights;
     if (!(PPM_EMISSIVE && e >= first && local_pick_at(scene, p) && e < first + info->n_emissive))

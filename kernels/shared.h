@@ -185,6 +185,9 @@
 /* emissive triangles picked among locally at most (ppm_engine/emitters.py LOCAL_PICK_MAX) */
 #define LOCAL_PICK_MAX 8
 
+/* the light tree's traversal stack for rays (ppm_engine/light_tree.py LIGHT_TREE_STACK) */
+#define LIGHT_TREE_STACK 40
+
 /* entries of the pixel filter's table (ppm_engine/film.py FILTER_TABLE_SIZE) */
 #define FILTER_TABLE_SIZE 256
 
@@ -359,7 +362,25 @@ typedef struct {
      * them by their light at the point (kernels/light_mesh.h pick_emitter_at); radius 0: never */
     float local_center[3];
     float local_radius;
+    /* the light tree (light_tree.py) over more than LOCAL_PICK_MAX local emitters: its node
+     * count (0: none, every emitter by the power table) and its members' share of the power */
+    int n_tree;
+    float tree_share;
+    int n_suns;             /* suns among the lights */
 } EmitterInfo;
+
+/* mirrors ppm_engine/light_tree.py LIGHT_TREE_NODE_DTYPE */
+typedef struct {
+    float bmin[3];          /* the box of the emitters below */
+    float energy;           /* their power */
+    float bmax[3];
+    float theta_o;          /* every emitter's normal within theta_o of axis (rad) */
+    float axis[3];
+    float theta_e;          /* how far past its normal an emitter emits (rad) */
+    int child;              /* the first child (the second follows it); a leaf: -1 - emitter */
+    int parent;             /* -1: the root */
+    int pad[2];
+} LightTreeNode;
 
 /* mirrors ppm_engine/scene_arrays.py TEXTURE_DTYPE */
 typedef struct {
@@ -409,6 +430,9 @@ typedef struct {
     X(float, emitter_cdf)        /* emitter table (power CDF) */ \
     X(int, emissive)             /* emissive triangles' BVH leaves */ \
     X(EmitterInfo, emitter_info) /* emitter table header */ \
+    X(LightTreeNode, light_tree) /* light tree (ppm_engine/light_tree.py) */ \
+    X(int, emitter_leaf)         /* each emitter's light tree leaf */ \
+    X(float, far_cdf)            /* power CDF of the emitters outside the tree */ \
     X(float, world_map)          /* world importance map */
 
 #endif

@@ -19,6 +19,7 @@ from .features import defines as feature_defines
 from .features import scene_features, used_materials
 from .film import filter_table
 from .light_paths import LIGHT_PATHS_DTYPE, engine_defaults
+from .light_tree import LIGHT_TREE_NODE_DTYPE
 from .materials import (
     KMATERIAL_DTYPE,
     MAT_GATHER,
@@ -72,6 +73,9 @@ SCENE_BUFFERS = (
     SceneBuffer("emitter_cdf", np.dtype(np.float32), "emitter table (power CDF)"),
     SceneBuffer("emissive", np.dtype(np.int32), "emissive triangles' BVH leaves"),
     SceneBuffer("emitter_info", EMITTER_INFO_DTYPE, "emitter table header"),
+    SceneBuffer("light_tree", LIGHT_TREE_NODE_DTYPE, "light tree (ppm_engine/light_tree.py)"),
+    SceneBuffer("emitter_leaf", np.dtype(np.int32), "each emitter's light tree leaf", fill=-1),
+    SceneBuffer("far_cdf", np.dtype(np.float32), "power CDF of the emitters outside the tree"),
     SceneBuffer("world_map", np.dtype(np.float32), "world importance map"),
 )
 
@@ -144,7 +148,8 @@ class DeviceScene:
         em.info["offset_scale"] = self.offset_scale
         args.update(self._upload(
             lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
-            emitter_info=em.info,
+            emitter_info=em.info, light_tree=em.tree, emitter_leaf=em.emitter_leaf,
+            far_cdf=em.far_cdf,
             world_map=(self.world_map.buffer if self.world_map is not None
                        else np.zeros(0, np.float32))))
         self.args = {b.name: args[b.name] for b in SCENE_BUFFERS}

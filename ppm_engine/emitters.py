@@ -10,6 +10,7 @@ import dataclasses
 
 import numpy as np
 
+from .light_tree import LIGHT_TREE_NODE_DTYPE, build_light_tree, emitter_bounds
 from .materials import mean_emission
 from .scene_arrays import (
     LIGHT_AREA_ELLIPSE,
@@ -40,6 +41,11 @@ EMITTER_INFO_DTYPE = np.dtype([
     # them by their light at the point (kernels/light_mesh.h pick_emitter_at); radius 0: never
     ("local_center", np.float32, 3),
     ("local_radius", np.float32),
+    # the light tree (light_tree.py) over more than LOCAL_PICK_MAX local emitters: its node
+    # count (0: none, every emitter by the power table) and its members' share of the power
+    ("n_tree", np.int32),
+    ("tree_share", np.float32),
+    ("n_suns", np.int32),          # suns among the lights
 ])
 
 # at most this many emissive triangles are picked among locally (kernels/light_mesh.h
@@ -54,6 +60,46 @@ class Emitters:
     emissive_leaves: np.ndarray  # (n_emissive,) int32 leaf indices of emissive triangles
     power: np.ndarray         # (n_emitters,) float64 scalar power used for selection
     total_power: float
+    # the light tree (light_tree.py; empty without one): its nodes, each emitter's leaf node
+    # (-1: not a member), and the power CDF of the other emitters (suns, the world)
+    tree: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(0, LIGHT_TREE_NODE_DTYPE))
+    emitter_leaf: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(0, np.int32))
+    far_cdf: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
+    tree_build_s: float = 0.0
+
+
+def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray) -> Emitters:
+    """The light tree over the local emitters (lights other than suns, the emissive triangles
+    whose corners tri_corners are in table order) when there are more than LOCAL_PICK_MAX of
+    them; fewer keep the power table and the local pick (kernels/light_mesh.h)."""
+    import time
+    n = int(em.info["n_emitters"][0])
+    n_lights = lights.shape[0]
+    lo, hi, axis, theta_o, theta_e, member = emitter_bounds(lights, tri_corners)
+    index = np.concatenate([np.nonzero(member)[0], n_lights + np.arange(tri_corners.shape[0])])
+    power = em.power[index] if n else np.zeros(0)
+    keep = power > 0
+    if n == 0 or int(keep.sum()) <= LOCAL_PICK_MAX:
+        return em
+    t0 = time.perf_counter()
+    nodes, leaf_of = build_light_tree(lo[keep], hi[keep], axis[keep], theta_o[keep],
+                                      theta_e[keep], power[keep], index[keep])
+    emitter_leaf = np.full(n, -1, np.int32)
+    emitter_leaf[index[keep]] = leaf_of
+    far = em.power.copy()
+    far[index[keep]] = 0.0
+    share = float(em.power[index[keep]].sum() / em.total_power)
+    far_cdf = np.cumsum(far) / far.sum() if far.sum() > 0 else np.zeros(n)
+    if far.sum() > 0:
+        far_cdf[-1] = 1.0
+    em.info["n_tree"] = nodes.shape[0]
+    em.info["tree_share"] = share if far.sum() > 0 else 1.0
+    em.info["local_radius"] = 0.0        # the tree picks among the emissive triangles too
+    em.tree, em.emitter_leaf, em.far_cdf = nodes, emitter_leaf, far_cdf.astype(np.float32)
+    em.tree_build_s = time.perf_counter() - t0
+    return em
 
 
 def scene_bounds(positions: np.ndarray) -> tuple[np.ndarray, float]:
@@ -153,6 +199,7 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
         cdf = np.zeros(n)
     info = np.zeros(1, EMITTER_INFO_DTYPE)
     info["n_lights"] = scene.lights.shape[0]
+    info["n_suns"] = int((scene.lights["type"] == LIGHT_SUN).sum())
     info["n_emissive"] = emissive_leaves.shape[0]
     info["has_world"] = int(has_world)
     info["n_emitters"] = n if total > 0 else 0
@@ -169,4 +216,6 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
         info["world_program"] = scene.world_shader[0]
         info["map_w"], info["map_h"] = world_map.width, world_map.height
         info["map_mean"] = world_map.mean
-    return Emitters(info, cdf.astype(np.float32), emissive_leaves, power, total)
+    em = Emitters(info, cdf.astype(np.float32), emissive_leaves, power, total)
+    return attach_light_tree(em, scene.lights,
+                             scene.positions[leaf_order[emissive_leaves]])

@@ -125,7 +125,16 @@ def _struct(ctype: str, dtype: np.dtype, origin: str, comments: dict[str, str]) 
 # --- the header ----------------------------------------------------------------------------
 def generate() -> str:
     """The text of kernels/shared.h from the Python tables."""
-    from . import camera_model, counters, emitters, features, light_paths, materials, photon_map
+    from . import (
+        camera_model,
+        counters,
+        emitters,
+        features,
+        light_paths,
+        light_tree,
+        materials,
+        photon_map,
+    )
     from . import scene_arrays as sa
     from . import shader_program as sp
     from . import shading_tables as st
@@ -187,6 +196,8 @@ def generate() -> str:
             _family("emissive triangles picked among locally at most "
                     "(ppm_engine/emitters.py LOCAL_PICK_MAX)",
                     [("LOCAL_PICK_MAX", emitters.LOCAL_PICK_MAX)]),
+            _family("the light tree's traversal stack for rays (ppm_engine/light_tree.py "
+                    "LIGHT_TREE_STACK)", [("LIGHT_TREE_STACK", light_tree.LIGHT_TREE_STACK)]),
             _family("entries of the pixel filter's table (ppm_engine/film.py FILTER_TABLE_SIZE)",
                     [("FILTER_TABLE_SIZE", FILTER_TABLE_SIZE)]),
             _family("offsets of the shading tables in their buffer "
@@ -224,6 +235,8 @@ def generate() -> str:
                ("Material", materials.KMATERIAL_DTYPE, materials, "KMATERIAL_DTYPE"),
                ("ShaderNode", sa.SHADER_NODE_DTYPE, sa, "SHADER_NODE_DTYPE"),
                ("EmitterInfo", emitters.EMITTER_INFO_DTYPE, emitters, "EMITTER_INFO_DTYPE"),
+               ("LightTreeNode", light_tree.LIGHT_TREE_NODE_DTYPE, light_tree,
+                "LIGHT_TREE_NODE_DTYPE"),
                ("Texture", sa.TEXTURE_DTYPE, sa, "TEXTURE_DTYPE"),
                ("Grid", photon_map.GRID_DTYPE, photon_map, "GRID_DTYPE")]
     out += ["/* --- structs: each mirrors a NumPy dtype field for field; only 4-byte scalars and "

@@ -220,7 +220,9 @@ def _write_curves(result: dict, cmdline: str, args, out: Path, md_path: Path, pr
             f"Light tracing (the caustic scenes' reference) against Cycles where both converge:"
             f"\n\n{report.light_trace_check_table(result)}\n\n"
             f"Error against time (RMSE over RGB; relative = RMSE / mean of the reference):\n\n"
-            f"{report.table(result)}\n\nAt equal time:\n\n{report.ratio_table(result)}")
+            f"{report.table(result)}\n\nAt equal time:\n\n{report.ratio_table(result)}\n\n"
+            f"Light trees (next-event estimation among many emitters):\n\n"
+            f"{report.light_tree_table(result)}")
     print(text)
     report.replace_block(md_path, "curves", text)
     written = f"{json_path}, " if json_out else ""

@@ -138,6 +138,18 @@ def light_trace_check_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def light_tree_table(result: dict) -> str:
+    """The light trees of the scenes that have one (curves.light_tree_stats)."""
+    lines = ["| scene | emitters in the tree | nodes | device bytes | build s "
+             "| their power share |", "|---|---:|---:|---:|---:|---:|"]
+    for name, s in result["scenes"].items():
+        t = s.get("light_tree")
+        if t:
+            lines.append(f"| {name} | {t['emitters']} | {t['nodes']} | {t['bytes']} | "
+                         f"{t['build_s']:.4f} | {t['share']:.3f} |")
+    return "\n".join(lines)
+
+
 def ratio_table(result: dict) -> str:
     eq = result["ratios_at"]
     lines = [f"| scene | ours: indirect light | RMSE ours/Cycles at {eq:g} s "

@@ -17,6 +17,8 @@ CAUSTIC_MASKS = {
                     "occluders": [], "note": "the floor (no caustic in this scene)"},
     # the furnace: no caustic, no floor; every pixel counts
     "furnace": {"kind": "all", "occluders": [], "note": "every pixel (no caustic)"},
+    # the city at night: no caustic; every pixel counts
+    "many_lights": {"kind": "all", "occluders": [], "note": "every pixel (no caustic)"},
     # the floor beside and under the glass ball, where its caustic falls
     "bulb_box": {"kind": "disk", "center": (BALL_CENTER[0] + 0.07, BALL_CENTER[1] + 0.05, 0.0),
                  "radius": 0.45, "occluders": [(BALL_CENTER, 0.3), (BULB_CENTER, 0.15)],

@@ -10,7 +10,7 @@ is.  The geometry matches ``ppm_engine.procedural.cornell_box`` (the arrays vers
 core tests and the benchmark)."""
 from __future__ import annotations
 
-from . import bulb_box, caustics, cornell_box, furnace
+from . import bulb_box, caustics, cornell_box, furnace, many_lights
 
 EXAMPLES = {
     "cornell_box": cornell_box.build,
@@ -18,6 +18,7 @@ EXAMPLES = {
     "glass_caustic": caustics.glass_caustic,     # also the benchmark's caustic scenes
     "mirror_caustic": caustics.mirror_caustic,
     "furnace": furnace.build,                    # the benchmark's closed-form scene
+    "many_lights": many_lights.build,            # the benchmark's many-light scene
 }
 
 

@@ -1,0 +1,79 @@
+#ifndef PPM_LIGHT_TREE_H
+#define PPM_LIGHT_TREE_H
+#include "scene.h"
+/* --- the light tree (ppm_engine/light_tree.py) ---------------------------------------------
+ * Next-event estimation among many local emitters: from the shading point p (normal n) each
+ * inner node chooses a child in proportion to the child's importance at p, a bound on the
+ * light its emitters can give there (Estevez & Conty 2018): its power over the squared
+ * distance to its box's centre (at least the box's half diagonal), times the cosine at the
+ * emitters the orientation cone still allows towards p, times the cosine at p (either side: a
+ * transmitting closure takes light from behind), each widened by the angle the box subtends.
+ * Every bound is conservative, so an emitter that can light p has a positive probability; the
+ * MIS of a ray that finds an emitter walks up from its leaf making the same choices
+ * (light_tree_pmf): the same choices, multiplied in the other order. */
+
+/* the importance of tree node k at p (normal n) */
+inline float light_tree_importance(__global const LightTreeNode *t, float3 p, float3 n) {
+    float E = t->energy;
+    if (!(E > 0.0f)) return 0.0f;
+    float3 lo = F3(t->bmin), hi = F3(t->bmax);
+    float3 v = 0.5f * (lo + hi) - p; /* towards the node */
+    float r2 = 0.25f * dot(hi - lo, hi - lo), d2 = dot(v, v);
+    if (!(d2 > r2)) return E / fmax(r2, 1e-30f); /* p within the node's ball: no angle bound */
+    float d = sqrt(d2);
+    float theta_u = asin(fmin(sqrt(r2 / d2), 1.0f)); /* the half angle the ball subtends */
+    /* at the emitters: the angle between the cone's axis and the direction to p, less the
+     * cone's spread and the ball's angle */
+    float cos_e = clamp(-dot(F3(t->axis), v) / d, -1.0f, 1.0f);
+    float theta = fmax(acos(cos_e) - t->theta_o - theta_u, 0.0f);
+    if (theta >= t->theta_e) return 0.0f;
+    /* at p: the angle to the normal on the nearer side, less the ball's angle */
+    float cos_i = fmin(fabs(dot(n, v)) / d, 1.0f);
+    float theta_i = fmax(acos(cos_i) - theta_u, 0.0f);
+    return E * cos(theta) * cos(theta_i) / d2;
+}
+
+/* the probability of the first child of inner node k, from the two children's importances */
+inline float light_tree_left(__global const LightTreeNode *tree, int k, float3 p, float3 n) {
+    int c = tree[k].child;
+    float i0 = light_tree_importance(tree + c, p, n),
+          i1 = light_tree_importance(tree + c + 1, p, n);
+    float s = i0 + i1;
+    return s > 0.0f && isfinite(s) ? i0 / s : 0.5f;
+}
+
+/* An emitter of the tree for p (normal n) from the uniform number u; *pmf its probability. */
+inline int light_tree_sample(const Scene *scene, float3 p, float3 n, float u, float *pmf) {
+    __global const LightTreeNode *tree = scene->light_tree;
+    int k = 0;
+    float q = 1.0f;
+    while (tree[k].child >= 0) {
+        float p0 = light_tree_left(tree, k, p, n);
+        if (u < p0) {
+            u = u / p0;
+            q *= p0;
+            k = tree[k].child;
+        } else {
+            u = (u - p0) / (1.0f - p0);
+            q *= 1.0f - p0;
+            k = tree[k].child + 1;
+        }
+        u = clamp(u, 0.0f, 0.99999994f);
+    }
+    *pmf = q;
+    return -1 - tree[k].child;
+}
+
+/* The probability light_tree_sample gives emitter e at p (normal n); 0 when not a member. */
+inline float light_tree_pmf(const Scene *scene, int e, float3 p, float3 n) {
+    __global const LightTreeNode *tree = scene->light_tree;
+    int k = scene->emitter_leaf[e];
+    if (k < 0) return 0.0f;
+    float q = 1.0f;
+    for (int parent = tree[k].parent; parent >= 0; k = parent, parent = tree[k].parent) {
+        float p0 = light_tree_left(tree, parent, p, n);
+        q *= k == tree[parent].child ? p0 : 1.0f - p0;
+    }
+    return q;
+}
+#endif

@@ -1,0 +1,149 @@
+"""The light tree (ppm_engine/light_tree.py, kernels/light_tree.h): its build (every node
+bounds its emitters), and next-event estimation's pick through it on the device held to a
+float64 reference of the same importance, with the frequencies of the pick, the pmf it
+returns, and the pmf the MIS of a ray that finds the emitter uses (kernels/debug.cl
+emitter_pick_at)."""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ppm_engine import light_tree as lt
+from ppm_engine.camera_model import make_camera
+from ppm_engine.device import SHADING_GROUP
+from ppm_engine.options import RenderOptions
+from ppm_engine.procedural import MeshBuilder, look_at
+from ppm_engine.renderer import Renderer
+from ppm_engine.scene_arrays import (
+    CAMERA_ORTHO,
+    LIGHT_AREA_RECT,
+    LIGHT_POINT,
+    LIGHT_SPOT,
+    LIGHT_SUN,
+)
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_analytic import light
+
+
+def _tree(n, rng):
+    c = rng.random((n, 3)) * 4
+    ax = rng.normal(size=(n, 3))
+    ax /= np.linalg.norm(ax, axis=1, keepdims=True)
+    th_o = np.where(rng.random(n) < 0.5, 0.0, np.pi)
+    return lt.build_light_tree(c - 0.05, c + 0.05, ax, th_o, np.full(n, np.pi / 2),
+                               rng.random(n) + 0.01, np.arange(n) + 7), (c, ax, th_o)
+
+
+@pytest.mark.parametrize("n", [2, 3, 9, 1000])
+def test_each_node_bounds_its_emitters(n):
+    rng = np.random.default_rng(n)
+    (nodes, leaf_of), (c, ax, th_o) = _tree(n, rng)
+    assert nodes.shape[0] == 2 * n - 1 and nodes["parent"][0] == -1
+    assert (nodes["child"][leaf_of] == -1 - (np.arange(n) + 7)).all()
+    # walk up from every leaf: each ancestor's box, energy and cone hold the emitter
+    for e in range(n):
+        k = leaf_of[e]
+        while k >= 0:
+            nd = nodes[k]
+            assert (nd["bmin"] <= c[e] - 0.05 + 1e-6).all()
+            assert (nd["bmax"] >= c[e] + 0.05 - 1e-6).all()
+            spread = np.arccos(np.clip(ax[e] @ nd["axis"], -1, 1))
+            assert spread + th_o[e] <= nd["theta_o"] or nd["theta_o"] >= np.pi - 1e-6
+            k = nd["parent"]
+    inner = nodes["child"] >= 0
+    ch = nodes["child"][inner]
+    np.testing.assert_allclose(nodes["energy"][inner],
+                               nodes["energy"][ch] + nodes["energy"][ch + 1], rtol=1e-5)
+
+
+def test_the_pmf_sums_to_one_and_favours_the_near_emitters():
+    rng = np.random.default_rng(3)
+    (nodes, leaf_of), (c, ax, th_o) = _tree(500, rng)
+    p, n = np.array([1.0, 1.0, 1.0]), np.array([0.0, 0.0, 1.0])
+    q = lt.pmf(nodes, leaf_of, p, n)
+    assert q.sum() == pytest.approx(1.0, abs=1e-9)
+    # every emitter that can light p can be picked (one-sided ones facing away cannot)
+    faces = (th_o > 0) | (((p - c) * ax).sum(1) > 0)
+    assert (q[faces] > 0).all() and faces.sum() > 300 and (~faces).sum() > 100
+    # the purpose: next-event estimation's variance.  Each emitter's light at p (a small
+    # emitter: power x its cosine towards p, one-sided ones, x the cosine at p / d^2); the
+    # estimate's relative variance sum(c^2 / q) / sum(c)^2 - 1 against the power pick's
+    v = p - c
+    d2 = (v * v).sum(1)
+    w = np.linalg.norm(v, axis=1)
+    energy = nodes["energy"][leaf_of].astype(np.float64)
+    emit = np.where(th_o > 0, 1.0, np.maximum((v * ax).sum(1) / w, 0.0))
+    light = energy * emit * np.abs(v @ n) / w / d2
+    power = energy / energy.sum()
+    rel = [(light ** 2 / np.maximum(x, 1e-300)).sum() / light.sum() ** 2 - 1 for x in (q, power)]
+    assert rel[0] < 0.5 * rel[1], rel
+
+
+def _many_lights_scene(rng):
+    """A grey floor, 40 point and spot lights at random under a ceiling, 3 area lights, 6
+    emissive triangles, a sun and a world: 52 emitters, 49 of them in the tree."""
+    mb = MeshBuilder()
+    grey = mb.material("grey", (0.5, 0.5, 0.5))
+    mb.quad((0, 0, 0), (4, 0, 0), (0, 4, 0), grey)
+    for k in range(6):
+        lamp = mb.material(f"lamp{k}", (0, 0, 0), emission=(1.0 + k,) * 3)
+        o = rng.random(3) * [6, 6, 1] - [3, 3, -0.5]
+        mb.add((o + rng.normal(size=(3, 3)) * 0.2)[None], lamp)
+    ls = []
+    for k in range(40):
+        ls.append(light(LIGHT_POINT if k % 2 else LIGHT_SPOT, emit=(rng.random() * 5,) * 3,
+                        position=rng.random(3) * [6, 6, 1] - [3, 3, -2], radius=0.02 * (k % 3),
+                        spot_cos_half=0.5, spot_smooth=0.1, spot_scale_z=1.0,
+                        axis_x=(1, 0, 0), axis_y=(0, 1, 0)))
+    for k in range(3):
+        ls.append(light(LIGHT_AREA_RECT, emit=(2.0,) * 3, position=(k - 1.0, 0.5, 2.5),
+                        direction=(0, 0.3 * (k - 1), -1), axis_x=(0.5, 0, 0), axis_y=(0, 0.4, 0)))
+    ls.append(light(LIGHT_SUN, emit=(1.5,) * 3, direction=(0.2, 0.1, -1), radius=0.01))
+    cam = make_camera(type=CAMERA_ORTHO, width=4, height=4,
+                      to_world=look_at((0, 0, 5), (0, 0, 0), up=(0, 1, 0)), extent=(2, 2),
+                      clip=(0.01, 100))
+    return mb.build(camera=cam, lights=np.concatenate(ls), world=(0.1, 0.1, 0.1))
+
+
+def test_the_devices_pick_through_the_tree_matches_the_reference():
+    """At points on the floor, above it, and facing away: the pick's frequencies over
+    stratified numbers are its pmf; that pmf is the one the MIS of a ray uses (to float
+    rounding: both multiply the same choices, top down and bottom up) and the float64
+    reference's (power share x tree, or the
+    suns' and the world's power share outside it); they sum to one."""
+    import pyopencl as cl
+    rng = np.random.default_rng(11)
+    scene = _many_lights_scene(rng)
+    r = Renderer(scene, RenderOptions(max_bounces=0))
+    em = r.scene.emitters
+    m, n_lights = int(em.info["n_emitters"][0]), int(em.info["n_lights"][0])
+    assert (m, n_lights, int(em.info["n_emissive"][0])) == (51, 44, 6)
+    assert int(em.info["n_tree"][0]) == 2 * 49 - 1 and em.info["local_radius"][0] == 0
+    pts = np.float32([[0, 0, 0, 0], [1.5, -1, 0.01, 0], [0.3, 0.2, 1.8, 0], [-2, 2, 0.5, 0]])
+    nrm = np.float32([[0, 0, 1, 0], [0, 0, 1, 0], [0, 0.6, -0.8, 0], [1, 0, 0, 0]])
+    dev, n, n_u = r.device, len(pts), 1 << 18
+    bufs = {k: cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 4 * n * m)
+            for k in ("counts", "pmf", "table")}
+    k = dev.programs.get("debug.cl").launch("emitter_pick_at", "test")
+    k(dev.queue, n, SHADING_GROUP, **r.scene.args, points=dev.upload(pts, "p"),
+      nrm=dev.upload(nrm, "n"), n_u=np.uint32(n_u), **bufs, n=np.uint32(n))
+    got = {}
+    for key, dt in (("counts", np.uint32), ("pmf", np.float32), ("table", np.float32)):
+        got[key] = np.empty((n, m), dt)
+        cl.enqueue_copy(dev.queue, got[key], bufs[key])
+    r.close()
+    share = float(em.info["tree_share"][0])
+    far = np.diff(np.concatenate([[0.0], em.far_cdf.astype(np.float64)]))
+    member = em.emitter_leaf >= 0
+    assert member.sum() == 49 and not member[n_lights - 1] and not member[m - 1]  # sun, world
+    for i in range(n):
+        ref = np.where(member, 0.0, (1 - share) * far)
+        ref[member] = share * lt.pmf(em.tree, em.emitter_leaf[member], pts[i, :3], nrm[i, :3])
+        assert ref.sum() == pytest.approx(1.0, abs=1e-6)
+        np.testing.assert_allclose(got["table"][i], ref, rtol=2e-3, atol=1e-7)
+        picked = got["counts"][i] > 0
+        np.testing.assert_allclose(got["pmf"][i][picked], got["table"][i][picked], rtol=1e-5)
+        freq = got["counts"][i] / n_u
+        np.testing.assert_allclose(freq, ref, atol=3e-3 + 0.02 * ref.max())
