@@ -161,7 +161,7 @@ def importance(nodes: np.ndarray, p, n) -> np.ndarray:
         cos_i = np.minimum(np.abs(v @ n) / d, 1.0)
         theta_i = np.maximum(np.arccos(cos_i) - theta_u, 0.0)
         out = np.where(theta >= nodes["theta_e"], 0.0, E * np.cos(theta) * np.cos(theta_i) / d2)
-        out = np.where(inside, E / np.maximum(r2, 1e-30), out)
+        out = np.where(inside, E / np.maximum(np.maximum(d2, 0.0625 * r2), 1e-30), out)
     return np.where(E > 0, out, 0.0)
 
 
