@@ -46,12 +46,47 @@ inline float light_tree_left(__global const LightTreeNode *tree, int k, float3 p
     return s > 0.0f && isfinite(s) ? i0 / s : 0.5f;
 }
 
+/* Whether the descent stops at inner node t for p: its ball is seen under a small angle
+ * (LIGHT_TREE_STOP), so that its emitters' importance at p is their power to within it; the
+ * pick among them is then by power, over the tree's order (a node's emitters are contiguous:
+ * ppm_engine/light_tree.py).  Deep descents cost more than they gain where every emitter of a
+ * node looks alike (a bulb's thousand triangles seen from across the room). */
+inline bool light_tree_stops(__global const LightTreeNode *t, float3 p) {
+    if (t->child < 0) return false;
+    float3 lo = F3(t->bmin), hi = F3(t->bmax);
+    float3 v = 0.5f * (lo + hi) - p;
+    return 0.25f * dot(hi - lo, hi - lo) < LIGHT_TREE_STOP * dot(v, v);
+}
+
+inline float light_tree_cdf(const Scene *scene, int j) { return j < 0 ? 0.0f : scene->tree_cdf[j]; }
+
+/* the probability of the emitter at position j of the tree's order among node t's, by power */
+inline float light_tree_share(const Scene *scene, __global const LightTreeNode *t, int j) {
+    float lo = light_tree_cdf(scene, t->first - 1),
+          hi = light_tree_cdf(scene, t->first + t->count - 1);
+    return hi > lo ? (light_tree_cdf(scene, j) - light_tree_cdf(scene, j - 1)) / (hi - lo)
+                   : 1.0f / (float)t->count;
+}
+
 /* An emitter of the tree for p (normal n) from the uniform number u; *pmf its probability. */
 inline int light_tree_sample(const Scene *scene, float3 p, float3 n, float u, float *pmf) {
     __global const LightTreeNode *tree = scene->light_tree;
     int k = 0;
     float q = 1.0f;
     while (tree[k].child >= 0) {
+        if (light_tree_stops(tree + k, p)) {
+            /* by power among the node's emitters: the first whose CDF passes u's place */
+            int a = tree[k].first, b = a + tree[k].count - 1;
+            float lo = light_tree_cdf(scene, a - 1), hi = light_tree_cdf(scene, b);
+            float v = lo + u * (hi - lo);
+            while (a < b) {
+                int mid = (a + b) >> 1;
+                if (v < scene->tree_cdf[mid]) b = mid;
+                else a = mid + 1;
+            }
+            *pmf = q * light_tree_share(scene, tree + k, a);
+            return scene->tree_emitters[a];
+        }
         float p0 = light_tree_left(tree, k, p, n);
         if (u < p0) {
             u = u / p0;
@@ -68,15 +103,21 @@ inline int light_tree_sample(const Scene *scene, float3 p, float3 n, float u, fl
     return -1 - tree[k].child;
 }
 
-/* The probability light_tree_sample gives emitter e at p (normal n); 0 when not a member. */
+/* The probability light_tree_sample gives emitter e at p (normal n); 0 when not a member:
+ * the same choices from the root down to the leaf, or to the node where the descent stops. */
 inline float light_tree_pmf(const Scene *scene, int e, float3 p, float3 n) {
     __global const LightTreeNode *tree = scene->light_tree;
-    int k = scene->emitter_leaf[e];
-    if (k < 0) return 0.0f;
+    int leaf = scene->emitter_leaf[e];
+    if (leaf < 0) return 0.0f;
+    int path[LIGHT_TREE_STACK], m = 0;
+    for (int k = leaf; k >= 0 && m < LIGHT_TREE_STACK; k = tree[k].parent) path[m++] = k;
     float q = 1.0f;
-    for (int parent = tree[k].parent; parent >= 0; k = parent, parent = tree[k].parent) {
-        float p0 = light_tree_left(tree, parent, p, n);
-        q *= k == tree[parent].child ? p0 : 1.0f - p0;
+    for (int i = m - 1; i > 0; i--) {
+        int k = path[i];
+        if (light_tree_stops(tree + k, p))
+            return q * light_tree_share(scene, tree + k, tree[leaf].first);
+        float p0 = light_tree_left(tree, k, p, n);
+        q *= path[i - 1] == tree[k].child ? p0 : 1.0f - p0;
     }
     return q;
 }

@@ -223,6 +223,9 @@
 /* the shader program's codes: their own header */
 #include "shared_svm.h"
 
+/* a light tree node seen under sin^2 of its half angle below this picks among its emitters by
+ * power (ppm_engine/light_tree.py) */
+#define LIGHT_TREE_STOP 0.01f
 /* photons on a surface facing another way are not a visible point's: the least cosine between
  * their normals (ppm_engine/passes/gather.py) */
 #define NORMAL_COS_MIN 0.5f
@@ -379,7 +382,8 @@ typedef struct {
     float theta_e;          /* how far past its normal an emitter emits (rad) */
     int child;              /* the first child (the second follows it); a leaf: -1 - emitter */
     int parent;             /* -1: the root */
-    int pad[2];
+    int first;              /* its emitters: tree_emitters[first:first + count] */
+    int count;
 } LightTreeNode;
 
 /* mirrors ppm_engine/scene_arrays.py TEXTURE_DTYPE */
@@ -433,6 +437,8 @@ typedef struct {
     X(LightTreeNode, light_tree) /* light tree (ppm_engine/light_tree.py) */ \
     X(int, emitter_leaf)         /* each emitter's light tree leaf */ \
     X(float, far_cdf)            /* power CDF of the emitters outside the tree */ \
+    X(int, tree_emitters)        /* the light tree's emitters in its order */ \
+    X(float, tree_cdf)           /* their power's CDF in that order */ \
     X(float, world_map)          /* world importance map */
 
 #endif

@@ -76,6 +76,8 @@ SCENE_BUFFERS = (
     SceneBuffer("light_tree", LIGHT_TREE_NODE_DTYPE, "light tree (ppm_engine/light_tree.py)"),
     SceneBuffer("emitter_leaf", np.dtype(np.int32), "each emitter's light tree leaf", fill=-1),
     SceneBuffer("far_cdf", np.dtype(np.float32), "power CDF of the emitters outside the tree"),
+    SceneBuffer("tree_emitters", np.dtype(np.int32), "the light tree's emitters in its order"),
+    SceneBuffer("tree_cdf", np.dtype(np.float32), "their power's CDF in that order"),
     SceneBuffer("world_map", np.dtype(np.float32), "world importance map"),
 )
 
@@ -149,7 +151,7 @@ class DeviceScene:
         args.update(self._upload(
             lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
             emitter_info=em.info, light_tree=em.tree, emitter_leaf=em.emitter_leaf,
-            far_cdf=em.far_cdf,
+            far_cdf=em.far_cdf, tree_emitters=em.tree_emitters, tree_cdf=em.tree_cdf,
             world_map=(self.world_map.buffer if self.world_map is not None
                        else np.zeros(0, np.float32))))
         self.args = {b.name: args[b.name] for b in SCENE_BUFFERS}

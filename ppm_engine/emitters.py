@@ -67,6 +67,11 @@ class Emitters:
     emitter_leaf: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros(0, np.int32))
     far_cdf: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
+    # the tree's emitters in its order and the CDF of their power in that order (a node's
+    # emitters are contiguous: light_tree.py)
+    tree_emitters: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
+    tree_cdf: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
+    tree_energy: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
     tree_build_s: float = 0.0
 
 
@@ -84,8 +89,12 @@ def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray)
     if n == 0 or int(keep.sum()) <= LOCAL_PICK_MAX:
         return em
     t0 = time.perf_counter()
-    nodes, leaf_of = build_light_tree(lo[keep], hi[keep], axis[keep], theta_o[keep],
-                                      theta_e[keep], power[keep], index[keep])
+    nodes, leaf_of, sorted_index, sorted_energy = build_light_tree(
+        lo[keep], hi[keep], axis[keep], theta_o[keep], theta_e[keep], power[keep], index[keep])
+    cdf = np.cumsum(sorted_energy)
+    em.tree_emitters = sorted_index.astype(np.int32)
+    em.tree_cdf = (cdf / cdf[-1]).astype(np.float32)
+    em.tree_energy = sorted_energy
     emitter_leaf = np.full(n, -1, np.int32)
     emitter_leaf[index[keep]] = leaf_of
     far = em.power.copy()

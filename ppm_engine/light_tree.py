@@ -35,8 +35,14 @@ LIGHT_TREE_NODE_DTYPE = np.dtype([
     ("theta_e", np.float32),      # how far past its normal an emitter emits (rad)
     ("child", np.int32),          # the first child (the second follows it); a leaf: -1 - emitter
     ("parent", np.int32),         # -1: the root
-    ("pad", np.int32, 2),
+    ("first", np.int32),          # its emitters: tree_emitters[first:first + count]
+    ("count", np.int32),
 ])
+
+# a node whose ball is seen under sin^2 of its half angle below this picks among its emitters
+# by power (the tree's order keeps them contiguous) instead of descending: from that far the
+# importance of its parts is their power to within the angle (kernels/light_tree.h)
+LIGHT_TREE_STOP = 0.01
 
 
 # the margin added to every orientation bound (rad)
@@ -92,7 +98,8 @@ def emitter_bounds(lights: np.ndarray, tri_corners: np.ndarray):
 def build_light_tree(lo: np.ndarray, hi: np.ndarray, axis: np.ndarray, theta_o: np.ndarray,
                      theta_e: np.ndarray, energy: np.ndarray, index: np.ndarray):
     """The tree over n >= 2 emitters (their bounds, power and emitter-table index): (nodes,
-    leaf_of) with leaf_of[k] the leaf node of emitter index[k]."""
+    leaf_of, sorted_index, sorted_energy): leaf_of[k] the leaf node of emitter index[k], and
+    the emitters and their power in the tree's order (a node's are [first, first + count))."""
     n = lo.shape[0]
     order = np.argsort(_morton(0.5 * (lo + hi)), kind="stable")
     lo, hi, axis = lo[order], hi[order], axis[order]
@@ -125,6 +132,7 @@ def build_light_tree(lo: np.ndarray, hi: np.ndarray, axis: np.ndarray, theta_o: 
         nd["bmin"], nd["bmax"], nd["energy"] = nlo, nhi, ne
         nd["axis"], nd["theta_o"], nd["theta_e"] = nax, m_o, m_e
         nd["parent"] = parents
+        nd["first"], nd["count"] = start, size
         leaf = size == 1
         nd["child"][leaf] = -1 - index[start[leaf]]
         leaf_of[start[leaf]] = ids[leaf]
@@ -140,7 +148,7 @@ def build_light_tree(lo: np.ndarray, hi: np.ndarray, axis: np.ndarray, theta_o: 
         parents = np.repeat(ids[inner], 2)
         ids = np.stack([first_child, first_child + 1], axis=1).ravel()
     assert next_id == 2 * n - 1
-    return nodes, leaf_of[np.argsort(order)]
+    return nodes, leaf_of[np.argsort(order)], index, energy
 
 
 def importance(nodes: np.ndarray, p, n) -> np.ndarray:
@@ -165,15 +173,42 @@ def importance(nodes: np.ndarray, p, n) -> np.ndarray:
     return np.where(E > 0, out, 0.0)
 
 
-def pmf(nodes: np.ndarray, leaf_of_emitter: np.ndarray, p, n) -> np.ndarray:
+def stops(nodes: np.ndarray, p) -> np.ndarray:
+    """Whether the descent picks by power at each node (LIGHT_TREE_STOP)."""
+    lo, hi = nodes["bmin"].astype(np.float64), nodes["bmax"].astype(np.float64)
+    v = 0.5 * (lo + hi) - np.asarray(p, np.float64)
+    r2 = 0.25 * ((hi - lo) ** 2).sum(1)
+    return (nodes["child"] >= 0) & (r2 < LIGHT_TREE_STOP * (v * v).sum(1))
+
+
+def pmf(nodes: np.ndarray, leaf_of_emitter: np.ndarray, p, n,
+        sorted_energy: np.ndarray | None = None) -> np.ndarray:
     """The probability of each emitter's leaf (leaf_of_emitter: node indices) at p, normal n:
-    the product of the choices down the tree (kernels/light_tree.h light_tree_pmf)."""
+    the choices down the tree, and where the descent stops (sorted_energy given) the emitter's
+    power over its node's (kernels/light_tree.h light_tree_pmf)."""
     imp = importance(nodes, p, n)
+    stop = stops(nodes, p) if sorted_energy is not None else np.zeros(nodes.shape[0], bool)
     prob = np.ones(nodes.shape[0])           # the probability of reaching each node
+    out = np.zeros(nodes.shape[0])           # per leaf
     inner = np.nonzero(nodes["child"] >= 0)[0]
+    reached = np.zeros(nodes.shape[0], bool)
+    reached[0] = True
     for k in inner:                          # parents come before their children
+        if not reached[k]:
+            continue
+        if stop[k]:
+            f, c = nodes["first"][k], nodes["count"][k]
+            e = sorted_energy[f:f + c].astype(np.float64)
+            # the leaves below k, in the tree's order, are the nodes whose first is f .. f + c
+            leaves = np.nonzero((nodes["child"] < 0) & (nodes["first"] >= f)
+                                & (nodes["first"] < f + c))[0]
+            out[leaves] = prob[k] * e[nodes["first"][leaves] - f] / e.sum()
+            continue
         c = nodes["child"][k]
         s = imp[c] + imp[c + 1]
         p0 = imp[c] / s if s > 0 and np.isfinite(s) else 0.5
         prob[c], prob[c + 1] = prob[k] * p0, prob[k] * (1 - p0)
-    return prob[leaf_of_emitter]
+        reached[c] = reached[c + 1] = True
+    leaf = nodes["child"] < 0
+    out[leaf & reached & (out == 0)] = prob[leaf & reached & (out == 0)]
+    return out[leaf_of_emitter]

@@ -214,7 +214,10 @@ def generate() -> str:
     for f in fam:
         out += f + [""]
     out += ["/* the shader program's codes: their own header */", f'#include "{SVM_HEADER}"', ""]
-    floats = [("photons on a surface facing another way are not a visible point's: the "
+    floats = [("a light tree node seen under sin^2 of its half angle below this picks among its "
+               "emitters by power (ppm_engine/light_tree.py)", "LIGHT_TREE_STOP",
+               light_tree.LIGHT_TREE_STOP),
+              ("photons on a surface facing another way are not a visible point's: the "
                "least cosine between their normals (ppm_engine/passes/gather.py)",
                "NORMAL_COS_MIN", gather.NORMAL_COS_MIN),
               ("the gather region's half thickness off the tangent plane, times r "

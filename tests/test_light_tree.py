@@ -39,9 +39,18 @@ def _tree(n, rng):
 @pytest.mark.parametrize("n", [2, 3, 9, 1000])
 def test_each_node_bounds_its_emitters(n):
     rng = np.random.default_rng(n)
-    (nodes, leaf_of), (c, ax, th_o) = _tree(n, rng)
+    (nodes, leaf_of, order, energy), (c, ax, th_o) = _tree(n, rng)
     assert nodes.shape[0] == 2 * n - 1 and nodes["parent"][0] == -1
     assert (nodes["child"][leaf_of] == -1 - (np.arange(n) + 7)).all()
+    # a node's emitters are [first, first + count) of the tree's order; a leaf's, its own
+    assert (order[nodes["first"][leaf_of]] == np.arange(n) + 7).all()
+    assert (nodes["count"][leaf_of] == 1).all() and nodes["count"][0] == n
+    inner = nodes["child"] >= 0
+    ch = nodes["child"][inner]
+    assert (nodes["first"][ch] == nodes["first"][inner]).all()
+    assert (nodes["first"][ch + 1] == nodes["first"][inner] + nodes["count"][ch]).all()
+    assert (nodes["count"][ch] + nodes["count"][ch + 1] == nodes["count"][inner]).all()
+    np.testing.assert_allclose(np.add.reduceat(energy, [0]), nodes["energy"][0], rtol=1e-5)
     # walk up from every leaf: each ancestor's box, energy and cone hold the emitter
     for e in range(n):
         k = leaf_of[e]
@@ -60,9 +69,13 @@ def test_each_node_bounds_its_emitters(n):
 
 def test_the_pmf_sums_to_one_and_favours_the_near_emitters():
     rng = np.random.default_rng(3)
-    (nodes, leaf_of), (c, ax, th_o) = _tree(500, rng)
+    (nodes, leaf_of, _, energy), (c, ax, th_o) = _tree(500, rng)
     p, n = np.array([1.0, 1.0, 1.0]), np.array([0.0, 0.0, 1.0])
     q = lt.pmf(nodes, leaf_of, p, n)
+    # from afar the descent stops at a node and picks by power; the probabilities still sum
+    # to one
+    far = lt.pmf(nodes, leaf_of, [40.0, 2.0, 2.0], n, energy)
+    assert lt.stops(nodes, [40.0, 2.0, 2.0]).any() and far.sum() == pytest.approx(1.0, abs=1e-9)
     assert q.sum() == pytest.approx(1.0, abs=1e-9)
     # every emitter that can light p can be picked (one-sided ones facing away cannot)
     faces = (th_o > 0) | (((p - c) * ax).sum(1) > 0)
@@ -121,8 +134,12 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
     m, n_lights = int(em.info["n_emitters"][0]), int(em.info["n_lights"][0])
     assert (m, n_lights, int(em.info["n_emissive"][0])) == (51, 44, 6)
     assert int(em.info["n_tree"][0]) == 2 * 49 - 1 and em.info["local_radius"][0] == 0
-    pts = np.float32([[0, 0, 0, 0], [1.5, -1, 0.01, 0], [0.3, 0.2, 1.8, 0], [-2, 2, 0.5, 0]])
-    nrm = np.float32([[0, 0, 1, 0], [0, 0, 1, 0], [0, 0.6, -0.8, 0], [1, 0, 0, 0]])
+    pts = np.float32([[0, 0, 0, 0], [1.5, -1, 0.01, 0], [0.3, 0.2, 1.8, 0], [-2, 2, 0.5, 0],
+                      [40, 5, 1, 0]])
+    nrm = np.float32([[0, 0, 1, 0], [0, 0, 1, 0], [0, 0.6, -0.8, 0], [1, 0, 0, 0],
+                      [-1, 0, 0, 0]])
+    # from the last point the descent stops early and picks by power; from the first it does not
+    assert lt.stops(em.tree, pts[4, :3]).any() and not lt.stops(em.tree, pts[0, :3])[0]
     dev, n, n_u = r.device, len(pts), 1 << 18
     bufs = {k: cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 4 * n * m)
             for k in ("counts", "pmf", "table")}
@@ -140,7 +157,8 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
     assert member.sum() == 49 and not member[n_lights - 1] and not member[m - 1]  # sun, world
     for i in range(n):
         ref = np.where(member, 0.0, (1 - share) * far)
-        ref[member] = share * lt.pmf(em.tree, em.emitter_leaf[member], pts[i, :3], nrm[i, :3])
+        ref[member] = share * lt.pmf(em.tree, em.emitter_leaf[member], pts[i, :3], nrm[i, :3],
+                                     em.tree_energy)
         assert ref.sum() == pytest.approx(1.0, abs=1e-6)
         np.testing.assert_allclose(got["table"][i], ref, rtol=2e-3, atol=1e-7)
         picked = got["counts"][i] > 0
