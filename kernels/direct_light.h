@@ -275,7 +275,8 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
  * weighted against next-event estimation's density (power heuristic; a singular lobe's fully).
  * Near a large emitter (a ceiling 1 cm above a lamp, a filament inside its bulb) and for glossy
  * lobes next-event estimation alone has large variance; this sample covers it. */
-inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, int mask, uint *rng) {
+inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, int mask,
+                          int mis_mask, uint *rng) {
     float3 rand = (float3)(rnd(rng), rnd(rng), rnd(rng));
 #if EMITTERS_HITTABLE
     BsdfSample b;
@@ -287,7 +288,9 @@ inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, in
                               offset_ray(p, transmit ? -sd->Ng : sd->Ng,
                                          scene->emitter_info->offset_scale),
                               b.wo, ray, p, sd->N, sd->crossings, &pdf_l);
-    return b.weight * Le * mis_power(b.pdf, pdf_l);
+    float pdf_b = b.pdf;      /* next-event estimation's density for its closures (mis_mask) */
+    if (mis_mask != mask && !isinf(pdf_b)) shader_eval(sd, b.wo, mis_mask, &pdf_b);
+    return b.weight * Le * mis_power(pdf_b, pdf_l);
 #else
     return (float3)(0.0f);       /* nothing for the sample to find but what NEE samples */
 #endif
@@ -309,6 +312,6 @@ inline float3 direct_light(const Scene *scene, const ShaderData *sd, float3 p, i
     sample = sample || scene->emitter_info->n_emissive > 0;
 #endif
     float3 L = clamp_sample(beta * direct_nee(scene, sd, p, mask, sample, rng), limit);
-    return sample ? L + clamp_sample(beta * direct_bsdf(scene, sd, p, mask, rng), limit) : L;
+    return sample ? L + clamp_sample(beta * direct_bsdf(scene, sd, p, mask, mask, rng), limit) : L;
 }
 #endif

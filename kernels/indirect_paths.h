@@ -46,9 +46,12 @@ inline float4 indirect_set(int vertex, uint which, uint pass, uint key, uint *rn
 
 /* Light reaching the visible point p (material mat, closures sd, weight beta towards the pixel,
  * reached after depth bounces by the ray `path`) by next-event estimation there and paths that
- * continue from it; pass and key: the pixel's low-discrepancy stream.  sd is overwritten. */
+ * continue from it; pass and key: the pixel's low-discrepancy stream.  nee_all: the caller has
+ * done next-event estimation at p for all the closures (a vertex with gathered and followed
+ * ones, eye_pass.cl): none here, and the first sample is weighted against that one's density.
+ * sd is overwritten. */
 inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int mat, float3 beta,
-                             int depth, uint path, uint pass, uint key,
+                             int depth, uint path, uint pass, uint key, bool nee_all,
 #if PPM_ABSORPTION
                              Media *media,
 #endif
@@ -71,7 +74,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
     __global const LightPaths *lp = scene->light_paths;
     int term = TERM_NONE; /* past a Light Paths limit: how the path ends (light_path.h) */
     for (int vertex = 0, transparent = (int)path_count(path, PATH_TRANSPARENT_DEPTH);; vertex++) {
-        if (set == MASK_GATHER) {
+        if (set == MASK_GATHER && !(vertex == 0 && nee_all)) {
             float3 u = (float3)(ua.z, ua.x, ua.y);
             L += clamp_sample(beta * direct_nee_u(scene, sd, p, MASK_GATHER, EMITTERS_HITTABLE, u),
                               clamp_limit(depth, lp));
@@ -95,6 +98,8 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             term = path_limit(path, depth, lp);
             counts = set == MASK_GATHER;
             prev_pdf = b.pdf;
+            if (vertex == 0 && nee_all && !isinf(b.pdf))
+                shader_eval(sd, b.wo, MASK_ALL, &prev_pdf); /* the eye pass's NEE's density */
             prev_n = sd->N;
             prev_p = p;
             mask = bounce_visibility(b.label);

@@ -8,7 +8,13 @@ path meeting the same two directions comes from the other end.  Cycles' multiple
 compensation (1 / E of the view, with E from inside a dielectric far from E from outside) makes
 rough glass non-reciprocal, so photons need the adjoint factor (kernels/microfacet.h
 microfacet_adjoint).  Without it the spheres below rendered at 0.41-0.61 of Cycles' radiance by
-photons (roughness 1.0 to 0.7) where eye paths gave 1.00."""
+photons (roughness 1.0 to 0.7) where eye paths gave 1.00.
+
+Then every roughness from 0.0 to 1.0 before a texture, cubes and spheres, per object against
+Cycles.  Lit by the world alone: where a lamp is seen through rough glass, Cycles' next-event
+estimation adds 2-10 % that its own BSDF sampling does not find (docs/SHADING.md "Rough
+glass"); this engine renders what the sampling finds, so the cubes behind roughness 0.8-0.9
+measured 0.92 of Cycles with an area light in front of them."""
 import math
 
 import numpy as np
@@ -59,3 +65,81 @@ def test_light_through_rough_glass_by_photons_and_eye_paths_as_cycles(
     # Cycles' own spheres are 0.68-0.75 of the world: its compensation tables are not exact
     assert ref == pytest.approx([0.37, 0.37, 0.355, 0.34], abs=0.03)
     np.testing.assert_allclose(ours, ref, rtol=0.05, err_msg=f"ours / Cycles {ours / ref}")
+
+
+N_ROW = 11       # roughness 0.0, 0.1, ..., 1.0
+PX = 16          # pixels per object
+
+
+def _row(bpy):
+    """Rough Principled glass (transmission 1, IOR 1.5) at roughness 0.0 to 1.0 in steps of 0.1:
+    a row of tilted cubes above a row of spheres, before a checkered diffuse backdrop 1 m
+    behind them, lit by the grey world (Cycles' default colour), seen by an orthographic
+    camera: one object per PX x PX pixels."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=10, location=(0, 1.0, 0), rotation=(math.pi / 2, 0, 0))
+    backdrop = bpy.data.materials.new("Backdrop")
+    bpy.context.active_object.data.materials.append(backdrop)
+    t = backdrop.node_tree
+    p = t.nodes["Principled BSDF"]
+    chk = t.nodes.new("ShaderNodeTexChecker")
+    chk.inputs["Scale"].default_value = 60.0
+    chk.inputs["Color1"].default_value = (0.9, 0.9, 0.9, 1)
+    chk.inputs["Color2"].default_value = (0.05, 0.05, 0.05, 1)
+    t.links.new(chk.outputs["Color"], p.inputs["Base Color"])
+    p.inputs["Roughness"].default_value = 1.0
+    for row, z in enumerate((0.2, -0.2)):
+        for i in range(N_ROW):
+            x = (i - (N_ROW - 1) / 2) * 0.4
+            if row == 0:
+                bpy.ops.mesh.primitive_cube_add(size=0.3, location=(x, 0, z),
+                                                rotation=(0.3, 0.4, 0.0))
+            else:
+                bpy.ops.mesh.primitive_uv_sphere_add(radius=0.15, location=(x, 0, z),
+                                                     segments=48, ring_count=24)
+                bpy.ops.object.shade_smooth()
+            m = bpy.data.materials.new(f"Glass{row}{i}")
+            bpy.context.active_object.data.materials.append(m)
+            g = m.node_tree.nodes["Principled BSDF"]
+            g.inputs["Transmission Weight"].default_value = 1.0
+            g.inputs["Roughness"].default_value = i / 10
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    cam.data.type, cam.data.ortho_scale = 'ORTHO', 0.4 * N_ROW
+    cam.location, cam.rotation_euler = (0.0, -5.0, 0.0), (math.pi / 2, 0.0, 0.0)
+    scene.world = bpy.data.worlds.new("Grey")
+    return scene
+
+
+def _objects(img):
+    """The mean of each object's central 6 x 6 pixels: (2 rows, N_ROW)."""
+    c = PX // 2 - 3
+    return np.array([[img[r * PX + c:r * PX + c + 6, i * PX + c:i * PX + c + 6].mean()
+                      for i in range(N_ROW)] for r in range(2)])
+
+
+@pytest.mark.parametrize("indirect,passes", [
+    ("AUTO", 256),
+    pytest.param("PHOTONS", 2048, marks=(pytest.mark.slow, pytest.mark.xfail(
+        strict=True, reason="by photons the sphere at roughness 0.7 (the gather's threshold) "
+                            "renders 1.07-1.12 of Cycles (1024 to 2048 passes); every other "
+                            "object within 8 %; not understood yet (docs/SHADING.md)"))),
+])
+def test_rough_glass_before_a_texture_at_every_roughness_as_cycles(
+        bpy, indirect, passes, cycles, tiny, render_exr, tmp_path):
+    """Each cube and sphere, roughness 0.0-1.0, within 8 % of Cycles (2048 samples) on the
+    texture seen through it: the light through rough glass whether eye paths follow it (below
+    RenderOptions.gather_roughness) or the gather meets it (at and above: by eye paths from the
+    visible point, or by photons)."""
+    scene = _row(bpy)
+    cycles(scene, 2048, width=PX * N_ROW)
+    scene.render.resolution_y = 2 * PX
+    ref = _objects(render_exr(tmp_path / "cycles.exr"))
+    tiny(scene, width=PX * N_ROW, height=2 * PX, passes=passes, photons=1 << 16)
+    scene.ppm.indirect = indirect
+    ours = _objects(render_exr(tmp_path / "ours.exr"))
+    bad = np.abs(ours - ref) > 0.08 * ref
+    assert not bad.any(), f"ours / Cycles (cubes, spheres by roughness):\n{np.round(ours / ref, 3)}"
+
