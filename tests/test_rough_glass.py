@@ -52,7 +52,7 @@ def _centres(img, k):
     return np.array([img[5:N - 5, i * N + 5:i * N + N - 5].mean() for i in range(k)])
 
 
-@pytest.mark.parametrize("indirect", ["PHOTONS", "AUTO"])
+@pytest.mark.parametrize("indirect", ["PHOTONS", pytest.param("AUTO", marks=pytest.mark.slow)])
 def test_light_through_rough_glass_by_photons_and_eye_paths_as_cycles(
         bpy, indirect, cycles, tiny, render_exr, tmp_path):
     scene = _furnace(bpy, ROUGH)
@@ -121,7 +121,7 @@ def _objects(img):
 
 
 @pytest.mark.parametrize("indirect,passes", [
-    ("AUTO", 256),
+    pytest.param("AUTO", 256, marks=pytest.mark.slow),         # 22 s on 2 cores
     pytest.param("PHOTONS", 2048, marks=(pytest.mark.slow, pytest.mark.xfail(
         strict=True, reason="by photons the sphere at roughness 0.7 (the gather's threshold) "
                             "renders 1.07-1.12 of Cycles (1024 to 2048 passes); every other "
