@@ -59,7 +59,9 @@ def test_light_through_rough_glass_by_photons_and_eye_paths_as_cycles(
     cycles(scene, 256, width=N)
     scene.render.resolution_x = N * len(ROUGH)
     ref = _centres(render_exr(tmp_path / "cycles.exr"), len(ROUGH))
-    tiny(scene, width=N * len(ROUGH), height=N, passes=512, photons=1 << 14)
+    # (photons are stored in the order threads reach them, so a render varies by its noise:
+    # 65,536 per pass keep each sphere within 3 % over repeated runs, measured)
+    tiny(scene, width=N * len(ROUGH), height=N, passes=512, photons=1 << 16)
     scene.ppm.indirect = indirect
     ours = _centres(render_exr(tmp_path / "ours.exr"), len(ROUGH))
     # Cycles' own spheres are 0.68-0.75 of the world: its compensation tables are not exact
