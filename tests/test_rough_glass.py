@@ -124,10 +124,7 @@ def _objects(img):
 
 @pytest.mark.parametrize("indirect,passes", [
     pytest.param("AUTO", 256, marks=pytest.mark.slow),         # 22 s on 2 cores
-    pytest.param("PHOTONS", 2048, marks=(pytest.mark.slow, pytest.mark.xfail(
-        strict=True, reason="by photons the sphere at roughness 0.7 (the gather's threshold) "
-                            "renders 1.07-1.12 of Cycles (1024 to 2048 passes); every other "
-                            "object within 8 %; not understood yet (docs/SHADING.md)"))),
+    pytest.param("PHOTONS", 2048, marks=pytest.mark.slow),
 ])
 def test_rough_glass_before_a_texture_at_every_roughness_as_cycles(
         bpy, indirect, passes, cycles, tiny, render_exr, tmp_path):
@@ -142,6 +139,12 @@ def test_rough_glass_before_a_texture_at_every_roughness_as_cycles(
     tiny(scene, width=PX * N_ROW, height=2 * PX, passes=passes, photons=1 << 16)
     scene.ppm.indirect = indirect
     ours = _objects(render_exr(tmp_path / "ours.exr"))
-    bad = np.abs(ours - ref) > 0.08 * ref
+    tol = np.full(ref.shape, 0.08)
+    if indirect == "PHOTONS":
+        # by photons the sphere at roughness 0.7, the gather's threshold, renders 1.07-1.12 of
+        # Cycles (1024 to 2048 passes) where every other object agrees: not understood yet
+        # (docs/SHADING.md "Rough glass"); held to that until it is
+        tol[1, 7] = 0.15
+    bad = np.abs(ours - ref) > tol * ref
     assert not bad.any(), f"ours / Cycles (cubes, spheres by roughness):\n{np.round(ours / ref, 3)}"
 
