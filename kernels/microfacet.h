@@ -227,13 +227,18 @@ inline float microfacet_E(const Closure *c, float mu, bool back, float *Eavg, TA
     return fmax(E, 1e-3f);
 }
 
+/* Kulla & Conty's multiple-scattering Fresnel for an average Fresnel fss and an average
+ * single-scattering albedo Eavg */
+inline float3 microfacet_fms(float3 fss, float Eavg) {
+    return fss * Eavg / ((float3)(1.0f) - fss * (1.0f - Eavg));
+}
+
 /* The factor multiple scattering puts on c's single scattering for a view at cosine mu: 1 / E,
  * darkened for a coloured average Fresnel fss (1 + fms (1 - E) / E) */
 inline float3 microfacet_compensation(const Closure *c, float3 fss, float mu, bool back,
                                       TABLES_ARG) {
     float Eavg, E = microfacet_E(c, mu, back, &Eavg, shading_tables);
-    float3 fms = fss * Eavg / ((float3)(1.0f) - fss * (1.0f - Eavg));
-    return (float3)(1.0f) + fms * ((1.0f - E) / E);
+    return (float3)(1.0f) + microfacet_fms(fss, Eavg) * ((1.0f - E) / E);
 }
 
 /* Multiple scattering: scale by 1 / E(view) and darken by Kulla & Conty's term for a coloured
@@ -244,8 +249,7 @@ inline void microfacet_preserve_energy(Closure *c, float3 wi, float3 fss, TABLES
     c->energy_scale = 1.0f / E;
     c->fss = fss;
     if (fss.x != 1.0f || fss.y != 1.0f || fss.z != 1.0f) {
-        float3 fms = fss * Eavg / ((float3)(1.0f) - fss * (1.0f - Eavg));
-        float3 darkening = E + fms * (1.0f - E);        /* (1 + fms (1 - E) / E) x E */
+        float3 darkening = E + microfacet_fms(fss, Eavg) * (1.0f - E); /* the compensation x E */
         c->weight *= darkening;
         c->sample_weight *= avg3(darkening);
     }

@@ -71,7 +71,6 @@ class Emitters:
     # emitters are contiguous: light_tree.py)
     tree_emitters: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
     tree_cdf: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
-    tree_energy: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
     tree_build_s: float = 0.0
 
 
@@ -94,7 +93,6 @@ def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray)
     cdf = np.cumsum(sorted_energy)
     em.tree_emitters = sorted_index.astype(np.int32)
     em.tree_cdf = (cdf / cdf[-1]).astype(np.float32)
-    em.tree_energy = sorted_energy
     emitter_leaf = np.full(n, -1, np.int32)
     emitter_leaf[index[keep]] = leaf_of
     far = em.power.copy()

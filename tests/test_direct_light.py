@@ -60,6 +60,26 @@ def test_grazing_emitter_does_not_shadow_itself():
         assert abs(e.mean() - ref) < 4 * se + 0.015 * ref, (y, e.mean(), ref, se)
 
 
+def emitter_picks(r, pts, nrm, n_u):
+    """Next-event estimation's pick at points pts (normals nrm, float4 rows) from n_u
+    stratified numbers (kernels/debug.cl emitter_pick_at), on renderer r's scene: per point and
+    emitter, "counts" how often it was picked, "pmf" the probability the pick returned (-1:
+    never picked) and "table" the one the MIS of a ray that finds it uses."""
+    import pyopencl as cl
+    dev, n = r.device, len(pts)
+    m = int(r.scene.emitters.info["n_emitters"][0])
+    bufs = {k: cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 4 * n * m)
+            for k in ("counts", "pmf", "table")}
+    k = dev.programs.get("debug.cl").launch("emitter_pick_at", "test")
+    k(dev.queue, n, SHADING_GROUP, **r.scene.args, points=dev.upload(pts, "p"),
+      nrm=dev.upload(nrm, "n"), n_u=np.uint32(n_u), **bufs, n=np.uint32(n))
+    got = {}
+    for key, dt in (("counts", np.uint32), ("pmf", np.float32), ("table", np.float32)):
+        got[key] = np.empty((n, m), dt)
+        cl.enqueue_copy(dev.queue, got[key], bufs[key])
+    return got
+
+
 def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
     """Next-event estimation among few emissive triangles (light_mesh.h pick_emitter_at): the
     group keeps its power share of the table; within it a triangle is picked with probability
@@ -69,7 +89,6 @@ def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
     twice the triangles' bounding ball, where their light is in proportion to power).  Checked
     against the pick's frequencies over stratified numbers, the pmf it returns, the pmf the MIS
     of a ray that hits the triangle uses, and I_j by Monte Carlo over each triangle's area."""
-    import pyopencl as cl
     mb = MeshBuilder()
     grey = mb.material("grey", (0.5, 0.5, 0.5))
     les = (4.0, 9.0, 2.0)
@@ -90,19 +109,11 @@ def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
     nrm = np.float32([[0, 0, 1, 0], [0, 0, 1, 0], [0, 0.6, 0.8, 0], [0, 0, -1, 0], [0, 0, 1, 0],
                       [0, 0, 1, 0]])
     r = Renderer(scene, RenderOptions(max_bounces=0))
-    dev, n, n_u = r.device, len(pts), 200000
+    n, n_u = len(pts), 200000
     em = r.scene.emitters
     m, first = int(em.info["n_emitters"][0]), int(em.info["n_lights"][0])
     assert (m, first, int(em.info["n_emissive"][0])) == (5, 1, 3)
-    bufs = {k: cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 4 * n * m)
-            for k in ("counts", "pmf", "table")}
-    k = dev.programs.get("debug.cl").launch("emitter_pick_at", "test")
-    k(dev.queue, n, SHADING_GROUP, **r.scene.args, points=dev.upload(pts, "p"),
-      nrm=dev.upload(nrm, "n"), n_u=np.uint32(n_u), **bufs, n=np.uint32(n))
-    got = {}
-    for key, dt in (("counts", np.uint32), ("pmf", np.float32), ("table", np.float32)):
-        got[key] = np.empty((n, m), dt)
-        cl.enqueue_copy(dev.queue, got[key], bufs[key])
+    got = emitter_picks(r, pts, nrm, n_u)
     r.close()
     g = np.diff(np.concatenate([[0.0], em.cdf.astype(np.float64)]))
     # the triangles' bounding ball (corners' box centre, farthest corner), within twice which

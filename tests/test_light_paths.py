@@ -139,6 +139,17 @@ def _pair(bpy, scene, tmp_path, render_exr, tiny, *, samples, passes, photons=1 
     return render_exr(tmp_path / "ours.exr"), ref
 
 
+def _setting_agrees(bpy, tmp_path, render_exr, tiny, settings, indirect, rtol):
+    """The room with Cycles' Light Paths `settings` and this engine's `indirect` light, per
+    block within rtol of Cycles with the same settings."""
+    scene = _room(bpy)
+    for k, v in settings.items():
+        setattr(scene.cycles, k, v)
+    scene.ppm.indirect = indirect
+    ours, ref = _pair(bpy, scene, tmp_path, render_exr, tiny, samples=1024, passes=256)
+    _agree(ours, ref, rtol)
+
+
 def _blocks(img):
     return img.reshape(W // 8, 8, W // 8, 8, 3).mean(axis=(1, 3)).mean(axis=-1)
 
@@ -171,13 +182,7 @@ def test_bounce_limits_as_cycles(name, bpy, tmp_path, render_exr, tiny):
     """Each bounce limit against Cycles with the same limit, per 8 x 8 block within 6 %: the
     mirror box (glossy), the glass ball and its caustic (transmission: photons joined to eye
     paths), the room's diffuse light (eye paths, or photons), the total."""
-    settings, indirect = SETTINGS[name]
-    scene = _room(bpy)
-    for k, v in settings.items():
-        setattr(scene.cycles, k, v)
-    scene.ppm.indirect = indirect
-    ours, ref = _pair(bpy, scene, tmp_path, render_exr, tiny, samples=1024, passes=256)
-    _agree(ours, ref, 0.06)
+    _setting_agrees(bpy, tmp_path, render_exr, tiny, *SETTINGS[name], 0.06)
 
 
 @pytest.mark.slow
@@ -208,13 +213,7 @@ def test_clamping_as_cycles(name, bpy, tmp_path, render_exr, tiny):
     camera path that finds its light would be (its radiance, the visible point's sample weight,
     and next-event estimation's density at the light's first scattering: kernels/gather.cl),
     which matches Cycles' clamped mean without being its sample for sample."""
-    settings, indirect = CLAMPS[name]
-    scene = _room(bpy)
-    for k, v in settings.items():
-        setattr(scene.cycles, k, v)
-    scene.ppm.indirect = indirect
-    ours, ref = _pair(bpy, scene, tmp_path, render_exr, tiny, samples=1024, passes=256)
-    _agree(ours, ref, 0.07)
+    _setting_agrees(bpy, tmp_path, render_exr, tiny, *CLAMPS[name], 0.07)
 
 
 # Refractive Caustics off takes Cycles' caustic under the ball down to 55 %, Reflective off the
@@ -232,10 +231,4 @@ def test_caustics_toggles_as_cycles(name, bpy, tmp_path, render_exr, tiny):
     """Reflective and Refractive Caustics off against Cycles, per 8 x 8 block within 6 %: a
     glossy reflection or transmission right after a diffuse bounce is not made, by the eye
     paths (shader.h shader_caustics_off) nor by photons (light_path.h path_caustic_off)."""
-    settings, indirect = CAUSTICS[name]
-    scene = _room(bpy)
-    for k, v in settings.items():
-        setattr(scene.cycles, k, v)
-    scene.ppm.indirect = indirect
-    ours, ref = _pair(bpy, scene, tmp_path, render_exr, tiny, samples=1024, passes=256)
-    _agree(ours, ref, 0.06)
+    _setting_agrees(bpy, tmp_path, render_exr, tiny, *CAUSTICS[name], 0.06)

@@ -11,7 +11,6 @@ import pytest
 
 from ppm_engine import light_tree as lt
 from ppm_engine.camera_model import make_camera
-from ppm_engine.device import SHADING_GROUP
 from ppm_engine.options import RenderOptions
 from ppm_engine.procedural import MeshBuilder, look_at
 from ppm_engine.renderer import Renderer
@@ -25,6 +24,7 @@ from ppm_engine.scene_arrays import (
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_analytic import light
+from test_direct_light import emitter_picks
 
 
 def _tree(n, rng):
@@ -126,7 +126,6 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
     rounding: both multiply the same choices, top down and bottom up) and the float64
     reference's (power share x tree, or the
     suns' and the world's power share outside it); they sum to one."""
-    import pyopencl as cl
     rng = np.random.default_rng(11)
     scene = _many_lights_scene(rng)
     r = Renderer(scene, RenderOptions(max_bounces=0))
@@ -140,16 +139,8 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
                       [-1, 0, 0, 0]])
     # from the last point the descent stops early and picks by power; from the first it does not
     assert lt.stops(em.tree, pts[4, :3]).any() and not lt.stops(em.tree, pts[0, :3])[0]
-    dev, n, n_u = r.device, len(pts), 1 << 18
-    bufs = {k: cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 4 * n * m)
-            for k in ("counts", "pmf", "table")}
-    k = dev.programs.get("debug.cl").launch("emitter_pick_at", "test")
-    k(dev.queue, n, SHADING_GROUP, **r.scene.args, points=dev.upload(pts, "p"),
-      nrm=dev.upload(nrm, "n"), n_u=np.uint32(n_u), **bufs, n=np.uint32(n))
-    got = {}
-    for key, dt in (("counts", np.uint32), ("pmf", np.float32), ("table", np.float32)):
-        got[key] = np.empty((n, m), dt)
-        cl.enqueue_copy(dev.queue, got[key], bufs[key])
+    n, n_u = len(pts), 1 << 18
+    got = emitter_picks(r, pts, nrm, n_u)
     r.close()
     share = float(em.info["tree_share"][0])
     far = np.diff(np.concatenate([[0.0], em.far_cdf.astype(np.float64)]))
@@ -158,7 +149,7 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
     for i in range(n):
         ref = np.where(member, 0.0, (1 - share) * far)
         ref[member] = share * lt.pmf(em.tree, em.emitter_leaf[member], pts[i, :3], nrm[i, :3],
-                                     em.tree_energy)
+                                     em.power[em.tree_emitters])
         assert ref.sum() == pytest.approx(1.0, abs=1e-6)
         np.testing.assert_allclose(got["table"][i], ref, rtol=2e-3, atol=1e-7)
         picked = got["counts"][i] > 0

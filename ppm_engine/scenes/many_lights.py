@@ -74,11 +74,12 @@ def build(scene=None):
                 _light(scene, f"LampX{k}", 'POINT', (u, s + off, 2.5), 20.0 + 20 * rng.random(),
                        shadow_soft_size=0.05)
                 k += 1
-    # spots over the doors, pointing down; lit windows on the facades facing the streets
+    # spots over the doors, pointing down (a spot's -Z, unrotated); lit windows on the facades
+    # facing the streets
     for n in range(60):
         x, y = rng.uniform(-8, 10), rng.choice([-1.02, 2.98, 4.98])
         _light(scene, f"Spot{n}", 'SPOT', (x, y, 2.2), 30.0, spot_size=math.radians(70),
-               spot_blend=0.3, shadow_soft_size=0.02).rotation_euler = (0.0, 0.0, 0.0)
+               spot_blend=0.3, shadow_soft_size=0.02)
     for n in range(120):
         x, z = rng.uniform(-7, 9), rng.uniform(1.0, 3.0)
         # facing the street (an area light emits along its -Z)
