@@ -186,7 +186,7 @@
 #define LOCAL_PICK_MAX 8
 
 /* the light tree's traversal stack for rays (ppm_engine/light_tree.py LIGHT_TREE_STACK) */
-#define LIGHT_TREE_STACK 40
+#define LIGHT_TREE_STACK 64
 
 /* entries of the pixel filter's table (ppm_engine/film.py FILTER_TABLE_SIZE) */
 #define FILTER_TABLE_SIZE 256

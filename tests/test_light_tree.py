@@ -94,6 +94,41 @@ def test_the_pmf_sums_to_one_and_favours_the_near_emitters():
     assert rel[0] < 0.5 * rel[1], rel
 
 
+def test_a_dense_cluster_of_dim_emitters_keeps_to_its_own_nodes():
+    """A street of 300 lamps (20-40 W, 1.4 x 1 m apart) and a neon sign of 3,000 dim
+    triangles in one metre: the build splits each node at the middle of its cell (a radix
+    split of the Morton codes), so the sign's triangles fill a subtree of their own.  Split at
+    the middle of the emitter range instead, node after node of lamps carried a few of the
+    sign's triangles and a box as wide as the street, and from 18 cm beside a lamp the
+    estimate's relative variance (sum(c^2 / q) / sum(c)^2 - 1) was 15.6 (median of 20
+    lamps) where the radix split gives 1.7."""
+    rng = np.random.default_rng(1)
+    g = np.stack(np.meshgrid(np.arange(15), np.arange(20)), -1).reshape(-1, 2) * 1.0
+    lamps = np.column_stack([g[:, 0] * 1.4, g[:, 1], np.full(len(g), 2.5)])
+    sign = rng.random((3000, 3)) * [1.0, 1.0, 0.5] + [3.0, 25.0, 4.0]
+    c = np.concatenate([lamps, sign])
+    ext = np.concatenate([np.full(len(lamps), 0.05), np.full(len(sign), 0.01)])[:, None]
+    E = np.concatenate([20 + 20 * rng.random(len(lamps)), np.full(len(sign), 0.02)])
+    m = len(c)
+    nodes, leaf_of, _, energy = lt.build_light_tree(
+        c - ext, c + ext, np.tile([0.0, 0.0, 1.0], (m, 1)), np.full(m, np.pi),
+        np.full(m, np.pi / 2), E, np.arange(m))
+    # the sign's triangles under one node holding nothing else
+    first, count = nodes["first"].astype(np.int64), nodes["count"].astype(np.int64)
+    sign_rank = np.sort(nodes["first"][leaf_of[len(lamps):]])
+    assert ((first == sign_rank[0]) & (count == len(sign))).any()
+    assert (np.diff(sign_rank) == 1).all()
+    rel = []
+    for k in rng.choice(len(lamps), 20, replace=False):
+        p, n = c[k] + [0.15, 0.0, -0.1], np.array([-1.0, 0.0, 0.0])
+        q = lt.pmf(nodes, leaf_of, p, n, energy)
+        v = c - p
+        d2 = (v * v).sum(1)
+        light = E * np.abs(v @ n) / np.sqrt(d2) / d2
+        rel.append((light ** 2 / np.maximum(q, 1e-300)).sum() / light.sum() ** 2 - 1)
+    assert np.median(rel) < 3.0, np.round(rel, 2)
+
+
 def _many_lights_scene(rng):
     """A grey floor, 40 point and spot lights at random under a ceiling, 3 area lights, 6
     emissive triangles, a sun and a world: 52 emitters, 49 of them in the tree."""
