@@ -163,7 +163,9 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
             else if (!path_indirect)
                 L += direct_light(scene, &sd, s.p, MASK_GATHER, bvp, clamp_limit(depth, lp), &rng);
             vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
-            vp_nrm[id] = (float4)(sd.N, as_float(path)); /* (the gather shades it again) */
+            /* the surface's own normal: the gather's disc lies in it, as the photons do (the
+             * gather shades the point again) */
+            vp_nrm[id] = (float4)(sd.Ng, as_float(path));
             float3 albedo = (float3)(0.0f);
             bool lambert = true;
             for (int k = 0; k < sd.n; k++) {

@@ -121,9 +121,13 @@ inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l, uint2 p
 #if PPM_GATHER_SHADE
     if (!gp->lambert) {
         float pdf;
-        float3 fc = shader_eval_kinds(&gp->sd, unpack_unit(as_uint(pf.w)), MASK_GATHER, kinds,
-                                      &pdf);
-        f = fc * (1.0f / fabs(cos_l));
+        float3 wp = unpack_unit(as_uint(pf.w));
+        float3 fc = shader_eval_kinds(&gp->sd, wp, MASK_GATHER, kinds, &pdf);
+        /* f cos over the shading normal's cosine (the photon's flux carries cos_N / cos_Ng:
+         * photon_pass.cl) */
+        float cs = fabs(dot(wp, gp->sd.N));
+        if (!(cs > 1e-6f)) return (float3)(0.0f);
+        f = fc * (1.0f / cs);
         ratio = pdf > 0.0f ? fc * (1.0f / pdf) : (float3)(0.0f);
     } else
 #endif

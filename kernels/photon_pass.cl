@@ -79,6 +79,15 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
             Ng = sd.Ng;
             gather = sd.sw_gather > 0.0f;
         }
+        /* Shading normals for light (Veach's thesis, 5.3): photons land with the density of
+         * their cosine to the surface as it is (Ng), where a camera path weighs the light it
+         * finds by the cosine to the shading normal (N), as Cycles does (none from below N).
+         * So a stored photon counts cos_N / cos_Ng of its arrival, and a scattered one also
+         * cos_Ng / cos_N of its departure (the adjoint of a BSDF with shading normals).  Its
+         * normal is the geometric one: the gather's disc lies in the surface as it is
+         * (gather.cl). */
+        float c_ng = fabs(dot(d, Ng)), c_n = -dot(d, N);
+        float shading = c_ng > 0.0f ? fmax(c_n, 0.0f) / c_ng : 0.0f;
         if (!direct && gather) {
             if (!(isfinite(flux.x) && isfinite(flux.y) && isfinite(flux.z))) {
                 atomic_inc(&counters[CNT_NAN]);
@@ -87,9 +96,10 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
             if (in_grid(s.p, &g)) {
                 uint k = atomic_inc(&counters[CNT_STORED]);
                 if (k < capacity) {
-                    ph_pos[k] = (float4)(s.p, as_float(pack_unit(N)));
-                    ph_flux[k] = (float4)(flux, as_float(pack_unit(-d)));
-                    ph_path[k] = (uint2)(ppath, as_uint(rs));
+                    ph_pos[k] = (float4)(s.p, as_float(pack_unit(Ng)));
+                    ph_flux[k] = (float4)(flux * shading, as_float(pack_unit(-d)));
+                    /* (the camera path's sample has no such factor: gather.cl's clamp) */
+                    ph_path[k] = (uint2)(ppath, as_uint(shading > 0.0f ? rs / shading : rs));
                 } else {
                     atomic_inc(&counters[CNT_OVERFLOW]);
                 }
@@ -133,6 +143,14 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
             return;
         }
         flux *= b.weight;
+        if (!(b.label & LABEL_TRANSPARENT)) {
+            float o_n = fabs(dot(b.wo, N));
+            float adj = o_n > 0.0f && c_ng > 0.0f
+                            ? fabs(c_n) * fabs(dot(b.wo, Ng)) / (c_ng * o_n) : 0.0f;
+            if (!(adj > 0.0f)) break;
+            flux *= adj;
+            rs /= adj;
+        }
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
         /* refraction's (eta_i / eta_t)^2 on the flux (kernels/closure.h: camera paths carry
          * none, as Cycles; photons the matching factor, so both agree) */
