@@ -118,6 +118,7 @@ typedef struct {
     float3 ns;       /* unit shading normal, flipped to the side of ng */
     int material;
     uint tri;        /* original triangle index */
+    int leaf;        /* its index in the leaf-ordered arrays (-1: none) */
 } Surface;
 
 inline Surface surface_at(const Scene *scene, Hit h) {
@@ -128,6 +129,7 @@ inline Surface surface_at(const Scene *scene, Hit h) {
     float len = length(ng);
     s.ng = len > 0.0f ? ng / len : (float3)(0.0f, 0.0f, 1.0f);
     s.tri = as_uint(v0.w);
+    s.leaf = h.leaf;
     s.material = as_int(e2.w);
     __global const float *n = scene->normals + 9 * (size_t)s.tri;
     float w = 1.0f - h.u - h.v;
@@ -137,5 +139,27 @@ inline Surface surface_at(const Scene *scene, Hit h) {
     ns = (nl > 0.0f && isfinite(nl)) ? ns / nl : s.ng;
     s.ns = dot(ns, s.ng) < 0.0f ? -ns : ns;
     return s;
+}
+
+/* The shadow terminator (Hanika, "Hacking the Shadow Terminator", Ray Tracing Gems II; Cycles'
+ * object setting Shadow Terminator > Geometry Offset): a smooth-shaded low-poly mesh lit near
+ * its terminator shadows itself along its faces' edges, where the smooth surface its normals
+ * describe would not.  The point at barycentrics (u, v) of triangle leaf (original index tri)
+ * lifted onto that smooth surface: the barycentric mix of its projections onto the tangent
+ * planes at the three corners (Phong tessellation), towards side (the side the point is seen
+ * from); zero where the surface there is not convex or the corners' normals agree. */
+inline float3 terminator_lift(const Scene *scene, int leaf, uint tri, float u, float v,
+                              float3 side) {
+    if (leaf < 0) return (float3)(0.0f);
+    __global const float *n = scene->normals + 9 * (size_t)tri;
+    float3 na = (float3)(n[0], n[1], n[2]), nb = (float3)(n[3], n[4], n[5]),
+           nc = (float3)(n[6], n[7], n[8]);
+    if (all(isequal(na, nb)) && all(isequal(na, nc))) return (float3)(0.0f);     /* flat */
+    float3 a = scene->tri_v0[leaf].xyz;
+    float3 b = a + scene->tri_e1[leaf].xyz, c = a + scene->tri_e2[leaf].xyz;
+    float w = 1.0f - u - v;
+    float3 p = w * a + u * b + v * c;
+    float3 lift = w * dot(a - p, na) * na + u * dot(b - p, nb) * nb + v * dot(c - p, nc) * nc;
+    return dot(lift, side) > 0.0f && all(isfinite(lift)) ? lift : (float3)(0.0f);
 }
 #endif

@@ -9,6 +9,7 @@ inline void test_setup(const Scene *scene, ShaderData *sd, int mat, float4 wi) {
     s.ng = s.ns = (float3)(0.0f, 0.0f, 1.0f);
     s.material = mat;
     s.tri = 0u;
+    s.leaf = -1;
     shader_setup(scene, sd, &s, 0.0f, 0.0f, PATH_CAMERA, 1.0f, normalize(wi.xyz), NO_FOOTPRINT);
 }
 

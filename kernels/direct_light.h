@@ -216,12 +216,34 @@ inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, i
     if (!sample_emitter(scene, p, sd->N, sd->Ng, u, &s, &pmf)) return (float3)(0.0f);
     float pdf_b;
     float3 f = shader_eval(sd, s.wi, mask, &pdf_b);
-    bool transmit = dot(s.wi, sd->Ng) < 0.0f;
     if (!(max3(f) > 0.0f)) return (float3)(0.0f);
-    float3 T = shadow_transmittance(scene,
-                                    offset_ray(p, transmit ? -sd->Ng : sd->Ng,
-                                               scene->emitter_info->offset_scale),
-                                    s.wi, s.dist, sd->crossings);
+    /* the side the light is on as the shading normal sees it (as Cycles decides): a light
+     * below the face but above the shading normal's horizon is reflected light, and its
+     * shadow ray leaves from the face's front; it meets the face itself where the face is
+     * in the way */
+    bool transmit = dot(s.wi, sd->N) < 0.0f;
+    float3 side = transmit ? -sd->Ng : sd->Ng;
+    float3 o = offset_ray(p, side, scene->emitter_info->offset_scale);
+    float3 wi = s.wi;
+    float dist = s.dist;
+    /* near the terminator of a smooth-shaded mesh the shadow ray leaves from the smooth
+     * surface (bvh.h terminator_lift), all the way where the light grazes the face or the
+     * shading normal's horizon and not at all from `cut` above both (the object's Shadow
+     * Terminator > Geometry Offset; Cycles' ramp) */
+    float cut = sd->leaf >= 0 ? scene->terminator[sd->tri] : 0.0f;
+    float nl = fabs(dot(sd->N, wi)), ngl = dot(side, wi);
+    float amount = cut > 0.0f ? clamp((nl < cut ? 2.0f - nl / cut : 1.0f) - ngl / cut, 0.0f, 1.0f)
+                              : 0.0f;
+    if (amount > 0.0f && !transmit) {
+        float3 lift = amount * terminator_lift(scene, sd->leaf, sd->tri, sd->u, sd->v, sd->Ng);
+        if (isfinite(dist)) {             /* towards the same point on the light */
+            float3 to = wi * dist - lift;
+            dist = length(to);
+            wi = to / dist;
+        }
+        o += lift;
+    }
+    float3 T = shadow_transmittance(scene, o, wi, dist, sd->crossings);
     float w = mis && s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
     return f * T * s.E * (w / pmf);
 }

@@ -145,8 +145,8 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
         flux *= b.weight;
         if (!(b.label & LABEL_TRANSPARENT)) {
             float o_n = fabs(dot(b.wo, N));
-            float adj = o_n > 0.0f && c_ng > 0.0f
-                            ? fabs(c_n) * fabs(dot(b.wo, Ng)) / (c_ng * o_n) : 0.0f;
+            float adj = o_n > 0.0f && c_ng > 0.0f ? fabs(c_n) * fabs(dot(b.wo, Ng)) / (c_ng * o_n)
+                                                  : 0.0f;
             if (!(adj > 0.0f)) break;
             flux *= adj;
             rs /= adj;

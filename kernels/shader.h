@@ -198,6 +198,10 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
                             - (int)path_count(path, PATH_TRANSPARENT_DEPTH),
                         0);
     sd->backfacing = dot(wi, ng) < 0.0f;
+    sd->leaf = s->leaf;
+    sd->tri = tri;
+    sd->u = u;
+    sd->v = v;
     sd->Ng = sd->backfacing ? -ng : ng;
     sd->N = sd->backfacing ? -ns : ns;
     Material m = scene->materials[mat];

@@ -25,6 +25,9 @@ typedef struct {
                              there); singular ones cannot */
     int crossings;        /* transparent surfaces a ray sampled here may still cross (the Light
                              Paths' transparent limit less the path's crossings) */
+    int leaf;             /* the point's triangle (bvh.h Surface) and barycentrics: the shadow */
+    uint tri;             /* terminator's lift (bvh.h terminator_lift) */
+    float u, v;
 } ShaderData;
 
 /* the BSDF node the setup functions read: a private copy with the program's inputs written in

@@ -425,6 +425,7 @@ typedef struct {
     X(int4, svm)                 /* shader programs */ \
     X(float4, uv_tangents)       /* UV tangents (3 corners per triangle) */ \
     X(float, generated)          /* Generated coordinates */ \
+    X(float, terminator)         /* triangles' objects' Shadow Terminator Geometry Offset */ \
     X(float4, attributes)        /* mesh attributes */ \
     X(int, tri_object)           /* triangles' objects */ \
     X(float4, objects)           /* objects */ \

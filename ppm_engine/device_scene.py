@@ -28,7 +28,8 @@ from .materials import (
     kernel_nodes,
     max_closures,
 )
-from .scene_arrays import LIGHT_DTYPE, SHADER_NODE_DTYPE, TEXTURE_DTYPE, SceneArrays
+from .scene_arrays import (LIGHT_DTYPE, SHADER_NODE_DTYPE, TERMINATOR_OFFSET, TEXTURE_DTYPE,
+                           SceneArrays)
 from .scene_prep import offset_scale, prepare_scene
 from .shader_program import ops_define, ops_used, stack_used
 from .shading_tables import load as shading_tables
@@ -63,6 +64,8 @@ SCENE_BUFFERS = (
     SceneBuffer("svm", _I4, "shader programs"),
     SceneBuffer("uv_tangents", _F4, "UV tangents (3 corners per triangle)"),
     SceneBuffer("generated", np.dtype(np.float32), "Generated coordinates"),
+    SceneBuffer("terminator", np.dtype(np.float32),
+                "triangles' objects' Shadow Terminator Geometry Offset"),
     SceneBuffer("attributes", _F4, "mesh attributes"),
     SceneBuffer("tri_object", np.dtype(np.int32), "triangles' objects", fill=-1),
     SceneBuffer("objects", _F4, "objects"),
@@ -142,6 +145,8 @@ class DeviceScene:
             texels=prepared.texels, uvs=prepared.uvs, tangents=prepared.tangents,
             svm=prepared.svm, uv_tangents=prepared.uv_tangents, generated=prepared.generated,
             attributes=prepared.attributes, tri_object=prepared.object, objects=prepared.objects,
+            terminator=(prepared.terminator if prepared.terminator.size else
+                        np.full(prepared.n_triangles, TERMINATOR_OFFSET, np.float32)),
             camera=prepared.camera, light_paths=prepared.light_paths)
         # the world's map is baked with the shading buffers; the emitter table needs its power
         self.world_map = self._world_map(prepared, args)

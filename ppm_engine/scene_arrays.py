@@ -184,6 +184,9 @@ TEXTURE_DTYPE = np.dtype([
     ("flags", np.uint32),             # TEX_REPEAT.. | TEX_FLAG_CLOSEST, _CUBIC, _SRGB
 ])
 
+# Cycles' default Shadow Terminator > Geometry Offset of an object (SceneArrays.terminator)
+TERMINATOR_OFFSET = 0.1
+
 # ``emit`` depends on the type: POINT/SPOT radiant intensity in W/sr (Cycles: P/(4 pi)),
 # SUN irradiance in W/m^2 on a surface facing it, AREA radiance in W/(m^2 sr).
 LIGHT_DTYPE = np.dtype([
@@ -253,6 +256,9 @@ class SceneArrays:
     object: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
     objects: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros((0, 9, 4), np.float32))
+    # (T,) float32 each triangle's object's Shadow Terminator > Geometry Offset (Cycles' object
+    # setting; kernels/bvh.h terminator_lift), or (0,) when every object has the default
+    terminator: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
     # (W, 4) int32 shader programs (ppm_engine/shader_program.py); word 0 is never one
     svm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((1, 4), np.int32))
     # (4,) int32 the world's node graph: its program's first word in ``svm`` (0: the constant
@@ -322,6 +328,10 @@ class SceneArrays:
                 or at.shape[0] not in (0, t) or (at.shape[0] == 0) != (at.shape[2] == 0):
             raise ValueError(f"SceneArrays.attributes: expected float32 (T, 3, K, 4) or "
                              f"(0, 3, 0, 4), got {at.dtype}{at.shape}")
+        tm = self.terminator
+        if tm.dtype != np.float32 or tm.shape not in ((0,), (t,)):
+            raise ValueError(f"SceneArrays.terminator: expected float32 (0,) or ({t},), got "
+                             f"{tm.dtype}{tm.shape}")
         for name, k in (("tangents", 3), ("uv_tangents", 4), ("generated", 3)):
             a = getattr(self, name)
             if a.dtype != np.float32 or a.shape not in ((0, 3, k), (t, 3, k)):

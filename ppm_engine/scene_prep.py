@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SceneError
-from .scene_arrays import SceneArrays
+from .scene_arrays import TERMINATOR_OFFSET, SceneArrays
 
 
 def check_finite(scene: SceneArrays) -> None:
@@ -62,13 +62,18 @@ def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
         changes.update(positions=scene.positions[good], normals=scene.normals[good],
                        uvs=scene.uvs[good], material=scene.material[good],
                        visibility=scene.visibility[good])
-        for name in ("tangents", "uv_tangents", "generated", "attributes", "object"):
+        for name in ("tangents", "uv_tangents", "generated", "attributes", "object",
+                     "terminator"):
             if getattr(scene, name).shape[0]:
                 changes[name] = getattr(scene, name)[good]
     for name in ("tangents", "uv_tangents", "generated", "attributes", "object"):
         tg = changes.get(name, getattr(scene, name))
         if not np.isfinite(tg).all():
             changes[name] = np.where(np.isfinite(tg), tg, 0.0).astype(np.float32)
+    tm = changes.get("terminator", scene.terminator)
+    if not (np.isfinite(tm) & (tm >= 0) & (tm <= 1)).all():
+        changes["terminator"] = np.clip(np.nan_to_num(tm, nan=TERMINATOR_OFFSET), 0.0,
+                                        1.0).astype(np.float32)
     uv = changes.get("uvs", scene.uvs)
     if not np.isfinite(uv).all():
         changes["uvs"] = np.where(np.isfinite(uv), uv, 0.0).astype(np.float32)

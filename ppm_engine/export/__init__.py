@@ -16,6 +16,7 @@ from ..light_paths import from_cycles
 from ..scene_arrays import (
     LIGHT_DTYPE,
     LIGHT_HIDDEN_SHIFT,
+    TERMINATOR_OFFSET,
     VIS_CAMERA,
     VIS_DIFFUSE,
     VIS_GLOSSY,
@@ -102,7 +103,8 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
             parts.append(transform_part(mesh, m, slots, visibility_bits(obj), obj.name, warn,
                                         tangents=materials.anisotropic(slots),
                                         uv_tangents=meshes.uv_tangents(obj) if mapped else None,
-                                        generated=gen, attributes=attrs))
+                                        generated=gen, attributes=attrs,
+                                        terminator=terminator_offset(obj)))
             uv_tangents |= mapped
             generated |= gen
             k_obj = -1
@@ -134,6 +136,8 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
             cat["object"] = np.zeros(0, np.int32)
         if not generated:                          # no Generated coordinates read
             cat["generated"] = np.zeros((0, 3, 3), np.float32)
+        if (cat["terminator"] == np.float32(TERMINATOR_OFFSET)).all():   # every one the default
+            cat["terminator"] = np.zeros(0, np.float32)
     else:
         cat = dict(positions=np.zeros((0, 3, 3), np.float32),
                    normals=np.zeros((0, 3, 3), np.float32),
@@ -151,6 +155,17 @@ def export_scene(depsgraph, engine=None) -> SceneArrays:
                            svm=svm, world_shader=world_shader, light_paths=light_paths)
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
+
+
+def terminator_offset(obj) -> float:
+    """The object's Shadow Terminator > Geometry Offset (Object Properties > Shading, which
+    Cycles reads; kernels/bvh.h terminator_lift), 0-1."""
+    v = getattr(obj, "shadow_terminator_geometry_offset", TERMINATOR_OFFSET)
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return TERMINATOR_OFFSET
+    return min(max(v, 0.0), 1.0) if np.isfinite(v) else TERMINATOR_OFFSET
 
 
 def visibility_bits(obj) -> int:

@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from ..scene_arrays import TERMINATOR_OFFSET
 from ..scene_prep import finite_triangles
 
 # object types that can evaluate to a mesh (non-MESH types go through ``to_mesh()``)
@@ -260,7 +261,8 @@ def generated_coords(mesh: LocalMesh) -> np.ndarray:
 def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibility: int,
                    name: str, warn, tangents: bool = False,
                    uv_tangents: np.ndarray | None = None, generated: bool = False,
-                   attributes: np.ndarray | None = None) -> dict:
+                   attributes: np.ndarray | None = None,
+                   terminator: float = TERMINATOR_OFFSET) -> dict:
     """World-space arrays of one instance.
 
     Positions by the world matrix, normals by its inverse transpose (renormalised).  A mirroring
@@ -272,7 +274,8 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
     object_normal_transform), else zeros; ``uv_tangents`` (read_uv_tangents) as directions,
     renormalised, their signs flipped by a mirroring matrix (the bitangent is the normal
     crossed with the tangent), else zeros; with ``generated`` the Generated coordinates
-    (generated_coords), else zeros; ``attributes`` (read_attributes) carried as they are."""
+    (generated_coords), else zeros; ``attributes`` (read_attributes) carried as they are;
+    ``terminator`` the object's Shadow Terminator > Geometry Offset, per triangle."""
     m3, t = m[:3, :3], m[:3, 3]
     det = float(np.linalg.det(m3))
     # float32 arithmetic (as Cycles transforms): the result is float32 anyway, and 1M triangles
@@ -332,6 +335,7 @@ def transform_part(mesh: LocalMesh, m: np.ndarray, slot_map: np.ndarray, visibil
                 normals=n.astype(np.float32, copy=False),
                 uvs=np.ascontiguousarray(uvs, np.float32), material=mat.astype(np.int32),
                 visibility=np.full(p.shape[0], visibility, np.uint32),
+                terminator=np.full(p.shape[0], terminator, np.float32),
                 tangents=np.ascontiguousarray(tg, np.float32),
                 uv_tangents=np.ascontiguousarray(np.nan_to_num(ut), np.float32),
                 generated=np.ascontiguousarray(np.nan_to_num(gen), np.float32),
