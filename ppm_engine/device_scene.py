@@ -28,8 +28,13 @@ from .materials import (
     kernel_nodes,
     max_closures,
 )
-from .scene_arrays import (LIGHT_DTYPE, SHADER_NODE_DTYPE, TERMINATOR_OFFSET, TEXTURE_DTYPE,
-                           SceneArrays)
+from .scene_arrays import (
+    LIGHT_DTYPE,
+    SHADER_NODE_DTYPE,
+    TERMINATOR_OFFSET,
+    TEXTURE_DTYPE,
+    SceneArrays,
+)
 from .scene_prep import offset_scale, prepare_scene
 from .shader_program import ops_define, ops_used, stack_used
 from .shading_tables import load as shading_tables
