@@ -40,6 +40,9 @@ __kernel void direct_light_at(SCENE_PARAMS __global const float4 *points,
     sd.N = sd.Ng = sd.wi = N;
     sd.backfacing = sd.gather_transmits = sd.continue_glossy = false;
     sd.crossings = scene->light_paths->transparent_max_bounces;
+    sd.leaf = -1; /* no triangle: no shadow terminator lift */
+    sd.tri = 0u;
+    sd.u = sd.v = 0.0f;
     int k = shader_alloc(&sd, CLOSURE_DIFFUSE, (float3)(PPM_PI), N);
     sd.c[k].gather = 1;
     sd.sw_gather = sd.c[k].sample_weight;
