@@ -35,7 +35,7 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
     res = json.loads((tmp_path / "b.json").read_text())
     luxcore_installed = importlib.util.find_spec("pyluxcore") is not None
     assert set(res["scenes"]) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
-                                  "mirror_caustic", "many_lights"}
+                                  "point_caustic", "mirror_caustic", "many_lights"}
     tree = res["scenes"]["many_lights"]["light_tree"]
     assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1
     assert 0 < tree["share"] <= 1 and tree["bytes"] > 64 * tree["nodes"]

@@ -28,6 +28,10 @@ CAUSTIC_MASKS = {
                       "occluders": [BALL],
                       "note": "floor within 0.35 m of where the ray from the spot through the "
                               "ball centre meets the floor, not hidden by the ball"},
+    "point_caustic": {"kind": "disk", "center": (0.43, 0.0, 0.0), "radius": 0.35,
+                      "occluders": [BALL],
+                      "note": "floor within 0.35 m of where the ray from the point light "
+                              "through the ball centre meets the floor, not hidden by the ball"},
     "mirror_caustic": {"kind": "mirror", "light": POINT_POS, "light_radius": LIGHT_RADIUS,
                        "corners": None, "occluders": [],
                        "note": "floor points that see the light's mirror image through the "
@@ -40,6 +44,7 @@ CAUSTIC_MASKS["mirror_caustic"]["light_image"] = mirror_image(POINT_POS).tolist(
 # objects Cycles' shadow caustics (MNEE) uses, per scene: (casters, receivers, lights)
 MNEE_OBJECTS = {
     "glass_caustic": (["GlassBall"], ["Floor", "Back"], ["Spot"]),
+    "point_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
     "mirror_caustic": (["Mirror"], ["Floor", "Back"], ["Point"]),
 }
 

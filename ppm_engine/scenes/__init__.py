@@ -16,6 +16,7 @@ EXAMPLES = {
     "cornell_box": cornell_box.build,
     "bulb_box": bulb_box.build,
     "glass_caustic": caustics.glass_caustic,     # also the benchmark's caustic scenes
+    "point_caustic": caustics.point_caustic,     # the hard one: a radius-0 point light
     "mirror_caustic": caustics.mirror_caustic,
     "furnace": furnace.build,                    # the benchmark's closed-form scene
     "many_lights": many_lights.build,            # the benchmark's many-light scene

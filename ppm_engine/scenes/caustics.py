@@ -1,4 +1,4 @@
-"""Two caustic scenes (example scenes, and the benchmark's: ``python -m ppm_engine bench``),
+"""Three caustic scenes (example scenes, and the benchmark's: ``python -m ppm_engine bench``),
 built with bpy from nothing.
 
 Both stand on the same stage: a 4 x 4 m white Lambertian floor (z = 0, x, y in [-2, 2]) and a
@@ -9,6 +9,10 @@ are small spheres (radius ``LIGHT_RADIUS``) kept out of view and invisible to ca
 - ``glass_caustic``: a clear glass ball (radius 0.3 m, IOR 1.5) on the floor, lit by a spot
   light above and to the left, aimed at the ball: the ball focuses the light to a bright
   caustic on the floor to the ball's right.
+- ``point_caustic``: the same ball lit by a point light of radius 0 where the spot was, of
+  the spot's intensity: the hard case users bring (no camera path can find such a light, so
+  the caustic is all photons', light paths' or Cycles' MNEE's), its focus as sharp as the
+  ball makes it.
 - ``mirror_caustic``: a point light and a perfect planar mirror (Principled metallic 1,
   roughness 0, base colour 1), a 0.8 x 0.6 m rectangle tilted towards the floor, which
   reflects the light onto a bright patch of floor in front of it.
@@ -101,6 +105,18 @@ def glass_caustic(scene=None):
                   direction=np.subtract(center, SPOT_POS))
     spot.data.spot_size = SPOT_SIZE
     spot.data.spot_blend = 0.1
+    return scene
+
+
+def point_caustic(scene=None):
+    """The glass ball on the floor under a point light of radius 0 (see the module
+    docstring)."""
+    scene = new_scene(scene)
+    _stage(scene)
+    center, radius = BALL
+    sphere(scene, "GlassBall", center, radius, glass("Glass"), 48, 24)
+    point = _light(scene, "Point", 'POINT', SPOT_POS, SPOT_POWER)
+    point.data.shadow_soft_size = 0.0
     return scene
 
 
