@@ -205,9 +205,7 @@ DEFAULT_DIRECT = {"plastic", "mix", "node_graph", "normal_map", "bump"}  # the r
 _TILTED = ("a driven normal tilted ~27 deg on a turned sphere: 5 of 36 blocks up to 14 % off "
            "Cycles on an arc near the silhouette (the object-space transform itself is exact "
            "per pixel: test_shader_inputs normal_map)")
-KNOWN_DIRECT = {"object_normal_map": _TILTED,
-                "alpha": "the floor's shadow under a sphere of Alpha 0.5, direct light only: 2 "
-                         "of 36 blocks 6-8 % darker than Cycles (docs/SHADING.md)"}
+KNOWN_DIRECT = {"object_normal_map": _TILTED}
 DEFAULT_FULL = {"rough_glass", "sheen"}
 KNOWN_FULL = {"object_normal_map": _TILTED}
 
