@@ -43,8 +43,14 @@ def _cone(bpy):
     return scene
 
 
-def test_photons_on_a_smooth_low_poly_cone_as_cycles(bpy, cycles, tiny, render_exr, tmp_path):
-    """Every 6 x 6 block within 8 % of Cycles (1024 samples).  Photons lie on the faces, so the
+@pytest.mark.parametrize("passes,photons,rtol", [
+    (512, 1 << 15, 0.15),                                      # 8 s on 2 cores
+    pytest.param(1024, 1 << 16, 0.08, marks=pytest.mark.slow),  # 29 s
+])
+def test_photons_on_a_smooth_low_poly_cone_as_cycles(bpy, cycles, tiny, render_exr, tmp_path,
+                                                     passes, photons, rtol):
+    """Every 6 x 6 block within 8 % of Cycles (1024 samples) at 1024 passes, within 15 % at 512
+    (the noise of fewer photons; the bug below fails either).  Photons lie on the faces, so the
     gather's disc lies in the face (the geometric normal), not in the plane of the shading
     normal, which kept only a band of the disc's photons where the two part; and a photon
     counts cos_N / cos_Ng of its arrival (Veach's adjoint of shading normals).  Before both,
@@ -53,11 +59,11 @@ def test_photons_on_a_smooth_low_poly_cone_as_cycles(bpy, cycles, tiny, render_e
     scene = _cone(bpy)
     cycles(scene, 1024, width=W)
     ref = render_exr(tmp_path / "cycles.exr")
-    tiny(scene, width=W, height=W, passes=1024, photons=1 << 16)
+    tiny(scene, width=W, height=W, passes=passes, photons=photons)
     scene.ppm.indirect = "PHOTONS"
     ours = render_exr(tmp_path / "ours.exr")
     a, b = (im.reshape(W // 6, 6, W // 6, 6, 3).mean(axis=(1, 3)).mean(-1) for im in (ours, ref))
-    np.testing.assert_allclose(a, b, rtol=0.08, err_msg=str(np.round(a / b, 3)))
+    np.testing.assert_allclose(a, b, rtol=rtol, err_msg=str(np.round(a / b, 3)))
 
 
 def _icosphere(bpy, offset):
