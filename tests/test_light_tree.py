@@ -226,11 +226,10 @@ def _room_of_lights(bpy, n_side, energy, radius=0.01):
             o.location = (x, y, 2.98)
             scene.collection.objects.link(o)
     import math
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    cam.location, cam.rotation_euler = (0, -1.9, 1.2), (math.radians(55), 0, 0)
-    cam.data.lens = 14
+
+    from test_bump import _camera
+    _camera(scene, location=(0, -1.9, 1.2), rotation=(math.radians(55), 0, 0))
+    scene.camera.data.lens = 14
     scene.world = None
     return scene
 

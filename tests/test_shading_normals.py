@@ -4,11 +4,21 @@ up to 60 degrees from its faces near the base and the tip (the base's normals av
 base's), on a white floor under a sun, its indirect light by photons, per block against
 Cycles."""
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_bump import _camera
+
 W = 48
+
+
+def _black_world(bpy, scene):
+    scene.world = bpy.data.worlds.new("Black")
+    scene.world.color = (0, 0, 0)
 
 
 def _cone(bpy):
@@ -33,13 +43,9 @@ def _cone(bpy):
     sun.data.energy = 5.0
     sun.rotation_euler = (math.radians(40), 0, math.radians(30))
     scene.collection.objects.link(sun)
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    cam.location, cam.rotation_euler = (0, -3.2, 1.05), (math.radians(88), 0, 0)
-    cam.data.lens = 35
-    scene.world = bpy.data.worlds.new("Black")
-    scene.world.color = (0, 0, 0)
+    _camera(scene, location=(0, -3.2, 1.05), rotation=(math.radians(88), 0, 0))
+    scene.camera.data.lens = 35
+    _black_world(bpy, scene)
     return scene
 
 
@@ -80,13 +86,8 @@ def _icosphere(bpy, offset):
     sun.data.energy = 3.0
     sun.rotation_euler = (0, math.radians(80), 0)
     scene.collection.objects.link(sun)
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    cam.data.type, cam.data.ortho_scale = 'ORTHO', 2.4
-    cam.location, cam.rotation_euler = (0, -5, 0), (math.pi / 2, 0, 0)
-    scene.world = bpy.data.worlds.new("Black")
-    scene.world.color = (0, 0, 0)
+    _camera(scene, ortho_width=2.4, location=(0, -5, 0), rotation=(math.pi / 2, 0, 0))
+    _black_world(bpy, scene)
     return scene
 
 

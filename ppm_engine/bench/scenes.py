@@ -28,16 +28,17 @@ CAUSTIC_MASKS = {
                       "occluders": [BALL],
                       "note": "floor within 0.35 m of where the ray from the spot through the "
                               "ball centre meets the floor, not hidden by the ball"},
-    "point_caustic": {"kind": "disk", "center": (0.43, 0.0, 0.0), "radius": 0.35,
-                      "occluders": [BALL],
-                      "note": "floor within 0.35 m of where the ray from the point light "
-                              "through the ball centre meets the floor, not hidden by the ball"},
     "mirror_caustic": {"kind": "mirror", "light": POINT_POS, "light_radius": LIGHT_RADIUS,
                        "corners": None, "occluders": [],
                        "note": "floor points that see the light's mirror image through the "
                                "mirror (the reflected patch, exact)"},
 }
 
+# the point light stands where the spot does: the same floor
+CAUSTIC_MASKS["point_caustic"] = dict(
+    CAUSTIC_MASKS["glass_caustic"],
+    note="floor within 0.35 m of where the ray from the point light through the ball centre "
+         "meets the floor, not hidden by the ball")
 CAUSTIC_MASKS["mirror_caustic"]["corners"] = mirror_corners().tolist()
 CAUSTIC_MASKS["mirror_caustic"]["light_image"] = mirror_image(POINT_POS).tolist()
 

@@ -95,14 +95,20 @@ def _light(scene, name, kind, location, power, direction=None):
     return obj
 
 
-def glass_caustic(scene=None):
-    """A glass ball on the floor under a spot light (see the module docstring)."""
+def _glass_ball(scene=None):
+    """The stage with the glass ball on its floor (glass_caustic, point_caustic)."""
     scene = new_scene(scene)
     _stage(scene)
     center, radius = BALL
     sphere(scene, "GlassBall", center, radius, glass("Glass"), 48, 24)
+    return scene
+
+
+def glass_caustic(scene=None):
+    """A glass ball on the floor under a spot light (see the module docstring)."""
+    scene = _glass_ball(scene)
     spot = _light(scene, "Spot", 'SPOT', SPOT_POS, SPOT_POWER,
-                  direction=np.subtract(center, SPOT_POS))
+                  direction=np.subtract(BALL[0], SPOT_POS))
     spot.data.spot_size = SPOT_SIZE
     spot.data.spot_blend = 0.1
     return scene
@@ -111,10 +117,7 @@ def glass_caustic(scene=None):
 def point_caustic(scene=None):
     """The glass ball on the floor under a point light of radius 0 (see the module
     docstring)."""
-    scene = new_scene(scene)
-    _stage(scene)
-    center, radius = BALL
-    sphere(scene, "GlassBall", center, radius, glass("Glass"), 48, 24)
+    scene = _glass_ball(scene)
     point = _light(scene, "Point", 'POINT', SPOT_POS, SPOT_POWER)
     point.data.shadow_soft_size = 0.0
     return scene
