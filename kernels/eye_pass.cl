@@ -7,6 +7,7 @@
 #include "rng.h"
 #include "direct_light.h"
 #include "camera.h"
+#include "camera_connect.h"
 #include "shared.h"
 #include "medium.h"
 #include "indirect_paths.h"
@@ -27,7 +28,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
                        __global float4 *vp_shade, __global uint *counters,
                        __global float4 *aux_albedo, __global float4 *aux_normal,
                        __global const uint *active, __global float *transparency,
-                       uint path_indirect, uint camera_sobol) {
+                       uint path_indirect, uint camera_sobol, float lt_kappa) {
     SCENE_LOAD(scene);
     __global const Camera *cam = scene->camera;
     int id = get_global_id(0);
@@ -188,6 +189,16 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
                 float foot = camera_pixel_size(cam) * (cam->type == CAMERA_ORTHO ? 1.0f : path_len);
                 float r0 = initial_radius > 0.0f ? initial_radius : auto_radius_pixels * foot;
                 radius[id] = radius0[id] = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
+            }
+            /* a point the camera sees directly: the photons' light tracing renders the same
+             * paths, and the merge takes its side of the balance heuristic (photon_pass.cl
+             * connect_camera) */
+            if (lt_kappa > 0.0f && depth == 0) {
+                float m = merge_factor(cam, s.p, sd.Ng, lt_kappa) * radius[id] * radius[id];
+                if (m > 0.0f) {
+                    float4 b = vp_beta[id];
+                    vp_beta[id] = (float4)(b.xyz * (m / (1.0f + m)), b.w);
+                }
             }
             /* direct and indirect light by path tracing (indirect_paths.h); the photons bring
              * caustics */

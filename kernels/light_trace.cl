@@ -11,90 +11,9 @@
 #include "shader.h"
 #include "direct_light.h"
 #include "camera.h"
+#include "camera_connect.h"
 #include "shared.h"
 #include "medium.h"
-
-/* p seen by the pinhole camera: raster position (full-frame pixels, y up), the unit direction
- * from p to the camera, its distance (orthographic: to the view plane) and the factor from a
- * radiance at p to the film's measure (pixel area), without the pixel filter:
- * 1 / (d^2 cos^3 theta A_pixel) for a perspective camera, 1 / A_pixel for an orthographic one.
- * False when p is behind, outside the clip range or outside the frame's filter reach. */
-inline bool camera_project(__global const Camera *cam, float3 p, float reach, float *px, float *py,
-                           float3 *to_cam, float *dist, float *we) {
-    __global const float *m = cam->to_world;
-    float3 c = (float3)(m[3], m[7], m[11]);
-    float3 ax = (float3)(m[0], m[4], m[8]), ay = (float3)(m[1], m[5], m[9]),
-           az = (float3)(m[2], m[6], m[10]);
-    float3 v = p - c;
-    float3 pc = (float3)(dot(v, ax), dot(v, ay), dot(v, az));
-    float depth = -pc.z;
-    if (!(depth > cam->clip[0] && depth < cam->clip[1])) return false;
-    float a_pix = cam->extent[0] * cam->extent[1] / ((float)cam->width * (float)cam->height);
-    float xc, yc;
-    if (cam->type == CAMERA_ORTHO) {
-        xc = pc.x;
-        yc = pc.y;
-        *to_cam = az;
-        *dist = depth;
-        *we = 1.0f / a_pix;
-    } else {
-        xc = pc.x / depth;
-        yc = pc.y / depth;
-        float d2 = dot(v, v), cos_c = depth / sqrt(d2);
-        *dist = sqrt(d2);
-        *to_cam = -v / *dist;
-        *we = 1.0f / (d2 * cos_c * cos_c * cos_c * a_pix);
-    }
-    *px = ((xc - cam->shift[0]) / cam->extent[0] + 0.5f) * (float)cam->width;
-    *py = ((yc - cam->shift[1]) / cam->extent[1] + 0.5f) * (float)cam->height;
-    float x0 = (float)cam->region[0], y0 = (float)cam->region[1];
-    return *px > x0 - reach && *px < x0 + (float)cam->region[2] + reach && *py > y0 - reach
-           && *py < y0 + (float)cam->region[3] + reach;
-}
-
-/* float atomic add (compare-and-swap on the bits) */
-inline void atomic_add_float(volatile __global float *a, float v) {
-    union {
-        uint u;
-        float f;
-    } old, new_;
-    do {
-        old.f = *a;
-        new_.f = old.f + v;
-    } while (atomic_cmpxchg((volatile __global uint *)a, old.u, new_.u) != old.u);
-}
-
-/* the pixel filter's normalised 1D density (pixel units) at offset x: a table over
- * [-reach, reach] (ppm_engine/light_tracer.py filter_density) */
-inline float filter_at(__global const float *table, int n, float reach, float x) {
-    float t = (x + reach) / (2.0f * reach) * (float)(n - 1);
-    if (!(t >= 0.0f && t <= (float)(n - 1))) return 0.0f;
-    int k = min((int)t, n - 2);
-    float f = t - (float)k;
-    return mix(table[k], table[k + 1], f);
-}
-
-/* splat a contribution at raster (px, py) into the pixels the filter reaches (image: rgb per
- * pixel of the render region, row 0 = bottom) */
-inline void splat(__global const Camera *cam, __global float *image, __global const float *table,
-                  int n_table, float reach, float px, float py, float3 c) {
-    int rw = cam->region[2], rh = cam->region[3];
-    float lx = px - (float)cam->region[0], ly = py - (float)cam->region[1];
-    int i0 = max((int)floor(lx - reach), 0), i1 = min((int)floor(lx + reach), rw - 1);
-    int j0 = max((int)floor(ly - reach), 0), j1 = min((int)floor(ly + reach), rh - 1);
-    for (int j = j0; j <= j1; j++) {
-        float wy = filter_at(table, n_table, reach, ly - ((float)j + 0.5f));
-        if (wy <= 0.0f) continue;
-        for (int i = i0; i <= i1; i++) {
-            float w = wy * filter_at(table, n_table, reach, lx - ((float)i + 0.5f));
-            if (w <= 0.0f) continue;
-            int id = 3 * (j * rw + i);
-            atomic_add_float(image + id, c.x * w);
-            atomic_add_float(image + id + 1, c.y * w);
-            atomic_add_float(image + id + 2, c.z * w);
-        }
-    }
-}
 
 __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounces, uint n_photons,
                           __global const float *filter_density, int n_table, float reach,
@@ -104,6 +23,7 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
     if (id >= n_photons) return;
     __global const Camera *cam = scene->camera;
     uint rng = rng_seed(seed, pass_index, id, 5u);
+    Splat sp = {image, filter_density, image, n_table, reach, 0.0f};
     float3 o, d, flux;
     float rs;
     float2 nee;
@@ -142,7 +62,7 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
                                                 scene->light_paths->transparent_max_bounces);
                 float3 c = flux * f * T * (cos_cg / cos_lg * we);
                 if (max3(T) > 0.0f && isfinite(c.x) && isfinite(c.y) && isfinite(c.z))
-                    splat(cam, image, filter_density, n_table, reach, px, py, c);
+                    splat(cam, &sp, px, py, c, 0.0f);
             }
         }
         if (bounce == max_bounces) break;
@@ -153,6 +73,17 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
         if (!shader_sample_light(&sd, MASK_ALL, rand, &b, scene->shading_tables)) break;
         flux *= b.weight;
+        if (!(b.label & LABEL_TRANSPARENT)) {
+            /* the adjoint of the shading normals (Veach 5.3), as the photon pass: a camera
+             * path through a smooth-shaded surface weighs what it finds by the shading normal's
+             * cosines, light arrives and leaves by the surface's own */
+            float c_ng = fabs(dot(d, sd.Ng)), o_n = fabs(dot(b.wo, sd.N));
+            float adj = o_n > 0.0f && c_ng > 0.0f
+                            ? fabs(dot(d, sd.N)) * fabs(dot(b.wo, sd.Ng)) / (c_ng * o_n)
+                            : 0.0f;
+            if (!(adj > 0.0f)) break;
+            flux *= adj;
+        }
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
         float measure = 1.0f;
         if (transmit && b.eta != 1.0f) {          /* as the photon pass (photon_pass.cl) */

@@ -12,20 +12,87 @@
 #include "camera.h"
 #include "shader.h"
 #include "hash.h"
+#include "direct_light.h"
+#include "camera_connect.h"
 
 #include "shared.h"
 #include "medium.h"
 
+/* A stored photon as the camera connection needs it: its flux (before shading, its cos_N /
+ * cos_Ng factor), path and clamp ratio as stored; a Lambert surface's colour and normals
+ * (facing where the photon came from; the others' are in the ShaderData). */
+typedef struct {
+    float3 flux, color, N, Ng;
+    float shading, rs;
+    uint ppath;
+    bool lambert;
+} PhotonHit;
+
+/* Light tracing, the photons' second strategy (VCM's camera connection, Georgiev et al. 2012):
+ * a photon stored at s (arriving along d) is connected to the pinhole camera through the
+ * closures the gather evaluates, as the camera sees them, and splatted with the pixel filter,
+ * each pixel weighted by the balance heuristic against the merge of the same path at a visible
+ * point the camera sees directly (camera_connect.h merge_factor; the eye pass gives the merge
+ * the other side).  Returns whether sd was set up again (as the camera sees it). */
+inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s, Hit h, float3 d,
+                           const PhotonHit *ph, const Splat *sp) {
+    __global const Camera *cam = scene->camera;
+    float px, py, dist, we;
+    float3 wc;
+    if (!(ph->shading > 0.0f) || !camera_project(cam, s->p, sp->reach, &px, &py, &wc, &dist, &we))
+        return false;
+    float cos_c = dot(wc, ph->Ng); /* Ng faces where the photon came from */
+    if (ph->lambert && !(cos_c > 0.0f && dot(wc, ph->N) > 0.0f)) return false;
+    uint kinds = path_join(PATH_CAMERA, ph->ppath, scene->light_paths);
+    if (kinds == 0u || (ph->lambert && !(kinds & JOIN_DIFFUSE))) return false;
+    float3 org = offset_ray(s->p, cos_c > 0.0f ? ph->Ng : -ph->Ng,
+                            scene->emitter_info->offset_scale);
+    float3 T = shadow_transmittance(scene, org, wc, dist * 0.9999f,
+                                    scene->light_paths->transparent_max_bounces);
+    if (!(max3(T) > 0.0f)) return false;
+    /* the photon's flux times f (the gather's photon_term, gather.cl), ratio: the camera
+     * path's sample weight f cos / pdf for the photon's direction (Clamp Indirect) */
+    float3 f, ratio;
+    bool setup = false;
+    if (ph->lambert) {
+        f = ph->color * (1.0f / PPM_PI);
+        ratio = ph->color;
+    } else {
+        shader_setup(scene, sd, s, h.u, h.v, PATH_CAMERA, dist, wc,
+                     footprint_at(scene, s->tri, h.leaf, h.u, h.v,
+                                  SVM_FOOTPRINT ? camera_footprint_at(cam, s->p) : 0.0f));
+        setup = true;
+        float pdf, cs = fabs(dot(d, sd->N));
+        float3 fc = shader_eval_kinds(sd, -d, MASK_GATHER, kinds, &pdf);
+        if (!(cs > 1e-6f) || !(max3(fc) > 0.0f)) return true;
+        f = fc * (1.0f / cs);
+        ratio = pdf > 0.0f ? fc * (1.0f / pdf) : (float3)(0.0f);
+    }
+    float3 c = ph->flux * ph->shading * f * T * (fabs(cos_c) * we);
+    float limit = scene->light_paths->clamp_indirect;
+    if (limit > 0.0f && ph->rs > 0.0f) {
+        float3 x = ratio * ph->flux * ph->rs;
+        float sum = fabs(x.x) + fabs(x.y) + fabs(x.z);
+        if (sum > limit) c *= limit / sum;
+    }
+    if (isfinite(c.x) && isfinite(c.y) && isfinite(c.z) && max3(c) > 0.0f)
+        splat(cam, sp, px, py, c, sp->kappa * PPM_PI * fabs(cos_c) * we);
+    return setup;
+}
+
 __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photons,
                           __global const Grid *grid, uint capacity, __global float4 *ph_pos,
                           __global float4 *ph_flux, __global uint2 *ph_path,
-                          __global uint *counters, uint caustics_only) {
+                          __global uint *counters, uint caustics_only, __global float *lt_image,
+                          __global const float *lt_filter, int lt_n_table, float lt_reach,
+                          __global const float *radius, float lt_kappa) {
     SCENE_LOAD(scene);
     uint id = get_global_id(0);
     if (id >= n_photons) return;
     Grid g = *grid;
     if (g.valid == 0u && capacity > 0u) return;
     uint rng = rng_seed(seed, pass_index, id, 2u);
+    Splat sp = {lt_image, lt_filter, radius, lt_n_table, lt_reach, lt_kappa};
     float3 o, d, flux;
     float rs; /* the radiance its light path carries over its flux (the clamp, gather.cl) */
     float2 nee;
@@ -106,6 +173,13 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
             } else {
                 atomic_inc(&counters[CNT_OUTSIDE]);
             }
+            PhotonHit ph = {flux, color, N, Ng, shading, rs, ppath, lambert};
+            if (lt_kappa > 0.0f && capacity > 0u && connect_camera(scene, &sd, &s, h, d, &ph, &sp)
+                && !lambert) /* sd was the camera's: the light's again for its scattering */
+                shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, -d,
+                             footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                          SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p)
+                                                        : 0.0f));
         }
         int set = MASK_ALL;
         if (caustics_only && direct) {

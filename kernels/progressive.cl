@@ -92,34 +92,49 @@ __kernel void film_update(__global const float4 *vp_pos, __global const float4 *
 }
 
 /* End of a pass, per active pixel: direct += this pass's (L, 1) (the eye pass writes (0, 0)
- * for a dropped NaN/Inf sample) and moments += (y, y^2, photons, 1), y the luminance of this
- * pass's sample of the pixel (direct + photon term / (pi photons)): the pixel's own photon
- * count (for film_resolve) and its noise (film_error).  photons: emitted this pass (0: no
- * photon pass, gathered is not read). */
+ * for a dropped NaN/Inf sample), lt_sum += this pass's light tracing (photon_pass.cl
+ * connect_camera: lt_pass, rgb per pixel, cleared here for the next pass, active or not) and
+ * moments += (y, y^2, photons, 1), y the luminance of this pass's sample of the pixel
+ * (direct + (photon term / pi + light tracing) / photons): the pixel's own photon count (for
+ * film_resolve) and its noise (film_error).  photons: emitted this pass (0: no photon pass,
+ * gathered and lt_pass are not read). */
 __kernel void film_add_sample(__global const float4 *direct_pass, __global const float4 *gathered,
                               __global const uint *active, uint photons, __global float4 *direct,
-                              __global float4 *moments, uint n) {
+                              __global float4 *moments, __global float *lt_pass,
+                              __global float4 *lt_sum, uint lt, uint n) {
     uint id = get_global_id(0);
-    if (id >= n || !active[id]) return;
+    if (id >= n) return;
+    float3 l = (float3)(0.0f);
+    if (lt && photons) {
+        l = vload3(id, lt_pass);
+        vstore3((float3)(0.0f), id, lt_pass);
+        if (!(isfinite(l.x) && isfinite(l.y) && isfinite(l.z))) l = (float3)(0.0f);
+    }
+    if (!active[id]) return;
     float4 v = direct_pass[id];
     if (v.w > 0.0f) acc_add(direct, id, v);
+    if (lt && photons) acc_add(lt_sum, id, (float4)(l, 0.0f));
     float y = luminance(v.xyz);
-    if (photons) y += luminance(gathered[id].xyz) * (1.0f / (PPM_PI * (float)photons));
+    if (photons)
+        y += (luminance(gathered[id].xyz) * (1.0f / PPM_PI) + luminance(l))
+             * (1.0f / (float)photons);
     acc_add(moments, id, (float4)(y, y * y, (float)photons, 1.0f));
 }
 
-/* The per-pixel image: (direct mean + S / (pi x the photons emitted while the pixel was
- * active), the latter in moments.z: a pixel that converged keeps its value) x the film's
- * exposure; alpha 1 - the mean transparency of its passes (transparent film, eye_pass.cl). */
+/* The per-pixel image: (direct mean + (S / pi + the light tracing's sum) / the photons emitted
+ * while the pixel was active, in moments.z: a pixel that converged keeps its value) x the
+ * film's exposure; alpha 1 - the mean transparency of its passes (transparent film,
+ * eye_pass.cl). */
 __kernel void film_resolve(__global const float4 *direct, __global const float4 *photon_sum,
                            __global const float4 *moments, __global const float *transparency,
-                           float exposure, __global float4 *image, uint n) {
+                           __global const float4 *lt_sum, float exposure, __global float4 *image,
+                           uint n) {
     uint id = get_global_id(0);
     if (id >= n) return;
     acc4 d = acc_get(direct, id);
     acc4 c = d.w > 0 ? d / d.w : (acc4)(0);
     acc4 m = acc_get(moments, id);
-    if (m.z > 0) c += acc_get(photon_sum, id) / (m.z * PPM_PI);
+    if (m.z > 0) c += (acc_get(photon_sum, id) / PPM_PI + acc_get(lt_sum, id)) / m.z;
     float alpha = m.w > 0 ? 1.0f - clamp(transparency[id] / (float)m.w, 0.0f, 1.0f) : 1.0f;
     image[id] = (float4)(convert_float3(c.xyz) * exposure, alpha);
 }

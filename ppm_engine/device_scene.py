@@ -17,7 +17,7 @@ from .camera_model import CAMERA_DTYPE
 from .emitters import EMITTER_INFO_DTYPE, build_emitters
 from .features import defines as feature_defines
 from .features import scene_features, used_materials
-from .film import filter_table
+from .film import filter_density, filter_table
 from .light_paths import LIGHT_PATHS_DTYPE, engine_defaults
 from .light_tree import LIGHT_TREE_NODE_DTYPE
 from .materials import (
@@ -170,6 +170,10 @@ class DeviceScene:
         self.filter_table = self.device.upload(
             filter_table(float(prepared.camera["filter_width"][0]),
                          int(prepared.camera["filter_type"][0])), "pixel filter")
+        # the filter's density, for splats of the photons' light tracing (camera_connect.h)
+        density, self.filter_reach = filter_density(float(prepared.camera["filter_width"][0]),
+                                                    int(prepared.camera["filter_type"][0]))
+        self.filter_density = self.device.upload(density, "pixel filter density")
 
     def _upload(self, **sources) -> dict:
         """Scene buffers by name (SCENE_BUFFERS) from arrays, or device buffers as they are."""
@@ -261,4 +265,4 @@ class DeviceScene:
 
     def buffers(self) -> list:
         """The device buffers this object owns (BVH's included), for release."""
-        return [*self.args.values(), self.filter_table]
+        return [*self.args.values(), self.filter_table, self.filter_density]

@@ -28,8 +28,9 @@ class Film:
     (docs/STABILITY.md).  The eye pass writes each pass's sample to ``direct_pass``; the
     progressive update (passes/update.py) adds it to the sums.
 
-    A pixel's photon term is S / (pi x the photons emitted while it was active), so a pixel
-    that adaptive sampling stopped keeps its value while the others go on."""
+    A pixel's photon term is (S / pi + its light tracing's sum) / the photons emitted while it
+    was active, so a pixel that adaptive sampling stopped keeps its value while the others go
+    on."""
 
     def __init__(self, device, width: int, height: int, fp64: bool | None = None):
         import pyopencl as cl
@@ -54,10 +55,16 @@ class Film:
         self.aux_normal = device.buffer(16 * n, "film (denoising normal)")
         # transparent film: the sum over passes of the share of the sample that reached the world
         self.transparency = device.buffer(4 * n, "film (transparency)")
+        # the photons' light tracing (photon_pass.cl connect_camera): this pass's splats (rgb
+        # per pixel, float atomics) and their sum over the passes the pixel was active in (its
+        # photon count is the photon term's, moments.z)
+        self.lt_pass = device.buffer(12 * n, "film (light tracing, this pass)")
+        self.lt_sum = device.buffer(32 * n, "film (light tracing)")
         self.exposure = 1.0           # Cycles' film exposure (the camera's; Renderer sets it)
         for b, size in ((self.direct_pass, 16), (self.direct, 32), (self.photon_sum, 32),
                         (self.nstat, 4), (self.radius, 4), (self.radius0, 4), (self.aux_albedo, 16),
-                        (self.aux_normal, 16), (self.moments, 32), (self.transparency, 4)):
+                        (self.aux_normal, 16), (self.moments, 32), (self.transparency, 4),
+                        (self.lt_pass, 12), (self.lt_sum, 32)):
             cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
         cl.enqueue_fill_buffer(device.queue, self.active, np.uint32(1), 0, 4 * n)
         self.photons_emitted = 0      # Python int: exact at any count
@@ -70,7 +77,7 @@ class Film:
         n = self.n_pixels
         ev = self.prog.launch("film_resolve", "resolve")(
             q, n, wait_for=wait_for, direct=self.direct, photon_sum=self.photon_sum,
-            moments=self.moments, transparency=self.transparency,
+            moments=self.moments, transparency=self.transparency, lt_sum=self.lt_sum,
             exposure=np.float32(self.exposure), image=self.image_buf, n=np.uint32(n))
         out = np.empty((self.height, self.width, 4), np.float32)
         ev2 = cl.enqueue_copy(q, out, self.image_buf, wait_for=[ev], is_blocking=False)
@@ -108,6 +115,16 @@ class Film:
 
 
 FILTER_TABLE_SIZE = 256
+
+# the splat's filter table (filter_density): samples over [-reach, reach]
+FILTER_SAMPLES = 257
+
+
+def filter_density(width: float, kind: int) -> tuple[np.ndarray, float]:
+    """The pixel filter's 1D density (integral 1, pixel units) sampled at FILTER_SAMPLES points
+    over [-reach, reach], and reach: the filter the eye pass samples (film.filter_shape)."""
+    x, f = filter_shape(width, kind, FILTER_SAMPLES)
+    return (f / np.trapz(f, x)).astype(np.float32), float(x[-1])
 
 
 def filter_shape(width: float, kind: int, n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -10,17 +10,8 @@ import numpy as np
 
 from .device import SHADING_GROUP, get_device
 from .device_scene import DeviceScene
-from .film import filter_shape
+from .film import FILTER_SAMPLES, filter_density
 from .scene_arrays import SceneArrays
-
-FILTER_SAMPLES = 257
-
-
-def filter_density(width: float, kind: int) -> tuple[np.ndarray, float]:
-    """The pixel filter's 1D density (integral 1, pixel units) sampled at FILTER_SAMPLES points
-    over [-reach, reach], and reach: the filter the eye pass samples (film.filter_shape)."""
-    x, f = filter_shape(width, kind, FILTER_SAMPLES)
-    return (f / np.trapz(f, x)).astype(np.float32), float(x[-1])
 
 
 class LightTracer:

@@ -53,6 +53,10 @@ AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
 #           of the light's first scatterings are caustic ones (a bulb inside glass, a room lit
 #           through windows), "paths" otherwise.
 INDIRECT_MODES = ("auto", "photons", "paths")
+# Light tracing against the merge (RenderOptions.light_tracing): the balance heuristic with the
+# merge's density kappa pi r^2 p_E (camera_connect.h merge_factor); kappa 1 is VCM's.  Chosen by
+# measurement (docs/BENCHMARKS.md, "Light tracing")
+LIGHT_TRACING_KAPPA = 0.1
 # "auto" chooses "photons" above this fraction of caustic first scatterings (docs/BENCHMARKS.md)
 AUTO_PHOTONS_CAUSTIC_FRACTION = 0.5
 
@@ -84,6 +88,10 @@ class RenderOptions:
                                              # they cannot add anything
     skip_unseen_photons: bool = True   # False: the photon grid covers the whole scene, so photons
                                        # outside the visible points' bounds are stored too
+    # the photons' second strategy: each stored photon also connected to the camera (light
+    # tracing), combined with the merge by MIS (kernels/photon_pass.cl connect_camera); for a
+    # pinhole camera only
+    light_tracing: bool = True
 
     def validate(self) -> RenderOptions:
         for name, (lo, hi, _default, _desc) in LIMITS.items():

@@ -97,6 +97,14 @@ class PPMSettings(bpy.types.PropertyGroup):
         ),
         default="AUTO",
     )
+    light_tracing: BoolProperty(
+        name="Light Tracing",
+        description="Connect every stored photon to the camera as well and weigh the two ways "
+                    "of finding the same light against each other: sharp caustics seen "
+                    "directly (a point light's focus through glass). Pinhole cameras only; off "
+                    "with depth of field",
+        default=True,
+    )
     device: EnumProperty(
         name="Device",
         description="OpenCL device that renders (Default: a GPU if present, else the PoCL CPU "
@@ -117,6 +125,7 @@ def to_options(settings) -> RenderOptions:
         seed=int(settings.seed),
         noise_threshold=float(settings.noise_threshold),
         indirect=str(settings.indirect).lower(),
+        light_tracing=bool(settings.light_tracing),
         device="" if device in ("", DEFAULT_DEVICE) else device,
     ).validate()
 

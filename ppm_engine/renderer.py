@@ -18,7 +18,7 @@ from .device import get_device
 from .device_scene import DeviceScene
 from .film import Film
 from .light_paths import with_max_bounces
-from .options import AUTO_PHOTONS_CAUSTIC_FRACTION, RenderOptions
+from .options import AUTO_PHOTONS_CAUSTIC_FRACTION, LIGHT_TRACING_KAPPA, RenderOptions
 from .passes import EyePass, Gather, HashBuild, PhotonPass, ProgressiveUpdate, VisiblePoints
 from .photon_map import GRID_DTYPE, PhotonMap
 from .scene_arrays import SceneArrays
@@ -85,6 +85,7 @@ class Renderer:
         # says why not elsewhere); by the scene, not the skip: the skip changes no image
         self.camera_sobol = not useful
         self.grid_cover = None if o.skip_unseen_photons else self.scene.bounds()
+        self.lt_kappa = self.light_tracing_kappa(o)
         self.passes_done = 0
         self.nan_dropped = 0
         self.active_pixels = self.n_pixels
@@ -105,6 +106,14 @@ class Renderer:
         if self._gather is None:
             self._gather = Gather(self.device, self.photon_map, self.scene, self.defines)
         return self._gather
+
+    def light_tracing_kappa(self, o: RenderOptions) -> float:
+        """The photons' light tracing (photon_pass.cl connect_camera): its MIS factor kappa, or
+        0 where it is off: when asked not to, with no photon pass, or through a lens (light
+        tracing connects to a pinhole)."""
+        pinhole = float(self.scene.scene.camera["aperture_radius"][0]) <= 0.0
+        return (LIGHT_TRACING_KAPPA if o.light_tracing and self.photons_needed and pinhole
+                else 0.0)
 
     # photons of the pilot that measures the share of caustic first scatterings
     PILOT_PHOTONS = 1 << 16
@@ -188,19 +197,21 @@ class Renderer:
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
         events = self.eye.enqueue(q, pass_index, o, self.path_indirect,
-                                  camera_sobol=self.camera_sobol)
+                                  camera_sobol=self.camera_sobol, lt_kappa=self.lt_kappa)
         emitted = 0
         if self.photons_needed:
             # the grid over the visible points: only photons use it
             events += self.hash_build.grid(q, v.pos, film.radius, n, cover=self.grid_cover)
             emitted = self.photons_per_pass
             events += self.photons.enqueue(q, pass_index, o, emitted,
-                                           caustics_only=self.path_indirect)
+                                           caustics_only=self.path_indirect, film=film,
+                                           lt_kappa=self.lt_kappa)
             events += self.hash_build.build(q, pass_index, o.seed)
             events += self.gather.enqueue(q, v.pos, v.nrm, v.shade, film.radius, v.gathered, n,
                                           vp_beta=v.beta)
             events += self.update.update(q, v.pos, v.beta, v.gathered, o.alpha)
-        events += self.update.add_sample(q, v.gathered, emitted)
+        events += self.update.add_sample(q, v.gathered, emitted,
+                                         light_traced=self.lt_kappa > 0)
         converge = self.update.due(pass_index + 1, o.noise_threshold)
         if converge:
             events += self.update.converge(q, o.noise_threshold, self.counters)
@@ -231,7 +242,7 @@ class Renderer:
             radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
             seconds=seconds, phase_ms=phase_ms, active_pixels=self.active_pixels,
             pixels=self.n_pixels, indirect="paths" if self.path_indirect else "photons",
-            caustic_fraction=self.caustic_fraction)
+            caustic_fraction=self.caustic_fraction, light_tracing=self.lt_kappa > 0)
         if overflow:     # this pass lost photons (counted); the next one has room
             pm.allocate(2 * pm.capacity)
         return stats

@@ -23,6 +23,7 @@ class PassStats:
     pixels: int = 0
     indirect: str = ""         # the estimator of indirect light (options.INDIRECT_MODES, chosen)
     caustic_fraction: float | None = None   # the pilot's share of caustic first scatterings
+    light_tracing: bool = False  # the photons are also connected to the camera (photon_pass.cl)
 
     @property
     def converged(self) -> bool:
@@ -47,6 +48,8 @@ class PassStats:
                 s += f" + {_si(self.photons_emitted)} caustic photons"
         else:
             s += f" · {_si(self.photons_emitted)} photons"
+        if self.light_tracing and self.photons_emitted:
+            s += " + light tracing"
         if self.radius_max > 0:
             s += f" · r {self.radius_min:.3g}–{self.radius_max:.3g}"
         if elapsed is not None:

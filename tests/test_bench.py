@@ -9,6 +9,8 @@ import re
 import numpy as np
 import pytest
 
+from ppm_engine.bench.curves import MERGE_SCENES
+
 pytest.importorskip("OpenEXR")
 pytest.importorskip("matplotlib")
 
@@ -41,7 +43,8 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
     assert 0 < tree["share"] <= 1 and tree["bytes"] > 64 * tree["nodes"]
     for name, s in res["scenes"].items():
         curves = {"ours", "ours_photons", "cycles"} | (
-            {"cycles_mnee"} if "caustic" in name else set())
+            {"cycles_mnee"} if "caustic" in name else set()) | (
+            {"ours_merge"} if name in MERGE_SCENES else set())
         if name == "mirror_caustic":          # LuxCore's curve where pyluxcore is installed
             if luxcore_installed:
                 curves.add("luxcore_bidir")

@@ -65,8 +65,9 @@ def test_cornell_box_statistics_and_monotone_radii():
     assert img.shape == (32, 32, 4) and np.isfinite(img).all() and (img[..., 3] == 1).all()
     assert img[..., :3].mean() > 0.05
     # the status line states these statistics: its numbers, read back
-    line = re.fullmatch(r"Pass (\d+)/(\d+) · ([\d.]+)([KMG]?) photons · r ([\d.e+-]+)–([\d.e+-]+)"
-                        r" · ([\d.]+) s · (\d+) s left", s.line(64, 1.25))
+    line = re.fullmatch(r"Pass (\d+)/(\d+) · ([\d.]+)([KMG]?) photons \+ light tracing"
+                        r" · r ([\d.e+-]+)–([\d.e+-]+) · ([\d.]+) s · (\d+) s left",
+                        s.line(64, 1.25))
     assert line, s.line(64, 1.25)
     assert (int(line[1]), int(line[2])) == (s.pass_index, 64)
     shown = float(line[3]) * {"": 1, "K": 1e3, "M": 1e6, "G": 1e9}[line[4]]

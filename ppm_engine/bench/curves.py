@@ -71,6 +71,8 @@ DEFAULT_RESOLUTION = 128
 SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
           "mirror_caustic", "many_lights")
 CAUSTIC_SCENES = ("glass_caustic", "point_caustic", "mirror_caustic")
+# scenes whose light photons carry (caustics, a bulb in glass): the merge alone is measured too
+MERGE_SCENES = (*CAUSTIC_SCENES, "bulb_box")
 # reference engine per scene (see the module docstring)
 REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": "LIGHT_TRACE",
                     "glass_caustic": "LIGHT_TRACE", "point_caustic": "LIGHT_TRACE",
@@ -111,11 +113,12 @@ def errors(img, ref, pixels, ref_noise=0.0) -> dict:
 
 # --- rendering through bpy --------------------------------------------------------------------
 def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | None,
-                 indirect: str = "AUTO") -> None:
+                 indirect: str = "AUTO", light_tracing: bool = True) -> None:
     if scene.render.engine != "PPM":
         scene.render.engine = "PPM"
     s = scene.ppm
     s.indirect = indirect
+    s.light_tracing = light_tracing
     s.passes = 1_000_000
     s.time_limit = seconds
     s.seed = seed
@@ -196,10 +199,12 @@ class Bench:
         bpy.context.view_layer.update()
         return scene
 
-    def shot(self, scene, engine: str, seconds: float, seed: int, indirect: str = "AUTO"):
+    def shot(self, scene, engine: str, seconds: float, seed: int, indirect: str = "AUTO",
+             light_tracing: bool = True):
         self.count += 1
         if engine == "PPM":
-            ppm_settings(scene, seconds, seed, self.device, self.photons, indirect)
+            ppm_settings(scene, seconds, seed, self.device, self.photons, indirect,
+                         light_tracing)
         else:
             cycles_reference(scene, seconds=seconds, seed=seed)
         return render(scene, self.folder / f"r{self.count:04d}.exr")
@@ -275,21 +280,26 @@ class Bench:
                 "reference_noise_rmse": errors(halves[0], halves[1], both)["rmse"] / 2}
 
         # "ours": the default (the estimator of indirect light chosen per scene);
-        # "ours_photons": the paper's photons for all indirect light, in the same run
-        curves = {"ours": ("PPM", False, "AUTO"), "ours_photons": ("PPM", False, "PHOTONS"),
-                  "cycles": ("CYCLES", False, "")}
+        # "ours_photons": the paper's photons for all indirect light, in the same run;
+        # "ours_merge": the default without the photons' light tracing (the merge alone), where
+        # photons carry light; (engine, MNEE, indirect light, light tracing)
+        curves = {"ours": ("PPM", False, "AUTO", True),
+                  "ours_photons": ("PPM", False, "PHOTONS", True),
+                  "cycles": ("CYCLES", False, "", True)}
+        if name in MERGE_SCENES:
+            curves["ours_merge"] = ("PPM", False, "AUTO", False)
         if name in CAUSTIC_SCENES:
-            curves["cycles_mnee"] = ("CYCLES", True, "")
+            curves["cycles_mnee"] = ("CYCLES", True, "", True)
         # LuxCore renders through luxcore.render, not bpy's render (engine "LUXCORE" below)
         if name in LUXCORE_SCENES:
             reason = luxcore.unavailable()
             if reason is None:
-                curves["luxcore_bidir"] = ("LUXCORE", False, "")
+                curves["luxcore_bidir"] = ("LUXCORE", False, "", True)
             else:
                 out["luxcore"] = reason
                 self.progress(f"[{name}] LuxCore BIDIR skipped: {reason}")
         out["curves"] = {}
-        for curve, (engine, mnee, indirect) in curves.items():
+        for curve, (engine, mnee, indirect, lt) in curves.items():
             if name in CAUSTIC_SCENES:
                 set_mnee(name, mnee)
             rows = []
@@ -297,7 +307,7 @@ class Bench:
                 if engine == "LUXCORE":
                     img, wall, info = luxcore.render(budget, 1)
                 else:
-                    img, wall, info = self.shot(scene, engine, budget, 1, indirect or "AUTO")
+                    img, wall, info = self.shot(scene, engine, budget, 1, indirect or "AUTO", lt)
                 row = {"seconds": budget, "wall_s": wall, **info,
                        "image": errors(img, ref, keep, noise_all),
                        "caustic": errors(img, ref, cmask, noise_c if cmask.any() else 0.0),
@@ -307,7 +317,8 @@ class Bench:
                     # few percent from seed to seed)
                     per_seed = [row["image"]["rmse"]]
                     for seed in EQUAL_TIME_SEEDS[1:]:
-                        img2, _, _ = self.shot(scene, engine, budget, seed, indirect or "AUTO")
+                        img2, _, _ = self.shot(scene, engine, budget, seed, indirect or "AUTO",
+                                               lt)
                         per_seed.append(errors(img2, ref, keep, noise_all)["rmse"])
                     row["seeds"] = list(EQUAL_TIME_SEEDS)
                     row["image_rmse_seeds"] = per_seed
@@ -371,6 +382,9 @@ def ratios(result: dict, seconds: float) -> dict:
         p = _at(s["curves"].get("ours_photons", []), seconds)
         if p is not None:
             r["photons_image_rmse"] = p["image"]["rmse"] / c["image"]["rmse"]
+        g = _at(s["curves"].get("ours_merge", []), seconds)
+        if g is not None:       # what the photons' light tracing gives: ours over the merge alone
+            r["ours_over_merge_alone"] = o["image"]["rmse"] / g["image"]["rmse"]
         if name in TARGETS:
             r["target"] = TARGETS[name]
             r["met"] = bool(r.get("image_rmse_seeds", r["image_rmse"]) <= TARGETS[name])

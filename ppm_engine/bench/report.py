@@ -51,6 +51,7 @@ def plot(result: dict, path) -> None:
     fig, axes = plt.subplots(2, len(names), figsize=(4 * len(names), 7), squeeze=False)
     style = {"ours": ("C0", "o", "ours (default)"),
              "ours_photons": ("C3", "x", "ours, paper's photons"), "cycles": ("C1", "s", "Cycles"),
+             "ours_merge": ("C5", "v", "ours without light tracing"),
              "cycles_mnee": ("C2", "^", "Cycles + MNEE"),
              "luxcore_bidir": ("C4", "D", "LuxCore BIDIR")}
     for j, name in enumerate(names):
@@ -83,10 +84,11 @@ def plot(result: dict, path) -> None:
 def table(result: dict) -> str:
     """Markdown: one row per scene and budget, RMSE (relative) per curve and region."""
     lines = ["| scene | time (s) | ours RMSE (rel) | paper's photons RMSE (rel) "
+             "| ours without light tracing RMSE (rel) "
              "| Cycles RMSE (rel) | Cycles+MNEE RMSE (rel) | LuxCore BIDIR RMSE (rel) "
              "| ours caustic RMSE (rel) | Cycles caustic RMSE (rel) | Cycles+MNEE caustic (rel) "
              "| LuxCore BIDIR caustic (rel) | ours passes |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
 
     def cell(row, region):
         if row is None:
@@ -99,8 +101,10 @@ def table(result: dict) -> str:
             o, cy = c["ours"][k], c["cycles"][k]
             m = c["cycles_mnee"][k] if "cycles_mnee" in c else None
             p = c["ours_photons"][k] if "ours_photons" in c else None
+            g = c["ours_merge"][k] if "ours_merge" in c else None
             x = c["luxcore_bidir"][k] if "luxcore_bidir" in c else None
             lines.append(f"| {name} | {budget:g} | {cell(o, 'image')} | {cell(p, 'image')} | "
+                         f"{cell(g, 'image')} | "
                          f"{cell(cy, 'image')} | {cell(m, 'image')} | {cell(x, 'image')} | "
                          f"{cell(o, 'caustic')} | {cell(cy, 'caustic')} | "
                          f"{cell(m, 'caustic')} | {cell(x, 'caustic')} | "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..device import SHADING_GROUP
+from ..film import FILTER_SAMPLES
 
 
 class PhotonPass:
@@ -14,15 +15,24 @@ class PhotonPass:
         self.kernel = program.launch("photon_pass", "photon")
 
     def enqueue(self, q, pass_index: int, options, n_photons: int, caustics_only: bool = False,
-                pilot: bool = False) -> list:
+                pilot: bool = False, film=None, lt_kappa: float = 0.0) -> list:
         """``caustics_only``: only photons whose first scattering is caustic live on (indirect
-        light by eye paths); ``pilot``: they are only counted (Counter.CAUSTIC), none stored."""
+        light by eye paths); ``pilot``: they are only counted (Counter.CAUSTIC), none stored.
+        ``lt_kappa`` > 0 (with ``film``): every stored photon is also connected to the camera
+        and splatted into film.lt_pass, weighted against the merge (kernels/photon_pass.cl
+        connect_camera; Renderer.light_tracing_kappa)."""
         pm = self.photon_map
+        lt = film is not None and lt_kappa > 0 and not pilot
         ev = self.kernel(
             q, n_photons, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
             seed=np.uint32(options.seed), n_photons=np.uint32(n_photons), grid=pm.grid,
             capacity=np.uint32(0 if pilot else pm.capacity),
             ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, ph_path=pm.ph_path,
             counters=self.counters,
-            caustics_only=np.uint32(caustics_only or pilot))
+            caustics_only=np.uint32(caustics_only or pilot),
+            lt_image=film.lt_pass if lt else pm.ph_pos,
+            lt_filter=self.scene.filter_density, lt_n_table=np.int32(FILTER_SAMPLES),
+            lt_reach=np.float32(self.scene.filter_reach),
+            radius=film.radius if lt else pm.ph_pos,
+            lt_kappa=np.float32(lt_kappa if lt else 0.0))
         return [(self.kernel.label, ev)]

@@ -34,16 +34,19 @@ class ProgressiveUpdate:
                                          photon_sum=f.photon_sum, alpha=np.float32(alpha),
                                          n=np.uint32(f.n_pixels)))]
 
-    def add_sample(self, q, gathered=None, photons: int = 0) -> list:
+    def add_sample(self, q, gathered=None, photons: int = 0, light_traced: bool = False
+                   ) -> list:
         """This pass's direct sample (film.direct_pass) into the sums, and the pass's sample
         (direct + the photon term in ``gathered`` over ``photons`` emitted) into the moments,
-        for active pixels."""
+        for active pixels; ``light_traced``: also the photons' light tracing of this pass
+        (film.lt_pass, cleared for the next) into its sum."""
         f = self.film
         f.photons_emitted += photons
         return [("update", self.k_add(q, f.n_pixels, direct_pass=f.direct_pass,
                                       gathered=gathered if gathered is not None else f.direct_pass,
                                       active=f.active, photons=np.uint32(photons),
-                                      direct=f.direct, moments=f.moments,
+                                      direct=f.direct, moments=f.moments, lt_pass=f.lt_pass,
+                                      lt_sum=f.lt_sum, lt=np.uint32(light_traced and photons > 0),
                                       n=np.uint32(f.n_pixels)))]
 
     def due(self, passes_done: int, threshold: float) -> bool:
