@@ -23,8 +23,8 @@ The light transport, as Cycles renders the scene with the bench's settings:
   the wall; glossy: the glass's reflection; transmission: its refraction) no more of them
   among 1..b than the kind's limit.  The scene sets all of them to 12 (cornell_box.
   camera_world_render), so only max_bounces binds, and hardly: in this open scene each bounce
-  adds about half of the light the one before did, 0.2 % of the mean from the 5th to the 12th
-  vertex, about 1e-5 beyond.
+  adds less than half of the light the one before did, 0.2 % of the mean from the 5th to the
+  12th vertex, about 1e-5 beyond.
 
 Emission is stratified (exactly, not approximately): no geometry lies at x < -2, the light's x,
 so photons leave into x > 0 only; a share of them (``BALL_SHARE``) go uniformly into the cone
@@ -90,6 +90,8 @@ def setup_of(scene, max_bounces: int | None = None) -> Setup:
     is the module's constants; the light must stand where caustics.point_caustic puts it).
     ``max_bounces`` overrides all of the scene's bounce limits."""
     scene.view_layers[0].update()       # the objects' matrix_world after a script's edits
+    if len(set(FLOOR)) != 1:
+        raise ValueError("the exact reference traces one channel: the stage must be grey")
     cam = scene.camera
     if cam is None or cam.data.type != 'PERSP':
         raise ValueError("the exact reference renders through a perspective (pinhole) camera")
@@ -101,6 +103,8 @@ def setup_of(scene, max_bounces: int | None = None) -> Setup:
     unit = corners[:, :2] / -corners[:, 2:3]          # the frame projected to depth 1
     frame = (unit[:, 0].min(), unit[:, 0].max(), unit[:, 1].min(), unit[:, 1].max())
     r = scene.render
+    if r.use_border:
+        raise ValueError("the exact reference renders the whole frame: turn the border off")
     w = int(r.resolution_x * r.resolution_percentage / 100)
     h = int(r.resolution_y * r.resolution_percentage / 100)
     c = scene.cycles
@@ -132,8 +136,9 @@ def filter_1d(x, width: float):
     units): zero beyond ``width`` pixels from the centre (the window spans 2 x width)."""
     x = np.asarray(x, float)
     span = 2.0 * width
-    v = 2.0 * np.pi * (x / span + 0.5)
-    f = BH[0] + BH[1] * np.cos(v) + BH[2] * np.cos(2 * v) + BH[3] * np.cos(3 * v)
+    c = np.cos(2.0 * np.pi * (x / span + 0.5))
+    # cos 2v and cos 3v from cos v (one cosine: the splat evaluates this per photon and pixel)
+    f = BH[0] + BH[1] * c + BH[2] * (2.0 * c * c - 1.0) + BH[3] * c * (4.0 * c * c - 3.0)
     return np.where(np.abs(x) < width, f / (BH[0] * span), 0.0)
 
 
@@ -355,11 +360,10 @@ def emit(s: Setup, n: int, rng, stratified: bool = True):
     return o, np.concatenate([d_cone, d_rest]), w
 
 
-def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
-          albedo: float | None = None) -> dict:
+def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True) -> dict:
     """Trace n photons (per watt of the light's power) and add their connections to the camera
-    to ``acc`` (h * w).  Counts of what happened, for tests."""
-    a = float(FLOOR[0]) if albedo is None else albedo
+    to ``acc`` (h * w).  Counts of what happened."""
+    a = float(FLOOR[0])          # grey (setup_of checks): one channel, times the light's RGB
     o, d, w = emit(s, n, rng, stratified)
     keep = w > 0
     o, d, w = o[keep], d[keep], w[keep]
@@ -397,6 +401,8 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
         px, py, to_eye, dist, cos_cam, ok = project(s, pd)
         cos_surf = np.einsum("ij,ij->i", to_eye, facing)
         ok &= within & (cos_surf > 0)
+        # only the ball can hide a point of the stage from the camera, which stands in front of
+        # the wall and above the floor
         ok[ok] &= ~_ball_blocks(pd[ok], to_eye[ok], dist[ok])
         value = (wd[ok] * (a / np.pi) * cos_surf[ok] * inv_area
                  / (cos_cam[ok] ** 3 * dist[ok] ** 2))
