@@ -23,6 +23,23 @@ def _scene(width=W):
     return scene
 
 
+def test_shares_no_code_with_the_engine():
+    """Independent of the estimators it checks: of this package it imports only the scene's
+    constants (ppm_engine/scenes/caustics.py), nothing of the export, kernels, film or light
+    tracer."""
+    import ast
+    from pathlib import Path
+    tree = ast.parse(Path(ec.__file__).read_text())
+    imported = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            imported |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            imported.add("." * node.level + (node.module or ""))
+    assert imported == {"__future__", "math", "time", "dataclasses", "numpy",
+                        "..scenes.caustics"}, imported
+
+
 # --- the pixel filter ------------------------------------------------------------------------
 def test_filter_is_cycles_blackman_harris_normalised():
     """Cycles' window over twice the filter width (film.cpp: width *= 2 for Blackman-Harris),
