@@ -79,7 +79,8 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         # references independent of the engine measured: Cycles, or light tracing (which
         # leaves out the pixels it cannot render) checked against Cycles on the Cornell box
         assert ref["engine"] == {"cornell_box": "CYCLES", "furnace": "ANALYTIC",
-                                 "many_lights": "CYCLES"}.get(name, "LIGHT_TRACE")
+                                 "many_lights": "CYCLES",
+                                 "point_caustic": "EXACT"}.get(name, "LIGHT_TRACE")
         if name == "furnace":
             assert ref["mean"] == pytest.approx(1.0)        # E / (1 - albedo) = 0.5 / 0.5
         elif name not in ("cornell_box", "many_lights"):   # Cycles' references leave none out
@@ -88,6 +89,14 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
             assert 0 < s["excluded_pixels"] < 0.75 * 256
     check = res["scenes"]["cornell_box"]["light_trace_check"]
     assert check["passes"] >= 1 and 0.7 < check["mean_over_reference"] < 1.3
+    assert check["reference"] == "CYCLES" and "caustic_rmse" not in check
+    # point_caustic: the mesh ball's light tracing against the exact sphere's reference
+    check = res["scenes"]["point_caustic"]["light_trace_check"]
+    assert check["reference"] == "EXACT" and check["passes"] >= 1
+    assert 0.9 < check["mean_over_reference"] < 1.1
+    if "caustic_pixels" in check:   # (at 16 x 16 the mesh's coverage may leave it none)
+        assert check["caustic_pixels"] > 0 and check["focus_reference"] > 0
+    assert res["scenes"]["point_caustic"]["reference"]["seconds_per_half"] == 1.0
     assert all(math.isfinite(x) for x in _finite_numbers(res))
     assert set(res["ratios"]["bulb_box"]) >= {"image_rmse", "target", "met"}
     eq = res["ratios_at"]

@@ -1,7 +1,8 @@
 """The benchmark (``python -m ppm_engine bench``; docs/BENCHMARKS.md): error against time with
 Cycles side by side (curves.py), micro benchmarks of the kernels and the BVH (micro.py), where a
 pass spends its time (phases.py), what each skip of unneeded work saves (skips.py); its scene
-data (scenes.py) and outputs (report.py); command.py runs one of them from the CLI's arguments.
+data (scenes.py), point_caustic's exact-geometry reference (exact_caustic.py, independent of
+the engine) and outputs (report.py); command.py runs one of them from the CLI's arguments.
 
 Tooling, not the add-on: blender_manifest.toml's build excludes leave this subpackage out of the
 extension zip.  It drives the engine only through public interfaces (RenderOptions, Renderer,

@@ -23,21 +23,32 @@ with the OpenEXR package:
 Reference per scene: two independent long renders ("halves", different seeds from the timed
 renders and from each other), averaged.  Its own noise is RMSE(half_a, half_b) / 2, and
 ``rmse_corrected`` takes it out of every error.  The estimator that renders it is never the
-one measured: the closed form for the furnace (scenes/furnace.py: L = E / (1 - albedo)
-everywhere); Cycles for the Cornell box (no caustics: path tracing converges well); light
-tracing (ppm_engine/light_tracer.py: photons connected to the camera, unbiased, no photon map,
-no radius) for the four caustic scenes, where Cycles converges slowly (bulb box), never (a
-point light's caustic in a mirror) or, with MNEE, to too little light at a focus: through the
-glass ball of point_caustic Cycles with MNEE gives the brightest pixel of the focus 5.9 where
-light tracing and this engine agree on 32 and 29 (docs/BENCHMARKS.md).  Once light tracing
-is one of this engine's own strategies (issue 25) these scenes need another independent
-reference.  Light tracing renders what the camera sees of surfaces it
-can evaluate: pixels that see an emitter or a mirror, glass or smooth glossy surface (and their
+one measured (``REFERENCE_ENGINE``):
+
+- the furnace: the closed form (scenes/furnace.py: L = E / (1 - albedo) everywhere);
+- the Cornell box and many_lights: Cycles (no caustics: path tracing converges well);
+- point_caustic (the glass ball under a radius-0 point light): the exact-geometry reference
+  (exact_caustic.py, "EXACT"): light tracing in NumPy on the true sphere and the two finite
+  planes, sharing no code with this engine, so it stays independent now that light tracing is
+  one of the engine's own strategies (issue 25).  Cycles with MNEE is no reference there: it
+  gives the brightest pixel of the focus 5.9 where light tracing and this engine agree on 32
+  and 29 (docs/BENCHMARKS.md).  Each half renders whole batches of photons for the reference
+  budget;
+- bulb_box, glass_caustic and mirror_caustic: light tracing (ppm_engine/light_tracer.py:
+  photons connected to the camera, unbiased, no photon map, no radius), where Cycles converges
+  slowly (bulb box) or never (a point light's caustic in a mirror).  It shares this engine's
+  geometry, closures and emission; an exact reference for these too is the way out.
+
+Light tracing, of either kind, renders what the camera sees of surfaces it can evaluate:
+pixels that see an emitter or a mirror, glass or smooth glossy surface, or nothing (and their
 neighbours within the pixel filter's reach) are left out of every figure of those scenes
-(``LightTracer.coverage``).  It is cross-checked with Cycles on the Cornell box in every run
-(``light_trace_check``: the means of the two over the covered pixels, and their RMSE against
-both references' noise).  The JSON also records the mean brightness of Cycles' longest render
-over each reference's (``bias_check``).
+(``LightTracer.coverage``, ``exact_caustic.coverage``).  The light tracer is cross-checked in
+every run (``light_trace_check``: the means of the two over the covered pixels, and their RMSE
+against both references' noise): with Cycles on the Cornell box, and on point_caustic, where
+it renders the scene's 48 x 24 mesh ball, with the exact sphere (also over the caustic pixels,
+and the brightest pixel of the focus: how far the mesh's caustic is from the sphere's).  The
+JSON also records the mean brightness of Cycles' longest render over each reference's
+(``bias_check``).
 
 At the equal-time budget (``EQUAL_TIME``, the targets' point) ours and Cycles are rendered
 with three seeds (``EQUAL_TIME_SEEDS``) and the targets compare the mean RMSEs: one render's
@@ -62,7 +73,7 @@ import numpy as np
 from .. import session
 from ..blender_io import cycles_reference, ensure_registered, read_exr, set_output
 from ..scenes import build_example, furnace
-from . import luxcore
+from . import exact_caustic, luxcore
 from .report import machine_info
 from .scenes import CAUSTIC_MASKS, MNEE_OBJECTS, caustic_mask, excluded_pixels
 
@@ -75,7 +86,7 @@ CAUSTIC_SCENES = ("glass_caustic", "point_caustic", "mirror_caustic")
 MERGE_SCENES = (*CAUSTIC_SCENES, "bulb_box")
 # reference engine per scene (see the module docstring)
 REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": "LIGHT_TRACE",
-                    "glass_caustic": "LIGHT_TRACE", "point_caustic": "LIGHT_TRACE",
+                    "glass_caustic": "LIGHT_TRACE", "point_caustic": "EXACT",
                     "mirror_caustic": "LIGHT_TRACE", "many_lights": "CYCLES"}
 LIGHT_TRACE_PHOTONS = 1 << 17      # photons per light-tracing pass
 REF_SEEDS = (1001, 2002)
@@ -230,6 +241,14 @@ class Bench:
         info = {"passes": lt.passes, "photons": lt.passes * lt.photons}
         return img, time.perf_counter() - t, info, cover
 
+    def exact(self, seconds: float, seed: int):
+        """point_caustic by the exact-geometry reference (exact_caustic.py) for ``seconds``
+        (whole batches): (RGB image top-down, wall seconds, info, coverage top-down)."""
+        import bpy
+        t = time.perf_counter()
+        img, cover, info = exact_caustic.render(bpy.context.scene, seed=seed, seconds=seconds)
+        return img, time.perf_counter() - t, {"photons": info["photons"]}, cover
+
     def run_scene(self, name: str, times, ref_seconds: float, equal_time: float | None = None
                   ) -> dict:
         scene = self._scene(name)
@@ -248,8 +267,9 @@ class Bench:
                           f"{ref_seconds:g} s")
             if ref_engine == "ANALYTIC":       # the furnace's closed form: no noise
                 img = np.full((h, w, 3), furnace.radiance(), np.float32)
-            elif ref_engine == "LIGHT_TRACE":
-                img, wall, info, cover = self.light_traced(ref_seconds, seed)
+            elif ref_engine in ("LIGHT_TRACE", "EXACT"):
+                render = self.light_traced if ref_engine == "LIGHT_TRACE" else self.exact
+                img, wall, info, cover = render(ref_seconds, seed)
                 keep &= cover
                 cmask &= cover
             else:
@@ -269,15 +289,32 @@ class Bench:
             "noise_rmse_caustic": noise_c,
         }
         np.save(self.folder / f"{name}_reference.npy", ref)
-        if ref_engine == "CYCLES":          # the light tracer cross-checked with Cycles
+        if ref_engine in ("CYCLES", "EXACT"):
+            # the light tracer cross-checked with Cycles where both converge, and on
+            # point_caustic the mesh ball's light tracing against the exact sphere's
             self.progress(f"[{name}] light-tracing check, {ref_seconds:g} s")
             lt, _, info, cover = self.light_traced(ref_seconds, REF_SEEDS[0] + 7)
             both = cover & keep
-            out["light_trace_check"] = {
-                "seconds": ref_seconds, **info, "pixels": int(both.sum()),
+            check = {
+                "reference": ref_engine, "seconds": ref_seconds, **info,
+                "pixels": int(both.sum()),
                 "mean_over_reference": float(lt[both].mean() / ref[both].mean()),
                 "rmse": errors(lt, ref, both)["rmse"],
                 "reference_noise_rmse": errors(halves[0], halves[1], both)["rmse"] / 2}
+            if ref_engine == "EXACT" and (cmask & cover).any():
+                # the caustic: where the 48 x 24 mesh's focus differs from the sphere's
+                c = cmask & cover
+                focus = np.unravel_index(int(np.argmax(np.where(c, ref[..., 0], -1.0))),
+                                         c.shape)
+                check.update({
+                    "caustic_pixels": int(c.sum()),
+                    "caustic_mean_over_reference": float(lt[c].mean() / ref[c].mean()),
+                    "caustic_rmse": errors(lt, ref, c)["rmse"],
+                    "caustic_reference_noise_rmse": errors(halves[0], halves[1], c)["rmse"] / 2,
+                    "focus_pixel": [int(focus[0]), int(focus[1])],
+                    "focus_reference": float(ref[focus].mean()),
+                    "focus_light_trace": float(lt[focus].mean())})
+            out["light_trace_check"] = check
 
         # "ours": the default (the estimator of indirect light chosen per scene);
         # "ours_photons": the paper's photons for all indirect light, in the same run;

@@ -130,15 +130,23 @@ def reference_table(result: dict) -> str:
 
 
 def light_trace_check_table(result: dict) -> str:
-    """The light tracer against Cycles where both converge (curves.Bench.run_scene)."""
-    lines = ["| scene | light tracing s | photons | pixels | mean LT / Cycles reference "
-             "| RMSE LT - ref | reference noise RMSE |", "|---|---:|---:|---:|---:|---:|---:|"]
+    """The light tracer against Cycles where both converge, and against the exact sphere's
+    reference on point_caustic (curves.Bench.run_scene)."""
+    lines = ["| scene | reference | light tracing s | photons | pixels | mean LT / reference "
+             "| RMSE LT - ref | reference noise RMSE | caustic: mean LT / ref "
+             "| caustic RMSE (ref noise) | focus pixel LT / ref |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, s in result["scenes"].items():
         c = s.get("light_trace_check")
         if c:
-            lines.append(f"| {name} | {c['seconds']:g} | {c['photons']:.3g} | {c['pixels']} | "
+            caustic = ((f"{c['caustic_mean_over_reference']:.4f} | {c['caustic_rmse']:.4f} "
+                        f"({c['caustic_reference_noise_rmse']:.4f}) | "
+                        f"{c['focus_light_trace']:.2f} / {c['focus_reference']:.2f}")
+                       if "caustic_rmse" in c else "– | – | –")
+            lines.append(f"| {name} | {c.get('reference', 'CYCLES')} | {c['seconds']:g} | "
+                         f"{c['photons']:.3g} | {c['pixels']} | "
                          f"{c['mean_over_reference']:.4f} | {c['rmse']:.4f} | "
-                         f"{c['reference_noise_rmse']:.4f} |")
+                         f"{c['reference_noise_rmse']:.4f} | {caustic} |")
     return "\n".join(lines)
 
 

@@ -1,0 +1,279 @@
+"""The exact-geometry reference of point_caustic (ppm_engine/bench/exact_caustic.py): its pixel
+filter, camera and dielectric against closed forms, its direct light against the closed form of
+a point light on a Lambertian plane, and the point light's intensity convention (P / (4 pi)
+W/sr per watt) against Cycles."""
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from ppm_engine.bench import exact_caustic as ec
+from ppm_engine.scenes.caustics import BALL, FLOOR, point_caustic
+
+W = 32                # the tests' image: 32 x 32 of the bench's 128 x 128 frame
+
+
+def _scene(width=W):
+    scene = point_caustic()
+    scene.render.resolution_x = scene.render.resolution_y = width
+    scene.render.resolution_percentage = 100
+    bpy.context.view_layer.update()
+    return scene
+
+
+def test_shares_no_code_with_the_engine():
+    """Independent of the estimators it checks: of this package it imports only the scene's
+    constants (ppm_engine/scenes/caustics.py), nothing of the export, kernels, film or light
+    tracer."""
+    import ast
+    from pathlib import Path
+    tree = ast.parse(Path(ec.__file__).read_text())
+    imported = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            imported |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            imported.add("." * node.level + (node.module or ""))
+    assert imported == {"__future__", "math", "time", "dataclasses", "numpy",
+                        "..scenes.caustics"}, imported
+
+
+# --- the pixel filter ------------------------------------------------------------------------
+def test_filter_is_cycles_blackman_harris_normalised():
+    """Cycles' window over twice the filter width (film.cpp: width *= 2 for Blackman-Harris),
+    divided by its integral: a0 x span."""
+    dx = 3.0 / 30000
+    x = -1.5 + (np.arange(30000) + 0.5) * dx             # midpoints
+    assert ec.filter_1d(x, 1.5).sum() * dx == pytest.approx(1.0, abs=1e-6)
+    # the centre: the window's sum of coefficients (1) over a0 x 3 px
+    assert ec.filter_1d(0.0, 1.5) == pytest.approx(1.0 / (0.35875 * 3.0), rel=1e-9)
+    assert ec.filter_1d(1.5, 1.5) == 0.0 and ec.filter_1d(-1.6, 1.5) == 0.0
+    assert ec.filter_1d(1.4999, 1.5) < 1e-4          # the window ends at (nearly) zero
+    assert ec.filter_1d(0.7, 1.5) == pytest.approx(ec.filter_1d(-0.7, 1.5))
+
+
+def test_constant_radiance_splats_to_a_constant_image():
+    """A constant field (contributions on a regular grid of raster points, 1 per unit area)
+    gives every pixel the filter can fully reach the same value, 1."""
+    s = ec.setup_of(_scene(16))
+    k = 16                                      # points per pixel and axis
+    g = (np.arange(-3 * k, (s.width + 3) * k) + 0.5) / k
+    px, py = (a.ravel() for a in np.meshgrid(g, g))
+    acc = np.zeros(s.width * s.height)
+    ec.splat(acc, s, px, py, np.full(px.size, 1.0 / (k * k)))
+    img = acc.reshape(s.height, s.width)
+    assert np.abs(img - 1.0).max() < 1e-6
+    # a single splat: the 3 x 3 pixels whose centres are within the filter's reach, each
+    # weighted by the filter at its offset
+    acc[:] = 0
+    ec.splat(acc, s, np.array([7.3]), np.array([8.9]), np.array([2.0]))
+    img = acc.reshape(s.height, s.width)
+    assert (img > 0).sum() == 9 and (img[7:10, 6:9] > 0).all()
+    assert img[9, 6] == pytest.approx(
+        2.0 * ec.filter_1d(7.3 - 6.5, 1.5) * ec.filter_1d(8.9 - 9.5, 1.5))
+
+
+# --- the camera ------------------------------------------------------------------------------
+def test_projection_inverts_camera_rays():
+    s = ec.setup_of(_scene())
+    rng = np.random.default_rng(0)
+    px, py = rng.random(100) * W, rng.random(100) * W
+    d = ec.camera_rays(s, px, py)
+    p = s.eye + rng.uniform(0.5, 5.0, (100, 1)) * d
+    qx, qy, to_eye, dist, cos_cam, ok = ec.project(s, p)
+    assert ok.all()
+    np.testing.assert_allclose(qx, px, atol=1e-9)
+    np.testing.assert_allclose(qy, py, atol=1e-9)
+    np.testing.assert_allclose(to_eye, -d, atol=1e-12)
+    np.testing.assert_allclose(dist, np.linalg.norm(p - s.eye, axis=1), rtol=1e-12)
+    np.testing.assert_allclose(cos_cam, -d @ s.axes[:, 2], rtol=1e-6)
+    # the camera looks down at the stage: row 0 (top) sees farther than the last row
+    top, bottom = ec.camera_rays(s, np.array([W / 2, W / 2]), np.array([0.5, W - 0.5]))
+    assert top[2] > bottom[2]
+
+
+def test_coverage_leaves_out_the_ball_and_its_rim():
+    s = ec.setup_of(_scene())
+    cover = ec.coverage(s)
+    px, py, *_ = ec.project(s, np.array([BALL[0]]))
+    i, j = int(px[0]), int(py[0])
+    assert not cover[j, i] and not cover[j, i + 2]
+    assert 0.6 * W * W < cover.sum() < 0.95 * W * W
+    # every pixel within the filter's reach of an uncovered centre that sees the ball is out
+    d = ec.camera_rays(s, *(a.ravel() + 0.5 for a in np.meshgrid(np.arange(W), np.arange(W))))
+    no = np.zeros(W * W, bool)
+    _, hit = ec.first_hit(np.broadcast_to(s.eye, d.shape), d, no, no)
+    ball = (hit == ec.BALL_ID).reshape(W, W)
+    near = np.zeros_like(ball)
+    for dj in (-1, 0, 1):
+        for di in (-1, 0, 1):
+            near |= np.roll(np.roll(ball, dj, 0), di, 1)
+    assert not (cover & near).any()
+
+
+# --- the glass -------------------------------------------------------------------------------
+def _fresnel_snell(theta_i, n):
+    """Fresnel's reflectance from the angles (the textbook form, independent of ec.fresnel)."""
+    theta_t = np.arcsin(np.sin(theta_i) / n)
+    rs = np.sin(theta_i - theta_t) ** 2 / np.sin(theta_i + theta_t) ** 2
+    rp = np.tan(theta_i - theta_t) ** 2 / np.tan(theta_i + theta_t) ** 2
+    return 0.5 * (rs + rp)
+
+
+def test_fresnel_and_refraction():
+    th = np.radians([10.0, 30.0, 60.0, 85.0])
+    f, cos_t = ec.fresnel(np.cos(th), 1.0 / ec.IOR)
+    np.testing.assert_allclose(f, _fresnel_snell(th, ec.IOR), rtol=1e-9)
+    np.testing.assert_allclose(cos_t, np.cos(np.arcsin(np.sin(th) / ec.IOR)), rtol=1e-12)
+    assert ec.fresnel(np.array([1.0]), 1.0 / 1.5)[0][0] == pytest.approx(0.04)
+    # from inside, beyond the critical angle: total internal reflection
+    assert ec.fresnel(np.cos(np.radians([45.0])), 1.5)[0][0] == 1.0
+    # Snell's law of the refracted direction
+    d = np.array([[np.sin(th[1]), 0.0, -np.cos(th[1])]])
+    n = np.array([[0.0, 0.0, 1.0]])
+    out, refl, inside = ec.glass_scatter(d, n, np.array([False]), np.array([0.99]))
+    assert not refl[0] and inside[0]
+    assert out[0, 0] == pytest.approx(np.sin(th[1]) / ec.IOR) and out[0, 1] == 0.0
+
+
+def test_glass_ball_conserves_energy():
+    """A parallel beam on the ball (no floor, no camera): every photon leaves it (no absorption,
+    no ray lost inside), a share of the Fresnel reflectance averaged over the ball's disk at the
+    first surface, and T^2 R^k after k internal reflections (R at the inner surface is the
+    outer one's: the chord meets it at the refraction angle)."""
+    rng = np.random.default_rng(7)
+    n = 200_000
+    c, r = np.asarray(BALL[0]), BALL[1]
+    rho, phi = r * np.sqrt(rng.random(n)), 2 * np.pi * rng.random(n)
+    o = np.stack([np.full(n, -5.0), c[1] + rho * np.cos(phi), c[2] + rho * np.sin(phi)], 1)
+    d = np.tile([1.0, 0.0, 0.0], (n, 1))
+    inside = np.zeros(n, bool)
+    left = np.zeros(n, bool)
+    exits_after = np.full(n, -1)
+    alive = np.ones(n, bool)
+    for bounce in range(32):
+        idx = np.flatnonzero(alive)
+        t = ec._ball_hits(o[idx], d[idx], inside[idx])
+        t = np.where(left[idx] & ~inside[idx], np.inf, t)
+        gone = ~np.isfinite(t)
+        exits_after[idx[gone]] = bounce
+        alive[idx[gone]] = False
+        idx = idx[~gone]
+        p = o[idx] + t[~gone, None] * d[idx]
+        new_d, _, new_in = ec.glass_scatter(d[idx], (p - c) / r, inside[idx], rng.random(idx.size))
+        o[idx], d[idx], inside[idx], left[idx] = p, new_d, new_in, True
+    assert not alive.any()                      # all light leaves: nothing lost, none absorbed
+    # the weight of an incidence angle over the disk: 2 sin cos
+    th = (np.arange(20000) + 0.5) / 20000 * np.pi / 2
+    wgt = 2 * np.sin(th) * np.cos(th) * (np.pi / 2 / 20000)
+    rf = _fresnel_snell(th, ec.IOR)
+    for k, share in ((1, np.sum(wgt * rf)), (2, np.sum(wgt * (1 - rf) ** 2)),
+                     (3, np.sum(wgt * (1 - rf) ** 2 * rf))):
+        got = np.mean(exits_after == k)
+        assert got == pytest.approx(share, abs=4 * math.sqrt(share / n)), (k, got, share)
+    assert np.sum(wgt * rf) == pytest.approx(0.0918, abs=5e-4)  # n = 1.5's diffuse reflectance
+
+
+# --- the light -------------------------------------------------------------------------------
+def direct_closed_form(scene, m=8):
+    """Direct light only, per pixel, from the closed form: L = albedo / pi x I cos / d^2 at the
+    floor or wall point a camera ray meets (0 in the ball's shadow), I = P / (4 pi), averaged
+    over the pixel with Cycles' filter on an m x m grid of sub-pixel offsets.  (image (h, w),
+    penumbra: pixels whose offsets disagree on the light's visibility; built here from bpy's
+    camera frame, not with exact_caustic's camera code.)"""
+    cam = scene.camera
+    mw = np.array(cam.matrix_world)
+    frame = np.array([tuple(v) for v in cam.data.view_frame(scene=scene)])  # tr, br, bl, tl
+    tr, br, bl, tl = frame / -frame[:, 2:3]
+    w = h = scene.render.resolution_x
+    fw = scene.cycles.filter_width
+    u = -fw + (np.arange(m) + 0.5) * (2 * fw / m)
+    f = 0.35875 - 0.48829 * np.cos(2 * np.pi * (u / (2 * fw) + 0.5)) \
+        + 0.14128 * np.cos(4 * np.pi * (u / (2 * fw) + 0.5)) \
+        - 0.01168 * np.cos(6 * np.pi * (u / (2 * fw) + 0.5))
+    g = np.outer(f, f) / np.outer(f, f).sum()
+    x = (np.arange(w)[:, None] + 0.5 + u[None, :]) / w           # (w, m) across, 0..1
+    y = (np.arange(h)[:, None] + 0.5 + u[None, :]) / h           # (h, m) down, 0..1
+    xs, ys = x[None, None, :, :], y[:, :, None, None]            # (h, m, w, m)
+    top = tl + xs[..., None] * (tr - tl)
+    bottom = bl + xs[..., None] * (br - bl)
+    local = top + ys[..., None] * (bottom - top)
+    d = local @ mw[:3, :3].T
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    o = mw[:3, 3]
+    light = np.array(bpy.data.objects["Point"].matrix_world.translation)
+    intensity = bpy.data.objects["Point"].data.energy / (4 * np.pi)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tf = -o[2] / d[..., 2]
+        tw = (2.0 - o[1]) / d[..., 1]
+    t = np.where((tf > 0) & (tf < np.where(tw > 0, tw, np.inf)), tf, tw)
+    p = o + t[..., None] * d
+    normal = np.where((t == tf)[..., None], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0])
+    to_light = light - p
+    dist = np.linalg.norm(to_light, axis=-1)
+    cos_l = np.einsum("...i,...i->...", to_light, normal) / dist
+    # the ball's shadow: the segment to the light meets the sphere
+    c, r = np.asarray(BALL[0]), BALL[1]
+    ul = to_light / dist[..., None]
+    oc = p - c
+    b = np.einsum("...i,...i->...", ul, oc)
+    disc = b * b - (np.einsum("...i,...i->...", oc, oc) - r * r)
+    lit = ~((disc > 0) & (-b + np.sqrt(np.maximum(disc, 0)) > 0))
+    L = FLOOR[0] / np.pi * intensity * np.maximum(cos_l, 0) / dist ** 2 * lit
+    img = np.einsum("hawb,ab->hw", L, g)
+    frac = lit.mean(axis=(1, 3))
+    return img, (frac > 0) & (frac < 1)
+
+
+def test_direct_light_is_the_closed_form():
+    """With no bounces, the floor and the wall as the closed form of a point light on a
+    Lambertian plane: the mean within 0.5 %, every 8x8 block within 5 % at 2^21 photons (the
+    blocks near the camera and far from the light get the fewest photons; 2^25 photons give a
+    mean of 0.9991 x the closed form and every block within 1 %), the ball's shadow included;
+    the pixels on its penumbra left out."""
+    scene = _scene()
+    img, cover, info = ec.render(scene, photons=1 << 21, seed=3, max_bounces=0)
+    assert info["photons"] == 1 << 21 and info["max_bounces"] == 0
+    ref, penumbra = direct_closed_form(scene)
+    px = cover & ~penumbra & (ref > 0.05)
+    assert px.sum() > 0.5 * W * W
+    assert img[..., 0][px].mean() == pytest.approx(ref[px].mean(), rel=0.005)
+
+    def blocks(x):
+        return np.where(px, x, 0.0).reshape(W // 8, 8, W // 8, 8).sum(axis=(1, 3))
+    full = blocks(np.ones((W, W))) >= 16
+    ratio = blocks(img[..., 0]) / np.maximum(blocks(ref), 1e-12)
+    assert full.sum() >= 12 and np.abs(ratio[full] - 1).max() < 0.05, ratio
+    # the umbra: no direct light in it (but for the filter's last 1e-5 of its weight, beyond
+    # the closed form's outermost sub-pixel offsets)
+    dark = cover & ~penumbra & (ref == 0)
+    assert dark.sum() >= 3 and img[dark].max() < 1e-5 * ref[px].mean()
+
+
+def test_point_light_intensity_is_cycles(render_exr, cycles, tmp_path):
+    """Cycles' point light of P watts radiates P / (4 pi) W/sr: its direct light on the stage
+    (no bounces) is the closed form with that intensity, within 1 % (a factor of pi or 4 off
+    would show as 3x-12x)."""
+    scene = _scene()
+    cycles(scene, 64, W)
+    scene.cycles.max_bounces = 0
+    got = render_exr(tmp_path / "cycles.exr")
+    ref, penumbra = direct_closed_form(scene)
+    cover = ec.coverage(ec.setup_of(scene))
+    px = cover & ~penumbra & (ref > 0.05)
+    assert px.sum() > 0.5 * W * W
+    assert got[..., 0][px].mean() == pytest.approx(ref[px].mean(), rel=0.01)
+    assert np.abs(got[..., 0][px] / ref[px] - 1).max() < 0.05
+
+
+def test_stratified_emission_is_unbiased():
+    """The cone-and-half-space emission renders what uniform emission over every direction
+    does: the mean over the covered pixels and over the caustic's brightest pixels."""
+    scene = _scene()
+    a, cover, _ = ec.render(scene, photons=1 << 20, seed=5)
+    b, _, _ = ec.render(scene, photons=1 << 21, seed=6, stratified=False)
+    assert a[cover].mean() == pytest.approx(b[cover].mean(), rel=0.015)
+    focus = a[..., 0] > np.quantile(a[..., 0][cover], 0.99)
+    assert a[focus].mean() == pytest.approx(b[focus].mean(), rel=0.1)
