@@ -141,16 +141,18 @@ inline float mesh_hit_mis(const Scene *scene, const Hit *h, float3 o, float3 d, 
     return mis_power(prev_pdf, pdf_l);
 }
 
-/* The fraction of light a shadow ray from o along d lets through over dist: 0 at an opaque
- * surface; partly transparent surfaces (alpha, Transparent BSDF) attenuate it, at most
- * `crossings` of them (as Blender 5.0's Cycles renders: the Light Paths' transparent limit
- * less the path's crossings, ShaderData.crossings). */
-inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float dist,
-                                   int crossings) {
+/* The fraction of light a ray from o along d lets through over dist, meeting the objects of
+ * visibility `mask`: 0 at an opaque surface; partly transparent surfaces (alpha, Transparent
+ * BSDF) attenuate it, at most `crossings` of them (as Blender 5.0's Cycles renders: the Light
+ * Paths' transparent limit less the path's crossings, ShaderData.crossings).  A shadow ray's
+ * (shadow_transmittance) meets what casts shadows; a camera connection's
+ * (photon_pass.cl connect_camera) what the camera sees. */
+inline float3 ray_transmittance(const Scene *scene, float3 o, float3 d, float dist, int crossings,
+                                uint mask) {
 #if PPM_TRANSPARENT
     float3 T = (float3)(1.0f);
     for (int i = 0; i <= crossings; i++) {
-        Hit h = bvh_intersect(scene, o, d, dist, VIS_SHADOW, false);
+        Hit h = bvh_intersect(scene, o, d, dist, mask, false);
         if (h.leaf < 0) return T;
         Surface s = surface_at(scene, h);
         if (i == crossings || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
@@ -165,9 +167,14 @@ inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float
     }
     return (float3)(0.0f);
 #else
-    Hit h = bvh_intersect(scene, o, d, dist, VIS_SHADOW, true);
+    Hit h = bvh_intersect(scene, o, d, dist, mask, true);
     return (float3)(h.leaf < 0 ? 1.0f : 0.0f);
 #endif
+}
+
+inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float dist,
+                                   int crossings) {
+    return ray_transmittance(scene, o, d, dist, crossings, VIS_SHADOW);
 }
 
 /* One next-event sample from p (n: the shading normal the world is sampled around, ngf the

@@ -47,8 +47,10 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
     if (kinds == 0u || (ph->lambert && !(kinds & JOIN_DIFFUSE))) return false;
     float3 org = offset_ray(s->p, cos_c > 0.0f ? ph->Ng : -ph->Ng,
                             scene->emitter_info->offset_scale);
-    float3 T = shadow_transmittance(scene, org, wc, dist * 0.9999f,
-                                    scene->light_paths->transparent_max_bounces);
+    /* the segment as a camera ray sees it: through objects hidden from the camera, as the
+     * eye pass's rays that make the merge's visible points */
+    float3 T = ray_transmittance(scene, org, wc, dist * 0.9999f,
+                                 scene->light_paths->transparent_max_bounces, VIS_CAMERA);
     if (!(max3(T) > 0.0f)) return false;
     /* the photon's flux times f (the gather's photon_term, gather.cl), ratio: the camera
      * path's sample weight f cos / pdf for the photon's direction (Clamp Indirect) */

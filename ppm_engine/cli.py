@@ -3,7 +3,7 @@
     python -m ppm_engine render SCENE.blend -o OUT.png|OUT.exr [--passes N] [--time-limit S]
                                 [--resolution WxH] [--device NAME] [--photons N] [--seed N]
                                 [--noise-threshold T] [--indirect auto|photons|paths]
-                                [--frame N | --frames A-B]
+                                [--light-tracing on|off] [--frame N | --frames A-B]
     python -m ppm_engine devices
     python -m ppm_engine example NAME OUT.blend
     python -m ppm_engine package [-o dist] [--platforms linux-x64,...]
@@ -75,6 +75,10 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--indirect", choices=INDIRECT_MODES,
                    help="indirect light: photons (the paper's SPPM), paths (eye paths, photons "
                         "for caustics only) or auto (per scene; default: the file's setting)")
+    r.add_argument("--light-tracing", choices=("on", "off"),
+                   help="connect the photons to the camera too, weighed against their gather "
+                        "(sharp caustics seen directly; default: the file's setting, normally "
+                        "on)")
     fr = r.add_mutually_exclusive_group()
     fr.add_argument("-f", "--frame", type=int, metavar="N",
                     help="the frame to render (default: the file's current frame)")
@@ -154,7 +158,8 @@ def cmd_render(args) -> int:
     overrides = {name: value for name, value in (
         ("passes", args.passes), ("time_limit", args.time_limit),
         ("photons_per_pass", args.photons), ("seed", args.seed),
-        ("noise_threshold", args.noise_threshold), ("indirect", args.indirect))
+        ("noise_threshold", args.noise_threshold), ("indirect", args.indirect),
+        ("light_tracing", None if args.light_tracing is None else args.light_tracing == "on"))
         if value is not None}
     bar = progress_bar(PROG)
     t0 = time.perf_counter()

@@ -157,6 +157,27 @@ def test_bench_micro_and_phases_quick(cli, tmp_path):
 
 
 @pytest.mark.slow             # tooling: 19 s of the default run
+def test_bench_strategies_quick(cli, tmp_path):
+    """``bench --strategies``: each photon scene's image split by strategy; the shares add up
+    to the whole, and the photons' light tracing brings part of the mirror's caustic (not all:
+    the merge has its side of the balance heuristic)."""
+    md = tmp_path / "B.md"
+    p = cli("bench", "--strategies", "--quick", "--scenes", "mirror_caustic", "point_caustic",
+            "--json", tmp_path / "st.json", "--markdown", md)
+    assert p.returncode == 0, p.stderr
+    st = json.loads((tmp_path / "st.json").read_text())
+    assert set(st["scenes"]) == {"mirror_caustic", "point_caustic"}
+    assert "<!-- bench:strategies -->" in md.read_text()
+    for row in st["scenes"].values():
+        assert row["light_tracing"] and row["passes"] >= 1
+        for region in ("image", "caustic"):
+            r = row[region]
+            assert r["camera paths"] + r["merge"] + r["light tracing"] == pytest.approx(1.0)
+            assert 0 < r["light tracing"] < 1 and 0 < r["merge"] < 1
+    assert 0.05 < st["scenes"]["mirror_caustic"]["caustic"][
+        "light tracing of the photons' light"] < 0.999
+
+
 def test_bench_skips_quick(cli, tmp_path):
     md = tmp_path / "B.md"
     p = cli("bench", "--skips", "--quick", "--json", tmp_path / "s.json", "--markdown", md)

@@ -83,3 +83,31 @@ def test_light_tracing_is_off_through_a_lens_and_without_photons():
     r = Renderer(cornell_box(8, 8), RenderOptions())     # diffuse only: eye paths, no photons
     assert not r.photons_needed and r.lt_kappa == 0.0
     r.close()
+
+
+def test_light_tracing_sees_through_what_the_camera_does_not(monkeypatch):
+    """A black board above the floor, hidden from the camera (Ray Visibility > Camera off) but
+    casting shadows: the camera sees the floor through it, so the connections to the camera
+    pass it too (camera visibility, not shadow visibility), and the caustic is the image
+    source's.  Blocked by it, light tracing's side of the weights (most of the caustic at
+    kappa 0.02) would be lost."""
+    from ppm_engine.procedural import MeshBuilder
+    from ppm_engine.scene_arrays import VIS_ALL, VIS_CAMERA
+    W = 32
+    ref, region = _region(W)
+    c = A.MIRROR
+    mb = MeshBuilder()
+    floor = mb.material("floor", (A.ALBEDO,) * 3)
+    mirror = mb.material("mirror", (1, 1, 1), metallic=1.0, roughness=0.0)
+    board = mb.material("board", (0, 0, 0))
+    mb.quad((0, 0, 0), (20, 0, 0), (0, 20, 0), floor)
+    mb.quad((c["mirror_x"], 0, 0.75), (0, 0, 0.75), (0, 1.0, 0), mirror)
+    mb.quad((-0.3, 0, 2.0), (2, 0, 0), (0, 2, 0), board)       # over the whole view
+    scene = A.mirror_caustic(W)
+    hidden = mb.build(camera=scene.camera, lights=scene.lights)
+    vis = hidden.visibility.copy()
+    vis[-2:] = VIS_ALL & ~VIS_CAMERA
+    img, lt = _render(hidden.replace(visibility=vis), 200, monkeypatch, 0.02)
+    caustic = A.mirror_caustic_only(W)
+    assert lt[region].mean() / caustic[region].mean() > 0.2
+    assert img[region].mean() == pytest.approx(ref[region].mean(), rel=0.02)

@@ -27,9 +27,16 @@ def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentP
     b.add_argument("--ref-seconds", type=float, metavar="S",
                    help="seconds per reference half (default 2 x the longest budget)")
     b.add_argument("--photons", type=int, help="photons per pass (default: the engine's)")
+    b.add_argument("--light-tracing-kappa", type=float, metavar="K",
+                   help="the photons' light tracing against the merge: the balance heuristic's "
+                        "kappa for this run (default options.LIGHT_TRACING_KAPPA; for choosing "
+                        "it by measurement)")
     b.add_argument("--device", default="", help="OpenCL device for our engine")
     b.add_argument("--quick", action="store_true", help="tiny sizes (seconds): what CI runs")
     b.add_argument("--micro", action="store_true", help="the micro benchmarks instead")
+    b.add_argument("--strategies", action="store_true",
+                   help="what each strategy (camera paths, the merge, light tracing) brings to "
+                        "the photon scenes' images (--scenes, --times: one budget)")
     b.add_argument("--skips", action="store_true",
                    help="what each skip of work a scene does not need saves, with and without")
     b.add_argument("--phases", metavar="SCENE", help="per-phase breakdown of a pass of SCENE")
@@ -90,7 +97,8 @@ def run(args, cmdline: str, progress=print) -> int:
     """Run the benchmark the arguments ask for; outputs go to --json/--plot/--markdown or the
     output folder's bench/ and BENCHMARKS.md (output_dir)."""
     needed = (("matplotlib",) if args.report else ("OpenEXR", "matplotlib")
-              if not (args.micro or args.phases or args.skips or args.shader or args.digest)
+              if not (args.micro or args.phases or args.skips or args.shader or args.digest
+                      or args.strategies)
               else ())
     if args.noise:
         needed = ("OpenEXR",)
@@ -100,6 +108,13 @@ def run(args, cmdline: str, progress=print) -> int:
                          f"\".[bench]\" (or pip install {' '.join(missing)})")
     if args.photons is not None and args.photons < 1:
         raise UsageError("--photons must be at least 1")
+    if args.light_tracing_kappa is not None:
+        if not args.light_tracing_kappa > 0:
+            raise UsageError("--light-tracing-kappa must be above 0 (the Light Tracing setting "
+                             "turns it off)")
+        # the renders run in this process (bpy's engine drives a Renderer)
+        from .. import renderer
+        renderer.LIGHT_TRACING_KAPPA = float(args.light_tracing_kappa)
     out = output_dir(args.out)
     md_path = Path(args.markdown) if args.markdown else out / "BENCHMARKS.md"
 
@@ -132,6 +147,14 @@ def run(args, cmdline: str, progress=print) -> int:
         m["machine"] = report.machine_info(args.device)
         raw, table = micro.format_micro(m), micro.targets_table(m)
         return publish("micro", m, f"{raw}\n\n{table}", f"```\n{raw}\n```\n\n{table}")
+    if args.strategies:
+        from . import strategies
+        st = strategies.run_strategies(
+            args.times[0] if args.times else (0.5 if args.quick else 8.0),
+            args.resolution or (16 if args.quick else 128), args.scenes or strategies.SCENES,
+            args.device, progress)
+        st["machine"] = report.machine_info(args.device)
+        return publish("strategies", st, strategies.format_strategies(st))
     if args.skips:
         s = skips.run_skips(args.device, quick=args.quick, progress=progress)
         s["machine"] = report.machine_info(args.device)
