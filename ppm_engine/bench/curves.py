@@ -91,19 +91,21 @@ REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": 
 LIGHT_TRACE_PHOTONS = 1 << 17      # photons per light-tracing pass
 REF_SEEDS = (1001, 2002)
 EQUAL_TIME = 16.0
-# ours / Cycles, EQUAL_TIME
-TARGETS = {"bulb_box": 0.25, "cornell_box": 1.0, "furnace": 1.0, "many_lights": 1.0}
+# ours / Cycles, EQUAL_TIME (issue 25's targets: the furnace at half Cycles' error)
+TARGETS = {"bulb_box": 0.25, "cornell_box": 1.0, "furnace": 0.5, "many_lights": 1.0}
 # ours / (Cycles with MNEE), EQUAL_TIME: the issue's point light's caustic through a glass ball
 # (a spot light here: a point light whose power goes towards the ball)
 TARGETS_MNEE = {"glass_caustic": 1.0, "point_caustic": 1.0}
 # scenes with LuxCore's bidirectional path tracer as a curve; ours / LuxCore BIDIR, EQUAL_TIME
-# (issue 15: the point light's caustic in a mirror, which no Cycles estimator samples)
+# (issue 15: the point light's caustic in a mirror, which no Cycles estimator samples; issue
+# 25: at most 0.3 of its error)
 LUXCORE_SCENES = ("mirror_caustic",)
-TARGETS_LUXCORE = {"mirror_caustic": 0.5}
+TARGETS_LUXCORE = {"mirror_caustic": 0.3}
 # at the equal-time budget, the curves the targets compare are rendered with these seeds and
 # the ratio is that of the mean RMSEs ("image_rmse_mean"): seed to seed a render's RMSE varies
 # by about 3 % (the Cornell box at 16 s), as much as a target's margin
 EQUAL_TIME_SEEDS = (1, 2, 3)
+WARM_UP_SECONDS = 0.25     # per scene and setting, before the timed curves (run_scene)
 SEEDED_CURVES = ("ours", "cycles")
 QUICK = dict(times=(0.25, 0.5), resolution=16, ref_seconds=1.0, photons=1 << 13)
 
@@ -336,6 +338,12 @@ class Bench:
                 out["luxcore"] = reason
                 self.progress(f"[{name}] LuxCore BIDIR skipped: {reason}")
         out["curves"] = {}
+        # one untimed short render of each of our settings first: the kernels a scene needs are
+        # built (or read from the disk cache) on first use, inside the first pass, and the
+        # curve rendered first would pay for them (mirror_caustic at 4 s: 112 passes where the
+        # next curve, as fast per pass, got 232)
+        for indirect in ("AUTO", "PHOTONS"):
+            self.shot(scene, "PPM", WARM_UP_SECONDS, 1, indirect)
         for curve, (engine, mnee, indirect, lt) in curves.items():
             if name in CAUSTIC_SCENES:
                 set_mnee(name, mnee)
