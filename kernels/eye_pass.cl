@@ -21,6 +21,20 @@ inline float filter_offset(__global const float *table, float u) {
     return mix(table[k], table[k + 1], t);
 }
 
+/* The numbers of the next-event estimation at the eye path's vertex `depth` (a mirror, glass
+ * or glossy vertex before the visible point): low-discrepancy over the passes (rng.h ld_set,
+ * the pixel's own scramble), as Cycles samples its lights.  Only the light's sample: the
+ * directions the path takes stay pseudo-random, since visible points that alternate in Sobol
+ * order bias the pixel's radius statistics (below). */
+inline float3 eye_nee_u(uint pass, uint key, int depth, uint *rng) {
+    /* drawn all the same: the rest of the path keeps its pseudo-random numbers (a glass ball's
+     * caustic on a rough metal floor, tests/test_materials.py, moves 15 % with another draw of
+     * them at 256 passes) */
+    float3 r = (float3)(rnd(rng), rnd(rng), rnd(rng));
+    if (depth < LD_SETS) return ld_set(pass, key, (uint)depth).xyz;
+    return r;
+}
+
 __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_radius,
                        float auto_radius_pixels, __global const float *filter_table,
                        __global float4 *direct, __global float *radius, __global float *radius0,
@@ -52,6 +66,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
      * sequence (Roberts 2018) rotated per pixel (Cranley-Patterson), whose consecutive passes
      * fall anywhere */
     uint prng = rng_seed(seed, 0u, (uint)id, 4u);    /* the pixel's key, the same each pass */
+    uint nee_key = rng_seed(seed, 0u, (uint)id, 6u);  /* its next-event estimation's */
     float4 uc;
     if (camera_sobol) {
         uc = ld_set(pass_index, prng, 0u);
@@ -151,7 +166,9 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
          * noise: a sun-lit Principled cone and ground rendered at 3.5x the noise (issue 24). */
         bool mixed = sd.sw_gather > 0.0f && sd.sw_continue > 0.0f && sd.continue_glossy;
         if (mixed)
-            L += clamp_sample(beta * direct_nee(scene, &sd, s.p, MASK_ALL, true, &rng),
+            L += clamp_sample(beta
+                                  * direct_nee_u(scene, &sd, s.p, MASK_ALL, true,
+                                                 eye_nee_u(pass_index, nee_key, depth, &rng)),
                               clamp_limit(depth, lp));
         if (rnd(&rng) * sw < sd.sw_gather) {
             /* a visible point: the gather's closures, weighted by 1 / their probability */
@@ -215,7 +232,9 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
          * transparency), weighted by 1 / their probability */
         beta *= sw / sd.sw_continue;
         if (sd.continue_glossy && !mixed)
-            L += clamp_sample(beta * direct_nee(scene, &sd, s.p, MASK_CONTINUE, true, &rng),
+            L += clamp_sample(beta
+                                  * direct_nee_u(scene, &sd, s.p, MASK_CONTINUE, true,
+                                                 eye_nee_u(pass_index, nee_key, depth, &rng)),
                               clamp_limit(depth, lp));
         BsdfSample b;
         float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
