@@ -170,9 +170,9 @@ def run(args, cmdline: str, progress=print) -> int:
         g["machine"] = report.machine_info(args.device)
         return publish("glossy", g, glossy.format_glossy(g))
     if args.noise:
-        if args.noise not in curves.SCENES:
+        if args.noise not in (*curves.SCENES, "glossy"):
             raise UsageError(f"unknown bench scene '{args.noise}'; available: "
-                             f"{', '.join(curves.SCENES)}")
+                             f"{', '.join(curves.SCENES)}, glossy (--glossy's spheres)")
         if args.samples < 1 or args.seeds < 2 or args.bounces < 0:
             raise UsageError("--noise needs --samples >= 1, --seeds >= 2 and --bounces >= 0")
         d = noise.run_noise(args.noise, 8 if args.quick else args.samples,

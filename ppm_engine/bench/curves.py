@@ -206,6 +206,9 @@ class Bench:
 
     def _scene(self, name):
         import bpy
+        if name == "glossy":        # the glossy spheres of --glossy (glossy.py), for --noise
+            from .glossy import build_scene
+            return build_scene(self.res)
         scene = build_example(name)
         scene.render.resolution_x = scene.render.resolution_y = self.res
         scene.render.resolution_percentage = 100
