@@ -1,6 +1,7 @@
 """What the LuxCore translation does beyond the unit conversions, without pyluxcore (bpy and
 NumPy only, so CI runs it): emitters inside glass get IOR^2 (LuxCore's glass is physical,
-Cycles' passes radiance unscaled), smooth black emitters go flat."""
+Cycles' passes radiance unscaled), smooth black emitters go flat, and the pixel filter that
+LIGHTCPU's unfiltered, supersampled film goes through (ppm_engine/bench/luxcore.py)."""
 import types
 
 import numpy as np
@@ -51,3 +52,25 @@ def test_inside_a_closed_mesh():
     pts = np.array([[0.0, 0.0, 0.0], [0.5, 0.3, -0.2], [1.5, 0.0, 0.0], [0.0, 0.0, -2.0]])
     assert luxcore_scene.inside(pts, tris).tolist() == [True, True, False, False]
 
+
+def test_pixel_filter_of_a_supersampled_film():
+    """Cycles' Blackman-Harris 1.5 px from a film of 8 x 8 fine pixels per pixel: a constant
+    stays itself where the filter stays inside the frame, and one fine pixel's light reaches the
+    pixels within the filter's reach of it, each by the filter (exact_caustic's, written apart)
+    at their distance, over the fine pixel's area."""
+    from ppm_engine.bench import exact_caustic, luxcore
+    scene = types.SimpleNamespace(cycles=types.SimpleNamespace(
+        pixel_filter_type="BLACKMAN_HARRIS", filter_width=1.5))
+    k, n = 8, 12
+    out = luxcore.pixel_filter(np.ones((k * n, k * n, 3), np.float32), scene, k)
+    assert out.shape == (n, n, 3)
+    assert np.allclose(out[1:-1, 1:-1], 1.0, atol=1e-6) and (out[0] < 0.95).all()
+    fine = np.zeros((k * n, k * n, 3), np.float32)
+    fine[5 * k + 3, 6 * k + 4] = 1.0               # in pixel (5, 6), its centre at (x, y):
+    x, y = 6 + 4.5 / k, 5 + 3.5 / k
+    out = luxcore.pixel_filter(fine, scene, k)[..., 0]
+    c = np.arange(n) + 0.5
+    f = exact_caustic.filter_1d
+    expect = np.outer(f(y - c, 1.5), f(x - c, 1.5)) / (k * k)
+    assert np.abs(out - expect).max() < 0.01 * expect.max()
+    assert (out > 0).sum() == 9 and out[5, 6] == out.max()   # 3 x 3 within 1.5 px
