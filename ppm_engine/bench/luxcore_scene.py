@@ -53,6 +53,14 @@ Units (the conversion, derived from both renderers' sources, not fitted):
   radiance.  Unlike Cycles', it blocks light from behind.
 - World: the Background's colour x strength is the radiance of LuxCore's ``constantinfinite``
   light (gain x color).
+- Emitters inside glass: LuxCore's glass is physical (radiance leaving glass of IOR n is 1 / n^2
+  of what it was inside), Cycles' sharp glass passes radiance through unscaled: an emitter
+  enclosed by a closed glass mesh gets its emission x n^2 (``enclosed_emission``: exact, the
+  bulb box's filament; without it LuxCore renders that room 0.444 as bright).
+- Smooth-shaded emitters: LuxCore emits about the shading normal, Cycles the same radiance
+  every way from the surface: a black emitter (Emission) goes flat (its normals only steer its
+  emission: the bulb box's filament was 0.12 % dim with them); one that also reflects is
+  refused.
 """
 from __future__ import annotations
 
@@ -78,6 +86,10 @@ class Translation:
         self.meshes: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None]] = {}
         self.objects: dict[str, dict] = {}
         self.lights = 0
+        # for enclosed_emission: each emitter's points (N, 3) with the property holding its
+        # gain (a light's) or its material and objects (a mesh's); each glass mesh and its IOR
+        self.emitters: list[tuple[np.ndarray, str | None, str | None, list[str]]] = []
+        self.glass: list[tuple[np.ndarray, float, str]] = []
 
     def set(self, prefix: str, **values) -> None:
         for k, v in values.items():
@@ -211,7 +223,15 @@ def _emissive_twin(p, n):
     size = float(np.linalg.norm(p.reshape(-1, 3).max(0) - p.reshape(-1, 3).min(0)))
     g = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-30)
-    return (p - 1e-5 * max(size, 1e-3) * g[:, None, :])[:, [0, 2, 1]], -n[:, [0, 2, 1]]
+    return ((p - 1e-5 * max(size, 1e-3) * g[:, None, :])[:, [0, 2, 1]],
+            None if n is None else -n[:, [0, 2, 1]])
+
+
+def _flat(p, n) -> bool:
+    """Whether the corner normals (T, 3, 3) are the triangles' own (flat shading)."""
+    g = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-30)
+    return bool((np.einsum("tck,tk->tc", n, g) > 1 - 1e-6).all())
 
 
 def icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
@@ -264,9 +284,11 @@ def light_props(tr: Translation, obj, m: np.ndarray, name: str) -> None:
                    emission=[1.0, 1.0, 1.0], **{"emission.gain": radiance.tolist()})
             tr.add_mesh(name, p, None, mat,
                         camera_invisible=not getattr(obj, "visible_camera", True))
+            tr.emitters.append((p.mean(1), None, mat, [name]))
         elif light.type == 'POINT':
             tr.set(prefix, type="point", position=pos, color=[1.0, 1.0, 1.0],
                    gain=gain.tolist(), power=0.0)
+            tr.emitters.append((m[None, :3, 3], f"{prefix}.gain", None, []))
         else:
             half = float(light.spot_size) / 2
             cos_half = math.cos(half)
@@ -274,6 +296,7 @@ def light_props(tr: Translation, obj, m: np.ndarray, name: str) -> None:
             tr.set(prefix, type="spot", position=pos, target=(m[:3, 3] + z).tolist(),
                    color=[1.0, 1.0, 1.0], gain=(gain / (4 * math.pi)).tolist(), power=0.0,
                    coneangle=math.degrees(half), conedeltaangle=math.degrees(half - start))
+            tr.emitters.append((m[None, :3, 3], f"{prefix}.gain", None, []))
         tr.lights += 1
         return
     if light.type == 'AREA':
@@ -304,6 +327,7 @@ def light_props(tr: Translation, obj, m: np.ndarray, name: str) -> None:
         tr.set(f"scene.materials.{mat}", type="matte", kd=[0.0, 0.0, 0.0],
                emission=[1.0, 1.0, 1.0], **{"emission.gain": radiance.tolist()})
         tr.add_mesh(name, p, None, mat, camera_invisible=not getattr(obj, "visible_camera", True))
+        tr.emitters.append((p.mean(1), None, mat, [name]))
         tr.lights += 1
         return
     raise Unsupported(f"light '{obj.name}': {light.type} lights are not translated")
@@ -330,6 +354,86 @@ def world_props(tr: Translation, world) -> None:
         tr.lights += 1
 
 
+def _closed(tris: np.ndarray) -> bool:
+    """Whether a triangle soup (T, 3, 3) is a closed surface: every edge shared by exactly two
+    triangles (vertices matched to 1e-6 of the mesh's size)."""
+    pts = tris.reshape(-1, 3)
+    size = max(float(np.ptp(pts, axis=0).max()), 1e-12)
+    _, vid = np.unique(np.round(pts / (1e-6 * size)), axis=0, return_inverse=True)
+    vid = vid.reshape(-1, 3)
+    edges = np.sort(np.concatenate([vid[:, [0, 1]], vid[:, [1, 2]], vid[:, [2, 0]]]), axis=1)
+    _, count = np.unique(edges, axis=0, return_counts=True)
+    return bool((count == 2).all())
+
+
+def inside(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Whether each point (N, 3) lies inside the closed triangle mesh ``tris`` (T, 3, 3): the
+    parity of a ray's crossings (Moeller-Trumbore), along a direction no axis-aligned face or
+    edge contains."""
+    d = np.array([0.5253, 0.6177, 0.5851])
+    d /= np.linalg.norm(d)
+    v0, e1, e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    pv = np.cross(d, e2)
+    det = np.einsum("tk,tk->t", e1, pv)
+    ok = np.abs(det) > 1e-300
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    out = np.empty(len(points), bool)
+    for a in range(0, len(points), 256):           # (256, T, 3) at a time
+        tv = points[a:a + 256, None, :] - v0[None]
+        u = np.einsum("ptk,tk->pt", tv, pv) * inv
+        qv = np.cross(tv, e1[None])
+        v = (qv @ d) * inv
+        t = np.einsum("ptk,tk->pt", qv, e2) * inv
+        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+        out[a:a + 256] = hit.sum(1) % 2 == 1
+    return out
+
+
+def enclosed_emission(tr: Translation, camera: np.ndarray) -> None:
+    """Emitters inside glass: their emission x IOR^2 per glass mesh that encloses them.
+
+    Light leaving glass of IOR n spreads over n^2 times the solid angle, and LuxCore's glass
+    says so: its eye paths carry eta^2 through every refraction and its light paths keep the
+    flux (glass.cpp EvalSpecularTransmission), so radiance out of the glass is 1 / n^2 of
+    radiance in it.  Cycles' sharp glass (and this engine, its adjoint in the photons:
+    kernels/light_trace.cl) passes radiance through unscaled.  For light from outside that
+    enters a closed glass object and leaves it again the two agree; light emitted inside one
+    leaves once more than it enters, so LuxCore renders it 1 / n^2 as bright (measured: the
+    bulb box's filament in its glass bulb, 0.444 of the light tracer's everywhere).  Raising
+    the emission by n^2 puts it back exactly.  An emitter partly inside a glass mesh, or the
+    camera inside one, has no such single factor: Unsupported.  Glass meshes that are not
+    closed enclose nothing."""
+    glass = [g for g in tr.glass if _closed(g[0])]
+    if not glass or not tr.emitters:
+        return
+    for tris, _ior, _name in glass:
+        if inside(camera[None], tris)[0]:
+            raise Unsupported("the camera is inside a glass object")
+    for k, (points, gain_key, mat, objects) in enumerate(tr.emitters):
+        factor = 1.0
+        for tris, ior, name in glass:
+            if name in objects:          # (glass that glows: its own surface)
+                continue
+            ins = inside(points, tris)
+            if ins.all():
+                factor *= ior * ior
+            elif ins.any():
+                raise Unsupported("an emitter lies partly inside a glass object")
+        if factor == 1.0:
+            continue
+        if gain_key is not None:
+            tr.props[gain_key] = (np.asarray(tr.props[gain_key]) * factor).tolist()
+            continue
+        # the emitter's own copy of its material (another object may share it outside glass)
+        src, dst = f"scene.materials.{mat}.", f"scene.materials.{mat}_in{k}."
+        for key in [key for key in tr.props if key.startswith(src)]:
+            tr.props[dst + key[len(src):]] = tr.props[key]
+        tr.props[dst + "emission.gain"] = (np.asarray(tr.props[src + "emission.gain"])
+                                           * factor).tolist()
+        for name in objects:
+            tr.objects[name]["material"] = f"{mat}_in{k}"
+
+
 def film_size(scene) -> tuple[int, int]:
     r = scene.render
     if r.use_border:
@@ -338,11 +442,13 @@ def film_size(scene) -> tuple[int, int]:
     return max(int(r.resolution_x * pct), 1), max(int(r.resolution_y * pct), 1)
 
 
-def camera_props(scene, depsgraph) -> dict:
+def camera_props(scene, depsgraph, supersample: int = 1) -> dict:
     """The camera: LookAt from the camera's matrix (up = its +y), and Blender's view frame at
     unit depth as the screen window, with fieldofview = 2 atan(t), t the half-extent of the
     frame's longer side (LuxCore's field of view spans the longer side: projective.cpp's
-    automatic window is [-1, 1] along it; an explicit window is in units of tan(fov / 2))."""
+    automatic window is [-1, 1] along it; an explicit window is in units of tan(fov / 2)).
+    ``supersample``: LuxCore's film has that many pixels per pixel of the scene's along each
+    axis (the window is the same; its one-row shift is one of the film's rows)."""
     cam_obj = scene.camera
     if cam_obj is None or cam_obj.type != 'CAMERA':
         raise Unsupported("the scene has no camera")
@@ -362,7 +468,7 @@ def camera_props(scene, depsgraph) -> dict:
     # one pixel to put it back (measured: the lowest RMSE against the light-traced reference
     # at no shift, instead of at one row, with this)
     _w, h = film_size(scene)
-    dy = (y1 - y0) / h
+    dy = (y1 - y0) / (h * supersample)
     y0, y1 = y0 - dy, y1 - dy
     props = {"scene.camera.type": "perspective",
              "scene.camera.lookat.orig": o.tolist(),
@@ -385,11 +491,12 @@ def camera_props(scene, depsgraph) -> dict:
     return props
 
 
-def translate(depsgraph) -> Translation:
-    """The depsgraph's scene as LuxCore properties and meshes (module docstring)."""
+def translate(depsgraph, supersample: int = 1) -> Translation:
+    """The depsgraph's scene as LuxCore properties and meshes (module docstring), for a film of
+    ``supersample`` x the scene's resolution along each axis."""
     scene = depsgraph.scene
     tr = Translation()
-    tr.props.update(camera_props(scene, depsgraph))
+    tr.props.update(camera_props(scene, depsgraph, supersample))
     materials: dict[object, str] = {}
 
     def material(mat) -> str:
@@ -424,10 +531,27 @@ def translate(depsgraph) -> Translation:
             mat = slots[sl] if 0 <= sl < len(slots) else None
             name = material(mat)
             sel = slot == sl
-            tr.add_mesh(f"o{k}_{sl}", p[sel], n[sel], name, hidden)
-            if f"scene.materials.{name}.emission" in tr.props:
-                tp, tn = _emissive_twin(p[sel], n[sel])
+            ps, ns = p[sel], n[sel]
+            emits = f"scene.materials.{name}.emission" in tr.props
+            if emits and not _flat(ps, ns):
+                # LuxCore emits about the shading normal (trianglelight.cpp Emit: the hit
+                # point's frame), Cycles the same radiance every way from the surface: for a
+                # black emitter only emission uses the normals, so it goes flat (the bulb box's
+                # smooth filament); one that also reflects would change
+                if max(tr.props.get(f"scene.materials.{name}.kd", [0.0])) > 0:
+                    raise Unsupported(f"object '{obj.name}': a smooth-shaded emitter that also "
+                                      "reflects (LuxCore emits about the shading normal)")
+                ns = None
+            tr.add_mesh(f"o{k}_{sl}", ps, ns, name, hidden)
+            if tr.props[f"scene.materials.{name}.type"] == "glass":
+                ior = float(tr.props[f"scene.materials.{name}.interiorior"])
+                tr.glass.append((ps, ior, f"o{k}_{sl}"))
+            if emits:
+                tp, tn = _emissive_twin(ps, ns)
                 tr.add_mesh(f"o{k}_{sl}_back", tp, tn, name, hidden)
+                tr.emitters.append((ps.mean(1), None, name,
+                                    [f"o{k}_{sl}", f"o{k}_{sl}_back"]))
                 tr.lights += 1
     world_props(tr, scene.world)
+    enclosed_emission(tr, np.array(scene.camera.matrix_world.translation))
     return tr

@@ -119,19 +119,28 @@ def reference_table(result: dict) -> str:
              "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for name, s in result["scenes"].items():
         r, b = s["reference"], s["bias_check"]
-        independent = "yes" if r.get("independent", r["engine"] != "PPM") else "no (ours)"
+        # this engine's light tracer: one of its strategies since light tracing joined the
+        # photons (kernels/photon_pass.cl connect_camera)
+        independent = {"PPM": "no (ours)", "LIGHT_TRACE": "no (our light tracer)"}.get(
+            r["engine"], "yes")
         lines.append(f"| {name} | {r['engine']} | {independent} | {r['seconds_per_half']:g} | "
                      f"{r['mean']:.4f} | "
                      f"{r['noise_rmse']:.4f} ({r['noise_rel_rmse']:.3f}) | "
                      f"{s['caustic_mask_pixels']} | {r['noise_rmse_caustic']:.4f} | "
                      f"{b['cycles_longest_mean_over_reference']:.3f} | "
                      f"{b['ours_longest_mean_over_reference']:.3f} |")
+    for name, s in result["scenes"].items():        # a reference rendered by its stand-in
+        f = s["reference"].get("fallback")
+        if f:
+            lines.append(f"\n{name}: {s['reference']['engine']} in place of {f['engine']} "
+                         f"({f['reason']}).")
     return "\n".join(lines)
 
 
 def light_trace_check_table(result: dict) -> str:
-    """The light tracer against Cycles where both converge, and against the exact sphere's
-    reference on point_caustic (curves.Bench.run_scene)."""
+    """This engine's light tracer against Cycles where both converge, against the exact
+    sphere's reference on point_caustic, and against LuxCore's light tracer where that is the
+    reference (curves.Bench.run_scene)."""
     lines = ["| scene | reference | light tracing s | photons | pixels | mean LT / reference "
              "| RMSE LT - ref | reference noise RMSE | caustic: mean LT / ref "
              "| caustic RMSE (ref noise) | focus pixel LT / ref |",
