@@ -28,12 +28,13 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
 - the furnace: the closed form (scenes/furnace.py: L = E / (1 - albedo) everywhere);
 - the Cornell box and many_lights: Cycles (no caustics: path tracing converges well);
 - point_caustic (the glass ball under a radius-0 point light): the exact-geometry reference
-  (exact_caustic.py, "EXACT"): light tracing in NumPy on the true sphere and the two finite
-  planes, sharing no code with this engine, so it stays independent now that light tracing is
-  one of the engine's own strategies (issue 25).  Cycles with MNEE is no reference there: it
-  gives the brightest pixel of the focus 5.9 where light tracing and this engine agree on 32
-  and 29 (docs/BENCHMARKS.md).  Each half renders whole batches of photons for the reference
-  budget;
+  (exact_caustic.py, "EXACT"): in NumPy on the true sphere and the two finite planes, the
+  direct light in closed form and the rest by light tracing, sharing no code with this engine,
+  so it stays independent now that light tracing is one of the engine's own strategies
+  (issue 25).  Cycles with MNEE is no reference there: it gives the brightest pixel of the
+  focus 5.9 where light tracing and this engine agree on 32 and 29 (docs/BENCHMARKS.md).  Each
+  half computes the closed form, then renders whole batches of photons for the rest of the
+  reference budget;
 - bulb_box and mirror_caustic: LuxCoreRender's light tracer (LIGHTCPU, luxcore.py,
   "LUXCORE_LIGHT"), where Cycles converges slowly (bulb box) or never (a point light's caustic
   in a mirror): light paths connected to the camera, unbiased, no Russian roulette, on the

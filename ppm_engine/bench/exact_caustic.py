@@ -1,8 +1,9 @@
-"""An exact-geometry reference for the benchmark's ``point_caustic`` scene: light tracing in NumPy
-on the scene as ppm_engine/scenes/caustics.py defines it (a true sphere, two finite planes, a
-point light), sharing no code with this engine's estimators (no export, kernels, film or light
-tracer): the reference stays independent once light tracing is one of the engine's own
-strategies (issue 25).  Where the engine sees a 48 x 24 smooth-shaded mesh, this sees the sphere.
+"""An exact-geometry reference for the benchmark's ``point_caustic`` scene in NumPy, on the scene
+as ppm_engine/scenes/caustics.py defines it (a true sphere, two finite planes, a point light):
+the direct light in closed form, the rest by light tracing.  It shares no code with this
+engine's estimators (no export, kernels, film or light tracer): the reference stays independent
+once light tracing is one of the engine's own strategies (issue 25).  Where the engine sees a
+48 x 24 smooth-shaded mesh, this sees the sphere.
 
 The light transport, as Cycles renders the scene with the bench's settings:
 
@@ -11,9 +12,16 @@ The light transport, as Cycles renders the scene with the bench's settings:
 - the floor and the back wall are Lambertian (albedo FLOOR, both sides); the glass is a smooth
   dielectric (IOR 1.5) which reflects or refracts as the exact unpolarised Fresnel factor says
   (chosen at random in that proportion, as Cycles' sharp glass samples it), with no absorption;
-- every photon hitting the floor or the wall is connected to the pinhole camera, unless the ball
-  is on the segment (the glass is opaque to that connection, as to Cycles' shadow rays), and
-  splatted into the pixels through Cycles' Blackman-Harris pixel filter;
+- the direct light (what the floor and the wall the camera sees receive straight from the
+  light, past the ball: the glass is opaque to the shadow ray, as to Cycles') is the closed form
+  of a point light on a Lambertian plane, integrated over each pixel's filter on a fixed grid
+  (``direct_light``): no noise.  Light tracing rendered it too until 2026-11-27, which made
+  most of the reference's noise over the whole image (docs/BENCHMARKS.md);
+- every other photon hitting the floor or the wall is connected to the pinhole camera, unless
+  the ball is on the segment (the glass is opaque to that connection too), and splatted into
+  the pixels through Cycles' Blackman-Harris pixel filter: those that went through or off the
+  glass at their first diffuse hit and later ones, the others (the direct light's) from their
+  second on;
 - then it bounces on: a cosine-distributed direction, kept with probability = albedo (Russian
   roulette: the photon's weight never changes at a surface);
 - bounce limits are Cycles' Light Paths (scene.cycles): a connection at the photon's vertex b
@@ -30,6 +38,15 @@ Emission is stratified (exactly, not approximately): no geometry lies at x < -2,
 so photons leave into x > 0 only; a share of them (``BALL_SHARE``) go uniformly into the cone
 the ball subtends, which makes the caustic much less noisy, and the rest uniformly into the
 half space less that cone; each carries its stratum's flux (intensity x solid angle / count).
+Strata are unbiased for any integrand over the directions, so for the light tracer's share of
+the light with the direct light taken out as well (tests/test_exact_caustic.py checks both).
+The cone, 0.8 % of the half space's solid angle, took a quarter of the photons while light
+tracing rendered the direct light; without it 5 % is the better share.  A cone photon costs
+about 3.7 times one of the rest (its vertices on the glass, and a splat where it lands, which
+the rest no longer make), so 5 % traces 1.5 times the photons a second; per photon a quarter
+is 10 % less noisy over the caustic and 12 % more over the image, so at equal time 5 % leaves
+27 % less noise over the image and 9 % less over the caustic (128 x 128, 2^22 photons per
+render, five seeds).
 
 ``render`` returns the image (RGB, rows top-down, as the bench's EXRs read), the coverage (the
 pixels light tracing renders: those whose filter footprint sees only the floor or the wall
@@ -48,8 +65,10 @@ from ..scenes.caustics import BALL, FLOOR, SPOT_POS
 IOR = 1.5                        # the ball's glass (scenes.cornell_box.glass's default)
 FLOOR_HALF = 2.0                 # the floor: z = 0, |x|, |y| <= 2
 WALL_Y, WALL_TOP = 2.0, 2.5      # the back wall: y = 2, |x| <= 2, 0 <= z <= 2.5
-BALL_SHARE = 0.25                # photons sent into the cone of the ball (see the docstring)
+BALL_SHARE = 0.05                # photons sent into the cone of the ball (see the docstring)
 BATCH = 1 << 18
+DIRECT_GRID = 8                  # the direct light's cells per pixel and axis
+DIRECT_REFINE = 16               # points per cell and axis where the direct light jumps
 EPS = 1e-9                       # hit distances at or below it are the surface a ray left
 
 # the Blackman-Harris window's coefficients (Cycles' film: the filter spans twice the scene's
@@ -313,6 +332,101 @@ def coverage(s: Setup, supersample: int = 8) -> np.ndarray:
     return count == 0
 
 
+# --- the direct light, in closed form -------------------------------------------------------
+def _direct_radiance(s: Setup, px, py):
+    """The direct radiance (per watt of the light's power) the camera sees through raster
+    positions (px, py), and what it sees there: 2 x (surface id + 1) + lit, whose changes
+    between neighbouring positions mark the edges of the integrand (2 to 5: the floor or the
+    wall)."""
+    a = float(FLOOR[0])
+    d = camera_rays(s, px, py)
+    o = np.broadcast_to(s.eye, d.shape)
+    no = np.zeros(d.shape[0], bool)
+    t, hit = first_hit(o, d, no, no)
+    depth = t * (d @ -s.axes[:, 2])
+    stage = ((hit == FLOOR_ID) | (hit == WALL_ID)) & (depth > s.clip[0]) & (depth < s.clip[1])
+    p, hd = s.eye + t[stage, None] * d[stage], hit[stage]
+    normal = np.zeros_like(p)
+    normal[hd == FLOOR_ID, 2] = 1.0
+    normal[hd == WALL_ID, 1] = -1.0
+    p[hd == FLOOR_ID, 2] = 0.0                      # exactly on the surface
+    p[hd == WALL_ID, 1] = WALL_Y
+    # the side the camera sees (both sides are Lambertian)
+    normal *= np.where(np.einsum("ij,ij->i", d[stage], normal) < 0, 1.0, -1.0)[:, None]
+    to_light = s.light - p
+    dist = np.linalg.norm(to_light, axis=1)
+    u = to_light / dist[:, None]
+    cos_l = np.einsum("ij,ij->i", u, normal)
+    # only the ball can shadow: the light stands above the floor and in front of the wall, so
+    # neither plane meets the segment from a point of the other to it
+    lit = (cos_l > 0) & ~_ball_blocks(p, u, dist)
+    radiance = np.zeros(d.shape[0])
+    radiance[stage] = np.where(lit, a / np.pi / (4.0 * np.pi) * cos_l / dist ** 2, 0.0)
+    kind = 2 * (hit + 1)
+    kind[stage] += lit
+    return radiance, kind
+
+
+def direct_light(s: Setup, per_pixel: int = DIRECT_GRID, refine: int = DIRECT_REFINE,
+                 chunk: int = 1 << 18) -> np.ndarray:
+    """(h * w) rows top-down, per watt of the light's power: the direct light of the floor and
+    the wall as the camera sees them, L = albedo / pi x I cos / d^2 (I = 1 / (4 pi) W/sr per
+    watt), 0 where the ball is on the segment to the light (the glass is opaque to it, as to
+    Cycles' shadow rays: the light through it is the caustic, which light tracing renders) or
+    where a camera ray sees the ball or nothing.  Each pixel integrates it over the pixel
+    filter on a fixed grid of ``per_pixel`` x ``per_pixel`` cells per pixel (weights f at the
+    cell's centre / per_pixel^2: the splat's normalisation), so the image has no noise.  A cell
+    takes L at its centre, or where L jumps on the stage (the shadow's edge, the floor's corner
+    with the wall: what a cell or a neighbour sees differs from the next cell's) the mean of
+    ``refine`` x ``refine`` points in it: a grid's error at a jump only falls as 1 /
+    points per axis, and most where the edge runs along the grid
+    (tests/test_exact_caustic.py bounds what is left).  ``chunk`` points at a time."""
+    r, k = s.filter_width, per_pixel
+    pad = math.ceil(r * k)
+    gx = (np.arange(-pad, s.width * k + pad) + 0.5) / k
+    gy = (np.arange(-pad, s.height * k + pad) + 0.5) / k
+    nx = gx.size
+    radiance = np.empty(gy.size * nx)
+    kind = np.empty(gy.size * nx, np.int64)
+    for i0 in range(0, radiance.size, chunk):
+        i = np.arange(i0, min(i0 + chunk, radiance.size))
+        radiance[i], kind[i] = _direct_radiance(s, gx[i % nx], gy[i // nx])
+    radiance, kind = radiance.reshape(gy.size, nx), kind.reshape(gy.size, nx)
+    # the cells on either side of a change, and their neighbours: an edge that only clips a
+    # cell's corner changes nothing between centres next to it but does between its neighbours.
+    # Only changes on the stage: pixels whose filter sees the ball or the void are not covered
+    # (light tracing does not render them), so their edges are left at the grid's precision
+    on_stage = (kind >= 2) & (kind <= 5)
+    jump = np.zeros(kind.shape, bool)
+    dx = (kind[:, 1:] != kind[:, :-1]) & on_stage[:, 1:] & on_stage[:, :-1]
+    jump[:, 1:] |= dx
+    jump[:, :-1] |= dx
+    dy = (kind[1:] != kind[:-1]) & on_stage[1:] & on_stage[:-1]
+    jump[1:] |= dy
+    jump[:-1] |= dy
+    near = jump.copy()
+    near[1:] |= jump[:-1]
+    near[:-1] |= jump[1:]
+    grown = near.copy()
+    grown[:, 1:] |= near[:, :-1]
+    grown[:, :-1] |= near[:, 1:]
+    cells = np.flatnonzero(grown)
+    sub = ((np.arange(refine) + 0.5) / refine - 0.5) / k
+    ox, oy = (a.ravel() for a in np.meshgrid(sub, sub))
+    per = max(chunk // ox.size, 1)
+    flat = radiance.ravel()
+    for c0 in range(0, cells.size, per):
+        c = cells[c0:c0 + per]
+        px = (gx[c % nx][:, None] + ox).ravel()
+        py = (gy[c // nx][:, None] + oy).ravel()
+        flat[c] = _direct_radiance(s, px, py)[0].reshape(c.size, ox.size).mean(axis=1)
+    # pixel i's weight of the grid column at x: f(x - i - 1/2) / k (the same for rows), so a
+    # pixel is sum f(x) f(y) L / k^2: two matrix products instead of a splat per point
+    fx = filter_1d(gx[None, :] - (np.arange(s.width)[:, None] + 0.5), r) / k
+    fy = filter_1d(gy[None, :] - (np.arange(s.height)[:, None] + 0.5), r) / k
+    return (fy @ radiance @ fx.T).ravel()
+
+
 # --- light tracing ---------------------------------------------------------------------------
 def _cone_dirs(axis, cos_max, k, rng):
     """k unit directions uniform in the cone of half-angle acos(cos_max) about ``axis``."""
@@ -360,9 +474,12 @@ def emit(s: Setup, n: int, rng, stratified: bool = True):
     return o, np.concatenate([d_cone, d_rest]), w
 
 
-def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True) -> dict:
+def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
+          direct: bool = False) -> dict:
     """Trace n photons (per watt of the light's power) and add their connections to the camera
-    to ``acc`` (h * w).  Counts of what happened."""
+    to ``acc`` (h * w).  ``direct``: also where a photon first lands, which is the direct
+    light (otherwise ``direct_light``'s); those photons bounce on all the same.  Counts of what
+    happened."""
     a = float(FLOOR[0])          # grey (setup_of checks): one channel, times the light's RGB
     o, d, w = emit(s, n, rng, stratified)
     keep = w > 0
@@ -398,16 +515,19 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True) -> di
         pd[hd == FLOOR_ID, 2] = 0.0                    # exactly on the surface
         pd[hd == WALL_ID, 1] = WALL_Y
         facing = np.where((np.einsum("ij,ij->i", dd, normal) < 0)[:, None], normal, -normal)
-        px, py, to_eye, dist, cos_cam, ok = project(s, pd)
-        cos_surf = np.einsum("ij,ij->i", to_eye, facing)
-        ok &= within & (cos_surf > 0)
-        # only the ball can hide a point of the stage from the camera, which stands in front of
-        # the wall and above the floor
-        ok[ok] &= ~_ball_blocks(pd[ok], to_eye[ok], dist[ok])
-        value = (wd[ok] * (a / np.pi) * cos_surf[ok] * inv_area
-                 / (cos_cam[ok] ** 3 * dist[ok] ** 2))
-        splat(acc, s, px[ok], py[ok], value)
-        stats["connections"] += int(ok.sum())
+        # a diffuse hit at vertex 0 came straight from the light, past the ball: the direct
+        # light, in closed form unless asked for here
+        if direct or not first:
+            px, py, to_eye, dist, cos_cam, ok = project(s, pd)
+            cos_surf = np.einsum("ij,ij->i", to_eye, facing)
+            ok &= within & (cos_surf > 0)
+            # only the ball can hide a point of the stage from the camera, which stands in
+            # front of the wall and above the floor
+            ok[ok] &= ~_ball_blocks(pd[ok], to_eye[ok], dist[ok])
+            value = (wd[ok] * (a / np.pi) * cos_surf[ok] * inv_area
+                     / (cos_cam[ok] ** 3 * dist[ok] ** 2))
+            splat(acc, s, px[ok], py[ok], value)
+            stats["connections"] += int(ok.sum())
         go = within & (rng.random(pd.shape[0]) < a)     # Russian roulette: survive = albedo
         od, new_d = pd[go], cosine_dirs(facing[go], rng)
         wd, cd = wd[go], cd[go]
@@ -434,28 +554,36 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True) -> di
 
 
 def render(scene, photons: int = 0, seed: int = 0, batch: int = BATCH, seconds: float = 0.0,
-           max_bounces: int | None = None, stratified: bool = True):
-    """Light-trace the ``point_caustic`` bpy scene: ``photons`` photons (in batches of
-    ``batch``), or with ``seconds`` whole batches until that time is spent.  (image (h, w, 3)
-    float32 top-down, coverage (h, w) bool top-down, info)."""
+           max_bounces: int | None = None, stratified: bool = True, direct: str = "closed"):
+    """Render the ``point_caustic`` bpy scene: the direct light in closed form
+    (``direct_light``; ``direct="traced"``: light-traced as the rest) and the rest light-traced
+    by ``photons`` photons (in batches of ``batch``), or with ``seconds`` whole batches until
+    that time (the closed form's included) is spent.  (image (h, w, 3) float32 top-down,
+    coverage (h, w) bool top-down, info)."""
+    if direct not in ("closed", "traced"):
+        raise ValueError(f"direct is 'closed' or 'traced', not {direct!r}")
     if photons <= 0 and seconds <= 0:
         raise ValueError("give a photon count or a time")
     s = setup_of(scene, max_bounces)
     rng = np.random.default_rng(seed)
     acc = np.zeros(s.width * s.height)
     t0 = time.perf_counter()
+    closed = direct_light(s) if direct == "closed" else np.zeros_like(acc)
+    direct_seconds = time.perf_counter() - t0
     done, stats = 0, {"connections": 0, "ball_hits": 0}
     while True:
         n = batch if seconds > 0 else min(batch, photons - done)
-        st = trace(s, n, rng, acc, stratified)
+        st = trace(s, n, rng, acc, stratified, direct == "traced")
         done += n
         for key in stats:
             stats[key] += st[key]
         if (seconds > 0 and time.perf_counter() - t0 >= seconds) or \
                 (seconds <= 0 and done >= photons):
             break
-    scale = s.power * s.film_exposure / done
-    image = (acc.reshape(s.height, s.width)[..., None] * scale).astype(np.float32)
+    acc = acc / done + closed
+    image = (acc.reshape(s.height, s.width)[..., None] * s.power * s.film_exposure)
+    image = image.astype(np.float32)
     info = {"photons": done, "batches": -(-done // batch), "seconds": time.perf_counter() - t0,
-            "max_bounces": s.max_bounces, **stats}
+            "max_bounces": s.max_bounces, "direct": direct, "direct_seconds": direct_seconds,
+            **stats}
     return image, coverage(s), info
