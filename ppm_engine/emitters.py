@@ -129,7 +129,9 @@ def spot_solid_angle(cos_half: np.ndarray, smooth: np.ndarray) -> np.ndarray:
         x = np.where(smooth[:, None] > 0,
                      np.clip((c - cos_half[:, None]) / smooth[:, None], 0, 1), 1.0)
     att = x * x * (3 - 2 * x)
-    return 2 * np.pi * (1.0 - cos_half) * np.trapz(att, t, axis=1)
+    # the trapezoid rule (np.trapz is np.trapezoid from NumPy 2 on)
+    integral = 0.5 * ((att[:, 1:] + att[:, :-1]) * np.diff(t, axis=1)).sum(axis=1)
+    return 2 * np.pi * (1.0 - cos_half) * integral
 
 
 def light_power(lights: np.ndarray, scene_radius: float) -> np.ndarray:
