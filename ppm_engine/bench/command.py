@@ -225,7 +225,8 @@ def run(args, cmdline: str, progress=print) -> int:
         raise UsageError(f"unknown bench scene(s) {', '.join(unknown)}; available: "
                          f"{', '.join(curves.SCENES)}")
     result = curves.run_bench(times, res, scenes, args.ref_seconds or q.get("ref_seconds"),
-                              args.device, args.photons or q.get("photons"), progress)
+                              args.device, args.photons or q.get("photons"), progress,
+                              warm_up=not args.quick)
     result["command"] = cmdline
     return _write_curves(result, cmdline, args, out, md_path, progress)
 

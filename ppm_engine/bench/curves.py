@@ -211,8 +211,9 @@ def light_tree_stats(scene, device: str) -> dict | None:
 
 class Bench:
     def __init__(self, resolution: int, device: str, photons: int | None, folder: Path,
-                 progress=print):
+                 progress=print, warm_up: bool = True):
         self.res = resolution
+        self.warm_up = warm_up
         self.device = device
         self.photons = photons
         self.folder = folder
@@ -404,7 +405,7 @@ class Bench:
         # built (or read from the disk cache) on first use, inside the first pass, and the
         # curve rendered first would pay for them (mirror_caustic at 4 s: 112 passes where the
         # next curve, as fast per pass, got 232)
-        for indirect in ("AUTO", "PHOTONS"):
+        for indirect in ("AUTO", "PHOTONS") if self.warm_up else ():
             self.shot(scene, "PPM", WARM_UP_SECONDS, 1, indirect)
         for curve, (engine, mnee, indirect, lt) in curves.items():
             if name in CAUSTIC_SCENES:
@@ -507,7 +508,9 @@ def ratios(result: dict, seconds: float) -> dict:
 
 def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
               ref_seconds: float | None = None, device: str = "", photons: int | None = None,
-              progress=print) -> dict:
+              progress=print, warm_up: bool = True) -> dict:
+    """The error-against-time run; ``warm_up``: each scene's settings rendered once, untimed,
+    before its curves (off for --quick, whose budgets time nothing)."""
     import bpy  # noqa: F401 -- fail early without Blender
     ensure_registered()
     times = tuple(float(t) for t in times)
@@ -519,7 +522,7 @@ def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
               "started": time.strftime("%Y-%m-%d %H:%M:%S"), "scenes": {}}
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="ppm-bench-") as tmp:
-        b = Bench(resolution, device, photons, Path(tmp), progress)
+        b = Bench(resolution, device, photons, Path(tmp), progress, warm_up)
         eq = EQUAL_TIME if EQUAL_TIME in times else times[-1]
         for name in scenes:
             result["scenes"][name] = b.run_scene(name, times, ref_seconds, eq)
