@@ -107,7 +107,8 @@ class Film:
         return out
 
     def read_sum(self, name: str) -> np.ndarray:
-        """The value of the sum ``direct`` or ``photon_sum``: float64 (h, w, 4)."""
+        """The value of a float4 sum (``direct``, ``photon_sum``, ``lt_sum``, ``moments``): float64
+        (h, w, 4)."""
         if self.fp64:
             return self.read(name, np.float64, 4)
         raw = self.read(name, np.float32, 8).reshape(self.height, self.width, 2, 4)

@@ -10,7 +10,7 @@ import numpy as np
 
 from .device import SHADING_GROUP, get_device
 from .device_scene import DeviceScene
-from .film import FILTER_SAMPLES, filter_density
+from .film import FILTER_SAMPLES
 from .scene_arrays import SceneArrays
 
 
@@ -31,9 +31,8 @@ class LightTracer:
         self.coverage_kernel = self.program.launch("lt_coverage", "coverage")
         cam = self.scene.scene.camera[0]
         self.w, self.h = int(cam["region"][2]), int(cam["region"][3])
-        table, self.reach = filter_density(float(cam["filter_width"]), int(cam["filter_type"]))
-        self.table = dev.buffer(table.nbytes, "light tracing filter")
-        cl.enqueue_copy(dev.queue, self.table, table)
+        # the pixel filter's density the splats use: the DeviceScene's (film.filter_density)
+        self.reach = self.scene.filter_reach
         self.image_buf = dev.buffer(12 * self.w * self.h, "light tracing image")
         cl.enqueue_fill_buffer(dev.queue, self.image_buf, np.uint32(0), 0, 12 * self.w * self.h)
         self.counters = dev.buffer(64, "light tracing counters")
@@ -46,7 +45,8 @@ class LightTracer:
             self.kernel(q, self.photons, SHADING_GROUP, **self.scene.args,
                         pass_index=np.uint32(self.passes), seed=np.uint32(self.seed),
                         max_bounces=np.int32(self.max_bounces), n_photons=np.uint32(self.photons),
-                        filter_density=self.table, n_table=np.int32(FILTER_SAMPLES),
+                        filter_density=self.scene.filter_density,
+                        n_table=np.int32(FILTER_SAMPLES),
                         reach=np.float32(self.reach), image=self.image_buf,
                         counters=self.counters)
             self.passes += 1
@@ -80,5 +80,5 @@ class LightTracer:
         return eroded
 
     def close(self) -> None:
-        for b in (self.image_buf, self.table, self.counters):
+        for b in (self.image_buf, self.counters):
             b.release()

@@ -45,7 +45,7 @@ def test_light_tracing_is_cycles_on_the_cornell_box(cycles, render_exr, tmp_path
 
 @pytest.mark.parametrize("kind, width", [(0, 1.5), (1, 1.0), (2, 1.5), (0, 0.0)])
 def test_filter_density_integrates_to_one(kind, width):
-    from ppm_engine.light_tracer import FILTER_SAMPLES, filter_density
+    from ppm_engine.film import FILTER_SAMPLES, filter_density
     f, reach = filter_density(width, kind)
     x = np.linspace(-reach, reach, FILTER_SAMPLES)
     assert np.trapz(f, x) == pytest.approx(1.0, rel=1e-3)
