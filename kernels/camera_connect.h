@@ -108,13 +108,19 @@ inline void splat(__global const Camera *cam, const Splat *sp, float px, float p
  * al. 2012): a light path ending at p is merged with a visible point that the camera sees
  * directly at p with density kappa pi r^2 p_E(p) relative to its connection to the camera, p_E
  * the camera's density of sampling p through one pixel in area measure (we times the cosine at
- * the surface: the inverse of the pixel's footprint on it).  ng: the surface's normal.  0 where
- * the camera cannot see p (no connection: the merge takes it all). */
+ * the surface: the inverse of the pixel's footprint on it).  merge_density: from the cosine
+ * between the surface and the direction to the camera and we (camera_project), the one
+ * formula both sides use; merge_factor: at p with normal ng, 0 where the camera cannot see p
+ * (no connection: the merge takes it all). */
+inline float merge_density(float kappa, float cos_surface, float we) {
+    return kappa * PPM_PI * fabs(cos_surface) * we;
+}
+
 inline float merge_factor(__global const Camera *cam, float3 p, float3 ng, float kappa) {
     float px, py, dist, we;
     float3 wc;
     if (!camera_project(cam, p, 1e30f, &px, &py, &wc, &dist, &we)) return 0.0f;
-    float f = kappa * PPM_PI * fabs(dot(ng, wc)) * we;
+    float f = merge_density(kappa, dot(ng, wc), we);
     return isfinite(f) ? f : 0.0f;
 }
 

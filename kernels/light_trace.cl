@@ -77,10 +77,7 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
             /* the adjoint of the shading normals (Veach 5.3), as the photon pass: a camera
              * path through a smooth-shaded surface weighs what it finds by the shading normal's
              * cosines, light arrives and leaves by the surface's own */
-            float c_ng = fabs(dot(d, sd.Ng)), o_n = fabs(dot(b.wo, sd.N));
-            float adj = o_n > 0.0f && c_ng > 0.0f
-                            ? fabs(dot(d, sd.N)) * fabs(dot(b.wo, sd.Ng)) / (c_ng * o_n)
-                            : 0.0f;
+            float adj = shading_adjoint(d, b.wo, sd.N, sd.Ng);
             if (!(adj > 0.0f)) break;
             flux *= adj;
         }

@@ -78,7 +78,7 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
         if (sum > limit) c *= limit / sum;
     }
     if (isfinite(c.x) && isfinite(c.y) && isfinite(c.z) && max3(c) > 0.0f)
-        splat(cam, sp, px, py, c, sp->kappa * PPM_PI * fabs(cos_c) * we);
+        splat(cam, sp, px, py, c, merge_density(sp->kappa, cos_c, we));
     return setup;
 }
 
@@ -220,9 +220,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
         }
         flux *= b.weight;
         if (!(b.label & LABEL_TRANSPARENT)) {
-            float o_n = fabs(dot(b.wo, N));
-            float adj = o_n > 0.0f && c_ng > 0.0f ? fabs(c_n) * fabs(dot(b.wo, Ng)) / (c_ng * o_n)
-                                                  : 0.0f;
+            float adj = shading_adjoint(d, b.wo, N, Ng);
             if (!(adj > 0.0f)) break;
             flux *= adj;
             rs /= adj;

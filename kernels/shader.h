@@ -462,4 +462,13 @@ inline bool shader_sample_light(const ShaderData *sd, int mask, float3 rand, Bsd
                                 TABLES_ARG) {
     return shader_sample_with(sd, mask, rand, s, shading_tables);
 }
+
+/* Shading normals for light (Veach's thesis, 5.3): a light path arriving along d that leaves
+ * along wo carries |d.N| |wo.Ng| / (|d.Ng| |wo.N|) on top of the sample's weight (N the shading
+ * normal, Ng the surface's), so that it transports what a camera path through the same vertex
+ * finds; 0 where a cosine is (photon_pass.cl, light_trace.cl). */
+inline float shading_adjoint(float3 d, float3 wo, float3 N, float3 Ng) {
+    float c_ng = fabs(dot(d, Ng)), o_n = fabs(dot(wo, N));
+    return o_n > 0.0f && c_ng > 0.0f ? fabs(dot(d, N)) * fabs(dot(wo, Ng)) / (c_ng * o_n) : 0.0f;
+}
 #endif
