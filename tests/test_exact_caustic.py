@@ -177,6 +177,77 @@ def test_glass_ball_conserves_energy():
     assert np.sum(wgt * rf) == pytest.approx(0.0918, abs=5e-4)  # n = 1.5's diffuse reflectance
 
 
+def _flux_bsdf_cos(a, b, alpha, inside):
+    """The rough dielectric for photons written out in full (Walter et al. 2007; the flux's
+    form, without radiance's eta^2), times |cos| of the outgoing direction: f*(a -> b) |b.n|
+    for a photon from direction a (unit, towards where it came from) leaving along b, at a
+    surface with normal +z, the photon outside (above) or inside (below); GGX of ``alpha``,
+    Smith's height-correlated G2, the exact Fresnel factor."""
+    nf = np.array([0.0, 0.0, -1.0 if inside else 1.0])
+    eta_a, eta_b_t = (ec.IOR, 1.0) if inside else (1.0, ec.IOR)
+    ca, cb = a @ nf, b @ nf
+    refl = cb > 0
+    eta_p = np.where(refl, 1.0, eta_b_t / eta_a)        # eta of b's side over a's
+    m = np.where(refl[:, None], a + b, a + eta_p[:, None] * b)
+    m /= np.linalg.norm(m, axis=1, keepdims=True)
+    m *= np.where(m @ nf < 0, -1.0, 1.0)[:, None]       # towards a's side
+    cm = m @ nf
+    d = alpha ** 2 / (np.pi * (cm * cm * (alpha ** 2 - 1.0) + 1.0) ** 2)
+
+    def lam(c):
+        return 0.5 * (np.sqrt(1.0 + alpha ** 2 * (1.0 - c * c) / (c * c)) - 1.0)
+    g2 = 1.0 / (1.0 + lam(ca) + lam(np.abs(cb)))
+    am, bm = m @ a, np.einsum("ij,ij->i", b, m)
+    th_i = np.arccos(np.clip(am, 0.0, 1.0))
+    s_t = np.sin(th_i) * eta_a / eta_b_t
+    th_t = np.arcsin(np.clip(s_t, 0.0, 1.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rs = np.sin(th_i - th_t) ** 2 / np.sin(th_i + th_t) ** 2
+        rp = np.tan(th_i - th_t) ** 2 / np.tan(th_i + th_t) ** 2
+    f = np.where(s_t >= 1.0, 1.0, np.nan_to_num(0.5 * (rs + rp), nan=(eta_a - eta_b_t) ** 2
+                                                 / (eta_a + eta_b_t) ** 2))
+    fr = f * d * g2 / (4.0 * ca)
+    ft = (1.0 - f) * d * g2 * np.abs(bm * am) / (ca * (bm + am / eta_p) ** 2)
+    ok = (am > 0) & np.where(refl, bm > 0, bm < 0)
+    return np.where(ok, np.where(refl, fr, ft), 0.0)
+
+
+@pytest.mark.parametrize("inside", [False, True])
+@pytest.mark.parametrize("cos_a", [0.9, 0.5])
+def test_rough_glass_scatter_is_the_bsdf(inside, cos_a):
+    """rough_glass_scatter against the BSDF written out in full (_flux_bsdf_cos): the photons'
+    weights summed over 16 x 16 bins of the sphere of directions (cos theta, phi) are the
+    BSDF's integral over each bin by quadrature, within their noise, and so is the total (the
+    albedo: below 1, single-scattering GGX loses some)."""
+    rng = np.random.default_rng(3)
+    alpha, n = 0.4 ** 2, 1 << 20
+    a = np.array([math.sqrt(1 - cos_a ** 2), 0.0, -cos_a if inside else cos_a])
+    d = np.tile(-a, (n, 1))
+    normal = np.tile([0.0, 0.0, 1.0], (n, 1))
+    out, refl, now_inside, w = ec.rough_glass_scatter(d, normal, np.full(n, inside),
+                                                      rng.random(n), alpha, rng)
+    assert np.all(now_inside == np.where(refl, inside, not inside))
+    assert np.all(np.where(refl, out[:, 2] * a[2] > 0, out[:, 2] * a[2] < 0) | (w == 0))
+    k, sub = 16, 24
+    cb = np.clip(((out[:, 2] + 1) / 2 * k).astype(int), 0, k - 1)
+    pb = np.clip((np.mod(np.arctan2(out[:, 1], out[:, 0]), 2 * np.pi) / (2 * np.pi) * k)
+                 .astype(int), 0, k - 1)
+    got = np.bincount(cb * k + pb, w, minlength=k * k) / n
+    got2 = np.bincount(cb * k + pb, w * w, minlength=k * k) / n
+    c = (np.arange(k * sub) + 0.5) / (k * sub) * 2 - 1
+    p = (np.arange(k * sub) + 0.5) / (k * sub) * 2 * np.pi
+    C, P = np.meshgrid(c, p, indexing="ij")
+    sn = np.sqrt(1 - C ** 2)
+    b = np.stack([sn * np.cos(P), sn * np.sin(P), C], -1).reshape(-1, 3)
+    val = _flux_bsdf_cos(a, b, alpha, inside) * (2 / (k * sub)) * (2 * np.pi / (k * sub))
+    want = val.reshape(k, sub, k, sub).sum(axis=(1, 3)).ravel()
+    sigma = np.sqrt(np.maximum(got2 - got * got, 0) / n) + 1e-4 * want.max()
+    assert got.sum() == pytest.approx(want.sum(), rel=0.005)
+    assert 0.9 < want.sum() < 1.0
+    assert np.all(np.abs(got - want) < 5 * sigma + 0.02 * want), \
+        np.abs(got - want).max()
+
+
 # --- the light -------------------------------------------------------------------------------
 def direct_closed_form(scene, m=8):
     """Direct light only, per pixel, from the closed form: L = albedo / pi x I cos / d^2 at the

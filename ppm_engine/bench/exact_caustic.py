@@ -1,9 +1,9 @@
-"""An exact-geometry reference for the benchmark's ``point_caustic`` scene in NumPy, on the scene
-as ppm_engine/scenes/caustics.py defines it (a true sphere, two finite planes, a point light):
-the direct light in closed form, the rest by light tracing.  It shares no code with this
-engine's estimators (no export, kernels, film or light tracer): the reference stays independent
-once light tracing is one of the engine's own strategies (issue 25).  Where the engine sees a
-48 x 24 smooth-shaded mesh, this sees the sphere.
+"""An exact-geometry reference for the benchmark's ``point_caustic`` and ``rough_caustic`` scenes
+in NumPy, on the scene as ppm_engine/scenes/caustics.py defines it (a true sphere, two finite
+planes, a point light): the direct light in closed form, the rest by light tracing.  It shares
+no code with this engine's estimators (no export, kernels, film or light tracer): the reference
+stays independent once light tracing is one of the engine's own strategies (issue 25).  Where
+the engine sees a 192 x 96 smooth-shaded mesh, this sees the sphere.
 
 The light transport, as Cycles renders the scene with the bench's settings:
 
@@ -12,6 +12,14 @@ The light transport, as Cycles renders the scene with the bench's settings:
 - the floor and the back wall are Lambertian (albedo FLOOR, both sides); the glass is a smooth
   dielectric (IOR 1.5) which reflects or refracts as the exact unpolarised Fresnel factor says
   (chosen at random in that proportion, as Cycles' sharp glass samples it), with no absorption;
+- rough glass (``rough_caustic``: the ball's Principled Roughness r > 0, the GGX distribution,
+  alpha = r^2) is the microfacet dielectric of Walter et al. 2007 with Smith's height-correlated
+  shadowing, which Cycles' GGX glass also is: a microfacet normal sampled among those visible
+  from where the photon came from (Heitz 2018), reflection or refraction about it with its
+  Fresnel probability, the photon's flux times G2 / G1 (``rough_glass_scatter``; tests/
+  test_exact_caustic.py checks it against a brute-force integral of the BSDF written out in
+  full).  Cycles' Multiscatter GGX adds an energy compensation this does not model, so the
+  reference asks for GGX;
 - the direct light (what the floor and the wall the camera sees receive straight from the
   light, past the ball: the glass is opaque to the shadow ray, as to Cycles') is the closed form
   of a point light on a Lambertian plane, integrated over each pixel's filter on a fixed grid
@@ -96,6 +104,7 @@ class Setup:
     diffuse_bounces: int
     glossy_bounces: int
     transmission_bounces: int
+    roughness: float = 0.0       # the glass's (Principled Roughness; alpha = its square)
 
     @property
     def pixel_area(self) -> float:
@@ -138,6 +147,7 @@ def setup_of(scene, max_bounces: int | None = None) -> Setup:
         raise ValueError(f"the point light is at {tuple(pos)}, not at point_caustic's {SPOT_POS}")
     power = (np.array(light.data.color, float) * light.data.energy
              * 2.0 ** getattr(light.data, "exposure", 0.0))
+    roughness = glass_roughness(scene)
     limits = [c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces]
     if max_bounces is not None:
         limits = [max_bounces] * 4
@@ -146,7 +156,33 @@ def setup_of(scene, max_bounces: int | None = None) -> Setup:
                  filter_width=float(c.filter_width), film_exposure=float(c.film_exposure),
                  light=pos, power=power, max_bounces=int(limits[0]),
                  diffuse_bounces=int(limits[1]), glossy_bounces=int(limits[2]),
-                 transmission_bounces=int(limits[3]))
+                 transmission_bounces=int(limits[3]), roughness=roughness)
+
+
+def glass_roughness(scene) -> float:
+    """The ball's roughness: its material must be the clear glass the reference models (a
+    Principled BSDF straight into the output, Transmission Weight 1, IOR 1.5, white, constant
+    inputs), rough only with the single-scattering GGX distribution (Cycles' Multiscatter GGX
+    adds an energy compensation this does not model)."""
+    ball = next((o for o in scene.objects if o.name.startswith("GlassBall")), None)
+    mat = ball.active_material if ball is not None else None
+    nodes = mat.node_tree.nodes if mat is not None and mat.node_tree is not None else []
+    p = next((n for n in nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"), None)
+    if p is None:
+        raise ValueError("the exact reference needs the ball 'GlassBall' with a Principled BSDF")
+    used = [k for k in ("Roughness", "Transmission Weight", "IOR", "Base Color")
+            if p.inputs[k].is_linked]
+    if used:
+        raise ValueError(f"the exact reference needs constant glass inputs, not linked {used}")
+    if (p.inputs["Transmission Weight"].default_value != 1.0
+            or abs(p.inputs["IOR"].default_value - IOR) > 1e-6
+            or tuple(p.inputs["Base Color"].default_value)[:3] != (1.0, 1.0, 1.0)):
+        raise ValueError(f"the exact reference models clear white glass of IOR {IOR}")
+    r = float(p.inputs["Roughness"].default_value)
+    if r > 0.0 and p.distribution != 'GGX':
+        raise ValueError("the exact reference models rough glass with the GGX distribution, "
+                         f"not {p.distribution}")
+    return r
 
 
 # --- the pixel filter ------------------------------------------------------------------------
@@ -256,18 +292,86 @@ def glass_scatter(d, n, inside, u):
     return out, refl, np.where(refl, inside, ~inside)
 
 
+def _frame(n):
+    """Two unit tangents completing each unit normal (rows) to an orthonormal frame (Duff et
+    al.'s branchless construction)."""
+    sign = np.where(n[:, 2] >= 0, 1.0, -1.0)
+    a = -1.0 / (sign + n[:, 2])
+    b = n[:, 0] * n[:, 1] * a
+    t = np.stack([1.0 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], 1)
+    bt = np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], 1)
+    return t, bt
+
+
+def smith_lambda(cos, alpha):
+    """Smith's Lambda of the isotropic GGX distribution (alpha: roughness squared) for
+    directions at |cos| to the macro normal."""
+    c2 = np.maximum(cos * cos, 1e-300)
+    tan2 = np.maximum(1.0 - c2, 0.0) / c2
+    return 0.5 * (np.sqrt(1.0 + alpha * alpha * tan2) - 1.0)
+
+
+def ggx_visible_normals(wl, alpha, u1, u2):
+    """Microfacet normals (local frame, z the macro normal) distributed as the GGX
+    distribution's normals visible from the local directions wl (z > 0): Heitz 2018, "Sampling
+    the GGX distribution of visible normals" (stretch, sample the projected hemisphere,
+    unstretch)."""
+    vh = np.stack([alpha * wl[:, 0], alpha * wl[:, 1], wl[:, 2]], 1)
+    vh /= np.linalg.norm(vh, axis=1, keepdims=True)
+    lensq = vh[:, 0] ** 2 + vh[:, 1] ** 2
+    inv = np.where(lensq > 0, 1.0 / np.sqrt(np.maximum(lensq, 1e-300)), 0.0)
+    t1 = np.where((lensq > 0)[:, None],
+                  np.stack([-vh[:, 1] * inv, vh[:, 0] * inv, np.zeros_like(lensq)], 1),
+                  np.array([1.0, 0.0, 0.0]))
+    t2 = np.cross(vh, t1)
+    r, phi = np.sqrt(u1), 2.0 * np.pi * u2
+    p1, p2 = r * np.cos(phi), r * np.sin(phi)
+    s = 0.5 * (1.0 + vh[:, 2])
+    p2 = (1.0 - s) * np.sqrt(np.maximum(1.0 - p1 * p1, 0.0)) + s * p2
+    nh = (p1[:, None] * t1 + p2[:, None] * t2
+          + np.sqrt(np.maximum(1.0 - p1 * p1 - p2 * p2, 0.0))[:, None] * vh)
+    m = np.stack([alpha * nh[:, 0], alpha * nh[:, 1], np.maximum(nh[:, 2], 0.0)], 1)
+    return m / np.linalg.norm(m, axis=1, keepdims=True)
+
+
+def rough_glass_scatter(d, n, inside, u, alpha, rng):
+    """A rough dielectric (GGX of ``alpha``, Smith height-correlated shadowing, exact Fresnel,
+    no multiple-scattering compensation) for photons along unit d at the ball (outward normals
+    n): a microfacet normal visible from where the photon came from (Heitz 2018), then
+    reflection or refraction about it with the Fresnel probability.  The photon's flux is
+    multiplied by G2(i, o) / G1(i), the estimator's weight for flux (no eta^2: photons carry
+    flux, not radiance); directions on the wrong side of the macro surface get weight 0.
+    (new directions, reflected?, inside afterwards, weights)."""
+    wi = -d
+    cos_o = np.einsum("ij,ij->i", wi, n)
+    nf = np.where((cos_o > 0)[:, None], n, -n)         # the normal on the incident side
+    t, b = _frame(nf)
+    wl = np.stack([np.einsum("ij,ij->i", wi, t), np.einsum("ij,ij->i", wi, b),
+                   np.abs(cos_o)], 1)
+    ml = ggx_visible_normals(wl, alpha, rng.random(d.shape[0]), rng.random(d.shape[0]))
+    m = ml[:, :1] * t + ml[:, 1:2] * b + ml[:, 2:3] * nf
+    cos_im = np.maximum(np.einsum("ij,ij->i", wi, m), 0.0)
+    eta = np.where(inside, IOR, 1.0 / IOR)
+    f, cos_t = fresnel(cos_im, eta)
+    refl = u < f
+    r = 2.0 * cos_im[:, None] * m - wi
+    tr = -eta[:, None] * wi + (eta * cos_im - cos_t)[:, None] * m
+    out = np.where(refl[:, None], r, tr)
+    out /= np.linalg.norm(out, axis=1, keepdims=True)
+    cos_out = np.einsum("ij,ij->i", out, nf)
+    valid = np.where(refl, cos_out > 0, cos_out < 0)
+    li, lo = smith_lambda(np.abs(cos_o), alpha), smith_lambda(np.abs(cos_out), alpha)
+    weight = np.where(valid, (1.0 + li) / (1.0 + li + lo), 0.0)
+    return out, refl, np.where(refl, inside, ~inside), weight
+
+
 def cosine_dirs(n, rng):
     """Cosine-distributed unit directions about the unit normals n (rows)."""
     k = n.shape[0]
     u1, u2 = rng.random(k), rng.random(k)
     r, phi = np.sqrt(u1), 2.0 * np.pi * u2
     local = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(1.0 - u1, 0.0))], 1)
-    # an orthonormal frame about each normal (Duff et al.'s branchless construction)
-    sign = np.where(n[:, 2] >= 0, 1.0, -1.0)
-    a = -1.0 / (sign + n[:, 2])
-    b = n[:, 0] * n[:, 1] * a
-    t = np.stack([1.0 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], 1)
-    bt = np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], 1)
+    t, bt = _frame(n)
     return local[:, :1] * t + local[:, 1:2] * bt + local[:, 2:3] * n
 
 
@@ -537,10 +641,15 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
         stats["ball_hits"] += int(g.sum())
         pg, dg, wg, cg, ig = p[g], d[g], w[g], counts[g], inside[g]
         n_out = (pg - np.asarray(BALL[0], float)) / BALL[1]
-        new_g, refl, ig2 = glass_scatter(dg, n_out, ig, rng.random(pg.shape[0]))
+        if s.roughness > 0.0:
+            new_g, refl, ig2, wgl = rough_glass_scatter(dg, n_out, ig, rng.random(pg.shape[0]),
+                                                        s.roughness ** 2, rng)
+            wg = wg * wgl
+        else:
+            new_g, refl, ig2 = glass_scatter(dg, n_out, ig, rng.random(pg.shape[0]))
         if not first:
             cg = cg + np.where(refl[:, None], [0, 1, 0], [0, 0, 1])
-        stay = (cg <= limits).all(axis=1)
+        stay = (cg <= limits).all(axis=1) & (wg > 0)
         pg = pg[stay]
         pg_dir, wg, cg, ig2 = new_g[stay], wg[stay], cg[stay], ig2[stay]
 

@@ -183,6 +183,8 @@ def ratio_table(result: dict) -> str:
               if "image_rmse_vs_luxcore" in r else "–")
         tgt = (f"≤ {r['target']:g}" if "target" in r else
                f"≤ {r['target_mnee']:g} (vs MNEE)" if "target_mnee" in r else
+               f"≤ {r['target_best_peer']:g} (vs the best of Cycles, Cycles+MNEE: "
+               f"{r['image_rmse_vs_best_peer']:.3f})" if "target_best_peer" in r else
                f"≤ {r['target_luxcore']:g} (vs LuxCore BIDIR)" if "target_luxcore" in r else "–")
         met = ("yes" if r["met"] else "no") if "met" in r else "–"
         ph = f"{r['photons_image_rmse']:.3f}" if "photons_image_rmse" in r else "–"

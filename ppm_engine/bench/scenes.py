@@ -39,6 +39,9 @@ CAUSTIC_MASKS["point_caustic"] = dict(
     CAUSTIC_MASKS["glass_caustic"],
     note="floor within 0.35 m of where the ray from the point light through the ball centre "
          "meets the floor, not hidden by the ball")
+CAUSTIC_MASKS["rough_caustic"] = dict(
+    CAUSTIC_MASKS["point_caustic"],
+    note="point_caustic's floor (the same ball, of rough glass)")
 CAUSTIC_MASKS["mirror_caustic"]["corners"] = mirror_corners().tolist()
 CAUSTIC_MASKS["mirror_caustic"]["light_image"] = mirror_image(POINT_POS).tolist()
 
@@ -46,6 +49,7 @@ CAUSTIC_MASKS["mirror_caustic"]["light_image"] = mirror_image(POINT_POS).tolist(
 MNEE_OBJECTS = {
     "glass_caustic": (["GlassBall"], ["Floor", "Back"], ["Spot"]),
     "point_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
+    "rough_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
     "mirror_caustic": (["Mirror"], ["Floor", "Back"], ["Point"]),
 }
 

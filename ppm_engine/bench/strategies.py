@@ -20,7 +20,7 @@ from ..options import RenderOptions
 from ..renderer import Renderer
 from .scenes import caustic_mask
 
-SCENES = ("point_caustic", "glass_caustic", "mirror_caustic", "bulb_box")
+SCENES = ("point_caustic", "rough_caustic", "glass_caustic", "mirror_caustic", "bulb_box")
 SHARE_KEY = "light tracing of the photons' light"
 
 

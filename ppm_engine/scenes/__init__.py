@@ -17,6 +17,7 @@ EXAMPLES = {
     "bulb_box": bulb_box.build,
     "glass_caustic": caustics.glass_caustic,     # also the benchmark's caustic scenes
     "point_caustic": caustics.point_caustic,     # the hard one: a radius-0 point light
+    "rough_caustic": caustics.rough_caustic,     # the same through rough glass
     "mirror_caustic": caustics.mirror_caustic,
     "furnace": furnace.build,                    # the benchmark's closed-form scene
     "many_lights": many_lights.build,            # the benchmark's many-light scene

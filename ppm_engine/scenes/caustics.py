@@ -1,4 +1,4 @@
-"""Three caustic scenes (example scenes, and the benchmark's: ``python -m ppm_engine bench``),
+"""Four caustic scenes (example scenes, and the benchmark's: ``python -m ppm_engine bench``),
 built with bpy from nothing.
 
 Both stand on the same stage: a 4 x 4 m white Lambertian floor (z = 0, x, y in [-2, 2]) and a
@@ -13,6 +13,10 @@ are small spheres (radius ``LIGHT_RADIUS``) kept out of view and invisible to ca
   where the spot was, of the spot's intensity: the hard case users bring (no camera path can
   find such a light, so the caustic is all photons', light paths' or Cycles' MNEE's), its
   focus as sharp as the ball makes it.
+- ``rough_caustic``: point_caustic with the ball's glass rough (Roughness
+  ``ROUGH_CAUSTIC_ROUGHNESS``, the single-scattering GGX distribution): the focus spreads into a
+  soft-edged spot, which camera paths can reach only by next-event estimation through the
+  glass's lobe.
 - ``mirror_caustic``: a point light and a perfect planar mirror (Principled metallic 1,
   roughness 0, base colour 1), a 0.8 x 0.6 m rectangle tilted towards the floor, which
   reflects the light onto a bright patch of floor in front of it.
@@ -42,6 +46,9 @@ SPOT_SIZE = math.radians(30.0)
 # reference's noise (docs/BENCHMARKS.md: the 48 x 24 ball dims the focus 3 %, ten times the
 # noise; 192 x 96 leaves a sixth of that), since its reference is the exact sphere
 POINT_BALL_SEGMENTS = (192, 96)
+
+# rough_caustic: point_caustic's ball of rough glass (GGX, the exact reference's model)
+ROUGH_CAUSTIC_ROUGHNESS = 0.1
 
 # mirror_caustic
 POINT_POS = (-0.6, 0.3, 1.2)
@@ -124,6 +131,16 @@ def point_caustic(scene=None):
     scene = _glass_ball(scene, *POINT_BALL_SEGMENTS)
     point = _light(scene, "Point", 'POINT', SPOT_POS, SPOT_POWER)
     point.data.shadow_soft_size = 0.0
+    return scene
+
+
+def rough_caustic(scene=None):
+    """point_caustic with rough glass (see the module docstring)."""
+    scene = point_caustic(scene)
+    ball = next(o for o in scene.objects if o.name.startswith("GlassBall"))
+    p = ball.active_material.node_tree.nodes["Principled BSDF"]
+    p.inputs["Roughness"].default_value = ROUGH_CAUSTIC_ROUGHNESS
+    p.distribution = 'GGX'
     return scene
 
 
