@@ -47,7 +47,7 @@ __kernel void shade_eval(SCENE_PARAMS int mat, float4 wi, int mask, __global con
     out[i] = (float4)(f, pdf);
 }
 
-/* the closures made: per closure (type, gather, sample weight, 0) and (weight, 0); and the
+/* the closures made: per closure (type, gather, sample weight, glossy) and (weight, 0); and the
  * emission, transparency (rows n_max, n_max + 1) */
 __kernel void shade_closures(SCENE_PARAMS int mat, float4 wi, __global float4 *out_info,
                              __global float4 *out_weight, int n_max) {
@@ -58,7 +58,7 @@ __kernel void shade_closures(SCENE_PARAMS int mat, float4 wi, __global float4 *o
     for (int k = 0; k < n_max; k++) {
         bool ok = k < sd.n;
         out_info[k] = ok ? (float4)((float)sd.c[k].type, (float)sd.c[k].gather,
-                                    sd.c[k].sample_weight, 0.0f)
+                                    sd.c[k].sample_weight, (float)sd.c[k].glossy)
                          : (float4)(-1.0f);
         out_weight[k] = ok ? (float4)(sd.c[k].weight, 0.0f) : (float4)(0.0f);
     }

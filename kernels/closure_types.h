@@ -59,5 +59,7 @@ typedef struct {
     int type;
     int fresnel;
     int gather; /* 1: the visible point's gather evaluates it; 0: paths continue */
+    int glossy; /* a closure paths continue through whose light eye paths count (next-event
+                   estimation there: PPM_CAUSTIC_ROUGHNESS); 0: gathered, or a caustic's */
 } Closure;
 #endif

@@ -45,8 +45,9 @@ __kernel void direct_light_at(SCENE_PARAMS __global const float4 *points,
     sd.u = sd.v = 0.0f;
     int k = shader_alloc(&sd, CLOSURE_DIFFUSE, (float3)(PPM_PI), N);
     sd.c[k].gather = 1;
+    sd.c[k].glossy = 0;
     sd.sw_gather = sd.c[k].sample_weight;
-    sd.sw_continue = 0.0f;
+    sd.sw_continue = sd.sw_glossy = 0.0f;
     float3 E = (float3)(0.0f);
     for (int s = 0; s < n_samples; s++)
         E += direct_light(scene, &sd, points[i].xyz, MASK_GATHER, (float3)(1.0f), 0.0f, &rng);

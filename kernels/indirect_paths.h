@@ -8,17 +8,21 @@
 /* Indirect light at a visible point by path tracing (RenderOptions.indirect = "paths"): the eye
  * path goes on from the visible point through a sample of the gather's closures, with
  * next-event estimation at every vertex, and the photon map keeps only the light paths that
- * path tracing cannot sample: those whose first scattering from the emitter is by a closure the
- * eye path follows (mirrors, glass, smooth glossy lobes: caustics, kernels/photon_pass.cl).
+ * path tracing cannot sample well: those whose first scattering from the emitter is by a mirror,
+ * glass or a glossy reflection smoother than PPM_CAUSTIC_ROUGHNESS (caustics,
+ * kernels/photon_pass.cl).  Followed glossy reflections at least that rough (by default none:
+ * it is the gather's roughness, RenderOptions.caustic_roughness) are the eye path's: next-event
+ * estimation through them, as Cycles does.
  *
  * The two estimators split the light paths without overlap by that one vertex, the light's
- * first scattering: at every vertex the path chooses the gather's closures or the followed ones
- * in proportion to their sample weights (as the eye pass does at its first hits).  Light
- * counts here only when the vertex before it chose the gather's closures (next-event
+ * first scattering: at every vertex the path chooses the gather's closures, the glossy followed
+ * ones or the other followed ones in proportion to their sample weights.  Light counts here
+ * only when the vertex before it chose the gather's or the glossy closures (next-event
  * estimation of those closures and emitters their sample finds, combined by MIS); light
- * reached through a followed closure, or whose shadow ray meets glass, is the caustic photons'
- * (a photon whose first scattering chose the gather's closures is ended there: next-event
- * estimation and these paths have it).  Transparent surfaces are no scattering for either.
+ * reached through another followed closure, or whose shadow ray meets glass, is the caustic
+ * photons' (a photon whose first scattering chose the gather's or glossy closures is ended
+ * there: next-event estimation and these paths have it).  Transparent surfaces are no
+ * scattering for either.
  *
  * Russian roulette as Cycles plays it (survival sqrt of the path's throughput relative to the
  * visible point's), decided by one number for the whole path; bounces counted from the camera
@@ -74,9 +78,9 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
     __global const LightPaths *lp = scene->light_paths;
     int term = TERM_NONE; /* past a Light Paths limit: how the path ends (light_path.h) */
     for (int vertex = 0, transparent = (int)path_count(path, PATH_TRANSPARENT_DEPTH);; vertex++) {
-        if (set == MASK_GATHER && !(vertex == 0 && nee_all)) {
+        if (set != MASK_SPECULAR && !(vertex == 0 && nee_all)) {
             float3 u = (float3)(ua.z, ua.x, ua.y);
-            L += clamp_sample(beta * direct_nee_u(scene, sd, p, MASK_GATHER, EMITTERS_HITTABLE, u),
+            L += clamp_sample(beta * direct_nee_u(scene, sd, p, set, EMITTERS_HITTABLE, u),
                               clamp_limit(depth, lp));
         }
         float4 ub = indirect_set(vertex, 1u, pass, key, rng);
@@ -96,7 +100,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             depth++;
             path = path_bounce(path, b.label);
             term = path_limit(path, depth, lp);
-            counts = set == MASK_GATHER;
+            counts = set != MASK_SPECULAR;
             prev_pdf = b.pdf;
             if (vertex == 0 && nee_all && !isinf(b.pdf))
                 shader_eval(sd, b.wo, MASK_ALL, &prev_pdf); /* the eye pass's NEE's density */
@@ -176,12 +180,20 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         p = s.p;
         mat = s.material;
         ua = indirect_set(vertex + 1, 0u, pass, key, rng);
-        if (ua.w * sw < sd->sw_gather) {
+        /* the vertex's closures: the gather's, the glossy followed ones or the others (the
+         * caustic photons' light), in proportion to their sample weights */
+        float sw_specular = fmax(sd->sw_continue - sd->sw_glossy, 0.0f);
+        sw = sd->sw_gather + sd->sw_glossy + sw_specular;
+        float pick = ua.w * sw;
+        if (pick < sd->sw_gather) {
             set = MASK_GATHER;
             beta *= sw / sd->sw_gather;
+        } else if (pick < sd->sw_gather + sd->sw_glossy) {
+            set = MASK_GLOSSY;
+            beta *= sw / sd->sw_glossy;
         } else {
-            set = MASK_CONTINUE;
-            beta *= sw / sd->sw_continue;
+            set = MASK_SPECULAR;
+            beta *= sw / sw_specular;
         }
     }
     return L;

@@ -186,11 +186,12 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
         int set = MASK_ALL;
         if (caustics_only && direct) {
             /* The light's first scattering, with eye paths for the indirect light
-             * (indirect_paths.h): the gather's closures or the followed ones, in proportion to
-             * their sample weights; the first ends the photon (next-event estimation and the
-             * eye paths count that light), the second makes a caustic photon. */
-            float sg = lambert ? (gather ? 1.0f : 0.0f) : sd.sw_gather;
-            float sc = lambert ? 0.0f : sd.sw_continue;
+             * (indirect_paths.h): the gather's closures and the glossy followed ones, or the
+             * other followed ones (mirrors, glass), in proportion to their sample weights; the
+             * first ends the photon (next-event estimation and the eye paths count that
+             * light), the second makes a caustic photon. */
+            float sg = lambert ? (gather ? 1.0f : 0.0f) : sd.sw_gather + sd.sw_glossy;
+            float sc = lambert ? 0.0f : sd.sw_continue - sd.sw_glossy;
             if (!(sc > 0.0f) || rnd(&rng) * (sg + sc) < sg) {
                 /* a pilot counts the light the gather's closures scatter first (not what
                  * meets a black surface: a filament's inside) */
@@ -199,7 +200,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
             }
             flux *= (sg + sc) / sc;
             rs *= sc / (sg + sc);
-            set = MASK_CONTINUE;
+            set = MASK_SPECULAR;
         }
         if (bounce == max_bounces) break;
         BsdfSample b;
@@ -214,7 +215,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
         } else if (!shader_sample_light(&sd, set, rand, &b, scene->shading_tables)) {
             break;
         }
-        if (capacity == 0u && set == MASK_CONTINUE && !(b.label & LABEL_TRANSPARENT)) {
+        if (capacity == 0u && set == MASK_SPECULAR && !(b.label & LABEL_TRANSPARENT)) {
             atomic_inc(&counters[CNT_CAUSTIC]); /* a pilot (Renderer.caustic_fraction_pilot) */
             return;
         }

@@ -20,6 +20,7 @@ inline float table_sample(int kind, float rough, float mu, float z, float4 u) {
     c.f0 = c.refl_tint = c.trans_tint = (float3)(1.0f);
     c.f90 = (float3)(1.0f);
     c.gather = 0;
+    c.glossy = 0;
     bool glass = kind >= KIND_GLASS_E && kind <= KIND_GLASS_INV_EAVG;
     c.type = glass ? CLOSURE_GGX_GLASS : CLOSURE_GGX_REFLECT;
     c.fresnel = glass ? FRESNEL_DIELECTRIC : FRESNEL_NONE;

@@ -166,7 +166,7 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color, float3 em
 
 /* The sample weights of the gathered and the followed closures, and what they hold */
 inline void shader_sums(ShaderData *sd) {
-    sd->sw_gather = sd->sw_continue = 0.0f;
+    sd->sw_gather = sd->sw_continue = sd->sw_glossy = 0.0f;
     sd->gather_transmits = sd->continue_glossy = false;
     for (int k = 0; k < sd->n; k++) {
         const Closure *c = &sd->c[k];
@@ -177,6 +177,7 @@ inline void shader_sums(ShaderData *sd) {
                                     || c->type == CLOSURE_GGX_REFRACT;
         } else {
             sd->sw_continue += c->sample_weight;
+            if (c->glossy) sd->sw_glossy += c->sample_weight;
             sd->continue_glossy |= micro && !microfacet_singular(c);
         }
     }
@@ -217,7 +218,7 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
         int k = shader_alloc(sd, CLOSURE_DIFFUSE, lambert_weight(scene, nd, tri, u, v), sd->N);
         sd->sw_gather = k >= 0 ? sd->c[k].sample_weight : 0.0f;
         if (k >= 0) sd->c[k].gather = 1;
-        sd->sw_continue = 0.0f;
+        sd->sw_continue = sd->sw_glossy = 0.0f;
         sd->gather_transmits = sd->continue_glossy = false;
         return;
     }
@@ -245,16 +246,24 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
                         : !micro
                               || (!microfacet_singular(c)
                                   && microfacet_rough(c) >= PPM_GATHER_ROUGHNESS);
+        /* a glossy reflection rough enough that next-event estimation through it serves (as
+         * Cycles' does): its light is the eye paths', not a caustic's */
+        c->glossy = !c->gather && c->type == CLOSURE_GGX_REFLECT && !microfacet_singular(c)
+                    && microfacet_rough(c) >= PPM_CAUSTIC_ROUGHNESS;
     }
     shader_sums(sd);
 }
 
-/* which closures a mixture function looks at */
+/* which closures a mixture function looks at: the gather's, the followed ones (MASK_CONTINUE),
+ * and of these the glossy ones (whose light eye paths count) or the others (caustics') */
 #define MASK_GATHER 1
 #define MASK_CONTINUE 2
 #define MASK_ALL 3
+#define MASK_GLOSSY 4
+#define MASK_SPECULAR 8
 inline bool closure_in(const Closure *c, int mask) {
-    return (mask & (c->gather ? MASK_GATHER : MASK_CONTINUE)) != 0;
+    if (c->gather) return (mask & MASK_GATHER) != 0;
+    return (mask & (MASK_CONTINUE | (c->glossy ? MASK_GLOSSY : MASK_SPECULAR))) != 0;
 }
 
 /* Sum of weight x eval (f cos) over the closures in mask, for light from wo; *pdf: the

@@ -19,6 +19,7 @@ typedef struct {
     float3 wi;
     float sw_gather;      /* sample weights of the gather's closures and of the others */
     float sw_continue;
+    float sw_glossy;      /* of the followed closures whose light eye paths count (glossy) */
     bool backfacing;      /* wi is behind the stored geometric normal */
     bool gather_transmits;/* a gather closure transmits (light from behind counts) */
     bool continue_glossy; /* a closure the path follows can be evaluated (next-event estimation
@@ -57,6 +58,7 @@ inline int shader_alloc(ShaderData *sd, int type, float3 w, float3 N) {
     c->fss = (float3)(-1.0f);
     c->fresnel = FRESNEL_NONE;
     c->gather = 0;
+    c->glossy = 0;
     return sd->n++;
 }
 

@@ -104,6 +104,12 @@
 #ifndef PPM_GATHER_ROUGHNESS
 #define PPM_GATHER_ROUGHNESS 0.7f
 #endif
+/* followed glossy reflections at least this rough (sqrt of alpha) are the eye paths' (next-event
+ * estimation through them), smoother ones and refractions make caustic photons
+ * (ppm_engine/options.py RenderOptions.caustic_roughness) */
+#ifndef PPM_CAUSTIC_ROUGHNESS
+#define PPM_CAUSTIC_ROUGHNESS 0.7f
+#endif
 
 /* triangle and ray visibility bits (ppm_engine/scene_arrays.py VIS_*) */
 #define VIS_CAMERA 1u

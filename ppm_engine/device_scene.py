@@ -192,8 +192,8 @@ class DeviceScene:
         return build_map(bake(self.device, placeholders(self.device, **args), prepared.svm,
                               int(ws[0]), w, h))
 
-    def kernel_defines(self, specialize: bool, gather_roughness: float = 0.7
-                       ) -> tuple[frozenset | None, dict]:
+    def kernel_defines(self, specialize: bool, gather_roughness: float = 0.7,
+                       caustic_roughness: float = 0.7) -> tuple[frozenset | None, dict]:
         """(features, -D flags) of the eye and photon passes: the scene's features, or every
         feature (None) unspecialised; the roughness from which lobes are gathered either way.
         (The ray offsets' scale is the scene's EmitterInfo.offset_scale, not a flag: scenes of
@@ -209,6 +209,7 @@ class DeviceScene:
         if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact
             svm["PPM_ATTRIBUTES"] = self.prepared.attributes.shape[2]
         return features, {"PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
+                          "PPM_CAUSTIC_ROUGHNESS": float(caustic_roughness).hex() + "f",
                           **feature_defines(features, max_closures(self.knodes,
                                                                    self.used_materials)),
                           **svm}
@@ -232,11 +233,11 @@ class DeviceScene:
         diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_GATHER).any())
         return bool(self.emitters.info["n_emitters"][0] > 0 and bounce and diffuse)
 
-    def caustics_possible(self, gather_roughness: float) -> bool:
-        """Whether some surface has a closure eye paths follow (materials.follow_capable): the
-        only place a caustic photon (photon_pass.cl, caustics_only) can start."""
+    def caustics_possible(self, gather_roughness: float, caustic_roughness: float = 0.7) -> bool:
+        """Whether some surface has a closure that makes caustics (materials.follow_capable):
+        the only place a caustic photon (photon_pass.cl, caustics_only) can start."""
         used = np.isin(self.knodes["material"], self.used_materials)
-        return bool(follow_capable(self.knodes[used], gather_roughness).any())
+        return bool(follow_capable(self.knodes[used], gather_roughness, caustic_roughness).any())
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The prepared scene's bounding box (float32 corners, w = 0)."""

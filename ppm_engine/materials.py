@@ -146,19 +146,27 @@ def gather_capable(nodes: np.ndarray) -> np.ndarray:
     return out & (nodes["weight"] > 0)
 
 
-def follow_capable(nodes: np.ndarray, gather_roughness: float) -> np.ndarray:
-    """Per node: whether it can make a closure eye paths follow rather than gather (a mirror,
-    glass, a glossy lobe smoother than ``gather_roughness``, kernels/shader.h): the closures
-    that make caustics.  Transparency is no scattering and does not count."""
+def follow_capable(nodes: np.ndarray, gather_roughness: float,
+                   caustic_roughness: float = 0.7) -> np.ndarray:
+    """Per node: whether it can make a closure that makes caustics (kernels/shader.h): glass or
+    a refraction smoother than ``gather_roughness``, a glossy reflection smoother than
+    ``caustic_roughness`` (rougher ones eye paths follow are the eye paths' light) and than
+    ``gather_roughness``.  Transparency is no scattering and does not count."""
     t = nodes["type"]
-    smooth = (np.clip(nodes["roughness"], 0, 1) < gather_roughness) | bound(nodes, "roughness")
-    out = np.isin(t, (NODE_GLOSSY, NODE_METALLIC, NODE_GLASS, NODE_REFRACTION)) & smooth
+    rough = np.clip(nodes["roughness"], 0, 1)
+    driven = bound(nodes, "roughness")
+    refracts = (rough < gather_roughness) | driven
+    reflects = (rough < min(caustic_roughness, gather_roughness)) | driven
+    out = ((np.isin(t, (NODE_GLOSSY, NODE_METALLIC)) & reflects)
+           | (np.isin(t, (NODE_GLASS, NODE_REFRACTION)) & refracts))
     p = t == NODE_PRINCIPLED
     if p.any():
         parts = _principled_parts(nodes[p])
         n = nodes[p]
-        out[p] = ((parts["metal"] | parts["glass"] | parts["specular"]) & smooth[p]) \
-            | (parts["coat"] & ((np.clip(n["coat_roughness"], 0, 1) < gather_roughness)
+        out[p] = (parts["glass"] & refracts[p]) \
+            | ((parts["metal"] | parts["specular"]) & reflects[p]) \
+            | (parts["coat"] & ((np.clip(n["coat_roughness"], 0, 1)
+                                 < min(caustic_roughness, gather_roughness))
                                 | bound(n, "coat_roughness")))
     return out & (nodes["weight"] > 0)
 

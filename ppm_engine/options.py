@@ -81,6 +81,13 @@ class RenderOptions:
     # them); smoother ones are followed by the eye path.  Chosen by measurement
     # (docs/BENCHMARKS.md, "Glossy surfaces"); a setting to measure with, not in the UI.
     gather_roughness: float = 0.7
+    # followed glossy reflections at least this rough are the eye paths' (next-event estimation
+    # through them, as Cycles), smoother ones (and refractions below gather_roughness) make
+    # caustic photons.  The default, gather_roughness's, leaves every followed lobe to caustic
+    # photons: measured, eye paths through glossy lobes were no better at equal time on four
+    # scenes (docs/BENCHMARKS.md, "Glossy light: eye paths or caustic photons"); a setting to
+    # measure with, not in the UI.
+    caustic_roughness: float = 0.7
     # Skips of work a scene does not need, each on by default; off only to measure what it saves
     # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.
     specialize: bool = True        # kernels built for the scene's features (False: every feature)
@@ -112,6 +119,9 @@ class RenderOptions:
                                 f"{', '.join(INDIRECT_MODES)}")
         if not (0.0 < self.alpha < 1.0):
             raise SettingsError(f"alpha = {self.alpha!r} must lie strictly between 0 and 1")
+        if not (0.0 <= self.caustic_roughness <= 2.0):
+            raise SettingsError(f"caustic_roughness = {self.caustic_roughness!r} is outside "
+                                "[0, 2]")
         if not (0.0 <= self.gather_roughness <= 2.0):
             raise SettingsError(f"gather_roughness = {self.gather_roughness!r} is outside "
                                 "[0, 2] (above 1: no microfacet lobe is gathered)")

@@ -56,7 +56,8 @@ class Renderer:
         changed)."""
         import pyopencl as cl
         dev, o = self.device, options
-        self.features, self.defines = self.scene.kernel_defines(o.specialize, o.gather_roughness)
+        self.features, self.defines = self.scene.kernel_defines(o.specialize, o.gather_roughness,
+                                                                o.caustic_roughness)
         w, h = self.scene.scene.resolution
         if new_pixels:
             self.width, self.height, self.n_pixels = w, h, w * h
@@ -77,7 +78,7 @@ class Renderer:
         self.update = ProgressiveUpdate(dev, self.film)
         self.scene.set_light_paths(with_max_bounces(self.scene.scene.light_paths, o.max_bounces))
         useful = self.scene.photons_useful()
-        caustics = self.scene.caustics_possible(o.gather_roughness)
+        caustics = self.scene.caustics_possible(o.gather_roughness, o.caustic_roughness)
         self.path_indirect, self.caustic_fraction = self._choose_indirect(o, useful, caustics)
         useful = useful and (caustics or not self.path_indirect)
         self.photons_needed = useful or not o.skip_unneeded_photon_pass
@@ -130,7 +131,7 @@ class Renderer:
             return True, 0.0
         if not photons_useful:
             return True, None
-        key = (o.gather_roughness, self.scene.light_paths.tobytes(), o.seed)
+        key = (o.gather_roughness, o.caustic_roughness, self.scene.light_paths.tobytes(), o.seed)
         if self._pilot is None or self._pilot[0] != key:    # a re-render of the same scene
             self._pilot = (key, self.caustic_fraction_pilot(o))   # keeps its pilot
         f = self._pilot[1]

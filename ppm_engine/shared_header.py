@@ -164,6 +164,13 @@ def generate() -> str:
             " * (ppm_engine/options.py RenderOptions.gather_roughness) */",
             "#ifndef PPM_GATHER_ROUGHNESS",
             f"#define PPM_GATHER_ROUGHNESS {c_float(RenderOptions.gather_roughness)}", "#endif",
+            "/* followed glossy reflections at least this rough (sqrt of alpha) are the eye "
+            "paths' (next-event",
+            " * estimation through them), smoother ones and refractions make caustic photons",
+            " * (ppm_engine/options.py RenderOptions.caustic_roughness) */",
+            "#ifndef PPM_CAUSTIC_ROUGHNESS",
+            f"#define PPM_CAUSTIC_ROUGHNESS {c_float(RenderOptions.caustic_roughness)}",
+            "#endif",
             ""]
 
     fam = []

@@ -37,7 +37,8 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
     res = json.loads((tmp_path / "b.json").read_text())
     luxcore_installed = importlib.util.find_spec("pyluxcore") is not None
     assert set(res["scenes"]) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
-                                  "point_caustic", "mirror_caustic", "many_lights"}
+                                  "point_caustic", "rough_caustic", "mirror_caustic",
+                                  "many_lights"}
     tree = res["scenes"]["many_lights"]["light_tree"]
     assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1
     assert 0 < tree["share"] <= 1 and tree["bytes"] > 64 * tree["nodes"]
@@ -81,7 +82,7 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         # cannot render), or this engine's light tracer where LuxCore's spot differs
         # (glass_caustic) or pyluxcore is not installed (the JSON says so)
         engine = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "many_lights": "CYCLES",
-                  "point_caustic": "EXACT"}.get(name, "LIGHT_TRACE")
+                  "point_caustic": "EXACT", "rough_caustic": "EXACT"}.get(name, "LIGHT_TRACE")
         if name in ("bulb_box", "mirror_caustic"):
             if luxcore_installed:
                 engine = "LUXCORE_LIGHT"
@@ -132,9 +133,15 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         assert "seeds" not in c["ours"][0] and "seeds" not in c["ours_photons"][at]
         if "target" in r:
             assert r["met"] == (r["image_rmse_seeds"] <= r["target"])
+        elif "target_best_peer" in r:     # ahead of the better of Cycles and Cycles + MNEE
+            best = min(c["cycles"][at]["image"]["rmse"], c["cycles_mnee"][at]["image"]["rmse"])
+            assert r["image_rmse_vs_best_peer"] == pytest.approx(
+                c["ours"][at]["image"]["rmse"] / best, rel=1e-6)
+            assert r["met"] == (r["image_rmse_vs_best_peer"] <= r["target_best_peer"])
         elif "target_mnee" in r:
             assert r["met"] == (r["image_rmse_vs_mnee"] <= r["target_mnee"])
     assert "target_mnee" in res["ratios"]["glass_caustic"]
+    assert "target_best_peer" in res["ratios"]["rough_caustic"]
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     text = md.read_text()
     assert text.startswith("# head") and text.rstrip().endswith("tail") and "old" not in text

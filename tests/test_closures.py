@@ -44,7 +44,7 @@ def device(pocl_key):
 class Shading:
     """Materials of BSDF nodes on the device, and the closure_test.cl kernels on them."""
 
-    def __init__(self, device, materials):
+    def __init__(self, device, materials, defines=None):
         self.device = device
         rows = []
         for k, nodes in enumerate(materials):
@@ -58,7 +58,7 @@ class Shading:
                                  shading_tables=up(st.load(), "t"),
                                  uvs=up(np.zeros(6, np.float32), "uv"),
                                  tangents=up(tangent, "tangents"))
-        self.prog = device.programs.get("closure_test.cl")
+        self.prog = device.programs.get("closure_test.cl", defines)
 
     def sample(self, mat, wi, n, seed=1, mask=MASK_ALL):
         q = self.device.queue
@@ -97,7 +97,8 @@ class Shading:
         cl.enqueue_copy(q, b, wgt)
         k = a[:, 0] >= 0
         return [dict(type=CLOSURE_NAMES[int(t)], gather=bool(g), sample_weight=float(sw),
-                     weight=w[:3]) for (t, g, sw, _), w in zip(a[k], b[:n_max][k])]
+                     glossy=bool(gl), weight=w[:3])
+                for (t, g, sw, gl), w in zip(a[k], b[:n_max][k])]
 
 
 def view(cos_theta):
@@ -340,6 +341,35 @@ def test_principled_layers_as_cycles_orders_them(device):
     w_metal, w_glass = got[3]["weight"][0], got[4]["weight"][0]
     # metal M w, glass (1 - M) T w (before their own energy compensation, about 1 here)
     assert w_glass / w_metal == pytest.approx((1 - 0.4) * 0.5 / 0.4, rel=0.05)
+
+
+@pytest.mark.parametrize("caustic_roughness", [None, 0.2])
+def test_closures_split_into_gathered_glossy_and_caustic(device, caustic_roughness):
+    """Whose each closure's light is (kernels/shader.h): diffuse closures and lobes at least
+    PPM_GATHER_ROUGHNESS (0.7) rough are gathered; the followed glossy reflections at least
+    PPM_CAUSTIC_ROUGHNESS rough (here 0.2; by default the gather's roughness: none) are the eye
+    paths' (next-event estimation through them, kernels/indirect_paths.h); mirrors, smoother
+    reflections and every refraction below the gather's roughness make caustic photons."""
+    mats = [[dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.3)],
+            [dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.1)],
+            [dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.8)],
+            [dict(type=NODE_PRINCIPLED, transmission=1.0, roughness=0.3)],
+            [dict(type=NODE_PRINCIPLED, color=(0.5, 0.5, 0.5), roughness=0.5, coat_weight=1.0,
+                  coat_roughness=0.05)],
+            [dict(type=NODE_GLOSSY, roughness=0.2)]]
+    defines = None if caustic_roughness is None else {
+        "PPM_CAUSTIC_ROUGHNESS": float(caustic_roughness).hex() + "f"}
+    s = Shading(device, mats, defines)
+    got = [[(c["type"], c["gather"], c["glossy"]) for c in s.closures(m, view(0.8))]
+           for m in range(len(mats))]
+    g = caustic_roughness is not None
+    assert got == [[("ggx_reflect", False, g)],
+                   [("ggx_reflect", False, False)],
+                   [("ggx_reflect", True, False)],
+                   [("ggx_glass", False, False)],
+                   [("ggx_reflect", False, False), ("ggx_reflect", False, g),
+                    ("diffuse", True, False)],
+                   [("ggx_reflect", False, g)]]
 
 
 def test_ior_level_zero_leaves_plain_lambert(device):

@@ -43,6 +43,11 @@ def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentP
     b.add_argument("--glossy", action="store_true",
                    help="which glossy lobes to gather: error at equal time per gather roughness "
                         "(the budget: --times S, default 8)")
+    b.add_argument("--glossy-setting", choices=tuple(glossy.SETTINGS), default="gather_roughness",
+                   help="--glossy: the setting measured (default gather_roughness; "
+                        "caustic_roughness: which glossy reflections' light eye paths carry)")
+    b.add_argument("--glossy-light", choices=glossy.LIGHTS, default="area",
+                   help="--glossy: the spheres under the area light or a 2 cm point light")
     b.add_argument("--shader", metavar="SCENE",
                    help="what the shader programs cost per pass of SCENE (its colours computed "
                         "by a node graph against the same constants)")
@@ -165,8 +170,9 @@ def run(args, cmdline: str, progress=print) -> int:
         seconds = args.times[0] if args.times else (0.5 if args.quick else 8.0)
         g = glossy.run_glossy(seconds, args.resolution or (24 if args.quick else 96),
                               64 if args.quick else 6000,
-                              (0.35, 1.5) if args.quick else glossy.DEFAULT_VALUES,
-                              args.device, progress)
+                              (0.35, 1.5) if args.quick
+                              else glossy.SETTINGS[args.glossy_setting],
+                              args.device, progress, args.glossy_setting, args.glossy_light)
         g["machine"] = report.machine_info(args.device)
         return publish("glossy", g, glossy.format_glossy(g))
     if args.noise:

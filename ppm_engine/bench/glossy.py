@@ -1,12 +1,17 @@
 """``python -m ppm_engine bench --glossy``: where glossy lobes should hold visible points
-(RenderOptions.gather_roughness; docs/BENCHMARKS.md, "Glossy surfaces").
+(RenderOptions.gather_roughness; docs/BENCHMARKS.md, "Glossy surfaces"), and with
+``--glossy-setting caustic_roughness`` which glossy reflections' light is the eye paths' rather
+than caustic photons' (RenderOptions.caustic_roughness; "Glossy light: eye paths or caustic
+photons").
 
 A scene of glossy materials (a mirror-like metal at roughness 0.15, a plastic at 0.3, a coated
-red, a rough metal at 0.45, rough glass at 0.3) on a glossy floor under an area light, rendered
-by Cycles for a long time (the reference: path tracing converges on this scene) and, for each
-gather roughness, by this engine for the same budget with two seeds; Cycles at the budget for
-comparison.  Ours renders through the engine's public core (the exported SceneArrays, a
-Renderer with the setting, passes until the budget), Cycles through bpy.
+red, a rough metal at 0.45, rough glass at 0.3) on a glossy floor under an area light (or, with
+``--glossy-light point``, a point light of radius 2 cm in its place: the glossy metal under a
+small light users bring), rendered by Cycles for a long time (the reference: path tracing
+converges on this scene) and, for each value of the setting, by this engine for the same
+budget with two seeds; Cycles at the budget for comparison.  Ours renders through the
+engine's public core (the exported SceneArrays, a Renderer with the setting, passes until the
+budget), Cycles through bpy.
 """
 from __future__ import annotations
 
@@ -21,6 +26,10 @@ from ..options import RenderOptions
 from ..renderer import Renderer
 
 DEFAULT_VALUES = (0.2, 0.35, 0.5, 0.7, 1.5)
+# the settings --glossy measures (RenderOptions fields) and the values each is measured at
+SETTINGS = {"gather_roughness": DEFAULT_VALUES,
+            "caustic_roughness": (0.1, 0.2, 0.3, 0.45, 0.7)}
+LIGHTS = ("area", "point")
 _SPHERES = (  # name, location, Principled inputs
     ("glossy_metal", (-1.1, 0.3), {"Base Color": (0.8, 0.8, 0.85), "Metallic": 1.0,
                                    "Roughness": 0.15}),
@@ -39,7 +48,7 @@ def _principled(mat, inputs):
         p.inputs[k].default_value = (*v, 1.0) if isinstance(v, tuple) else v
 
 
-def build_scene(res: int):
+def build_scene(res: int, light_kind: str = "area"):
     import bpy
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -54,8 +63,12 @@ def build_scene(res: int):
     floor = bpy.data.materials.new("Floor")
     _principled(floor, {"Base Color": (0.5, 0.5, 0.5), "Roughness": 0.6})
     bpy.context.active_object.data.materials.append(floor)
-    light = bpy.data.lights.new("Area", "AREA")
-    light.energy, light.size = 80.0, 0.6
+    if light_kind == "point":
+        light = bpy.data.lights.new("Area", "POINT")
+        light.energy, light.shadow_soft_size = 80.0, 0.02
+    else:
+        light = bpy.data.lights.new("Area", "AREA")
+        light.energy, light.size = 80.0, 0.6
     lo = bpy.data.objects.new("Area", light)
     lo.location, lo.rotation_euler = (1.5, -1.0, 2.5), (0.4, 0.5, 0.0)
     scene.collection.objects.link(lo)
@@ -98,11 +111,14 @@ def _ours(arrays, options: RenderOptions, seconds: float) -> tuple[np.ndarray, i
 
 
 def run_glossy(seconds: float, res: int, ref_samples: int, values=DEFAULT_VALUES,
-               device: str = "", progress=print) -> dict:
+               device: str = "", progress=print, setting: str = "gather_roughness",
+               light: str = "area") -> dict:
     import bpy
 
     from ..export import export_scene
-    scene = build_scene(res)
+    if setting not in SETTINGS or light not in LIGHTS:
+        raise ValueError(f"setting {setting!r} or light {light!r} unknown")
+    scene = build_scene(res, light)
     folder = Path(tempfile.mkdtemp(prefix="ppm-glossy-"))
     t = time.perf_counter()
     ref = _cycles(scene, folder / "ref.exr", samples=ref_samples)
@@ -110,6 +126,7 @@ def run_glossy(seconds: float, res: int, ref_samples: int, values=DEFAULT_VALUES
     progress(f"glossy: reference ({ref_samples} samples) in {ref_s:.0f} s")
     rmse = lambda img: float(np.sqrt(np.mean((img - ref).astype(np.float64) ** 2)))
     out = {"seconds": seconds, "resolution": res, "reference_samples": ref_samples,
+           "setting": setting, "light": light,
            "reference_seconds": ref_s, "mean": float(ref.mean())}
     out["cycles"] = rmse(_cycles(scene, folder / "cycles.exr", seconds=seconds))
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
@@ -117,24 +134,27 @@ def run_glossy(seconds: float, res: int, ref_samples: int, values=DEFAULT_VALUES
     for v in values:
         errs, passes = [], []
         for seed in (1, 2):
-            img, n = _ours(arrays, RenderOptions(gather_roughness=v, seed=seed, device=device),
+            img, n = _ours(arrays, RenderOptions(**{setting: v}, seed=seed, device=device),
                            seconds)
             errs.append(rmse(img))
             passes.append(n)
-        rows.append({"gather_roughness": v, "rmse": errs, "passes": passes})
-        progress(f"glossy: gather roughness {v}: RMSE {np.mean(errs):.4f}")
+        rows.append({setting: v, "rmse": errs, "passes": passes})
+        progress(f"glossy: {setting} {v}: RMSE {np.mean(errs):.4f}")
     out["ours"] = rows
     return out
 
 
 def format_glossy(res: dict) -> str:
-    lines = [f"{res['resolution']}x{res['resolution']}, {res['seconds']:g} s each; reference: "
+    setting = res.get("setting", "gather_roughness")
+    lines = [f"{res['resolution']}x{res['resolution']}, {res.get('light', 'area')} light, "
+             f"{res['seconds']:g} s each; reference: "
              f"Cycles, {res['reference_samples']} samples (mean {res['mean']:.4f}); Cycles at "
              f"{res['seconds']:g} s: RMSE {res['cycles']:.4f}", "",
-             "| gather roughness (sqrt alpha) | RMSE, seeds 1 and 2 | mean | / Cycles | passes |",
+             f"| {setting.replace('_', ' ')} (sqrt alpha) | RMSE, seeds 1 and 2 | mean | / Cycles "
+             "| passes |",
              "|---:|---:|---:|---:|---:|"]
     for r in res["ours"]:
         m = float(np.mean(r["rmse"]))
-        lines.append(f"| {r['gather_roughness']:g} | {r['rmse'][0]:.4f}, {r['rmse'][1]:.4f} | "
+        lines.append(f"| {r[setting]:g} | {r['rmse'][0]:.4f}, {r['rmse'][1]:.4f} | "
                      f"{m:.4f} | {m / res['cycles']:.2f} | {r['passes'][0]} |")
     return "\n".join(lines)
