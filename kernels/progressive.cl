@@ -121,20 +121,24 @@ __kernel void film_add_sample(__global const float4 *direct_pass, __global const
     acc_add(moments, id, (float4)(y, y * y, (float)photons, 1.0f));
 }
 
-/* The per-pixel image: (direct mean + (S / pi + the light tracing's sum) / the photons emitted
- * while the pixel was active, in moments.z: a pixel that converged keeps its value) x the
- * film's exposure; alpha 1 - the mean transparency of its passes (transparent film,
- * eye_pass.cl). */
+/* The per-pixel image: (direct mean + (S / pi + the light tracing's sum, lt: there is one) /
+ * the photons emitted while the pixel was active, in moments.z: a pixel that converged keeps
+ * its value) x the film's exposure; alpha 1 - the mean transparency of its passes (transparent
+ * film, eye_pass.cl). */
 __kernel void film_resolve(__global const float4 *direct, __global const float4 *photon_sum,
                            __global const float4 *moments, __global const float *transparency,
-                           __global const float4 *lt_sum, float exposure, __global float4 *image,
-                           uint n) {
+                           __global const float4 *lt_sum, uint lt, float exposure,
+                           __global float4 *image, uint n) {
     uint id = get_global_id(0);
     if (id >= n) return;
     acc4 d = acc_get(direct, id);
     acc4 c = d.w > 0 ? d / d.w : (acc4)(0);
     acc4 m = acc_get(moments, id);
-    if (m.z > 0) c += (acc_get(photon_sum, id) / PPM_PI + acc_get(lt_sum, id)) / m.z;
+    if (m.z > 0) {
+        acc4 s = acc_get(photon_sum, id) / PPM_PI;
+        if (lt) s += acc_get(lt_sum, id);
+        c += s / m.z;
+    }
     float alpha = m.w > 0 ? 1.0f - clamp(transparency[id] / (float)m.w, 0.0f, 1.0f) : 1.0f;
     image[id] = (float4)(convert_float3(c.xyz) * exposure, alpha);
 }

@@ -57,18 +57,32 @@ class Film:
         self.transparency = device.buffer(4 * n, "film (transparency)")
         # the photons' light tracing (photon_pass.cl connect_camera): this pass's splats (rgb
         # per pixel, float atomics) and their sum over the passes the pixel was active in (its
-        # photon count is the photon term's, moments.z)
-        self.lt_pass = device.buffer(12 * n, "film (light tracing, this pass)")
-        self.lt_sum = device.buffer(32 * n, "film (light tracing)")
+        # photon count is the photon term's, moments.z).  44 bytes per pixel (87 MiB at
+        # 1920 x 1080), allocated only for a render that connects photons to the camera
+        # (enable_light_tracing): most scenes have no photon pass at all
+        self.light_tracing = False
+        self.lt_pass = self.lt_sum = device.buffer(16, "film (light tracing: none)")
         self.exposure = 1.0           # Cycles' film exposure (the camera's; Renderer sets it)
         for b, size in ((self.direct_pass, 16), (self.direct, 32), (self.photon_sum, 32),
                         (self.nstat, 4), (self.radius, 4), (self.radius0, 4), (self.aux_albedo, 16),
-                        (self.aux_normal, 16), (self.moments, 32), (self.transparency, 4),
-                        (self.lt_pass, 12), (self.lt_sum, 32)):
+                        (self.aux_normal, 16), (self.moments, 32), (self.transparency, 4)):
             cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
         cl.enqueue_fill_buffer(device.queue, self.active, np.uint32(1), 0, 4 * n)
         self.photons_emitted = 0      # Python int: exact at any count
         self.prog = device.programs.get("progressive.cl", {"PPM_FP64": True} if self.fp64 else {})
+
+    def enable_light_tracing(self) -> None:
+        """Allocate (zeroed) the light tracing's per-pixel buffers: the render connects its
+        photons to the camera (Renderer.lt_kappa > 0)."""
+        if self.light_tracing:
+            return
+        import pyopencl as cl
+        n = self.n_pixels
+        self.lt_pass = self.device.buffer(12 * n, "film (light tracing, this pass)")
+        self.lt_sum = self.device.buffer(32 * n, "film (light tracing)")
+        for b, size in ((self.lt_pass, 12), (self.lt_sum, 32)):
+            cl.enqueue_fill_buffer(self.device.queue, b, np.uint32(0), 0, size * n)
+        self.light_tracing = True
 
     def resolve(self, wait_for=None):
         """Enqueue the resolve; returns (event, host array (h, w, 4) float32, row 0 = bottom)."""
@@ -78,7 +92,8 @@ class Film:
         ev = self.prog.launch("film_resolve", "resolve")(
             q, n, wait_for=wait_for, direct=self.direct, photon_sum=self.photon_sum,
             moments=self.moments, transparency=self.transparency, lt_sum=self.lt_sum,
-            exposure=np.float32(self.exposure), image=self.image_buf, n=np.uint32(n))
+            lt=np.uint32(self.light_tracing), exposure=np.float32(self.exposure),
+            image=self.image_buf, n=np.uint32(n))
         out = np.empty((self.height, self.width, 4), np.float32)
         ev2 = cl.enqueue_copy(q, out, self.image_buf, wait_for=[ev], is_blocking=False)
         return ev2, out
@@ -108,7 +123,9 @@ class Film:
 
     def read_sum(self, name: str) -> np.ndarray:
         """The value of a float4 sum (``direct``, ``photon_sum``, ``lt_sum``, ``moments``): float64
-        (h, w, 4)."""
+        (h, w, 4); ``lt_sum`` is zeros where the render traces no light to the camera."""
+        if name == "lt_sum" and not self.light_tracing:
+            return np.zeros((self.height, self.width, 4))
         if self.fp64:
             return self.read(name, np.float64, 4)
         raw = self.read(name, np.float32, 8).reshape(self.height, self.width, 2, 4)

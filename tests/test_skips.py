@@ -189,6 +189,31 @@ def test_no_photon_pass_without_bounces_or_diffuse_surfaces():
     assert set(s.phase_ms) == {"eye", "grid", "photon", "hash", "gather", "update"}
 
 
+def test_no_photon_storage_or_light_tracing_film_where_no_photon_pass_runs():
+    """Photon storage (ppm_engine/photon_map.py: 2 x the photons per pass, and the hash
+    table) and the light tracing's film buffers (44 bytes per pixel) are allocated only by a
+    render that traces photons: at 1920 x 1080 that is 305 MiB a Cornell box lit by eye paths
+    no longer holds (docs/BENCHMARKS.md).  The same box by eye paths (no caustics: no photon
+    pass) and by the paper's photons: the device's byte count differs by those buffers."""
+    from ppm_engine.device import get_device
+    dev = get_device(RenderOptions().device)
+    grown = {}
+    for indirect in ("paths", "photons"):
+        before = dev.allocated
+        r = Renderer(cornell_box(32, 32), RenderOptions(indirect=indirect))
+        try:
+            s = r.iterate()
+            grown[indirect] = dev.allocated - before
+            traced = indirect == "photons"
+            assert r.photons_needed == traced and ("photon" in s.phase_ms) == traced
+            assert (r.photon_map.capacity >= 2 * r.photons_per_pass) == traced
+            assert r.film.light_tracing == traced
+            store = 40 * 2 * r.photons_per_pass + 16 * 2 * r.photons_per_pass
+        finally:
+            r.close()
+    assert grown["photons"] - grown["paths"] >= store + 44 * 32 * 32, grown
+
+
 def test_photons_nobody_sees_are_not_stored():
     """Photons landing outside the visible points' grid are counted, not stored or hashed."""
     scene = _room(_light(LIGHT_POINT, (30, 30, 30), position=(0, 0, 0.5)))

@@ -40,6 +40,8 @@ def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentP
     b.add_argument("--skips", action="store_true",
                    help="what each skip of work a scene does not need saves, with and without")
     b.add_argument("--phases", metavar="SCENE", help="per-phase breakdown of a pass of SCENE")
+    b.add_argument("--light-tracing", choices=("on", "off"), default="on",
+                   help="--phases: with or without the photons' light tracing (default on)")
     b.add_argument("--glossy", action="store_true",
                    help="which glossy lobes to gather: error at equal time per gather roughness "
                         "(the budget: --times S, default 8)")
@@ -205,7 +207,7 @@ def run(args, cmdline: str, progress=print) -> int:
         p = phases.run_phases(args.phases, res, passes=2 if args.quick else args.passes,
                               warmup=1 if args.quick else 3, device=args.device,
                               photons=args.photons or (4096 if args.quick else None),
-                              progress=progress)
+                              progress=progress, light_tracing=args.light_tracing == "on")
         return publish("phases", p, phases.format_phases(p))
     if args.report:
         import json

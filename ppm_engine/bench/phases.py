@@ -6,9 +6,12 @@ import numpy as np
 
 
 def run_phases(scene_name: str, resolution: int = 256, passes: int = 8, warmup: int = 3,
-               device: str = "", photons: int | None = None, progress=print) -> dict:
+               device: str = "", photons: int | None = None, progress=print,
+               light_tracing: bool = True) -> dict:
     """Mean device time per phase of a pass (after ``warmup`` passes) for an example scene,
-    exported from bpy and run through the Renderer directly."""
+    exported from bpy and run through the Renderer directly, and the device memory the render
+    allocated (its scene, film, visible points, photon map and passes: Device.allocated's
+    growth over the render).  ``light_tracing``: RenderOptions.light_tracing."""
     import bpy
 
     from ..export import export_scene
@@ -20,14 +23,19 @@ def run_phases(scene_name: str, resolution: int = 256, passes: int = 8, warmup: 
     scene.render.resolution_percentage = 100
     depsgraph = bpy.context.evaluated_depsgraph_get()
     arrays = export_scene(depsgraph)
-    opts = RenderOptions(device=device) if not photons else \
-        RenderOptions(device=device, photons_per_pass=photons)
+    opts = RenderOptions(device=device, light_tracing=light_tracing) if not photons else \
+        RenderOptions(device=device, photons_per_pass=photons, light_tracing=light_tracing)
+    from ..device import get_device
+    dev = get_device(device)
+    before = dev.allocated
     r = Renderer(arrays, opts)
     progress(f"phases: {scene_name} {resolution}x{resolution}, {r.photons_per_pass} photons "
              f"per pass, {warmup} warm-up + {passes} timed passes on {r.device.info.name}")
     for _ in range(warmup):
         r.iterate()
     rows = [r.iterate() for _ in range(passes)]
+    allocated = dev.allocated - before
+    light_traced = r.lt_kappa > 0
     r.close()
     labels = ["eye", "grid", "photon", "hash", "gather", "update", "adaptive"]
     mean = {k: float(np.mean([s.phase_ms.get(k, 0.0) for s in rows])) for k in labels
@@ -35,7 +43,8 @@ def run_phases(scene_name: str, resolution: int = 256, passes: int = 8, warmup: 
     total = sum(mean.values())
     return {"scene": scene_name, "resolution": resolution, "passes": passes, "warmup": warmup,
             "photons_per_pass": r.photons_per_pass, "device": r.device.info.name,
-            "phase_ms": mean, "device_ms": total,
+            "phase_ms": mean, "device_ms": total, "device_bytes": allocated,
+            "light_tracing": light_traced,
             "wall_ms": float(np.mean([s.seconds for s in rows]) * 1e3),
             "photons_stored": float(np.mean([s.photons_stored for s in rows])),
             "photons_per_entry": float(np.mean([s.photons_per_entry for s in rows])),
@@ -51,6 +60,9 @@ def format_phases(p: dict) -> str:
         lines.append(f"| {k} | {v:.2f} | {100 * v / p['device_ms']:.1f} % |")
     lines.append(f"| all (device) | {p['device_ms']:.2f} | 100 % |")
     lines.append(f"| pass (wall) | {p['wall_ms']:.2f} | |")
+    if "device_bytes" in p:
+        lines.append(f"\ndevice memory allocated by the render: {p['device_bytes'] / 2**20:.1f} "
+                     f"MiB; light tracing {'on' if p['light_tracing'] else 'off'}")
     lines.append(f"\nvisible points {p['visible_points']:.0f}, photons stored "
                  f"{p['photons_stored']:.0f}, photons per occupied entry "
                  f"{p['photons_per_entry']:.2f}")

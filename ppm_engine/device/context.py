@@ -90,6 +90,9 @@ class Device:
         cl = _cl()
         self.info = info
         self.cl_device = cl_device
+        # bytes of every buffer made on this device so far (freed ones included): the
+        # difference around a render is what it allocated (bench --phases)
+        self.allocated = 0
         self.context = cl.Context([cl_device])
         self.queue = cl.CommandQueue(
             self.context, properties=cl.command_queue_properties.PROFILING_ENABLE)
@@ -116,6 +119,7 @@ class Device:
         cl = _cl()
         nbytes = max(int(nbytes), 16)
         self.check_alloc(nbytes, what)
+        self.allocated += nbytes
         try:
             return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, nbytes)
         except cl.Error as e:
@@ -128,6 +132,7 @@ class Device:
         if a.nbytes == 0:
             a = np.zeros(16, np.uint8)
         self.check_alloc(a.nbytes, what)
+        self.allocated += a.nbytes
         try:
             return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
                              hostbuf=a)
