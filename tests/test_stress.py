@@ -424,8 +424,13 @@ def test_one_by_one_image(indirect):
 def test_photons_per_pass_over_the_device_limit_is_refused_with_a_message(pocl_key, monkeypatch):
     dev = get_device(pocl_key)
     monkeypatch.setattr(dev, "max_alloc", 1 << 20)        # a device that allows 1 MiB buffers
+    # (the paper's photons: a box lit by eye paths would allocate no photon storage at all)
     with pytest.raises(DeviceError, match=r"photons per pass|MAX_MEM_ALLOC_SIZE"):
-        Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=1 << 16, device=pocl_key))
+        Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=1 << 16, device=pocl_key,
+                                                  indirect="photons"))
+    r = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=1 << 16, device=pocl_key))
+    assert not r.photons_needed and r.photon_map.capacity == 0
+    r.close()
     monkeypatch.undo()
     r = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=1 << 10, device=pocl_key))
     assert np.isfinite(r.iterate().radius_max)       # the device is still usable
