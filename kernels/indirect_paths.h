@@ -182,7 +182,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         ua = indirect_set(vertex + 1, 0u, pass, key, rng);
         /* the vertex's closures: the gather's, the glossy followed ones or the others (the
          * caustic photons' light), in proportion to their sample weights */
-        float sw_specular = fmax(sd->sw_continue - sd->sw_glossy, 0.0f);
+        float sw_specular = shader_sw_specular(sd);
         sw = sd->sw_gather + sd->sw_glossy + sw_specular;
         float pick = ua.w * sw;
         if (pick < sd->sw_gather) {

@@ -191,7 +191,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
              * first ends the photon (next-event estimation and the eye paths count that
              * light), the second makes a caustic photon. */
             float sg = lambert ? (gather ? 1.0f : 0.0f) : sd.sw_gather + sd.sw_glossy;
-            float sc = lambert ? 0.0f : sd.sw_continue - sd.sw_glossy;
+            float sc = lambert ? 0.0f : shader_sw_specular(&sd);
             if (!(sc > 0.0f) || rnd(&rng) * (sg + sc) < sg) {
                 /* a pilot counts the light the gather's closures scatter first (not what
                  * meets a black surface: a filament's inside) */

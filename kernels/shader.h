@@ -254,6 +254,11 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
     shader_sums(sd);
 }
 
+/* the sample weight of the followed closures that are not glossy (MASK_SPECULAR: a caustic's) */
+inline float shader_sw_specular(const ShaderData *sd) {
+    return fmax(sd->sw_continue - sd->sw_glossy, 0.0f);
+}
+
 /* which closures a mixture function looks at: the gather's, the followed ones (MASK_CONTINUE),
  * and of these the glossy ones (whose light eye paths count) or the others (caustics') */
 #define MASK_GATHER 1

@@ -54,13 +54,15 @@ def test_paths_and_photons_agree_where_light_comes_through_glass():
     assert_agree(scene, 48, bias=0.08, max_bounces=6)
 
 
-def box_with_glass_ball(W=16):
-    """The Cornell box's walls and ceiling lamp with a glass ball on the floor: diffuse
-    inter-reflection (a third of the image) and a caustic under the ball."""
+def box_with_ball(W=16, radius=0.35, **ball):
+    """The Cornell box's walls and ceiling lamp with a ball on the floor, of the material
+    MeshBuilder.material makes of ``ball`` (default: clear glass, the ball's caustic under it
+    and diffuse inter-reflection, a third of the image)."""
     mb = MeshBuilder()
     white = mb.material("white", (0.73, 0.73, 0.73))
     red = mb.material("red", (0.63, 0.065, 0.05))
-    glass = mb.material("glass", (1, 1, 1), transmission=1.0, roughness=0.0, ior=1.5)
+    ball = mb.material("ball", **(ball or dict(base=(1, 1, 1), transmission=1.0,
+                                                 roughness=0.0, ior=1.5)))
     lamp = mb.material("lamp", (0, 0, 0), emission=(15.0,) * 3)
     mb.quad((0, 0, 0), (1, 0, 0), (0, 1, 0), white)
     mb.quad((0, 0, 2), (0, 1, 0), (1, 0, 0), white)
@@ -68,11 +70,34 @@ def box_with_glass_ball(W=16):
     mb.quad((-1, 0, 1), (0, 0, 1), (0, 1, 0), red)
     mb.quad((1, 0, 1), (0, 1, 0), (0, 0, 1), white)
     mb.quad((0, 0, 1.99), (0, 0.4, 0), (0.4, 0, 0), lamp)
-    mb.sphere((0.2, 0.1, 0.35), 0.35, glass, 24, 12)
+    mb.sphere((0.2, 0.1, radius), radius, ball, 24, 12)
     ext = perspective_extent(W, W, 35.0, 36.0)
     cam = make_camera(type=CAMERA_PERSP, width=W, height=W,
                       to_world=look_at((0, -2.9, 1), (0, 0, 1)), extent=ext[:2], clip=(0.1, 100))
     return mb.build(camera=cam)
+
+
+def light_traced(scene):
+    """(image, coverage) of ``scene`` by light tracing (unbiased, no photon map, no eye
+    paths), 32 bounces: the reference over the pixels it renders."""
+    from ppm_engine.light_tracer import LightTracer
+    lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32)
+    try:
+        lt.trace(20)
+        return lt.image().astype(np.float64), lt.coverage()
+    finally:
+        lt.close()
+
+
+def assert_matches_light_tracing(img, ref, cover, mean_tol, quarter_tol=0.03, what=""):
+    """``img`` (16 x 16) against light tracing over the covered pixels: in the mean within
+    ``mean_tol``, per quarter of the image within ``quarter_tol`` (relative)."""
+    assert abs(img[cover].mean() / ref[cover].mean() - 1.0) < mean_tol, what
+    for rows in (slice(0, 8), slice(8, 16)):
+        for cols in (slice(0, 8), slice(8, 16)):
+            c = cover[rows, cols]
+            ratio = img[rows, cols][c].mean() / ref[rows, cols][c].mean()
+            assert abs(ratio - 1.0) < quarter_tol, (what, rows, cols, ratio)
 
 
 def test_both_match_light_tracing_in_a_box_with_a_glass_ball():
@@ -81,23 +106,12 @@ def test_both_match_light_tracing_in_a_box_with_a_glass_ball():
     ball) the photons' in both.  Against light tracing (unbiased, no photon map, no eye paths)
     over the pixels it renders: counting a path twice or never shows.  Eye paths are unbiased
     (1 %); the photons' radius at 16x16 pixels still darkens the corners (5 %)."""
-    from ppm_engine.light_tracer import LightTracer
-    scene = box_with_glass_ball()
-    lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32)
-    try:
-        lt.trace(20)
-        ref, cover = lt.image().astype(np.float64), lt.coverage()
-    finally:
-        lt.close()
+    scene = box_with_ball()
+    ref, cover = light_traced(scene)
     assert cover.mean() > 0.7
     paths = renders(scene, 100, range(4), indirect="paths", max_bounces=32).mean(axis=0)
-    assert abs(paths[cover].mean() / ref[cover].mean() - 1.0) < 0.01
-    # per quarter of the image (the caustic is in the lower half)
-    for rows in (slice(0, 8), slice(8, 16)):
-        for cols in (slice(0, 8), slice(8, 16)):
-            c = cover[rows, cols]
-            ratio = paths[rows, cols][c].mean() / ref[rows, cols][c].mean()
-            assert abs(ratio - 1.0) < 0.03, (rows, cols, ratio)
+    # in the mean and per quarter of the image (the caustic is in the lower half)
+    assert_matches_light_tracing(paths, ref, cover, 0.01)
     photons = renders(scene, 100, range(4), indirect="photons", max_bounces=32).mean(axis=0)
     assert abs(photons[cover].mean() / ref[cover].mean() - 1.0) < 0.05
     # the scene has both: the auto mode's pilot sees some caustic first scatterings
@@ -108,55 +122,21 @@ def test_both_match_light_tracing_in_a_box_with_a_glass_ball():
         r.close()
 
 
-def box_with_metal_ball(W=16, roughness=0.35):
-    """The Cornell box with a rough metal ball (GGX, white) on its floor instead of glass: the
-    light the ball reflects onto the walls first scatters off a glossy lobe the eye path
-    follows."""
-    mb = MeshBuilder()
-    white = mb.material("white", (0.73, 0.73, 0.73))
-    red = mb.material("red", (0.63, 0.065, 0.05))
-    metal = mb.material("metal", (0.95, 0.95, 0.95), metallic=1.0, roughness=roughness)
-    lamp = mb.material("lamp", (0, 0, 0), emission=(15.0,) * 3)
-    mb.quad((0, 0, 0), (1, 0, 0), (0, 1, 0), white)
-    mb.quad((0, 0, 2), (0, 1, 0), (1, 0, 0), white)
-    mb.quad((0, 1, 1), (0, 0, 1), (1, 0, 0), white)
-    mb.quad((-1, 0, 1), (0, 0, 1), (0, 1, 0), red)
-    mb.quad((1, 0, 1), (0, 1, 0), (0, 0, 1), white)
-    mb.quad((0, 0, 1.99), (0, 0.4, 0), (0.4, 0, 0), lamp)
-    mb.sphere((0.2, 0.1, 0.45), 0.45, metal, 24, 12)
-    ext = perspective_extent(W, W, 35.0, 36.0)
-    cam = make_camera(type=CAMERA_PERSP, width=W, height=W,
-                      to_world=look_at((0, -2.9, 1), (0, 0, 1)), extent=ext[:2], clip=(0.1, 100))
-    return mb.build(camera=cam)
-
-
 def test_glossy_light_is_counted_once_by_either_estimator():
     """Light whose first scattering is a rough glossy reflection: the eye paths' (next-event
     estimation through the metal, RenderOptions.caustic_roughness 0.2) or the caustic photons'
-    (caustic_roughness 1.0: every followed lobe makes caustics).  Both, and the paper's photons
-    for everything, render the box with a rough metal ball (0.35) as light tracing does over
-    the pixels it renders: a path counted twice or never shows in the mean (eye paths: 1 %)
-    and per quarter of the image."""
-    from ppm_engine.light_tracer import LightTracer
-    scene = box_with_metal_ball()
-    lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32)
-    try:
-        lt.trace(20)
-        ref, cover = lt.image().astype(np.float64), lt.coverage()
-    finally:
-        lt.close()
+    (caustic_roughness 1.0: every followed lobe makes caustics).  Both render the box with a
+    rough metal ball (0.35, white) as light tracing does over the pixels it renders: a path
+    counted twice or never shows in the mean (eye paths: 1 %) and per quarter of the image."""
+    scene = box_with_ball(radius=0.45, base=(0.95, 0.95, 0.95), metallic=1.0, roughness=0.35)
+    ref, cover = light_traced(scene)
     assert cover.mean() > 0.6
     # (at 0.2 the scene makes no caustics; the photon pass runs all the same, so that a photon
     # whose first scattering is the metal's would show if it were stored)
     for cr, tol in ((0.2, 0.01), (1.0, 0.015)):
         paths = renders(scene, 100, range(4), indirect="paths", max_bounces=32,
                         caustic_roughness=cr, skip_unneeded_photon_pass=False).mean(axis=0)
-        assert abs(paths[cover].mean() / ref[cover].mean() - 1.0) < tol, cr
-        for rows in (slice(0, 8), slice(8, 16)):
-            for cols in (slice(0, 8), slice(8, 16)):
-                c = cover[rows, cols]
-                ratio = paths[rows, cols][c].mean() / ref[rows, cols][c].mean()
-                assert abs(ratio - 1.0) < 0.03, (cr, rows, cols, ratio)
+        assert_matches_light_tracing(paths, ref, cover, tol, what=f"caustic_roughness {cr}")
     # where the ball's light is the eye paths', it makes no caustics: no photon pass
     for cr, photon_pass in ((0.2, False), (1.0, True)):
         r = Renderer(scene, RenderOptions(indirect="paths", caustic_roughness=cr))
