@@ -22,17 +22,11 @@ inline float filter_offset(__global const float *table, float u) {
 }
 
 /* The numbers of the next-event estimation at the eye path's vertex `depth` (a mirror, glass
- * or glossy vertex before the visible point): low-discrepancy over the passes (rng.h ld_set,
- * the pixel's own scramble), as Cycles samples its lights.  Only the light's sample: the
- * directions the path takes stay pseudo-random, since visible points that alternate in Sobol
- * order bias the pixel's radius statistics (below). */
+ * or glossy vertex before the visible point): the pixel's Sobol set for it (rng.h ld_set, its
+ * own scramble), as Cycles samples its lights; pseudo-random past LD_SETS vertices. */
 inline float3 eye_nee_u(uint pass, uint key, int depth, uint *rng) {
-    /* drawn all the same: the rest of the path keeps its pseudo-random numbers (a glass ball's
-     * caustic on a rough metal floor, tests/test_materials.py, moves 15 % with another draw of
-     * them at 256 passes) */
-    float3 r = (float3)(rnd(rng), rnd(rng), rnd(rng));
     if (depth < LD_SETS) return ld_set(pass, key, (uint)depth).xyz;
-    return r;
+    return (float3)(rnd(rng), rnd(rng), rnd(rng));
 }
 
 __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_radius,
@@ -42,7 +36,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
                        __global float4 *vp_shade, __global uint *counters,
                        __global float4 *aux_albedo, __global float4 *aux_normal,
                        __global const uint *active, __global float *transparency,
-                       uint path_indirect, uint camera_sobol, float lt_kappa) {
+                       uint path_indirect, float lt_kappa) {
     SCENE_LOAD(scene);
     __global const Camera *cam = scene->camera;
     int id = get_global_id(0);
@@ -54,28 +48,21 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
     }
     int i = id % rw, j = id / rw;
     uint rng = rng_seed(seed, pass_index, (uint)id, 1u);
-    /* the pixel's position and the lens, stratified over the passes: with camera_sobol a set
-     * of the pixel's Owen-scrambled Sobol numbers (rng.h ld_set), the position the set's
-     * (0, 2)-sequence pair.  Most of a Cornell box's noise is at its lamp's edge: its direct
-     * light's noise at 256 passes was 0.0088 with the R2 sequence, 0.0076 with these (Cycles:
-     * 0.0078).  But in Sobol order consecutive passes fall in opposite halves of the pixel,
-     * and where visible points gather photons the pixel's shared radius statistics (the
-     * progressive update's photon counts, pass after pass) follow that alternation: a glass
-     * ball's caustic on a rough metal floor came out 24 % bright at 256 passes.  So the Sobol
-     * set only when no photons are gathered (eye paths and no caustics possible), else the R2
-     * sequence (Roberts 2018) rotated per pixel (Cranley-Patterson), whose consecutive passes
-     * fall anywhere */
+    /* the pixel's position and the lens, stratified over the passes: a set of the pixel's
+     * Owen-scrambled Sobol numbers (rng.h ld_set), the position the set's (0, 2)-sequence pair,
+     * as the path's choices and directions below (sets of their own key).  Most of a Cornell
+     * box's noise is at its lamp's edge: its direct light's noise at 256 passes was 0.0088
+     * with the R2 sequence, 0.0076 with these (Cycles: 0.0078).  Where visible points gather
+     * photons the pixel's radius statistics follow where its points fell, pass after pass, and
+     * Sobol's passes alternate between parts of the pixel; the estimate stays consistent (a
+     * pass's radius depends only on the passes before it, and its photons estimate the light
+     * blurred by that radius), and on the benchmark's caustics it converges as fast as with
+     * pseudo-random positions (docs/BENCHMARKS.md, "The eye pass's numbers"): the glossy
+     * spheres' error fell by 10-14 % with these. */
     uint prng = rng_seed(seed, 0u, (uint)id, 4u);    /* the pixel's key, the same each pass */
     uint nee_key = rng_seed(seed, 0u, (uint)id, 6u);  /* its next-event estimation's */
-    float4 uc;
-    if (camera_sobol) {
-        uc = ld_set(pass_index, prng, 0u);
-    } else {
-        uc.x = bits_unit(rng_next(&prng) + pass_index * 3242174889u);   /* 0.7548776662 * 2^32 */
-        uc.y = bits_unit(rng_next(&prng) + pass_index * 2447445413u);   /* 0.5698402910 * 2^32 */
-        uc.z = rnd(&rng);
-        uc.w = rnd(&rng);
-    }
+    uint path_key = rng_seed(seed, 0u, (uint)id, 7u); /* its path's choices and directions */
+    float4 uc = ld_set(pass_index, prng, 0u);
     /* pixel filter by importance sampling (as Cycles): offsets from the filter's inverse CDF */
     float px = (float)(cam->region[0] + i) + 0.5f + filter_offset(filter_table, uc.x);
     float py = (float)(cam->region[1] + j) + 0.5f + filter_offset(filter_table, uc.y);
@@ -105,7 +92,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
 #endif
     __global const LightPaths *lp = scene->light_paths;
     int term = TERM_NONE; /* past a Light Paths limit: how the path ends (light_path.h) */
-    for (int depth = 0, transparent = 0;;) {
+    for (int depth = 0, transparent = 0, vertex = 0;;) {
         Hit h = bvh_intersect(scene, o, d, tmax, mask, false);
         /* the clamp of what this ray finds: direct after at most one bounce (light_path.h) */
         float clamp_found = clamp_limit(depth - 1, lp);
@@ -170,7 +157,12 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
                                   * direct_nee_u(scene, &sd, s.p, MASK_ALL, true,
                                                  eye_nee_u(pass_index, nee_key, depth, &rng)),
                               clamp_limit(depth, lp));
-        if (rnd(&rng) * sw < sd.sw_gather) {
+        /* the choice of the vertex's side and the continuing sample's numbers: the pixel's
+         * Sobol set for the vertex (pseudo-random past LD_SETS) */
+        float4 uv = vertex < LD_SETS ? ld_set(pass_index, path_key, (uint)vertex)
+                                     : (float4)(rnd(&rng), rnd(&rng), rnd(&rng), rnd(&rng));
+        vertex++;
+        if (uv.w * sw < sd.sw_gather) {
             /* a visible point: the gather's closures, weighted by 1 / their probability */
             float3 bvp = beta * (sw / sd.sw_gather);
             /* direct light: next-event estimation and a sample of the closures (MIS); with
@@ -237,8 +229,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
                                                  eye_nee_u(pass_index, nee_key, depth, &rng)),
                               clamp_limit(depth, lp));
         BsdfSample b;
-        float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
-        if (!shader_sample(&sd, MASK_CONTINUE, rand, &b)) break;
+        if (!shader_sample(&sd, MASK_CONTINUE, uv.xyz, &b)) break;
         float pdf_mis = b.pdf; /* the density the emitter it finds is weighed against */
         if (mixed && !isinf(pdf_mis)) shader_eval(&sd, b.wo, MASK_ALL, &pdf_mis);
         beta *= b.weight;

@@ -61,20 +61,39 @@ __kernel void progressive_update(__global const float4 *vp_pos, __global const f
     tau[id] = (float4)(t, 0.0f);
 }
 
-/* The renderer's update: N and R as above, S += Phi / R^2 (old R) into the accumulator.
- * A radius whose square underflows (or a contribution that overflows) leaves the pixel as it
- * is: nothing non-finite ever enters the sums.  gathered[id] is overwritten with this pass's
- * photon term (Phi / R^2, 0 when none) for film_add_sample. */
+/* The radius schedules (RenderOptions.radius_schedule): */
+#define RADIUS_PIXEL 0u  /* the paper's: each pixel's radius from its own photon statistics */
+#define RADIUS_GLOBAL 1u /* Knaus & Zwicker 2011 (VCM's): a fixed sequence of the pass count */
+
+/* The renderer's update: S += Phi / R^2 (this pass's R) into the accumulator, then the radius
+ * for the next pass.  Either schedule keeps S a plain sum of each pass's estimate at its own
+ * radius (the film divides it by the photons emitted); they differ in how R shrinks:
+ * - RADIUS_PIXEL: N and R as above, from the photons this pixel gathered (its radius stays
+ *   where none arrive).  The statistics follow where the pixel's visible points fell.
+ * - RADIUS_GLOBAL: R_{k+1}^2 = R_k^2 (k + alpha) / (k + 1) after every pass k of an active
+ *   pixel (k from its sample count, moments.w) once its radius is set (the eye pass sets it at
+ *   its first visible point), photons or none, visible point or none: the radius of a pass
+ *   depends on no sample, so each pass's estimate is the radius' blur of the light wherever
+ *   the sampler placed the visible point, and the blur vanishes as k^((alpha - 1) / 2).  N
+ *   counts the photons gathered (adaptive sampling, the "PPM Photons" pass).
+ * A radius whose square underflows (or a contribution that overflows) adds nothing: nothing
+ * non-finite ever enters the sums.  gathered[id] is overwritten with this pass's photon term
+ * (Phi / R^2, 0 when none) for film_add_sample, which counts the pass in moments after this. */
 __kernel void film_update(__global const float4 *vp_pos, __global const float4 *vp_beta,
                           __global float4 *gathered, __global float *radius, __global float *nstat,
-                          __global float4 *photon_sum, float alpha, uint n) {
+                          __global float4 *photon_sum, float alpha, uint schedule,
+                          __global const uint *active, __global const float4 *moments, uint n) {
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 g = gathered[id];
     gathered[id] = (float4)(0.0f);
+    float R = radius[id];
+    if (schedule == RADIUS_GLOBAL && active[id] && R > 0.0f) {
+        float k = (float)acc_get(moments, id).w + 1.0f; /* this pass is the pixel's k-th */
+        radius[id] = R * sqrt((k + alpha) / (k + 1.0f));
+    }
     if (vp_pos[id].w <= 0.0f || !(g.w > 0.0f)) return;
     float3 phi = vp_beta[id].xyz * g.xyz;
-    float N = nstat[id], R = radius[id];
 #ifdef PPM_FP64
     double3 s = convert_double3(phi) / ((double)R * (double)R);
     float3 add = convert_float3(s);
@@ -83,10 +102,15 @@ __kernel void film_update(__global const float4 *vp_pos, __global const float4 *
     float3 add = phi * inv_r * inv_r;
 #endif
     if (!(R > 0.0f && isfinite(add.x) && isfinite(add.y) && isfinite(add.z))) return;
-    float3 t = (float3)(0.0f);
-    ppm_update(alpha, g.w, phi, &N, &R, &t);
-    nstat[id] = N;
-    radius[id] = R;
+    if (schedule == RADIUS_GLOBAL) {
+        nstat[id] += g.w;
+    } else {
+        float N = nstat[id];
+        float3 t = (float3)(0.0f);
+        ppm_update(alpha, g.w, phi, &N, &R, &t);
+        nstat[id] = N;
+        radius[id] = R;
+    }
     acc_add(photon_sum, id, (float4)(add, 0.0f));
     gathered[id] = (float4)(add, 0.0f);
 }

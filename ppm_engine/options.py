@@ -57,6 +57,13 @@ INDIRECT_MODES = ("auto", "photons", "paths")
 # merge's density kappa pi r^2 p_E (camera_connect.h merge_factor); kappa 1 is VCM's.  Chosen by
 # measurement (docs/BENCHMARKS.md, "Light tracing")
 LIGHT_TRACING_KAPPA = 0.1
+# How each pixel's gather radius shrinks over the passes (RenderOptions.radius_schedule,
+# kernels/progressive.cl film_update):
+#   "pixel": the paper's (Hachisuka & Jensen 2009), from the photons the pixel gathered;
+#   "global": Knaus & Zwicker 2011 (VCM's), R_k^2 = R_1^2 prod (j + alpha) / (j + 1), the same
+#             sequence for every pixel, independent of the samples (so any sampler may place the
+#             camera rays).
+RADIUS_SCHEDULES = ("pixel", "global")
 # "auto" chooses "photons" above this fraction of caustic first scatterings (docs/BENCHMARKS.md)
 AUTO_PHOTONS_CAUSTIC_FRACTION = 0.5
 
@@ -99,6 +106,8 @@ class RenderOptions:
     # tracing), combined with the merge by MIS (kernels/photon_pass.cl connect_camera); for a
     # pinhole camera only
     light_tracing: bool = True
+    # RADIUS_SCHEDULES; a setting to measure with (docs/BENCHMARKS.md, "The radius schedule")
+    radius_schedule: str = "pixel"
 
     def validate(self) -> RenderOptions:
         for name, (lo, hi, _default, _desc) in LIMITS.items():
@@ -117,6 +126,9 @@ class RenderOptions:
         if self.indirect not in INDIRECT_MODES:
             raise SettingsError(f"indirect = {self.indirect!r} must be one of "
                                 f"{', '.join(INDIRECT_MODES)}")
+        if self.radius_schedule not in RADIUS_SCHEDULES:
+            raise SettingsError(f"radius_schedule = {self.radius_schedule!r} must be one of "
+                                f"{', '.join(RADIUS_SCHEDULES)}")
         if not (0.0 < self.alpha < 1.0):
             raise SettingsError(f"alpha = {self.alpha!r} must lie strictly between 0 and 1")
         if not (0.0 <= self.caustic_roughness <= 2.0):

@@ -86,9 +86,6 @@ class Renderer:
         store = self.STORE_FACTOR * self.photons_per_pass
         if self.photons_needed and self.photon_map.capacity < store:
             self.photon_map.allocate(store)
-        # the pixel's position from its Sobol set where no photon can be gathered (eye_pass.cl
-        # says why not elsewhere); by the scene, not the skip: the skip changes no image
-        self.camera_sobol = not useful
         self.grid_cover = None if o.skip_unseen_photons else self.scene.bounds()
         self.lt_kappa = self.light_tracing_kappa(o)
         if self.lt_kappa > 0:
@@ -203,8 +200,7 @@ class Renderer:
         # this pass's counters (Counter.NAN counts over the whole render)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
-        events = self.eye.enqueue(q, pass_index, o, self.path_indirect,
-                                  camera_sobol=self.camera_sobol, lt_kappa=self.lt_kappa)
+        events = self.eye.enqueue(q, pass_index, o, self.path_indirect, lt_kappa=self.lt_kappa)
         emitted = 0
         if self.photons_needed:
             # the grid over the visible points: only photons use it
@@ -216,7 +212,8 @@ class Renderer:
             events += self.hash_build.build(q, pass_index, o.seed)
             events += self.gather.enqueue(q, v.pos, v.nrm, v.shade, film.radius, v.gathered, n,
                                           vp_beta=v.beta)
-            events += self.update.update(q, v.pos, v.beta, v.gathered, o.alpha)
+            events += self.update.update(q, v.pos, v.beta, v.gathered, o.alpha,
+                                         o.radius_schedule)
         events += self.update.add_sample(q, v.gathered, emitted,
                                          light_traced=self.lt_kappa > 0)
         converge = self.update.due(pass_index + 1, o.noise_threshold)

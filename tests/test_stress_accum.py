@@ -160,3 +160,54 @@ def test_photon_term_does_not_drift_long(device, fp64):
     old, *_ = _constant_density(device, fp64, SLOW_PASSES, "progressive_update")
     print(f"photon term, {SLOW_PASSES} passes, fp64={fp64}: rel error {rel:.2e} "
           f"(float32 tau update: {np.abs(old).max():.2e})")
+
+
+@pytest.mark.parametrize("fp64", [True, False], ids=["fp64", "kahan"])
+def test_global_radius_schedule_is_its_sequence_whatever_the_samples(device, fp64):
+    """RenderOptions.radius_schedule "global" (Knaus & Zwicker's, kernels/progressive.cl): a
+    pixel's radius after its k-th active pass is R_1 sqrt(prod_{j<=k} (j + alpha) / (j + 1)),
+    whether its visible points found photons, found none or missed the scene; a pixel stops
+    shrinking while it is inactive (adaptive sampling) and goes on from its own count.  The
+    photon term is still each pass's Phi / R_k^2 at that pass's radius, and N the photons
+    gathered: brute force in float64 over random passes."""
+    import pyopencl as cl
+
+    from ppm_engine.film import Film
+    from ppm_engine.passes import ProgressiveUpdate
+    if fp64 and not __import__("ppm_engine.film", fromlist=["has_fp64"]).has_fp64(device):
+        pytest.skip("the device has no cl_khr_fp64")
+    n, q, passes, alpha = 16, device.queue, 300, 0.7
+    rng = np.random.default_rng(3)
+    film = Film(device, 4, 4, fp64=fp64)
+    update = ProgressiveUpdate(device, film)
+    R0 = np.linspace(0.01, 2.0, n).astype(np.float32)
+    cl.enqueue_copy(q, film.radius, R0)
+    vp_beta = _up(device, np.c_[rng.uniform(0.1, 1, (n, 3)), np.zeros(n)].astype(np.float32))
+    beta = np.empty((n, 4), np.float32)
+    cl.enqueue_copy(q, beta, vp_beta)
+    beta = beta[:, :3].astype(np.float64)
+    vp_pos = _up(device, np.zeros((n, 4), np.float32))
+    gathered = _up(device, np.zeros((n, 4), np.float32))
+    R, k = R0.astype(np.float64), np.zeros(n)
+    S, N = np.zeros((n, 3)), np.zeros(n)
+    for _ in range(passes):
+        active = (rng.random(n) < 0.8).astype(np.uint32)
+        hit = (rng.random(n) < 0.7) & (active > 0)          # the eye pass: no point if inactive
+        M = np.where(rng.random(n) < 0.4, 0, rng.integers(1, 300, n)).astype(np.float32)
+        phi = rng.uniform(0, 5, (n, 3)).astype(np.float32) * (M > 0)[:, None]
+        cl.enqueue_copy(q, film.active, active)
+        cl.enqueue_copy(q, vp_pos, np.c_[np.zeros((n, 3)), hit].astype(np.float32))
+        cl.enqueue_copy(q, gathered, np.c_[phi, M].astype(np.float32))
+        update.update(q, vp_pos, vp_beta, gathered, alpha, "global")
+        update.add_sample(q, gathered, photons=1000)
+        on = hit & (M > 0)
+        S[on] += beta[on] * phi[on] / R[on, None] ** 2
+        N[on] += M[on]
+        a = active > 0
+        k[a] += 1
+        R[a] *= np.sqrt((k[a] + alpha) / (k[a] + 1))
+    got_R = film.read("radius").ravel()
+    assert (k > 200).all() and (R < 0.5 * R0).all()     # every pixel shrank, by its own count
+    np.testing.assert_allclose(got_R, R, rtol=2e-5)
+    np.testing.assert_allclose(film.read("nstat").ravel(), N, rtol=1e-6)
+    np.testing.assert_allclose(film.read_sum("photon_sum").reshape(n, 4)[:, :3], S, rtol=1e-5)

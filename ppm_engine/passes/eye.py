@@ -35,10 +35,9 @@ class EyePass:
         self.kernel = program.launch("eye_pass", "eye")
 
     def enqueue(self, q, pass_index: int, options, path_indirect: bool = False,
-                camera_sobol: bool = False, lt_kappa: float = 0.0) -> list:
+                lt_kappa: float = 0.0) -> list:
         """``path_indirect``: indirect light by eye paths (kernels/indirect_paths.h);
-        ``camera_sobol``: the pixel's position from its Sobol set, only where no photons are
-        gathered (eye_pass.cl says why); ``lt_kappa`` > 0: the photons' light tracing is on,
+        ``lt_kappa`` > 0: the photons' light tracing is on,
         and a visible point the camera sees directly weighs its merge against it (eye_pass.cl,
         camera_connect.h merge_factor)."""
         f, v = self.film, self.vps
@@ -50,6 +49,5 @@ class EyePass:
             radius0=f.radius0, vp_pos=v.pos, vp_nrm=v.nrm, vp_beta=v.beta, vp_shade=v.shade,
             counters=self.counters, aux_albedo=f.aux_albedo, aux_normal=f.aux_normal,
             active=f.active, transparency=f.transparency,
-            path_indirect=np.uint32(path_indirect), camera_sobol=np.uint32(camera_sobol),
-            lt_kappa=np.float32(lt_kappa))
+            path_indirect=np.uint32(path_indirect), lt_kappa=np.float32(lt_kappa))
         return [(self.kernel.label, ev)]

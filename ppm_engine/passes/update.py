@@ -25,13 +25,20 @@ class ProgressiveUpdate:
         self.k_error = p.launch("film_error", "adaptive")
         self.k_converge = p.launch("film_converge", "adaptive")
 
-    def update(self, q, vp_pos, vp_beta, gathered, alpha: float) -> list:
-        """N, R and S from this pass's gather; leaves this pass's photon term in ``gathered``
-        for add_sample."""
+    # RenderOptions.radius_schedule -> film_update's schedule (kernels/progressive.cl)
+    SCHEDULES = ("pixel", "global")          # their index is the kernel's
+
+    def update(self, q, vp_pos, vp_beta, gathered, alpha: float,
+               schedule: str = "pixel") -> list:
+        """S from this pass's gather, N and R for the next by ``schedule`` (a
+        RenderOptions.radius_schedule); leaves this pass's photon term in ``gathered`` for
+        add_sample."""
         f = self.film
         return [("update", self.k_update(q, f.n_pixels, vp_pos=vp_pos, vp_beta=vp_beta,
                                          gathered=gathered, radius=f.radius, nstat=f.nstat,
                                          photon_sum=f.photon_sum, alpha=np.float32(alpha),
+                                         schedule=np.uint32(self.SCHEDULES.index(schedule)),
+                                         active=f.active, moments=f.moments,
                                          n=np.uint32(f.n_pixels)))]
 
     def add_sample(self, q, gathered=None, photons: int = 0, light_traced: bool = False
