@@ -33,6 +33,7 @@ from .scene_arrays import (
     SHADER_NODE_DTYPE,
     TERMINATOR_OFFSET,
     TEXTURE_DTYPE,
+    WORLD_MAP_MANUAL,
     SceneArrays,
 )
 from .scene_prep import offset_scale, prepare_scene
@@ -188,7 +189,7 @@ class DeviceScene:
         ws = prepared.world_shader
         if ws[0] <= 0:
             return None
-        w, h = map_size(int(ws[2]), int(ws[3]))
+        w, h = map_size(int(ws[2]), int(ws[3]), bool(ws[1] & WORLD_MAP_MANUAL))
         return build_map(bake(self.device, placeholders(self.device, **args), prepared.svm,
                               int(ws[0]), w, h))
 

@@ -22,8 +22,19 @@ from .shader_program import (
     stack_used,
 )
 
-DEFAULT_WIDTH = 512        # without an Environment Texture (Cycles: 1024)
-MAX_WIDTH = 1024           # the cap of the automatic resolution (an environment image's width)
+DEFAULT_WIDTH = 512        # without an Environment Texture
+# With an Environment Texture the map has ENV_OVERSAMPLING texels per image texel across, at
+# least ENV_MIN_WIDTH and at most ENV_MAX_WIDTH wide.  Its texels are the radiance at their
+# centres, and an image's linear interpolation spreads a texel over the half texel around it:
+# at one map texel per image texel, the half of that spread outside a bright texel (a sun of a
+# few texels in an HDRI) has the density of its dark neighbours, and the sample of a closure
+# that finds it is a firefly (Cycles bakes at least 4096 x 2048 there).  Measured on a 256 x 128
+# HDRI with a 2 x 2-texel sun, direct light on the floor per sample: standard deviation 40 at
+# 1x, 1.66 at 4x, 1.50 at 16x (docs/BENCHMARKS.md, "An HDRI's sun").
+ENV_OVERSAMPLING = 4
+ENV_MIN_WIDTH = 1024
+ENV_MAX_WIDTH = 4096
+MANUAL_MAX_WIDTH = 8192    # Cycles' Map Resolution (Manual) is taken up to this
 
 
 @dataclasses.dataclass
@@ -40,13 +51,18 @@ class WorldMap:
         return 2 * np.pi ** 2 * self.mean
 
 
-def map_size(width: int, height: int) -> tuple[int, int]:
-    """(w, h) of the map from the environment images' largest size (0: none), capped."""
+def map_size(width: int, height: int, manual: bool = False) -> tuple[int, int]:
+    """(w, h) of the map: with ``manual`` (WORLD_MAP_MANUAL) the given size, else from the
+    environment images' largest size (0: none), ENV_OVERSAMPLING times it within the bounds
+    (the image's aspect kept)."""
+    if manual:
+        w = int(np.clip(width, 4, MANUAL_MAX_WIDTH))
+        return w, int(np.clip(height, 2, MANUAL_MAX_WIDTH))
     if width <= 0 or height <= 0:
         return DEFAULT_WIDTH, DEFAULT_WIDTH // 2
-    w = min(int(width), MAX_WIDTH)
-    h = max(1, min(int(height), round(height * w / width), MAX_WIDTH))
-    return max(w, 1), h
+    w = int(np.clip(ENV_OVERSAMPLING * int(width), ENV_MIN_WIDTH, ENV_MAX_WIDTH))
+    h = int(np.clip(round(int(height) * w / int(width)), 1, ENV_MAX_WIDTH))
+    return w, h
 
 
 def build_map(rgb: np.ndarray) -> WorldMap:

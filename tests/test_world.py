@@ -162,12 +162,15 @@ def test_map_sampling_follows_the_map_and_its_density_integrates_to_one():
 
 
 def test_baked_map_is_the_image_at_its_texel_centres(bpy):
-    """Without Mapping the map (the image's resolution) evaluates the world at the image's
-    texel centres: its values are the image's mean x sin(theta), row 0 at the nadir; and the
-    world's power in the emitter table is pi R^2 2 pi^2 mean(f)."""
+    """Without Mapping, a map of the image's resolution (World > Settings > Sampling: Manual,
+    Map Resolution 64) evaluates the world at the image's texel centres: its values are the
+    image's mean x sin(theta), row 0 at the nadir; and the world's power in the emitter table
+    is pi R^2 2 pi^2 mean(f).  Automatic: the image's size is what the export reports, and
+    the map is 16 x 16 texels per image texel (world_map.map_size)."""
     from ppm_engine.device import get_device
     from ppm_engine.device_scene import DeviceScene
     from ppm_engine.export import export_scene
+    from ppm_engine.world_map import map_size
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     _camera(scene, (0.0, -3.0, 0.0), (1.5, 0.0, 0.0), 50)
@@ -175,7 +178,13 @@ def test_baked_map_is_the_image_at_its_texel_centres(bpy):
     bpy.ops.mesh.primitive_plane_add(size=1)
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
     assert arrays.world_shader[0] > 0 and tuple(arrays.world_shader[2:]) == (64, 32)
+    assert map_size(64, 32) == (1024, 512)
+    scene.world.cycles.sampling_method = "MANUAL"
+    scene.world.cycles.sample_map_resolution = 64
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+    assert tuple(arrays.world_shader[2:]) == (64, 32)
     ds = DeviceScene(get_device(), arrays)
+    assert (ds.world_map.width, ds.world_map.height) == (64, 32)
     img = np.array(bpy.data.images["sky"].pixels[:], np.float32).reshape(32, 64, 4)[..., :3]
     sin = np.sin(np.pi * (np.arange(32) + 0.5) / 32)[:, None]
     np.testing.assert_allclose(ds.world_map.f, img.mean(-1) * sin, rtol=2e-3, atol=1e-5)
@@ -183,6 +192,78 @@ def test_baked_map_is_the_image_at_its_texel_centres(bpy):
     R = float(em.info["scene_radius"][0])
     np.testing.assert_allclose(em.power[-1], np.pi * R * R * 2 * np.pi ** 2 * ds.world_map.mean,
                                rtol=1e-6)
+
+
+def test_map_size_follows_cycles_automatic_and_manual_settings():
+    """The importance map's size: an Environment Texture's image oversampled ENV_OVERSAMPLING
+    times within [ENV_MIN_WIDTH, ENV_MAX_WIDTH] (its aspect kept), a world without one at
+    DEFAULT_WIDTH, and Manual's Map Resolution as given (res x res / 2)."""
+    from ppm_engine.world_map import map_size
+    assert map_size(0, 0) == (512, 256)
+    assert map_size(64, 32) == (1024, 512)
+    assert map_size(512, 256) == (2048, 1024)
+    assert map_size(2048, 1024) == (4096, 2048)
+    assert map_size(8192, 4096) == (4096, 2048)
+    assert map_size(1000, 1000) == (4000, 4000)
+    assert map_size(256, 128, manual=True) == (256, 128)
+
+
+def _sun_sample_spread(bpy, manual_resolution: int = 0):
+    """A floor lit by an HDRI whose sun is 2 x 2 texels of a 64 x 32 image (linear
+    interpolation), direct light only, 96 passes at 16 x 16: the largest single pass's sample
+    over the floor's pixels and their mean (every pass's sample recovered from the running
+    mean)."""
+    from ppm_engine.blender_io import unbiased_light_paths
+    from ppm_engine.export import export_scene
+    from ppm_engine.options import RenderOptions
+    from ppm_engine.renderer import Renderer
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=20)
+    bpy.context.active_object.data.materials.append(_diffuse("Floor", (0.5, 0.5, 0.5)))
+    _camera(scene, (0.0, -1.0, 2.0), (0.5, 0.0, 0.0), 50)
+    world = scene.world = bpy.data.worlds.new("Sun")
+    t = world.node_tree
+    env = t.nodes.new("ShaderNodeTexEnvironment")
+    w, h = 64, 32
+    px = np.full((h, w, 4), 0.2, np.float32)
+    px[24:26, 10:12, :3] = 4000.0                     # 56 degrees up
+    px[..., 3] = 1.0
+    img = bpy.data.images.new("sun", w, h, float_buffer=True)
+    img.pixels.foreach_set(px.ravel())
+    img.pack()
+    env.image = img
+    t.links.new(env.outputs["Color"], t.nodes["Background"].inputs["Color"])
+    if manual_resolution:
+        world.cycles.sampling_method = "MANUAL"
+        world.cycles.sample_map_resolution = manual_resolution
+    scene.render.resolution_x = scene.render.resolution_y = 16
+    unbiased_light_paths(scene, 0)
+    r = Renderer(export_scene(bpy.context.evaluated_depsgraph_get()),
+                 RenderOptions(max_bounces=0, seed=2))
+    try:
+        total, samples = np.zeros((16, 16)), []
+        for k in range(1, 97):
+            r.iterate()
+            now = r.image()[..., :3].mean(-1).astype(np.float64) * k
+            samples.append(now - total)
+            total = now
+    finally:
+        r.close()
+    samples = np.asarray(samples)
+    return samples.max(), samples.mean()
+
+
+def test_an_hdri_sun_lights_a_floor_without_fireflies(bpy):
+    """The map's texels are the radiance at their centres; linear interpolation spreads the
+    sun's texels over half a texel around them.  At one map texel per image texel (Manual 64)
+    that spread has the dark sky's density, and the diffuse sample that finds it is a
+    firefly hundreds of times the mean; the automatic map (16 texels per image texel here)
+    follows the spread, and no pass's sample exceeds a few times the mean."""
+    peak, mean = _sun_sample_spread(bpy)
+    assert mean > 1.0 and peak < 4.0 * mean, (peak, mean)
+    peak_1x, mean_1x = _sun_sample_spread(bpy, manual_resolution=64)
+    assert abs(mean_1x / mean - 1.0) < 0.1 and peak_1x > 50.0 * mean_1x, (peak_1x, mean_1x)
 
 
 def test_constant_world_renders_as_before():

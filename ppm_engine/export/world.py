@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene_arrays import WORLD_HIDDEN_CAMERA
+from ..scene_arrays import WORLD_HIDDEN_CAMERA, WORLD_MAP_MANUAL
 from .shader_graph import Compiler, Graph
 
 _SHADERS = ("ShaderNodeBackground", "ShaderNodeEmission")   # identical for a world in Cycles
@@ -69,7 +69,12 @@ def export_world(world, warn, textures=None, base: int = 0):
              "holds; its unlinked colour and strength are used")
         return const, None, shader
     shader[0] = base
-    if c.env_sizes:
+    cw = getattr(world, "cycles", None)
+    if cw is not None and getattr(cw, "sampling_method", "AUTOMATIC") == "MANUAL":
+        res = int(getattr(cw, "sample_map_resolution", 1024))
+        shader[1] |= WORLD_MAP_MANUAL
+        shader[2], shader[3] = res, max(res // 2, 1)
+    elif c.env_sizes:
         shader[2] = max(s[0] for s in c.env_sizes)
         shader[3] = max(s[1] for s in c.env_sizes)
     return const, words, shader
