@@ -216,33 +216,11 @@ inline bool sample_emitter(const Scene *scene, float3 p, float3 n, float3 ngf, f
  * sample (power heuristic; mis false: alone, when no sample of the closures looks for
  * emitters), from the uniform numbers u (the emitter's pick, a point on it).  Returns the
  * radiance reflected towards sd->wi. */
-inline float3 nee_sample(const Scene *scene, const ShaderData *sd, float3 p, int mask, bool mis,
-                         LightSample s, float pmf);
-
 inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, int mask, bool mis,
                            float3 u) {
     LightSample s;
     float pmf;
     if (!sample_emitter(scene, p, sd->N, sd->Ng, u, &s, &pmf)) return (float3)(0.0f);
-    return nee_sample(scene, sd, p, mask, mis, s, pmf);
-}
-
-/* Next-event estimation of the world alone (its pick left out: density world_pdf), weighted
- * against the closures' sample (indirect_paths.h: the world's light through closures whose
- * other emitters' light is the caustic photons'), from the uniform numbers u. */
-inline float3 world_nee_u(const Scene *scene, const ShaderData *sd, float3 p, int mask, float2 u) {
-    LightSample s;
-    s.dist = PPM_INF;
-    s.pdf_dir = 0.0f;
-    if (!(PPM_WORLD && scene->emitter_info->has_world)) return (float3)(0.0f);
-    if (!world_direct(scene, sd->N, u.x, u.y, &s)) return (float3)(0.0f);
-    return nee_sample(scene, sd, p, mask, true, s, 1.0f);
-}
-
-/* The light sample s (picked with probability pmf) reflected towards sd->wi by the closures in
- * mask, through its shadow ray; mis: weighted against their sample (power heuristic). */
-inline float3 nee_sample(const Scene *scene, const ShaderData *sd, float3 p, int mask, bool mis,
-                         LightSample s, float pmf) {
     float pdf_b;
     float3 f = shader_eval(sd, s.wi, mask, &pdf_b);
     if (!(max3(f) > 0.0f)) return (float3)(0.0f);

@@ -22,13 +22,7 @@
  * reached through another followed closure, or whose shadow ray meets glass, is the caustic
  * photons' (a photon whose first scattering chose the gather's or glossy closures is ended
  * there: next-event estimation and these paths have it).  Transparent surfaces are no
- * scattering for either.  The world's light is these paths' alone, through every closure
- * (no world photons with eye paths, photon_emission.h): after the other followed closures,
- * next-event estimation of the world alone and the world their sample finds, by MIS, as
- * Cycles renders an HDRI through glass and glossy metal.  Photons from an environment come
- * from a disc the size of the scene, so few of them reach the few objects whose first
- * scattering is caustic: on an HDRI with a sun, their merge speckled the floor
- * (docs/BENCHMARKS.md, "The world's light by eye paths").
+ * scattering for either.
  *
  * Russian roulette as Cycles plays it (survival sqrt of the path's throughput relative to the
  * visible point's), decided by one number for the whole path; bounces counted from the camera
@@ -88,9 +82,6 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             float3 u = (float3)(ua.z, ua.x, ua.y);
             L += clamp_sample(beta * direct_nee_u(scene, sd, p, set, EMITTERS_HITTABLE, u),
                               clamp_limit(depth, lp));
-        } else if (PPM_WORLD && set == MASK_SPECULAR) {
-            /* the world's light is these paths' through every closure (no world photons) */
-            L += clamp_sample(beta * world_nee_u(scene, sd, p, set, ua.xy), clamp_limit(depth, lp));
         }
         float4 ub = indirect_set(vertex, 1u, pass, key, rng);
         if (vertex == 0) u_rr = ub.w;
@@ -159,12 +150,8 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
 #endif
         }
         if (h.leaf < 0) {
-            if (PPM_WORLD && scene->emitter_info->has_world) {
-                /* after the other followed closures, against the world's own next-event
-                 * estimation there (world_nee_u) */
-                pdf_l = isinf(prev_pdf) ? 0.0f
-                        : counts        ? world_light_pdf(scene, d, prev_n)
-                                        : world_pdf(scene, d, prev_n);
+            if (counts && PPM_WORLD && scene->emitter_info->has_world) {
+                pdf_l = !isinf(prev_pdf) ? world_light_pdf(scene, d, prev_n) : 0.0f;
                 L += clamp_sample(beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l),
                                   clamp_limit(depth - 1, lp));
             }

@@ -12,26 +12,16 @@
  * emitter's colour times a number), 0 from a point, spot or sun of no size, which no camera
  * path can hit; *nee the density next-event estimation would give the photon's origin from
  * where it lands, t away: nee.x t^2 + nee.y (per steradian, the emitter's pick included).  The
- * emitter types a program has are the feature flags of shared.h (0/1).  world false: the
- * world emits none (with eye paths they carry all of its light, indirect_paths.h), the other
- * emitters are picked in proportion to their power among themselves. */
+ * emitter types a program has are the feature flags of shared.h (0/1). */
 inline bool emit_photon(const Scene *scene, uint *rng, float3 *o, float3 *d, float3 *flux,
-                        float *rs, float2 *nee, bool world) {
+                        float *rs, float2 *nee) {
     *rs = 0.0f;
     *nee = (float2)(0.0f);
     bool clamped = scene->light_paths->clamp_indirect > 0.0f;
     EmitterInfo info = *scene->emitter_info;
-    int n = info.n_emitters;
-    float share = 1.0f; /* the picked emitters' share of the power (the CDF's last value) */
-    if (!world && PPM_WORLD && info.has_world) {
-        n--; /* the world is the last emitter */
-        share = n > 0 ? scene->emitter_cdf[n - 1] : 0.0f;
-    }
-    float u = rnd(rng);
-    if (n <= 0 || !(share > 0.0f)) return false;
+    if (info.n_emitters == 0) return false;
     float pmf;
-    int e = pick_emitter(scene->emitter_cdf, n, u * share, &pmf);
-    pmf /= share;
+    int e = pick_emitter(scene->emitter_cdf, info.n_emitters, rnd(rng), &pmf);
     if (!(pmf > 0.0f)) return false;
     float u1 = rnd(rng), u2 = rnd(rng), u3 = rnd(rng), u4 = rnd(rng);
     float3 c = F3(info.scene_center);

@@ -4,10 +4,9 @@
  * translucent and rough lobes), after the first scattering (direct light is next-event
  * estimation's).  Photons outside this pass's grid (visible points' bounds) cannot be gathered
  * and are only counted.  With caustics_only (eye paths bring the rest of the indirect light,
- * indirect_paths.h) a photon lives on only if its first scattering is by a followed closure,
- * and the world emits none (the eye paths carry all of its light); with capacity 0 (a pilot)
- * photons are only classified at their first scattering and counted (CNT_CAUSTIC,
- * CNT_DIFFUSE_FIRST). */
+ * indirect_paths.h) a photon lives on only if its first scattering is by a followed closure;
+ * with capacity 0 (a pilot) photons are only classified at their first scattering and counted
+ * (CNT_CAUSTIC, CNT_DIFFUSE_FIRST). */
 #include "rng.h"
 #include "photon_emission.h"
 #include "camera.h"
@@ -99,8 +98,7 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
     float3 o, d, flux;
     float rs; /* the radiance its light path carries over its flux (the clamp, gather.cl) */
     float2 nee;
-    if (!emit_photon(scene, &rng, &o, &d, &flux, &rs, &nee, !caustics_only || capacity == 0u))
-        return;
+    if (!emit_photon(scene, &rng, &o, &d, &flux, &rs, &nee)) return;
     uint mask = VIS_SHADOW; /* the light's own segment: objects that cast no shadow let it by */
 #if PPM_ABSORPTION
     Media media;

@@ -234,13 +234,6 @@ class DeviceScene:
         diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_GATHER).any())
         return bool(self.emitters.info["n_emitters"][0] > 0 and bounce and diffuse)
 
-    def emitters_besides_world(self) -> bool:
-        """Whether something other than the world emits: with eye paths for the indirect light
-        the world emits no photons (kernels/indirect_paths.h), so a scene lit by its world
-        alone needs no photon pass."""
-        info = self.emitters.info
-        return bool(info["n_emitters"][0] - info["has_world"][0] > 0)
-
     def caustics_possible(self, gather_roughness: float, caustic_roughness: float = 0.7) -> bool:
         """Whether some surface has a closure that makes caustics (materials.follow_capable):
         the only place a caustic photon (photon_pass.cl, caustics_only) can start."""

@@ -81,9 +81,7 @@ class Renderer:
         useful = self.scene.photons_useful()
         caustics = self.scene.caustics_possible(o.gather_roughness, o.caustic_roughness)
         self.path_indirect, self.caustic_fraction = self._choose_indirect(o, useful, caustics)
-        # with eye paths: caustic photons, from emitters other than the world
-        useful = useful and (not self.path_indirect
-                             or (caustics and self.scene.emitters_besides_world()))
+        useful = useful and (caustics or not self.path_indirect)
         self.photons_needed = useful or not o.skip_unneeded_photon_pass
         store = self.STORE_FACTOR * self.photons_per_pass
         if self.photons_needed and self.photon_map.capacity < store:

@@ -146,60 +146,6 @@ def test_glossy_light_is_counted_once_by_either_estimator():
             r.close()
 
 
-def balls_under_the_sky(W=16, lamp=True):
-    """A floor (2.4 m square) with a clear glass ball and a rough metal ball (0.2: a followed
-    lobe, caustics) under a constant world, and with ``lamp`` a small square lamp above: the
-    world's light through the balls onto the floor is the eye paths' alone, the lamp's the
-    caustic photons' (kernels/indirect_paths.h)."""
-    mb = MeshBuilder()
-    floor = mb.material("floor", (0.7, 0.7, 0.7))
-    glass = mb.material("glass", (1, 1, 1), transmission=1.0, roughness=0.0, ior=1.5)
-    metal = mb.material("metal", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.2)
-    mb.quad((0, 0, 0), (1.2, 0, 0), (0, 1.2, 0), floor)
-    mb.sphere((-0.4, 0.2, 0.3), 0.3, glass, 32, 16)
-    mb.sphere((0.4, 0.0, 0.25), 0.25, metal, 32, 16)
-    if lamp:
-        mb.quad((0.2, -0.3, 2.5), (0, 0.15, 0), (0.15, 0, 0),
-                mb.material("lamp", (0, 0, 0), emission=(400.0,) * 3))
-    ext = perspective_extent(W, W, 35.0, 36.0)
-    cam = make_camera(type=CAMERA_PERSP, width=W, height=W,
-                      to_world=look_at((0, -1.2, 1.8), (0, 0, 0)), extent=ext[:2],
-                      clip=(0.1, 100))
-    return mb.build(camera=cam, world=(0.6, 0.7, 0.9))
-
-
-def test_the_worlds_light_is_the_eye_paths_through_every_closure():
-    """With eye paths, the world emits no photons: its light through glass and glossy metal is
-    the paths' (next-event estimation of the world alone and the world their samples find, by
-    MIS), while the lamp's caustics stay the photons'.  Against light tracing, where the world
-    and the lamp both emit photons: a path counted twice (world photons kept) or never (the
-    paths not counting the world through the balls) shows in the mean and per quarter."""
-    scene = balls_under_the_sky()
-    ref, cover = light_traced(scene)
-    assert cover.mean() > 0.4          # the floor around the balls (the sky beyond: none)
-    # (with world photons kept: +1.6 % in the mean, +2.7 % in a quarter)
-    paths = renders(scene, 100, range(4), indirect="paths", max_bounces=32).mean(axis=0)
-    assert_matches_light_tracing(paths, ref, cover, 0.01, what="world and lamp")
-    r = Renderer(scene, RenderOptions(indirect="paths"))
-    try:
-        assert r.photons_needed        # the lamp's caustics
-    finally:
-        r.close()
-    # lit by the world alone: no photon pass at all, and still light tracing's image
-    sky = balls_under_the_sky(lamp=False)
-    ref, cover = light_traced(sky)
-    r = Renderer(sky, RenderOptions())
-    try:
-        assert r.path_indirect and not r.photons_needed
-        assert "photon" not in r.iterate().phase_ms
-    finally:
-        r.close()
-    # the photon pass run all the same: a world photon would show
-    paths = renders(sky, 100, range(4), indirect="paths", max_bounces=32,
-                    skip_unneeded_photon_pass=False).mean(axis=0)
-    assert_matches_light_tracing(paths, ref, cover, 0.01, what="world alone")
-
-
 def test_paths_and_photons_agree_beside_a_mirror():
     """A point light beside a mirror over a floor, several bounces: the mirror's caustic is the
     photons' in both modes, the floor's inter-reflection (floor, mirror, floor) the paths'
