@@ -19,6 +19,8 @@ CAUSTIC_MASKS = {
     "furnace": {"kind": "all", "occluders": [], "note": "every pixel (no caustic)"},
     # the city at night: no caustic; every pixel counts
     "many_lights": {"kind": "all", "occluders": [], "note": "every pixel (no caustic)"},
+    # the HDRI's sun: every pixel (the glass ball's caustic is among them)
+    "hdri_sun": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the floor beside and under the glass ball, where its caustic falls
     "bulb_box": {"kind": "disk", "center": (BALL_CENTER[0] + 0.07, BALL_CENTER[1] + 0.05, 0.0),
                  "radius": 0.45, "occluders": [(BALL_CENTER, 0.3), (BULB_CENTER, 0.15)],

@@ -10,7 +10,7 @@ is.  The geometry matches ``ppm_engine.procedural.cornell_box`` (the arrays vers
 core tests and the benchmark)."""
 from __future__ import annotations
 
-from . import bulb_box, caustics, cornell_box, furnace, many_lights
+from . import bulb_box, caustics, cornell_box, furnace, many_lights, outdoor
 
 EXAMPLES = {
     "cornell_box": cornell_box.build,
@@ -21,6 +21,7 @@ EXAMPLES = {
     "mirror_caustic": caustics.mirror_caustic,
     "furnace": furnace.build,                    # the benchmark's closed-form scene
     "many_lights": many_lights.build,            # the benchmark's many-light scene
+    "hdri_sun": outdoor.build,                   # an HDRI with its sun in the image
 }
 
 
