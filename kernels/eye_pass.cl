@@ -159,9 +159,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
                               clamp_limit(depth, lp));
         /* the choice of the vertex's side and the continuing sample's numbers: the pixel's
          * Sobol set for the vertex (pseudo-random past LD_SETS) */
-        float4 uv = vertex < LD_SETS ? ld_set(pass_index, path_key, (uint)vertex)
-                                     : (float4)(rnd(&rng), rnd(&rng), rnd(&rng), rnd(&rng));
-        vertex++;
+        float4 uv = ld_set_or_rnd(pass_index, path_key, (uint)vertex++, &rng);
         if (uv.w * sw < sd.sw_gather) {
             /* a visible point: the gather's closures, weighted by 1 / their probability */
             float3 bvp = beta * (sw / sd.sw_gather);

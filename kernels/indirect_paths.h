@@ -44,8 +44,7 @@
  * the pair, the closure's pick, and at the first vertex the path's one Russian-roulette
  * number); vertices past LD_SETS / 2 from the generator */
 inline float4 indirect_set(int vertex, uint which, uint pass, uint key, uint *rng) {
-    if (vertex < LD_SETS / 2) return ld_set(pass, key, 2u * (uint)vertex + which);
-    return (float4)(rnd(rng), rnd(rng), rnd(rng), rnd(rng));
+    return ld_set_or_rnd(pass, key, 2u * (uint)vertex + which, rng);
 }
 
 /* Light reaching the visible point p (material mat, closures sd, weight beta towards the pixel,

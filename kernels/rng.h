@@ -103,4 +103,10 @@ inline float4 ld_set(uint pass, uint key, uint set) {
                     bits_unit(owen_scramble_reversed(x2, seed ^ 0x9a5f62b1u)),
                     bits_unit(owen_scramble_reversed(x3, seed ^ 0x0ce7d8f3u)));
 }
+/* set `set` of the pixel's stream (key) for pass `pass` while set < LD_SETS (ld_set), four
+ * pseudo-random numbers from the generator past them */
+inline float4 ld_set_or_rnd(uint pass, uint key, uint set, uint *rng) {
+    if (set < LD_SETS) return ld_set(pass, key, set);
+    return (float4)(rnd(rng), rnd(rng), rnd(rng), rnd(rng));
+}
 #endif

@@ -23,8 +23,8 @@ def run_phases(scene_name: str, resolution: int = 256, passes: int = 8, warmup: 
     scene.render.resolution_percentage = 100
     depsgraph = bpy.context.evaluated_depsgraph_get()
     arrays = export_scene(depsgraph)
-    opts = RenderOptions(device=device, light_tracing=light_tracing) if not photons else \
-        RenderOptions(device=device, photons_per_pass=photons, light_tracing=light_tracing)
+    opts = RenderOptions(device=device, photons_per_pass=photons or None,
+                         light_tracing=light_tracing)
     from ..device import get_device
     dev = get_device(device)
     before = dev.allocated
