@@ -42,17 +42,13 @@ def reference(name: str, folder: Path, ref_seconds: float):
         scene = b._scene(name)
         if not path.exists():
             keep = ~curves.excluded_pixels(scene, name, 128, 128)
-            engine = curves.REFERENCE_ENGINE[name]
-            if engine == "CYCLES":
-                halves = [b.shot(scene, "CYCLES", ref_seconds, s)[0] for s in curves.REF_SEEDS]
-            else:
-                render = {"LIGHT_TRACE": b.light_traced, "EXACT": b.exact,
-                          "LUXCORE_LIGHT": b.luxcore_light}[engine]
-                halves = []
-                for seed in curves.REF_SEEDS:
-                    img, _wall, _info, cover = render(ref_seconds, seed)
+            halves = []
+            for seed in curves.REF_SEEDS:
+                img, cover = b.reference_half(scene, curves.REFERENCE_ENGINE[name],
+                                              ref_seconds, seed)
+                if cover is not None:
                     keep &= cover
-                    halves.append(img)
+                halves.append(img)
             np.savez(path, ref=0.5 * (halves[0] + halves[1]), keep=keep)
             scene = b._scene(name)
     d = np.load(path)

@@ -314,6 +314,18 @@ class Bench:
         img, cover, info = exact_caustic.render(bpy.context.scene, seed=seed, seconds=seconds)
         return img, time.perf_counter() - t, {"photons": info["photons"]}, cover
 
+    def reference_half(self, scene, engine: str, seconds: float, seed: int):
+        """One half of the current scene's reference by ``engine`` (REFERENCE_ENGINE's): (RGB
+        image top-down, the pixels it covers top-down, or None where it renders them all)."""
+        if engine == "ANALYTIC":                # the furnace's closed form: no noise
+            return np.full((self.res, self.res, 3), furnace.radiance(), np.float32), None
+        if engine in ("LIGHT_TRACE", "EXACT", "LUXCORE_LIGHT"):
+            render = {"LIGHT_TRACE": self.light_traced, "EXACT": self.exact,
+                      "LUXCORE_LIGHT": self.luxcore_light}[engine]
+            img, _wall, _info, cover = render(seconds, seed)
+            return img, cover
+        return self.shot(scene, engine, seconds, seed)[0], None
+
     def run_scene(self, name: str, times, ref_seconds: float, equal_time: float | None = None
                   ) -> dict:
         scene = self._scene(name)
@@ -338,16 +350,10 @@ class Bench:
         for seed in REF_SEEDS:
             self.progress(f"[{name}] reference half (seed {seed}): {ref_engine}, "
                           f"{ref_half:g} s")
-            if ref_engine == "ANALYTIC":       # the furnace's closed form: no noise
-                img = np.full((h, w, 3), furnace.radiance(), np.float32)
-            elif ref_engine in ("LIGHT_TRACE", "EXACT", "LUXCORE_LIGHT"):
-                render = {"LIGHT_TRACE": self.light_traced, "EXACT": self.exact,
-                          "LUXCORE_LIGHT": self.luxcore_light}[ref_engine]
-                img, wall, info, cover = render(ref_half, seed)
+            img, cover = self.reference_half(scene, ref_engine, ref_half, seed)
+            if cover is not None:
                 keep &= cover
                 cmask &= cover
-            else:
-                img, wall, info = self.shot(scene, ref_engine, ref_half, seed)
             halves.append(img)
         out["excluded_pixels"] = int((~keep).sum())
         out["caustic_mask_pixels"] = int(cmask.sum())
