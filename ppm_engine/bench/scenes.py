@@ -19,6 +19,9 @@ CAUSTIC_MASKS = {
     "furnace": {"kind": "all", "occluders": [], "note": "every pixel (no caustic)"},
     # the city at night: no caustic; every pixel counts
     "many_lights": {"kind": "all", "occluders": [], "note": "every pixel (no caustic)"},
+    # the pool: every pixel is the caustic, seen through the water
+    "pool_caustic": {"kind": "all", "occluders": [], "note": "every pixel (the floor's caustic, "
+                                                            "seen through the water)"},
     # the HDRI's sun: every pixel (the glass ball's caustic is among them)
     "hdri_sun": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the floor beside and under the glass ball, where its caustic falls
@@ -53,6 +56,7 @@ MNEE_OBJECTS = {
     "point_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
     "rough_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
     "mirror_caustic": (["Mirror"], ["Floor", "Back"], ["Point"]),
+    "pool_caustic": (["Water"], ["Floor"], ["Sun"]),
 }
 
 

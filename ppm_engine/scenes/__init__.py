@@ -10,7 +10,7 @@ is.  The geometry matches ``ppm_engine.procedural.cornell_box`` (the arrays vers
 core tests and the benchmark)."""
 from __future__ import annotations
 
-from . import bulb_box, caustics, cornell_box, furnace, many_lights, outdoor
+from . import bulb_box, caustics, cornell_box, furnace, many_lights, outdoor, pool
 
 EXAMPLES = {
     "cornell_box": cornell_box.build,
@@ -19,6 +19,7 @@ EXAMPLES = {
     "point_caustic": caustics.point_caustic,     # the hard one: a radius-0 point light
     "rough_caustic": caustics.rough_caustic,     # the same through rough glass
     "mirror_caustic": caustics.mirror_caustic,
+    "pool_caustic": pool.build,                  # the sun's caustic seen through water
     "furnace": furnace.build,                    # the benchmark's closed-form scene
     "many_lights": many_lights.build,            # the benchmark's many-light scene
     "hdri_sun": outdoor.build,                   # an HDRI with its sun in the image
