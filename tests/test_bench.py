@@ -122,7 +122,8 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
     assert "light_trace_check" not in res["scenes"]["glass_caustic"]
     # the pool: no light tracing renders a floor seen through water
     assert "light_trace_check" not in res["scenes"]["pool_caustic"]
-    assert res["scenes"]["pool_caustic"]["reference"]["seconds_per_half"] == 4.0
+    # (the quick run gives every reference the same second; REF_TIME_FACTOR is the full run's)
+    assert res["scenes"]["pool_caustic"]["reference"]["seconds_per_half"] == 1.0
     assert all(math.isfinite(x) for x in _finite_numbers(res))
     assert set(res["ratios"]["bulb_box"]) >= {"image_rmse", "target", "met"}
     eq = res["ratios_at"]

@@ -234,7 +234,7 @@ def run(args, cmdline: str, progress=print) -> int:
                          f"{', '.join(curves.SCENES)}")
     result = curves.run_bench(times, res, scenes, args.ref_seconds or q.get("ref_seconds"),
                               args.device, args.photons or q.get("photons"), progress,
-                              warm_up=not args.quick)
+                              warm_up=not args.quick, quick=args.quick)
     result["command"] = cmdline
     return _write_curves(result, cmdline, args, out, md_path, progress)
 

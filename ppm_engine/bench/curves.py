@@ -231,9 +231,10 @@ def light_tree_stats(scene, device: str) -> dict | None:
 
 class Bench:
     def __init__(self, resolution: int, device: str, photons: int | None, folder: Path,
-                 progress=print, warm_up: bool = True):
+                 progress=print, warm_up: bool = True, quick: bool = False):
         self.res = resolution
         self.warm_up = warm_up
+        self.quick = quick             # --quick: the references' budgets not scaled up
         self.device = device
         self.photons = photons
         self.folder = folder
@@ -363,7 +364,7 @@ class Bench:
                 ref_engine = "LIGHT_TRACE"
                 self.progress(f"[{name}] reference: LuxCore's light tracer unavailable "
                               f"({fallback}), this engine's light tracer instead")
-        ref_half = ref_seconds * REF_TIME_FACTOR.get(ref_engine, 1.0)
+        ref_half = ref_seconds * (1.0 if self.quick else REF_TIME_FACTOR.get(ref_engine, 1.0))
         halves = []
         for seed in REF_SEEDS:
             self.progress(f"[{name}] reference half (seed {seed}): {ref_engine}, "
@@ -552,9 +553,10 @@ def ratios(result: dict, seconds: float) -> dict:
 
 def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
               ref_seconds: float | None = None, device: str = "", photons: int | None = None,
-              progress=print, warm_up: bool = True) -> dict:
+              progress=print, warm_up: bool = True, quick: bool = False) -> dict:
     """The error-against-time run; ``warm_up``: each scene's settings rendered once, untimed,
-    before its curves (off for --quick, whose budgets time nothing)."""
+    before its curves (off for --quick, whose budgets time nothing); ``quick``: every
+    reference half gets ``ref_seconds`` (no REF_TIME_FACTOR)."""
     import bpy  # noqa: F401 -- fail early without Blender
     ensure_registered()
     times = tuple(float(t) for t in times)
@@ -566,7 +568,7 @@ def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
               "started": time.strftime("%Y-%m-%d %H:%M:%S"), "scenes": {}}
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="ppm-bench-") as tmp:
-        b = Bench(resolution, device, photons, Path(tmp), progress, warm_up)
+        b = Bench(resolution, device, photons, Path(tmp), progress, warm_up, quick)
         eq = EQUAL_TIME if EQUAL_TIME in times else times[-1]
         for name in scenes:
             result["scenes"][name] = b.run_scene(name, times, ref_seconds, eq)
