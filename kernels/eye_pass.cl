@@ -201,6 +201,9 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
              * paths, and the merge takes its side of the balance heuristic (photon_pass.cl
              * connect_camera) */
             if (lt_kappa > 0.0f && depth == 0) {
+                /* the first pass counts them: with none, the render stops connecting photons
+                 * to the camera (Renderer.iterate) */
+                if (pass_index == 0u) atomic_inc(&counters[CNT_SEEN]);
                 float m = merge_factor(cam, s.p, sd.Ng, lt_kappa) * radius[id] * radius[id];
                 if (m > 0.0f) {
                     float4 b = vp_beta[id];

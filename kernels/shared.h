@@ -186,7 +186,8 @@
 #define CNT_SINK 6
 #define CNT_CAUSTIC 7
 #define CNT_DIFFUSE_FIRST 8
-#define N_COUNTERS 9
+#define CNT_SEEN 9
+#define N_COUNTERS 10
 
 /* emissive triangles picked among locally at most (ppm_engine/emitters.py LOCAL_PICK_MAX) */
 #define LOCAL_PICK_MAX 8

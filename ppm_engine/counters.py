@@ -15,6 +15,8 @@ class Counter(enum.IntEnum):
     SINK = 6        # the hash build's prefetch sink (never read)
     CAUSTIC = 7     # a pilot's photons whose first scattering was a followed closure (caustics)
     DIFFUSE_FIRST = 8   # a pilot's photons whose first scattering was by the gather's closures
+    SEEN = 9        # the first pass's visible points the camera sees directly, where the
+                    # photons' light tracing can render (counted only with it on)
 
 
 N_COUNTERS = len(Counter)

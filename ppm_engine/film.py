@@ -84,6 +84,13 @@ class Film:
             cl.enqueue_fill_buffer(self.device.queue, b, np.uint32(0), 0, size * n)
         self.light_tracing = True
 
+    def disable_light_tracing(self) -> None:
+        """Leave the light tracing's sums out of the image from now on and free them (the
+        render stopped connecting photons to the camera: Renderer.iterate)."""
+        if self.light_tracing:
+            self.light_tracing = False
+            self.lt_pass = self.lt_sum = self.device.buffer(16, "film (light tracing: none)")
+
     def resolve(self, wait_for=None):
         """Enqueue the resolve; returns (event, host array (h, w, 4) float32, row 0 = bottom)."""
         import pyopencl as cl

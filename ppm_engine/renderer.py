@@ -225,6 +225,12 @@ class Renderer:
         if self.photons_needed:
             cl.enqueue_copy(q, grid, self.photon_map.grid, is_blocking=False)
         q.finish()
+        if pass_index == 0 and self.lt_kappa > 0 and counters[Counter.SEEN] == 0:
+            # no pixel sees a surface the photons' light tracing renders (a pool's floor seen
+            # only through its water): every connection to the camera is blocked, so it stops,
+            # and the merge keeps the whole weight (as with light tracing off)
+            self.lt_kappa = 0.0
+            film.disable_light_tracing()
         self.passes_done += 1
         return self._stats(counters, grid, events, converge, time.perf_counter() - t0)
 

@@ -139,3 +139,32 @@ def test_a_fixed_seed_renders_the_same_caustic_frame_after_frame(scene):
     rmse = lambda x, y: float(np.sqrt(((x - y) ** 2).mean()))
     assert rmse(a, c) > 0.05 * a.mean()               # the seed does change the noise
     assert rmse(a, b) < 0.15 * rmse(a, c), (rmse(a, b), rmse(a, c))
+
+
+def test_light_tracing_stops_where_no_pixel_sees_what_it_renders(bpy):
+    """A pool's floor seen only through its water: no visible point of the first pass is one
+    the camera sees directly, so no photon can reach the camera by a connection, and the render
+    stops connecting them (Renderer.iterate) and renders as with light tracing off.  Where the
+    camera sees the floor (the mirror caustic), it goes on.  (Photons are stored in the order
+    threads reach them, so the two renders agree in their noise, not bit for bit.)"""
+    from ppm_engine.export import export_scene
+    from ppm_engine.scenes import pool
+    pool.build(grid=pool.SMALL_GRID)
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = 16
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+    images = []
+    for light_tracing in (True, False):
+        r = Renderer(arrays, RenderOptions(photons_per_pass=1 << 14, seed=3,
+                                           light_tracing=light_tracing, indirect="photons"))
+        stats = [r.iterate() for _ in range(16)]
+        assert not any(s.light_tracing for s in stats) and r.lt_kappa == 0
+        assert not r.film.light_tracing
+        images.append(r.image())
+        r.close()
+    assert images[0][..., :3].mean() > 0
+    assert images[0][..., :3].mean() == pytest.approx(images[1][..., :3].mean(), rel=0.02)
+    r = Renderer(A.mirror_caustic(16), RenderOptions(photons_per_pass=1 << 12, seed=3))
+    stats = [r.iterate() for _ in range(2)]
+    assert all(s.light_tracing for s in stats) and r.film.light_tracing
+    r.close()
