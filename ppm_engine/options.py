@@ -102,6 +102,8 @@ class RenderOptions:
                                              # they cannot add anything
     skip_unseen_photons: bool = True   # False: the photon grid covers the whole scene, so photons
                                        # outside the visible points' bounds are stored too
+    skip_blind_light_tracing: bool = True   # False: photons are connected to the camera even
+                                            # where no pixel sees what that renders
     # the photons' second strategy: each stored photon also connected to the camera (light
     # tracing), combined with the merge by MIS (kernels/photon_pass.cl connect_camera); for a
     # pinhole camera only

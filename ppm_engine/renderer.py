@@ -225,7 +225,8 @@ class Renderer:
         if self.photons_needed:
             cl.enqueue_copy(q, grid, self.photon_map.grid, is_blocking=False)
         q.finish()
-        if pass_index == 0 and self.lt_kappa > 0 and counters[Counter.SEEN] == 0:
+        if (pass_index == 0 and self.lt_kappa > 0 and counters[Counter.SEEN] == 0
+                and o.skip_blind_light_tracing):
             # no pixel sees a surface the photons' light tracing renders (a pool's floor seen
             # only through its water): every connection to the camera is blocked, so it stops,
             # and the merge keeps the whole weight (as with light tracing off)

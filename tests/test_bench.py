@@ -218,7 +218,8 @@ def test_bench_skips_quick(cli, tmp_path):
     rows = json.loads((tmp_path / "s.json").read_text())["rows"]
     skips = {r["skip"] for r in rows}
     for word in ("specialisation", "emits", "photon pass", "photons nobody", "converged",
-                 "nothing changed", "settings", "moved", "hidden", "never runs"):
+                 "nothing changed", "settings", "moved", "hidden", "never runs",
+                 "no pixel sees"):
         assert any(word in k for k in skips), word
     assert all(r["with"] >= 0 and r["without"] > 0 for r in rows)
     assert all(r["saving"] == pytest.approx(1 - r["with"] / r["without"]) for r in rows)
@@ -229,6 +230,8 @@ def test_bench_skips_quick(cli, tmp_path):
     assert dark["with"] < 0.1 * dark["without"]          # no device work at all
     lazy = next(r for r in rows if "never runs" in r["skip"])
     assert lazy["without"] > lazy["with"] > 0            # the two builds cost something
+    blind = next(r for r in rows if "no pixel sees" in r["skip"])
+    assert blind["note"] == "light tracing after the first pass: False vs True"
     assert "<!-- bench:skips -->" in md.read_text()
 
 

@@ -164,6 +164,11 @@ def test_light_tracing_stops_where_no_pixel_sees_what_it_renders(bpy):
         r.close()
     assert images[0][..., :3].mean() > 0
     assert images[0][..., :3].mean() == pytest.approx(images[1][..., :3].mean(), rel=0.02)
+    # the skip off (bench --skips measures it): the connections go on
+    r = Renderer(arrays, RenderOptions(photons_per_pass=1 << 12, seed=3, indirect="photons",
+                                       skip_blind_light_tracing=False))
+    assert all(r.iterate().light_tracing for _ in range(2)) and r.film.light_tracing
+    r.close()
     r = Renderer(A.mirror_caustic(16), RenderOptions(photons_per_pass=1 << 12, seed=3))
     stats = [r.iterate() for _ in range(2)]
     assert all(s.light_tracing for s in stats) and r.film.light_tracing

@@ -4,7 +4,8 @@ measured side by side with and without the skip in one run (docs/BENCHMARKS.md, 
 Each row renders or sets up the same scene twice, alternating the two variants so that the
 machine's load affects both alike, and reports medians.  The variants "without" switch the
 skip off through the engine's public settings: RenderOptions.specialize,
-skip_unneeded_photon_pass and skip_unseen_photons, persistent data off, no noise threshold,
+skip_unneeded_photon_pass, skip_unseen_photons and skip_blind_light_tracing, persistent data
+off, no noise threshold,
 an object shown instead of hidden, the photon pass and gather built up front (their properties
 read before the first pass).
 """
@@ -311,6 +312,30 @@ def lazy_builds(res: int, device: str, quick: bool) -> dict:
                 "measured after the first pass, added)")
 
 
+def blind_light_tracing(res: int, passes: int, device: str) -> dict:
+    """The photons' light tracing stops after the first pass where no pixel sees what it
+    renders (a pool's floor seen only through its water) vs connecting every photon on."""
+    import bpy
+
+    from ..export import export_scene
+    from ..scenes import pool
+    pool.build(grid=pool.grid_for(res))
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = res
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+    rs = {k: Renderer(arrays, RenderOptions(device=device, seed=1,
+                                            skip_blind_light_tracing=(k == "skip")))
+          for k in ("skip", "all")}
+    ms = _median_pass_ms(rs, passes)
+    on = {k: r.lt_kappa > 0 for k, r in rs.items()}
+    for r in rs.values():
+        r.close()
+    return _row("photons' light tracing where no pixel sees what it renders",
+                f"pool (its floor seen through the water) {res}x{res}", ms["skip"], ms["all"],
+                "ms per pass", f"light tracing after the first pass: {on['skip']} vs "
+                f"{on['all']}")
+
+
 def run_skips(device: str = "", quick: bool = False, progress=print) -> dict:
     res = 32 if quick else 128
     passes = 3 if quick else 15
@@ -326,6 +351,8 @@ def run_skips(device: str = "", quick: bool = False, progress=print) -> dict:
     rows.append(lazy_builds(res, device, quick))
     progress("skips: photons outside the visible points")
     rows.append(photons_outside(res, passes, device))
+    progress("skips: light tracing nobody sees")
+    rows.append(blind_light_tracing(res, passes, device))
     progress("skips: adaptive sampling")
     rows.append(adaptive(16 if quick else 64, 0.05 if quick else 0.02, device,
                          max_passes=64 if quick else 2000))
