@@ -63,6 +63,7 @@ LIGHT_TRACING_KAPPA = 0.1
 #   "global": Knaus & Zwicker 2011 (VCM's), R_k^2 = R_1^2 prod (j + alpha) / (j + 1), the same
 #             sequence for every pixel, independent of the samples (so any sampler may place the
 #             camera rays).
+# Their index is film_update's `schedule` (RADIUS_PIXEL, RADIUS_GLOBAL).
 RADIUS_SCHEDULES = ("pixel", "global")
 # "auto" chooses "photons" above this fraction of caustic first scatterings (docs/BENCHMARKS.md)
 AUTO_PHOTONS_CAUSTIC_FRACTION = 0.5

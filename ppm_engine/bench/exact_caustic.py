@@ -113,13 +113,10 @@ class Setup:
         return (x1 - x0) * (y1 - y0) / (self.width * self.height)
 
 
-def setup_of(scene, max_bounces: int | None = None) -> Setup:
-    """The camera, film, light and bounce limits of a ``point_caustic`` bpy scene (its geometry
-    is the module's constants; the light must stand where caustics.point_caustic puts it).
-    ``max_bounces`` overrides all of the scene's bounce limits."""
-    scene.view_layers[0].update()       # the objects' matrix_world after a script's edits
-    if len(set(FLOOR)) != 1:
-        raise ValueError("the exact reference traces one channel: the stage must be grey")
+def camera_fields(scene) -> dict:
+    """The camera, frame and film of a bpy scene as the exact references trace them (Setup's
+    eye, axes, frame, width, height, clip, filter_width, film_exposure); refuses what they do
+    not model: a lens, a border, another pixel filter."""
     cam = scene.camera
     if cam is None or cam.data.type != 'PERSP':
         raise ValueError("the exact reference renders through a perspective (pinhole) camera")
@@ -133,11 +130,25 @@ def setup_of(scene, max_bounces: int | None = None) -> Setup:
     r = scene.render
     if r.use_border:
         raise ValueError("the exact reference renders the whole frame: turn the border off")
-    w = int(r.resolution_x * r.resolution_percentage / 100)
-    h = int(r.resolution_y * r.resolution_percentage / 100)
     c = scene.cycles
     if c.pixel_filter_type != 'BLACKMAN_HARRIS':
         raise ValueError("the exact reference implements Cycles' Blackman-Harris filter only")
+    return {"eye": m[:3, 3].copy(), "axes": axes, "frame": frame,
+            "width": int(r.resolution_x * r.resolution_percentage / 100),
+            "height": int(r.resolution_y * r.resolution_percentage / 100),
+            "clip": (cam.data.clip_start, cam.data.clip_end),
+            "filter_width": float(c.filter_width), "film_exposure": float(c.film_exposure)}
+
+
+def setup_of(scene, max_bounces: int | None = None) -> Setup:
+    """The camera, film, light and bounce limits of a ``point_caustic`` bpy scene (its geometry
+    is the module's constants; the light must stand where caustics.point_caustic puts it).
+    ``max_bounces`` overrides all of the scene's bounce limits."""
+    scene.view_layers[0].update()       # the objects' matrix_world after a script's edits
+    if len(set(FLOOR)) != 1:
+        raise ValueError("the exact reference traces one channel: the stage must be grey")
+    camera = camera_fields(scene)
+    c = scene.cycles
     lights = [o for o in scene.objects if o.type == 'LIGHT' and not o.hide_render]
     if len(lights) != 1 or lights[0].data.type != 'POINT' or lights[0].data.shadow_soft_size:
         raise ValueError("the exact reference renders one point light of radius 0")
@@ -151,10 +162,7 @@ def setup_of(scene, max_bounces: int | None = None) -> Setup:
     limits = [c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces]
     if max_bounces is not None:
         limits = [max_bounces] * 4
-    return Setup(eye=m[:3, 3].copy(), axes=axes, frame=frame, width=w, height=h,
-                 clip=(cam.data.clip_start, cam.data.clip_end),
-                 filter_width=float(c.filter_width), film_exposure=float(c.film_exposure),
-                 light=pos, power=power, max_bounces=int(limits[0]),
+    return Setup(**camera, light=pos, power=power, max_bounces=int(limits[0]),
                  diffuse_bounces=int(limits[1]), glossy_bounces=int(limits[2]),
                  transmission_bounces=int(limits[3]), roughness=roughness)
 
@@ -419,16 +427,21 @@ def coverage(s: Setup, supersample: int = 8) -> np.ndarray:
     no = np.zeros(d.shape[0], bool)
     _, hit = first_hit(o, d, no, no)
     bad = ~((hit == FLOOR_ID) | (hit == WALL_ID))
-    bad = bad.reshape(gy.shape).astype(np.int64)
-    # bad samples in each pixel's window, by an integral image
+    return window_clear(bad.reshape(gy.shape), s, k, pad, 0.5)
+
+
+def window_clear(bad, s, k: int, pad: int, offset: float) -> np.ndarray:
+    """(h, w) bool, rows top-down: the pixels whose filter window (the points strictly within
+    the filter's reach of the pixel centre) holds no ``bad`` point of a grid whose point (row,
+    column) m lies at raster (m - pad + offset) / k, by an integral image."""
+    r = s.filter_width
     cum = np.zeros((bad.shape[0] + 1, bad.shape[1] + 1), np.int64)
-    cum[1:, 1:] = bad.cumsum(0).cumsum(1)
-    # window of pixel i: the samples strictly within r of its centre: x = (m + 1/2) / k with
-    # m = ix index; |x - (i + 1/2)| < r
-    def span(n):
+    cum[1:, 1:] = bad.astype(np.int64).cumsum(0).cumsum(1)
+
+    def span(n):       # |(m - pad + offset) / k - (i + 1/2)| < r
         c = np.arange(n) + 0.5
-        lo = np.floor((c - r) * k - 0.5).astype(np.int64) + 1 + pad
-        hi = np.ceil((c + r) * k - 0.5).astype(np.int64) - 1 + pad
+        lo = np.floor((c - r) * k - offset).astype(np.int64) + 1 + pad
+        hi = np.ceil((c + r) * k - offset).astype(np.int64) - 1 + pad
         return lo, hi + 1
     xl, xh = span(s.width)
     yl, yh = span(s.height)

@@ -33,12 +33,12 @@ The light transport, as Cycles renders it with the bench's settings:
 - the floor is Lambertian (``pool.FLOOR``, per channel): every photon landing on it is splatted
   (through Cycles' Blackman-Harris filter, exact_caustic.splat) and bounces on, cosine-
   distributed, its flux times the albedo;
-- bounce limits are Cycles' Light Paths: a splat at the photon's vertex j (0 = the first surface
-  it meets) is the Cycles path camera, refraction into the water, the photon's vertices j..0
-  in reverse, then the sun (hit by the ray leaving vertex 0, or, where vertex 0 is the floor,
-  found from it by next-event estimation): its scattering vertices per kind (diffuse: the
-  floor; glossy: the surface's reflection; transmission: its refractions) and in all are held to
-  the scene's limits.  With 12 of each (the scene's) the fifth floor vertex is the last.
+- bounce limits are Cycles' Light Paths: a splat at the photon's vertex j (0 = its refraction
+  into the water) is the Cycles path camera, refraction into the water, the photon's vertices
+  j..0 in reverse, then the sun (hit by the ray leaving vertex 0): its scattering vertices per
+  kind (diffuse: the floor; glossy: the surface's reflection; transmission: its refractions)
+  and in all are held to the scene's limits.  With 12 of each (the scene's) the fifth floor
+  vertex is the last.
 
 Sunlight that reaches the floor past the water's edge is refused (``render`` raises): that path
 (then reflected down by the water's underside) came out 2-3 % of the image dimmer here than in
@@ -58,7 +58,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scenes import pool
-from .exact_caustic import _cone_dirs, camera_rays, cosine_dirs, fresnel, splat
+from .exact_caustic import (
+    _cone_dirs,
+    camera_fields,
+    camera_rays,
+    cosine_dirs,
+    fresnel,
+    splat,
+    window_clear,
+)
 
 SUPERSAMPLE = 6                 # camera-map points per pixel and axis
 BATCH = 1 << 17
@@ -108,20 +116,8 @@ def setup_of(scene, waves=pool.WAVES) -> Setup:
     """The camera, film, sun, materials and bounce limits of a ``pool_caustic`` bpy scene,
     checked against the module's geometry (``waves`` () for flat water)."""
     scene.view_layers[0].update()
-    cam = scene.camera
-    if cam is None or cam.data.type != 'PERSP' or cam.data.dof.use_dof:
-        raise ValueError("the exact pool renders through a perspective pinhole camera")
-    m = np.array(cam.matrix_world, float)
-    axes = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
-    corners = np.array([tuple(v) for v in cam.data.view_frame(scene=scene)], float)
-    unit = corners[:, :2] / -corners[:, 2:3]
-    frame = (unit[:, 0].min(), unit[:, 0].max(), unit[:, 1].min(), unit[:, 1].max())
-    r = scene.render
-    if r.use_border:
-        raise ValueError("the exact pool renders the whole frame: turn the border off")
+    camera = camera_fields(scene)
     c = scene.cycles
-    if c.pixel_filter_type != 'BLACKMAN_HARRIS':
-        raise ValueError("the exact pool implements Cycles' Blackman-Harris filter only")
     lights = [o for o in scene.objects if o.type == 'LIGHT' and not o.hide_render]
     if len(lights) != 1 or lights[0].data.type != 'SUN':
         raise ValueError("the exact pool renders one sun lamp")
@@ -154,11 +150,7 @@ def setup_of(scene, waves=pool.WAVES) -> Setup:
     co = co @ mw[:3, :3].T + mw[:3, 3]
     if np.abs(co[:, 2] - pool.height(co[:, 0], co[:, 1], waves)[0]).max() > 1e-5:
         raise ValueError("the water's mesh is not the height field of the given waves")
-    w = int(r.resolution_x * r.resolution_percentage / 100)
-    h = int(r.resolution_y * r.resolution_percentage / 100)
-    return Setup(eye=m[:3, 3].copy(), axes=axes, frame=frame, width=w, height=h,
-                 clip=(cam.data.clip_start, cam.data.clip_end),
-                 filter_width=float(c.filter_width), film_exposure=float(c.film_exposure),
+    return Setup(**camera,
                  sun=towards, cos_half=math.cos(0.5 * sun.data.angle), irradiance=irradiance,
                  albedo=np.array(f["Base Color"][:3], float), max_bounces=int(c.max_bounces),
                  diffuse_bounces=int(c.diffuse_bounces), glossy_bounces=int(c.glossy_bounces),
@@ -316,7 +308,7 @@ class CameraMap:
         back = crossing(p, dt, np.ones(len(d), bool), s.waves, np.ones(len(d), bool))
         ok &= ~(np.isfinite(back) & (back < tf))
         self.valid = ok.reshape(shape)
-        self.coverage = self._coverage(~self.valid, k, pad)
+        self.coverage = window_clear(~self.valid, s, k, pad, 0.0)
         # two triangles per grid cell, where all three corners are valid
         idx = np.arange(shape[0] * shape[1]).reshape(shape)
         a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
@@ -360,22 +352,6 @@ class CameraMap:
         order = np.argsort(bins, kind="stable")
         self.bin_tris = owner[order]
         self.bin_start = np.searchsorted(bins[order], np.arange(nb[0] * nb[1] + 1))
-
-    def _coverage(self, invalid, k, pad):
-        """Pixels whose filter window holds no invalid grid point (rows top-down)."""
-        s = self.s
-        cum = np.zeros((invalid.shape[0] + 1, invalid.shape[1] + 1), np.int64)
-        cum[1:, 1:] = invalid.astype(np.int64).cumsum(0).cumsum(1)
-
-        def span(n):
-            c = np.arange(n) + 0.5
-            lo = np.floor((c - s.filter_width) * k).astype(np.int64) + pad
-            hi = np.ceil((c + s.filter_width) * k).astype(np.int64) + pad
-            return lo, hi + 1
-        xl, xh = span(s.width)
-        yl, yh = span(s.height)
-        count = cum[yh][:, xh] - cum[yl][:, xh] - cum[yh][:, xl] + cum[yl][:, xl]
-        return count == 0
 
     def locate(self, x):
         """Every (photon index, raster px, py, weight) where the camera sees floor points x
@@ -452,25 +428,26 @@ def trace(s: Setup, cmap: CameraMap, n: int, rng, acc: np.ndarray) -> dict:
     t = crossing(o, d, np.zeros(n, bool), s.waves, np.zeros(n, bool))
     hit = np.isfinite(t)
     stats["entered"] = int(hit.sum())
-    p = o + np.where(hit, t, 0.0)[:, None] * d
-    nrm = normal(p[:, 0], p[:, 1], s.waves)
-    dt, tr = refract_in(d[hit], nrm[hit], pool.WATER_IOR)
-    d[hit] = dt
-    w[hit] *= tr[:, None]
-    o = np.where(hit[:, None], p, o)
-    on_surface = hit.copy()
-    above = ~hit                 # beside the water: on the way to the floor past its edge
-    # per photon: counts of its vertices so far per kind (diffuse, glossy, transmission),
-    # whether its vertex 0 was the floor
-    kinds = np.zeros((n, 3), np.int64)
-    kinds[hit, 2] = 1
-    floor_first = ~hit
+    # photons that miss the water: those landing on the floor past its edge are counted (render
+    # refuses them), the rest meet nothing
+    miss = ~hit
+    x = o[miss, :2] + ((-pool.DEPTH - o[miss, 2]) / d[miss, 2])[:, None] * d[miss, :2]
+    stats["beside_water"] = int((np.abs(x) <= pool.FLOOR_HALF).all(1).sum())
+    o, d, w, t = o[hit], d[hit], w[hit], t[hit]
+    o = o + t[:, None] * d
+    nrm = normal(o[:, 0], o[:, 1], s.waves)
+    d, tr = refract_in(d, nrm, pool.WATER_IOR)
+    w *= tr[:, None]
+    on_surface = np.ones(len(o), bool)
+    # per photon: counts of its vertices so far per kind (diffuse, glossy, transmission); its
+    # vertex 0 is the refraction into the water
+    kinds = np.zeros((len(o), 3), np.int64)
+    kinds[:, 2] = 1
     limits = np.array([s.diffuse_bounces, s.glossy_bounces, s.transmission_bounces])
     a = s.albedo / np.pi
     while o.shape[0]:
         # the next event: the surface (from below) or, going down, the floor
         t = crossing(o, d, np.ones(len(o), bool), s.waves, on_surface)
-        t[above] = np.inf
         with np.errstate(divide="ignore", invalid="ignore"):
             tf = np.where(d[:, 2] < 0, (-pool.DEPTH - o[:, 2]) / d[:, 2], np.inf)
         at_floor = np.isfinite(tf) & (tf < t)
@@ -480,9 +457,7 @@ def trace(s: Setup, cmap: CameraMap, n: int, rng, acc: np.ndarray) -> dict:
         # the floor: splat where the camera path it closes is within the limits
         f = np.nonzero(at_floor)[0]
         stats["floor_hits"] += f.size
-        stats["beside_water"] += int((at_floor & above).sum())
         cam = kinds[f] + np.array([1, 0, 1])                 # this vertex, the camera's entry
-        cam[floor_first[f], 0] -= 1                          # vertex 0 on the floor: NEE
         total = cam.sum(1)
         ok = (total <= s.max_bounces) & (cam <= limits).all(1)
         g = f[ok]
@@ -507,11 +482,10 @@ def trace(s: Setup, cmap: CameraMap, n: int, rng, acc: np.ndarray) -> dict:
         on_surface = at_surf.copy()
         # a photon goes on while a later splat can still be within the limits: the next floor
         # vertex adds itself and the camera's entry, and after a floor a reflection before it
-        nxt = (kinds.sum(1) + 2 - floor_first + at_floor)
+        nxt = kinds.sum(1) + 2 + at_floor
         alive = (at_floor | at_surf) & (nxt <= s.max_bounces) & (w.max(1) > 0.0)
         o, d, w, kinds = p[alive], d[alive], w[alive], kinds[alive]
-        floor_first, on_surface = floor_first[alive], on_surface[alive]
-        above = np.zeros(len(o), bool)
+        on_surface = on_surface[alive]
     return stats
 
 

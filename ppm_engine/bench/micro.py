@@ -227,23 +227,10 @@ PAPER_TARGETS = {
 
 def _big_mesh(n_side: int):
     """A flat n_side x n_side vertex grid: 2 (n_side - 1)^2 triangles, built with foreach_set."""
-    import bpy
+    from ..scenes.cornell_box import grid_mesh
     xs = np.linspace(-1.0, 1.0, n_side, dtype=np.float32)
     X, Y = np.meshgrid(xs, xs)
-    co = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size, np.float32)], 1)
-    i, j = np.meshgrid(np.arange(n_side - 1), np.arange(n_side - 1), indexing="ij")
-    a = (i * n_side + j).ravel()
-    quads = np.stack([a, a + 1, a + n_side + 1, a + n_side], 1).astype(np.int32)
-    mesh = bpy.data.meshes.new("Big")
-    mesh.vertices.add(co.shape[0])
-    mesh.vertices.foreach_set("co", co.ravel())
-    mesh.loops.add(quads.size)
-    mesh.loops.foreach_set("vertex_index", quads.ravel())
-    mesh.polygons.add(quads.shape[0])
-    mesh.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
-    mesh.update()
-    mesh.validate()
-    return mesh
+    return grid_mesh("Big", np.stack([X, Y, np.zeros_like(X)], -1))
 
 
 def export_big_mesh(n_triangles: int = 1_000_000, repeat: int = 3) -> dict:

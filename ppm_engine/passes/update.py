@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..options import RADIUS_SCHEDULES
+
 
 class ProgressiveUpdate:
     # adaptive sampling (options.noise_threshold > 0): pixels are judged from this many passes
@@ -25,9 +27,6 @@ class ProgressiveUpdate:
         self.k_error = p.launch("film_error", "adaptive")
         self.k_converge = p.launch("film_converge", "adaptive")
 
-    # RenderOptions.radius_schedule -> film_update's schedule (kernels/progressive.cl)
-    SCHEDULES = ("pixel", "global")          # their index is the kernel's
-
     def update(self, q, vp_pos, vp_beta, gathered, alpha: float,
                schedule: str = "pixel") -> list:
         """S from this pass's gather, N and R for the next by ``schedule`` (a
@@ -37,7 +36,7 @@ class ProgressiveUpdate:
         return [("update", self.k_update(q, f.n_pixels, vp_pos=vp_pos, vp_beta=vp_beta,
                                          gathered=gathered, radius=f.radius, nstat=f.nstat,
                                          photon_sum=f.photon_sum, alpha=np.float32(alpha),
-                                         schedule=np.uint32(self.SCHEDULES.index(schedule)),
+                                         schedule=np.uint32(RADIUS_SCHEDULES.index(schedule)),
                                          active=f.active, moments=f.moments,
                                          n=np.uint32(f.n_pixels)))]
 

@@ -13,6 +13,7 @@ import math
 import bpy
 
 import bmesh
+import numpy as np
 
 from ..blender_io import unbiased_light_paths
 
@@ -82,6 +83,27 @@ def box(scene, name, lo, hi, material):
     mesh.from_pydata([tuple(map(float, p)) for p in v], [], f)
     mesh.update()
     return _link(scene, name, mesh, material)
+
+
+def grid_mesh(name: str, co):
+    """A mesh of quads on an (n, n, 3) grid of vertex positions (rows along y, columns along
+    x), built with foreach_set (no Python loop per vertex); normals up for a grid ordered as
+    numpy.meshgrid(xs, ys) orders it."""
+    co = np.asarray(co, np.float32)
+    n = co.shape[0]
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
+    a = (i * n + j).ravel()                      # each quad's corner at (row, column)
+    quads = np.stack([a, a + 1, a + n + 1, a + n], 1).astype(np.int32)
+    mesh = bpy.data.meshes.new(name)
+    mesh.vertices.add(n * n)
+    mesh.vertices.foreach_set("co", co.reshape(-1))
+    mesh.loops.add(quads.size)
+    mesh.loops.foreach_set("vertex_index", quads.ravel())
+    mesh.polygons.add(quads.shape[0])
+    mesh.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+    mesh.update()
+    mesh.validate()
+    return mesh
 
 
 def _sort(seq, key) -> None:

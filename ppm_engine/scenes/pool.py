@@ -31,7 +31,7 @@ import bpy
 
 import numpy as np
 
-from .cornell_box import camera_world_render, glass, lambert, new_scene, quad
+from .cornell_box import camera_world_render, glass, grid_mesh, lambert, new_scene, quad
 
 RESOLUTION = 128
 HALF = 4.5                      # the water: |x|, |y| <= HALF
@@ -87,20 +87,7 @@ def water_mesh(name: str, waves=WAVES, grid: int = GRID):
     """The water's surface: ``grid`` x ``grid`` vertices on the height field, quads, smooth."""
     t = np.linspace(-HALF, HALF, grid)
     x, y = np.meshgrid(t, t)                          # rows along y
-    z = height(x, y, waves)[0]
-    co = np.stack([x, y, z], -1).reshape(-1).astype(np.float32)
-    i = np.arange(grid - 1)
-    a = (i[:, None] * grid + i[None, :]).ravel()      # each quad's corner at (row, col)
-    quads = np.stack([a, a + 1, a + grid + 1, a + grid], 1).astype(np.int32)  # normals up
-    mesh = bpy.data.meshes.new(name)
-    mesh.vertices.add(grid * grid)
-    mesh.vertices.foreach_set("co", co)
-    mesh.loops.add(quads.size)
-    mesh.loops.foreach_set("vertex_index", quads.ravel())
-    mesh.polygons.add(quads.shape[0])
-    mesh.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
-    mesh.update()
-    mesh.validate()
+    mesh = grid_mesh(name, np.stack([x, y, height(x, y, waves)[0]], -1))
     mesh.shade_smooth()
     return mesh
 
