@@ -38,7 +38,7 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
     luxcore_installed = importlib.util.find_spec("pyluxcore") is not None
     assert set(res["scenes"]) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
                                   "point_caustic", "rough_caustic", "mirror_caustic",
-                                  "pool_caustic", "many_lights", "hdri_sun"}
+                                  "pool_caustic", "many_lights", "hdri_sun", "glossy_metal"}
     tree = res["scenes"]["many_lights"]["light_tree"]
     assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1
     assert 0 < tree["share"] <= 1 and tree["bytes"] > 64 * tree["nodes"]
@@ -85,7 +85,7 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         # cannot render), or this engine's light tracer where LuxCore's spot differs
         # (glass_caustic) or pyluxcore is not installed (the JSON says so)
         engine = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "many_lights": "CYCLES",
-                  "hdri_sun": "CYCLES", "point_caustic": "EXACT",
+                  "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "point_caustic": "EXACT",
                   "rough_caustic": "EXACT", "pool_caustic": "EXACT_POOL"}.get(name, "LIGHT_TRACE")
         if name in ("bulb_box", "mirror_caustic"):
             if luxcore_installed:
@@ -97,7 +97,8 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
         assert ref["engine"] == engine
         if name == "furnace":
             assert ref["mean"] == pytest.approx(1.0)        # E / (1 - albedo) = 0.5 / 0.5
-        elif name not in ("cornell_box", "many_lights", "hdri_sun", "pool_caustic"):
+        elif name not in ("cornell_box", "many_lights", "hdri_sun", "glossy_metal",
+                          "pool_caustic"):
             # (Cycles' leave none out, nor does the pool's, which sees the floor in every pixel)
             # (the light tracer's leave out what it cannot render: at 16 x 16 the filter's
             # reach is a large share)

@@ -24,6 +24,8 @@ CAUSTIC_MASKS = {
                                                             "seen through the water)"},
     # the HDRI's sun: every pixel (the glass ball's caustic is among them)
     "hdri_sun": {"kind": "all", "occluders": [], "note": "every pixel"},
+    # the glossy metal: every pixel (the light's highlights, the floor's light in the metal)
+    "glossy_metal": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the floor beside and under the glass ball, where its caustic falls
     "bulb_box": {"kind": "disk", "center": (BALL_CENTER[0] + 0.07, BALL_CENTER[1] + 0.05, 0.0),
                  "radius": 0.45, "occluders": [(BALL_CENTER, 0.3), (BULB_CENTER, 0.15)],

@@ -10,7 +10,7 @@ is.  The geometry matches ``ppm_engine.procedural.cornell_box`` (the arrays vers
 core tests and the benchmark)."""
 from __future__ import annotations
 
-from . import bulb_box, caustics, cornell_box, furnace, many_lights, outdoor, pool
+from . import bulb_box, caustics, cornell_box, furnace, many_lights, metal, outdoor, pool
 
 EXAMPLES = {
     "cornell_box": cornell_box.build,
@@ -23,6 +23,7 @@ EXAMPLES = {
     "furnace": furnace.build,                    # the benchmark's closed-form scene
     "many_lights": many_lights.build,            # the benchmark's many-light scene
     "hdri_sun": outdoor.build,                   # an HDRI with its sun in the image
+    "glossy_metal": metal.build,                 # glossy metal under Blender's default light
 }
 
 
