@@ -2,6 +2,7 @@
  * -> a hierarchy, by PLOC (the default, below) or Karras' LBVH ("Maximizing Parallelism in the
  * Construction of BVHs, Octrees, and k-d Trees", HPG 2012) -> bottom-up boxes -> packed nodes
  * and leaf-ordered triangles (layout in bvh.h). */
+#include "builtins.h"
 #include "geometry.h"
 
 inline uint expand_bits(uint v) {

@@ -1,5 +1,6 @@
 /* Kernels for tests/test_closures.py: the shader of one material at a point at the origin with
  * normal +z (no texture), sampled and evaluated through the same functions every pass uses. */
+#include "builtins.h"
 #include "shader.h"
 #include "rng.h"
 

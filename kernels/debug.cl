@@ -1,4 +1,5 @@
 /* Kernels for tests and micro benchmarks: plain ray queries against the BVH. */
+#include "builtins.h"
 #include "rng.h"
 #include "bvh.h"
 
@@ -86,4 +87,30 @@ __kernel void ld_sets(__global const uint *keys, uint n_keys, uint n_pass, uint 
     uint i = get_global_id(0);
     if (i >= n_keys * n_pass) return;
     out[i] = ld_set(first + i % n_pass, keys[i / n_pass], set);
+}
+
+/* kernels/builtins.h's inline builtins (on PoCL; elsewhere the driver's) against NumPy
+ * (tests/test_kernels.py): per pair of float4 (x, y), eight float4 */
+__kernel void builtins_at(__global const float4 *xs, __global const float4 *ys, uint n,
+                          __global float4 *out) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    float4 x4 = xs[i], y4 = ys[i];
+    float3 x = x4.xyz, y = y4.xyz;
+    __global float4 *o = out + 8 * (size_t)i;
+    o[0] = (float4)(fmin(x, y), fmin(x4.w, y4.w));
+    o[1] = (float4)(fmax(x, y), fmax(x4.w, y4.w));
+    o[2] = (float4)(clamp(x, -1.0f, 1.0f), clamp(x4.w, fmin(y4.w, 0.0f), fmax(y4.w, 0.0f)));
+    o[3] = (float4)(mix(x, y, 0.25f), dot(x, y));
+    o[4] = (float4)(cross(x, y), length(x));
+    o[5] = (float4)(normalize(x), sqrt(fabs(x4.w)));
+    o[6] = (float4)(fabs(x), dot(x4, y4));
+    o[7] = fmin(x4, y4.x) + fmax(x4, y4) * 0.5f;
+}
+
+/* geometry.h's sincos_turns at each u: (sin, cos) of 2 pi u (tests/test_kernels.py) */
+__kernel void sincos_turns_at(__global const float *us, uint n, __global float2 *out) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    out[i] = sincos_turns(us[i]);
 }

@@ -4,6 +4,7 @@
  * estimation and a sample of those closures (MIS).  At each vertex one of the two is chosen in
  * proportion to the closures' sample weights.  Emission and background seen along the way go
  * to the pixel's direct sum. */
+#include "builtins.h"
 #include "rng.h"
 #include "direct_light.h"
 #include "camera.h"

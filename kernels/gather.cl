@@ -6,6 +6,7 @@
  * only from its own cell, within the radius).  Each photon's flux is weighted by the visible
  * point's BSDF for the photon's incoming direction: the point's closures are set up again here
  * from its hit (kernels/shader.h), so a visible point is 64 bytes (passes/eye.py). */
+#include "builtins.h"
 #include "hash.h"
 #include "shader.h"
 #include "bvh.h"

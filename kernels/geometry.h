@@ -41,15 +41,39 @@ inline float3 to_world_frame(float3 v, float3 n) {
     return v.x * t + v.y * b + v.z * n;
 }
 
+/* (sin, cos) of the angle 2 pi u, u in turns (u >= -1/8; the samplers' u in [0, 1]): reduced
+ * exactly in turns (4u and its nearest integer are floats) to a quarter turn's multiple and
+ * |r| <= pi / 4, then Taylor polynomials (truncation under 2e-9, below float's rounding).  The
+ * library's sin and cos reduce any argument (Payne-Hanek): on PoCL they were 8 % of a pass
+ * (docs/BENCHMARKS.md, "The builtins inlined"). */
+inline float2 sincos_turns(float u) {
+    float t = 4.0f * u;
+    int q = (int)(t + 0.5f);
+    float r = (t - (float)q) * (0.5f * PPM_PI), r2 = r * r;
+    /* the Taylor series of sin r and cos r by Horner's rule in r^2 */
+    float ps = 1.0f / 120.0f + r2 * (-1.0f / 5040.0f + r2 * (1.0f / 362880.0f));
+    float pc = 1.0f / 24.0f + r2 * (-1.0f / 720.0f + r2 * (1.0f / 40320.0f - r2 / 3628800.0f));
+    float s = r + r * r2 * (-1.0f / 6.0f + r2 * ps);
+    float c = 1.0f + r2 * (-0.5f + r2 * pc);
+    switch (q & 3) {
+    case 0: return (float2)(s, c);
+    case 1: return (float2)(c, -s);
+    case 2: return (float2)(-s, -c);
+    default: return (float2)(-c, s);
+    }
+}
+
 inline float3 sample_cosine_hemisphere(float3 n, float u1, float u2) {
-    float r = sqrt(u1), phi = 2.0f * PPM_PI * u2;
-    float3 v = (float3)(r * cos(phi), r * sin(phi), sqrt(fmax(0.0f, 1.0f - u1)));
+    float r = sqrt(u1);
+    float2 sc = sincos_turns(u2);
+    float3 v = (float3)(r * sc.y, r * sc.x, sqrt(fmax(0.0f, 1.0f - u1)));
     return normalize(to_world_frame(v, n));
 }
 
 inline float3 sample_uniform_sphere(float u1, float u2) {
-    float z = 1.0f - 2.0f * u1, r = sqrt(fmax(0.0f, 1.0f - z * z)), phi = 2.0f * PPM_PI * u2;
-    return (float3)(r * cos(phi), r * sin(phi), z);
+    float z = 1.0f - 2.0f * u1, r = sqrt(fmax(0.0f, 1.0f - z * z));
+    float2 sc = sincos_turns(u2);
+    return (float3)(r * sc.y, r * sc.x, z);
 }
 
 /* uniform direction in the cone of half-angle acos(cos_max) around n */
@@ -58,23 +82,24 @@ inline float3 sample_uniform_sphere(float u1, float u2) {
  * size in float32 (1 - cos rounds to 0 below ~3e-8) */
 inline float3 sample_cone(float3 n, float omc, float u1, float u2) {
     float c = 1.0f - u1 * omc, s = sqrt(fmax(0.0f, u1 * omc * (2.0f - u1 * omc)));
-    float phi = 2.0f * PPM_PI * u2;
-    return normalize(to_world_frame((float3)(s * cos(phi), s * sin(phi), c), n));
+    float2 sc = sincos_turns(u2);
+    return normalize(to_world_frame((float3)(s * sc.y, s * sc.x, c), n));
 }
 
 /* concentric map of the unit square to the unit disk (Shirley & Chiu) */
 inline float2 sample_disk(float u1, float u2) {
     float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
     if (a == 0.0f && b == 0.0f) return (float2)(0.0f, 0.0f);
-    float r, phi;
+    float r, turns;
     if (fabs(a) > fabs(b)) {
         r = a;
-        phi = (PPM_PI / 4.0f) * (b / a);
+        turns = 0.125f * (b / a);
     } else {
         r = b;
-        phi = (PPM_PI / 2.0f) - (PPM_PI / 4.0f) * (a / b);
+        turns = 0.25f - 0.125f * (a / b);
     }
-    return (float2)(r * cos(phi), r * sin(phi));
+    float2 sc = sincos_turns(turns);
+    return (float2)(r * sc.y, r * sc.x);
 }
 
 inline float2 sample_triangle(float u1, float u2) {

@@ -6,6 +6,7 @@
  *
  * Also here: the grid over this pass's visible points (bounds expanded by each point's
  * radius), computed on the device so no host round trip sits between the passes. */
+#include "builtins.h"
 #include "hash.h"
 #include "shared.h"
 #include "geometry.h"

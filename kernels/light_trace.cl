@@ -6,6 +6,7 @@
  * into the pixels the pixel filter reaches.  It renders the paths that reach the camera from a
  * non-singular vertex (L (S|D)* D E in Heckbert's notation); what the camera sees through mirrors
  * and glass it cannot, and lt_coverage marks those pixels. */
+#include "builtins.h"
 #include "rng.h"
 #include "photon_emission.h"
 #include "shader.h"

@@ -7,6 +7,7 @@
  * indirect_paths.h) a photon lives on only if its first scattering is by a followed closure;
  * with capacity 0 (a pilot) photons are only classified at their first scattering and counted
  * (CNT_CAUSTIC, CNT_DIFFUSE_FIRST). */
+#include "builtins.h"
 #include "rng.h"
 #include "photon_emission.h"
 #include "camera.h"

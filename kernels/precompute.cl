@@ -3,6 +3,7 @@
  * expectation over the closure's samples for a view at cos mu, as Cycles defines its tables
  * (docs/SHADING.md): the albedo eval / pdf, or the blend factor s of F = mix(F0, F90, s).
  * One work-item per cell; a 4-D Kronecker sequence (Roberts' R4) rotated per cell. */
+#include "builtins.h"
 #include "closure.h"
 #include "rng.h"
 #include "shared.h"

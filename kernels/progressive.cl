@@ -9,6 +9,7 @@
  * (PPM_FP64), otherwise as float sums with Neumaier compensation: 32 bytes per pixel either
  * way (docs/STABILITY.md: a float32 sum of a constant loses ~1e-5 in 2,000 passes, 1e-4 in
  * 10,000, and stops growing at 2^24 samples). */
+#include "builtins.h"
 #include "geometry.h"
 #include "shared.h"
 

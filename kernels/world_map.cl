@@ -2,6 +2,7 @@
  * program at the centre of each texel of a w x h lat-long map (Cycles' equirectangular
  * directions, row 0 at the nadir), as Cycles bakes its background map; the texels near a sun
  * disc averaged over sub x sub points. */
+#include "builtins.h"
 #include "svm.h"
 #include "world_map.h"
 #include "rng.h"

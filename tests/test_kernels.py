@@ -369,3 +369,69 @@ def test_counter_table_matches_the_kernel_header():
     header = {m[1]: int(m[2]) for m in re.finditer(r"#define CNT_(\w+) (\d+)", text)}
     assert header == {c.name: int(c) for c in Counter}
     assert int(re.search(r"#define N_COUNTERS (\d+)", text)[1]) == N_COUNTERS
+
+
+def _debug_run(device, kernel, n, inputs, out_shape, out_dtype=np.float32):
+    bufs = [_upload(device, a) for a in inputs]
+    out = cl.Buffer(device.context, cl.mem_flags.WRITE_ONLY, int(np.prod(out_shape)) * 4)
+    getattr(device.programs.get("debug.cl"), kernel)(device.queue, (n,), None, *bufs,
+                                                        np.uint32(n), out)
+    return _read(device, out, out_shape, out_dtype)
+
+
+def test_inline_builtins_equal_numpy(device):
+    """kernels/builtins.h (PoCL's builtins as inline code) against NumPy: fmin and fmax keep the
+    non-NaN argument, clamp is fmin(fmax), length and normalize hold for vectors whose squared
+    length overflows or underflows a float (the library's fallback), the rest to rounding."""
+    rng = np.random.default_rng(5)
+    n = 4096
+    x = rng.normal(size=(n, 4)).astype(np.float32) * 3
+    y = rng.normal(size=(n, 4)).astype(np.float32) * 3
+    x[:64] *= np.float32(1e25)                    # squared length over FLT_MAX
+    x[64:128] *= np.float32(1e-25)                # under FLT_MIN
+    x[128:136] = 0.0                              # normalize(0) and length(0)
+    x[136:160, 3] = np.nan                        # fmin/fmax: the other argument
+    y[160:184, :3] = np.nan
+    out = _debug_run(device, "builtins_at", n, [x, y], (n, 8, 4)).astype(np.float64)
+    x64, y64, x3 = x.astype(np.float64), y.astype(np.float64), x[:, :3]
+    close = dict(rtol=2e-6, atol=1e-6)
+    np.testing.assert_array_equal(out[:, 0], np.fmin(x, y))
+    np.testing.assert_array_equal(out[:, 1], np.fmax(x, y))
+    np.testing.assert_array_equal(out[:, 2, :3], np.fmin(np.fmax(x3, -1), 1))
+    ok = np.isfinite(x64[:, 3])
+    lo, hi = np.fmin(y[:, 3], 0), np.fmax(y[:, 3], 0)
+    np.testing.assert_array_equal(out[ok, 2, 3], np.fmin(np.fmax(x[ok, 3], lo[ok]), hi[ok]))
+    fin = np.isfinite(x64).all(1) & np.isfinite(y64).all(1) & (np.abs(x64) < 1e20).all(1)
+    mix = x64[:, :3] + (y64[:, :3] - x64[:, :3]) * 0.25
+    np.testing.assert_allclose(out[fin, 3, :3], mix[fin], **close)
+    np.testing.assert_allclose(out[fin, 3, 3], (x64[:, :3] * y64[:, :3]).sum(1)[fin],
+                               rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(out[fin, 4, :3], np.cross(x64[:, :3], y64[:, :3])[fin],
+                               rtol=1e-5, atol=1e-5)
+    norm = np.linalg.norm(x64[:, :3], axis=1)
+    np.testing.assert_allclose(out[:, 4, 3], norm, rtol=2e-6)      # tiny and huge ones too
+    nz = norm > 0
+    np.testing.assert_allclose(out[nz, 5, :3], x64[nz, :3] / norm[nz, None], rtol=2e-6,
+                               atol=1e-7)
+    np.testing.assert_array_equal(out[128:136, 5, :3], 0.0)
+    np.testing.assert_allclose(out[ok, 5, 3], np.sqrt(np.abs(x64[ok, 3])), rtol=1e-6)
+    np.testing.assert_array_equal(out[:, 6, :3], np.abs(x3))
+    fin4 = fin & np.isfinite(x64[:, 3])
+    np.testing.assert_allclose(out[fin4, 6, 3], (x64 * y64).sum(1)[fin4], rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(out[:, 7], np.fmin(x, y[:, :1]) + np.fmax(x, y) * np.float32(0.5),
+                               rtol=1e-6)
+
+
+def test_sincos_in_turns_equals_numpy(device):
+    """geometry.h's sincos_turns (the samplers' sin and cos of 2 pi u, reduced in turns) within
+    2e-7 of float64's over [-1/8, 1] (the concentric disk map's turns start at -1/8), exactly
+    0 and +-1 at the quarter turns."""
+    rng = np.random.default_rng(3)
+    u = np.concatenate([np.linspace(-0.125, 1.0, 9001), rng.random(8192),
+                        [0.0, 0.25, 0.5, 0.75, 1.0, 1e-8, 0.999999]]).astype(np.float32)
+    out = _debug_run(device, "sincos_turns_at", len(u), [u], (len(u), 2)).astype(np.float64)
+    a = 2 * np.pi * u.astype(np.float64)
+    assert np.abs(out[:, 0] - np.sin(a)).max() < 2e-7
+    assert np.abs(out[:, 1] - np.cos(a)).max() < 2e-7
+    quarter = out[-7:-2]
+    np.testing.assert_array_equal(np.abs(quarter), [[0, 1], [1, 0], [0, 1], [1, 0], [0, 1]])

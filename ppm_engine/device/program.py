@@ -109,6 +109,10 @@ class ProgramCache:
                                    "incomplete; reinstall the add-on")
         # no fast-relaxed-math: the NaN/Inf guards need isfinite; argument names for Launch
         options = [f"-I{folder}", "-cl-kernel-arg-info"]
+        # PoCL calls its vector builtins out of line: the kernels' inline versions
+        # (kernels/builtins.h)
+        if "Portable Computing Language" in self.device.platform.name:
+            options.append("-DPPM_INLINE_BUILTINS")
         for k, v in defines.items():
             options.append(f"-D{k}" if v is True else f"-D{k}={v}")
         src = path.read_text()
