@@ -55,12 +55,9 @@ inline float2 sincos_turns(float u) {
     float pc = 1.0f / 24.0f + r2 * (-1.0f / 720.0f + r2 * (1.0f / 40320.0f - r2 / 3628800.0f));
     float s = r + r * r2 * (-1.0f / 6.0f + r2 * ps);
     float c = 1.0f + r2 * (-0.5f + r2 * pc);
-    switch (q & 3) {
-    case 0: return (float2)(s, c);
-    case 1: return (float2)(c, -s);
-    case 2: return (float2)(-s, -c);
-    default: return (float2)(-c, s);
-    }
+    /* a quarter turn more: (sin, cos) -> (cos, -sin); a half turn: both negated */
+    float2 sc = (q & 1) ? (float2)(c, -s) : (float2)(s, c);
+    return (q & 2) ? -sc : sc;
 }
 
 inline float3 sample_cosine_hemisphere(float3 n, float u1, float u2) {
