@@ -31,7 +31,7 @@ import bpy
 
 import numpy as np
 
-from .cornell_box import camera_world_render, glass, lambert, new_scene, quad, sphere
+from .cornell_box import camera_world_render, glass, lambert, new_scene, principled, quad, sphere
 
 RESOLUTION = 128
 LIGHT_RADIUS = 0.02
@@ -148,11 +148,7 @@ def mirror_caustic(scene=None):
     """A point light and a tilted planar mirror (see the module docstring)."""
     scene = new_scene(scene)
     _stage(scene)
-    m = bpy.data.materials.new("Mirror")
-    p = m.node_tree.nodes["Principled BSDF"]
-    p.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    p.inputs["Metallic"].default_value = 1.0
-    p.inputs["Roughness"].default_value = 0.0
+    m = principled("Mirror", {"Base Color": (1.0, 1.0, 1.0), "Metallic": 1.0, "Roughness": 0.0})
     quad(scene, "Mirror", [tuple(c) for c in mirror_corners()], m)
     _light(scene, "Point", 'POINT', POINT_POS, POINT_POWER)
     return scene

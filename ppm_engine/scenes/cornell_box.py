@@ -25,24 +25,25 @@ RESOLUTION = 256
 
 
 # --- helpers shared with bulb_box.py ------------------------------------------------------------
-def lambert(name, color):
+def principled(name, inputs):
+    """A material of the default Principled BSDF with these inputs (an RGB tuple is a colour,
+    alpha 1); the others keep Blender's defaults."""
     m = bpy.data.materials.new(name)
-    p = m.node_tree.nodes["Principled BSDF"]
-    p.inputs["Base Color"].default_value = (*color, 1.0)
-    p.inputs["Roughness"].default_value = 1.0
-    p.inputs["Specular IOR Level"].default_value = 0.0
+    node = m.node_tree.nodes["Principled BSDF"]
+    for k, v in inputs.items():
+        node.inputs[k].default_value = (*v, 1.0) if isinstance(v, tuple) else v
     return m
+
+
+def lambert(name, color):
+    return principled(name, {"Base Color": tuple(color), "Roughness": 1.0,
+                             "Specular IOR Level": 0.0})
 
 
 def glass(name, ior=1.5):
     """Clear glass: Principled, Transmission Weight 1, Roughness 0 (Specular IOR Level default)."""
-    m = bpy.data.materials.new(name)
-    p = m.node_tree.nodes["Principled BSDF"]
-    p.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    p.inputs["Roughness"].default_value = 0.0
-    p.inputs["Transmission Weight"].default_value = 1.0
-    p.inputs["IOR"].default_value = ior
-    return m
+    return principled(name, {"Base Color": (1.0, 1.0, 1.0), "Roughness": 0.0,
+                             "Transmission Weight": 1.0, "IOR": ior})
 
 
 def emission(name, radiance):

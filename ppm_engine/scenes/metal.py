@@ -11,7 +11,7 @@ import math
 
 import bpy
 
-from .cornell_box import camera_world_render, new_scene, quad, sphere
+from .cornell_box import camera_world_render, new_scene, principled, quad, sphere
 
 LIGHT_POS = (1.6, -1.2, 2.4)
 LIGHT_POWER = 1000.0             # W: Blender's default light
@@ -54,15 +54,6 @@ def squares_material(name="Squares"):
     return m
 
 
-def polished_metal(name="Polished"):
-    m = bpy.data.materials.new(name)
-    p = m.node_tree.nodes["Principled BSDF"]
-    p.inputs["Base Color"].default_value = (0.9, 0.9, 0.92, 1.0)
-    p.inputs["Metallic"].default_value = 1.0
-    p.inputs["Roughness"].default_value = 0.1
-    return m
-
-
 def checker_floor(name="Checker"):
     """Principled (its defaults: roughness 0.5, specular 0.5) with a grey checker."""
     m = bpy.data.materials.new(name)
@@ -77,7 +68,9 @@ def build(scene=None):
     """Build the glossy metal scene (module docstring); returns the scene."""
     scene = new_scene(scene)
     sphere(scene, "Squares", (-0.35, 0.3, 0.55), 0.55, squares_material(), 96, 48)
-    sphere(scene, "Polished", (0.65, -0.2, 0.3), 0.3, polished_metal(), 64, 32)
+    sphere(scene, "Polished", (0.65, -0.2, 0.3), 0.3,
+           principled("Polished", {"Base Color": (0.9, 0.9, 0.92), "Metallic": 1.0,
+                                   "Roughness": 0.1}), 64, 32)
     quad(scene, "Floor", [(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], checker_floor())
     data = bpy.data.lights.new("Light", 'POINT')
     data.energy, data.shadow_soft_size = LIGHT_POWER, LIGHT_RADIUS

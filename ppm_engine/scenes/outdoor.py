@@ -12,7 +12,7 @@ import bpy
 
 import numpy as np
 
-from .cornell_box import camera_world_render, new_scene, quad, sphere
+from .cornell_box import camera_world_render, new_scene, principled, quad, sphere
 
 SKY_W, SKY_H = 256, 128
 SUN_TEXELS = (slice(96, 98), slice(40, 42))     # rows from the bottom, columns
@@ -34,28 +34,20 @@ def sky_pixels() -> np.ndarray:
     return np.concatenate([img, np.ones((SKY_H, SKY_W, 1))], -1).astype(np.float32)
 
 
-def _principled(name, inputs):
-    m = bpy.data.materials.new(name)
-    node = m.node_tree.nodes["Principled BSDF"]
-    for k, v in inputs.items():
-        node.inputs[k].default_value = (*v, 1.0) if isinstance(v, tuple) else v
-    return m
-
-
 def build(scene=None):
     """Build the outdoor scene (module docstring); returns the scene."""
     scene = new_scene(scene)
     sphere(scene, "Diffuse", (-0.9, 0.3, 0.4), 0.4,
-           _principled("Diffuse", {"Base Color": (0.8, 0.8, 0.8), "Roughness": 1.0,
+           principled("Diffuse", {"Base Color": (0.8, 0.8, 0.8), "Roughness": 1.0,
                                    "Specular IOR Level": 0.0}), 64, 32)
     sphere(scene, "Metal", (0.0, 0.5, 0.45), 0.45,
-           _principled("Metal", {"Base Color": (0.9, 0.9, 0.9), "Metallic": 1.0,
+           principled("Metal", {"Base Color": (0.9, 0.9, 0.9), "Metallic": 1.0,
                                  "Roughness": 0.25}), 64, 32)
     sphere(scene, "Glass", (0.9, 0.0, 0.4), 0.4,
-           _principled("Glass", {"Transmission Weight": 1.0, "Roughness": 0.0}), 64, 32)
+           principled("Glass", {"Transmission Weight": 1.0, "Roughness": 0.0}), 64, 32)
     # Principled at roughness 0.8 with its default specular layer
     quad(scene, "Floor", [(-6, -6, 0), (6, -6, 0), (6, 6, 0), (-6, 6, 0)],
-         _principled("Floor", {"Base Color": (0.5, 0.5, 0.5), "Roughness": 0.8}))
+         principled("Floor", {"Base Color": (0.5, 0.5, 0.5), "Roughness": 0.8}))
     camera_world_render(scene, location=(0.0, -4.0, 1.8),
                         rotation=(math.radians(70), 0.0, 0.0))
     world = scene.world
