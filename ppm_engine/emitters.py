@@ -75,7 +75,7 @@ class Emitters:
 
 
 def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray,
-                      tri_materials: np.ndarray | None = None) -> Emitters:
+                      tri_materials: np.ndarray) -> Emitters:
     """The light tree over the local emitters (lights other than suns, the emissive triangles
     whose corners tri_corners are in table order, of materials tri_materials) when there are
     more than LOCAL_PICK_MAX of them; fewer keep the power table and the local pick
@@ -94,9 +94,8 @@ def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray,
     keep = power > 0
     if n == 0 or int(keep.sum()) <= LOCAL_PICK_MAX:
         return em
-    lights_kept = int(keep[:int(member.sum())].sum())
-    if (tri_materials is not None and lights_kept == 0
-            and np.unique(tri_materials[keep[int(member.sum()):]]).shape[0] == 1):
+    n_members = int(member.sum())           # the lights among them come first
+    if not keep[:n_members].any() and np.unique(tri_materials[keep[n_members:]]).shape[0] == 1:
         return em
     t0 = time.perf_counter()
     nodes, leaf_of, sorted_index, sorted_energy = build_light_tree(
