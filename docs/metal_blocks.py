@@ -5,11 +5,11 @@ light"):
     python docs/metal_blocks.py time 8 3          # 8 s per render, seeds 1-3
     python docs/metal_blocks.py samples 256 3     # 256 samples (passes) per render
 
-The reference is Cycles, two halves of REF_SECONDS each (environment, default 240; seeds
-1001 and 2002), rendered once and kept in the temporary folder.  Printed per render: the
-RMSE over the image, over the 16 x 16 block of the highlight (rows 64-79, columns 80-95 from
-the top at 128 x 128) and over the rest, the block's sum against the reference's, and the
-wall time; then the means.  Run it alone on the machine."""
+The reference is the benchmark's (Cycles, two halves of REF_SECONDS each: environment,
+default 240), rendered once and kept in the temporary folder by settings_compare.py.  Printed
+per render: the RMSE over the image, over the 16 x 16 block of the highlight (rows 64-79,
+columns 80-95 from the top at 128 x 128) and over the rest, the block's sum against the
+reference's, and the wall time; then the means.  Run it alone on the machine."""
 import os
 import sys
 import tempfile
@@ -20,29 +20,16 @@ import numpy as np
 BLOCK = (slice(64, 80), slice(80, 96))
 
 
-def reference(folder: Path, seconds: float) -> np.ndarray:
-    from ppm_engine.bench.curves import render
-    from ppm_engine.blender_io import cycles_reference
-    from ppm_engine.scenes import metal
-    path = folder / f"ppm_metal_blocks_ref_{seconds:g}.npy"
-    if not path.exists():
-        halves = []
-        for seed in (1001, 2002):
-            scene = metal.build()
-            cycles_reference(scene, seconds=seconds, seed=seed)
-            halves.append(render(scene, folder / f"ppm_metal_blocks_{seed}.exr")[0])
-        print(f"reference noise {np.sqrt(np.mean((halves[0] - halves[1]) ** 2)) / 2:.4f}")
-        np.save(path, 0.5 * (halves[0] + halves[1]))
-    return np.load(path)
-
-
 def main(mode: str, amount: float, seeds: int) -> None:
+    from settings_compare import reference  # (docs/: the benchmark's reference, cached)
+
     from ppm_engine.bench.curves import ppm_settings, render
     from ppm_engine.blender_io import cycles_reference, ensure_registered
     from ppm_engine.scenes import metal
     ensure_registered()
     folder = Path(tempfile.gettempdir())
-    ref = reference(folder, float(os.environ.get("REF_SECONDS", 240)))
+    _scene, ref, _keep = reference("glossy_metal", folder,
+                                   float(os.environ.get("REF_SECONDS", 240)))
     block = np.zeros(ref.shape[:2], bool)
     block[BLOCK] = True
 
