@@ -118,3 +118,11 @@ def test_kernels_are_formatted():
     proc = subprocess.run([exe, "--dry-run", "-Werror", "--style=file", *files],
                           capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr[-3000:]
+
+
+def test_every_program_includes_the_inline_builtins_first():
+    """kernels/builtins.h names PoCL's out-of-line builtins by macros for inline overloads: a
+    program that includes anything before it would call the library's in the code before."""
+    for f in sorted(KERNELS.glob("*.cl")):
+        first = re.search(r'^#include\s+"([^"]+)"', f.read_text(), re.M)
+        assert first and first.group(1) == "builtins.h", f.name
