@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from ppm_engine.bench.curves import MERGE_SCENES
+from ppm_engine.bench.curves import FIREFLY_MARGIN, MERGE_SCENES, SCENES, brightest, fireflies
 
 pytest.importorskip("OpenEXR")
 pytest.importorskip("matplotlib")
@@ -28,17 +28,51 @@ def _finite_numbers(obj):
         yield obj
 
 
+def test_firefly_check_counts_the_pixels_brighter_than_the_reference_s_range():
+    img = np.zeros((4, 5, 3), np.float32)
+    img[1, 2] = (10.0, 0.0, 0.0)            # luminance 2.126
+    img[3, 4] = (0.0, 0.0, 100.0)           # luminance 7.22, outside the pixels measured
+    img[0, 0] = (1.0, 1.0, 1.0)             # luminance 1
+    pixels = np.ones((4, 5), bool)
+    pixels[3, 4] = False
+    assert brightest(img, pixels) == pytest.approx(2.126)
+    assert fireflies(img, pixels, 1.5) == {"brightest": pytest.approx(2.126),
+                                           "over_reference_range": 1}
+    assert fireflies(img, pixels, 0.5)["over_reference_range"] == 2
+    assert fireflies(img, np.ones((4, 5), bool), 2.2)["over_reference_range"] == 1
+    assert math.isnan(brightest(img, np.zeros((4, 5), bool)))
+
+
+# the default tier's quick run: every kind of reference, curve and check once (hdri_sun and
+# glossy_metal are, for the bench, more scenes of the Cornell box's kind: a Cycles reference and
+# the three plain curves), 30 s less of the tier's longest test; the slow tier runs them all
+QUICK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
+                "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights")
+
+
 def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
+    _quick_bench(cli, tmp_path, QUICK_SCENES)
+
+
+@pytest.mark.slow
+def test_bench_quick_renders_every_bench_scene(cli, tmp_path):
+    assert set(QUICK_SCENES) < set(SCENES)
+    _quick_bench(cli, tmp_path, SCENES)
+
+
+def _quick_bench(cli, tmp_path, scenes):
     md = tmp_path / "B.md"
     md.write_text("# head\n\n<!-- bench:curves -->\nold\n<!-- /bench:curves -->\n\ntail\n")
     p = cli("bench", "--quick", "--json", tmp_path / "b.json", "--plot", tmp_path / "p.png",
-            "--markdown", md, timeout=900)
+            "--markdown", md, *(("--scenes", *scenes) if scenes != SCENES else ()),
+            timeout=900)
     assert p.returncode == 0, p.stderr
     res = json.loads((tmp_path / "b.json").read_text())
     luxcore_installed = importlib.util.find_spec("pyluxcore") is not None
-    assert set(res["scenes"]) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
-                                  "point_caustic", "rough_caustic", "mirror_caustic",
-                                  "pool_caustic", "many_lights", "hdri_sun", "glossy_metal"}
+    assert list(res["scenes"]) == list(scenes)
+    assert set(SCENES) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
+                           "point_caustic", "rough_caustic", "mirror_caustic",
+                           "pool_caustic", "many_lights", "hdri_sun", "glossy_metal"}
     tree = res["scenes"]["many_lights"]["light_tree"]
     assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1
     assert 0 < tree["share"] <= 1 and tree["bytes"] > 64 * tree["nodes"]
@@ -150,6 +184,19 @@ def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
             assert r["met"] == (r["image_rmse_vs_best_peer"] <= r["target_best_peer"])
         elif "target_mnee" in r:
             assert r["met"] == (r["image_rmse_vs_mnee"] <= r["target_mnee"])
+        # the firefly check: the brightest pixels of ours and Cycles at that budget (over the
+        # seeds) against the reference's range (the brighter half's brightest pixel)
+        ref, b = res["scenes"][name]["reference"], r["brightest"]
+        assert 0 < ref["brightest"] <= ref["brightest_half"] == b["reference_range"]
+        ceiling = b["firefly_ceiling"]
+        assert ceiling == ref["firefly_ceiling"] == pytest.approx(
+            FIREFLY_MARGIN * ref["brightest_half"])
+        assert b["ours"] == max(o["brightest_seeds"]) >= o["brightest"] > 0
+        assert b["cycles"] == max(cy["brightest_seeds"]) >= cy["brightest"] > 0
+        assert b["ours_over_range"] == sum(o["over_reference_range_seeds"])
+        assert (b["ours_over_range"] > 0) == (b["ours"] > ceiling)
+        assert (b["cycles_over_range"] > 0) == (b["cycles"] > ceiling)
+        assert r["no_firefly"] == (b["ours"] <= max(ceiling, b["cycles"]))
     assert "target_mnee" in res["ratios"]["glass_caustic"]
     assert "target_best_peer" in res["ratios"]["rough_caustic"]
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

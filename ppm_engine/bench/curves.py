@@ -85,6 +85,12 @@ the reference over the same pixels.  ``rmse_corrected`` = sqrt(max(RMSE^2 - ref_
 removes the reference's own (independent) noise from the expected squared error.  In the bulb
 box the pixels that see the bulb (the filament and its glass, radiance ~120) are left out of
 both: their anti-aliased edges would dominate every figure.
+
+Fireflies (issue 25: "no firefly that Cycles does not have"): every render records its
+brightest pixel (luminance) and how many pixels are brighter than FIREFLY_MARGIN x the
+reference's range (the brighter of its two halves' brightest pixels); at the equal-time budget
+a scene has no firefly of ours when our brightest pixel over the seeds is within that ceiling
+or no brighter than Cycles' brightest at the same time (``ratios``: "no_firefly").
 """
 from __future__ import annotations
 
@@ -165,6 +171,29 @@ def errors(img, ref, pixels, ref_noise=0.0) -> dict:
 
 
 # --- rendering through bpy --------------------------------------------------------------------
+# Rec. 709 luminance of linear RGB: what "the brightest pixel" is measured by
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+# a firefly: a pixel brighter than this many times the reference's range (the brighter of its
+# two halves' brightest pixels).  The brightest pixels of the references and of Cycles' and our
+# renders at equal time differ by 1-2 % among themselves where nothing is wrong (the Cornell
+# box's light, seen directly: 10.7 to 10.8), so the check looks past that
+FIREFLY_MARGIN = 1.1
+
+
+def brightest(img, pixels) -> float:
+    """The luminance of the brightest of ``pixels`` (NaN where there is none)."""
+    return float((img[..., :3] @ LUMINANCE)[pixels].max()) if pixels.any() else float("nan")
+
+
+def fireflies(img, pixels, ceiling: float) -> dict:
+    """Issue 25's firefly check of one render: its brightest pixel and how many of ``pixels``
+    are brighter than ``ceiling`` (FIREFLY_MARGIN x the reference's range: the brighter of its
+    two halves' brightest pixels, each half a render of its own with its own noise)."""
+    lum = img[..., :3] @ LUMINANCE
+    return {"brightest": brightest(img, pixels),
+            "over_reference_range": int(((lum > ceiling) & pixels).sum())}
+
+
 def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | None,
                  indirect: str = "AUTO", light_tracing: bool = True) -> None:
     if scene.render.engine != "PPM":
@@ -385,8 +414,14 @@ class Bench:
         ref = 0.5 * (halves[0] + halves[1])
         noise_all = errors(halves[0], halves[1], keep)["rmse"] / 2
         noise_c = errors(halves[0], halves[1], cmask)["rmse"] / 2 if cmask.any() else float("nan")
+        # the reference's range of brightness: no render's pixel should leave it (issue 25: no
+        # firefly that Cycles does not have)
+        ref_range = max(brightest(half, keep) for half in halves)
+        ceiling = FIREFLY_MARGIN * ref_range
         out["reference"] = {
             "engine": ref_engine, "seeds": list(REF_SEEDS),
+            "brightest": brightest(ref, keep), "brightest_half": ref_range,
+            "firefly_ceiling": ceiling,
             "seconds_per_half": 0.0 if ref_engine == "ANALYTIC" else ref_half,
             "mean": float(ref[keep].mean()),
             "caustic_mean": float(ref[cmask].mean()) if cmask.any() else float("nan"),
@@ -464,17 +499,22 @@ class Bench:
                 row = {"seconds": budget, "wall_s": wall, **info,
                        "image": errors(img, ref, keep, noise_all),
                        "caustic": errors(img, ref, cmask, noise_c if cmask.any() else 0.0),
-                       "mean_over_reference": float(img[keep].mean() / ref[keep].mean())}
+                       "mean_over_reference": float(img[keep].mean() / ref[keep].mean()),
+                       **fireflies(img, keep, ceiling)}
                 if budget == equal_time and curve in SEEDED_CURVES:
                     # the targets' ratio: mean RMSE over seeds (one render's RMSE varies by a
                     # few percent from seed to seed)
                     per_seed = [row["image"]["rmse"]]
+                    flies = [fireflies(img, keep, ceiling)]
                     for seed in EQUAL_TIME_SEEDS[1:]:
                         img2, _, _ = self.shot(scene, engine, budget, seed, indirect or "AUTO",
                                                lt)
                         per_seed.append(errors(img2, ref, keep, noise_all)["rmse"])
+                        flies.append(fireflies(img2, keep, ceiling))
                     row["seeds"] = list(EQUAL_TIME_SEEDS)
                     row["image_rmse_seeds"] = per_seed
+                    row["brightest_seeds"] = [f["brightest"] for f in flies]
+                    row["over_reference_range_seeds"] = [f["over_reference_range"] for f in flies]
                     row["image_rmse_mean"] = float(np.mean(per_seed))
                 rows.append(row)
                 self.progress(f"[{name}] {curve:11s} {budget:6.2f} s: RMSE "
@@ -541,6 +581,22 @@ def ratios(result: dict, seconds: float) -> dict:
         g = _at(s["curves"].get("ours_merge", []), seconds)
         if g is not None:       # what the photons' light tracing gives: ours over the merge alone
             r["ours_over_merge_alone"] = o["image"]["rmse"] / g["image"]["rmse"]
+        # issue 25: no firefly that Cycles does not have; ours' brightest pixel at this budget
+        # (over the seeds where there are several) within the reference's range (up to
+        # FIREFLY_MARGIN) or no brighter than Cycles' brightest at the same time
+        # (a run's JSON from before the check has none)
+        if "brightest_half" in s["reference"] and "brightest" in o and "brightest" in c:
+            ref_range = s["reference"]["brightest_half"]
+            ceiling = s["reference"]["firefly_ceiling"]
+            ob = max(o.get("brightest_seeds", [o["brightest"]]))
+            cb = max(c.get("brightest_seeds", [c["brightest"]]))
+            r["brightest"] = {"ours": ob, "cycles": cb, "reference_range": ref_range,
+                              "firefly_ceiling": ceiling,
+                              "ours_over_range": sum(o.get("over_reference_range_seeds",
+                                                           [o["over_reference_range"]])),
+                              "cycles_over_range": sum(c.get("over_reference_range_seeds",
+                                                             [c["over_reference_range"]]))}
+            r["no_firefly"] = bool(ob <= max(ceiling, cb))
         if name in TARGETS:
             r["target"] = TARGETS[name]
             r["met"] = bool(r.get("image_rmse_seeds", r["image_rmse"]) <= TARGETS[name])

@@ -175,8 +175,10 @@ def ratio_table(result: dict) -> str:
     eq = result["ratios_at"]
     lines = [f"| scene | ours: indirect light | RMSE ours/Cycles at {eq:g} s "
              "| mean of seeds | corrected for ref. noise | caustic pixels | ours/(Cycles+MNEE) "
-             "| ours/LuxCore BIDIR (caustic pixels) | paper's photons/Cycles | target | met |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+             "| ours/LuxCore BIDIR (caustic pixels) | paper's photons/Cycles | target | met "
+             "| brightest pixel: ours / Cycles / reference's range (pixels over 1.1 x the "
+             "range: ours, Cycles) | no firefly |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|"]
     for name, r in result["ratios"].items():
         mn = f"{r['image_rmse_vs_mnee']:.3f}" if "image_rmse_vs_mnee" in r else "–"
         lx = (f"{r['image_rmse_vs_luxcore']:.3f} ({r['caustic_rmse_vs_luxcore']:.3f})"
@@ -192,7 +194,8 @@ def ratio_table(result: dict) -> str:
               else "–")
         lines.append(f"| {name} | {r.get('indirect', 'photons')} | {r['image_rmse']:.3f} | {sd} | "
                      f"{r['image_rmse_corrected']:.3f} | {r['caustic_rmse']:.3f} | {mn} | {lx} | "
-                     f"{ph} | {tgt} | {met} |")
+                     f"{ph} | {tgt} | {met} | {_brightest(r)} | "
+                     f"{('yes' if r['no_firefly'] else 'no') if 'no_firefly' in r else '–'} |")
     # LuxCore's curve: its converged brightness (a bias raises its RMSE) or why it is missing
     for name, s in result["scenes"].items():
         b = s.get("bias_check", {}).get("luxcore_longest_mean_over_reference")
@@ -202,6 +205,15 @@ def ratio_table(result: dict) -> str:
         if isinstance(s.get("luxcore"), str):
             lines.append(f"\nLuxCore BIDIR on {name} skipped: {s['luxcore']}.")
     return "\n".join(lines)
+
+
+def _brightest(r: dict) -> str:
+    """The firefly check's cell (curves.ratios: "brightest")."""
+    b = r.get("brightest")
+    if not b:
+        return "–"
+    return (f"{b['ours']:.3g} / {b['cycles']:.3g} / {b['reference_range']:.3g} "
+            f"({b['ours_over_range']}, {b['cycles_over_range']})")
 
 
 def _finite_json(obj):
