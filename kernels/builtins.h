@@ -5,7 +5,8 @@
  * PPM_INLINE_BUILTINS defined (device/program.py: on PoCL only; a GPU driver's own builtins are
  * instructions already) the names below are macros for overloads that compile to instructions:
  * each has the OpenCL definition (fmin and fmax keep the non-NaN argument, clamp is
- * fmin(fmax(x, lo), hi), mix is a + (b - a) t), and length and normalize fall back to the
+ * fmin(fmax(x, lo), hi), mix is a + (b - a) t, isfinite is |x| <= FLT_MAX; the programs are
+ * built without -cl-finite-math-only, which would fold that), and length and normalize fall back to the
  * library's scaled versions where the squared length is not a normal float.  Included first by
  * every program. */
 #ifndef PPM_BUILTINS_H
@@ -116,6 +117,12 @@ PPM_OVL float4 ppm_normalize(float4 v) {
     return d >= FLT_MIN && d <= FLT_MAX ? v * (1.0f / __builtin_sqrtf(d)) : normalize(v);
 }
 
+/* isfinite: a float's magnitude at most FLT_MAX (NaN compares false); the scalar is 1 or 0,
+ * a vector's components -1 or 0, as OpenCL's relational functions */
+PPM_OVL int ppm_isfinite(float a) { return __builtin_fabsf(a) <= FLT_MAX; }
+PPM_OVL int3 ppm_isfinite(float3 a) { return ppm_fabs(a) <= (float3)(FLT_MAX); }
+PPM_OVL int4 ppm_isfinite(float4 a) { return ppm_fabs(a) <= (float4)(FLT_MAX); }
+
 /* (PoCL's own headers name its library functions by macros of these names) */
 #undef fmin
 #define fmin ppm_fmin
@@ -137,6 +144,8 @@ PPM_OVL float4 ppm_normalize(float4 v) {
 #define length ppm_length
 #undef normalize
 #define normalize ppm_normalize
+#undef isfinite
+#define isfinite ppm_isfinite
 
 #endif
 #endif

@@ -108,6 +108,17 @@ __kernel void builtins_at(__global const float4 *xs, __global const float4 *ys, 
     o[7] = fmin(x4, y4.x) + fmax(x4, y4) * 0.5f;
 }
 
+/* isfinite (builtins.h's where PoCL compiles) of each x: the vector's components (-1 or 0) and
+ * the scalar w's (1 or 0) (tests/test_kernels.py) */
+__kernel void isfinite_at(__global const float4 *xs, uint n, __global float4 *out) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    float4 x = xs[i];
+    int4 v = isfinite(x);
+    out[2 * (size_t)i] = (float4)(convert_float3(isfinite(x.xyz)), (float)isfinite(x.w));
+    out[2 * (size_t)i + 1] = convert_float4(v);
+}
+
 /* geometry.h's sincos_turns at each u: (sin, cos) of 2 pi u (tests/test_kernels.py) */
 __kernel void sincos_turns_at(__global const float *us, uint n, __global float2 *out) {
     uint i = get_global_id(0);

@@ -422,6 +422,20 @@ def test_inline_builtins_equal_numpy(device):
                                rtol=1e-6)
 
 
+def test_inline_isfinite_equals_numpy(device):
+    """isfinite (kernels/builtins.h on PoCL): false for infinities and NaN, true for every finite
+    float up to FLT_MAX and the subnormals; 1 for a scalar, -1 for a vector's component."""
+    f = np.finfo(np.float32)
+    vals = np.array([0.0, -0.0, 1.0, -3.5, f.max, -f.max, f.tiny, f.tiny / 8, np.inf, -np.inf,
+                     np.nan, -np.nan, 1e38, 3e38, -1e-45, 7.0], np.float32)
+    x = np.stack([np.roll(vals, k) for k in range(4)], axis=1)
+    out = _debug_run(device, "isfinite_at", len(x), [x], (len(x), 2, 4))
+    fin = np.isfinite(x)
+    np.testing.assert_array_equal(out[:, 0, :3], np.where(fin[:, :3], -1.0, 0.0))
+    np.testing.assert_array_equal(out[:, 0, 3], np.where(fin[:, 3], 1.0, 0.0))
+    np.testing.assert_array_equal(out[:, 1], np.where(fin, -1.0, 0.0))
+
+
 def test_sincos_in_turns_equals_numpy(device):
     """geometry.h's sincos_turns (the samplers' sin and cos of 2 pi u, reduced in turns) within
     2e-7 of float64's over [-1/8, 1] (the concentric disk map's turns start at -1/8), exactly
