@@ -24,8 +24,8 @@
  * there: next-event estimation and these paths have it).  Transparent surfaces are no
  * scattering for either.
  *
- * Russian roulette as Cycles plays it (survival sqrt of the path's throughput relative to the
- * visible point's), decided by one number for the whole path; bounces counted from the camera
+ * Russian roulette (survival: the square root of the path's throughput relative to the visible
+ * point's, below), decided by one number for the whole path; bounces counted from the camera
  * as in the eye pass, and a path past a Light Paths limit only adds the emitters its last
  * sample found (through transparent surfaces after its last bounce; light_path.h).  The numbers of the first twelve vertices are low-discrepancy over the passes
  * (Owen-scrambled Sobol sets, as Cycles' default sampler; rng.h ld_set).  In a closed emissive
@@ -37,6 +37,9 @@
  * (docs/BENCHMARKS.md) the furnace's error fell from 0.023 to 0.013 and the Cornell box's
  * stayed (0.0127, 0.0125); sparing two hits was worse on both */
 #define INDIRECT_RR_FIRST 1
+/* the most a bounce's survival is raised to (the roulette below): 3/4, a tail of three more
+ * bounces on average after a survival */
+#define INDIRECT_RR_Q 0.75f
 
 /* the path's vertices draw their numbers from the pixel's low-discrepancy stream over the
  * passes (rng.h ld_set), two sets of four each: set one (the point on the emitter as the set's
@@ -168,12 +171,25 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         if (term != TERM_NONE) break;  /* past a limit: that emission only */
         float sw = sd->sw_gather + sd->sw_continue;
         if (!(sw > 0.0f)) break;
-        /* Russian roulette as Cycles plays it: after the hit's emission, before its next-event
-         * estimation and sample (survival: sqrt of the throughput relative to the visible
-         * point's); moved here from before the ray, the furnace's error fell from 0.034 to
-         * 0.023 at 8 s */
-        float q = vertex < INDIRECT_RR_FIRST ? 1.0f : fmin(1.0f, sqrt(max3(beta) / beta0));
-        survive *= q;
+        /* Russian roulette after the hit's emission, before its next-event estimation and
+         * sample (moved here from before the ray, the furnace's error fell from 0.034 to 0.023
+         * at 8 s).  Cycles' survival, the square root of the throughput relative to the
+         * visible point's (t, after the roulettes' 1 / q), settles at q = the albedo per bounce;
+         * here a bounce survives with at least that and up to sqrt(albedo), at most
+         * INDIRECT_RR_Q: the path survives to a vertex with probability min(sqrt of its
+         * throughput before the roulettes, Q per bounce).  Low albedos are where the roulette's
+         * noise is all there is (the furnace, albedo 0.5: error at 4 s 0.0060 -> 0.0037, at
+         * 16 s 0.0019 -> 0.0013), and with the cap longer paths cost high albedos nothing
+         * (the Cornell box 0.0084 -> 0.0083; docs/BENCHMARKS.md) */
+        float q = 1.0f;
+        if (vertex >= INDIRECT_RR_FIRST) {
+            float t = max3(beta) / beta0;
+            float cycles = survive * fmin(1.0f, sqrt(t));
+            float keep = fmin(survive,
+                              fmax(cycles, fmin(sqrt(survive * t), survive * INDIRECT_RR_Q)));
+            q = keep / survive;
+            survive = keep;
+        }
         if (!(survive > 0.0f) || u_rr >= survive) break;
         beta /= q;
         p = s.p;
