@@ -185,8 +185,8 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         if (vertex >= INDIRECT_RR_FIRST) {
             float t = max3(beta) / beta0;
             float cycles = survive * fmin(1.0f, sqrt(t));
-            float keep = fmin(survive,
-                              fmax(cycles, fmin(sqrt(survive * t), survive * INDIRECT_RR_Q)));
+            /* both terms are at most survive: the survival never rises */
+            float keep = fmax(cycles, fmin(sqrt(survive * t), survive * INDIRECT_RR_Q));
             q = keep / survive;
             survive = keep;
         }
