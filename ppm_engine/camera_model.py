@@ -87,3 +87,51 @@ def _fit_extent(width, height, ortho_scale, lens_mm, sensor_mm, fit, sensor_heig
     if horizontal:
         return f, f * yr / xr, f
     return f * xr / yr, f, f
+
+
+def camera_from_view(view_matrix, window_matrix, width: int, height: int,
+                     **film) -> np.ndarray:
+    """The camera record of a 3D viewport: its view matrix (world to view, as
+    RegionView3D.view_matrix) and OpenGL projection (RegionView3D.window_matrix), both 4 x 4,
+    for a ``width`` x ``height`` region.  Perspective and orthographic projections, with
+    Blender's off-centre frustum (a camera view's shift, the zoomed camera frame) as the
+    shift; the clipping planes from the projection.  ``film``: make_camera's film fields (pixel
+    filter, transparency, exposure) and depth of field.
+
+    For a perspective P, a point at distance 1 ahead maps x = (u + P[0,2]) / P[0,0] for u in
+    [-1, 1] across the region: extent 2 / P[0,0], shift P[0,2] / P[0,0]; orthographic,
+    x = (u - P[0,3]) / P[0,0]."""
+    v = np.asarray(view_matrix, np.float64).reshape(4, 4)
+    p = np.asarray(window_matrix, np.float64).reshape(4, 4)
+    if not (np.isfinite(v).all() and np.isfinite(p).all()) or p[0, 0] == 0 or p[1, 1] == 0:
+        raise ValueError("the view's matrices are not invertible")
+    to_world = np.linalg.inv(v)
+    cols = to_world[:3, :3]
+    to_world[:3, :3] = cols / np.maximum(np.linalg.norm(cols, axis=0, keepdims=True), 1e-30)
+    extent = (2.0 / p[0, 0], 2.0 / p[1, 1])
+    perspective = p[3, 3] == 0.0
+    if perspective:
+        shift = (p[0, 2] / p[0, 0], p[1, 2] / p[1, 1])
+        a, b = p[2, 2], p[2, 3]
+        clip = (b / (a - 1.0), b / (a + 1.0))
+        kind = CAMERA_PERSP
+    else:
+        shift = (-p[0, 3] / p[0, 0], -p[1, 3] / p[1, 1])
+        a, b = p[2, 2], p[2, 3]
+        clip = ((b + 1.0) / a, (b - 1.0) / a)
+        kind = CAMERA_ORTHO
+    width, height = max(int(width), 1), max(int(height), 1)
+    return make_camera(type=kind, width=width, height=height, to_world=to_world[:3],
+                       extent=extent, shift=shift, clip=clip, **film)
+
+
+def scaled_camera(camera: np.ndarray, divider: int) -> np.ndarray:
+    """The same view at 1/``divider`` of the resolution (the viewport's first passes): the
+    frame and region divided, rounded up; the view plane unchanged."""
+    if divider <= 1:
+        return camera
+    cam = camera.copy()
+    w, h = int(camera["width"][0]), int(camera["height"][0])
+    cam["width"], cam["height"] = -(-w // divider), -(-h // divider)
+    cam["region"] = (0, 0, cam["width"][0], cam["height"][0])
+    return cam

@@ -168,12 +168,34 @@ class DeviceScene:
         self.args = {b.name: args[b.name] for b in SCENE_BUFFERS}
         self.camera = args["camera"]
         self.light_paths = prepared.light_paths
-        self.filter_table = self.device.upload(
-            filter_table(float(prepared.camera["filter_width"][0]),
-                         int(prepared.camera["filter_type"][0])), "pixel filter")
-        # the filter's density, for splats of the photons' light tracing (camera_connect.h)
-        density, self.filter_reach = filter_density(float(prepared.camera["filter_width"][0]),
-                                                    int(prepared.camera["filter_type"][0]))
+        self._upload_filter(prepared.camera)
+
+    def set_camera(self, scene: SceneArrays) -> None:
+        """``scene`` is the current one with another camera (the viewport's view; its other
+        arrays the same): only the camera is uploaded, and the pixel filter when the film's
+        filter changed.  prepare_scene's shift of a far-from-origin scene is applied to it
+        too."""
+        from .scene_prep import check_camera
+        cam = np.array(scene.camera, copy=True)
+        check_camera(cam)
+        old_t = self.scene.camera["to_world"][0, :, 3].astype(np.float64)
+        shift = np.float32(old_t - self.prepared.camera["to_world"][0, :, 3])  # 0: not moved
+        cam["to_world"][0, :, 3] = cam["to_world"][0, :, 3].astype(np.float64) - shift
+        filter_changed = any(cam[f][0] != self.prepared.camera[f][0]
+                             for f in ("filter_width", "filter_type"))
+        self.scene = scene
+        self.prepared = self.prepared.replace(camera=cam)
+        self.args["camera"] = self.camera = self.device.upload(
+            _as_elements(cam, _ROWS["camera"]), _ROWS["camera"].what)
+        if filter_changed:
+            self._upload_filter(cam)
+
+    def _upload_filter(self, cam: np.ndarray) -> None:
+        """The pixel filter's table, and its density for the photons' light tracing
+        (camera_connect.h), from the camera's film."""
+        width, kind = float(cam["filter_width"][0]), int(cam["filter_type"][0])
+        self.filter_table = self.device.upload(filter_table(width, kind), "pixel filter")
+        density, self.filter_reach = filter_density(width, kind)
         self.filter_density = self.device.upload(density, "pixel filter density")
 
     def _upload(self, **sources) -> dict:
@@ -251,7 +273,7 @@ class DeviceScene:
     @staticmethod
     def same_geometry(a: SceneArrays, b: SceneArrays) -> bool:
         """True when the BVH of ``a`` serves ``b`` (same triangles, materials, visibility)."""
-        return all(np.array_equal(getattr(a, k), getattr(b, k))
+        return all(getattr(a, k) is getattr(b, k) or np.array_equal(getattr(a, k), getattr(b, k))
                    for k in ("positions", "material", "visibility"))
 
     def refit(self, scene: SceneArrays) -> bool:

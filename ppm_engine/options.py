@@ -34,6 +34,20 @@ LIMITS = {
                         "adaptive sampling; 0 = off); the render ends when every pixel has"),
 }
 
+# The viewport's own settings (Rendered shading in the 3D view; ppm_engine/viewport.py), as
+# Cycles' viewport samples: name: (min, max, default, description)
+VIEWPORT_LIMITS = {
+    "viewport_passes": (1, 1_000_000, 1024,
+                        "Passes of the viewport's Rendered shading (as Cycles' viewport "
+                        "samples); it refines until then and stops"),
+    "viewport_time_limit": (0.0, 1e7, 0.0,
+                            "Stop refining the viewport after this many seconds (0 = no "
+                            "limit)"),
+    "viewport_start_resolution": (8, 16384, 64,
+                                  "After every change the viewport's first pass renders about "
+                                  "this many pixels squared, then the resolution doubles each "
+                                  "pass up to full (Cycles' Start Pixels)"),
+}
 
 # The automatic photon count (RenderOptions.photons_per_pass = None, the default): one photon
 # per pixel of the render region per pass -- the paper's 512^2 photons at 512 x 512 pixels --

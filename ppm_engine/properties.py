@@ -7,7 +7,7 @@ import zlib
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
-from .options import AUTO_PHOTONS_MAX, AUTO_PHOTONS_MIN, LIMITS, RenderOptions
+from .options import AUTO_PHOTONS_MAX, AUTO_PHOTONS_MIN, LIMITS, VIEWPORT_LIMITS, RenderOptions
 
 DEFAULT_DEVICE = "DEFAULT"
 
@@ -44,13 +44,13 @@ def _device_items_cb(self, context):
 
 
 def _int(name: str, **kw):
-    lo, hi, default, desc = LIMITS[name]
+    lo, hi, default, desc = LIMITS[name] if name in LIMITS else VIEWPORT_LIMITS[name]
     return IntProperty(name=kw.pop("label"), description=desc, min=lo, max=hi, default=default,
                        **kw)
 
 
 def _float(name: str, **kw):
-    lo, hi, default, desc = LIMITS[name]
+    lo, hi, default, desc = LIMITS[name] if name in LIMITS else VIEWPORT_LIMITS[name]
     return FloatProperty(name=kw.pop("label"), description=desc, min=lo, max=hi, default=default,
                          **kw)
 
@@ -104,6 +104,17 @@ class PPMSettings(bpy.types.PropertyGroup):
                     "directly (a point light's focus through glass). Pinhole cameras only; off "
                     "with depth of field",
         default=True,
+    )
+    viewport_passes: _int("viewport_passes", label="Viewport Passes", soft_max=4096)
+    viewport_time_limit: _float("viewport_time_limit", label="Viewport Time Limit",
+                                subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE", soft_max=3600.0,
+                                step=100)
+    viewport_start_resolution: _int("viewport_start_resolution", label="Start Pixels",
+                                    soft_max=1024)
+    viewport_pause: BoolProperty(
+        name="Pause Viewport",
+        description="Stop refining the viewport's Rendered shading (it keeps its image)",
+        default=False,
     )
     device: EnumProperty(
         name="Device",

@@ -9,6 +9,7 @@ in-order queue without host waits, and the small per-pass statistics are read on
 """
 from __future__ import annotations
 
+import functools
 import time
 
 import numpy as np
@@ -25,6 +26,16 @@ from .scene_arrays import SceneArrays
 from .stats import PassStats
 
 
+def _locked(method):
+    """Run ``method`` holding the device's lock: renderers in other threads (the viewport's
+    worker, a final render, a preview) share the device's queue and kernel objects."""
+    @functools.wraps(method)
+    def run(self, *args, **kwargs):
+        with self.device.lock:
+            return method(self, *args, **kwargs)
+    return run
+
+
 class Renderer:
     # photon buffer capacity per emitted photon (grows when a pass overflows)
     STORE_FACTOR = 2
@@ -34,10 +45,11 @@ class Renderer:
         self.device = dev = get_device(options.device)
         self.queue = dev.queue
         t0 = time.perf_counter()
-        self.scene = DeviceScene(dev, scene)
-        self.counters = dev.buffer(4 * N_COUNTERS, "counters")
-        self._pilot = None          # (settings it depends on, caustic fraction): kept by reset()
-        self._start(options, new_pixels=True)
+        with dev.lock:
+            self.scene = DeviceScene(dev, scene)
+            self.counters = dev.buffer(4 * N_COUNTERS, "counters")
+            self._pilot = None      # (settings it depends on, caustic fraction): kept by reset()
+            self._start(options, new_pixels=True)
         self.setup_seconds = time.perf_counter() - t0
 
     @property
@@ -159,6 +171,7 @@ class Renderer:
         caustic, diffuse = int(counters[Counter.CAUSTIC]), int(counters[Counter.DIFFUSE_FIRST])
         return caustic / (caustic + diffuse) if caustic + diffuse else 0.0
 
+    @_locked
     def refit(self, scene: SceneArrays) -> bool:
         """The same triangles moved or deformed (an object's transform, an armature): the BVH is
         refitted over its hierarchy instead of rebuilt, and the scene re-uploaded.  Returns
@@ -172,6 +185,7 @@ class Renderer:
         return (options.device == self.options.device
                 and (scene is None or DeviceScene.same_geometry(self.scene.scene, scene)))
 
+    @_locked
     def reset(self, options: RenderOptions, scene: SceneArrays | None = None):
         """Start a new render on the same device, keeping the BVH and the built programs
         (persistent data): a new film, statistics and photon storage; a new scene whose
@@ -181,8 +195,11 @@ class Renderer:
             raise ValueError("reset() needs the same device and geometry; build a new Renderer")
         old, self.options = self.options, options
         if scene is not None and scene is not self.scene.scene:
-            self.scene.upload(scene)
-            self._pilot = None                   # materials or lights may differ
+            if self.scene.scene.differs_only_in_camera(scene):
+                self.scene.set_camera(scene)     # the viewport's view moved: the camera only
+            else:
+                self.scene.upload(scene)
+                self._pilot = None               # materials or lights may differ
         w, h = self.scene.scene.resolution
         self._start(options, new_pixels=(
             (w, h) != (self.width, self.height)
@@ -190,8 +207,16 @@ class Renderer:
             or options.exact_gather != old.exact_gather))
 
     # ------------------------------------------------------------------------------------------
-    def iterate(self) -> PassStats:
-        """Run one SPPM pass."""
+    # an interruptible pass (iterate's ``interrupt``) splits its eye pass into launches of
+    # about this many pixels (on a 2-core CPU some 50 ms of the Cornell box's eye paths)
+    INTERRUPT_PIXELS = 1 << 15
+
+    @_locked
+    def iterate(self, interrupt=None) -> PassStats | None:
+        """Run one SPPM pass.  ``interrupt``: a function asked between pieces of a large eye
+        pass (INTERRUPT_PIXELS each); when it returns True the pass is dropped unfinished and
+        None returned, and the render must be reset before the next pass (the viewport: a new
+        view is waiting)."""
         import pyopencl as cl
         t0 = time.perf_counter()
         o, q, n, v = self.options, self.queue, self.n_pixels, self.vps
@@ -200,7 +225,12 @@ class Renderer:
         # this pass's counters (Counter.NAN counts over the whole render)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
-        events = self.eye.enqueue(q, pass_index, o, self.path_indirect, lt_kappa=self.lt_kappa)
+        pieces = n // self.INTERRUPT_PIXELS
+        events = self.eye.enqueue(q, pass_index, o, self.path_indirect, lt_kappa=self.lt_kappa,
+                                  interrupt=interrupt if pieces >= 2 else None, chunks=pieces)
+        if events is None:
+            q.finish()
+            return None
         emitted = 0
         if self.photons_needed:
             # the grid over the visible points: only photons use it
@@ -259,16 +289,19 @@ class Renderer:
         return stats
 
     # ------------------------------------------------------------------------------------------
+    @_locked
     def image(self) -> np.ndarray:
         """Linear RGBA (h, w, 4) float32 of the render region, row 0 = bottom."""
         ev, out = self.film.resolve()
         ev.wait()
         return out
 
+    @_locked
     def passes(self) -> dict:
         """The extra render passes (Film.aux_passes) of the render region."""
         return self.film.aux_passes()
 
+    @_locked
     def close(self):
         """Release this render's device buffers now (the device and its programs stay)."""
         import pyopencl as cl

@@ -405,6 +405,12 @@ class SceneArrays:
     def replace(self, **changes) -> SceneArrays:
         return dataclasses.replace(self, **changes)
 
+    def differs_only_in_camera(self, other: SceneArrays) -> bool:
+        """Whether ``other`` holds this scene's very arrays (the same objects) but the camera:
+        ``replace(camera=...)`` made it (the viewport's view changes)."""
+        return all(getattr(self, f.name) is getattr(other, f.name)
+                   for f in dataclasses.fields(self) if f.name != "camera")
+
     def nodes_of(self, material: int | str) -> np.ndarray:
         """The BSDF nodes of a material (its index or name)."""
         k = self.material_names.index(material) if isinstance(material, str) else material

@@ -10,6 +10,14 @@ from .errors import SceneError
 from .scene_arrays import TERMINATOR_OFFSET, SceneArrays
 
 
+def check_camera(camera: np.ndarray) -> None:
+    """Refuse NaN/Inf in a camera record with a SceneError."""
+    for field in camera.dtype.names:
+        if camera.dtype[field].base.kind == "f" and not np.isfinite(camera[field]).all():
+            raise SceneError(f"the camera has NaN or infinite values in '{field}': fix them and "
+                             "render again")
+
+
 def check_finite(scene: SceneArrays) -> None:
     """Refuse NaN/Inf in the camera, a material (its BSDF nodes' inputs included) or the world
     with a SceneError naming it."""

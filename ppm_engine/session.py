@@ -19,6 +19,19 @@ from .errors import PPMError
 WRITE_INTERVAL = 0.25
 
 
+# Material, world and light previews (RenderEngine.is_preview): icons (the longer side at most
+# PREVIEW_ICON_SIZE pixels) render PREVIEW_ICON_PASSES passes, the Preview panel's larger image
+# PREVIEW_PASSES; both with the kernels built for every feature (RenderOptions.specialize
+# False), the viewport's: a preview of a new material builds nothing.
+PREVIEW_ICON_SIZE, PREVIEW_ICON_PASSES, PREVIEW_PASSES = 96, 8, 32
+
+
+def preview_options(options, width: int, height: int):
+    """The options of a preview render of ``width`` x ``height`` pixels."""
+    passes = PREVIEW_ICON_PASSES if max(width, height) <= PREVIEW_ICON_SIZE else PREVIEW_PASSES
+    return options.replace(passes=min(options.passes, passes), specialize=False).validate()
+
+
 # Render passes besides Combined: (name, channels, channel ids, type).  The denoising pair lets
 # Blender's compositor Denoise node work on our renders; the last two are diagnostics.
 RENDER_PASSES = (
@@ -191,6 +204,8 @@ class Session:
             from .properties import to_options
 
             options = to_options(depsgraph.scene.ppm)
+            if getattr(engine, "is_preview", False):
+                options = preview_options(options, engine.resolution_x, engine.resolution_y)
             arrays = self._prepare(engine, depsgraph, options)
             w, h = arrays.resolution
             # coordinates are relative to the border rectangle (Blender clamps the result to it)

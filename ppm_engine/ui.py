@@ -53,6 +53,17 @@ class PPM_PT_sampling(PPMPanel, bpy.types.Panel):
                     ("passes", "time_limit", "noise_threshold", "seed"))
 
 
+class PPM_PT_sampling_viewport(PPMPanel, bpy.types.Panel):
+    bl_label = "Viewport"
+    bl_parent_id = "PPM_PT_sampling"
+
+    def draw(self, context):
+        _draw_props(self.layout, context.scene.ppm,
+                    ("viewport_passes", "viewport_time_limit", "viewport_start_resolution",
+                     "viewport_pause"))
+        self.layout.prop(context.scene.render, "preview_pixel_size", text="Pixel Size")
+
+
 class PPM_PT_photons(PPMPanel, bpy.types.Panel):
     bl_label = "Photons"
 
@@ -72,7 +83,7 @@ class PPM_PT_device(PPMPanel, bpy.types.Panel):
         _draw_props(self.layout, context.scene.ppm, ("device",))
 
 
-CLASSES = (PPM_PT_sampling, PPM_PT_photons, PPM_PT_device)
+CLASSES = (PPM_PT_sampling, PPM_PT_sampling_viewport, PPM_PT_photons, PPM_PT_device)
 
 
 def _all_subclasses(cls):

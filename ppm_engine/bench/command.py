@@ -37,6 +37,10 @@ def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentP
     b.add_argument("--strategies", action="store_true",
                    help="what each strategy (camera paths, the merge, light tracing) brings to "
                         "the photon scenes' images (--scenes, --times: one budget)")
+    b.add_argument("--viewport", action="store_true",
+                   help="the viewport's latencies (camera move, material edit, transform, second "
+                        "open), kernel builds per edit, cold starts per scene and memory per "
+                        "session (bench/viewport.py)")
     b.add_argument("--skips", action="store_true",
                    help="what each skip of work a scene does not need saves, with and without")
     b.add_argument("--phases", metavar="SCENE", help="per-phase breakdown of a pass of SCENE")
@@ -105,7 +109,7 @@ def run(args, cmdline: str, progress=print) -> int:
     output folder's bench/ and BENCHMARKS.md (output_dir)."""
     needed = (("matplotlib",) if args.report else ("OpenEXR", "matplotlib")
               if not (args.micro or args.phases or args.skips or args.shader or args.digest
-                      or args.strategies)
+                      or args.strategies or args.viewport)
               else ())
     if args.noise:
         needed = ("OpenEXR",)
@@ -162,6 +166,11 @@ def run(args, cmdline: str, progress=print) -> int:
             args.device, progress)
         st["machine"] = report.machine_info(args.device)
         return publish("strategies", st, strategies.format_strategies(st))
+    if args.viewport:
+        from . import viewport
+        v = viewport.run_viewport(args.device, quick=args.quick, progress=progress)
+        v["machine"] = report.machine_info(args.device)
+        return publish("viewport", v, viewport.format_viewport(v))
     if args.skips:
         s = skips.run_skips(args.device, quick=args.quick, progress=progress)
         s["machine"] = report.machine_info(args.device)

@@ -101,7 +101,11 @@ class Device:
         ext = cl_device.extensions
         self.int64_atomics = ("cl_khr_int64_extended_atomics" in ext
                               and "cl_khr_int64_base_atomics" in ext)
-        self.programs = ProgramCache(self.context, cl_device)
+        # held by whoever uses the queue or the shared kernel objects (a kernel's arguments are
+        # set, then it is enqueued): renderers of different threads (the viewport's worker, a
+        # final render, a preview) take turns by pass; builds hold it too
+        self.lock = threading.RLock()
+        self.programs = ProgramCache(self.context, cl_device, self.lock)
         self._algorithms = {}
 
     def __repr__(self):
@@ -141,30 +145,39 @@ class Device:
                               f"'{self.info.name}': {e}") from e
 
     # -- library primitives, built once per device -------------------------------------------------
+    def _algorithm(self, name: str, factory):
+        """pyopencl library kernel ``name``, made by ``factory()`` once (counted as a build)."""
+        alg = self._algorithms.get(name)
+        if alg is None:
+            with self.programs.lock:
+                alg = self._algorithms.get(name)
+                if alg is None:
+                    alg = self._algorithms[name] = self.programs._timed(name, factory)
+        return alg
+
     def box_area_sum(self):
         """pyopencl ReductionKernel: the summed surface area of boxes (lo[i], hi[i]) (float4)."""
-        if "box_area" not in self._algorithms:
+        def make():
             from pyopencl.reduction import ReductionKernel
-            self._algorithms["box_area"] = ReductionKernel(
+            return ReductionKernel(
                 self.context, np.float32, neutral="0", reduce_expr="a+b",
                 map_expr="box_area(lo[i], hi[i])", arguments="__global const float4 *lo, "
                 "__global const float4 *hi",
                 preamble="float box_area(float4 a, float4 b) { float4 d = fmax(b - a, 0.0f); "
                          "return 2.0f * (d.x * d.y + d.y * d.z + d.z * d.x); }")
-        return self._algorithms["box_area"]
+        return self._algorithm("box area sum", make)
 
     def exclusive_scan_uint(self):
         """pyopencl ExclusiveScanKernel over uint (compaction positions)."""
-        if "scan_u" not in self._algorithms:
+        def make():
             from pyopencl.scan import ExclusiveScanKernel
-            self._algorithms["scan_u"] = ExclusiveScanKernel(self.context, np.uint32, "a+b", "0")
-        return self._algorithms["scan_u"]
+            return ExclusiveScanKernel(self.context, np.uint32, "a+b", "0")
+        return self._algorithm("exclusive scan", make)
 
     def radix_sort_uint_pairs(self):
         """pyopencl's RadixSort of (uint key, uint value) pairs."""
-        if "radix_uu" not in self._algorithms:
+        def make():
             from pyopencl.algorithm import RadixSort
-            self._algorithms["radix_uu"] = RadixSort(
-                self.context, "uint *keys, uint *values", key_expr="keys[i]",
-                sort_arg_names=["keys", "values"], key_dtype=np.uint32)
-        return self._algorithms["radix_uu"]
+            return RadixSort(self.context, "uint *keys, uint *values", key_expr="keys[i]",
+                             sort_arg_names=["keys", "values"], key_dtype=np.uint32)
+        return self._algorithm("radix sort", make)

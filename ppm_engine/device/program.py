@@ -45,10 +45,11 @@ class Launch:
         self.names = tuple(kernel.get_arg_info(i, cl.kernel_arg_info.NAME)
                            for i in range(kernel.num_args))
 
-    def __call__(self, queue, size: int, local: int | None = None, /, *, wait_for=None, **args):
+    def __call__(self, queue, size: int, local: int | None = None, /, *, wait_for=None,
+                 offset: int = 0, **args):
         """Enqueue over ``global_size(size)`` work-items (work-group ``local``, or the driver's
-        choice); returns the event.  (The first three are positional-only: kernels have
-        arguments named ``n``.)"""
+        choice), their ids from ``offset`` on; returns the event.  (The first three are
+        positional-only: kernels have arguments named ``n``.)"""
         import pyopencl as cl
         if args.keys() != set(self.names):
             missing = [k for k in self.names if k not in args]
@@ -57,7 +58,8 @@ class Launch:
                             f"unknown {unknown}")
         self.kernel.set_args(*(args[k] for k in self.names))
         return cl.enqueue_nd_range_kernel(queue, self.kernel, (global_size(size, local or 64),),
-                                          (local,) if local else None, wait_for=wait_for)
+                                          (local,) if local else None, wait_for=wait_for,
+                                          global_work_offset=(offset,) if offset else None)
 
 
 class Program:
@@ -87,18 +89,57 @@ class Program:
 
 
 class ProgramCache:
-    def __init__(self, context, device):
+    """The device's programs by (file, defines), each built once per process; the binaries are
+    also cached on disk by the OpenCL driver across processes (PoCL's kernel cache, the GPU
+    drivers' caches), which makes a second process's build a load.
+
+    ``builds`` counts the programs built (or loaded from the driver's disk cache) in this
+    process, pyopencl's library kernels (Device.radix_sort_uint_pairs ...) included: the
+    viewport asserts that an edit adds none.  ``listeners`` are called as ``f(filename,
+    done)`` around every build, from the thread that builds (the viewport's status line).
+    Building is serialised by a lock: the viewport's worker and a final render or preview may
+    share the device."""
+
+    def __init__(self, context, device, lock=None):
+        import threading
         self.context = context
         self.device = device
         self._programs: dict[tuple, Program] = {}
+        self.builds = 0
+        self.build_seconds = 0.0
+        self.listeners: list = []
+        self.lock = lock if lock is not None else threading.RLock()
 
     def get(self, filename: str, defines: dict | None = None) -> Program:
         defines = dict(sorted((defines or {}).items()))
         key = (filename, tuple(defines.items()))
         prog = self._programs.get(key)
         if prog is None:
-            prog = self._programs[key] = Program(self._build(filename, defines))
+            with self.lock:
+                prog = self._programs.get(key)
+                if prog is None:
+                    prog = self._programs[key] = Program(self._timed(filename, self._build,
+                                                                     filename, defines))
         return prog
+
+    def has(self, filename: str, defines: dict | None = None) -> bool:
+        """Whether ``get(filename, defines)`` would find the program built."""
+        return (filename, tuple(sorted((defines or {}).items()))) in self._programs
+
+    def _timed(self, label: str, build, *args, **kwargs):
+        """``build(*args, **kwargs)``, counted and timed, the listeners told before and
+        after."""
+        import time
+        for f in tuple(self.listeners):
+            f(label, False)
+        t0 = time.perf_counter()
+        try:
+            return build(*args, **kwargs)
+        finally:
+            self.builds += 1
+            self.build_seconds += time.perf_counter() - t0
+            for f in tuple(self.listeners):
+                f(label, True)
 
     def _build(self, filename: str, defines: dict):
         import pyopencl as cl

@@ -55,19 +55,25 @@ class Warnings(list):
             self.engine.report({'WARNING'}, msg)
 
 
-def export_scene(depsgraph, engine=None) -> SceneArrays:
+def export_scene(depsgraph, engine=None, camera=None) -> SceneArrays:
     """Everything the core needs from one evaluated depsgraph (render or viewport).
 
+    ``camera``: a CAMERA_DTYPE record to render with instead of the scene camera's (the
+    viewport's view, camera_model.camera_from_view); the scene then needs no camera.
     Raises SceneError when the scene cannot be rendered (no/invalid camera, empty border)."""
     scene = depsgraph.scene
     warn = Warnings(engine)
-    camera = export_camera(scene, depsgraph)
     textures = TextureTable(warn)
     materials = MaterialTable(warn, textures)
-    # Cycles' camera space: the camera object's without its scale (as the camera's rays), its z
-    # flipped (+z ahead)
-    cm = np.array(scene.camera.evaluated_get(depsgraph).matrix_world, np.float64)
-    cm[:3, :3] /= np.maximum(np.linalg.norm(cm[:3, :3], axis=0, keepdims=True), 1e-30)
+    if camera is None:
+        camera = export_camera(scene, depsgraph)
+        cm = np.array(scene.camera.evaluated_get(depsgraph).matrix_world, np.float64)
+        cm[:3, :3] /= np.maximum(np.linalg.norm(cm[:3, :3], axis=0, keepdims=True), 1e-30)
+    else:
+        cm = np.eye(4)
+        cm[:3] = camera["to_world"][0]
+    # Cycles' camera space: the camera's placement without its scale (as the camera's rays),
+    # its z flipped (+z ahead)
     materials.camera = cm @ np.diag((1.0, 1.0, -1.0, 1.0))
     meshes = MeshCache(warn)
     parts, lights = [], []

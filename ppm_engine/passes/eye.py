@@ -35,14 +35,36 @@ class EyePass:
         self.kernel = program.launch("eye_pass", "eye")
 
     def enqueue(self, q, pass_index: int, options, path_indirect: bool = False,
-                lt_kappa: float = 0.0) -> list:
+                lt_kappa: float = 0.0, interrupt=None, chunks: int = 16) -> list | None:
         """``path_indirect``: indirect light by eye paths (kernels/indirect_paths.h);
         ``lt_kappa`` > 0: the photons' light tracing is on,
         and a visible point the camera sees directly weighs its merge against it (eye_pass.cl,
-        camera_connect.h merge_factor)."""
+        camera_connect.h merge_factor).
+
+        ``interrupt``: a function asked between ``chunks`` launches over consecutive pixel
+        ranges, each waited for; when it returns True the pass stops there and None is
+        returned (the viewport: a new view is waiting, this pass's work is dropped)."""
+        v = self.vps
+        if interrupt is None:
+            return [(self.kernel.label, self._launch(q, v.n, 0, pass_index, options,
+                                                     path_indirect, lt_kappa))]
+        step = max(-(-v.n // chunks // SHADING_GROUP) * SHADING_GROUP, SHADING_GROUP)
+        events = []
+        for start in range(0, v.n, step):
+            ev = self._launch(q, min(step, v.n - start), start, pass_index, options,
+                              path_indirect, lt_kappa)
+            events.append((self.kernel.label, ev))
+            ev.wait()
+            if start + step < v.n and interrupt():
+                return None
+        return events
+
+    def _launch(self, q, count: int, start: int, pass_index: int, options, path_indirect: bool,
+                lt_kappa: float):
         f, v = self.film, self.vps
-        ev = self.kernel(
-            q, v.n, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
+        return self.kernel(
+            q, count, SHADING_GROUP, offset=start, **self.scene.args,
+            pass_index=np.uint32(pass_index),
             seed=np.uint32(options.seed), initial_radius=np.float32(options.initial_radius),
             auto_radius_pixels=np.float32(self.AUTO_RADIUS_PIXELS),
             filter_table=self.scene.filter_table, direct=f.direct_pass, radius=f.radius,
@@ -50,4 +72,3 @@ class EyePass:
             counters=self.counters, aux_albedo=f.aux_albedo, aux_normal=f.aux_normal,
             active=f.active, transparency=f.transparency,
             path_indirect=np.uint32(path_indirect), lt_kappa=np.float32(lt_kappa))
-        return [(self.kernel.label, ev)]

@@ -1,0 +1,398 @@
+"""The viewport (Rendered shading): the bpy-free ViewportSession driven with exports of real
+scenes and real depsgraph updates, the view's camera from Blender's own matrices, and the
+engine's hand-offs.  What cannot run headless: draw_frame's gpu calls (README, "Viewport")."""
+import time
+
+import numpy as np
+import pytest
+
+# the look-dev scene's region and settings: levels 16x12 -> 32x24 -> 64x48, then 3 passes
+W, H, START, PASSES = 64, 48, 16, 3
+
+
+def _sphere_scene(bpy, pocl_key):
+    """A Principled ball on a floor under a point light and a grey world: every edit of the
+    issue has something to change."""
+    from ppm_engine.scenes.cornell_box import principled
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "PPM"
+    scene.render.resolution_x, scene.render.resolution_y = W, H
+    scene.render.resolution_percentage = 100
+    scene.ppm.device = pocl_key
+    scene.ppm.photons_per_pass = 4096
+    scene.ppm.passes = PASSES
+    scene.ppm.viewport_passes = PASSES
+    scene.ppm.viewport_start_resolution = START
+    bpy.ops.mesh.primitive_plane_add(size=8.0)
+    bpy.context.object.name = "Floor"
+    bpy.context.object.data.materials.append(principled("Grey", {"Base Color": (0.5, 0.5, 0.5),
+                                                                 "Roughness": 1.0}))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.6, location=(0, 0, 0.6), segments=24,
+                                         ring_count=12)
+    bpy.context.object.name = "Ball"
+    bpy.context.object.data.materials.append(principled("Ball", {"Base Color": (0.8, 0.8, 0.8),
+                                                                 "Roughness": 0.5}))
+    light = bpy.data.lights.new("Lamp", 'POINT')
+    light.energy = 200.0
+    lamp = bpy.data.objects.new("Lamp", light)
+    lamp.location = (1.5, -1.5, 3.0)
+    scene.collection.objects.link(lamp)
+    world = bpy.data.worlds.new("World")          # (with its node tree in Blender 5)
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.3, 0.3, 1.0)
+    scene.world = world
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location = (0.0, -3.6, 1.4)
+    cam.rotation_euler = (np.radians(78), 0.0, 0.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    bpy.context.view_layer.update()
+    return scene
+
+
+def _view(bpy, scene, width=W, height=H):
+    """The camera record a 3D view looking through the scene camera hands view_draw: Blender's
+    own projection of that camera (Object.calc_matrix_camera) and its inverse placement."""
+    from ppm_engine.camera_model import camera_from_view
+    from ppm_engine.export.camera import film_settings
+    dg = bpy.context.evaluated_depsgraph_get()
+    cam = scene.camera.evaluated_get(dg)
+    proj = np.array(cam.calc_matrix_camera(dg, x=width, y=height))
+    view = np.array(cam.matrix_world.normalized().inverted())
+    return camera_from_view(view, proj, width, height, **film_settings(scene))
+
+
+def _export(bpy, scene, camera=None):
+    from ppm_engine.export import export_scene
+    return export_scene(bpy.context.evaluated_depsgraph_get(), camera=camera)
+
+
+def _options(scene):
+    from ppm_engine.viewport_engine import viewport_options
+    return viewport_options(scene.ppm)
+
+
+@pytest.fixture
+def lookdev(bpy, pocl_key):
+    """(scene, session) with the first image refined to the end."""
+    from ppm_engine.viewport import ViewportSession
+    scene = _sphere_scene(bpy, pocl_key)
+    options, start = _options(scene)
+    s = ViewportSession(options, start)
+    cam = _view(bpy, scene)
+    s.update_view(cam)
+    s.update_scene(_export(bpy, scene, cam))
+    assert s.wait(timeout=300), s.status()
+    yield scene, s
+    assert s.close(timeout=30)
+
+
+def _fresh(bpy, scene, camera):
+    """The edited scene rendered by a session of its own: what the edited viewport must show."""
+    from ppm_engine.viewport import ViewportSession
+    options, start = _options(scene)
+    s = ViewportSession(options, start)
+    try:
+        s.update_view(camera)
+        s.update_scene(_export(bpy, scene, camera))
+        assert s.wait(timeout=300), s.status()
+        return s.frame().image
+    finally:
+        s.close(timeout=30)
+
+
+def _rel(a, b) -> float:
+    """Relative difference of two images' 8 x 6-block means."""
+    def blocks(x):
+        h, w = x.shape[:2]
+        return x[..., :3].reshape(6, h // 6, 8, w // 8, 3).mean(axis=(1, 3))
+    ba, bb = blocks(a), blocks(b)
+    return float(np.abs(ba - bb).mean() / max(bb.mean(), 1e-9))
+
+
+# --- the view's camera -----------------------------------------------------------------------
+@pytest.mark.parametrize("kind", ["PERSP", "ORTHO"])
+def test_camera_from_blender_s_projection_is_the_exported_camera(bpy, empty, kind):
+    """What a 3D view looking through the camera gives view_draw (its projection and view
+    matrices) makes exactly the camera record the final render's exporter makes: extent, shift,
+    clipping, placement; also with a lens shift and an off-square region."""
+    from ppm_engine.export.camera import export_camera
+    scene = empty
+    cam = scene.camera
+    cam.data.type = kind
+    cam.data.lens, cam.data.ortho_scale = 35.0, 3.0
+    cam.data.shift_x, cam.data.shift_y = 0.1, -0.05
+    cam.data.clip_start, cam.data.clip_end = 0.2, 70.0
+    cam.location = (1.0, -4.0, 2.0)
+    cam.rotation_euler = (1.2, 0.1, 0.3)
+    bpy.context.view_layer.update()
+    want = export_camera(scene, bpy.context.evaluated_depsgraph_get())
+    got = _view(bpy, scene, 64, 48)
+    for field in ("type", "width", "height", "region", "to_world", "extent", "shift", "clip",
+                  "filter_width", "exposure"):
+        np.testing.assert_allclose(got[field], want[field], rtol=2e-5, atol=2e-6,
+                                   err_msg=field)
+
+
+def test_reduced_levels_keep_the_view_and_the_divider_follows_cycles_start_pixels():
+    from ppm_engine.camera_model import make_camera, scaled_camera
+    from ppm_engine.viewport import divider_for
+    assert divider_for(1280, 720, 64) == 16          # 80 x 45: about 64^2 pixels
+    assert divider_for(64, 48, 16) == 4
+    assert divider_for(40, 30, 64) == 1
+    cam = make_camera(width=1280, height=720, to_world=np.eye(4)[:3], extent=(1.0, 0.5625))
+    small = scaled_camera(cam, 16)
+    assert (small["width"][0], small["height"][0]) == (80, 45)
+    assert tuple(small["region"][0]) == (0, 0, 80, 45)
+    assert np.array_equal(small["extent"], cam["extent"])
+
+
+# --- depsgraph updates -> what changed ----------------------------------------------------------
+def test_depsgraph_updates_of_real_edits(bpy, pocl_key):
+    """The view_update classification on the updates Blender reports for each edit (captured
+    with a depsgraph_update_post handler, the same ViewLayer depsgraph's updates)."""
+    from ppm_engine.viewport_engine import changes
+    scene = _sphere_scene(bpy, pocl_key)
+    seen = []
+
+    def handler(_scene, depsgraph):
+        seen.append(changes(depsgraph.updates))
+    bpy.app.handlers.depsgraph_update_post.append(handler)
+    try:
+        def edit(f):
+            seen.clear()
+            f()
+            bpy.context.view_layer.update()
+            return set().union(*seen) if seen else set()
+        ball = bpy.data.objects["Ball"]
+        bsdf = bpy.data.materials["Ball"].node_tree.nodes["Principled BSDF"]
+        assert edit(lambda: setattr(bsdf.inputs["Base Color"], "default_value",
+                                    (0.1, 0.2, 0.8, 1.0))) == {"values"}
+        assert edit(lambda: setattr(bsdf.inputs["Roughness"], "default_value", 0.1)) \
+            == {"values"}
+        assert edit(lambda: setattr(ball, "location", (0.3, 0.0, 0.6))) == {"transform"}
+        assert edit(lambda: setattr(bpy.data.lights["Lamp"], "energy", 400.0)) == {"values"}
+        assert edit(lambda: setattr(bpy.data.objects["Lamp"], "location", (1, -1, 3))) \
+            == {"values"}
+        bg = scene.world.node_tree.nodes["Background"]
+        assert edit(lambda: setattr(bg.inputs["Strength"], "default_value", 2.0)) == {"values"}
+        assert "geometry" in edit(lambda: bpy.ops.mesh.primitive_cube_add(size=0.3))
+        assert "geometry" in edit(lambda: bpy.data.objects.remove(bpy.data.objects["Cube"]))
+        assert edit(lambda: setattr(scene.camera, "location", (0, -6, 2))) == set()  # view_draw
+    finally:
+        bpy.app.handlers.depsgraph_update_post.remove(handler)
+
+
+# --- the session ------------------------------------------------------------------------------
+def test_first_image_refines_from_reduced_to_full_resolution(bpy, lookdev):
+    scene, s = lookdev
+    f = s.frame()
+    assert (f.width, f.height, f.divider, f.passes) == (W, H, 1, PASSES)
+    assert f.image.shape == (H, W, 4) and np.isfinite(f.image).all()
+    assert f.generation == 2 + PASSES           # 16x12, 32x24, then the full passes
+    assert s.actions == ["new"] and not s.busy
+    assert "done" in s.status() and s.first_pass_seconds is not None
+    # the same scene, specialised kernels, the final render's Renderer: the same image
+    from ppm_engine.renderer import Renderer
+    options, _ = _options(scene)
+    r = Renderer(_export(bpy, scene, _view(bpy, scene)), options.replace(specialize=True))
+    for _ in range(PASSES):
+        r.iterate()
+    final = r.image()
+    r.close()
+    assert _rel(f.image, final) < 0.03
+
+
+def _changed(a, b) -> float:
+    """Mean absolute per-pixel difference of two images, relative to the second's mean."""
+    return float(np.abs(a[..., :3] - b[..., :3]).mean() / max(b[..., :3].mean(), 1e-9))
+
+
+def _edit_and_check(bpy, scene, s, edit, action, changed=0.02):
+    """Apply ``edit`` to the Blender scene, hand the new export to the running session, wait:
+    no kernel built, ``action`` done, the image's pixels changed by more than ``changed`` and
+    the image equal to a fresh session's of the edited scene."""
+    dev = s._device
+    before, builds = s.frame().image, dev.programs.builds
+    n_actions = len(s.actions)
+    edit()
+    bpy.context.view_layer.update()
+    cam = _view(bpy, scene)
+    s.update_view(cam)
+    s.update_scene(_export(bpy, scene, cam))
+    assert s.wait(timeout=300), s.status()
+    assert dev.programs.builds == builds, "an edit built a kernel"
+    assert s.actions[n_actions:] == [action]
+    after = s.frame().image
+    assert _changed(after, before) > changed
+    assert _rel(after, _fresh(bpy, scene, cam)) < 0.02
+    assert dev.programs.builds == builds
+    return before, after
+
+
+def test_material_colour_edit_uploads_with_no_kernel_build(bpy, lookdev):
+    scene, s = lookdev
+    bsdf = bpy.data.materials["Ball"].node_tree.nodes["Principled BSDF"]
+    before, after = _edit_and_check(
+        bpy, scene, s, lambda: setattr(bsdf.inputs["Base Color"], "default_value",
+                                       (0.05, 0.1, 0.8, 1.0)), "upload")
+    assert after[..., 2].mean() / after[..., 0].mean() > \
+        1.2 * before[..., 2].mean() / before[..., 0].mean()          # bluer
+
+
+def test_roughness_and_metal_edits_upload_with_no_kernel_build(bpy, lookdev):
+    """Roughness, and a value that switches a lobe on (Metallic 0 -> 1): still data."""
+    scene, s = lookdev
+    bsdf = bpy.data.materials["Ball"].node_tree.nodes["Principled BSDF"]
+
+    def metal():
+        bsdf.inputs["Metallic"].default_value = 1.0
+        bsdf.inputs["Roughness"].default_value = 0.05
+    _edit_and_check(bpy, scene, s, metal, "upload")
+    _edit_and_check(bpy, scene, s, lambda: setattr(bsdf.inputs["Roughness"], "default_value",
+                                                   0.6), "upload")
+
+
+def test_light_power_and_world_strength_edits(bpy, lookdev):
+    scene, s = lookdev
+    before, after = _edit_and_check(
+        bpy, scene, s, lambda: setattr(bpy.data.lights["Lamp"], "energy", 800.0), "upload")
+    assert after[..., :3].mean() > 1.5 * before[..., :3].mean()
+    bg = scene.world.node_tree.nodes["Background"].inputs["Strength"]
+    before, after = _edit_and_check(bpy, scene, s, lambda: setattr(bg, "default_value", 0.0),
+                                    "upload")
+    assert after[..., :3].mean() < before[..., :3].mean()
+    # a light of zero power, then on again: its type's code stays in the kernels
+    _edit_and_check(bpy, scene, s, lambda: setattr(bpy.data.lights["Lamp"], "energy", 0.0),
+                    "upload")
+    _edit_and_check(bpy, scene, s, lambda: setattr(bpy.data.lights["Lamp"], "energy", 300.0),
+                    "upload")
+
+
+def test_transform_refits_and_objects_added_or_deleted_rebuild(bpy, lookdev):
+    scene, s = lookdev
+    ball = bpy.data.objects["Ball"]
+    _edit_and_check(bpy, scene, s, lambda: setattr(ball, "location", (0.4, 0.0, 0.6)), "refit")
+
+    def add():
+        bpy.ops.mesh.primitive_cube_add(size=0.8, location=(-1.2, 0.5, 0.4))
+        bpy.context.object.data.materials.append(bpy.data.materials["Grey"])
+    _edit_and_check(bpy, scene, s, add, "rebuild")
+    _edit_and_check(bpy, scene, s, lambda: bpy.data.objects.remove(bpy.data.objects["Cube"]),
+                    "rebuild")
+
+
+def test_lens_change_and_camera_move_restart_with_the_camera_only(bpy, lookdev):
+    scene, s = lookdev
+    dev = s._device
+    builds, restarts = dev.programs.builds, s.restarts
+    scene.camera.data.lens = 35.0
+    bpy.context.view_layer.update()
+    cam = _view(bpy, scene)
+    assert s.update_view(cam) is True
+    assert s.update_view(cam) is False                     # the same view: nothing restarts
+    first = s.wait(lambda s: s.frame().restart > restarts, timeout=60)
+    assert first and s.frame().divider == 4                # the first image: reduced
+    assert s.wait(timeout=300)
+    assert s.actions[-1] == "camera" and s.restarts == restarts + 1
+    assert _rel(s.frame().image, _fresh(bpy, scene, cam)) < 0.02
+    assert dev.programs.builds == builds
+
+
+def test_resizes_are_debounced_and_render_at_the_new_size(bpy, lookdev):
+    from ppm_engine import viewport
+    scene, s = lookdev
+    restarts = s.restarts
+    for w, h in ((50, 40), (56, 44), (72, 54)):           # dragging the region's edge
+        s.update_view(_view(bpy, scene, w, h))
+        time.sleep(viewport.RESIZE_DEBOUNCE / 10)
+    assert s.wait(timeout=300), s.status()
+    assert s.restarts == restarts + 1                      # only the last size was rendered
+    f = s.frame()
+    assert (f.width, f.height, f.image.shape[:2], f.divider) == (72, 54, (54, 72), 1)
+
+
+def test_pause_holds_the_image_and_resume_goes_on(bpy, lookdev):
+    scene, s = lookdev
+    o, start = _options(scene)
+    s.pause(True)
+    s.update_options(o.replace(passes=PASSES + 3), start)   # more passes asked while paused
+    time.sleep(0.5)
+    assert not s.busy and s.frame().passes == PASSES        # paused: no pass ran
+    s.pause(False)
+    assert s.wait(timeout=300)
+    assert s.frame().passes == PASSES + 3 and s.actions == ["new"]   # went on, no restart
+
+
+def test_errors_show_in_the_status_and_close_frees_the_device_memory(bpy, lookdev):
+    scene, s = lookdev
+    bad = _view(bpy, scene)
+    bad["to_world"][0, 0, 0] = np.nan
+    s.update_view(bad)
+    s.wait(timeout=60)
+    assert s.error is not None and "NaN" in s.error and "NaN" in s.status()
+    assert not s.busy and s.frame() is not None            # the last image stays
+    assert s.close(timeout=30)
+    assert s._renderer is None
+
+
+def test_fifty_restarts_and_closed_sessions_do_not_grow_memory(bpy, pocl_key):
+    """Open a session, render its first pass, close it; 50 times: the process's memory settles
+    (PoCL's buffers are host memory) and every session frees its renderer."""
+    from ppm_engine.viewport import ViewportSession
+    scene = _sphere_scene(bpy, pocl_key)
+    options, start = _options(scene)
+    cam = _view(bpy, scene)
+    arrays = _export(bpy, scene, cam)
+
+    def rss() -> int:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * 4096
+
+    sizes = []
+    for k in range(50):
+        s = ViewportSession(options.replace(passes=1), start)
+        s.update_view(cam)
+        s.update_scene(arrays)
+        assert s.wait(timeout=120), s.status()
+        assert s.close(timeout=30) and s._renderer is None
+        if k in (9, 49):
+            sizes.append(rss())
+    assert sizes[1] - sizes[0] < 24 * 2**20, [x / 2**20 for x in sizes]
+
+
+def test_a_final_render_while_the_viewport_renders(bpy, lookdev, tmp_path, exr):
+    """The viewport's worker and a final render (F12) share the device: both finish, and the
+    final image is the one rendered with no viewport running."""
+    scene, s = lookdev
+    o, start = _options(scene)
+    s.update_options(o.replace(passes=40), start)            # keep the worker busy
+    scene.render.use_persistent_data = False
+    exr.set_output(scene, tmp_path / "a.exr")
+    assert bpy.ops.render.render(write_still=True) == {'FINISHED'}
+    assert s.busy or s.frame().passes > PASSES
+    during = exr.read(tmp_path / "a.exr")
+    s.pause(True)
+    s.wait(timeout=300)
+    exr.set_output(scene, tmp_path / "b.exr")
+    assert bpy.ops.render.render(write_still=True) == {'FINISHED'}
+    alone = exr.read(tmp_path / "b.exr")
+    assert np.array_equal(during, alone)
+
+
+def test_previews_render_few_passes_with_the_viewport_s_kernels():
+    from ppm_engine.options import RenderOptions
+    from ppm_engine.session import PREVIEW_ICON_PASSES, PREVIEW_PASSES, preview_options
+    o = RenderOptions(passes=64)
+    assert preview_options(o, 96, 96).passes == PREVIEW_ICON_PASSES
+    assert preview_options(o, 200, 200).passes == PREVIEW_PASSES
+    assert preview_options(o, 200, 200).specialize is False
+    assert preview_options(RenderOptions(passes=2), 32, 32).passes == 2
+
+
+def test_engine_flags_for_the_viewport_and_previews(bpy):
+    from ppm_engine.engine import PPMRenderEngine
+    assert PPMRenderEngine.bl_use_preview is True
+    assert PPMRenderEngine.bl_use_eevee_viewport is True        # Material Preview stays EEVEE
+    assert PPMRenderEngine.bl_use_shading_nodes_custom is False
+    assert callable(PPMRenderEngine.view_update) and callable(PPMRenderEngine.view_draw)
