@@ -15,8 +15,8 @@ import numpy as np
 from .bvh import BVH
 from .camera_model import CAMERA_DTYPE
 from .emitters import EMITTER_INFO_DTYPE, build_emitters
+from .features import VALUE_FEATURES, scene_features, used_materials
 from .features import defines as feature_defines
-from .features import scene_features, used_materials
 from .film import filter_density, filter_table
 from .light_paths import LIGHT_PATHS_DTYPE, engine_defaults
 from .light_tree import LIGHT_TREE_NODE_DTYPE
@@ -216,25 +216,34 @@ class DeviceScene:
                               int(ws[0]), w, h))
 
     def kernel_defines(self, specialize: bool, gather_roughness: float = 0.7,
-                       caustic_roughness: float = 0.7) -> tuple[frozenset | None, dict]:
+                       caustic_roughness: float = 0.7,
+                       editable: bool = False) -> tuple[frozenset | None, dict]:
         """(features, -D flags) of the eye and photon passes: the scene's features, or every
         feature (None) unspecialised; the roughness from which lobes are gathered either way.
+        ``editable``: the scene's features and every one an edit of values can switch on
+        (features.VALUE_FEATURES), the longest closure list, the shader programs' stack
+        rounded up to a power of two: what a value edit changes needs no build.
         (The ray offsets' scale is the scene's EmitterInfo.offset_scale, not a flag: scenes of
         any size share their programs.)"""
         features = (scene_features(self.prepared, self.kmaterials, self.knodes, self.emitters,
                                    self.used_materials) if specialize else None)
+        if features is not None and editable:
+            features = features | VALUE_FEATURES
         svm = {}
         if features is not None and "PPM_SVM" in features:
             starts = [*self.kmaterials["program"][self.used_materials],
                       int(self.emitters.info["world_program"][0])]
+            stack = max(stack_used(self.prepared.svm, starts), 1)
+            if editable:
+                stack = max(1 << (stack - 1).bit_length(), 16)
             svm = {"PPM_SVM_OPS": ops_define(ops_used(self.prepared.svm, starts)),
-                   "PPM_SVM_STACK": max(stack_used(self.prepared.svm, starts), 1)}
+                   "PPM_SVM_STACK": stack}
         if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact
             svm["PPM_ATTRIBUTES"] = self.prepared.attributes.shape[2]
         return features, {"PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
                           "PPM_CAUSTIC_ROUGHNESS": float(caustic_roughness).hex() + "f",
-                          **feature_defines(features, max_closures(self.knodes,
-                                                                   self.used_materials)),
+                          **feature_defines(features, None if editable else
+                                            max_closures(self.knodes, self.used_materials)),
                           **svm}
 
     def set_light_paths(self, lp: np.ndarray) -> None:

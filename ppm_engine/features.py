@@ -51,6 +51,14 @@ FEATURES = {
 }
 
 
+# The features an edit of values can switch on: a colour, a roughness, a layer's weight, alpha,
+# a light's power or type, an emission's or the world's strength, the camera's f-stop.  Kernels
+# built "editable" (RenderOptions.editable: the viewport's, the previews') keep them all, so
+# such an edit never builds.  The others follow the structure of the scene's node graphs (image
+# textures, shader programs, the world's program): adding such a node may build.
+VALUE_FEATURES = frozenset(FEATURES) - {"PPM_TEXTURES", "PPM_SVM", "PPM_WORLD_MAP"}
+
+
 def used_materials(scene: SceneArrays, n_materials: int) -> np.ndarray:
     """Indices of the materials some triangle uses (a bincount: no sort of the triangles)."""
     m = scene.material

@@ -113,6 +113,9 @@ class RenderOptions:
     # Skips of work a scene does not need, each on by default; off only to measure what it saves
     # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.
     specialize: bool = True        # kernels built for the scene's features (False: every feature)
+    # with specialize: also every feature an edit of values can switch on (features.
+    # VALUE_FEATURES), the closure list at its longest: the viewport's and the previews' kernels
+    editable: bool = False
     skip_unneeded_photon_pass: bool = True   # False: photon pass, hash and gather run even when
                                              # they cannot add anything
     skip_unseen_photons: bool = True   # False: the photon grid covers the whole scene, so photons

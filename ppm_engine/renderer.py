@@ -69,7 +69,7 @@ class Renderer:
         import pyopencl as cl
         dev, o = self.device, options
         self.features, self.defines = self.scene.kernel_defines(o.specialize, o.gather_roughness,
-                                                                o.caustic_roughness)
+                                                                o.caustic_roughness, o.editable)
         w, h = self.scene.scene.resolution
         if new_pixels:
             self.width, self.height, self.n_pixels = w, h, w * h
@@ -301,22 +301,39 @@ class Renderer:
         """The extra render passes (Film.aux_passes) of the render region."""
         return self.film.aux_passes()
 
+    def _holders(self):
+        """(owner's dict, name, buffer) of every device buffer this render holds."""
+        import pyopencl as cl
+        for obj in (self.bvh, self.scene, self.scene.args, self.film, self.photon_map, self.vps,
+                    self):
+            items = obj if isinstance(obj, dict) else vars(obj)
+            for name, value in list(items.items()):
+                if isinstance(value, cl.MemoryObjectHolder):
+                    yield items, name, value
+
+    @_locked
+    def device_bytes(self) -> int:
+        """Bytes of the device buffers this render holds now (the BVH's sorted ids, kept
+        between refits, included)."""
+        seen, total = set(), 0
+        for _, _, buf in self._holders():
+            if id(buf) not in seen and buf.int_ptr:
+                seen.add(id(buf))
+                total += buf.size
+        ids = getattr(self.bvh, "sorted_ids", None)
+        return total + (ids.nbytes if ids is not None else 0)
+
     @_locked
     def close(self):
         """Release this render's device buffers now (the device and its programs stay)."""
-        import pyopencl as cl
         ids = getattr(self.bvh, "sorted_ids", None)
         if ids is not None:                      # a pyopencl Array, not a buffer
             ids.data.release()
             self.bvh.sorted_ids = None
         self.photon_map.sorted = None
         released = set()
-        for obj in (self.bvh, self.scene, self.scene.args, self.film, self.photon_map, self.vps,
-                    self):
-            items = obj if isinstance(obj, dict) else vars(obj)
-            for name, value in list(items.items()):
-                if isinstance(value, cl.MemoryObjectHolder):
-                    if id(value) not in released:     # the BVH's buffers are scene args too
-                        released.add(id(value))
-                        value.release()
-                    items[name] = None
+        for items, name, value in self._holders():
+            if id(value) not in released:        # the BVH's buffers are scene args too
+                released.add(id(value))
+                value.release()
+            items[name] = None

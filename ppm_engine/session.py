@@ -21,15 +21,16 @@ WRITE_INTERVAL = 0.25
 
 # Material, world and light previews (RenderEngine.is_preview): icons (the longer side at most
 # PREVIEW_ICON_SIZE pixels) render PREVIEW_ICON_PASSES passes, the Preview panel's larger image
-# PREVIEW_PASSES; both with the kernels built for every feature (RenderOptions.specialize
-# False), the viewport's: a preview of a new material builds nothing.
+# PREVIEW_PASSES; both with the viewport's "editable" kernels (RenderOptions.editable): a
+# preview of another material's values builds nothing.
 PREVIEW_ICON_SIZE, PREVIEW_ICON_PASSES, PREVIEW_PASSES = 96, 8, 32
 
 
 def preview_options(options, width: int, height: int):
     """The options of a preview render of ``width`` x ``height`` pixels."""
     passes = PREVIEW_ICON_PASSES if max(width, height) <= PREVIEW_ICON_SIZE else PREVIEW_PASSES
-    return options.replace(passes=min(options.passes, passes), specialize=False).validate()
+    return options.replace(passes=min(options.passes, passes), specialize=True,
+                           editable=True).validate()
 
 
 # Render passes besides Combined: (name, channels, channel ids, type).  The denoising pair lets

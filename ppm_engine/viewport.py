@@ -17,11 +17,12 @@ renders and does the least that serves:
     the same triangles moved   -> the BVH refitted (Renderer.refit)
     other geometry changes     -> a new BVH (a new Renderer; the programs stay built)
 
-The viewport's kernels are built once for every feature (RenderOptions.specialize False): the
-shader programs and parameters are data, so no value edit (a colour, a roughness, a light's power,
-the world's strength, a lobe switched on by a value) builds a kernel.  A scene whose programs or
-mesh attributes need other flags (a world program that reads a new texture) builds in this
-thread while the last image stays up; the status line names it.
+The viewport's kernels are built "editable" (RenderOptions.editable): the scene's features and
+every feature an edit of values can switch on (features.VALUE_FEATURES).  The shader programs
+and parameters are data, so no value edit (a colour, a roughness, a light's power, the world's
+strength, a lobe switched on by a value) builds a kernel.  A scene that gains a structural
+feature (its first image texture or node program, new mesh attributes) builds in this thread
+while the last image stays up; the status line names it.
 
 After every restart the first passes run at reduced resolution, as Cycles' viewport: the divider
 is the smallest power of two that brings the region to about ``start_resolution`` squared
@@ -44,6 +45,11 @@ from .options import RenderOptions
 
 # seconds a new region size must stay before it is rendered (dragging a window's edge)
 RESIZE_DEBOUNCE = 0.15
+
+# the viewport's kernels (ViewportSession's ``kernels``) as RenderOptions
+KERNELS = {"editable": dict(specialize=True, editable=True),
+           "scene": dict(specialize=True, editable=False),
+           "all": dict(specialize=False, editable=False)}
 
 # what the worker did with a scene or view change (ViewportSession.actions, newest last)
 ACTIONS = ("new", "camera", "upload", "refit", "rebuild")
@@ -75,12 +81,15 @@ def divider_for(width: int, height: int, start_resolution: int) -> int:
 
 class ViewportSession:
     def __init__(self, options: RenderOptions, start_resolution: int = 64,
-                 specialize: bool = False):
-        """``specialize``: kernels built for the scene's features, as a final render's, instead
-        of for every feature (the benchmark's comparison of cold starts; edits then build)."""
+                 kernels: str = "editable"):
+        """``kernels``: "editable" (the scene's features and every one a value edit can switch
+        on), or for the benchmark's comparison of cold starts "scene" (a final render's: edits
+        may build) and "all" (every feature compiled in)."""
+        if kernels not in KERNELS:
+            raise ValueError(f"kernels must be one of {', '.join(KERNELS)}")
         self._cond = threading.Condition()
-        self._specialize = bool(specialize)
-        self._options = options.replace(specialize=self._specialize).validate()
+        self._kernels = KERNELS[kernels]
+        self._options = options.replace(**self._kernels).validate()
         self._start_resolution = int(start_resolution)
         # what Blender's thread posted and the worker has not taken yet
         self._new_scene = None
@@ -102,6 +111,7 @@ class ViewportSession:
         self._t_created = time.perf_counter()
         self._renderer = None
         self._device = None
+        self._device_name = None
         self._scene = None             # the scene at full resolution with the view's camera
         self._camera = None
         self._divider = 1
@@ -138,7 +148,7 @@ class ViewportSession:
     def update_options(self, options: RenderOptions, start_resolution: int | None = None) -> None:
         """New settings (passes, time limit, seed, photons...): rendering restarts when they
         change what is rendered, and resumes when only the pass count or time limit grew."""
-        options = options.replace(specialize=self._specialize).validate()
+        options = options.replace(**self._kernels).validate()
         with self._cond:
             if start_resolution is not None:
                 self._start_resolution = int(start_resolution)
@@ -237,6 +247,7 @@ class ViewportSession:
         from .device import get_device
         try:
             self._device = get_device(self._options.device)
+            self._device_name = self._options.device
             self._device.programs.listeners.append(self._on_build)
             while True:
                 taken = self._take()
@@ -316,6 +327,15 @@ class ViewportSession:
         self._divider = divider_for(w, h, start)
         level = self._level_scene()
         o, r = self._options, self._renderer
+        if r is not None and o.device != r.options.device:     # another device chosen
+            self._free()
+            r = None
+        if o.device != self._device_name:
+            from .device import get_device
+            self._device.programs.listeners.remove(self._on_build)
+            self._device = get_device(o.device)
+            self._device.programs.listeners.append(self._on_build)
+            self._device_name = o.device
         with self._device.lock:
             if r is None:
                 self._set_status("Building the scene's BVH and kernels")

@@ -386,7 +386,7 @@ def test_previews_render_few_passes_with_the_viewport_s_kernels():
     o = RenderOptions(passes=64)
     assert preview_options(o, 96, 96).passes == PREVIEW_ICON_PASSES
     assert preview_options(o, 200, 200).passes == PREVIEW_PASSES
-    assert preview_options(o, 200, 200).specialize is False
+    assert preview_options(o, 200, 200).editable is True
     assert preview_options(RenderOptions(passes=2), 32, 32).passes == 2
 
 
@@ -396,3 +396,39 @@ def test_engine_flags_for_the_viewport_and_previews(bpy):
     assert PPMRenderEngine.bl_use_eevee_viewport is True        # Material Preview stays EEVEE
     assert PPMRenderEngine.bl_use_shading_nodes_custom is False
     assert callable(PPMRenderEngine.view_update) and callable(PPMRenderEngine.view_draw)
+
+
+def test_choosing_another_device_starts_a_new_renderer(bpy, lookdev):
+    """The Device setting changed while the viewport runs ("Default" is the PoCL device here):
+    a new Renderer on it, the same image."""
+    scene, s = lookdev
+    o, start = _options(scene)
+    before = s.frame().image
+    s.update_options(o.replace(device=""), start)
+    assert s.wait(timeout=300), s.status()
+    assert s.error is None and s.actions == ["new", "new"]
+    assert _rel(s.frame().image, before) < 0.02
+
+
+def test_the_scene_s_own_kernels_would_build_on_the_same_edit(bpy, pocl_key):
+    """What the zero-build assertions guard against: with a final render's kernels (the
+    scene's features only) switching the ball to metal builds new programs."""
+    from ppm_engine.viewport import ViewportSession
+    scene = _sphere_scene(bpy, pocl_key)
+    options, start = _options(scene)
+    s = ViewportSession(options, start, kernels="scene")
+    try:
+        cam = _view(bpy, scene)
+        s.update_view(cam)
+        s.update_scene(_export(bpy, scene, cam))
+        assert s.wait(timeout=300), s.status()
+        builds = s._device.programs.builds
+        bsdf = bpy.data.materials["Ball"].node_tree.nodes["Principled BSDF"]
+        bsdf.inputs["Metallic"].default_value = 1.0
+        bsdf.inputs["Roughness"].default_value = 0.05
+        bpy.context.view_layer.update()
+        s.update_scene(_export(bpy, scene, cam))
+        assert s.wait(timeout=300), s.status()
+        assert s._device.programs.builds > builds
+    finally:
+        s.close(timeout=30)

@@ -37,6 +37,12 @@ TARGETS = {"camera_s": 0.15, "material_s": 0.3, "transform_s": 0.3, "second_open
 
 
 def _rss() -> int:
+    """The process's resident bytes, after the C heap returned its free memory (glibc's
+    malloc_trim; PoCL's buffers are host memory)."""
+    import contextlib
+    import ctypes
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
@@ -131,6 +137,8 @@ def run_viewport(device: str = "", quick: bool = False, progress=print) -> dict:
     s.wait(lambda s: s.frame().passes > f.passes, timeout=600)
     out["full_pass_s"] = pass_s = time.perf_counter() - t_full
     out["rss_session_mb"] = (_rss() - rss0) / 2**20
+    with dev.lock:
+        out["device_mb_per_session"] = s._renderer.device_bytes() / 2**20
     builds = dev.programs.builds
 
     progress("viewport: camera moves")
@@ -183,47 +191,67 @@ def run_viewport(device: str = "", quick: bool = False, progress=print) -> dict:
 
     progress("viewport: 50 open-render-close cycles")
     arrays = _export(bpy, cam)
-    mem = []
-    for k in range(50):
+    mem = {}
+    for k in range(1, 51):
         s = ViewportSession(options.replace(passes=1), start)
         s.update_view(cam)
         s.update_scene(arrays)
         s.wait(timeout=600)
         s.close(timeout=60)
-        if k in (0, 9, 49):
-            mem.append((_rss() - rss0) / 2**20)
-    out["rss_after_cycles_mb"] = {"1": mem[0], "10": mem[1], "50": mem[2]}
-    out["device_mb_per_session"] = _device_mb(dev, options, start, arrays, cam)
+        if k in (1, 10, 20, 30, 40, 50):
+            mem[str(k)] = (_rss() - rss0) / 2**20
+    out["rss_after_cycles_mb"] = mem
+
+    progress("viewport: previews")
+    out["previews"] = previews(bpy, device)
 
     progress("viewport: cold starts (fresh processes, empty kernel cache)")
-    out["cold"] = [cold_start(name, device, quick=quick, specialize=sp)
+    out["cold"] = [cold_start(name, device, quick=quick, kernels=k)
                    for name in (COLD_SCENES[:1] if quick else COLD_SCENES)
-                   for sp in (False, True)]
+                   for k in ("editable", "scene", "all")]
     return out
 
 
-def _device_mb(dev, options, start, arrays, cam) -> float:
-    """Device bytes allocated by one session from its start to its first full image."""
-    from ..viewport import ViewportSession
-    before = dev.allocated
-    s = ViewportSession(options.replace(passes=1), start)
-    s.update_view(cam)
-    s.update_scene(arrays)
-    s.wait(timeout=600)
-    s.close(timeout=60)
-    return (dev.allocated - before) / 2**20
+def previews(bpy, device: str) -> list[dict]:
+    """A material preview's cost: the glossy_metal example (balls on a floor under a small
+    light, as Blender's material preview scene) rendered by a final render's Session path's
+    preview options at an icon's sizes and the Preview panel's, kernels warm (its editable
+    build done first, at 16 px)."""
+    from ..export import export_scene
+    from ..properties import to_options
+    from ..renderer import Renderer
+    from ..scenes import build_example
+    from ..session import preview_options
+    scene = build_example("glossy_metal")
+    scene.render.engine = "PPM"
+    scene.ppm.device = device or "DEFAULT"
+    rows = []
+    for size in (16, 32, 96, 256):
+        scene.render.resolution_x = scene.render.resolution_y = size
+        bpy.context.view_layer.update()
+        t0 = time.perf_counter()
+        options = preview_options(to_options(scene.ppm), size, size)
+        r = Renderer(export_scene(bpy.context.evaluated_depsgraph_get()), options)
+        for _ in range(options.passes):
+            r.iterate()
+        r.image()
+        r.close()
+        rows.append({"size": size, "passes": options.passes,
+                     "seconds": time.perf_counter() - t0})
+    return rows[1:]                             # the first one built the kernels
 
 
 def cold_start(name: str, device: str = "", quick: bool = False,
-               specialize: bool = False) -> dict:
+               kernels: str = "editable") -> dict:
     """A fresh process with an empty PoCL kernel cache opens a viewport on example ``name``:
-    seconds to its first image, and each build's seconds.  ``specialize``: the scene's own
-    kernels (as a final render builds) instead of the viewport's."""
+    seconds to its first image, and each build's seconds.  ``kernels``: the viewport's
+    ("editable"), the scene's own as a final render builds them ("scene"), or every feature
+    ("all"; viewport.KERNELS)."""
     with tempfile.TemporaryDirectory(prefix="ppm-cold-") as cache:
         env = dict(os.environ, POCL_CACHE_DIR=cache, PYOPENCL_NO_CACHE="1")
         code = ("import json, sys; from ppm_engine.bench.viewport import _cold_child; "
                 f"print('RESULT' + json.dumps(_cold_child({name!r}, {device!r}, {quick!r}, "
-                f"{specialize!r})))")
+                f"{kernels!r})))")
         p = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                            text=True, timeout=1800)
     for line in p.stdout.splitlines():
@@ -232,7 +260,7 @@ def cold_start(name: str, device: str = "", quick: bool = False,
     raise RuntimeError(f"the cold-start process failed:\n{p.stdout[-2000:]}{p.stderr[-4000:]}")
 
 
-def _cold_child(name: str, device: str, quick: bool, specialize: bool) -> dict:
+def _cold_child(name: str, device: str, quick: bool, kernels: str) -> dict:
     """(In the fresh process.)  Besides the programs' builds, the time of the BVH's first
     build (its kernels and pyopencl's sort and scan) and of every kernel's first launch, each
     waited for: PoCL compiles a kernel for its work-group size when it is first launched, which
@@ -273,7 +301,7 @@ def _cold_child(name: str, device: str, quick: bool, specialize: bool) -> dict:
         bvh_s.append(time.perf_counter() - t)
     Launch.__call__, bvh.BVH.__init__ = first_launch, timed_bvh
     t0 = time.perf_counter()
-    s = viewport.ViewportSession(options, start, specialize=specialize)
+    s = viewport.ViewportSession(options, start, kernels=kernels)
     cam = view(bpy, scene, size)
     s.update_view(cam)
     s.update_scene(_export(bpy, cam))
@@ -282,7 +310,7 @@ def _cold_child(name: str, device: str, quick: bool, specialize: bool) -> dict:
     s.wait(lambda s: s.frame() is not None and s.frame().divider == 1, timeout=1800)
     full = time.perf_counter() - t0
     s.close(timeout=60)
-    return {"scene": name, "specialize": specialize, "first_image_s": first,
+    return {"scene": name, "kernels": kernels, "first_image_s": first,
             "first_full_image_s": full, "builds": builds,
             "build_s": sum(b for _, b in builds), "bvh_s": sum(bvh_s),
             "first_launches": sorted(launches.items(), key=lambda kv: -kv[1])}
@@ -319,11 +347,15 @@ def format_viewport(d: dict) -> str:
         f"Kernel builds during all the edits above: {d['edit_builds']} "
         f"(actions: {', '.join(f'{k} {v}' for k, v in sorted(d['actions'].items()))}).",
         "",
-        f"Memory: a session holds {d['device_mb_per_session']:.1f} MiB of device buffers; the "
-        f"process grew {d['rss_session_mb']:.0f} MiB with the session open and "
-        f"{d['rss_closed_mb']:.0f} MiB after it closed; after 1, 10 and 50 open-render-close "
-        f"cycles: {d['rss_after_cycles_mb']['1']:.0f}, {d['rss_after_cycles_mb']['10']:.0f}, "
-        f"{d['rss_after_cycles_mb']['50']:.0f} MiB.",
+        f"Memory: a session at full resolution holds {d['device_mb_per_session']:.1f} MiB of "
+        f"device buffers (PoCL's are host memory); the process had grown "
+        f"{d['rss_session_mb']:.0f} MiB with it open (the kernels compiled in it included) and "
+        f"{d['rss_closed_mb']:.0f} MiB after it closed; after N open-render-close cycles: "
+        + ", ".join(f"{k}: {v:.0f}" for k, v in d["rss_after_cycles_mb"].items()) + " MiB.",
+        "",
+        "Previews (export, setup and passes, kernels warm): "
+        + ", ".join(f"{p['size']} px {p['passes']} passes {p['seconds']:.2f} s"
+                    for p in d["previews"]) + ".",
         "",
         "Cold start (a fresh process, an empty PoCL kernel cache):",
         "",
@@ -333,7 +365,7 @@ def format_viewport(d: dict) -> str:
     ]
     for c in d["cold"]:
         slow = c["first_launches"][:3]
-        lines.append(f"| {c['scene']} | {'scene' if c['specialize'] else 'viewport (all)'} | "
+        lines.append(f"| {c['scene']} | {c['kernels']} | "
                      f"{c['first_image_s']:.1f} | {c['first_full_image_s']:.1f} | "
                      f"{c['build_s']:.1f} | {c['bvh_s']:.1f} | "
                      f"{', '.join(f'{k} {v:.1f}' for k, v in slow)} |")
