@@ -256,7 +256,8 @@ class ViewportSession:
                 scene, camera, options = taken
                 if scene is not None or camera is not None or options is not None:
                     self._apply(scene, camera, options)
-                if self._renderer is not None and not (self._done or self._paused):
+                if self._renderer is not None and not (self._done or self._paused
+                                                       or self._closing):
                     self._pass()
         except PPMError as e:
             self._fail(str(e))

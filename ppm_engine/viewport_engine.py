@@ -56,6 +56,25 @@ def changes(updates) -> set:
     return out
 
 
+def only_scene(updates) -> bool:
+    """Whether the updates are the scene's alone: a selection, an active object, or a change
+    of the scene's settings (render settings, ours, Cycles'; settings_key tells them apart,
+    and ours go to ViewportSession.update_options)."""
+    ups = list(updates)
+    return bool(ups) and all(getattr(u.id, "id_type", "") == 'SCENE' for u in ups)
+
+
+def settings_key(depsgraph) -> tuple:
+    """The scene settings an export reads that no other update reports: the frame, the film
+    (Cycles' pixel filter, exposure, transparency), the Light Paths, the layer, the world."""
+    from .export.camera import film_settings
+    from .light_paths import from_cycles
+    scene = depsgraph.scene
+    return (scene.frame_current, tuple(film_settings(scene).values()),
+            from_cycles(getattr(scene, "cycles", None)).tobytes(), depsgraph.view_layer.name,
+            scene.world.name if scene.world is not None else None)
+
+
 def pixel_size(context, scene) -> int:
     """The viewport's Pixel Size (Render Properties > Performance > Viewport: 1x, 2x, 4x, 8x;
     Automatic follows the interface's resolution scale)."""
@@ -108,6 +127,7 @@ class ViewportDriver:
         self.message = None          # an export or settings error, shown in the header
         self.draw_cache: dict = {}
         self.exports = 0
+        self.key = None              # settings_key of the last export
 
     def view_update(self, engine, context, depsgraph) -> None:
         from .export import export_scene
@@ -120,10 +140,14 @@ class ViewportDriver:
             else:
                 self.session.update_options(options, start)
             self.session.pause(bool(depsgraph.scene.ppm.viewport_pause))
-            if not first and not changes(depsgraph.updates) and self.message is None:
-                return
+            key = settings_key(depsgraph)
+            if not first and self.message is None and key == self.key:
+                ups = depsgraph.updates
+                if not changes(ups) or only_scene(ups):
+                    return                      # nothing the export reads changed
             camera = view_camera(context, depsgraph)
             arrays = export_scene(depsgraph, camera=camera)
+            self.key = key
             self.exports += 1
             self.message = None
             if camera is not None:

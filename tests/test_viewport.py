@@ -432,3 +432,59 @@ def test_the_scene_s_own_kernels_would_build_on_the_same_edit(bpy, pocl_key):
         assert s._device.programs.builds > builds
     finally:
         s.close(timeout=30)
+
+
+def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, pocl_key):
+    """The engine's view_update hand-off (ViewportDriver) on the real depsgraph updates of
+    edits (a depsgraph_update_post handler stands in for Blender's call; without a 3D view the
+    scene camera renders).  Only the header's text is recorded: update_stats is the one engine
+    call view_update makes."""
+    from ppm_engine.viewport_engine import ViewportDriver
+    scene = _sphere_scene(bpy, pocl_key)
+    header = []
+
+    class Engine:
+        def update_stats(self, _stats, info):
+            header.append(info)
+
+    drv, eng = ViewportDriver(), Engine()
+
+    def handler(_scene, depsgraph):
+        drv.view_update(eng, bpy.context, depsgraph)
+    try:
+        drv.view_update(eng, bpy.context, bpy.context.evaluated_depsgraph_get())
+        s = drv.session
+        assert drv.exports == 1 and s.wait(timeout=300), s.status()
+        bpy.app.handlers.depsgraph_update_post.append(handler)
+
+        def edit(f):
+            f()
+            bpy.context.view_layer.update()
+            assert s.wait(timeout=300), s.status()
+
+        def setting(f):
+            """A Python-defined setting (ours, Cycles'): bpy headless reports no depsgraph
+            update for it, so view_update is called as Blender calls it on a redraw."""
+            f()
+            drv.view_update(eng, bpy.context, bpy.context.evaluated_depsgraph_get())
+            assert s.wait(timeout=300), s.status()
+        edit(lambda: bpy.data.objects["Ball"].select_set(True))       # a selection: nothing
+        assert drv.exports == 1 and s.actions == ["new"]
+        setting(lambda: setattr(scene.ppm, "viewport_passes", PASSES + 1))   # more: go on
+        assert drv.exports == 1 and s.actions == ["new"] and s.frame().passes == PASSES + 1
+        bsdf = bpy.data.materials["Ball"].node_tree.nodes["Principled BSDF"]
+        edit(lambda: setattr(bsdf.inputs["Base Color"], "default_value", (0.9, 0.1, 0.1, 1)))
+        assert drv.exports == 2 and s.actions == ["new", "upload"]
+        setting(lambda: setattr(scene.cycles, "film_exposure", 2.0))   # the film: re-export
+        assert drv.exports == 3 and s.actions[-1] == "upload"
+        assert not header                                             # no error so far
+        cam = scene.camera
+        edit(lambda: bpy.data.objects.remove(cam))                     # no camera, no 3D view
+        assert drv.message is not None and "camera" in drv.message
+        assert header[-1].startswith("Progressive Photon Mapping: ") and "camera" in header[-1]
+        assert s.frame() is not None                                  # the last image stays
+    finally:
+        if handler in bpy.app.handlers.depsgraph_update_post:
+            bpy.app.handlers.depsgraph_update_post.remove(handler)
+        drv.close()
+    assert drv.session is None
