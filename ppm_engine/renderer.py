@@ -207,16 +207,17 @@ class Renderer:
             or options.exact_gather != old.exact_gather))
 
     # ------------------------------------------------------------------------------------------
-    # an interruptible pass (iterate's ``interrupt``) splits its eye pass into launches of
-    # about this many pixels (on a 2-core CPU some 50 ms of the Cornell box's eye paths)
+    # an interruptible pass (iterate's ``interrupt``) splits its eye pass and its photon pass
+    # into launches of about this many pixels or photons (on a 2-core CPU some 50 ms of the
+    # Cornell box's eye paths)
     INTERRUPT_PIXELS = 1 << 15
 
     @_locked
     def iterate(self, interrupt=None) -> PassStats | None:
         """Run one SPPM pass.  ``interrupt``: a function asked between pieces of a large eye
-        pass (INTERRUPT_PIXELS each); when it returns True the pass is dropped unfinished and
-        None returned, and the render must be reset before the next pass (the viewport: a new
-        view is waiting)."""
+        pass or photon pass (INTERRUPT_PIXELS each); when it returns True the pass is dropped
+        unfinished and None returned, and the render must be reset before the next pass (the
+        viewport: a new view is waiting)."""
         import pyopencl as cl
         t0 = time.perf_counter()
         o, q, n, v = self.options, self.queue, self.n_pixels, self.vps
@@ -236,9 +237,15 @@ class Renderer:
             # the grid over the visible points: only photons use it
             events += self.hash_build.grid(q, v.pos, film.radius, n, cover=self.grid_cover)
             emitted = self.photons_per_pass
-            events += self.photons.enqueue(q, pass_index, o, emitted,
-                                           caustics_only=self.path_indirect, film=film,
-                                           lt_kappa=self.lt_kappa)
+            pieces = emitted // self.INTERRUPT_PIXELS
+            photon_events = self.photons.enqueue(
+                q, pass_index, o, emitted, caustics_only=self.path_indirect, film=film,
+                lt_kappa=self.lt_kappa, interrupt=interrupt if pieces >= 2 else None,
+                chunks=pieces)
+            if photon_events is None:
+                q.finish()
+                return None
+            events += photon_events
             events += self.hash_build.build(q, pass_index, o.seed)
             events += self.gather.enqueue(q, v.pos, v.nrm, v.shade, film.radius, v.gathered, n,
                                           vp_beta=v.beta)

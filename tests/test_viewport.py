@@ -488,3 +488,51 @@ def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, pocl_key)
             bpy.app.handlers.depsgraph_update_post.remove(handler)
         drv.close()
     assert drv.session is None
+
+
+def test_pieces_of_a_pass_render_the_same_and_an_interrupt_drops_the_pass(pocl_key):
+    """Renderer.iterate(interrupt=...): an eye pass launched in pieces makes the very image of
+    whole launches (eye paths: deterministic); a photon pass in pieces traces and stores the
+    same photons (its stochastic hash keeps one photon per cell in whichever order threads
+    come, so only the count is exact).  An interrupt drops the pass (None, no pass counted),
+    and a reset then renders as a fresh renderer would."""
+    from ppm_engine.options import RenderOptions
+    from ppm_engine.procedural import cornell_box
+    from ppm_engine.renderer import Renderer
+    scene = cornell_box(48, 48)
+    asked = []
+
+    def never():
+        asked.append(1)
+        return False
+
+    o = RenderOptions(device=pocl_key, indirect="paths", seed=3)   # no caustic: no photons
+    whole, pieces = Renderer(scene, o), Renderer(scene, o)
+    pieces.INTERRUPT_PIXELS = 512                        # 4 eye pieces of 576 pixels
+    for _ in range(3):
+        whole.iterate()
+        assert pieces.iterate(interrupt=never) is not None
+    assert len(asked) == 3 * 3
+    assert np.array_equal(whole.image(), pieces.image())
+    assert pieces.iterate(interrupt=lambda: True) is None and pieces.passes_done == 3
+    pieces.reset(o)
+    whole.reset(o)
+    for _ in range(2):
+        whole.iterate()
+        pieces.iterate(interrupt=never)
+    assert np.array_equal(whole.image(), pieces.image())
+    whole.close()
+    pieces.close()
+
+    o = RenderOptions(device=pocl_key, indirect="photons", photons_per_pass=8192, seed=3)
+    whole, pieces = Renderer(scene, o), Renderer(scene, o)
+    pieces.INTERRUPT_PIXELS = 512                        # and 16 photon pieces
+    asked.clear()
+    for _ in range(3):
+        a, b = whole.iterate(), pieces.iterate(interrupt=never)
+        assert a.photons_stored == b.photons_stored > 1000
+    assert len(asked) == 3 * (3 + 15)
+    assert _rel(pieces.image(), whole.image()) < 0.05
+    assert pieces.iterate(interrupt=lambda: True) is None and pieces.passes_done == 3
+    whole.close()
+    pieces.close()

@@ -202,6 +202,9 @@ def run_viewport(device: str = "", quick: bool = False, progress=print) -> dict:
             mem[str(k)] = (_rss() - rss0) / 2**20
     out["rss_after_cycles_mb"] = mem
 
+    progress("viewport: camera moves on the bulb box (photons)")
+    out["photon_scene"] = photon_camera_moves(size, moves, device, rng)
+
     progress("viewport: previews")
     out["previews"] = previews(bpy, device)
 
@@ -210,6 +213,35 @@ def run_viewport(device: str = "", quick: bool = False, progress=print) -> dict:
                    for name in (COLD_SCENES[:1] if quick else COLD_SCENES)
                    for k in ("editable", "scene", "all")]
     return out
+
+
+def photon_camera_moves(size, moves: int, device: str, rng) -> dict:
+    """Camera moves while the bulb box refines at full resolution: its passes are photon
+    passes (and eye passes), each launched in pieces."""
+    from ..viewport import ViewportSession
+    from ..viewport_engine import viewport_options
+    bpy, scene = _setup("bulb_box", size, device)
+    options, start = viewport_options(scene.ppm)
+    s = ViewportSession(options, start)
+    try:
+        cam = view(bpy, scene, size)
+        s.update_view(cam)
+        s.update_scene(_export(bpy, cam))
+        s.wait(lambda s: s.frame() is not None and s.frame().divider == 1
+               and s.frame().passes >= 2, timeout=900)
+        f = s.frame()
+        t = time.perf_counter()
+        s.wait(lambda s: s.frame().passes > f.passes, timeout=900)
+        pass_s = time.perf_counter() - t
+        lat = []
+        for k in range(moves):
+            _at_full_resolution(s, rng, pass_s)
+            lat.append(_restart_latency(
+                s, lambda k=k: s.update_view(view(bpy, scene, size, 0.02 * (k + 1)))))
+        return {"scene": "bulb_box", "full_pass_s": pass_s, "camera_refining_s": lat,
+                "stats": s.status()}
+    finally:
+        s.close(timeout=60)
 
 
 def previews(bpy, device: str) -> list[dict]:
@@ -339,6 +371,9 @@ def format_viewport(d: dict) -> str:
         f"| {TARGETS['material_s']} |",
         f"| mesh transform (export + refit) | {_stat(d['transform_s'])} "
         f"| {TARGETS['transform_s']} |",
+        f"| camera move, the bulb box refining (photons; its full pass "
+        f"{d['photon_scene']['full_pass_s']:.2f} s) | "
+        f"{_stat(d['photon_scene']['camera_refining_s'])} | {TARGETS['camera_s']} |",
         f"| second open of the scene in this process | {d['second_open_s']:.3f} "
         f"| {TARGETS['second_open_s']} |",
         f"| first open in this process (kernels from the disk cache) | "

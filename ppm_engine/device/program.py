@@ -33,6 +33,21 @@ def global_size(n: int, wg: int = 64) -> int:
     return max(wg, (n + wg - 1) // wg * wg)
 
 
+def in_pieces(launch, n: int, pieces: int, interrupt, label: str) -> list | None:
+    """``launch(count, start)`` (an event) over ``pieces`` consecutive ranges of ``n`` work
+    items (whole work-groups of SHADING_GROUP), each waited for and ``interrupt()`` asked
+    after it: [(label, event)], or None when it answered True (the rest is not launched)."""
+    step = max(-(-n // max(pieces, 1) // SHADING_GROUP) * SHADING_GROUP, SHADING_GROUP)
+    events = []
+    for start in range(0, n, step):
+        ev = launch(min(step, n - start), start)
+        events.append((label, ev))
+        ev.wait()
+        if start + step < n and interrupt():
+            return None
+    return events
+
+
 class Launch:
     """A kernel launched with its arguments bound by name: the names of its OpenCL signature
     (programs are built with -cl-kernel-arg-info).  A missing or unknown name is refused with

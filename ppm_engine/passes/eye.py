@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..device import SHADING_GROUP
+from ..device.program import in_pieces
 
 
 class VisiblePoints:
@@ -44,20 +45,11 @@ class EyePass:
         ``interrupt``: a function asked between ``chunks`` launches over consecutive pixel
         ranges, each waited for; when it returns True the pass stops there and None is
         returned (the viewport: a new view is waiting, this pass's work is dropped)."""
-        v = self.vps
+        def launch(count, start):
+            return self._launch(q, count, start, pass_index, options, path_indirect, lt_kappa)
         if interrupt is None:
-            return [(self.kernel.label, self._launch(q, v.n, 0, pass_index, options,
-                                                     path_indirect, lt_kappa))]
-        step = max(-(-v.n // chunks // SHADING_GROUP) * SHADING_GROUP, SHADING_GROUP)
-        events = []
-        for start in range(0, v.n, step):
-            ev = self._launch(q, min(step, v.n - start), start, pass_index, options,
-                              path_indirect, lt_kappa)
-            events.append((self.kernel.label, ev))
-            ev.wait()
-            if start + step < v.n and interrupt():
-                return None
-        return events
+            return [(self.kernel.label, launch(self.vps.n, 0))]
+        return in_pieces(launch, self.vps.n, chunks, interrupt, self.kernel.label)
 
     def _launch(self, q, count: int, start: int, pass_index: int, options, path_indirect: bool,
                 lt_kappa: float):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..device import SHADING_GROUP
+from ..device.program import in_pieces
 from ..film import FILTER_SAMPLES
 
 
@@ -15,16 +16,28 @@ class PhotonPass:
         self.kernel = program.launch("photon_pass", "photon")
 
     def enqueue(self, q, pass_index: int, options, n_photons: int, caustics_only: bool = False,
-                pilot: bool = False, film=None, lt_kappa: float = 0.0) -> list:
+                pilot: bool = False, film=None, lt_kappa: float = 0.0, interrupt=None,
+                chunks: int = 16) -> list | None:
         """``caustics_only``: only photons whose first scattering is caustic live on (indirect
         light by eye paths); ``pilot``: they are only counted (Counter.CAUSTIC), none stored.
         ``lt_kappa`` > 0 (with ``film``): every stored photon is also connected to the camera
         and splatted into film.lt_pass, weighted against the merge (kernels/photon_pass.cl
-        connect_camera; Renderer.light_tracing_kappa)."""
+        connect_camera; Renderer.light_tracing_kappa).  ``interrupt``: as EyePass.enqueue's,
+        the photons launched in ``chunks`` ranges."""
+        def launch(count, start):
+            return self._launch(q, count, start, pass_index, options, n_photons,
+                                caustics_only, pilot, film, lt_kappa)
+        if interrupt is None:
+            return [(self.kernel.label, launch(n_photons, 0))]
+        return in_pieces(launch, n_photons, chunks, interrupt, self.kernel.label)
+
+    def _launch(self, q, count: int, start: int, pass_index: int, options, n_photons: int,
+                caustics_only: bool, pilot: bool, film, lt_kappa: float):
         pm = self.photon_map
         lt = film is not None and lt_kappa > 0 and not pilot
-        ev = self.kernel(
-            q, n_photons, SHADING_GROUP, **self.scene.args, pass_index=np.uint32(pass_index),
+        return self.kernel(
+            q, count, SHADING_GROUP, offset=start, **self.scene.args,
+            pass_index=np.uint32(pass_index),
             seed=np.uint32(options.seed), n_photons=np.uint32(n_photons), grid=pm.grid,
             capacity=np.uint32(0 if pilot else pm.capacity),
             ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, ph_path=pm.ph_path,
@@ -35,4 +48,3 @@ class PhotonPass:
             lt_reach=np.float32(self.scene.filter_reach),
             radius=film.radius if lt else pm.ph_pos,
             lt_kappa=np.float32(lt_kappa if lt else 0.0))
-        return [(self.kernel.label, ev)]
