@@ -134,6 +134,9 @@ class ViewportDriver:
         from .viewport import ViewportSession
         try:
             options, start = viewport_options(depsgraph.scene.ppm)
+            if self.session is not None and self.session.error is not None:
+                self.session.close(timeout=0.0)    # it stopped on an error: start afresh
+                self.session = None
             first = self.session is None
             if first:
                 self.session = ViewportSession(options, start)

@@ -483,6 +483,20 @@ def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, pocl_key)
         assert drv.message is not None and "camera" in drv.message
         assert header[-1].startswith("Progressive Photon Mapping: ") and "camera" in header[-1]
         assert s.frame() is not None                                  # the last image stays
+        new_cam = bpy.data.objects.new("Camera2", bpy.data.cameras.new("Camera2"))
+        new_cam.location, new_cam.rotation_euler = (0.0, -3.6, 1.4), (np.radians(78), 0, 0)
+        scene.collection.objects.link(new_cam)
+        edit(lambda: setattr(scene, "camera", new_cam))               # fixed: renders again
+        assert drv.message is None and drv.exports == 4 and s.error is None
+        bad = _view(bpy, scene)
+        bad["to_world"][0, 0, 0] = np.nan                             # the worker fails...
+        s.update_view(bad)
+        s.wait(timeout=60)
+        assert s.error is not None and not s.busy
+        drv.view_update(eng, bpy.context, bpy.context.evaluated_depsgraph_get())
+        assert drv.session is not s and drv.exports == 5              # ...and starts afresh
+        assert drv.session.wait(timeout=300) and drv.session.error is None
+        assert drv.session.frame() is not None
     finally:
         if handler in bpy.app.handlers.depsgraph_update_post:
             bpy.app.handlers.depsgraph_update_post.remove(handler)
