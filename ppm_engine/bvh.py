@@ -58,9 +58,14 @@ class BVH:
         import pyopencl.array as cla
         keys_a = cla.Array(q, (n,), np.uint32, data=codes)
         vals_a = cla.Array(q, (n,), np.uint32, data=ids)
-        sort = device.radix_sort_uint_pairs()
-        (skeys, svals), ev = sort(keys_a, vals_a, key_bits=30)
-        ev.wait()
+        if self._on_host(n):                 # the same stable order as the radix sort's
+            k, v = keys_a.get(), vals_a.get()
+            order = np.argsort(k, kind="stable")
+            skeys, svals = cla.to_device(q, k[order]), cla.to_device(q, v[order])
+        else:
+            sort = device.radix_sort_uint_pairs()
+            (skeys, svals), ev = sort(keys_a, vals_a, key_bits=30)
+            ev.wait()
         # the hierarchy (kept: refit() reuses it with new positions)
         self.sorted_ids = svals
         self.left = device.buffer(4 * (n - 1), "BVH")
@@ -78,6 +83,16 @@ class BVH:
         self.leaf_order = svals.get().astype(np.int64)
         q.finish()
         self.build_seconds = time.perf_counter() - t0
+
+    # Below this many triangles the build's three library primitives (pyopencl's radix sort of
+    # the Morton codes, the scan that compacts PLOC's clusters, the reduction of the boxes'
+    # areas) run in NumPy on the host instead, with the same results: they are microseconds
+    # there, while their kernels cost a process 0.6 s to load from the kernel cache and a cold
+    # cache some 10 s to compile (docs/BENCHMARKS.md, "The viewport").  0: always the device.
+    HOST_PRIMITIVES = 1 << 14
+
+    def _on_host(self, n: int) -> bool:
+        return n <= self.HOST_PRIMITIVES
 
     @property
     def args(self) -> dict:
@@ -100,7 +115,8 @@ class BVH:
         counter = device.buffer(4, "BVH build")
         cl.enqueue_copy(q, counter, np.array([n - 1], np.int32))
         prog.ploc_init(q, (global_size(n),), None, pos, self.sorted_ids.data, np.int32(n), *a)
-        scan = device.exclusive_scan_uint()
+        host = self._on_host(n)
+        scan = None if host else device.exclusive_scan_uint()
         import pyopencl.array as cla
         m = n
         total = np.empty(2, np.uint32)
@@ -108,9 +124,16 @@ class BVH:
             prog.ploc_nearest(q, (global_size(m),), None, a[0], a[1], np.int32(m), nn)
             prog.ploc_merge(q, (global_size(m),), None, *a, nn, np.int32(m), counter, self.left,
                             self.right, self.parent_int, self.parent_leaf, valid)
-            v = cla.Array(q, (m,), np.uint32, data=valid)
-            p = cla.Array(q, (m,), np.uint32, data=position)
-            scan(v, p)
+            if host:
+                flags = np.empty(m, np.uint32)
+                cl.enqueue_copy(q, flags, valid)
+                starts = np.zeros(m, np.uint32)
+                np.cumsum(flags[:-1], out=starts[1:])
+                cl.enqueue_copy(q, position, starts)
+            else:
+                v = cla.Array(q, (m,), np.uint32, data=valid)
+                p = cla.Array(q, (m,), np.uint32, data=position)
+                scan(v, p)
             prog.ploc_compact(q, (global_size(m),), None, *a, valid, position, np.int32(m), *b)
             cl.enqueue_copy(q, total[:1], position, src_offset=4 * (m - 1))
             cl.enqueue_copy(q, total[1:], valid, src_offset=4 * (m - 1))
@@ -148,6 +171,13 @@ class BVH:
         from pyopencl import cltypes
 
         def area_sum(a, b, m):
+            if self._on_host(n):
+                lo, hi = np.empty((m, 4), np.float32), np.empty((m, 4), np.float32)
+                cl.enqueue_copy(q, lo, a)
+                cl.enqueue_copy(q, hi, b)
+                d = np.maximum(hi[:, :3].astype(np.float64) - lo[:, :3], 0.0)
+                return float(2.0 * (d[:, 0] * d[:, 1] + d[:, 1] * d[:, 2]
+                                    + d[:, 2] * d[:, 0]).sum())
             return float(device.box_area_sum()(cla.Array(q, (m,), cltypes.float4, data=a),
                                                cla.Array(q, (m,), cltypes.float4, data=b)).get())
         leaves = area_sum(leaf_min, leaf_max, n)

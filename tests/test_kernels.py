@@ -167,6 +167,36 @@ def test_bvh_refit_equals_a_fresh_build(device):
     np.testing.assert_allclose(t3, t1, rtol=1e-6)
 
 
+@pytest.mark.parametrize("method", ["ploc", "lbvh"])
+def test_bvh_host_primitives_build_the_device_s_tree(device, method, monkeypatch):
+    """Small scenes sort, scan and sum areas in NumPy (BVH.HOST_PRIMITIVES): the tree that
+    pyopencl's radix sort, scan and reduction build.  LBVH's is the same node for node; PLOC
+    numbers its nodes in the order threads merge them, so there the same leaves, cost and
+    answers to rays."""
+    rng = np.random.default_rng(11)
+    scene = _random_scene(rng, 3000)
+    o = rng.uniform(-1.5, 1.5, (3000, 3))
+    d = rng.normal(size=(3000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    q = device.queue
+    trees = []
+    for limit in (1 << 14, 0):                 # the host's primitives, then the device's
+        monkeypatch.setattr(BVH, "HOST_PRIMITIVES", limit)
+        bvh = BVH(device, scene, method=method)
+        nodes = np.empty((2999, 4, 4), np.uint32)          # (w holds child indices)
+        cl.enqueue_copy(q, nodes, bvh.nodes)
+        trees.append((nodes, bvh.leaf_order, bvh.cost, _trace(device, bvh, o, d,
+                                                              np.full(3000, 1e30))))
+    (n1, l1, c1, (t1, i1)), (n2, l2, c2, (t2, i2)) = trees
+    assert np.array_equal(l1, l2)
+    assert c1 == pytest.approx(c2, rel=1e-5) and c1 > 1.0
+    assert ((t1 > 0) & (t1 < 1e29)).sum() > 300            # rays that hit something
+    np.testing.assert_array_equal(t1, t2)
+    assert np.array_equal(i1, i2)
+    if method == "lbvh":
+        assert np.array_equal(n1, n2)
+
+
 def test_bvh_visibility_mask(device):
     rng = np.random.default_rng(7)
     scene = _random_scene(rng, 500)
