@@ -226,9 +226,8 @@ class Renderer:
         # this pass's counters (Counter.NAN counts over the whole render)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
-        pieces = n // self.INTERRUPT_PIXELS
         events = self.eye.enqueue(q, pass_index, o, self.path_indirect, lt_kappa=self.lt_kappa,
-                                  interrupt=interrupt if pieces >= 2 else None, chunks=pieces)
+                                  interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
         if events is None:
             q.finish()
             return None
@@ -237,11 +236,9 @@ class Renderer:
             # the grid over the visible points: only photons use it
             events += self.hash_build.grid(q, v.pos, film.radius, n, cover=self.grid_cover)
             emitted = self.photons_per_pass
-            pieces = emitted // self.INTERRUPT_PIXELS
             photon_events = self.photons.enqueue(
                 q, pass_index, o, emitted, caustics_only=self.path_indirect, film=film,
-                lt_kappa=self.lt_kappa, interrupt=interrupt if pieces >= 2 else None,
-                chunks=pieces)
+                lt_kappa=self.lt_kappa, interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
             if photon_events is None:
                 q.finish()
                 return None

@@ -21,7 +21,8 @@ def check_camera(camera: np.ndarray) -> None:
 def check_finite(scene: SceneArrays) -> None:
     """Refuse NaN/Inf in the camera, a material (its BSDF nodes' inputs included) or the world
     with a SceneError naming it."""
-    for name in ("camera", "materials", "shader_nodes"):
+    check_camera(scene.camera)
+    for name in ("materials", "shader_nodes"):
         a = getattr(scene, name)
         for field in a.dtype.names:
             if a.dtype[field].base.kind != "f":
@@ -31,9 +32,8 @@ def check_finite(scene: SceneArrays) -> None:
                 k = int(np.nonzero(bad)[0][0])
                 if name == "shader_nodes":
                     k = int(a["material"][k])
-                what = "camera" if name == "camera" else (
-                    f"material '{scene.material_names[k]}'" if k < len(scene.material_names)
-                    else f"material {k}")
+                what = (f"material '{scene.material_names[k]}'"
+                        if k < len(scene.material_names) else f"material {k}")
                 raise SceneError(f"the {what} has NaN or infinite values in '{field}': fix "
                                  "them and render again")
     if not np.isfinite(scene.world).all():

@@ -10,18 +10,13 @@ import pytest
 W, H, START, PASSES = 64, 48, 16, 3
 
 
-def _sphere_scene(bpy, pocl_key):
+def _sphere_scene(bpy, tiny):
     """A Principled ball on a floor under a point light and a grey world: every edit of the
     issue has something to change."""
     from ppm_engine.scenes.cornell_box import principled
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    scene.render.engine = "PPM"
-    scene.render.resolution_x, scene.render.resolution_y = W, H
-    scene.render.resolution_percentage = 100
-    scene.ppm.device = pocl_key
-    scene.ppm.photons_per_pass = 4096
-    scene.ppm.passes = PASSES
+    tiny(scene, width=W, height=H, passes=PASSES, photons=4096)
     scene.ppm.viewport_passes = PASSES
     scene.ppm.viewport_start_resolution = START
     bpy.ops.mesh.primitive_plane_add(size=8.0)
@@ -52,14 +47,10 @@ def _sphere_scene(bpy, pocl_key):
 
 def _view(bpy, scene, width=W, height=H):
     """The camera record a 3D view looking through the scene camera hands view_draw: Blender's
-    own projection of that camera (Object.calc_matrix_camera) and its inverse placement."""
-    from ppm_engine.camera_model import camera_from_view
-    from ppm_engine.export.camera import film_settings
-    dg = bpy.context.evaluated_depsgraph_get()
-    cam = scene.camera.evaluated_get(dg)
-    proj = np.array(cam.calc_matrix_camera(dg, x=width, y=height))
-    view = np.array(cam.matrix_world.normalized().inverted())
-    return camera_from_view(view, proj, width, height, **film_settings(scene))
+    own projection of that camera (Object.calc_matrix_camera) and its inverse placement (the
+    benchmark's view)."""
+    from ppm_engine.bench.viewport import view
+    return view(bpy, scene, (width, height))
 
 
 def _export(bpy, scene, camera=None):
@@ -73,10 +64,10 @@ def _options(scene):
 
 
 @pytest.fixture
-def lookdev(bpy, pocl_key):
+def lookdev(bpy, tiny):
     """(scene, session) with the first image refined to the end."""
     from ppm_engine.viewport import ViewportSession
-    scene = _sphere_scene(bpy, pocl_key)
+    scene = _sphere_scene(bpy, tiny)
     options, start = _options(scene)
     s = ViewportSession(options, start)
     cam = _view(bpy, scene)
@@ -148,11 +139,11 @@ def test_reduced_levels_keep_the_view_and_the_divider_follows_cycles_start_pixel
 
 
 # --- depsgraph updates -> what changed ----------------------------------------------------------
-def test_depsgraph_updates_of_real_edits(bpy, pocl_key):
+def test_depsgraph_updates_of_real_edits(bpy, tiny):
     """The view_update classification on the updates Blender reports for each edit (captured
     with a depsgraph_update_post handler, the same ViewLayer depsgraph's updates)."""
     from ppm_engine.viewport_engine import changes
-    scene = _sphere_scene(bpy, pocl_key)
+    scene = _sphere_scene(bpy, tiny)
     seen = []
 
     def handler(_scene, depsgraph):
@@ -336,11 +327,11 @@ def test_errors_show_in_the_status_and_close_frees_the_device_memory(bpy, lookde
     assert s._renderer is None
 
 
-def test_fifty_restarts_and_closed_sessions_do_not_grow_memory(bpy, pocl_key):
+def test_fifty_restarts_and_closed_sessions_do_not_grow_memory(bpy, tiny):
     """Open a session, render its first pass, close it; 50 times: the process's memory settles
     (PoCL's buffers are host memory) and every session frees its renderer."""
     from ppm_engine.viewport import ViewportSession
-    scene = _sphere_scene(bpy, pocl_key)
+    scene = _sphere_scene(bpy, tiny)
     options, start = _options(scene)
     cam = _view(bpy, scene)
     arrays = _export(bpy, scene, cam)
@@ -410,11 +401,11 @@ def test_choosing_another_device_starts_a_new_renderer(bpy, lookdev):
     assert _rel(s.frame().image, before) < 0.02
 
 
-def test_the_scene_s_own_kernels_would_build_on_the_same_edit(bpy, pocl_key):
+def test_the_scene_s_own_kernels_would_build_on_the_same_edit(bpy, tiny):
     """What the zero-build assertions guard against: with a final render's kernels (the
     scene's features only) switching the ball to metal builds new programs."""
     from ppm_engine.viewport import ViewportSession
-    scene = _sphere_scene(bpy, pocl_key)
+    scene = _sphere_scene(bpy, tiny)
     options, start = _options(scene)
     s = ViewportSession(options, start, kernels="scene")
     try:
@@ -434,13 +425,13 @@ def test_the_scene_s_own_kernels_would_build_on_the_same_edit(bpy, pocl_key):
         s.close(timeout=30)
 
 
-def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, pocl_key):
+def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny):
     """The engine's view_update hand-off (ViewportDriver) on the real depsgraph updates of
     edits (a depsgraph_update_post handler stands in for Blender's call; without a 3D view the
     scene camera renders).  Only the header's text is recorded: update_stats is the one engine
     call view_update makes."""
     from ppm_engine.viewport_engine import ViewportDriver
-    scene = _sphere_scene(bpy, pocl_key)
+    scene = _sphere_scene(bpy, tiny)
     header = []
 
     class Engine:

@@ -33,11 +33,16 @@ def global_size(n: int, wg: int = 64) -> int:
     return max(wg, (n + wg - 1) // wg * wg)
 
 
-def in_pieces(launch, n: int, pieces: int, interrupt, label: str) -> list | None:
-    """``launch(count, start)`` (an event) over ``pieces`` consecutive ranges of ``n`` work
-    items (whole work-groups of SHADING_GROUP), each waited for and ``interrupt()`` asked
-    after it: [(label, event)], or None when it answered True (the rest is not launched)."""
-    step = max(-(-n // max(pieces, 1) // SHADING_GROUP) * SHADING_GROUP, SHADING_GROUP)
+def in_pieces(launch, n: int, piece: int, interrupt, label: str) -> list | None:
+    """``launch(count, start)`` (an event) over ``n`` work items: in one launch, not waited
+    for, without ``interrupt`` or below two pieces of ``piece`` items; else over ``n //
+    piece`` consecutive ranges (whole work-groups of SHADING_GROUP), each waited for and
+    ``interrupt()`` asked after it.  [(label, event)], or None when it answered True (the rest
+    is not launched)."""
+    pieces = n // piece
+    if interrupt is None or pieces < 2:
+        return [(label, launch(n, 0))]
+    step = max(-(-n // pieces // SHADING_GROUP) * SHADING_GROUP, SHADING_GROUP)
     events = []
     for start in range(0, n, step):
         ev = launch(min(step, n - start), start)
@@ -136,10 +141,6 @@ class ProgramCache:
                     prog = self._programs[key] = Program(self._timed(filename, self._build,
                                                                      filename, defines))
         return prog
-
-    def has(self, filename: str, defines: dict | None = None) -> bool:
-        """Whether ``get(filename, defines)`` would find the program built."""
-        return (filename, tuple(sorted((defines or {}).items()))) in self._programs
 
     def _timed(self, label: str, build, *args, **kwargs):
         """``build(*args, **kwargs)``, counted and timed, the listeners told before and

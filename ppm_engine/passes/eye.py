@@ -36,20 +36,19 @@ class EyePass:
         self.kernel = program.launch("eye_pass", "eye")
 
     def enqueue(self, q, pass_index: int, options, path_indirect: bool = False,
-                lt_kappa: float = 0.0, interrupt=None, chunks: int = 16) -> list | None:
+                lt_kappa: float = 0.0, interrupt=None, piece: int = 1 << 15) -> list | None:
         """``path_indirect``: indirect light by eye paths (kernels/indirect_paths.h);
         ``lt_kappa`` > 0: the photons' light tracing is on,
         and a visible point the camera sees directly weighs its merge against it (eye_pass.cl,
         camera_connect.h merge_factor).
 
-        ``interrupt``: a function asked between ``chunks`` launches over consecutive pixel
-        ranges, each waited for; when it returns True the pass stops there and None is
-        returned (the viewport: a new view is waiting, this pass's work is dropped)."""
+        ``interrupt``: a function asked between launches over consecutive ranges of about
+        ``piece`` pixels, each waited for (device.program.in_pieces); when it returns True the
+        pass stops there and None is returned (the viewport: a new view is waiting, this
+        pass's work is dropped)."""
         def launch(count, start):
             return self._launch(q, count, start, pass_index, options, path_indirect, lt_kappa)
-        if interrupt is None:
-            return [(self.kernel.label, launch(self.vps.n, 0))]
-        return in_pieces(launch, self.vps.n, chunks, interrupt, self.kernel.label)
+        return in_pieces(launch, self.vps.n, piece, interrupt, self.kernel.label)
 
     def _launch(self, q, count: int, start: int, pass_index: int, options, path_indirect: bool,
                 lt_kappa: float):

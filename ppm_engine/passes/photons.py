@@ -17,19 +17,17 @@ class PhotonPass:
 
     def enqueue(self, q, pass_index: int, options, n_photons: int, caustics_only: bool = False,
                 pilot: bool = False, film=None, lt_kappa: float = 0.0, interrupt=None,
-                chunks: int = 16) -> list | None:
+                piece: int = 1 << 15) -> list | None:
         """``caustics_only``: only photons whose first scattering is caustic live on (indirect
         light by eye paths); ``pilot``: they are only counted (Counter.CAUSTIC), none stored.
         ``lt_kappa`` > 0 (with ``film``): every stored photon is also connected to the camera
         and splatted into film.lt_pass, weighted against the merge (kernels/photon_pass.cl
         connect_camera; Renderer.light_tracing_kappa).  ``interrupt``: as EyePass.enqueue's,
-        the photons launched in ``chunks`` ranges."""
+        over ranges of about ``piece`` photons."""
         def launch(count, start):
             return self._launch(q, count, start, pass_index, options, n_photons,
                                 caustics_only, pilot, film, lt_kappa)
-        if interrupt is None:
-            return [(self.kernel.label, launch(n_photons, 0))]
-        return in_pieces(launch, n_photons, chunks, interrupt, self.kernel.label)
+        return in_pieces(launch, n_photons, piece, interrupt, self.kernel.label)
 
     def _launch(self, q, count: int, start: int, pass_index: int, options, n_photons: int,
                 caustics_only: bool, pilot: bool, film, lt_kappa: float):
