@@ -16,10 +16,10 @@ import bpy
 
 import numpy as np
 
-from ppm_engine.bench import exact_caustic
-from ppm_engine.bench.curves import REF_SEEDS, errors
-from ppm_engine.bench.scenes import caustic_mask
-from ppm_engine.scenes import build_example
+from ppm_engine.blender.scenes import build_example
+from ppm_engine.tools.bench import exact_caustic
+from ppm_engine.tools.bench.curves import REF_SEEDS, errors
+from ppm_engine.tools.bench.scenes import caustic_mask
 
 
 def main(seconds: float, before: bool) -> None:

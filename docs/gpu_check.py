@@ -1,5 +1,5 @@
 """Pass times and a correctness check on a lent GPU (docs/BENCHMARKS.md, "On a GPU"), without
-Blender: the array-built scenes of ppm_engine/procedural.py and ppm_engine/analytic.py.
+Blender: the array-built scenes of ppm_engine/oracle/procedural.py and ppm_engine/oracle/analytic.py.
 
     python docs/gpu_check.py OUT.json
 
@@ -13,11 +13,11 @@ import time
 
 import numpy as np
 
-from ppm_engine import analytic as A
-from ppm_engine.device import get_device, list_devices
-from ppm_engine.options import RenderOptions
-from ppm_engine.procedural import cornell_box
-from ppm_engine.renderer import Renderer
+from ppm_engine.oracle import analytic as A
+from ppm_engine.oracle.procedural import cornell_box
+from ppm_engine.render.device import get_device, list_devices
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.renderer import Renderer
 
 
 def pass_ms(scene, passes=30, warmup=5, **opts) -> dict:

@@ -3,7 +3,7 @@ RMSE at equal time for several values of kappa, against a light-traced reference
 
     python docs/light_tracing_kappa.py point_caustic 8 0.01,0.03,0.1,0.3,1
 
-The reference (two seeds of 60 s of ppm_engine.light_tracer, 128x128, over the pixels it
+The reference (two seeds of 60 s of ppm_engine.render.light_tracer, 128x128, over the pixels it
 covers) is rendered once per scene and kept in the temporary folder; each kappa then renders
 ``seconds`` with the default settings (Renderer, seed 1).  Light tracing is unbiased, so it
 ranks the values fairly, though it is not independent of the strategy being tuned; the
@@ -17,13 +17,13 @@ import bpy
 
 import numpy as np
 
-from ppm_engine import renderer as R
-from ppm_engine.bench.scenes import caustic_mask
-from ppm_engine.blender_io import ensure_registered
-from ppm_engine.export import export_scene
-from ppm_engine.light_tracer import LightTracer
-from ppm_engine.options import RenderOptions
-from ppm_engine.scenes import build_example
+from ppm_engine.blender.export import export_scene
+from ppm_engine.blender.harness import ensure_registered
+from ppm_engine.blender.scenes import build_example
+from ppm_engine.render import renderer as R
+from ppm_engine.render.light_tracer import LightTracer
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.tools.bench.scenes import caustic_mask
 
 
 def main(name: str, seconds: float, kappas: list[float], ref_seconds: float = 60.0) -> None:

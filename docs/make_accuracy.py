@@ -19,12 +19,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 IMG = ROOT / "docs" / "accuracy"
 
-from ppm_engine import analytic as A
-from ppm_engine.camera_model import make_camera, perspective_extent
-from ppm_engine.options import RenderOptions
-from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
-from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import LIGHT_DTYPE, LIGHT_POINT
+from ppm_engine.oracle import analytic as A
+from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene.arrays import LIGHT_DTYPE, LIGHT_POINT
+from ppm_engine.scene.camera import make_camera, perspective_extent
 
 
 def save_png(name, img, scale=None):
@@ -163,7 +163,7 @@ slope **{slope(marks, errs):.2f}**.
     L = np.zeros(1, LIGHT_DTYPE)
     L["type"], L["emit"] = LIGHT_POINT, 100 / (4 * np.pi)
     L["position"], L["direction"] = (0.3, -0.2, 1.5), (0, 0, -1)
-    from ppm_engine.scene_arrays import CAMERA_ORTHO
+    from ppm_engine.scene.arrays import CAMERA_ORTHO
     scene = mb.build(camera=make_camera(type=CAMERA_ORTHO, width=W, height=W,
                                         to_world=look_at((0, 0, 10), (0, 0, 0), up=(0, 1, 0)),
                                         extent=(4, 4), clip=(0.1, 100)), lights=L)
@@ -194,7 +194,7 @@ def cycles_sections() -> str:
     import bpy
 
     import ppm_engine
-    from ppm_engine.engine import PPMRenderEngine
+    from ppm_engine.blender.engine import PPMRenderEngine
     if not PPMRenderEngine.is_registered:
         ppm_engine.register()
     sys.path.insert(0, str(ROOT / "tests"))
@@ -203,7 +203,7 @@ def cycles_sections() -> str:
     ns = {}
     exec(compile(lights_src.split("@pytest.mark.parametrize")[0], "lights", "exec"), ns)
     tmp = Path(tempfile.mkdtemp())
-    from ppm_engine.device import list_devices
+    from ppm_engine.render.device import list_devices
     key = next(d.key for d in list_devices() if "portable" in d.platform.lower())
 
     def exr_render(path):
@@ -232,7 +232,7 @@ A diffuse floor (albedo 0.5) under one light, 32×32, Cycles 2048 samples vs our
 """, "\n".join(rows), "\n\n"]
 
     # Cornell box: error against a long Cycles render as passes grow
-    from ppm_engine.scenes import build_example
+    from ppm_engine.blender.scenes import build_example
     build_example("cornell_box")
     scene = bpy.context.scene
     C.cycles_settings(scene, 4096, 64)

@@ -41,7 +41,7 @@ def _open(path: Path, size: int):
 
 
 def _render(bpy, scene, out: Path) -> np.ndarray:
-    from ppm_engine.blender_io import read_exr, set_output
+    from ppm_engine.blender.harness import read_exr, set_output
     set_output(scene, out)
     bpy.ops.render.render(write_still=True)
     return read_exr(out)
@@ -52,7 +52,7 @@ def render_ours(path: Path, size: int, passes: int) -> np.ndarray:
     (blender_io.unbiased_light_paths, which cycles_reference sets): both engines read
     scene.cycles, so the scene's own (Cycles' defaults: 4 diffuse bounces, Clamp Indirect 10)
     would compare a clamped, shorter transport with the reference's."""
-    from ppm_engine.blender_io import ensure_registered, unbiased_light_paths
+    from ppm_engine.blender.harness import ensure_registered, unbiased_light_paths
     ensure_registered()
     bpy, scene = _open(path, size)
     unbiased_light_paths(scene)
@@ -65,7 +65,7 @@ def render_ours(path: Path, size: int, passes: int) -> np.ndarray:
 
 def render_cycles(path: Path, size: int, spp: int, mask: bool = False) -> np.ndarray:
     """Cycles' image, or with ``mask`` the model's coverage (alpha with the ground hidden)."""
-    from ppm_engine.blender_io import cycles_reference
+    from ppm_engine.blender.harness import cycles_reference
     bpy, scene = _open(path, size)
     cycles_reference(scene, samples=16 if mask else spp)
     if mask:

@@ -1,4 +1,4 @@
-"""Measure the sheen table (ppm_engine/shading_tables.py, "sheen") from Cycles' own renders.
+"""Measure the sheen table (ppm_engine/scene/shading_tables.py, "sheen") from Cycles' own renders.
 
 Cycles' Sheen BSDF (Microfiber; the Principled BSDF's sheen) is Zeltner, Burley & Chiang 2022's
 linearly transformed cosine: for a view at cos mu and a roughness r it is the cosine lobe
@@ -113,7 +113,7 @@ def _render(roughness: float, sun=None) -> np.ndarray:
     """The value seen at the centre of each quad (N,)."""
     import bpy
 
-    from ppm_engine.blender_io import read_exr, set_output
+    from ppm_engine.blender.harness import read_exr, set_output
     scene, total = _scene(roughness, sun)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "s.exr"
@@ -231,7 +231,7 @@ def solve_edges(m: np.ndarray) -> np.ndarray:
 
 
 def main():
-    from ppm_engine import shading_tables as st
+    from ppm_engine.scene import shading_tables as st
     raw = measure()
     np.save(Path(tempfile.gettempdir()) / "sheen_measured.npy", raw)
     table = solve_edges(raw)

@@ -23,9 +23,9 @@ BLOCK = (slice(64, 80), slice(80, 96))
 def main(mode: str, amount: float, seeds: int) -> None:
     from settings_compare import reference  # (docs/: the benchmark's reference, cached)
 
-    from ppm_engine.bench.curves import ppm_settings, render
-    from ppm_engine.blender_io import cycles_reference, ensure_registered
-    from ppm_engine.scenes import metal
+    from ppm_engine.blender.harness import cycles_reference, ensure_registered
+    from ppm_engine.blender.scenes import metal
+    from ppm_engine.tools.bench.curves import ppm_settings, render
     ensure_registered()
     folder = Path(tempfile.gettempdir())
     _scene, ref, _keep = reference("glossy_metal", folder,

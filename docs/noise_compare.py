@@ -24,10 +24,10 @@ RESOLUTION = 64
 def measure(passes: int, scenes: list[str]) -> None:
     import bpy
 
-    from ppm_engine.export import export_scene
-    from ppm_engine.options import RenderOptions
-    from ppm_engine.renderer import Renderer
-    from ppm_engine.scenes import build_example
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.scenes import build_example
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
     for name in scenes:
         scene = build_example(name)
         scene.render.resolution_x = scene.render.resolution_y = RESOLUTION

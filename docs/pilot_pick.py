@@ -27,8 +27,8 @@ RESOLUTION = 128
 
 
 def pilot(arrays, indirect: str, passes: int):
-    from ppm_engine.options import RenderOptions
-    from ppm_engine.renderer import Renderer
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
     images, seconds = [], []
     for seed in (11, 12):
         o = RenderOptions(seed=seed, indirect=indirect)
@@ -48,8 +48,8 @@ def pilot(arrays, indirect: str, passes: int):
 def main(ks: list[int], scenes: list[str]) -> None:
     import bpy
 
-    from ppm_engine.export import export_scene
-    from ppm_engine.scenes import build_example
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.scenes import build_example
     for name in scenes:
         scene = build_example(name)
         scene.render.resolution_x = scene.render.resolution_y = RESOLUTION

@@ -7,7 +7,7 @@
 ``bounces``: flat water under a 20-degree sun (wide enough for Cycles to converge) 50 degrees
 high (lower, its light would reach the floor past the water's edge, which the reference
 refuses), 32 x 32, Light Paths 5 against 3 bounces with the same seeds, so that the ratio is
-the light the second floor bounce adds: by the exact reference (ppm_engine/bench/
+the light the second floor bounce adds: by the exact reference (ppm_engine/tools/bench/
 exact_pool.py, 2^21 photons), Cycles (SAMPLES, default 8192) and this engine (8 s).
 ``bound``: the bench's pool at 128 x 128, ours at 16 s and 64 s against the reference's two
 seeds of 120 s (its noise taken out), and where the error lies: the share of the squared error
@@ -22,7 +22,7 @@ import numpy as np
 
 
 def _ours(scene, seconds: float):
-    from ppm_engine.bench.curves import ppm_settings, render
+    from ppm_engine.tools.bench.curves import ppm_settings, render
     ppm_settings(scene, seconds, 1, "", None)
     return render(scene, Path(tempfile.mkdtemp()) / "ours.exr")[0]
 
@@ -30,10 +30,10 @@ def _ours(scene, seconds: float):
 def bounces(samples: int = 8192) -> None:
     import bpy
 
-    from ppm_engine.bench import exact_pool
-    from ppm_engine.bench.curves import render
-    from ppm_engine.blender_io import cycles_reference
-    from ppm_engine.scenes import pool
+    from ppm_engine.blender.harness import cycles_reference
+    from ppm_engine.blender.scenes import pool
+    from ppm_engine.tools.bench import exact_pool
+    from ppm_engine.tools.bench.curves import render
     pool.SUN_ELEVATION = 50.0
     means = {}
     for max_bounces in (3, 5):
@@ -53,8 +53,8 @@ def bounces(samples: int = 8192) -> None:
 
 
 def bound() -> None:
-    from ppm_engine.bench import exact_pool
-    from ppm_engine.scenes import pool
+    from ppm_engine.blender.scenes import pool
+    from ppm_engine.tools.bench import exact_pool
     scene = pool.build()
     halves = [exact_pool.render(scene, seconds=120.0, seed=seed)[0] for seed in (1001, 2002)]
     ref = 0.5 * (halves[0] + halves[1])
@@ -75,7 +75,7 @@ if __name__ == "__main__":
     if len(sys.argv) not in (2, 3) or sys.argv[1] not in ("bounces", "bound"):
         sys.exit(__doc__)
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    from ppm_engine.blender_io import ensure_registered
+    from ppm_engine.blender.harness import ensure_registered
     ensure_registered()
     if sys.argv[1] == "bounces":
         bounces(*map(int, sys.argv[2:]))

@@ -6,7 +6,7 @@ numbers", "The radius schedule"), each against the benchmark's independent refer
     python docs/settings_compare.py glossy:point 8 3 default=""
 
 SCENE is a benchmark scene (128 x 128; its reference as the benchmark renders it:
-ppm_engine.bench.curves.REFERENCE_ENGINE, two seeds of REF_SECONDS each (environment, default
+ppm_engine.tools.bench.curves.REFERENCE_ENGINE, two seeds of REF_SECONDS each (environment, default
 60), over the pixels the reference covers), or ``glossy:area`` / ``glossy:point``: the
 spheres of ``bench --glossy`` at 96 x 96 against Cycles at 6000 samples.  The reference is
 rendered once and kept in the temporary folder.  OPTIONS are RenderOptions keyword arguments
@@ -27,7 +27,7 @@ def reference(name: str, folder: Path, ref_seconds: float):
     """(scene, reference image top-down, pixels compared) for SCENE."""
     import bpy
 
-    from ppm_engine.bench import curves, glossy
+    from ppm_engine.tools.bench import curves, glossy
     path = folder / f"ppm_settings_{name.replace(':', '_')}_ref.npz"
     if name.startswith("glossy:"):
         light = name.split(":")[1]
@@ -58,10 +58,10 @@ def reference(name: str, folder: Path, ref_seconds: float):
 def main(name: str, seconds: float, seeds: int, settings: list[str]) -> None:
     import bpy
 
-    from ppm_engine.blender_io import ensure_registered, unbiased_light_paths
-    from ppm_engine.export import export_scene
-    from ppm_engine.options import RenderOptions
-    from ppm_engine.renderer import Renderer
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.harness import ensure_registered, unbiased_light_paths
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
     ensure_registered()
     folder = Path(tempfile.gettempdir())
     scene, ref, keep = reference(name, folder, float(os.environ.get("REF_SECONDS", 60)))

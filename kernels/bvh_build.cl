@@ -1,4 +1,4 @@
-/* Data-parallel BVH build (ppm_engine/bvh.py): Morton codes -> pyopencl RadixSort (host side)
+/* Data-parallel BVH build (ppm_engine/render/bvh.py): Morton codes -> pyopencl RadixSort (host side)
  * -> a hierarchy, by PLOC (the default, below) or Karras' LBVH ("Maximizing Parallelism in the
  * Construction of BVHs, Octrees, and k-d Trees", HPG 2012) -> bottom-up boxes -> packed nodes
  * and leaf-ordered triangles (layout in bvh.h). */

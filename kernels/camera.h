@@ -2,7 +2,7 @@
 #define PPM_CAMERA_H
 #include "geometry.h"
 
-/* Cycles' camera rays exactly (ppm_engine/export/camera.py): pixel (px, py) in full-frame pixel
+/* Cycles' camera rays exactly (ppm_engine/blender/export/camera.py): pixel (px, py) in full-frame pixel
  * units, y up from the bottom; planar clipping; thin-lens depth of field. */
 inline void camera_ray(__global const Camera *cam, float px, float py, float u1, float u2,
                        float3 *o, float3 *d, float *tmax) {

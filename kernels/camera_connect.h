@@ -55,7 +55,7 @@ inline void atomic_add_float(volatile __global float *a, float v) {
 }
 
 /* the pixel filter's normalised 1D density (pixel units) at offset x: a table over
- * [-reach, reach] (ppm_engine/light_tracer.py filter_density) */
+ * [-reach, reach] (ppm_engine/render/light_tracer.py filter_density) */
 inline float filter_at(__global const float *table, int n, float reach, float x) {
     float t = (x + reach) / (2.0f * reach) * (float)(n - 1);
     if (!(t >= 0.0f && t <= (float)(n - 1))) return 0.0f;

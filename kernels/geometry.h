@@ -12,7 +12,7 @@ inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722
  * number of ULPs that scales with |p| (Waechter & Binder, Ray Tracing Gems ch. 6), and near
  * the axis planes by an absolute amount that scales with the scene: robust at any scale and
  * distance from the origin, unlike one fixed epsilon.  scale: the scene's size, a power of two
- * (ppm_engine/scene_prep.py offset_scale, EmitterInfo.offset_scale): the absolute part is
+ * (ppm_engine/scene/prep.py offset_scale, EmitterInfo.offset_scale): the absolute part is
  * tuned for scenes of size ~1; a 2 mm scene would be offset by 1 % of its size and a 10 km one
  * too little near its axis planes. */
 inline float3 offset_ray(float3 p, float3 n, float scale) {

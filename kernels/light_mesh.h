@@ -7,7 +7,7 @@
  * Both sides emit.  Seen by rays as the surfaces they are (the passes add their emission). */
 
 /* The index of emissive BVH leaf k among the emissive triangles (-1 when it is not one):
- * emissive[] holds the emissive leaves in ascending order (ppm_engine/emitters.py). */
+ * emissive[] holds the emissive leaves in ascending order (ppm_engine/scene/emitters.py). */
 inline int emissive_index(const Scene *scene, int leaf) {
     int lo = 0, hi = scene->emitter_info->n_emissive - 1;
     while (lo <= hi) {

@@ -50,7 +50,7 @@ inline uint path_bounce(uint p, int label) {
 /* the state after a transparent crossing (the type kept) */
 inline uint path_transparent(uint p) { return path_add(p, PATH_TRANSPARENT_DEPTH); }
 
-/* --- Cycles' Light Paths limits (ppm_engine/light_paths.py; docs/SHADING.md, "Light Paths").
+/* --- Cycles' Light Paths limits (ppm_engine/scene/light_paths.py; docs/SHADING.md, "Light Paths").
  * Cycles counts a path's bounces from the camera: each scattering but the one that reaches the
  * light (next-event estimation's vertex, or the sample that finds an emitter) counts, by kind
  * (a reflection diffuse or glossy, a transmission), and a transparent crossing counts apart.

@@ -1,5 +1,5 @@
 /* Light tracing: an unbiased reference estimator, independent of the photon map (the
- * benchmark's reference where no Cycles estimator samples the light, ppm_engine/light_tracer.py).
+ * benchmark's reference where no Cycles estimator samples the light, ppm_engine/render/light_tracer.py).
  * Photons leave the emitters as in the photon pass; at every vertex whose closures can be
  * evaluated (not singular) the photon's flux is connected to the pinhole camera: through the
  * BSDF toward the camera, the visibility of the segment, and the camera's importance, splatted

@@ -1,7 +1,7 @@
 #ifndef PPM_LIGHT_TREE_H
 #define PPM_LIGHT_TREE_H
 #include "scene.h"
-/* --- the light tree (ppm_engine/light_tree.py) ---------------------------------------------
+/* --- the light tree (ppm_engine/scene/light_tree.py) ---------------------------------------------
  * Next-event estimation among many local emitters: from the shading point p (normal n) each
  * inner node chooses a child in proportion to the child's importance at p, a bound on the
  * light its emitters can give there (Estevez & Conty 2018): its power over the squared
@@ -49,7 +49,7 @@ inline float light_tree_left(__global const LightTreeNode *tree, int k, float3 p
 /* Whether the descent stops at inner node t for p: its ball is seen under a small angle
  * (LIGHT_TREE_STOP), so that its emitters' importance at p is their power to within it; the
  * pick among them is then by power, over the tree's order (a node's emitters are contiguous:
- * ppm_engine/light_tree.py).  Deep descents cost more than they gain where every emitter of a
+ * ppm_engine/scene/light_tree.py).  Deep descents cost more than they gain where every emitter of a
  * node looks alike (a bulb's thousand triangles seen from across the room). */
 inline bool light_tree_stops(__global const LightTreeNode *t, float3 p) {
     if (t->child < 0) return false;

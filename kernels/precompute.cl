@@ -1,5 +1,5 @@
 /* The GGX tables of kernels/shading_tables.h, computed with the closures' own sampling code
- * (ppm_engine/shading_tables.py runs it; the result ships as package data).  Each table is an
+ * (ppm_engine/scene/shading_tables.py runs it; the result ships as package data).  Each table is an
  * expectation over the closure's samples for a view at cos mu, as Cycles defines its tables
  * (docs/SHADING.md): the albedo eval / pdf, or the blend factor s of F = mix(F0, F90, s).
  * One work-item per cell; a 4-D Kronecker sequence (Roberts' R4) rotated per cell. */

@@ -3,7 +3,7 @@
 #include "types.h"
 
 /* The scene as one value in the kernels.  SCENE_DATA (shared.h, generated from
- * ppm_engine/device_scene.py SCENE_BUFFERS) lists the scene's buffers once; from it come
+ * ppm_engine/render/device_scene.py SCENE_BUFFERS) lists the scene's buffers once; from it come
  *   - SCENE_PARAMS, the parameters of every kernel that reads the scene (first in its list;
  *     the host binds them by name, device/program.py Launch),
  *   - Scene, one struct of __global pointers, and SCENE_LOAD(scene), which fills one from the
@@ -31,14 +31,14 @@ inline float emitter_pmf(__global const float *cdf, int e) {
 
 /* The probability next-event estimation picks emitter e outside the light tree (a sun, the
  * world; with no tree, any emitter): its power's share of the table, or with a tree of the
- * emitters outside it (ppm_engine/emitters.py far_cdf) */
+ * emitters outside it (ppm_engine/scene/emitters.py far_cdf) */
 inline float emitter_pmf_far(const Scene *scene, int e) {
     __global const EmitterInfo *info = scene->emitter_info;
     if (info->n_tree > 0) return (1.0f - info->tree_share) * emitter_pmf(scene->far_cdf, e);
     return emitter_pmf(scene->emitter_cdf, e);
 }
 
-/* Emitter chosen in proportion to its power (cdf built by ppm_engine/emitters.py): the lights
+/* Emitter chosen in proportion to its power (cdf built by ppm_engine/scene/emitters.py): the lights
  * first, then the emissive triangles, then the world. */
 inline int pick_emitter(__global const float *cdf, int n, float u, float *pmf) {
     int lo = 0, hi = n - 1;

@@ -7,7 +7,7 @@
 /* The closures at one shading point (kernels/shader.h fills it in from the material's BSDF
  * nodes), with the emission, transparency and holdout that are not lobes.  At most
  * PPM_MAX_CLOSURES closures: the most the scene's materials can make (-D from
- * ppm_engine/materials.py), its MAX_CLOSURES in a program built for every feature. */
+ * ppm_engine/scene/materials.py), its MAX_CLOSURES in a program built for every feature. */
 typedef struct {
     Closure c[PPM_MAX_CLOSURES];
     int n;

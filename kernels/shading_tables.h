@@ -1,7 +1,7 @@
 #ifndef PPM_SHADING_TABLES_H
 #define PPM_SHADING_TABLES_H
 #include "shared.h"
-/* The shading tables in one float buffer (ppm_engine/shading_tables.py builds it; its LAYOUT
+/* The shading tables in one float buffer (ppm_engine/scene/shading_tables.py builds it; its LAYOUT
  * gives each table's offset, TAB_* in shared.h, and shape): GGX albedos for the energy
  * compensation of multiple scattering (TAB_GGX_E [mu 32][rough 32], F = 1, and its
  * cosine-weighted average TAB_GGX_EAVG [rough 32]; GGX glass for ior > 1 and 1 / ior,

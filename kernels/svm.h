@@ -14,7 +14,7 @@
 #include "svm_image.h"
 #include "svm_sky.h"
 
-/* The shader program interpreter (ppm_engine/shader_program.py has the layout; the exporter's
+/* The shader program interpreter (ppm_engine/scene/shader_program.py has the layout; the exporter's
  * export/shader_graph.py compiles a material's node graph into it): value nodes evaluated into a
  * private stack of floats, then the BSDF nodes' inputs read from it (svm_bind).  Built only for
  * scenes with a program (PPM_SVM), with the op codes the scene's programs use (PPM_SVM_OPS,

@@ -3,7 +3,7 @@
 
 /* The Blackbody and Wavelength nodes as Cycles evaluates them (learnt from its kernel/svm
  * blackbody.h, wavelength.h and math_util.h; the tables below are data, read also by
- * ppm_engine/spectra.py to fold constant inputs at export, so they live only here). */
+ * ppm_engine/scene/spectra.py to fold constant inputs at export, so they live only here). */
 
 /* Cycles' Blackbody fit: the colour of a black body at T kelvin in linear Rec.709 with
  * luminance 1 (Planck's law through the CIE 1931 observer), fitted piecewise by

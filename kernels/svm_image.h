@@ -1,7 +1,7 @@
 #ifndef PPM_SVM_IMAGE_H
 #define PPM_SVM_IMAGE_H
 /* The Image Texture and Environment Texture nodes of a shader program (kernels/svm.h runs
- * them; ppm_engine/shader_program.py SVM_IMAGE has the layout, export/shader_images.py compiles
+ * them; ppm_engine/scene/shader_program.py SVM_IMAGE has the layout, export/shader_images.py compiles
  * them).  The projections and the UDIM tile choice are Cycles' (learnt from its
  * kernel/svm/image.h, util/math.h and kernel/camera/projection.h: map_to_sphere, map_to_tube,
  * the box's blend zones, the mirror ball); IMAGE_* (shared.h) the projection. */

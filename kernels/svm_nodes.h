@@ -5,7 +5,7 @@
 
 /* The arithmetic of the value nodes, as Cycles evaluates them (its kernel/svm/math_util.h,
  * mix.h, util/color.h: learnt from there, written here); the operations are shared.h's
- * MATH_*, VMATH_*, MIX_* (ppm_engine/shader_program.py MATH_OPS, VMATH_OPS, MIX_OPS, which
+ * MATH_*, VMATH_*, MIX_* (ppm_engine/scene/shader_program.py MATH_OPS, VMATH_OPS, MIX_OPS, which
  * folds constants with the same formulas). */
 
 inline float svm_safe_div(float a, float b) { return b != 0.0f ? a / b : 0.0f; }

@@ -7,7 +7,7 @@
 #include "svm_voronoi.h"
 
 /* Cycles' procedural texture nodes as shader program ops (SVM_TEX_*: svm.h; layouts in
- * ppm_engine/shader_program.py), learnt from its kernel/svm/checker.h, gradient.h,
+ * ppm_engine/scene/shader_program.py), learnt from its kernel/svm/checker.h, gradient.h,
  * white_noise.h, noisetex.h, magic.h, wave.h and brick.h and written here for OpenCL. */
 
 /* A float input: its stack slot, or (slot -1) the constant whose bits are in `value` */

@@ -2,7 +2,7 @@
 #define PPM_TEXTURES_H
 #include "scene.h"
 
-/* Image textures (ppm_engine/export/textures.py): texels of all textures one after another as
+/* Image textures (ppm_engine/blender/export/textures.py): texels of all textures one after another as
  * half4 linear RGBA, rows bottom-up (v = 0 is the first row); UVs per triangle corner.  The
  * lookups compile to a constant 1 when no material of the scene has a texture (PPM_TEXTURES).
  * The Texture struct and the TEX_* codes are shared.h's. */

@@ -2,7 +2,7 @@
 #define PPM_WORLD_H
 /* The world: a constant colour all around, or (PPM_WORLD_MAP) the radiance of its shader
  * program (export/world.py) importance-sampled by a lat-long map of it baked on the device
- * (ppm_engine/world_map.py; Cycles' background map).  world_map holds the map's marginal CDF
+ * (ppm_engine/render/world_map.py; Cycles' background map).  world_map holds the map's marginal CDF
  * over rows (map_h + 1 floats, v upwards), each row's CDF over columns (map_h x (map_w + 1))
  * and the map's values f (map_h x map_w: mean radiance x sin(theta) at the texel centres);
  * the density of a direction in (u, v) is f / mean(f), over solid angle / (2 pi^2 sin(theta)). */

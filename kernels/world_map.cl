@@ -1,4 +1,4 @@
-/* The world's importance map (ppm_engine/world_map.py): the radiance of the world's shader
+/* The world's importance map (ppm_engine/render/world_map.py): the radiance of the world's shader
  * program at the centre of each texel of a w x h lat-long map (Cycles' equirectangular
  * directions, row 0 at the nadir), as Cycles bakes its background map; the texels near a sun
  * disc averaged over sub x sub points. */

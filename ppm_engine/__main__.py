@@ -1,6 +1,6 @@
-"""``python -m ppm_engine``: see ppm_engine/cli.py."""
+"""``python -m ppm_engine``: see ppm_engine/tools/cli.py."""
 import sys
 
-from .cli import main
+from ppm_engine.tools.cli import main
 
 sys.exit(main())

@@ -24,8 +24,8 @@ def bpy():
     """bpy with the PPM engine registered (once per test session)."""
     bpy = pytest.importorskip("bpy")
     import ppm_engine
-    from ppm_engine.blender_io import ensure_registered
-    from ppm_engine.engine import PPMRenderEngine
+    from ppm_engine.blender.engine import PPMRenderEngine
+    from ppm_engine.blender.harness import ensure_registered
     ensure_registered()
     yield bpy
     if PPMRenderEngine.is_registered:
@@ -41,7 +41,7 @@ def session_dir(tmp_path_factory) -> Path:
 def pocl_key() -> str:
     """The key of the PoCL CPU device (the device every test renders on)."""
     pytest.importorskip("pyopencl")
-    from ppm_engine.device import list_devices
+    from ppm_engine.render.device import list_devices
     for d in list_devices():
         if "portable computing language" in d.platform.lower() or "pocl" in d.platform.lower():
             return d.key
@@ -55,7 +55,7 @@ def example_blend(bpy, session_dir):
 
     def get(name: str) -> Path:
         if name not in made:
-            from ppm_engine.scenes import save_example
+            from ppm_engine.blender.scenes import save_example
             path = session_dir / f"{name}.blend"
             save_example(name, str(path))
             assert path.is_file()
@@ -115,7 +115,7 @@ def configure_tiny(scene, pocl_key: str, *, width=TINY["width"], height=TINY["he
 
 def set_exr_output(scene, path: Path) -> None:
     """32-bit EXR output to ``path`` (the extension must be .exr)."""
-    from ppm_engine.blender_io import set_output
+    from ppm_engine.blender.harness import set_output
     assert Path(path).suffix == ".exr", path
     set_output(scene, path)
 
@@ -123,7 +123,7 @@ def set_exr_output(scene, path: Path) -> None:
 def read_exr(path: Path):
     """RGBA float32 (h, w, 4) of a single-part EXR, rows top-down (EXR order)."""
     pytest.importorskip("OpenEXR")
-    from ppm_engine.blender_io import read_exr as read
+    from ppm_engine.blender.harness import read_exr as read
     return read(path)
 
 
@@ -139,7 +139,7 @@ def run_cli(*args, timeout=600):
 def cycles_settings(scene, samples: int, width: int = 32) -> None:
     """Cycles with the same light transport as ours (blender_io.cycles_reference), ``samples``
     per pixel, a square image ``width`` pixels wide."""
-    from ppm_engine.blender_io import cycles_reference
+    from ppm_engine.blender.harness import cycles_reference
     cycles_reference(scene, samples=samples, seed=1)
     scene.render.resolution_x = scene.render.resolution_y = width
     scene.render.resolution_percentage = 100

@@ -10,7 +10,7 @@ W = 32
 def _glass(bpy, name, volume=None, **inputs):
     """Clear glass whose Volume output is a ``volume`` node ('ShaderNodeVolumeAbsorption' or
     'ShaderNodeVolumePrincipled') with the given inputs."""
-    from ppm_engine.scenes.cornell_box import glass
+    from ppm_engine.blender.scenes.cornell_box import glass
     m = glass(name)
     if volume:
         nodes, links = m.node_tree.nodes, m.node_tree.links
@@ -22,8 +22,8 @@ def _glass(bpy, name, volume=None, **inputs):
 
 
 def test_volume_output_is_exported_as_cycles_defines_it(bpy):
-    from ppm_engine.export import export_scene
-    from ppm_engine.scenes.cornell_box import box, camera_world_render, new_scene
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.scenes.cornell_box import box, camera_world_render, new_scene
     scene = new_scene(None)
     camera_world_render(scene)
     mats = [_glass(bpy, "Clear"),
@@ -54,7 +54,13 @@ def _tinted_block(bpy, nested=False):
     cube's shadow is a tinted caustic, its body tinted by its thickness.  ``nested``: the cube
     is clear glass holding a 0.4 m cube of the tinted medium (a liquid in a glass: two media
     deep)."""
-    from ppm_engine.scenes.cornell_box import box, camera_world_render, lambert, new_scene, quad
+    from ppm_engine.blender.scenes.cornell_box import (
+        box,
+        camera_world_render,
+        lambert,
+        new_scene,
+        quad,
+    )
     scene = new_scene(None)
     quad(scene, "Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)],
          lambert("Floor", (0.8, 0.8, 0.8)))

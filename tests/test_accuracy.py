@@ -5,9 +5,9 @@ import itertools
 import numpy as np
 import pytest
 
-from ppm_engine import analytic as A
-from ppm_engine.options import RenderOptions
-from ppm_engine.renderer import Renderer
+from ppm_engine.oracle import analytic as A
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.renderer import Renderer
 
 
 def progressive(scene, checkpoints, max_bounces, photons=1 << 15, seed=0):

@@ -10,11 +10,10 @@ standard error of the mean."""
 import numpy as np
 import pytest
 
-from ppm_engine.camera_model import make_camera, perspective_extent
-from ppm_engine.options import RenderOptions
-from ppm_engine.procedural import MeshBuilder, look_at
-from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import (
+from ppm_engine.oracle.procedural import MeshBuilder, look_at
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene.arrays import (
     CAMERA_ORTHO,
     LIGHT_AREA_ELLIPSE,
     LIGHT_AREA_RECT,
@@ -24,6 +23,7 @@ from ppm_engine.scene_arrays import (
     LIGHT_SPOT,
     LIGHT_SUN,
 )
+from ppm_engine.scene.camera import make_camera, perspective_extent
 
 
 def render(scene, passes, seed=0, **opts):

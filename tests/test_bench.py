@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from ppm_engine.bench.curves import FIREFLY_MARGIN, MERGE_SCENES, SCENES, brightest, fireflies
+from ppm_engine.tools.bench.curves import FIREFLY_MARGIN, MERGE_SCENES, SCENES, brightest, fireflies
 
 pytest.importorskip("OpenEXR")
 pytest.importorskip("matplotlib")
@@ -364,7 +364,7 @@ def test_bench_arguments_are_the_bench_s_and_its_outputs_go_where_pointed(cli, t
     assert p.returncode == 0 and "--out DIR" in p.stdout and "--noise SCENE" in p.stdout
     p = cli("bench", "--no-such-flag")
     assert p.returncode == 2 and "unrecognized arguments: --no-such-flag" in p.stderr
-    from ppm_engine.bench import command, report
+    from ppm_engine.tools.bench import command, report
     assert command.output_dir(str(tmp_path / "x")) == tmp_path / "x"
     assert command.output_dir(None) == report.DOCS            # this checkout
     monkeypatch.setattr(report, "DOCS", tmp_path / "no_checkout" / "docs")
@@ -377,7 +377,7 @@ def test_digest_is_the_same_for_the_same_code_and_compare_finds_a_change(bpy, tm
     order involved) give the same digests, and compare() names a digest that changed."""
     import json
 
-    from ppm_engine.bench import digest
+    from ppm_engine.tools.bench import digest
     runs = [digest.run_digest(scenes=("cornell_box",), configs=("paths",),
                               progress=lambda *a: None) for _ in range(2)]
     assert runs[0]["images"] == runs[1]["images"] and len(runs[0]["images"]) == 3

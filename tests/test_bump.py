@@ -360,7 +360,7 @@ def test_bump_texture_coordinate_normal_per_block_as_cycles(render_direct, tmp_p
 def test_bump_constant_height_folds():
     """A Bump whose height is constant (unlinked, or a Value) gives its input normal: no program
     where nothing else is driven, and a Normal Map's normal through it."""
-    from ppm_engine.export.materials import read_material
+    from ppm_engine.blender.export.material_nodes import read_material
     bpy.ops.wm.read_factory_settings(use_empty=True)
     warnings = []
     mat = bpy.data.materials.new("const")
@@ -383,7 +383,7 @@ def test_bump_constant_height_folds():
 
 def _ops(program):
     """The op names of a program (its words as read_material returns them)."""
-    from ppm_engine.shader_program import OP_EXTRA, OP_NAMES, SVM_END, SVM_TABLE
+    from ppm_engine.scene.shader_program import OP_EXTRA, OP_NAMES, SVM_END, SVM_TABLE
     n_binds, n_words = int(program[0, 0]), int(program[0, 1])
     i, names = 1 + n_binds, []
     while i < n_words and int(program[i, 0]) != SVM_END:
@@ -395,7 +395,7 @@ def _ops(program):
 
 def test_displacement_output_is_warned():
     """The material output's Displacement is not rendered: one warning naming the material."""
-    from ppm_engine.export.materials import read_material
+    from ppm_engine.blender.export.material_nodes import read_material
     bpy.ops.wm.read_factory_settings(use_empty=True)
     mat = bpy.data.materials.new("displaced")
     t, _d = _diffuse(mat)

@@ -11,10 +11,9 @@ import pytest
 
 cl = pytest.importorskip("pyopencl")
 
-from ppm_engine import shading_tables as st
-from ppm_engine.device_scene import placeholders
-from ppm_engine.materials import kernel_materials, kernel_nodes
-from ppm_engine.scene_arrays import (
+from ppm_engine.render.device_scene import placeholders
+from ppm_engine.scene import shading_tables as st
+from ppm_engine.scene.arrays import (
     MATERIAL_DTYPE,
     NODE_DIFFUSE,
     NODE_FLAG_CONDUCTOR,
@@ -28,6 +27,8 @@ from ppm_engine.scene_arrays import (
     NODE_TRANSPARENT,
     shader_node,
 )
+from ppm_engine.scene.materials import kernel_materials, kernel_nodes
+from ppm_engine.tools import make_shading_tables
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
 MASK_ALL = 3
@@ -37,7 +38,7 @@ CLOSURE_NAMES = {1: "diffuse", 2: "oren_nayar", 3: "translucent", 4: "sheen", 5:
 
 @pytest.fixture(scope="module")
 def device(pocl_key):
-    from ppm_engine.device import get_device
+    from ppm_engine.render.device import get_device
     return get_device(pocl_key)
 
 
@@ -142,7 +143,7 @@ def test_ggx_albedo_table_known_values():
 def test_shipped_ggx_tables_match_a_recomputation(device):
     """The tables in the package data are what kernels/precompute.cl computes (fewer samples
     here: within their noise)."""
-    fresh = st.compute(device, ["ggx_E", "glass_E", "schlick_ior_s"], samples=1 << 12)
+    fresh = make_shading_tables.compute(device, ["ggx_E", "glass_E", "schlick_ior_s"], samples=1 << 12)
     shipped = st.unpack(st.load())
     for name, a in fresh.items():
         np.testing.assert_allclose(a, shipped[name], atol=6e-3, err_msg=name)

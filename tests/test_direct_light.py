@@ -10,12 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ppm_engine.camera_model import make_camera
-from ppm_engine.device import SHADING_GROUP
-from ppm_engine.options import RenderOptions
-from ppm_engine.procedural import MeshBuilder, look_at
-from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import CAMERA_ORTHO, LIGHT_POINT
+from ppm_engine.oracle.procedural import MeshBuilder, look_at
+from ppm_engine.render.device import SHADING_GROUP
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene.arrays import CAMERA_ORTHO, LIGHT_POINT
+from ppm_engine.scene.camera import make_camera
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_analytic import light
@@ -42,7 +42,7 @@ def test_grazing_emitter_does_not_shadow_itself():
     top at grazing angles; next-event estimation must not let the lamp shadow itself (the
     shadow ray is built from its offset origin).  Reference: quadrature over the lamp.  The
     ray offsets (~1e-4 of 1 cm) leave a bias of about 1 %, allowed for."""
-    from ppm_engine.procedural import cornell_box
+    from ppm_engine.oracle.procedural import cornell_box
     ys = np.array([0.27, 0.3, 0.4, 0.6, 0.9])
     copies = 16                                   # independent estimates per point
     pts = np.array([[0.1, y, 2.0, 0] for y in np.repeat(ys, copies)], np.float32)
@@ -166,7 +166,7 @@ def test_direct_light_beside_a_lamp_picks_the_near_triangle():
     power, the far triangle is taken half the time and one sample's spread was about the mean
     (0.96-1.16 of it measured); by the irradiance each gives the point (pick_emitter_at) it is
     0.5-0.65.  The mean is test_grazing_emitter_does_not_shadow_itself's."""
-    from ppm_engine.procedural import cornell_box
+    from ppm_engine.oracle.procedural import cornell_box
     ys, n = np.array([0.255, 0.27, 0.3]), 4096
     pts = np.array([[0.1, y, 2.0, 0] for y in np.repeat(ys, n)], np.float32)
     nrm = np.tile(np.float32([0, 0, -1, 0]), (len(pts), 1))
@@ -181,7 +181,7 @@ def test_a_mesh_light_through_a_transparent_surface_lights_as_much():
     Next-event estimation and the BSDF sample both cross the veil; the sample's MIS weight
     must use next-event estimation's density from the shading point, not from the veil where
     the ray goes on (that made it 26 % bright)."""
-    from ppm_engine.scene_arrays import NODE_TRANSPARENT
+    from ppm_engine.scene.arrays import NODE_TRANSPARENT
     mb = MeshBuilder()
     lamp = mb.material("lamp", (0, 0, 0), emission=(10.0,) * 3)
     veil = mb.shader("veil", [dict(type=NODE_TRANSPARENT, color=(0.5, 0.5, 0.5))])
@@ -207,7 +207,7 @@ def test_direct_light_beside_a_large_emitter_has_bounded_variance():
     Next-event estimation alone has a per-sample spread of ~(a/h) times the mean here (1/d^2
     near the lamp's centre); with solid-angle sampling of the lamp and MIS with the BSDF sample
     (lights.h direct_lighting) one sample's standard deviation stays well below the mean."""
-    from ppm_engine.procedural import cornell_box
+    from ppm_engine.oracle.procedural import cornell_box
     n = 8192
     pts = np.tile(np.float32([0.0, 0.0, 2.0, 0]), (n, 1))          # above the lamp's centre
     pts[:, 0] = np.linspace(-0.1, 0.1, n)                            # (it is at z = 1.99)
@@ -234,8 +234,8 @@ def test_direct_light_beside_a_large_emitter_has_bounded_variance():
 def test_an_emitter_that_casts_no_shadow_lights_as_much():
     """A mesh light with shadow visibility off is still found by the BSDF sample (a diffuse
     ray), so NEE + MIS give the same direct light as with the flag on."""
-    from ppm_engine.procedural import cornell_box
-    from ppm_engine.scene_arrays import VIS_SHADOW
+    from ppm_engine.oracle.procedural import cornell_box
+    from ppm_engine.scene.arrays import VIS_SHADOW
     scene = cornell_box(8, 8)
     emits = np.zeros(scene.materials.shape[0])
     np.maximum.at(emits, scene.shader_nodes["material"], scene.shader_nodes["emission"].max(axis=1))

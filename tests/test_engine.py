@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ppm_engine.errors import SceneError
-from ppm_engine.options import LIMITS, SettingsError
+from ppm_engine.render.options import LIMITS, SettingsError
 
 
 def _open(bpy, path):
@@ -31,7 +31,7 @@ def test_engine_is_registered_and_selectable(bpy):
     # the engine menu is dynamic: the error message of a bad id lists every registered engine
     with pytest.raises(TypeError, match="'PPM'"):
         scene.render.engine = "NO_SUCH_ENGINE"
-    from ppm_engine.engine import PPMRenderEngine
+    from ppm_engine.blender.engine import PPMRenderEngine
     assert PPMRenderEngine.bl_label == "Progressive Photon Mapping"
     assert PPMRenderEngine.bl_use_shading_nodes_custom is False
 
@@ -48,7 +48,7 @@ def test_settings_carry_the_limits(bpy):
 
 
 def test_photon_count_is_automatic_until_one_is_typed(bpy):
-    from ppm_engine.properties import to_options
+    from ppm_engine.blender.properties import to_options
     scene = bpy.data.scenes.new("photon-count")
     try:
         s = scene.ppm
@@ -65,7 +65,7 @@ def test_photon_count_is_automatic_until_one_is_typed(bpy):
 def test_a_file_from_before_the_automatic_photon_count_keeps_its_count(bpy, session_dir):
     """A file whose scene stored only Photons per Pass (saved before Automatic existed) opens
     with that count in force; a file that stored neither keeps the automatic count."""
-    from ppm_engine.properties import to_options
+    from ppm_engine.blender.properties import to_options
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     name = scene.name
@@ -80,20 +80,20 @@ def test_a_file_from_before_the_automatic_photon_count_keeps_its_count(bpy, sess
 
 
 def test_device_enum_lists_default_and_pocl(bpy, pocl_key):
-    from ppm_engine.properties import refresh_devices
+    from ppm_engine.blender.properties import refresh_devices
     keys = [item[0] for item in refresh_devices()]
     assert keys[0] == "DEFAULT" and pocl_key in keys
     scene = bpy.context.scene
     scene.ppm.device = pocl_key
     assert scene.ppm.device == pocl_key
     scene.ppm.device = "DEFAULT"
-    from ppm_engine.properties import to_options
+    from ppm_engine.blender.properties import to_options
     assert to_options(scene.ppm).device == ""
 
 
 def test_panels_opt_in_and_out(bpy):
     import ppm_engine
-    from ppm_engine import ui
+    from ppm_engine.blender import ui
     extra = [getattr(bpy.types, name) for name in ui.EXTRA_BUILTIN_PANELS]
     assert len(extra) == 11
     for panel in extra + [bpy.types.RENDER_PT_format, bpy.types.RENDER_PT_color_management]:
@@ -119,7 +119,7 @@ def test_panels_opt_in_and_out(bpy):
 
 
 def test_invalid_settings_are_refused(bpy, example_blend, tiny, exr, session_dir):
-    from ppm_engine.properties import to_options
+    from ppm_engine.blender.properties import to_options
     scene = _open(bpy, example_blend("cornell_box"))
     tiny(scene)
     scene.ppm.alpha = 1.0        # inside the property's range, refused by RenderOptions.validate
@@ -173,7 +173,8 @@ def _dark_scene(bpy, path):
 
 def test_scene_without_light_renders_black_with_a_warning_and_no_device_work(
         bpy, tiny, exr, session_dir, monkeypatch, capfd):
-    from ppm_engine import renderer, session
+    from ppm_engine.blender import session
+    from ppm_engine.render import renderer
     _dark_scene(bpy, session_dir / "dark.blend")
     scene = _open(bpy, session_dir / "dark.blend")
     tiny(scene)
@@ -246,12 +247,12 @@ class _Engine:
 @pytest.fixture
 def fake_render(bpy, pocl_key, monkeypatch):
     """fake_render(engine, export=..., passes=...) runs Session.render on a procedural scene."""
-    from ppm_engine import session as session_mod
-    from ppm_engine.procedural import cornell_box
+    from ppm_engine.blender import session as session_mod
+    from ppm_engine.oracle.procedural import cornell_box
 
     def run(engine, export=None, passes=4):
         export = export or (lambda depsgraph, engine=None: cornell_box(24, 24))
-        monkeypatch.setitem(sys.modules, "ppm_engine.export",
+        monkeypatch.setitem(sys.modules, "ppm_engine.blender.export",
                             types.SimpleNamespace(export_scene=export))
         settings = types.SimpleNamespace(passes=passes, time_limit=0.0, photons_per_pass=4096,
                                          auto_photons=False, noise_threshold=0.0,
@@ -270,9 +271,9 @@ def fake_render(bpy, pocl_key, monkeypatch):
 
 def _renderer_mean(pocl_key, passes):
     """The mean RGB of the fake_render scene after ``passes`` passes, by the Renderer alone."""
-    from ppm_engine.options import RenderOptions
-    from ppm_engine.procedural import cornell_box
-    from ppm_engine.renderer import Renderer
+    from ppm_engine.oracle.procedural import cornell_box
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
     r = Renderer(cornell_box(24, 24), RenderOptions(photons_per_pass=4096, max_bounces=8,
                                                     seed=0, device=pocl_key))
     for _ in range(passes):
@@ -319,7 +320,7 @@ def test_scene_error_is_reported_and_a_result_still_ends(fake_render):
 
 
 def test_internal_error_keeps_rendered_passes(fake_render, monkeypatch, capsys, pocl_key):
-    from ppm_engine.renderer import Renderer
+    from ppm_engine.render.renderer import Renderer
     one_pass = _renderer_mean(pocl_key, 1)
     real = Renderer.iterate
 

@@ -1,4 +1,4 @@
-"""The exact-geometry reference of point_caustic (ppm_engine/bench/exact_caustic.py): its pixel
+"""The exact-geometry reference of point_caustic (ppm_engine/tools/bench/exact_caustic.py): its pixel
 filter, camera and dielectric against closed forms, its light-traced direct light against the
 closed form of a point light on a Lambertian plane and against its own closed form (which
 renders the direct light since 2026-11-27), the split of the light between the two, and the
@@ -10,8 +10,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.bench import exact_caustic as ec
-from ppm_engine.scenes.caustics import BALL, FLOOR, point_caustic
+from ppm_engine.blender.scenes.caustics import BALL, FLOOR, point_caustic
+from ppm_engine.tools.bench import exact_caustic as ec
 
 W = 32                # the tests' image: 32 x 32 of the bench's 128 x 128 frame
 
@@ -26,7 +26,7 @@ def _scene(width=W):
 
 def test_shares_no_code_with_the_engine():
     """Independent of the estimators it checks: of this package it imports only the scene's
-    constants (ppm_engine/scenes/caustics.py), nothing of the export, kernels, film or light
+    constants (ppm_engine/blender/scenes/caustics.py), nothing of the export, kernels, film or light
     tracer."""
     import ast
     from pathlib import Path

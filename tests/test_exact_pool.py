@@ -1,12 +1,12 @@
-"""The pool's exact-geometry reference (ppm_engine/bench/exact_pool.py), which the benchmark's
+"""The pool's exact-geometry reference (ppm_engine/tools/bench/exact_pool.py), which the benchmark's
 ``pool_caustic`` is measured against: its camera map against brute force, its light against a
 closed form, and this engine against it."""
 import numpy as np
 import pytest
 
-from ppm_engine.bench import exact_pool as ep
-from ppm_engine.bench.exact_caustic import camera_rays, fresnel
-from ppm_engine.scenes import pool
+from ppm_engine.blender.scenes import pool
+from ppm_engine.tools.bench import exact_pool as ep
+from ppm_engine.tools.bench.exact_caustic import camera_rays, fresnel
 
 
 def _scene(bpy, res, waves=pool.WAVES):

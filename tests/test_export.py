@@ -9,8 +9,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.export import export_scene
-from ppm_engine.scene_arrays import (
+from ppm_engine.blender.export import export_scene
+from ppm_engine.scene.arrays import (
     LIGHT_AREA_ELLIPSE,
     LIGHT_AREA_RECT,
     LIGHT_FLAG_SOFT_FALLOFF,
@@ -135,7 +135,7 @@ def test_light_temperature_and_zero_strength(empty):
 def test_light_ray_visibility_flags(empty):
     """Blender makes lights invisible to camera rays by default (Cycles then does not show
     them); glossy and transmission rays see them unless turned off."""
-    from ppm_engine.scene_arrays import LIGHT_HIDDEN_SHIFT, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION
+    from ppm_engine.scene.arrays import LIGHT_HIDDEN_SHIFT, VIS_CAMERA, VIS_GLOSSY, VIS_TRANSMISSION
     add_light('POINT', "Default")
     o = add_light('AREA', "Shown", loc=(1, 0, 3))
     o.visible_camera, o.visible_glossy = True, False

@@ -13,7 +13,7 @@ bpy = pytest.importorskip("bpy")
 from mathutils import Vector
 
 from ppm_engine.errors import SceneError
-from ppm_engine.scene_arrays import (
+from ppm_engine.scene.arrays import (
     CAMERA_ORTHO,
     FILM_TRANSPARENT,
     FILM_TRANSPARENT_GLASS,
@@ -107,7 +107,7 @@ def test_film_settings_not_a_number_are_refused():
     """A film exposure or filter width that is not a number: a SceneError naming the setting."""
     from types import SimpleNamespace
 
-    from ppm_engine.export.camera import film_settings
+    from ppm_engine.blender.export.camera import film_settings
     for name in ("film_exposure", "filter_width"):
         cycles = SimpleNamespace(**{name: float("nan")})
         with pytest.raises(SceneError, match=name.replace("_", " ")):
@@ -119,7 +119,7 @@ def test_film_settings_without_cycles_are_its_defaults():
     """Without the Cycles add-on (no scene.cycles): Cycles' defaults."""
     from types import SimpleNamespace
 
-    from ppm_engine.export.camera import film_settings
+    from ppm_engine.blender.export.camera import film_settings
     f = film_settings(SimpleNamespace(render=SimpleNamespace(film_transparent=False)))
     assert f == dict(filter_type=FILTER_BLACKMAN_HARRIS, filter_width=1.5, film_transparent=0,
                      glass_roughness=pytest.approx(0.1), exposure=1.0)

@@ -11,8 +11,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.export import export_scene
-from ppm_engine.scene_arrays import LIGHT_POINT, VIS_CAMERA, VIS_SHADOW
+from ppm_engine.blender.export import export_scene
+from ppm_engine.scene.arrays import LIGHT_POINT, VIS_CAMERA, VIS_SHADOW
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_export import add_light, add_plane, export
@@ -181,7 +181,7 @@ def test_mirrored_instance_keeps_normals_and_winding(empty):
 
 
 def test_linked_duplicates_read_the_mesh_once(empty, monkeypatch):
-    import ppm_engine.export.mesh as mesh_mod
+    import ppm_engine.blender.export.mesh as mesh_mod
     calls = []
     real = mesh_mod.read_mesh
     monkeypatch.setattr(mesh_mod, "read_mesh", lambda m: calls.append(m.name) or real(m))

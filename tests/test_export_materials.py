@@ -11,7 +11,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.scene_arrays import (
+from ppm_engine.scene.arrays import (
     NODE_DIFFUSE,
     NODE_EMISSION,
     NODE_FLAG_CONDUCTOR,

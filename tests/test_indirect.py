@@ -5,12 +5,12 @@ missed), and "auto" must choose by the scene's share of caustic first scattering
 import numpy as np
 import pytest
 
-from ppm_engine import analytic
-from ppm_engine.camera_model import make_camera, perspective_extent
-from ppm_engine.options import RenderOptions, SettingsError
-from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
-from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import CAMERA_PERSP
+from ppm_engine.oracle import analytic
+from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.render.options import RenderOptions, SettingsError
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene.arrays import CAMERA_PERSP
+from ppm_engine.scene.camera import make_camera, perspective_extent
 
 
 def renders(scene, passes, seeds, **opts):
@@ -80,7 +80,7 @@ def box_with_ball(W=16, radius=0.35, **ball):
 def light_traced(scene):
     """(image, coverage) of ``scene`` by light tracing (unbiased, no photon map, no eye
     paths), 32 bounces: the reference over the pixels it renders."""
-    from ppm_engine.light_tracer import LightTracer
+    from ppm_engine.render.light_tracer import LightTracer
     lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32)
     try:
         lt.trace(20)
@@ -226,7 +226,7 @@ def _sobol_directions():
 def _ld_sets(keys, passes, first_pass=0, set_index=0):
     import pyopencl as cl
 
-    from ppm_engine.device.context import get_device
+    from ppm_engine.render.device.context import get_device
     dev = get_device("")
     keys = np.asarray(keys, np.uint32)
     out = np.empty((len(keys) * passes, 4), np.float32)

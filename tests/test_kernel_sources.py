@@ -82,7 +82,7 @@ HEADERS = sorted(f.name for f in KERNELS.glob("*.h"))
 
 @pytest.fixture(scope="module")
 def device(pocl_key):
-    from ppm_engine.device import get_device
+    from ppm_engine.render.device import get_device
     return get_device(pocl_key)
 
 
@@ -91,7 +91,7 @@ def test_every_header_compiles_alone(device, header):
     """The header first and alone in a program, built with every feature and with none (a
     specialised build): it includes what it uses, wherever it is included from."""
     cl = pytest.importorskip("pyopencl")
-    from ppm_engine.device import kernel_dir
+    from ppm_engine.render.device import kernel_dir
     src = f'#include "{header}"\n__kernel void probe(__global int *out) {{ out[0] = 0; }}\n'
     for defines in ([], ["-DPPM_SPECIALIZED"]):
         try:

@@ -1,22 +1,22 @@
-"""Every kernel against the NumPy reference (ppm_engine/reference.py), on every OpenCL device."""
+"""Every kernel against the NumPy reference (ppm_engine/oracle/reference.py), on every OpenCL device."""
 import numpy as np
 import pytest
 
 pytest.importorskip("pyopencl")
 import pyopencl as cl
 
-from ppm_engine import reference as ref
-from ppm_engine.bvh import BVH
-from ppm_engine.camera_model import make_camera
-from ppm_engine.counters import N_COUNTERS, Counter
-from ppm_engine.device import get_device, list_devices
-from ppm_engine.device_scene import placeholders
-from ppm_engine.emitters import EMITTER_INFO_DTYPE
-from ppm_engine.materials import KMATERIAL_DTYPE
-from ppm_engine.passes import Gather, HashBuild, unshaded
-from ppm_engine.photon_map import GRID_DTYPE, PhotonMap
-from ppm_engine.procedural import MeshBuilder, look_at
-from ppm_engine.scene_arrays import CAMERA_DTYPE, LIGHT_DTYPE
+from ppm_engine.oracle import reference as ref
+from ppm_engine.oracle.procedural import MeshBuilder, look_at
+from ppm_engine.render.bvh import BVH
+from ppm_engine.render.counters import N_COUNTERS, Counter
+from ppm_engine.render.device import get_device, list_devices
+from ppm_engine.render.device_scene import placeholders
+from ppm_engine.render.passes import Gather, HashBuild, unshaded
+from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
+from ppm_engine.scene.arrays import CAMERA_DTYPE, LIGHT_DTYPE
+from ppm_engine.scene.camera import make_camera
+from ppm_engine.scene.emitters import EMITTER_INFO_DTYPE
+from ppm_engine.scene.materials import KMATERIAL_DTYPE
 
 DEVICES = [d.key for d in list_devices()]
 
@@ -142,7 +142,7 @@ def test_bvh_axis_parallel_rays_equal_brute_force(device):
 
 def test_bvh_refit_equals_a_fresh_build(device):
     """A refitted BVH answers ray queries exactly as a BVH built from the moved triangles."""
-    from ppm_engine.procedural import cornell_box
+    from ppm_engine.oracle.procedural import cornell_box
     dev = device
     scene = cornell_box(8, 8)
     bvh = BVH(dev, scene)
@@ -391,10 +391,10 @@ def test_progressive_update_equals_closed_form(device):
 
 
 def test_counter_table_matches_the_kernel_header():
-    """kernels/shared.h (generated) and ppm_engine/counters.py state the same indices."""
+    """kernels/shared.h (generated) and ppm_engine/render/counters.py state the same indices."""
     import re
 
-    from ppm_engine.device import kernel_dir
+    from ppm_engine.render.device import kernel_dir
     text = (kernel_dir() / "shared.h").read_text()
     header = {m[1]: int(m[2]) for m in re.finditer(r"#define CNT_(\w+) (\d+)", text)}
     assert header == {c.name: int(c) for c in Counter}

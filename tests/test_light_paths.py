@@ -1,11 +1,12 @@
-"""Cycles' Light Paths settings (ppm_engine/light_paths.py): read from scene.cycles, Cycles'
+"""Cycles' Light Paths settings (ppm_engine/scene/light_paths.py): read from scene.cycles, Cycles'
 defaults without it, refused when out of range, and each honoured as Cycles honours it, in
 image pairs: the same scene rendered by Cycles and by this engine with the same setting, per
 block."""
 import numpy as np
 import pytest
 
-from ppm_engine.light_paths import (
+from ppm_engine.render.options import RenderOptions, SettingsError
+from ppm_engine.scene.light_paths import (
     CYCLES_DEFAULTS,
     LIGHT_PATHS_DTYPE,
     LightPathsError,
@@ -14,7 +15,6 @@ from ppm_engine.light_paths import (
     make_light_paths,
     with_max_bounces,
 )
-from ppm_engine.options import RenderOptions, SettingsError
 
 
 def test_cycles_defaults_and_the_engines_own():
@@ -44,7 +44,7 @@ def test_settings_out_of_range_are_refused_by_name():
 
 
 def test_a_loaded_record_out_of_range_is_refused(tmp_path):
-    from ppm_engine.procedural import cornell_box
+    from ppm_engine.oracle.procedural import cornell_box
     scene = cornell_box(4, 4)
     bad = scene.light_paths.copy()
     bad["glossy_bounces"] = -5
@@ -52,7 +52,7 @@ def test_a_loaded_record_out_of_range_is_refused(tmp_path):
         scene.replace(light_paths=bad)
     path = tmp_path / "s.npz"
     scene.replace(light_paths=make_light_paths(diffuse_bounces=2)).save(path)
-    from ppm_engine.scene_arrays import SceneArrays
+    from ppm_engine.scene.arrays import SceneArrays
     assert SceneArrays.load(path).light_paths["diffuse_bounces"][0] == 2
 
 
@@ -65,7 +65,7 @@ def test_max_bounces_option_overrides_every_kind_but_transparency():
 
 
 def test_export_reads_scene_cycles(empty):
-    from ppm_engine.export import export_scene
+    from ppm_engine.blender.export import export_scene
     c = empty.cycles
     c.max_bounces, c.diffuse_bounces, c.glossy_bounces = 7, 2, 3
     c.transmission_bounces, c.transparent_max_bounces = 5, 6
@@ -92,8 +92,8 @@ def _room(bpy, *, mirror=True, glass=True, planes=0):
     ball on the right (caustic on the floor), ``planes`` half-transparent planes before the
     back wall; no world light.  Cycles' Light Paths as Cycles renders them unbiased (12 each,
     no clamping); each test sets the one it checks."""
-    from ppm_engine.blender_io import unbiased_light_paths
-    from ppm_engine.scenes import cornell_box as cb
+    from ppm_engine.blender.harness import unbiased_light_paths
+    from ppm_engine.blender.scenes import cornell_box as cb
     scene = cb.new_scene()
     cb.room(scene)
     cb.quad(scene, "Lamp", [(-0.5, -0.5, 1.99), (-0.5, 0.5, 1.99), (0.5, 0.5, 1.99),
@@ -128,7 +128,7 @@ def _room(bpy, *, mirror=True, glass=True, planes=0):
 
 def _pair(bpy, scene, tmp_path, render_exr, tiny, *, samples, passes, photons=1 << 12):
     """(ours, Cycles') RGB of the scene as its Light Paths stand."""
-    from ppm_engine.blender_io import cycles_reference
+    from ppm_engine.blender.harness import cycles_reference
     c = scene.cycles
     keep = {k: getattr(c, k) for k in CYCLES_DEFAULTS}
     cycles_reference(scene, samples=samples, seed=1)

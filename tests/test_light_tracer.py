@@ -1,4 +1,4 @@
-"""Light tracing (ppm_engine/light_tracer.py, kernels/light_trace.cl), the benchmark's independent
+"""Light tracing (ppm_engine/render/light_tracer.py, kernels/light_trace.cl), the benchmark's independent
 reference for the caustic scenes: the same image as Cycles where both converge (the Cornell box,
 per 8x8 block), the pixels it cannot render left out, and the pixel filter's density."""
 import numpy as np
@@ -8,9 +8,9 @@ bpy = pytest.importorskip("bpy")
 
 
 def _example(name, width):
-    from ppm_engine.blender_io import ensure_registered
-    from ppm_engine.export import export_scene
-    from ppm_engine.scenes import build_example
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.harness import ensure_registered
+    from ppm_engine.blender.scenes import build_example
     ensure_registered()
     scene = build_example(name)
     scene.render.resolution_x = scene.render.resolution_y = width
@@ -22,7 +22,7 @@ def _example(name, width):
 def test_light_tracing_is_cycles_on_the_cornell_box(cycles, render_exr, tmp_path):
     """Light tracing and Cycles (1024 samples) agree per 8x8 block within their noise on every
     block light tracing covers; the blocks that see the lamp are not covered."""
-    from ppm_engine.light_tracer import LightTracer
+    from ppm_engine.render.light_tracer import LightTracer
     W = 32
     scene, arrays = _example("cornell_box", W)
     lt = LightTracer(arrays, photons=1 << 16, seed=3)
@@ -45,20 +45,20 @@ def test_light_tracing_is_cycles_on_the_cornell_box(cycles, render_exr, tmp_path
 
 @pytest.mark.parametrize("kind, width", [(0, 1.5), (1, 1.0), (2, 1.5), (0, 0.0)])
 def test_filter_density_integrates_to_one(kind, width):
-    from ppm_engine.film import FILTER_SAMPLES, filter_density
+    from ppm_engine.render.film import FILTER_SAMPLES, filter_density
     f, reach = filter_density(width, kind)
     x = np.linspace(-reach, reach, FILTER_SAMPLES)
     assert np.trapz(f, x) == pytest.approx(1.0, rel=1e-3)
     assert reach == pytest.approx({0: width or 0.5, 1: 0.5, 2: 1.5 * width}[kind])
     # the film's jitter table samples the same filter: its spread matches the density's
-    from ppm_engine.film import filter_table
+    from ppm_engine.render.film import filter_table
     t = filter_table(width, kind)
     assert t.var() == pytest.approx(np.trapz(f * x * x, x), rel=0.03)
 
 
 def test_depth_of_field_is_refused():
-    from ppm_engine.light_tracer import LightTracer
-    from ppm_engine.procedural import cornell_box
+    from ppm_engine.oracle.procedural import cornell_box
+    from ppm_engine.render.light_tracer import LightTracer
     s = cornell_box(8, 8)
     cam = s.camera.copy()
     cam["aperture_radius"] = 0.01

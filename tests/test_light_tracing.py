@@ -2,20 +2,20 @@
 also connected to the camera, and the connection and the merge at a visible point the camera
 sees directly share the paths by the balance heuristic (kernels/camera_connect.h
 merge_factor, kernels/eye_pass.cl).  Against the exact answer of the analytic mirror caustic
-(ppm_engine/analytic.py: the image source), with the two strategies sharing the light in
+(ppm_engine/oracle/analytic.py: the image source), with the two strategies sharing the light in
 proportions that make a missing or doubled weight show."""
 import numpy as np
 import pytest
 
-from ppm_engine import analytic as A
-from ppm_engine.options import LIGHT_TRACING_KAPPA, RenderOptions
-from ppm_engine.renderer import Renderer
+from ppm_engine.oracle import analytic as A
+from ppm_engine.render.options import LIGHT_TRACING_KAPPA, RenderOptions
+from ppm_engine.render.renderer import Renderer
 
 
 def _render(scene, passes, monkeypatch, kappa=None, **opts):
     """(image, the light tracing's share of it (h, w)) after ``passes``."""
     if kappa is not None:
-        monkeypatch.setattr("ppm_engine.renderer.LIGHT_TRACING_KAPPA", kappa)
+        monkeypatch.setattr("ppm_engine.render.renderer.LIGHT_TRACING_KAPPA", kappa)
     r = Renderer(scene, RenderOptions(photons_per_pass=1 << 14, max_bounces=1, seed=2, **opts))
     for _ in range(passes):
         s = r.iterate()
@@ -66,7 +66,7 @@ def test_light_tracing_off_leaves_the_merge_whole(monkeypatch):
 def test_light_tracing_is_off_through_a_lens_and_without_photons():
     """A camera with depth of field (light tracing connects to a pinhole), the option off, or
     a scene with no photon pass: no light tracing."""
-    from ppm_engine.procedural import cornell_box
+    from ppm_engine.oracle.procedural import cornell_box
     scene = A.mirror_caustic(8)
     r = Renderer(scene, RenderOptions(max_bounces=1))
     assert r.lt_kappa == LIGHT_TRACING_KAPPA
@@ -92,8 +92,8 @@ def test_light_tracing_sees_through_what_the_camera_does_not(monkeypatch):
     pass it too (camera visibility, not shadow visibility), and the caustic is the image
     source's.  Blocked by it, light tracing's side of the weights (most of the caustic at
     kappa 0.02) would be lost."""
-    from ppm_engine.procedural import MeshBuilder
-    from ppm_engine.scene_arrays import VIS_ALL, VIS_CAMERA
+    from ppm_engine.oracle.procedural import MeshBuilder
+    from ppm_engine.scene.arrays import VIS_ALL, VIS_CAMERA
     W = 32
     ref, region = _region(W)
     c = A.MIRROR
@@ -123,7 +123,7 @@ def test_a_fixed_seed_renders_the_same_caustic_frame_after_frame(scene):
     the merge's noise moves a little (the merge alone: 0.09 of another seed's difference at
     this size, 0.16 at 48 x 48); light tracing, most of a caustic now, splats the same photons
     wherever they are stored.  Measured with light tracing: 0.022 (bulb box), 0.053 (mirror)."""
-    from ppm_engine.procedural import cornell_box
+    from ppm_engine.oracle.procedural import cornell_box
     make = {"bulb_box": lambda: cornell_box(32, 32, bulb=True),
             "mirror_caustic": lambda: A.mirror_caustic(W=32)}[scene]
 
@@ -147,8 +147,8 @@ def test_light_tracing_stops_where_no_pixel_sees_what_it_renders(bpy):
     stops connecting them (Renderer.iterate) and renders as with light tracing off.  Where the
     camera sees the floor (the mirror caustic), it goes on.  (Photons are stored in the order
     threads reach them, so the two renders agree in their noise, not bit for bit.)"""
-    from ppm_engine.export import export_scene
-    from ppm_engine.scenes import pool
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.scenes import pool
     pool.build(grid=pool.SMALL_GRID)
     scene = bpy.context.scene
     scene.render.resolution_x = scene.render.resolution_y = 16

@@ -1,4 +1,4 @@
-"""The light tree (ppm_engine/light_tree.py, kernels/light_tree.h): its build (every node
+"""The light tree (ppm_engine/scene/light_tree.py, kernels/light_tree.h): its build (every node
 bounds its emitters), and next-event estimation's pick through it on the device held to a
 float64 reference of the same importance, with the frequencies of the pick, the pmf it
 returns, and the pmf the MIS of a ray that finds the emitter uses (kernels/debug.cl
@@ -9,18 +9,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ppm_engine import light_tree as lt
-from ppm_engine.camera_model import make_camera
-from ppm_engine.options import RenderOptions
-from ppm_engine.procedural import MeshBuilder, look_at
-from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import (
+from ppm_engine.oracle.procedural import MeshBuilder, look_at
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene import light_tree as lt
+from ppm_engine.scene.arrays import (
     CAMERA_ORTHO,
     LIGHT_AREA_RECT,
     LIGHT_POINT,
     LIGHT_SPOT,
     LIGHT_SUN,
 )
+from ppm_engine.scene.camera import make_camera
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_analytic import light

@@ -1,4 +1,4 @@
-"""LuxCore's bidirectional path tracer as the benchmark runs it (ppm_engine/bench/luxcore.py):
+"""LuxCore's bidirectional path tracer as the benchmark runs it (ppm_engine/tools/bench/luxcore.py):
 the scene translated from bpy renders in the same units, orientation and pixels as ours,
 checked against the independent light tracer on the point light's caustic in a mirror; and its
 light tracer (LIGHTCPU, the reference of the bulb box and the mirror caustic) against ours.
@@ -29,7 +29,7 @@ CAUSTIC_TOL = 0.05
 
 
 def test_luxcore_mirror_caustic_matches_light_tracing(bpy, pocl_key, tmp_path):
-    from ppm_engine.bench import curves, luxcore
+    from ppm_engine.tools.bench import curves, luxcore
     assert luxcore.unavailable() is None
     b = curves.Bench(RES, pocl_key, None, tmp_path, progress=lambda *a: None)
     scene = b._scene("mirror_caustic")
@@ -67,7 +67,7 @@ LIGHT_COVERED_TOL = 0.02
 
 @pytest.mark.parametrize("name", ["mirror_caustic", "bulb_box"])
 def test_luxcore_light_tracer_matches_ours(bpy, pocl_key, tmp_path, name):
-    from ppm_engine.bench import curves, luxcore
+    from ppm_engine.tools.bench import curves, luxcore
     b = curves.Bench(RES, pocl_key, None, tmp_path, progress=lambda *a: None)
     scene = b._scene(name)
     img, _, info, cover = b.luxcore_light(SECONDS, curves.REF_SEEDS[0])

@@ -1,7 +1,7 @@
 """What the LuxCore translation does beyond the unit conversions, without pyluxcore (bpy and
 NumPy only, so CI runs it): emitters inside glass get IOR^2 (LuxCore's glass is physical,
 Cycles' passes radiance unscaled), smooth black emitters go flat, and the pixel filter that
-LIGHTCPU's unfiltered, supersampled film goes through (ppm_engine/bench/luxcore.py)."""
+LIGHTCPU's unfiltered, supersampled film goes through (ppm_engine/tools/bench/luxcore.py)."""
 import types
 
 import numpy as np
@@ -9,8 +9,8 @@ import pytest
 
 
 def _translate(bpy, name):
-    from ppm_engine.bench import luxcore_scene
-    from ppm_engine.scenes import build_example
+    from ppm_engine.blender.scenes import build_example
+    from ppm_engine.tools.bench import luxcore_scene
     build_example(name)
     bpy.context.view_layer.update()
     return luxcore_scene.translate(bpy.context.evaluated_depsgraph_get())
@@ -20,7 +20,7 @@ def test_an_emitter_inside_glass_gets_ior_squared_and_goes_flat(bpy):
     """The bulb box's filament sits in a glass bulb of IOR 1.5: its emission x 2.25 on its own
     copy of the material; the glass ball on the floor does not enclose it; the filament's
     smooth normals are dropped (LuxCore would emit about them)."""
-    from ppm_engine.scenes.bulb_box import FILAMENT_RADIANCE
+    from ppm_engine.blender.scenes.bulb_box import FILAMENT_RADIANCE
     tr = _translate(bpy, "bulb_box")
     assert len(tr.glass) == 2 and all(ior == 1.5 for _, ior, _ in tr.glass)
     filament = [n for n, o in tr.objects.items() if o["material"].endswith("_in0")]
@@ -37,7 +37,7 @@ def test_an_emitter_inside_glass_gets_ior_squared_and_goes_flat(bpy):
 
 
 def test_lights_outside_glass_keep_their_gain(bpy):
-    from ppm_engine.scenes.caustics import SPOT_POWER
+    from ppm_engine.blender.scenes.caustics import SPOT_POWER
     tr = _translate(bpy, "point_caustic")
     assert len(tr.glass) == 1
     light = next(k for k in tr.props if k.startswith("scene.lights.") and k.endswith(".gain"))
@@ -45,7 +45,7 @@ def test_lights_outside_glass_keep_their_gain(bpy):
 
 
 def test_inside_a_closed_mesh():
-    from ppm_engine.bench import luxcore_scene
+    from ppm_engine.tools.bench import luxcore_scene
     v, f = luxcore_scene.icosphere(2)
     tris = v[f]
     assert luxcore_scene._closed(tris) and not luxcore_scene._closed(tris[1:])
@@ -58,7 +58,7 @@ def test_pixel_filter_of_a_supersampled_film():
     stays itself where the filter stays inside the frame, and one fine pixel's light reaches the
     pixels within the filter's reach of it, each by the filter (exact_caustic's, written apart)
     at their distance, over the fine pixel's area."""
-    from ppm_engine.bench import exact_caustic, luxcore
+    from ppm_engine.tools.bench import exact_caustic, luxcore
     scene = types.SimpleNamespace(cycles=types.SimpleNamespace(
         pixel_filter_type="BLACKMAN_HARRIS", filter_width=1.5))
     k, n = 8, 12

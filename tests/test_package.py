@@ -24,18 +24,18 @@ def run_py(code, env, timeout=600):
 
 
 def test_zip_holds_the_add_on_and_no_tooling(tmp_path):
-    from ppm_engine.packaging import build
+    from ppm_engine.tools.packaging import build
     (zip_path,) = build(tmp_path / "dist", wheels=False, log=lambda *a: None)
     names = set(zipfile.ZipFile(zip_path).namelist())
     assert {"__init__.py", "blender_manifest.toml", "ppm_engine/__init__.py",
-            "ppm_engine/engine.py", "ppm_engine/passes/eye.py"} <= names
+            "ppm_engine/blender/engine.py", "ppm_engine/render/passes/eye.py"} <= names
     kernels = {f"kernels/{p.name}" for p in (REPO / "kernels").iterdir()
                if p.suffix in (".cl", ".h")}
     assert kernels and kernels <= names
     modules = {n for n in names if n.endswith(".py")}
     source = {p.relative_to(REPO).as_posix() for p in (REPO / "ppm_engine").rglob("*.py")}
-    tooling = {n for n in source if n.startswith("ppm_engine/bench/")
-               or n == "ppm_engine/packaging.py"}
+    tooling = {n for n in source if n.startswith("ppm_engine/tools/bench/")
+               or n == "ppm_engine/tools/packaging.py"}
     assert tooling and not tooling & names                      # the benchmark, the packager
     assert modules == source - tooling | {"__init__.py"}        # and nothing else is left out
     assert not any(n.startswith(("tests/", "docs/", ".ci/")) for n in names)
@@ -43,7 +43,7 @@ def test_zip_holds_the_add_on_and_no_tooling(tmp_path):
 
 @pytest.mark.slow
 def test_linux_zip_installs_enables_and_renders(tmp_path):
-    from ppm_engine.packaging import blender_ext_tool, build
+    from ppm_engine.tools.packaging import blender_ext_tool, build
     cache = os.environ.get("PPM_WHEEL_CACHE")        # optional, to save downloads locally
     zips = build(tmp_path / "dist", ["linux-x64"], cache=Path(cache) if cache else None,
                  log=lambda *a: None)

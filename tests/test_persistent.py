@@ -5,7 +5,7 @@ import pytest
 
 def test_persistent_data_reuses_only_what_did_not_change(bpy, example_blend, tiny, render_exr,
                                                          tmp_path):
-    from ppm_engine import session
+    from ppm_engine.blender import session
     bpy.ops.wm.open_mainfile(filepath=str(example_blend("cornell_box")), load_ui=False)
     scene = bpy.context.scene
     tiny(scene, width=16, height=16, passes=4)
@@ -55,7 +55,7 @@ def test_persistent_data_reuses_only_what_did_not_change(bpy, example_blend, tin
 def test_animation_with_persistent_data_refits_per_frame(bpy, example_blend, tiny, tmp_path):
     """render(animation=True) over frames where an object moves: every frame is rendered and
     written (Blender's '#' numbering), the BVH is built once and refitted for the others."""
-    from ppm_engine import session
+    from ppm_engine.blender import session
     bpy.ops.wm.open_mainfile(filepath=str(example_blend("cornell_box")), load_ui=False)
     scene = bpy.context.scene
     tiny(scene, width=16, height=16, passes=2)

@@ -4,12 +4,12 @@ import re
 import numpy as np
 import pytest
 
-from ppm_engine.camera_model import make_camera
 from ppm_engine.errors import DeviceError
-from ppm_engine.options import RenderOptions, SettingsError
-from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
-from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import NODE_PRINCIPLED, SceneArrays
+from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.render.options import RenderOptions, SettingsError
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene.arrays import NODE_PRINCIPLED, SceneArrays
+from ppm_engine.scene.camera import make_camera
 
 
 @pytest.mark.parametrize("bad", [dict(passes=-1), dict(passes=0), dict(alpha=0.0),
@@ -22,7 +22,7 @@ def test_invalid_settings_are_refused_with_the_name(bad):
 
 
 def test_automatic_photon_count_is_one_per_pixel_within_bounds():
-    from ppm_engine.options import AUTO_PHOTONS_MAX, AUTO_PHOTONS_MIN
+    from ppm_engine.render.options import AUTO_PHOTONS_MAX, AUTO_PHOTONS_MIN
     auto = RenderOptions()
     assert auto.photons_per_pass is None
     assert auto.photons_for(512 * 512) == 1 << 18          # the paper's count at 512 x 512
@@ -153,8 +153,8 @@ def test_stochastic_hash_and_exact_gather_converge_to_the_same_image():
 
 
 def test_kernel_build_failure_carries_the_compiler_log():
-    from ppm_engine.device import get_device
     from ppm_engine.errors import KernelBuildError
+    from ppm_engine.render.device import get_device
     dev = get_device()
     with pytest.raises(KernelBuildError) as e:
         dev.programs.get("gather.cl", {"PPM_INT64_ATOMICS": True, "uint": "float"})
@@ -165,7 +165,7 @@ def test_kernel_build_failure_carries_the_compiler_log():
 def test_pixel_filter_table_samples_cycles_blackman_harris():
     """The eye pass's jitter table is the inverse CDF of Cycles' Blackman-Harris filter
     (support +-width pixels); width 0 is the box filter."""
-    from ppm_engine.film import filter_table
+    from ppm_engine.render.film import filter_table
     box = filter_table(0.0)
     assert box.min() > -0.5 and box.max() < 0.5
     assert np.allclose(np.diff(box), 1 / len(box), atol=1e-6)          # uniform in the pixel

@@ -154,16 +154,16 @@ def test_rough_glass_before_a_texture_at_every_roughness_as_cycles(
 def test_rough_glass_caustic_is_the_exact_spheres(bpy, tiny, render_exr, tmp_path):
     """The bench's rough_caustic (a radius-0 point light focused by a ball of GGX glass of
     roughness 0.1 onto the floor) against its exact-geometry reference in NumPy
-    (ppm_engine/bench/exact_caustic.py: the true sphere, the rough dielectric written out
+    (ppm_engine/tools/bench/exact_caustic.py: the true sphere, the rough dielectric written out
     independently of the kernels): photons through two rough interfaces, connected to the
     camera and merged.  Over what light tracing covers within 1 %, over the caustic's pixels
     within 2.5 % and at the focus within 5 % (measured: 0.0 %, +0.3 %, -2.1 %; the merge's
     share blurs the focus a little, and the engine's ball is a 192 x 96 mesh).  Cycles renders
     the same caustic 0.90-1.02 of the reference at the focus region over four seeds of 8192
     samples: too noisy to check this against."""
-    from ppm_engine.bench import exact_caustic
-    from ppm_engine.bench.scenes import caustic_mask
-    from ppm_engine.scenes import build_example
+    from ppm_engine.blender.scenes import build_example
+    from ppm_engine.tools.bench import exact_caustic
+    from ppm_engine.tools.bench.scenes import caustic_mask
     w = 48
     scene = build_example("rough_caustic")
     scene.render.resolution_x = scene.render.resolution_y = w

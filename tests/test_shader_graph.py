@@ -1,4 +1,4 @@
-"""The node-graph compiler (ppm_engine/export/shader_graph.py): constant folding, node groups
+"""The node-graph compiler (ppm_engine/blender/export/shader_graph.py): constant folding, node groups
 inlined, a shared sub-graph evaluated once, an unsupported node warned once, a cycle cut, the
 program's layout and ops (shader_program.ops_used), a graph too large for the stack."""
 import numpy as np
@@ -6,9 +6,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.export.materials import read_material
-from ppm_engine.scene_arrays import shader_node
-from ppm_engine.shader_program import (
+from ppm_engine.blender.export.material_nodes import read_material
+from ppm_engine.scene.arrays import shader_node
+from ppm_engine.scene.shader_program import (
     BOUND,
     FIELD_WORD,
     GEOM_WINDOW,
@@ -21,7 +21,7 @@ from ppm_engine.shader_program import (
     SVM_WAVELENGTH,
     ops_used,
 )
-from ppm_engine.spectra import blackbody_rgb, wavelength_rgb
+from ppm_engine.scene.spectra import blackbody_rgb, wavelength_rgb
 
 
 def _material(name="M"):

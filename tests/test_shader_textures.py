@@ -223,9 +223,9 @@ def test_no_texture_code_without_textures():
 
     import numpy as np
 
-    from ppm_engine import shader_program as sp
-    from ppm_engine.export.materials import read_material
-    from ppm_engine.shader_program import (
+    from ppm_engine.blender.export.material_nodes import read_material
+    from ppm_engine.scene import shader_program as sp
+    from ppm_engine.scene.shader_program import (
         OP_EXTRA,
         SVM_TEX_CHECKER,
         SVM_TEX_LAST,

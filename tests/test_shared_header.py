@@ -1,5 +1,5 @@
 """kernels/shared.h and shared_svm.h, generated from the Python tables
-(ppm_engine/shared_header.py): the files are current, every struct field sits on the device
+(ppm_engine/tools/shared_header.py): the files are current, every struct field sits on the device
 where its dtype puts it, no kernel file defines again a name the headers define, and the feature
 flags the host sets are the header's."""
 import re
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ppm_engine import shared_header
+from ppm_engine.tools import shared_header
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
 KERNEL_FILES = sorted(f for f in KERNELS.iterdir() if f.suffix in (".h", ".cl"))
@@ -17,12 +17,12 @@ PKG = Path(__file__).resolve().parents[1] / "ppm_engine"
 
 
 def test_the_headers_are_current():
-    """Fails after a change to a Python table until `python -m ppm_engine.shared_header` ran."""
+    """Fails after a change to a Python table until `python -m ppm_engine.tools.shared_header` ran."""
     generated = shared_header.generate_all()
     assert set(generated) == set(GENERATED)
     for name, text in generated.items():
         assert (KERNELS / name).read_text() == text, \
-            f"kernels/{name} is stale: run python -m ppm_engine.shared_header"
+            f"kernels/{name} is stale: run python -m ppm_engine.tools.shared_header"
 
 
 def test_the_check_fails_on_a_stale_header(tmp_path, monkeypatch):
@@ -43,7 +43,10 @@ def test_float_literals_read_back_exactly():
 
 
 def _structs():
-    from ppm_engine import camera_model, emitters, materials, photon_map, scene_arrays
+    from ppm_engine.render import photon_map
+    from ppm_engine.scene import arrays as scene_arrays
+    from ppm_engine.scene import camera as camera_model
+    from ppm_engine.scene import emitters, materials
     return {"Light": scene_arrays.LIGHT_DTYPE, "Camera": camera_model.CAMERA_DTYPE,
             "Material": materials.KMATERIAL_DTYPE, "ShaderNode": scene_arrays.SHADER_NODE_DTYPE,
             "EmitterInfo": emitters.EMITTER_INFO_DTYPE, "Texture": scene_arrays.TEXTURE_DTYPE,
@@ -52,7 +55,7 @@ def _structs():
 
 def _devices():
     try:
-        from ppm_engine.device import list_devices
+        from ppm_engine.render.device import list_devices
         return [d.key for d in list_devices()]
     except Exception:            # no pyopencl or no platform: the test skips below
         return [None]
@@ -66,7 +69,7 @@ def test_every_struct_field_has_its_dtype_offset_on_the_device(key):
     cl = pytest.importorskip("pyopencl")
     if key is None:
         pytest.skip("no OpenCL device")
-    from ppm_engine.device import get_device, kernel_dir
+    from ppm_engine.render.device import get_device, kernel_dir
     dev = get_device(key)
     rows = [(s, f) for s, dt in _structs().items() for f in ("", *dt.names)]
     # (a field's offset as the distance of its address from its struct's: OpenCL C has no
@@ -100,7 +103,7 @@ def test_no_kernel_file_defines_a_shared_name_again():
 def test_the_features_the_host_sets_are_the_kernels_flags():
     """Every PPM_* flag the host adds to a feature set (features.py, materials.py, world_map.py)
     is in features.FEATURES, and every one of those is tested somewhere in the kernels."""
-    from ppm_engine.features import FEATURES
+    from ppm_engine.render.features import FEATURES
     used = set()
     for name in ("features.py", "materials.py", "world_map.py"):
         text = (PKG / name).read_text()

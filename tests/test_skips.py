@@ -3,13 +3,12 @@ image is the same as without it where the skip must not change it."""
 import numpy as np
 import pytest
 
-from ppm_engine import analytic
-from ppm_engine.camera_model import make_camera, perspective_extent
-from ppm_engine.options import RenderOptions
-from ppm_engine.passes import ProgressiveUpdate
-from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
-from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import (
+from ppm_engine.oracle import analytic
+from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.passes import ProgressiveUpdate
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene.arrays import (
     LIGHT_AREA_RECT,
     LIGHT_DTYPE,
     LIGHT_HIDDEN_SHIFT,
@@ -23,6 +22,7 @@ from ppm_engine.scene_arrays import (
     VIS_GLOSSY,
     VIS_TRANSMISSION,
 )
+from ppm_engine.scene.camera import make_camera, perspective_extent
 
 
 def _light(kind, emit, position=(0, 0, 1.5), direction=(0, 0, -1), radius=0.0, size=0.3,
@@ -190,12 +190,12 @@ def test_no_photon_pass_without_bounces_or_diffuse_surfaces():
 
 
 def test_no_photon_storage_or_light_tracing_film_where_no_photon_pass_runs():
-    """Photon storage (ppm_engine/photon_map.py: 2 x the photons per pass, and the hash
+    """Photon storage (ppm_engine/render/photon_map.py: 2 x the photons per pass, and the hash
     table) and the light tracing's film buffers (44 bytes per pixel) are allocated only by a
     render that traces photons: at 1920 x 1080 that is 305 MiB a Cornell box lit by eye paths
     no longer holds (docs/BENCHMARKS.md).  The same box by eye paths (no caustics: no photon
     pass) and by the paper's photons: the device's byte count differs by those buffers."""
-    from ppm_engine.device import get_device
+    from ppm_engine.render.device import get_device
     dev = get_device(RenderOptions().device)
     grown = {}
     for indirect in ("paths", "photons"):
@@ -278,7 +278,7 @@ def test_noise_threshold_off_samples_every_pixel_every_pass():
 
 
 def test_render_ends_when_every_pixel_converged(bpy, example_blend, tiny, render_exr, tmp_path):
-    from ppm_engine import session
+    from ppm_engine.blender import session
     bpy.ops.wm.open_mainfile(filepath=str(example_blend("cornell_box")), load_ui=False)
     scene = bpy.context.scene
     tiny(scene, width=16, height=16, passes=100000)
@@ -289,8 +289,8 @@ def test_render_ends_when_every_pixel_converged(bpy, example_blend, tiny, render
 
 
 def test_a_nan_world_is_refused_before_the_dark_scene_check():
+    from ppm_engine.blender.session import emits_nothing
     from ppm_engine.errors import SceneError
-    from ppm_engine.session import emits_nothing
     scene = cornell_box(8, 8, light_radiance=0.0)
     assert emits_nothing(scene)
     with pytest.raises(SceneError, match="world"):

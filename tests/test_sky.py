@@ -210,8 +210,8 @@ def test_extreme_parameters_stay_finite():
     """The host's precomputation at the ends of the node's ranges (a zero sun direction, the
     sun at the nadir, the zenith, altitude 0 and far above the atmosphere, densities 0 to
     1000, a disc of size 0) gives finite, non-negative skies (small LUTs)."""
-    from ppm_engine import sky_atmosphere, sky_multiple
-    from ppm_engine.export.sky import hosek_params, preetham_params, simplify_sun
+    from ppm_engine.blender.export.sky import hosek_params, preetham_params, simplify_sun
+    from ppm_engine.scene import sky_atmosphere, sky_multiple
     for p in (preetham_params((0.0, 0.0, 0.0), 1.0), preetham_params((0.0, 0.0, -1.0), 10.0),
               hosek_params((0.0, 0.0, 0.0), 1.0, 0.0), hosek_params((0.0, 0.0, -1.0), 10.0, 1.0),
               hosek_params((0.0, 0.0, 1.0), 5.5, 0.5)):

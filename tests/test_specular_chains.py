@@ -13,7 +13,7 @@ W = 24
 def _panes(bpy, n, gap=0.005, thickness=0.001):
     """A white floor under n glass panes (3 x 3 m, 0.2 m up) and a 3 m square area light 0.6 m
     up; the camera between the floor and the first pane, looking down."""
-    from ppm_engine.scenes.cornell_box import (
+    from ppm_engine.blender.scenes.cornell_box import (
         box,
         camera_world_render,
         glass,

@@ -8,18 +8,18 @@ import pytest
 pytest.importorskip("pyopencl")
 import pyopencl as cl
 
-from ppm_engine import reference as ref
-from ppm_engine.camera_model import make_camera, perspective_extent
-from ppm_engine.counters import N_COUNTERS, Counter
-from ppm_engine.device import get_device
 from ppm_engine.errors import DeviceError
-from ppm_engine.options import RenderOptions
-from ppm_engine.passes import Gather, HashBuild, unshaded
-from ppm_engine.photon_map import PhotonMap
-from ppm_engine.procedural import MeshBuilder, cornell_box, look_at
-from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
-from ppm_engine.scene_prep import prepare_scene
+from ppm_engine.oracle import reference as ref
+from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.render.counters import N_COUNTERS, Counter
+from ppm_engine.render.device import get_device
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.passes import Gather, HashBuild, unshaded
+from ppm_engine.render.photon_map import PhotonMap
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene.arrays import CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
+from ppm_engine.scene.camera import make_camera, perspective_extent
+from ppm_engine.scene.prep import prepare_scene
 
 
 @pytest.fixture(scope="module")

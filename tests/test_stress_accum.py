@@ -16,7 +16,7 @@ SLOW_PASSES = 20000
 
 @pytest.fixture(scope="module")
 def device(pocl_key):
-    from ppm_engine.device import get_device
+    from ppm_engine.render.device import get_device
     return get_device(pocl_key)
 
 
@@ -48,8 +48,8 @@ def _naive_float32_sum(v):
 def _run_direct(device, fp64, passes):
     import pyopencl as cl
 
-    from ppm_engine.film import Film
-    from ppm_engine.passes import ProgressiveUpdate
+    from ppm_engine.render.film import Film
+    from ppm_engine.render.passes import ProgressiveUpdate
     film = Film(device, 4, 4, fp64=fp64)
     update = ProgressiveUpdate(device, film)
     q = device.queue
@@ -78,7 +78,7 @@ def _check_direct(device, fp64, passes):
 
 @pytest.mark.parametrize("fp64", [True, False], ids=["fp64", "kahan"])
 def test_direct_sum_does_not_drift(device, fp64):
-    if fp64 and not __import__("ppm_engine.film", fromlist=["has_fp64"]).has_fp64(device):
+    if fp64 and not __import__("ppm_engine.render.film", fromlist=["has_fp64"]).has_fp64(device):
         pytest.skip("the device has no cl_khr_fp64")
     _check_direct(device, fp64, CI_PASSES)
 
@@ -98,8 +98,8 @@ def _constant_density(device, fp64, passes, kernel):
     paper's tau update in float32, kept as the closed-form reference)."""
     import pyopencl as cl
 
-    from ppm_engine.film import Film
-    from ppm_engine.passes import ProgressiveUpdate
+    from ppm_engine.render.film import Film
+    from ppm_engine.render.passes import ProgressiveUpdate
     n, q = 16, device.queue
     film = Film(device, 4, 4, fp64=fp64)
     update = ProgressiveUpdate(device, film)
@@ -172,9 +172,9 @@ def test_global_radius_schedule_is_its_sequence_whatever_the_samples(device, fp6
     gathered: brute force in float64 over random passes."""
     import pyopencl as cl
 
-    from ppm_engine.film import Film
-    from ppm_engine.passes import ProgressiveUpdate
-    if fp64 and not __import__("ppm_engine.film", fromlist=["has_fp64"]).has_fp64(device):
+    from ppm_engine.render.film import Film
+    from ppm_engine.render.passes import ProgressiveUpdate
+    if fp64 and not __import__("ppm_engine.render.film", fromlist=["has_fp64"]).has_fp64(device):
         pytest.skip("the device has no cl_khr_fp64")
     n, q, passes, alpha = 16, device.queue, 300, 0.7
     rng = np.random.default_rng(3)

@@ -10,13 +10,12 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.camera_model import make_camera
-from ppm_engine.export import export_scene
-from ppm_engine.export.textures import srgb_to_linear
-from ppm_engine.options import RenderOptions
-from ppm_engine.procedural import MeshBuilder, look_at
-from ppm_engine.renderer import Renderer
-from ppm_engine.scene_arrays import (
+from ppm_engine.blender.export import export_scene
+from ppm_engine.blender.export.textures import srgb_to_linear
+from ppm_engine.oracle.procedural import MeshBuilder, look_at
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene.arrays import (
     CAMERA_ORTHO,
     TEX_CLIP,
     TEX_FLAG_CLOSEST,
@@ -24,6 +23,7 @@ from ppm_engine.scene_arrays import (
     TEX_REPEAT,
     TEXTURE_DTYPE,
 )
+from ppm_engine.scene.camera import make_camera
 
 # a 4 x 2 image, rows bottom-up (Blender's order), values on the 8-bit grid
 PIXELS = np.array([[[0.0, 0.2, 0.4, 1], [1.0, 0.0, 0.0, 1], [0.0, 1.0, 0.0, 1],

@@ -13,7 +13,7 @@ W, H, START, PASSES = 64, 48, 16, 3
 def _sphere_scene(bpy, tiny):
     """A Principled ball on a floor under a point light and a grey world: every edit of the
     issue has something to change."""
-    from ppm_engine.scenes.cornell_box import principled
+    from ppm_engine.blender.scenes.cornell_box import principled
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     tiny(scene, width=W, height=H, passes=PASSES, photons=4096)
@@ -49,24 +49,24 @@ def _view(bpy, scene, width=W, height=H):
     """The camera record a 3D view looking through the scene camera hands view_draw: Blender's
     own projection of that camera (Object.calc_matrix_camera) and its inverse placement (the
     benchmark's view)."""
-    from ppm_engine.bench.viewport import view
+    from ppm_engine.tools.bench.viewport_latency import view
     return view(bpy, scene, (width, height))
 
 
 def _export(bpy, scene, camera=None):
-    from ppm_engine.export import export_scene
+    from ppm_engine.blender.export import export_scene
     return export_scene(bpy.context.evaluated_depsgraph_get(), camera=camera)
 
 
 def _options(scene):
-    from ppm_engine.viewport_engine import viewport_options
+    from ppm_engine.blender.viewport import viewport_options
     return viewport_options(scene.ppm)
 
 
 @pytest.fixture
 def lookdev(bpy, tiny):
     """(scene, session) with the first image refined to the end."""
-    from ppm_engine.viewport import ViewportSession
+    from ppm_engine.render.viewport_session import ViewportSession
     scene = _sphere_scene(bpy, tiny)
     options, start = _options(scene)
     s = ViewportSession(options, start)
@@ -80,7 +80,7 @@ def lookdev(bpy, tiny):
 
 def _fresh(bpy, scene, camera):
     """The edited scene rendered by a session of its own: what the edited viewport must show."""
-    from ppm_engine.viewport import ViewportSession
+    from ppm_engine.render.viewport_session import ViewportSession
     options, start = _options(scene)
     s = ViewportSession(options, start)
     try:
@@ -107,7 +107,7 @@ def test_camera_from_blender_s_projection_is_the_exported_camera(bpy, empty, kin
     """What a 3D view looking through the camera gives view_draw (its projection and view
     matrices) makes exactly the camera record the final render's exporter makes: extent, shift,
     clipping, placement; also with a lens shift and an off-square region."""
-    from ppm_engine.export.camera import export_camera
+    from ppm_engine.blender.export.camera import export_camera
     scene = empty
     cam = scene.camera
     cam.data.type = kind
@@ -126,8 +126,8 @@ def test_camera_from_blender_s_projection_is_the_exported_camera(bpy, empty, kin
 
 
 def test_reduced_levels_keep_the_view_and_the_divider_follows_cycles_start_pixels():
-    from ppm_engine.camera_model import make_camera, scaled_camera
-    from ppm_engine.viewport import divider_for
+    from ppm_engine.render.viewport_session import divider_for
+    from ppm_engine.scene.camera import make_camera, scaled_camera
     assert divider_for(1280, 720, 64) == 16          # 80 x 45: about 64^2 pixels
     assert divider_for(64, 48, 16) == 4
     assert divider_for(40, 30, 64) == 1
@@ -142,7 +142,7 @@ def test_reduced_levels_keep_the_view_and_the_divider_follows_cycles_start_pixel
 def test_depsgraph_updates_of_real_edits(bpy, tiny):
     """The view_update classification on the updates Blender reports for each edit (captured
     with a depsgraph_update_post handler, the same ViewLayer depsgraph's updates)."""
-    from ppm_engine.viewport_engine import changes
+    from ppm_engine.blender.viewport import changes
     scene = _sphere_scene(bpy, tiny)
     seen = []
 
@@ -184,7 +184,7 @@ def test_first_image_refines_from_reduced_to_full_resolution(bpy, lookdev):
     assert s.actions == ["new"] and not s.busy
     assert "done" in s.status() and s.first_pass_seconds is not None
     # the same scene, specialised kernels, the final render's Renderer: the same image
-    from ppm_engine.renderer import Renderer
+    from ppm_engine.render.renderer import Renderer
     options, _ = _options(scene)
     r = Renderer(_export(bpy, scene, _view(bpy, scene)), options.replace(specialize=True))
     for _ in range(PASSES):
@@ -291,7 +291,7 @@ def test_lens_change_and_camera_move_restart_with_the_camera_only(bpy, lookdev):
 
 
 def test_resizes_are_debounced_and_render_at_the_new_size(bpy, lookdev):
-    from ppm_engine import viewport
+    from ppm_engine.render import viewport_session as viewport
     scene, s = lookdev
     restarts = s.restarts
     for w, h in ((50, 40), (56, 44), (72, 54)):           # dragging the region's edge
@@ -330,7 +330,7 @@ def test_errors_show_in_the_status_and_close_frees_the_device_memory(bpy, lookde
 def test_fifty_restarts_and_closed_sessions_do_not_grow_memory(bpy, tiny):
     """Open a session, render its first pass, close it; 50 times: the process's memory settles
     (PoCL's buffers are host memory) and every session frees its renderer."""
-    from ppm_engine.viewport import ViewportSession
+    from ppm_engine.render.viewport_session import ViewportSession
     scene = _sphere_scene(bpy, tiny)
     options, start = _options(scene)
     cam = _view(bpy, scene)
@@ -372,8 +372,8 @@ def test_a_final_render_while_the_viewport_renders(bpy, lookdev, tmp_path, exr):
 
 
 def test_previews_render_few_passes_with_the_viewport_s_kernels():
-    from ppm_engine.options import RenderOptions
-    from ppm_engine.session import PREVIEW_ICON_PASSES, PREVIEW_PASSES, preview_options
+    from ppm_engine.blender.session import PREVIEW_ICON_PASSES, PREVIEW_PASSES, preview_options
+    from ppm_engine.render.options import RenderOptions
     o = RenderOptions(passes=64)
     assert preview_options(o, 96, 96).passes == PREVIEW_ICON_PASSES
     assert preview_options(o, 200, 200).passes == PREVIEW_PASSES
@@ -382,7 +382,7 @@ def test_previews_render_few_passes_with_the_viewport_s_kernels():
 
 
 def test_engine_flags_for_the_viewport_and_previews(bpy):
-    from ppm_engine.engine import PPMRenderEngine
+    from ppm_engine.blender.engine import PPMRenderEngine
     assert PPMRenderEngine.bl_use_preview is True
     assert PPMRenderEngine.bl_use_eevee_viewport is True        # Material Preview stays EEVEE
     assert PPMRenderEngine.bl_use_shading_nodes_custom is False
@@ -404,7 +404,7 @@ def test_choosing_another_device_starts_a_new_renderer(bpy, lookdev):
 def test_the_scene_s_own_kernels_would_build_on_the_same_edit(bpy, tiny):
     """What the zero-build assertions guard against: with a final render's kernels (the
     scene's features only) switching the ball to metal builds new programs."""
-    from ppm_engine.viewport import ViewportSession
+    from ppm_engine.render.viewport_session import ViewportSession
     scene = _sphere_scene(bpy, tiny)
     options, start = _options(scene)
     s = ViewportSession(options, start, kernels="scene")
@@ -430,7 +430,7 @@ def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny):
     edits (a depsgraph_update_post handler stands in for Blender's call; without a 3D view the
     scene camera renders).  Only the header's text is recorded: update_stats is the one engine
     call view_update makes."""
-    from ppm_engine.viewport_engine import ViewportDriver
+    from ppm_engine.blender.viewport import ViewportDriver
     scene = _sphere_scene(bpy, tiny)
     header = []
 
@@ -501,9 +501,9 @@ def test_pieces_of_a_pass_render_the_same_and_an_interrupt_drops_the_pass(pocl_k
     same photons (its stochastic hash keeps one photon per cell in whichever order threads
     come, so only the count is exact).  An interrupt drops the pass (None, no pass counted),
     and a reset then renders as a fresh renderer would."""
-    from ppm_engine.options import RenderOptions
-    from ppm_engine.procedural import cornell_box
-    from ppm_engine.renderer import Renderer
+    from ppm_engine.oracle.procedural import cornell_box
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
     scene = cornell_box(48, 48)
     asked = []
 

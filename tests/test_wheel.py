@@ -65,7 +65,7 @@ def test_wheel_installs_into_a_fresh_venv_and_renders(wheel, tmp_path):
     p = _run([sys.executable, "-m", "pip", "--python", py, "install", "--no-deps", "-q", wheel],
              cwd=tmp_path)
     assert p.returncode == 0, p.stdout + p.stderr
-    where = _run([py, "-c", "import ppm_engine.device as d; print(d.__file__); "
+    where = _run([py, "-c", "import ppm_engine.render.device as d; print(d.__file__); "
                   "print(d.kernel_dir())"], cwd=tmp_path)
     assert where.returncode == 0, where.stderr
     module, kernels = where.stdout.split()

@@ -112,8 +112,8 @@ def test_background_per_pixel_as_cycles(cycles, render_exr, tmp_path, tiny):
 
 
 def _map_device():
-    from ppm_engine.device import get_device
-    from ppm_engine.world_map import build_map
+    from ppm_engine.render.device import get_device
+    from ppm_engine.render.world_map import build_map
     v, u = (np.mgrid[0:16, 0:32] + 0.5) / np.array([16, 32])[:, None, None]
     rgb = np.stack([1 + np.cos(2 * np.pi * u), v, 0.2 * np.ones_like(u)], -1)
     rgb[11, 9] = (80.0, 60.0, 40.0)                            # a sun
@@ -127,7 +127,7 @@ def test_map_sampling_follows_the_map_and_its_density_integrates_to_one():
     that density integrates to 1 over the sphere."""
     import pyopencl as cl
 
-    from ppm_engine.world_map import direction_to_uv, map_pdf
+    from ppm_engine.render.world_map import direction_to_uv, map_pdf
     dev, m = _map_device()
     n = 1 << 18
     prog = dev.programs.get("world_map.cl", {})
@@ -167,10 +167,10 @@ def test_baked_map_is_the_image_at_its_texel_centres(bpy):
     image's mean x sin(theta), row 0 at the nadir; and the world's power in the emitter table
     is pi R^2 2 pi^2 mean(f).  Automatic: the image's size is what the export reports, and
     the map is 16 x 16 texels per image texel (world_map.map_size)."""
-    from ppm_engine.device import get_device
-    from ppm_engine.device_scene import DeviceScene
-    from ppm_engine.export import export_scene
-    from ppm_engine.world_map import map_size
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.render.device import get_device
+    from ppm_engine.render.device_scene import DeviceScene
+    from ppm_engine.render.world_map import map_size
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     _camera(scene, (0.0, -3.0, 0.0), (1.5, 0.0, 0.0), 50)
@@ -198,7 +198,7 @@ def test_map_size_follows_cycles_automatic_and_manual_settings():
     """The importance map's size: an Environment Texture's image oversampled ENV_OVERSAMPLING
     times within [ENV_MIN_WIDTH, ENV_MAX_WIDTH] (its aspect kept), a world without one at
     DEFAULT_WIDTH, and Manual's Map Resolution as given (res x res / 2)."""
-    from ppm_engine.world_map import map_size
+    from ppm_engine.render.world_map import map_size
     assert map_size(0, 0) == (512, 256)
     assert map_size(64, 32) == (1024, 512)
     assert map_size(512, 256) == (2048, 1024)
@@ -213,10 +213,10 @@ def _sun_sample_spread(bpy, manual_resolution: int = 0):
     interpolation), direct light only, 96 passes at 16 x 16: the largest single pass's sample
     over the floor's pixels and their mean (every pass's sample recovered from the running
     mean)."""
-    from ppm_engine.blender_io import unbiased_light_paths
-    from ppm_engine.export import export_scene
-    from ppm_engine.options import RenderOptions
-    from ppm_engine.renderer import Renderer
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.harness import unbiased_light_paths
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     bpy.ops.mesh.primitive_plane_add(size=20)
@@ -277,8 +277,8 @@ def test_constant_world_renders_as_before():
     connect_camera): the photons' noise in four passes changed, the mean by 0.16 %; and again
     when the eye pass drew its camera positions and choices from the pixel's Sobol sets
     (kernels/eye_pass.cl): four passes' samples changed, the mean by 0.6 %."""
-    from ppm_engine.options import RenderOptions
-    from ppm_engine.renderer import Renderer
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
     before = np.load(Path(__file__).parent / "data" / "constant_world.npy")
     scene = _room(None, glass=True, world=(0.3, 0.4, 0.5))
     for specialize in (True, False):
@@ -304,7 +304,7 @@ def test_world_hidden_from_camera_and_an_unsupported_node(render_exr, tmp_path, 
     t = scene.world.node_tree
     ies = t.nodes.new("ShaderNodeTexIES")
     t.links.new(ies.outputs["Fac"], t.nodes["Background"].inputs["Strength"])
-    from ppm_engine.export import export_scene
+    from ppm_engine.blender.export import export_scene
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
     assert any("IES Texture" in w for w in arrays.warnings), arrays.warnings
     scene.world.cycles_visibility.camera = True
@@ -316,9 +316,9 @@ def test_world_hidden_from_camera_and_an_unsupported_node(render_exr, tmp_path, 
 def test_specialised_kernels_render_the_same_hdri_image(bpy):
     """The world program's code with every feature compiled in renders the specialised
     kernels' image (same seed: the same random streams)."""
-    from ppm_engine.export import export_scene
-    from ppm_engine.options import RenderOptions
-    from ppm_engine.renderer import Renderer
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
     scene = _sphere_scene()
     scene.render.resolution_x = scene.render.resolution_y = 16
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())

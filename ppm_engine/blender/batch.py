@@ -1,0 +1,144 @@
+"""Render .blend files headless through the bpy module, as ``blender -b SCENE.blend -E PPM -f N``
+does (``-s A -e B -a`` for a frame range): what ``python -m ppm_engine render`` runs once its
+arguments are parsed.
+
+The .blend is treated as untrusted: it is opened without running its embedded scripts."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from ppm_engine.blender.harness import OUTPUT_FORMATS, ensure_registered, set_output
+from ppm_engine.errors import PPMError, UsageError
+from ppm_engine.render.options import LIMITS, RenderOptions
+
+# zstd (Blender >= 3.0 compression), gzip (older compression), plain
+_BLEND_MAGIC = (b"BLENDER", b"\x28\xb5\x2f\xfd", b"\x1f\x8b")
+
+
+def check_paths(scene_file: Path, output: Path) -> None:
+    """Refuse a missing or non-.blend scene, an unknown output format or a missing folder
+    before Blender loads anything."""
+    if not scene_file.is_file():
+        raise PPMError(f"scene file not found: {scene_file}")
+    with open(scene_file, "rb") as f:
+        head = f.read(8)
+    if not head.startswith(_BLEND_MAGIC):
+        raise PPMError(f"not a .blend file: {scene_file}")
+    if output.suffix.lower() not in OUTPUT_FORMATS:
+        raise UsageError(f"unsupported output format '{output.suffix or output.name}': use "
+                         ".png or .exr")
+    if not output.parent.is_dir():
+        raise PPMError(f"output folder does not exist: {output.parent}")
+
+
+def render_file(scene_file: Path, output: Path, overrides: dict, *, device: str | None = None,
+                resolution: tuple[int, int] | None = None, frame: int | None = None,
+                frames: tuple[int, int] | None = None, progress=None) -> list[Path]:
+    """Render ``scene_file`` with this engine to ``output`` (one frame, ``frame`` or the
+    file's current one; or the range ``frames``, '#' in the name being the frame number, else
+    _#### before the extension); ``overrides`` are RenderOptions fields that replace the
+    file's settings.  ``progress(text, fraction)`` is told about every pass.  Returns the files
+    written."""
+    check_paths(scene_file, output)
+    RenderOptions().replace(**overrides).validate()    # refuse bad values before loading Blender
+    import bpy
+    ensure_registered()
+    try:
+        # never use_scripts=True: the file is untrusted and its scripts stay off
+        bpy.ops.wm.open_mainfile(filepath=str(scene_file.resolve()), load_ui=False)
+    except RuntimeError as e:
+        raise PPMError(f"cannot open {scene_file}: {blender_message(e)}") from None
+    scene = bpy.context.scene
+    if scene.render.engine != "PPM":      # setting it again would drop a persistent engine
+        scene.render.engine = "PPM"
+    if scene.render.engine != "PPM":      # never render with another engine by mistake
+        raise PPMError("could not select the PPM render engine in the loaded file")
+    apply_settings(scene, overrides, device)
+    if resolution:
+        scene.render.resolution_x, scene.render.resolution_y = resolution
+        scene.render.resolution_percentage = 100
+    from ppm_engine.blender import session
+    with session.listening(progress or (lambda text, fraction: None)):
+        try:
+            if frames:                     # blender -b FILE -E PPM -s A -e B -a
+                scene.frame_start, scene.frame_end = frames
+                set_output(scene, frame_pattern(output))
+                bpy.ops.render.render(animation=True)
+                written = [Path(scene.render.frame_path(frame=f))
+                           for f in range(frames[0], frames[1] + 1)]
+            else:                          # blender -b FILE -E PPM -f N
+                scene.frame_set(frame if frame is not None else scene.frame_current)
+                set_output(scene, output)
+                if "#" in output.name:     # write_still does not expand '#': frame_path does
+                    scene.render.filepath = scene.render.frame_path(frame=scene.frame_current)
+                bpy.ops.render.render(write_still=True)
+                written = [Path(scene.render.filepath)]
+        except RuntimeError as e:
+            raise PPMError(f"render failed: {blender_message(e)}") from None
+    missing = [str(p) for p in written if not p.is_file()]
+    if missing:
+        raise PPMError(f"render finished but {', '.join(missing)} was not written")
+    return written
+
+
+def frame_pattern(out: Path) -> Path:
+    """The output path of an animation: '#' runs are the frame number; without any, _####
+    goes before the extension (out.png -> out_0001.png)."""
+    if "#" in out.name:
+        return out
+    return out.with_name(f"{out.stem}_####{out.suffix}")
+
+
+def blender_message(e: Exception) -> str:
+    text = " ".join(str(e).split())
+    return text[len("Error: "):] if text.startswith("Error: ") else text
+
+
+def apply_settings(scene, overrides: dict, device: str | None) -> None:
+    """Validate the file's settings with the overrides, then store the overrides in scene.ppm.
+    (Validation comes first: Blender would silently clamp an out-of-range assignment.)"""
+    from ppm_engine.blender.properties import DEFAULT_DEVICE, refresh_devices
+    settings = scene.ppm
+    stored = {name: getattr(settings, name) for name in LIMITS}
+    stored["indirect"] = str(settings.indirect).lower()
+    stored["light_tracing"] = bool(settings.light_tracing)
+    if settings.auto_photons:
+        stored["photons_per_pass"] = None
+    RenderOptions(**stored).replace(**overrides).validate()
+    for name, value in overrides.items():
+        setattr(settings, name, value.upper() if name == "indirect" else value)
+    if device is not None:
+        settings.device = resolve_device(device, refresh_devices(), DEFAULT_DEVICE)
+
+
+def resolve_device(name: str, items, default_key: str) -> str:
+    """A device key from a key, a case-insensitive part of a device name, or DEFAULT."""
+    if name.upper() == default_key:
+        return default_key
+    keys = [item[0] for item in items if item[0] != default_key]
+    if name in keys:
+        return name
+    low = name.lower()
+    match = [item[0] for item in items if item[0] != default_key
+             and (low in item[1].lower() or low in item[2].lower())]
+    if not match:
+        listed = ", ".join(f"'{k}'" for k in keys) or "none"
+        raise UsageError(f"no OpenCL device matches '{name}'; available: {listed}")
+    return match[0]
+
+
+def progress_bar(prog: str, stream=sys.stderr):
+    """A ``progress(text, fraction)`` that draws "[#####     ]  50 % Pass 32/64 · ..." on
+    ``stream``: one line redrawn on a terminal, a line per pass otherwise."""
+    tty = stream.isatty()
+
+    def show(text: str, fraction: float) -> None:
+        line = f"[{'#' * int(20 * fraction):<20}] {100 * fraction:3.0f} % {text}"
+        if tty:
+            print(f"\r{prog}: {line}\033[K", end="", file=stream, flush=True)
+        else:
+            print(f"{prog}: {line}", file=stream, flush=True)
+    show.tty = tty
+    return show
+

@@ -1,0 +1,188 @@
+"""Blender depsgraph -> SceneArrays.  The only code that reads Blender scene data.
+
+    arrays = export_scene(depsgraph, engine)     # engine optional: warnings are also reported
+
+Everything is read with attribute-API ``foreach_get`` into buffers of the stored dtype
+(a Python loop over a million vertices would take seconds); the per-object work is a handful of
+NumPy calls, never a loop over vertices or triangles.  Mesh data is read once per evaluated mesh
+and transformed per instance.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ppm_engine.blender.export.camera import export_camera
+from ppm_engine.blender.export.lights import export_light
+from ppm_engine.blender.export.material_table import MaterialTable
+from ppm_engine.blender.export.mesh import GEOMETRY_TYPES, MeshCache, transform_part
+from ppm_engine.blender.export.objects import object_row
+from ppm_engine.blender.export.textures import TextureTable
+from ppm_engine.blender.export.world import export_world
+from ppm_engine.errors import SceneError
+from ppm_engine.scene.arrays import (
+    LIGHT_DTYPE,
+    LIGHT_HIDDEN_SHIFT,
+    TERMINATOR_OFFSET,
+    VIS_CAMERA,
+    VIS_DIFFUSE,
+    VIS_GLOSSY,
+    VIS_SHADOW,
+    VIS_TRANSMISSION,
+    SceneArrays,
+)
+from ppm_engine.scene.light_paths import from_cycles
+from ppm_engine.scene.shader_program import (
+    PROGRAM_ATTRIBUTES,
+    PROGRAM_GENERATED,
+    PROGRAM_OBJECT,
+    PROGRAM_TANGENTS,
+)
+
+__all__ = ["Warnings", "export_scene"]
+
+_VIS_FLAGS = (("visible_camera", VIS_CAMERA), ("visible_diffuse", VIS_DIFFUSE),
+              ("visible_glossy", VIS_GLOSSY), ("visible_transmission", VIS_TRANSMISSION),
+              ("visible_shadow", VIS_SHADOW))
+
+
+class Warnings(list):
+    """Collects each warning once; forwards it to the engine's report when there is one."""
+
+    def __init__(self, engine=None):
+        super().__init__()
+        self.engine = engine
+
+    def __call__(self, msg: str):
+        if msg in self:
+            return
+        self.append(msg)
+        if self.engine is not None:
+            self.engine.report({'WARNING'}, msg)
+
+
+def export_scene(depsgraph, engine=None, camera=None) -> SceneArrays:
+    """Everything the core needs from one evaluated depsgraph (render or viewport).
+
+    ``camera``: a CAMERA_DTYPE record to render with instead of the scene camera's (the
+    viewport's view, camera_model.camera_from_view); the scene then needs no camera.
+    Raises SceneError when the scene cannot be rendered (no/invalid camera, empty border)."""
+    scene = depsgraph.scene
+    warn = Warnings(engine)
+    textures = TextureTable(warn)
+    materials = MaterialTable(warn, textures)
+    if camera is None:
+        camera = export_camera(scene, depsgraph)
+        cm = np.array(scene.camera.evaluated_get(depsgraph).matrix_world, np.float64)
+        cm[:3, :3] /= np.maximum(np.linalg.norm(cm[:3, :3], axis=0, keepdims=True), 1e-30)
+    else:
+        cm = np.eye(4)
+        cm[:3] = camera["to_world"][0]
+    # Cycles' camera space: the camera's placement without its scale (as the camera's rays),
+    # its z flipped (+z ahead)
+    materials.camera = cm @ np.diag((1.0, 1.0, -1.0, 1.0))
+    meshes = MeshCache(warn)
+    parts, lights = [], []
+    uv_tangents = generated = False
+    objects = []                            # rows of the objects whose programs read them
+    for inst in depsgraph.object_instances:
+        obj = inst.object
+        kind = obj.type
+        if kind == 'LIGHT':
+            m = np.array(inst.matrix_world, dtype=np.float64)    # copy inside the loop
+            row = export_light(obj.data, m, warn)
+            for attr, bit in (("visible_camera", VIS_CAMERA), ("visible_glossy", VIS_GLOSSY),
+                              ("visible_transmission", VIS_TRANSMISSION)):
+                if not getattr(obj, attr, True):      # the light seen directly or in a mirror
+                    row["flags"] |= np.uint32(bit << LIGHT_HIDDEN_SHIFT)
+            lights.append(row)
+        elif kind in GEOMETRY_TYPES:
+            if not inst.show_self:          # e.g. particle instancer hidden for render
+                continue
+            m = np.array(inst.matrix_world, dtype=np.float64)    # copy inside the loop
+            if any(getattr(md, "use_adaptive_subdivision", False) for md in obj.modifiers
+                   if md.type == 'SUBSURF'):
+                warn(f"Object '{obj.name}': adaptive subdivision renders at the modifier's "
+                     "render levels here (Cycles dices it per pixel)")
+            mesh = meshes.get(obj)
+            if mesh is None or mesh.n_triangles == 0:
+                continue
+            slots = materials.slot_map(obj)
+            mapped = materials.reads(slots, PROGRAM_TANGENTS)
+            gen = materials.reads(slots, PROGRAM_GENERATED)
+            attrs = (meshes.attributes(obj, materials.attributes)
+                     if materials.reads(slots, PROGRAM_ATTRIBUTES) else None)
+            parts.append(transform_part(mesh, m, slots, visibility_bits(obj), obj.name, warn,
+                                        tangents=materials.anisotropic(slots),
+                                        uv_tangents=meshes.uv_tangents(obj) if mapped else None,
+                                        generated=gen, attributes=attrs,
+                                        terminator=terminator_offset(obj)))
+            uv_tangents |= mapped
+            generated |= gen
+            k_obj = -1
+            if materials.reads(slots, PROGRAM_OBJECT):
+                k_obj = len(objects)
+                objects.append(object_row(obj, m, inst))
+            parts[-1]["object"] = np.full(parts[-1]["positions"].shape[0], k_obj, np.int32)
+    meshes.clear()
+    svm = materials.svm()
+    world, world_program, world_shader = export_world(scene.world, warn, textures, svm.shape[0])
+    if world_program is not None:
+        svm = np.concatenate([svm, world_program])
+
+    light_arr = np.concatenate(lights) if lights else np.zeros(0, LIGHT_DTYPE)
+    if parts:
+        k_attr = len(materials.attributes)          # the parts read fewer names: zero-padded
+        for part in parts:
+            a = part["attributes"]
+            part["attributes"] = np.concatenate(
+                [a, np.zeros(a.shape[:2] + (k_attr - a.shape[2], 4), np.float32)], axis=2)
+        cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        if not cat["tangents"].any():              # no anisotropic material: no tangents
+            cat["tangents"] = np.zeros((0, 3, 3), np.float32)
+        if not uv_tangents:                        # no tangent-space normal map
+            cat["uv_tangents"] = np.zeros((0, 3, 4), np.float32)
+        if not k_attr:                             # no mesh attribute read
+            cat["attributes"] = np.zeros((0, 3, 0, 4), np.float32)
+        if not objects:                            # no object data read
+            cat["object"] = np.zeros(0, np.int32)
+        if not generated:                          # no Generated coordinates read
+            cat["generated"] = np.zeros((0, 3, 3), np.float32)
+        if (cat["terminator"] == np.float32(TERMINATOR_OFFSET)).all():   # every one the default
+            cat["terminator"] = np.zeros(0, np.float32)
+    else:
+        cat = dict(positions=np.zeros((0, 3, 3), np.float32),
+                   normals=np.zeros((0, 3, 3), np.float32),
+                   uvs=np.zeros((0, 3, 2), np.float32), material=np.zeros(0, np.int32),
+                   visibility=np.zeros(0, np.uint32))
+    tex_table, texels = textures.arrays()
+    light_paths = from_cycles(getattr(scene, "cycles", None))    # Light Paths (SceneError)
+    try:
+        return SceneArrays(**cat, materials=materials.array(),
+                           shader_nodes=materials.node_array(), lights=light_arr, camera=camera,
+                           world=world, material_names=tuple(materials.names),
+                           warnings=tuple(warn), textures=tex_table, texels=texels,
+                           objects=(np.stack(objects) if objects
+                                    else np.zeros((0, 9, 4), np.float32)),
+                           svm=svm, world_shader=world_shader, light_paths=light_paths)
+    except ValueError as e:
+        raise SceneError(f"the exported scene is inconsistent: {e}") from e
+
+
+def terminator_offset(obj) -> float:
+    """The object's Shadow Terminator > Geometry Offset (Object Properties > Shading, which
+    Cycles reads; kernels/bvh.h terminator_lift), 0-1."""
+    v = getattr(obj, "shadow_terminator_geometry_offset", TERMINATOR_OFFSET)
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return TERMINATOR_OFFSET
+    return min(max(v, 0.0), 1.0) if np.isfinite(v) else TERMINATOR_OFFSET
+
+
+def visibility_bits(obj) -> int:
+    """VIS_* bits from the object's ray-visibility flags (Object Properties > Visibility)."""
+    bits = 0
+    for flag, bit in _VIS_FLAGS:
+        if getattr(obj, flag, True):
+            bits |= bit
+    return bits

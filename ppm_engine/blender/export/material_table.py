@@ -1,0 +1,84 @@
+"""The scene's materials: each material read once (materials.read_material), its row, BSDF
+nodes and shader program collected in the order the kernels index them (MATERIAL_DTYPE,
+SHADER_NODE_DTYPE, SceneArrays.svm), and each object's material slots mapped to them."""
+from __future__ import annotations
+
+import numpy as np
+
+from ppm_engine.blender.export.material_nodes import DEFAULT_NAME, default_row, read_material
+from ppm_engine.scene.arrays import SHADER_NODE_DTYPE, shader_node
+from ppm_engine.scene.materials import anisotropic_nodes
+
+
+class MaterialTable:
+    """Materials deduplicated by (full) name; index 0 is the default grey diffuse."""
+
+    def __init__(self, warn, textures=None):
+        self.warn = warn
+        self.textures = textures          # textures.TextureTable (None: textures not read)
+        row, nodes = default_row()
+        self.rows = [row]
+        self.nodes = [nodes]
+        self.programs = [np.zeros((1, 4), np.int32)]    # word 0: never a program
+        self.words = 1
+        self.program_flags: dict = {}                   # material -> its header's flags
+        self.attributes: list = []                      # mesh attribute names programs read
+        self.camera = None                              # camera-to-world (camera space nodes)
+        self.names = [DEFAULT_NAME]
+        self._index = {}
+
+    def index(self, material) -> int:
+        if material is None:
+            return 0
+        key = material.name_full
+        if key not in self._index:
+            self._index[key] = len(self.rows)
+            row, nodes, program = read_material(material, self.warn, self.textures,
+                                                self.attributes, self.camera)
+            if program is not None:
+                row["program"] = self.words
+                self.programs.append(program)
+                self.words += program.shape[0]
+                self.program_flags[len(self.rows)] = int(program[0, 3])
+            self.rows.append(row)
+            self.nodes.append(nodes)
+            self.names.append(material.name)
+        return self._index[key]
+
+    def slot_map(self, obj) -> np.ndarray:
+        """Global material index for each of the object's slots (at least one entry)."""
+        slots = [self.index(s.material) if s is not None else 0 for s in obj.material_slots]
+        return np.array(slots or [0], np.int32)
+
+    def reads(self, slots: np.ndarray, flag: int) -> bool:
+        """Whether the program of a material of these (global) slots has header flag ``flag``
+        (PROGRAM_TANGENTS: a tangent-space Normal Map; PROGRAM_GENERATED: Generated
+        coordinates): the object's mesh must export what it reads."""
+        return any(self.program_flags.get(int(k), 0) & flag for k in slots)
+
+    def anisotropic(self, slots: np.ndarray) -> bool:
+        """Whether a material of these (global) slots is anisotropic: it needs tangents."""
+        for k in {int(i) for i in slots}:
+            rows = [shader_node(**n) if isinstance(n, dict) else n for n in self.nodes[k]]
+            if rows and anisotropic_nodes(np.concatenate(rows)).any():
+                return True
+        return False
+
+    def array(self) -> np.ndarray:
+        return np.concatenate(self.rows)
+
+    def svm(self) -> np.ndarray:
+        """Every material's shader program, one after another (SceneArrays.svm)."""
+        return np.concatenate(self.programs)
+
+    def node_array(self) -> np.ndarray:
+        """Every material's BSDF nodes, ordered by material."""
+        rows = []
+        for k, nodes in enumerate(self.nodes):
+            for n in nodes:
+                if isinstance(n, dict):
+                    n = shader_node(**n)
+                n = n.copy()
+                n["material"] = k
+                rows.append(n)
+        return np.concatenate(rows) if rows else np.zeros(0, SHADER_NODE_DTYPE)

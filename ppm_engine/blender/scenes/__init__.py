@@ -1,0 +1,52 @@
+"""Example scenes built with bpy from nothing (no binary files in the repository).
+
+    from ppm_engine.blender.scenes import EXAMPLES, build_example, save_example
+    scene = EXAMPLES["cornell_box"]()        # resets the current file, returns the scene
+    save_example("bulb_box", "bulb_box.blend")
+
+Each builder takes an optional ``scene``: None resets the file (empty factory settings) and
+builds into its scene; a given scene is emptied and reused.  The render engine is left as it
+is.  The geometry matches ``ppm_engine.oracle.procedural.cornell_box`` (the arrays version used by the
+core tests and the benchmark)."""
+from __future__ import annotations
+
+from ppm_engine.blender.scenes import (
+    bulb_box,
+    caustics,
+    cornell_box,
+    furnace,
+    many_lights,
+    metal,
+    outdoor,
+    pool,
+)
+
+EXAMPLES = {
+    "cornell_box": cornell_box.build,
+    "bulb_box": bulb_box.build,
+    "glass_caustic": caustics.glass_caustic,     # also the benchmark's caustic scenes
+    "point_caustic": caustics.point_caustic,     # the hard one: a radius-0 point light
+    "rough_caustic": caustics.rough_caustic,     # the same through rough glass
+    "mirror_caustic": caustics.mirror_caustic,
+    "pool_caustic": pool.build,                  # the sun's caustic seen through water
+    "furnace": furnace.build,                    # the benchmark's closed-form scene
+    "many_lights": many_lights.build,            # the benchmark's many-light scene
+    "hdri_sun": outdoor.build,                   # an HDRI with its sun in the image
+    "glossy_metal": metal.build,                 # glossy metal under Blender's default light
+}
+
+
+def build_example(name: str, scene=None):
+    """Build an example scene (replacing the current file's content); returns the scene."""
+    try:
+        builder = EXAMPLES[name]
+    except KeyError:
+        raise KeyError(f"unknown example '{name}'; examples: {', '.join(EXAMPLES)}") from None
+    return builder(scene)
+
+
+def save_example(name: str, path) -> None:
+    """Build an example and save it as a .blend file at ``path``."""
+    import bpy
+    build_example(name)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), check_existing=False)

@@ -1,0 +1,124 @@
+"""Render-properties panels for scene.ppm, and the built-in panels the engine reuses."""
+import bpy
+
+ENGINE_ID = "PPM"
+
+# Built-in panels that are EEVEE-only but draw exactly what this engine reads (node-based
+# material and world surfaces, the material slot list, the full light settings).  Every panel
+# marked 'BLENDER_RENDER' (Blender's marker for external engines) is added as well.
+EXTRA_BUILTIN_PANELS = (
+    "EEVEE_MATERIAL_PT_surface",
+    "EEVEE_MATERIAL_PT_context_material",
+    "DATA_PT_EEVEE_light",
+    "EEVEE_WORLD_PT_surface",
+    # Cycles' film (exposure, pixel filter, transparency): the engine renders Cycles' film
+    # settings (export/camera.py film_settings); absent without the Cycles add-on
+    "CYCLES_RENDER_PT_film",
+    "CYCLES_RENDER_PT_film_pixel_filter",
+    "CYCLES_RENDER_PT_film_transparency",
+    # Cycles' Light Paths: bounces, clamping, caustics (ppm_engine/scene/light_paths.py); not its
+    # Fast GI, which the engine does not approximate
+    "CYCLES_RENDER_PT_light_paths",
+    "CYCLES_RENDER_PT_light_paths_max_bounces",
+    "CYCLES_RENDER_PT_light_paths_clamping",
+    "CYCLES_RENDER_PT_light_paths_caustics",
+)
+
+
+class PPMPanel:
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {ENGINE_ID}   # noqa: RUF012 -- Blender reads it from the class, never mutated
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+def _draw_props(layout, settings, names):
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    col = layout.column()
+    for name in names:
+        col.prop(settings, name)
+    return col
+
+
+class PPM_PT_sampling(PPMPanel, bpy.types.Panel):
+    bl_label = "Sampling"
+
+    def draw(self, context):
+        _draw_props(self.layout, context.scene.ppm,
+                    ("passes", "time_limit", "noise_threshold", "seed"))
+
+
+class PPM_PT_sampling_viewport(PPMPanel, bpy.types.Panel):
+    bl_label = "Viewport"
+    bl_parent_id = "PPM_PT_sampling"
+
+    def draw(self, context):
+        _draw_props(self.layout, context.scene.ppm,
+                    ("viewport_passes", "viewport_time_limit", "viewport_start_resolution",
+                     "viewport_pause"))
+        self.layout.prop(context.scene.render, "preview_pixel_size", text="Pixel Size")
+
+
+class PPM_PT_photons(PPMPanel, bpy.types.Panel):
+    bl_label = "Photons"
+
+    def draw(self, context):
+        settings = context.scene.ppm
+        col = _draw_props(self.layout, settings, ("auto_photons",))
+        row = col.row()
+        row.active = not settings.auto_photons
+        row.prop(settings, "photons_per_pass")
+        _draw_props(self.layout, settings, ("indirect", "light_tracing", "initial_radius", "alpha"))
+
+
+class PPM_PT_device(PPMPanel, bpy.types.Panel):
+    bl_label = "Device"
+
+    def draw(self, context):
+        _draw_props(self.layout, context.scene.ppm, ("device",))
+
+
+CLASSES = (PPM_PT_sampling, PPM_PT_sampling_viewport, PPM_PT_photons, PPM_PT_device)
+
+
+def _all_subclasses(cls):
+    for sub in cls.__subclasses__():
+        yield sub
+        yield from _all_subclasses(sub)
+
+
+def builtin_panels():
+    """The registered built-in panels this engine shows: every Panel whose COMPAT_ENGINES
+    contains 'BLENDER_RENDER', plus EXTRA_BUILTIN_PANELS."""
+    panels = [p for p in set(_all_subclasses(bpy.types.Panel))
+              if "BLENDER_RENDER" in getattr(p, "COMPAT_ENGINES", ())]
+    panels += [getattr(bpy.types, name) for name in EXTRA_BUILTIN_PANELS
+               if hasattr(bpy.types, name)]
+    return panels
+
+
+def _own_engines(panel) -> set:
+    """The panel's own COMPAT_ENGINES: a set shared with its base class (every Cycles panel
+    shares CyclesButtonsPanel's) is copied onto the panel first, so only this panel changes."""
+    if "COMPAT_ENGINES" not in vars(panel):
+        panel.COMPAT_ENGINES = set(panel.COMPAT_ENGINES)
+    return panel.COMPAT_ENGINES
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    for panel in builtin_panels():
+        _own_engines(panel).add(ENGINE_ID)
+
+
+def unregister():
+    for panel in builtin_panels():
+        _own_engines(panel).discard(ENGINE_ID)
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,24 @@
+"""The device counters the passes share: one uint32 each, in one buffer.  The kernels' CNT_*
+indices are generated from this table (kernels/shared.h, ppm_engine/tools/shared_header.py)."""
+from __future__ import annotations
+
+import enum
+
+
+class Counter(enum.IntEnum):
+    NAN = 0         # NaN/Inf samples and photons dropped by the kernel guards, whole render
+    STORED = 1      # photons this pass stored (may exceed the buffer: see OVERFLOW)
+    OUTSIDE = 2     # photons this pass that landed outside the visible points' grid
+    OVERFLOW = 3    # photons this pass that did not fit the photon buffer
+    OCCUPIED = 4    # hash entries holding at least one photon
+    ACTIVE = 5      # pixels still sampled (adaptive sampling)
+    SINK = 6        # the hash build's prefetch sink (never read)
+    CAUSTIC = 7     # a pilot's photons whose first scattering was a followed closure (caustics)
+    DIFFUSE_FIRST = 8   # a pilot's photons whose first scattering was by the gather's closures
+    SEEN = 9        # the first pass's visible points the camera sees directly, where the
+                    # photons' light tracing can render (counted only with it on)
+
+
+N_COUNTERS = len(Counter)
+# reset before every pass; Counter.NAN accumulates over the render
+PER_PASS = range(Counter.STORED, N_COUNTERS)

@@ -1,0 +1,301 @@
+"""The scene on one device: the prepared arrays (scene_prep.py), the BVH, and the materials,
+emitters, lights, textures, camera and pixel filter as buffers; the feature flags the passes'
+kernels are specialised with (features.py); and ``args``, the scene's buffers by name.
+
+SCENE_BUFFERS lists those buffers once.  kernels/shared.h gets it as the X-macro SCENE_DATA
+(ppm_engine/tools/shared_header.py), from which kernels/scene.h makes the kernels' scene parameters
+and the one struct every helper reads them from (``const Scene *scene``); Launch binds them by
+name from ``args``.  A new buffer is one row here and its source in ``DeviceScene.upload``."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ppm_engine.render.bvh import BVH
+from ppm_engine.render.features import VALUE_FEATURES, scene_features, used_materials
+from ppm_engine.render.features import defines as feature_defines
+from ppm_engine.render.film import filter_density, filter_table
+from ppm_engine.render.world_map import bake, build_map, map_size
+from ppm_engine.scene.arrays import (
+    LIGHT_DTYPE,
+    SHADER_NODE_DTYPE,
+    TERMINATOR_OFFSET,
+    TEXTURE_DTYPE,
+    WORLD_MAP_MANUAL,
+    SceneArrays,
+)
+from ppm_engine.scene.camera import CAMERA_DTYPE
+from ppm_engine.scene.emitters import EMITTER_INFO_DTYPE, build_emitters
+from ppm_engine.scene.light_paths import LIGHT_PATHS_DTYPE, engine_defaults
+from ppm_engine.scene.light_tree import LIGHT_TREE_NODE_DTYPE
+from ppm_engine.scene.materials import (
+    KMATERIAL_DTYPE,
+    MAT_GATHER,
+    follow_capable,
+    kernel_materials,
+    kernel_nodes,
+    max_closures,
+)
+from ppm_engine.scene.prep import offset_scale, prepare_scene
+from ppm_engine.scene.shader_program import ops_define, ops_used, stack_used
+from ppm_engine.scene.shading_tables import load as shading_tables
+
+_F4, _I4 = np.dtype((np.float32, 4)), np.dtype((np.int32, 4))
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneBuffer:
+    name: str             # the kernels' parameter and field name (scene->name)
+    element: np.dtype     # one element as the kernels read it (its C type: shared_header)
+    what: str             # what it holds (the upload's label, the header's comment)
+    fill: int = 0         # the value of the one element that stands for an empty array
+    default: object = None  # or a function making that element (a struct's defaults)
+
+
+# The scene's buffers, in the kernels' parameter order.
+SCENE_BUFFERS = (
+    SceneBuffer("nodes", _F4, "BVH nodes: both children's boxes per node (kernels/bvh.h)"),
+    SceneBuffer("tri_v0", _F4, "triangles in BVH leaf order: p0, original index"),
+    SceneBuffer("tri_e1", _F4, "triangles: p1 - p0, visibility bits"),
+    SceneBuffer("tri_e2", _F4, "triangles: p2 - p0, material"),
+    SceneBuffer("normals", np.dtype(np.float32), "shading normals (3 corners per triangle)"),
+    SceneBuffer("materials", KMATERIAL_DTYPE, "materials"),
+    SceneBuffer("shader_nodes", SHADER_NODE_DTYPE, "shader nodes"),
+    SceneBuffer("shading_tables", np.dtype(np.float32), "shading tables"),
+    SceneBuffer("textures", TEXTURE_DTYPE, "textures"),
+    SceneBuffer("texels", np.dtype(np.float16), "image textures (RGBA texels)"),
+    SceneBuffer("uvs", np.dtype(np.float32), "UVs (3 corners per triangle)"),
+    SceneBuffer("tangents", np.dtype(np.float32), "tangents (3 corners per triangle)"),
+    SceneBuffer("svm", _I4, "shader programs"),
+    SceneBuffer("uv_tangents", _F4, "UV tangents (3 corners per triangle)"),
+    SceneBuffer("generated", np.dtype(np.float32), "Generated coordinates"),
+    SceneBuffer("terminator", np.dtype(np.float32),
+                "triangles' objects' Shadow Terminator Geometry Offset"),
+    SceneBuffer("attributes", _F4, "mesh attributes"),
+    SceneBuffer("tri_object", np.dtype(np.int32), "triangles' objects", fill=-1),
+    SceneBuffer("objects", _F4, "objects"),
+    SceneBuffer("camera", CAMERA_DTYPE, "camera"),
+    SceneBuffer("light_paths", LIGHT_PATHS_DTYPE, "Light Paths settings",
+                default=engine_defaults),
+    SceneBuffer("lights", LIGHT_DTYPE, "lights"),
+    SceneBuffer("emitter_cdf", np.dtype(np.float32), "emitter table (power CDF)"),
+    SceneBuffer("emissive", np.dtype(np.int32), "emissive triangles' BVH leaves"),
+    SceneBuffer("emitter_info", EMITTER_INFO_DTYPE, "emitter table header"),
+    SceneBuffer("light_tree", LIGHT_TREE_NODE_DTYPE, "light tree (ppm_engine/scene/light_tree.py)"),
+    SceneBuffer("emitter_leaf", np.dtype(np.int32), "each emitter's light tree leaf", fill=-1),
+    SceneBuffer("far_cdf", np.dtype(np.float32), "power CDF of the emitters outside the tree"),
+    SceneBuffer("tree_emitters", np.dtype(np.int32), "the light tree's emitters in its order"),
+    SceneBuffer("tree_cdf", np.dtype(np.float32), "their power's CDF in that order"),
+    SceneBuffer("world_map", np.dtype(np.float32), "world importance map"),
+)
+
+
+_ROWS = {b.name: b for b in SCENE_BUFFERS}
+
+
+def _one(b: SceneBuffer) -> np.ndarray:
+    """One element of ``b``'s fill value: what stands for an empty array (OpenCL has no empty
+    buffer) or a buffer a kernel is run without."""
+    if b.default is not None:
+        return b.default()
+    a = np.zeros(1, b.element)
+    if b.fill:
+        a[...] = b.fill
+    return a
+
+
+def _as_elements(array: np.ndarray, b: SceneBuffer) -> np.ndarray:
+    """``array`` checked to hold elements of ``b`` (its dtype the element's base type, its last
+    axis the vector's length), or one element (``_one``) for an empty one."""
+    a = np.ascontiguousarray(array)
+    base, shape = b.element.base, b.element.shape
+    if a.dtype != base or (shape and a.shape[-len(shape):] != shape):
+        raise TypeError(f"scene buffer {b.name}: {a.dtype}{a.shape} is not made of {b.element}")
+    return a if a.size else _one(b)
+
+
+def placeholders(device, **given) -> dict:
+    """The scene's buffers by name for kernels run without a DeviceScene (tests, the world
+    map's bake, a gather with nothing to shade): ``given`` ones (device buffers), and for the
+    rest one element each of their fill value."""
+    unknown = set(given) - {b.name for b in SCENE_BUFFERS}
+    if unknown:
+        raise TypeError(f"not scene buffers: {sorted(unknown)}")
+    return {b.name: given[b.name] if b.name in given else device.upload(_one(b), b.what)
+            for b in SCENE_BUFFERS}
+
+
+class DeviceScene:
+    def __init__(self, device, scene: SceneArrays):
+        self.device = device
+        prepared, self.warnings = prepare_scene(scene)   # NaN/Inf dropped (docs/STABILITY.md)
+        self.bvh = BVH(device, prepared)
+        self.upload(scene, prepared)
+
+    def upload(self, scene: SceneArrays, prepared: SceneArrays | None = None) -> None:
+        """Everything but the BVH: materials, emitters, lights, camera, pixel filter."""
+        self.scene = scene
+        if prepared is None:
+            prepared, self.warnings = prepare_scene(scene)
+        self.prepared = prepared = prepared    # the BVH's triangles, moved as the BVH's
+        self.knodes = kernel_nodes(prepared.shader_nodes)
+        self.kmaterials = kernel_materials(prepared.materials, self.knodes)
+        self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
+        self.offset_scale = offset_scale(prepared)
+        b = self.bvh
+        # each scene buffer's source (SCENE_BUFFERS): the BVH's are on the device already
+        args = self._upload(
+            **b.args, normals=prepared.normals, materials=self.kmaterials, shader_nodes=self.knodes,
+            shading_tables=shading_tables(), textures=prepared.textures,
+            texels=prepared.texels, uvs=prepared.uvs, tangents=prepared.tangents,
+            svm=prepared.svm, uv_tangents=prepared.uv_tangents, generated=prepared.generated,
+            attributes=prepared.attributes, tri_object=prepared.object, objects=prepared.objects,
+            terminator=(prepared.terminator if prepared.terminator.size else
+                        np.full(prepared.n_triangles, TERMINATOR_OFFSET, np.float32)),
+            camera=prepared.camera, light_paths=prepared.light_paths)
+        # the world's map is baked with the shading buffers; the emitter table needs its power
+        self.world_map = self._world_map(prepared, args)
+        self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,
+                                            self.world_map)
+        em.info["offset_scale"] = self.offset_scale
+        args.update(self._upload(
+            lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
+            emitter_info=em.info, light_tree=em.tree, emitter_leaf=em.emitter_leaf,
+            far_cdf=em.far_cdf, tree_emitters=em.tree_emitters, tree_cdf=em.tree_cdf,
+            world_map=(self.world_map.buffer if self.world_map is not None
+                       else np.zeros(0, np.float32))))
+        self.args = {b.name: args[b.name] for b in SCENE_BUFFERS}
+        self.camera = args["camera"]
+        self.light_paths = prepared.light_paths
+        self._upload_filter(prepared.camera)
+
+    def set_camera(self, scene: SceneArrays) -> None:
+        """``scene`` is the current one with another camera (the viewport's view; its other
+        arrays the same): only the camera is uploaded, and the pixel filter when the film's
+        filter changed.  prepare_scene's shift of a far-from-origin scene is applied to it
+        too."""
+        from ppm_engine.scene.prep import check_camera
+        cam = np.array(scene.camera, copy=True)
+        check_camera(cam)
+        old_t = self.scene.camera["to_world"][0, :, 3].astype(np.float64)
+        shift = np.float32(old_t - self.prepared.camera["to_world"][0, :, 3])  # 0: not moved
+        cam["to_world"][0, :, 3] = cam["to_world"][0, :, 3].astype(np.float64) - shift
+        filter_changed = any(cam[f][0] != self.prepared.camera[f][0]
+                             for f in ("filter_width", "filter_type"))
+        self.scene = scene
+        self.prepared = self.prepared.replace(camera=cam)
+        self.args["camera"] = self.camera = self.device.upload(
+            _as_elements(cam, _ROWS["camera"]), _ROWS["camera"].what)
+        if filter_changed:
+            self._upload_filter(cam)
+
+    def _upload_filter(self, cam: np.ndarray) -> None:
+        """The pixel filter's table, and its density for the photons' light tracing
+        (camera_connect.h), from the camera's film."""
+        width, kind = float(cam["filter_width"][0]), int(cam["filter_type"][0])
+        self.filter_table = self.device.upload(filter_table(width, kind), "pixel filter")
+        density, self.filter_reach = filter_density(width, kind)
+        self.filter_density = self.device.upload(density, "pixel filter density")
+
+    def _upload(self, **sources) -> dict:
+        """Scene buffers by name (SCENE_BUFFERS) from arrays, or device buffers as they are."""
+        rows = {b.name: b for b in SCENE_BUFFERS}
+        return {name: a if not isinstance(a, np.ndarray) else
+                self.device.upload(_as_elements(a, rows[name]), rows[name].what)
+                for name, a in sources.items()}
+
+    def _world_map(self, prepared: SceneArrays, args: dict):
+        """The world program's importance map baked on the device, or None (a constant
+        world)."""
+        ws = prepared.world_shader
+        if ws[0] <= 0:
+            return None
+        w, h = map_size(int(ws[2]), int(ws[3]), bool(ws[1] & WORLD_MAP_MANUAL))
+        return build_map(bake(self.device, placeholders(self.device, **args), prepared.svm,
+                              int(ws[0]), w, h))
+
+    def kernel_defines(self, specialize: bool, gather_roughness: float = 0.7,
+                       caustic_roughness: float = 0.7,
+                       editable: bool = False) -> tuple[frozenset | None, dict]:
+        """(features, -D flags) of the eye and photon passes: the scene's features, or every
+        feature (None) unspecialised; the roughness from which lobes are gathered either way.
+        ``editable``: the scene's features and every one an edit of values can switch on
+        (features.VALUE_FEATURES), the longest closure list, the shader programs' stack
+        rounded up to a power of two: what a value edit changes needs no build.
+        (The ray offsets' scale is the scene's EmitterInfo.offset_scale, not a flag: scenes of
+        any size share their programs.)"""
+        features = (scene_features(self.prepared, self.kmaterials, self.knodes, self.emitters,
+                                   self.used_materials) if specialize else None)
+        if features is not None and editable:
+            features = features | VALUE_FEATURES
+        svm = {}
+        if features is not None and "PPM_SVM" in features:
+            starts = [*self.kmaterials["program"][self.used_materials],
+                      int(self.emitters.info["world_program"][0])]
+            stack = max(stack_used(self.prepared.svm, starts), 1)
+            if editable:
+                stack = max(1 << (stack - 1).bit_length(), 16)
+            svm = {"PPM_SVM_OPS": ops_define(ops_used(self.prepared.svm, starts)),
+                   "PPM_SVM_STACK": stack}
+        if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact
+            svm["PPM_ATTRIBUTES"] = self.prepared.attributes.shape[2]
+        return features, {"PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
+                          "PPM_CAUSTIC_ROUGHNESS": float(caustic_roughness).hex() + "f",
+                          **feature_defines(features, None if editable else
+                                            max_closures(self.knodes, self.used_materials)),
+                          **svm}
+
+    def set_light_paths(self, lp: np.ndarray) -> None:
+        """The Light Paths record the kernels read from now on (a render's: the scene's, or
+        with RenderOptions.max_bounces in force; light_paths.with_max_bounces)."""
+        if lp.tobytes() != self.light_paths.tobytes():
+            self.light_paths = lp
+            self.args["light_paths"] = self.device.upload(
+                _as_elements(lp, _ROWS["light_paths"]), _ROWS["light_paths"].what)
+
+    def photons_useful(self) -> bool:
+        """Whether photon passes can add anything: something emits, paths may bounce (the
+        visible point's own bounce is a diffuse, glossy or transmission one), and some surface
+        has a closure the gather evaluates (photons are stored, and visible points made, only
+        there)."""
+        lp = self.light_paths[0]
+        bounce = lp["max_bounces"] > 0 and max(lp["diffuse_bounces"], lp["glossy_bounces"],
+                                               lp["transmission_bounces"]) > 0
+        diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_GATHER).any())
+        return bool(self.emitters.info["n_emitters"][0] > 0 and bounce and diffuse)
+
+    def caustics_possible(self, gather_roughness: float, caustic_roughness: float = 0.7) -> bool:
+        """Whether some surface has a closure that makes caustics (materials.follow_capable):
+        the only place a caustic photon (photon_pass.cl, caustics_only) can start."""
+        used = np.isin(self.knodes["material"], self.used_materials)
+        return bool(follow_capable(self.knodes[used], gather_roughness, caustic_roughness).any())
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The prepared scene's bounding box (float32 corners, w = 0)."""
+        pos = self.prepared.positions.reshape(-1, 3)
+        lo, hi = np.zeros(4, np.float32), np.zeros(4, np.float32)
+        if pos.shape[0]:
+            lo[:3], hi[:3] = pos.min(axis=0), pos.max(axis=0)
+        return lo, hi
+
+    @staticmethod
+    def same_geometry(a: SceneArrays, b: SceneArrays) -> bool:
+        """True when the BVH of ``a`` serves ``b`` (same triangles, materials, visibility)."""
+        return all(getattr(a, k) is getattr(b, k) or np.array_equal(getattr(a, k), getattr(b, k))
+                   for k in ("positions", "material", "visibility"))
+
+    def refit(self, scene: SceneArrays) -> bool:
+        """The same triangles moved or deformed: the BVH refitted over its hierarchy and the
+        scene re-uploaded.  False (nothing changed) when the triangle count differs or the
+        refitted tree would be too slow (bvh.BVH.refit)."""
+        prepared, warnings = prepare_scene(scene)
+        if prepared.n_triangles != self.bvh.n_triangles or not self.bvh.refit(prepared):
+            return False
+        self.warnings = warnings
+        self.upload(scene, prepared)
+        return True
+
+    def buffers(self) -> list:
+        """The device buffers this object owns (BVH's included), for release."""
+        return [*self.args.values(), self.filter_table, self.filter_density]

@@ -1,0 +1,181 @@
+"""Per-pixel SPPM accumulators on the device and their resolve to a linear RGBA image."""
+from __future__ import annotations
+
+import numpy as np
+
+from ppm_engine.scene.arrays import FILTER_BLACKMAN_HARRIS, FILTER_BOX, FILTER_GAUSSIAN
+
+
+def has_fp64(device) -> bool:
+    """Whether the OpenCL device does double precision (cl_khr_fp64)."""
+    d = device.cl_device
+    if "cl_khr_fp64" in d.extensions:
+        return True
+    try:
+        return bool(d.double_fp_config)
+    except Exception:       # devices without doubles may refuse the query
+        return False
+
+
+class Film:
+    """Per pixel: the sums direct (rgb, sample count) and S = sum of Phi_i / R_i^2 (the paper's
+    tau / R^2), N and R, the moments of its per-pass samples (for its own photon count and its
+    noise) and whether it is still sampled; photons emitted in all on the host (a Python int).
+
+    The sums are 32 bytes per pixel: double4 where the device has cl_khr_fp64, else a float4
+    sum and its Neumaier compensation (``fp64=False`` forces that path; kernels/progressive.cl).
+    A float32 sum would lose ~1e-5 of a constant pixel in 2,000 passes and ~1e-4 in 10,000
+    (docs/STABILITY.md).  The eye pass writes each pass's sample to ``direct_pass``; the
+    progressive update (passes/update.py) adds it to the sums.
+
+    A pixel's photon term is (S / pi + its light tracing's sum) / the photons emitted while it
+    was active, so a pixel that adaptive sampling stopped keeps its value while the others go
+    on."""
+
+    def __init__(self, device, width: int, height: int, fp64: bool | None = None):
+        import pyopencl as cl
+        self.device = device
+        self.width, self.height = width, height
+        self.fp64 = has_fp64(device) if fp64 is None else bool(fp64)
+        n = self.n_pixels = width * height
+        self.direct_pass = device.buffer(16 * n, "film (direct light)")
+        self.direct = device.buffer(32 * n, "film (direct light)")
+        self.photon_sum = device.buffer(32 * n, "film (photon flux)")
+        self.nstat = device.buffer(4 * n, "film (N)")
+        self.radius = device.buffer(4 * n, "film (radius)")
+        self.radius0 = device.buffer(4 * n, "film (initial radius)")
+        self.image_buf = device.buffer(16 * n, "film (image)")
+        # per pixel: (sum y, sum y^2, photons emitted while active, passes) of its samples y
+        # (progressive.cl film_add_sample); 1 while the pixel is sampled (adaptive sampling)
+        self.moments = device.buffer(32 * n, "film (moments)")
+        self.active = device.buffer(4 * n, "film (active pixels)")
+        self.error = device.buffer(4 * n, "film (error)")
+        # denoising passes (eye_pass.cl adds (value, 1) at each visible point)
+        self.aux_albedo = device.buffer(16 * n, "film (denoising albedo)")
+        self.aux_normal = device.buffer(16 * n, "film (denoising normal)")
+        # transparent film: the sum over passes of the share of the sample that reached the world
+        self.transparency = device.buffer(4 * n, "film (transparency)")
+        # the photons' light tracing (photon_pass.cl connect_camera): this pass's splats (rgb
+        # per pixel, float atomics) and their sum over the passes the pixel was active in (its
+        # photon count is the photon term's, moments.z).  44 bytes per pixel (87 MiB at
+        # 1920 x 1080), allocated only for a render that connects photons to the camera
+        # (enable_light_tracing): most scenes have no photon pass at all
+        self.light_tracing = False
+        self.lt_pass = self.lt_sum = device.buffer(16, "film (light tracing: none)")
+        self.exposure = 1.0           # Cycles' film exposure (the camera's; Renderer sets it)
+        for b, size in ((self.direct_pass, 16), (self.direct, 32), (self.photon_sum, 32),
+                        (self.nstat, 4), (self.radius, 4), (self.radius0, 4), (self.aux_albedo, 16),
+                        (self.aux_normal, 16), (self.moments, 32), (self.transparency, 4)):
+            cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
+        cl.enqueue_fill_buffer(device.queue, self.active, np.uint32(1), 0, 4 * n)
+        self.photons_emitted = 0      # Python int: exact at any count
+        self.prog = device.programs.get("progressive.cl", {"PPM_FP64": True} if self.fp64 else {})
+
+    def enable_light_tracing(self) -> None:
+        """Allocate (zeroed) the light tracing's per-pixel buffers: the render connects its
+        photons to the camera (Renderer.lt_kappa > 0)."""
+        if self.light_tracing:
+            return
+        import pyopencl as cl
+        n = self.n_pixels
+        self.lt_pass = self.device.buffer(12 * n, "film (light tracing, this pass)")
+        self.lt_sum = self.device.buffer(32 * n, "film (light tracing)")
+        for b, size in ((self.lt_pass, 12), (self.lt_sum, 32)):
+            cl.enqueue_fill_buffer(self.device.queue, b, np.uint32(0), 0, size * n)
+        self.light_tracing = True
+
+    def disable_light_tracing(self) -> None:
+        """Leave the light tracing's sums out of the image from now on and free them (the
+        render stopped connecting photons to the camera: Renderer.iterate)."""
+        if self.light_tracing:
+            self.light_tracing = False
+            self.lt_pass = self.lt_sum = self.device.buffer(16, "film (light tracing: none)")
+
+    def resolve(self, wait_for=None):
+        """Enqueue the resolve; returns (event, host array (h, w, 4) float32, row 0 = bottom)."""
+        import pyopencl as cl
+        q = self.device.queue
+        n = self.n_pixels
+        ev = self.prog.launch("film_resolve", "resolve")(
+            q, n, wait_for=wait_for, direct=self.direct, photon_sum=self.photon_sum,
+            moments=self.moments, transparency=self.transparency, lt_sum=self.lt_sum,
+            lt=np.uint32(self.light_tracing), exposure=np.float32(self.exposure),
+            image=self.image_buf, n=np.uint32(n))
+        out = np.empty((self.height, self.width, 4), np.float32)
+        ev2 = cl.enqueue_copy(q, out, self.image_buf, wait_for=[ev], is_blocking=False)
+        return ev2, out
+
+    def aux_passes(self) -> dict:
+        """The extra render passes, (h, w, channels) float32, row 0 = bottom: "Denoising
+        Albedo" (mean), "Denoising Normal" (unit mean), "PPM Radius" (R), "PPM Photons" (N)."""
+        out = {}
+        for name, buf in (("Denoising Albedo", "aux_albedo"), ("Denoising Normal", "aux_normal")):
+            a = self.read(buf, np.float32, 4)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                v = np.where(a[..., 3:] > 0, a[..., :3] / a[..., 3:], 0.0)
+                if name == "Denoising Normal":
+                    length = np.linalg.norm(v, axis=-1, keepdims=True)
+                    v = np.where(length > 0, v / length, 0.0)
+            out[name] = v.astype(np.float32)
+        out["PPM Radius"] = self.read("radius")[..., None]
+        out["PPM Photons"] = self.read("nstat")[..., None]
+        return out
+
+    def read(self, name: str, dtype=np.float32, channels: int = 1) -> np.ndarray:
+        import pyopencl as cl
+        out = np.empty((self.height, self.width, channels) if channels > 1
+                       else (self.height, self.width), dtype)
+        cl.enqueue_copy(self.device.queue, out, getattr(self, name))
+        return out
+
+    def read_sum(self, name: str) -> np.ndarray:
+        """The value of a float4 sum (``direct``, ``photon_sum``, ``lt_sum``, ``moments``): float64
+        (h, w, 4); ``lt_sum`` is zeros where the render traces no light to the camera."""
+        if name == "lt_sum" and not self.light_tracing:
+            return np.zeros((self.height, self.width, 4))
+        if self.fp64:
+            return self.read(name, np.float64, 4)
+        raw = self.read(name, np.float32, 8).reshape(self.height, self.width, 2, 4)
+        return raw.astype(np.float64).sum(axis=2)
+
+
+FILTER_TABLE_SIZE = 256
+
+# the splat's filter table (filter_density): samples over [-reach, reach]
+FILTER_SAMPLES = 257
+
+
+def filter_density(width: float, kind: int) -> tuple[np.ndarray, float]:
+    """The pixel filter's 1D density (integral 1, pixel units) sampled at FILTER_SAMPLES points
+    over [-reach, reach], and reach: the filter the eye pass samples (film.filter_shape)."""
+    x, f = filter_shape(width, kind, FILTER_SAMPLES)
+    area = 0.5 * float(((f[1:] + f[:-1]) * np.diff(x)).sum())     # the trapezoid rule
+    return (f / area).astype(np.float32), float(x[-1])
+
+
+def filter_shape(width: float, kind: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Cycles' pixel filter (scene/film.cpp) in pixel units: n offsets x over its support and
+    its unnormalised weights f there.  Supports as Cycles': the box +-width/2 (Blender's Cycles
+    passes width 1 for the box), the Gaussian +-1.5 width with sigma width/4, Blackman-Harris
+    +-width.  Blackman-Harris of width <= 0 (files from before the filter type): the one-pixel
+    box."""
+    if kind == FILTER_BOX or width <= 0:
+        w = width if kind == FILTER_BOX and width > 0 else 1.0
+        return np.linspace(-0.5 * w, 0.5 * w, n), np.ones(n)
+    reach = 1.5 * width if kind == FILTER_GAUSSIAN else width
+    x = np.linspace(-reach, reach, n)
+    if kind == FILTER_GAUSSIAN:
+        return x, np.exp(-8.0 * (x / width) ** 2)
+    v = 2 * np.pi * (x / (2 * width) + 0.5)
+    f = 0.35875 - 0.48829 * np.cos(v) + 0.14128 * np.cos(2 * v) - 0.01168 * np.cos(3 * v)
+    return x, np.maximum(f, 0.0)
+
+
+def filter_table(width: float, kind: int = FILTER_BLACKMAN_HARRIS) -> np.ndarray:
+    """Inverse CDF of the pixel filter (filter_shape), sampled at FILTER_TABLE_SIZE uniform u;
+    the eye pass jitters each axis with it."""
+    u = (np.arange(FILTER_TABLE_SIZE) + 0.5) / FILTER_TABLE_SIZE
+    x, f = filter_shape(width, kind, 4097)
+    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(x))])
+    cdf /= cdf[-1]
+    return np.interp(u, cdf, x).astype(np.float32)

@@ -1,0 +1,169 @@
+"""Render settings shared by the Blender properties, the CLI and the core (no bpy here).
+
+``RenderOptions.validate()`` refuses bad values with a message a user can act on; nothing is
+clamped silently.  ``properties.py`` exposes the same fields (and the same limits, from
+``LIMITS``) on ``scene.ppm``.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+from ppm_engine.errors import PPMError
+from ppm_engine.scene.light_paths import MAX_BOUNCES_LIMIT
+
+
+class SettingsError(PPMError, ValueError):
+    """A setting a user gave is outside what the engine accepts."""
+
+
+# name: (min, max, default, description) -- the single source of the limits.
+LIMITS = {
+    "passes": (1, 1_000_000, 64, "Maximum number of SPPM passes (eye pass, photon pass, gather)"),
+    "time_limit": (0.0, 1e7, 0.0, "Stop after this many seconds (0 = no limit)"),
+    "photons_per_pass": (1, 1 << 26, 1 << 18,
+                         "Photons emitted per pass when the automatic count is off (the paper "
+                         "uses 512x512 = 262144)"),
+    "initial_radius": (0.0, 1e9, 0.0,
+                       "Initial gather radius in scene units (0 = automatic, from the pixel "
+                       "footprint at each visible point)"),
+    "alpha": (0.0, 1.0, 0.7,
+              "Fraction of new photons kept per pass; smaller shrinks the radius faster"),
+    "seed": (0, 2**31 - 1, 0, "Random seed"),
+    "noise_threshold": (0.0, 1.0, 0.0,
+                        "Stop sampling a pixel once its estimated noise is below this (as Cycles' "
+                        "adaptive sampling; 0 = off); the render ends when every pixel has"),
+}
+
+# The viewport's own settings (Rendered shading in the 3D view; ppm_engine/render/viewport_session.py), as
+# Cycles' viewport samples: name: (min, max, default, description)
+VIEWPORT_LIMITS = {
+    "viewport_passes": (1, 1_000_000, 1024,
+                        "Passes of the viewport's Rendered shading (as Cycles' viewport "
+                        "samples); it refines until then and stops"),
+    "viewport_time_limit": (0.0, 1e7, 0.0,
+                            "Stop refining the viewport after this many seconds (0 = no "
+                            "limit)"),
+    "viewport_start_resolution": (8, 16384, 64,
+                                  "After every change the viewport's first pass renders about "
+                                  "this many pixels squared, then the resolution doubles each "
+                                  "pass up to full (Cycles' Start Pixels)"),
+}
+
+# The automatic photon count (RenderOptions.photons_per_pass = None, the default): one photon
+# per pixel of the render region per pass -- the paper's 512^2 photons at 512 x 512 pixels --
+# within these bounds.  Chosen from the error-against-time curves (docs/BENCHMARKS.md): at a
+# fixed budget the error is flat between 1/2 and 1 photon per pixel per pass and grows on both
+# sides (2^18 photons per pass at 128 x 128 pixels: 3x the Cornell box's error at 16 s), because
+# the eye pass (direct light, anti-aliasing, the radius shrinking) and the photon pass must
+# progress together.
+AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
+
+# How indirect light is estimated (RenderOptions.indirect):
+#   "photons": the paper's SPPM, every bounce of indirect light from the photon map;
+#   "paths": eye paths continue from the visible points through diffuse bounces with next-event
+#            estimation (kernels/indirect_paths.h), photons only for caustics (the light paths
+#            whose first scattering is by a mirror, glass or a smooth glossy lobe);
+#   "auto": per scene, from a pilot of photons (Renderer.caustic_fraction): "photons" when most
+#           of the light's first scatterings are caustic ones (a bulb inside glass, a room lit
+#           through windows), "paths" otherwise.
+INDIRECT_MODES = ("auto", "photons", "paths")
+# Light tracing against the merge (RenderOptions.light_tracing): the balance heuristic with the
+# merge's density kappa pi r^2 p_E (camera_connect.h merge_factor); kappa 1 is VCM's.  Chosen by
+# measurement (docs/BENCHMARKS.md, "Light tracing")
+LIGHT_TRACING_KAPPA = 0.1
+# How each pixel's gather radius shrinks over the passes (RenderOptions.radius_schedule,
+# kernels/progressive.cl film_update):
+#   "pixel": the paper's (Hachisuka & Jensen 2009), from the photons the pixel gathered;
+#   "global": Knaus & Zwicker 2011 (VCM's), R_k^2 = R_1^2 prod (j + alpha) / (j + 1), the same
+#             sequence for every pixel, independent of the samples (so any sampler may place the
+#             camera rays).
+# Their index is film_update's `schedule` (RADIUS_PIXEL, RADIUS_GLOBAL).
+RADIUS_SCHEDULES = ("pixel", "global")
+# "auto" chooses "photons" above this fraction of caustic first scatterings (docs/BENCHMARKS.md)
+AUTO_PHOTONS_CAUSTIC_FRACTION = 0.5
+
+
+@dataclasses.dataclass
+class RenderOptions:
+    passes: int = LIMITS["passes"][2]
+    time_limit: float = LIMITS["time_limit"][2]
+    photons_per_pass: int | None = None   # None: automatic (photons_for)
+    initial_radius: float = LIMITS["initial_radius"][2]
+    alpha: float = LIMITS["alpha"][2]
+    # None: the scene's Light Paths (SceneArrays.light_paths: its Cycles settings); a number:
+    # every bounce limit (total and per kind, not the transparent one) for this render, for
+    # tests, analytic scenes and the benchmark (light_paths.with_max_bounces)
+    max_bounces: int | None = None
+    seed: int = LIMITS["seed"][2]
+    noise_threshold: float = LIMITS["noise_threshold"][2]
+    device: str = ""               # OpenCL device name (substring); "" = default choice
+    indirect: str = "auto"         # INDIRECT_MODES
+    exact_gather: bool = False     # reference mode: gather every photon, not the stochastic map
+    # microfacet lobes at least this rough hold visible points and photons (the gather evaluates
+    # them); smoother ones are followed by the eye path.  Chosen by measurement
+    # (docs/BENCHMARKS.md, "Glossy surfaces"); a setting to measure with, not in the UI.
+    gather_roughness: float = 0.7
+    # followed glossy reflections at least this rough are the eye paths' (next-event estimation
+    # through them, as Cycles), smoother ones (and refractions below gather_roughness) make
+    # caustic photons.  The default, gather_roughness's, leaves every followed lobe to caustic
+    # photons: measured, eye paths through glossy lobes were no better at equal time on four
+    # scenes (docs/BENCHMARKS.md, "Glossy light: eye paths or caustic photons"); a setting to
+    # measure with, not in the UI.
+    caustic_roughness: float = 0.7
+    # Skips of work a scene does not need, each on by default; off only to measure what it saves
+    # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.
+    specialize: bool = True        # kernels built for the scene's features (False: every feature)
+    # with specialize: also every feature an edit of values can switch on (features.
+    # VALUE_FEATURES), the closure list at its longest: the viewport's and the previews' kernels
+    editable: bool = False
+    skip_unneeded_photon_pass: bool = True   # False: photon pass, hash and gather run even when
+                                             # they cannot add anything
+    skip_unseen_photons: bool = True   # False: the photon grid covers the whole scene, so photons
+                                       # outside the visible points' bounds are stored too
+    skip_blind_light_tracing: bool = True   # False: photons are connected to the camera even
+                                            # where no pixel sees what that renders
+    # the photons' second strategy: each stored photon also connected to the camera (light
+    # tracing), combined with the merge by MIS (kernels/photon_pass.cl connect_camera); for a
+    # pinhole camera only
+    light_tracing: bool = True
+    # RADIUS_SCHEDULES; a setting to measure with (docs/BENCHMARKS.md, "The radius schedule")
+    radius_schedule: str = "pixel"
+
+    def validate(self) -> RenderOptions:
+        for name, (lo, hi, _default, _desc) in LIMITS.items():
+            v = getattr(self, name)
+            if name == "photons_per_pass" and v is None:
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise SettingsError(f"{name} must be a number, got {v!r}")
+            if v != v or not (lo <= v <= hi):
+                raise SettingsError(f"{name} = {v!r} is outside [{lo}, {hi}]")
+        b = self.max_bounces
+        if b is not None and (isinstance(b, bool) or not isinstance(b, int)
+                              or not 0 <= b <= MAX_BOUNCES_LIMIT):
+            raise SettingsError(f"max_bounces = {b!r} must be None (the scene's Light Paths) "
+                                f"or a whole number from 0 to {MAX_BOUNCES_LIMIT}")
+        if self.indirect not in INDIRECT_MODES:
+            raise SettingsError(f"indirect = {self.indirect!r} must be one of "
+                                f"{', '.join(INDIRECT_MODES)}")
+        if self.radius_schedule not in RADIUS_SCHEDULES:
+            raise SettingsError(f"radius_schedule = {self.radius_schedule!r} must be one of "
+                                f"{', '.join(RADIUS_SCHEDULES)}")
+        if not (0.0 < self.alpha < 1.0):
+            raise SettingsError(f"alpha = {self.alpha!r} must lie strictly between 0 and 1")
+        if not (0.0 <= self.caustic_roughness <= 2.0):
+            raise SettingsError(f"caustic_roughness = {self.caustic_roughness!r} is outside "
+                                "[0, 2]")
+        if not (0.0 <= self.gather_roughness <= 2.0):
+            raise SettingsError(f"gather_roughness = {self.gather_roughness!r} is outside "
+                                "[0, 2] (above 1: no microfacet lobe is gathered)")
+        return self
+
+    def photons_for(self, pixels: int) -> int:
+        """Photons emitted per pass for a render region of ``pixels`` pixels."""
+        if self.photons_per_pass is not None:
+            return int(self.photons_per_pass)
+        return int(min(max(pixels, AUTO_PHOTONS_MIN), AUTO_PHOTONS_MAX))
+
+    def replace(self, **changes) -> RenderOptions:
+        return dataclasses.replace(self, **changes)

@@ -1,0 +1,48 @@
+"""The photon pass (kernels/photon_pass.cl): photons leave the emitters in proportion to their
+power and are stored at diffuse hits after the first, inside this pass's grid."""
+from __future__ import annotations
+
+import numpy as np
+
+from ppm_engine.render.device import SHADING_GROUP
+from ppm_engine.render.device.program import in_pieces
+from ppm_engine.render.film import FILTER_SAMPLES
+
+
+class PhotonPass:
+    def __init__(self, scene, program, photon_map, counters):
+        """``scene``: the DeviceScene; ``program``: photon_pass.cl built for its features."""
+        self.scene, self.photon_map, self.counters = scene, photon_map, counters
+        self.kernel = program.launch("photon_pass", "photon")
+
+    def enqueue(self, q, pass_index: int, options, n_photons: int, caustics_only: bool = False,
+                pilot: bool = False, film=None, lt_kappa: float = 0.0, interrupt=None,
+                piece: int = 1 << 15) -> list | None:
+        """``caustics_only``: only photons whose first scattering is caustic live on (indirect
+        light by eye paths); ``pilot``: they are only counted (Counter.CAUSTIC), none stored.
+        ``lt_kappa`` > 0 (with ``film``): every stored photon is also connected to the camera
+        and splatted into film.lt_pass, weighted against the merge (kernels/photon_pass.cl
+        connect_camera; Renderer.light_tracing_kappa).  ``interrupt``: as EyePass.enqueue's,
+        over ranges of about ``piece`` photons."""
+        def launch(count, start):
+            return self._launch(q, count, start, pass_index, options, n_photons,
+                                caustics_only, pilot, film, lt_kappa)
+        return in_pieces(launch, n_photons, piece, interrupt, self.kernel.label)
+
+    def _launch(self, q, count: int, start: int, pass_index: int, options, n_photons: int,
+                caustics_only: bool, pilot: bool, film, lt_kappa: float):
+        pm = self.photon_map
+        lt = film is not None and lt_kappa > 0 and not pilot
+        return self.kernel(
+            q, count, SHADING_GROUP, offset=start, **self.scene.args,
+            pass_index=np.uint32(pass_index),
+            seed=np.uint32(options.seed), n_photons=np.uint32(n_photons), grid=pm.grid,
+            capacity=np.uint32(0 if pilot else pm.capacity),
+            ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, ph_path=pm.ph_path,
+            counters=self.counters,
+            caustics_only=np.uint32(caustics_only or pilot),
+            lt_image=film.lt_pass if lt else pm.ph_pos,
+            lt_filter=self.scene.filter_density, lt_n_table=np.int32(FILTER_SAMPLES),
+            lt_reach=np.float32(self.scene.filter_reach),
+            radius=film.radius if lt else pm.ph_pos,
+            lt_kappa=np.float32(lt_kappa if lt else 0.0))

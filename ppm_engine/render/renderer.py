@@ -1,0 +1,354 @@
+"""One render on one device.  ``iterate()`` runs one SPPM pass, in the paper's order (Hachisuka
+& Jensen 2010; passes/__init__.py):
+
+    eye pass -> grid over the visible points -> photon pass -> hash build -> gather
+    -> progressive update
+
+Every pass is a small object owning its kernels and timing labels; launches are chained on one
+in-order queue without host waits, and the small per-pass statistics are read once at the end.
+"""
+from __future__ import annotations
+
+import functools
+import time
+
+import numpy as np
+
+from ppm_engine.render.counters import N_COUNTERS, PER_PASS, Counter
+from ppm_engine.render.device import get_device
+from ppm_engine.render.device_scene import DeviceScene
+from ppm_engine.render.film import Film
+from ppm_engine.render.options import (
+    AUTO_PHOTONS_CAUSTIC_FRACTION,
+    LIGHT_TRACING_KAPPA,
+    RenderOptions,
+)
+from ppm_engine.render.passes import (
+    EyePass,
+    Gather,
+    HashBuild,
+    PhotonPass,
+    ProgressiveUpdate,
+    VisiblePoints,
+)
+from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
+from ppm_engine.render.stats import PassStats
+from ppm_engine.scene.arrays import SceneArrays
+from ppm_engine.scene.light_paths import with_max_bounces
+
+
+def _locked(method):
+    """Run ``method`` holding the device's lock: renderers in other threads (the viewport's
+    worker, a final render, a preview) share the device's queue and kernel objects."""
+    @functools.wraps(method)
+    def run(self, *args, **kwargs):
+        with self.device.lock:
+            return method(self, *args, **kwargs)
+    return run
+
+
+class Renderer:
+    # photon buffer capacity per emitted photon (grows when a pass overflows)
+    STORE_FACTOR = 2
+
+    def __init__(self, scene: SceneArrays, options: RenderOptions):
+        self.options = options.validate()
+        self.device = dev = get_device(options.device)
+        self.queue = dev.queue
+        t0 = time.perf_counter()
+        with dev.lock:
+            self.scene = DeviceScene(dev, scene)
+            self.counters = dev.buffer(4 * N_COUNTERS, "counters")
+            self._pilot = None      # (settings it depends on, caustic fraction): kept by reset()
+            self._start(options, new_pixels=True)
+        self.setup_seconds = time.perf_counter() - t0
+
+    @property
+    def warnings(self) -> list[str]:
+        """What the device copy of the scene dropped (scene_prep.prepare_scene)."""
+        return self.scene.warnings
+
+    @property
+    def bvh(self):
+        return self.scene.bvh
+
+    # ------------------------------------------------------------------------------------------
+    def _start(self, options: RenderOptions, new_pixels: bool) -> None:
+        """A new render from pass 0: kernels for the scene's features, a new film and
+        statistics; pixel and photon storage when ``new_pixels`` (size or photon count
+        changed)."""
+        import pyopencl as cl
+        dev, o = self.device, options
+        self.features, self.defines = self.scene.kernel_defines(o.specialize, o.gather_roughness,
+                                                                o.caustic_roughness, o.editable)
+        w, h = self.scene.scene.resolution
+        if new_pixels:
+            self.width, self.height, self.n_pixels = w, h, w * h
+            self.photons_per_pass = o.photons_for(self.n_pixels)
+            self.vps = VisiblePoints(dev, self.n_pixels)
+            # storage for photons only once a pass needs it (below): a scene lit by eye paths
+            # alone never allocates it (222 MiB at 1920 x 1080)
+            self.photon_map = PhotonMap(dev, 0, exact=o.exact_gather)
+        self.film = Film(dev, w, h)
+        self.film.exposure = float(self.scene.scene.camera["exposure"][0])
+        cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
+        programs = dev.programs
+        self.eye = EyePass(self.scene, programs.get("eye_pass.cl", self.defines), self.film,
+                           self.vps, self.counters)
+        # the photon pass and the gather are built when first used: a scene whose indirect
+        # light is all eye paths never compiles them (half of a new scene's kernel builds)
+        self._photon_pass = self._gather = None
+        self.hash_build = HashBuild(dev, self.photon_map, self.counters)
+        self.update = ProgressiveUpdate(dev, self.film)
+        self.scene.set_light_paths(with_max_bounces(self.scene.scene.light_paths, o.max_bounces))
+        useful = self.scene.photons_useful()
+        caustics = self.scene.caustics_possible(o.gather_roughness, o.caustic_roughness)
+        self.path_indirect, self.caustic_fraction = self._choose_indirect(o, useful, caustics)
+        useful = useful and (caustics or not self.path_indirect)
+        self.photons_needed = useful or not o.skip_unneeded_photon_pass
+        store = self.STORE_FACTOR * self.photons_per_pass
+        if self.photons_needed and self.photon_map.capacity < store:
+            self.photon_map.allocate(store)
+        self.grid_cover = None if o.skip_unseen_photons else self.scene.bounds()
+        self.lt_kappa = self.light_tracing_kappa(o)
+        if self.lt_kappa > 0:
+            self.film.enable_light_tracing()
+        self.passes_done = 0
+        self.nan_dropped = 0
+        self.active_pixels = self.n_pixels
+        self.queue.finish()
+
+    @property
+    def photons(self) -> PhotonPass:
+        """The photon pass (photon_pass.cl for the scene's features), built on first use."""
+        if self._photon_pass is None:
+            self._photon_pass = PhotonPass(
+                self.scene, self.device.programs.get("photon_pass.cl", self.defines),
+                self.photon_map, self.counters)
+        return self._photon_pass
+
+    @property
+    def gather(self) -> Gather:
+        """The gather (gather.cl for the scene's features), built on first use."""
+        if self._gather is None:
+            self._gather = Gather(self.device, self.photon_map, self.scene, self.defines)
+        return self._gather
+
+    def light_tracing_kappa(self, o: RenderOptions) -> float:
+        """The photons' light tracing (photon_pass.cl connect_camera): its MIS factor kappa, or
+        0 where it is off: when asked not to, with no photon pass, or through a lens (light
+        tracing connects to a pinhole)."""
+        pinhole = float(self.scene.scene.camera["aperture_radius"][0]) <= 0.0
+        return (LIGHT_TRACING_KAPPA if o.light_tracing and self.photons_needed and pinhole
+                else 0.0)
+
+    # photons of the pilot that measures the share of caustic first scatterings
+    PILOT_PHOTONS = 1 << 16
+
+    def _choose_indirect(self, o: RenderOptions, photons_useful: bool,
+                         caustics_possible: bool) -> tuple[bool, float | None]:
+        """(indirect light by eye paths?, the pilot's caustic fraction or None): options.indirect,
+        or for "auto" eye paths unless most of the light's first scatterings are caustic ones
+        (a bulb inside glass: eye paths would find almost nothing, every photon is caustic).
+        ``photons_useful``, ``caustics_possible``: the DeviceScene's answers for ``o``."""
+        if o.indirect != "auto":
+            return o.indirect == "paths", None
+        if not caustics_possible:
+            return True, 0.0
+        if not photons_useful:
+            return True, None
+        key = (o.gather_roughness, o.caustic_roughness, self.scene.light_paths.tobytes(), o.seed)
+        if self._pilot is None or self._pilot[0] != key:    # a re-render of the same scene
+            self._pilot = (key, self.caustic_fraction_pilot(o))   # keeps its pilot
+        f = self._pilot[1]
+        return f <= AUTO_PHOTONS_CAUSTIC_FRACTION, f
+
+    def caustic_fraction_pilot(self, o: RenderOptions) -> float:
+        """The share of the light's first scatterings that are by a closure eye paths follow (a
+        mirror, glass, a smooth glossy lobe) rather than by the gather's closures, from
+        PILOT_PHOTONS photons classified at their first hit and counted (photon_pass.cl with
+        capacity 0; photons that escape or meet a black surface count for neither)."""
+        import pyopencl as cl
+        q = self.queue
+        first = slice(Counter.CAUSTIC, Counter.DIFFUSE_FIRST + 1)
+        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * first.start,
+                               4 * (first.stop - first.start))
+        self.photons.enqueue(q, 0x7FFFFFFF, o, self.PILOT_PHOTONS, pilot=True)
+        counters = np.empty(N_COUNTERS, np.uint32)
+        cl.enqueue_copy(q, counters, self.counters)
+        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * first.start,
+                               4 * (first.stop - first.start))
+        q.finish()
+        caustic, diffuse = int(counters[Counter.CAUSTIC]), int(counters[Counter.DIFFUSE_FIRST])
+        return caustic / (caustic + diffuse) if caustic + diffuse else 0.0
+
+    @_locked
+    def refit(self, scene: SceneArrays) -> bool:
+        """The same triangles moved or deformed (an object's transform, an armature): the BVH is
+        refitted over its hierarchy instead of rebuilt, and the scene re-uploaded.  Returns
+        False (nothing changed) when the triangle count differs or the refitted tree would be
+        too slow (bvh.BVH.refit); then build a new Renderer.  Call reset() afterwards."""
+        self._pilot = None                       # the caustic fraction may have moved too
+        return self.scene.refit(scene)
+
+    def can_reuse(self, options: RenderOptions, scene: SceneArrays | None = None) -> bool:
+        """Whether reset() can serve a render with these options and scene."""
+        return (options.device == self.options.device
+                and (scene is None or DeviceScene.same_geometry(self.scene.scene, scene)))
+
+    @_locked
+    def reset(self, options: RenderOptions, scene: SceneArrays | None = None):
+        """Start a new render on the same device, keeping the BVH and the built programs
+        (persistent data): a new film, statistics and photon storage; a new scene whose
+        geometry is unchanged (``DeviceScene.same_geometry``) re-uploads only what it changed."""
+        options = options.validate()
+        if not self.can_reuse(options, scene):
+            raise ValueError("reset() needs the same device and geometry; build a new Renderer")
+        old, self.options = self.options, options
+        if scene is not None and scene is not self.scene.scene:
+            if self.scene.scene.differs_only_in_camera(scene):
+                self.scene.set_camera(scene)     # the viewport's view moved: the camera only
+            else:
+                self.scene.upload(scene)
+                self._pilot = None               # materials or lights may differ
+        w, h = self.scene.scene.resolution
+        self._start(options, new_pixels=(
+            (w, h) != (self.width, self.height)
+            or options.photons_for(w * h) != self.photons_per_pass
+            or options.exact_gather != old.exact_gather))
+
+    # ------------------------------------------------------------------------------------------
+    # an interruptible pass (iterate's ``interrupt``) splits its eye pass and its photon pass
+    # into launches of about this many pixels or photons (on a 2-core CPU some 50 ms of the
+    # Cornell box's eye paths)
+    INTERRUPT_PIXELS = 1 << 15
+
+    @_locked
+    def iterate(self, interrupt=None) -> PassStats | None:
+        """Run one SPPM pass.  ``interrupt``: a function asked between pieces of a large eye
+        pass or photon pass (INTERRUPT_PIXELS each); when it returns True the pass is dropped
+        unfinished and None returned, and the render must be reset before the next pass (the
+        viewport: a new view is waiting)."""
+        import pyopencl as cl
+        t0 = time.perf_counter()
+        o, q, n, v = self.options, self.queue, self.n_pixels, self.vps
+        pass_index = self.passes_done
+        film = self.film
+        # this pass's counters (Counter.NAN counts over the whole render)
+        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
+                               4 * len(PER_PASS))
+        events = self.eye.enqueue(q, pass_index, o, self.path_indirect, lt_kappa=self.lt_kappa,
+                                  interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
+        if events is None:
+            q.finish()
+            return None
+        emitted = 0
+        if self.photons_needed:
+            # the grid over the visible points: only photons use it
+            events += self.hash_build.grid(q, v.pos, film.radius, n, cover=self.grid_cover)
+            emitted = self.photons_per_pass
+            photon_events = self.photons.enqueue(
+                q, pass_index, o, emitted, caustics_only=self.path_indirect, film=film,
+                lt_kappa=self.lt_kappa, interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
+            if photon_events is None:
+                q.finish()
+                return None
+            events += photon_events
+            events += self.hash_build.build(q, pass_index, o.seed)
+            events += self.gather.enqueue(q, v.pos, v.nrm, v.shade, film.radius, v.gathered, n,
+                                          vp_beta=v.beta)
+            events += self.update.update(q, v.pos, v.beta, v.gathered, o.alpha,
+                                         o.radius_schedule)
+        events += self.update.add_sample(q, v.gathered, emitted,
+                                         light_traced=self.lt_kappa > 0)
+        converge = self.update.due(pass_index + 1, o.noise_threshold)
+        if converge:
+            events += self.update.converge(q, o.noise_threshold, self.counters)
+        counters = np.empty(N_COUNTERS, np.uint32)
+        grid = np.zeros(1, GRID_DTYPE)     # no grid this pass (no photons): no visible points
+        cl.enqueue_copy(q, counters, self.counters, is_blocking=False)    # counted, no radii
+        if self.photons_needed:
+            cl.enqueue_copy(q, grid, self.photon_map.grid, is_blocking=False)
+        q.finish()
+        if (pass_index == 0 and self.lt_kappa > 0 and counters[Counter.SEEN] == 0
+                and o.skip_blind_light_tracing):
+            # no pixel sees a surface the photons' light tracing renders (a pool's floor seen
+            # only through its water): every connection to the camera is blocked, so it stops,
+            # and the merge keeps the whole weight (as with light tracing off)
+            self.lt_kappa = 0.0
+            film.disable_light_tracing()
+        self.passes_done += 1
+        return self._stats(counters, grid, events, converge, time.perf_counter() - t0)
+
+    def _stats(self, counters, grid, events, converged: bool, seconds: float) -> PassStats:
+        if converged:
+            self.active_pixels = int(counters[Counter.ACTIVE])
+        self.nan_dropped = int(counters[Counter.NAN])
+        phase_ms: dict[str, float] = {}
+        for label, ev in events:
+            phase_ms[label] = phase_ms.get(label, 0.0) + (ev.profile.end - ev.profile.start) * 1e-6
+        pm = self.photon_map
+        overflow = int(counters[Counter.OVERFLOW])
+        stats = PassStats(
+            pass_index=self.passes_done, photons_emitted=self.film.photons_emitted,
+            photons_stored=min(int(counters[Counter.STORED]), pm.capacity),
+            photons_outside=int(counters[Counter.OUTSIDE]), photons_dropped=overflow,
+            occupied_entries=int(counters[Counter.OCCUPIED]),
+            visible_points=int(grid["valid"][0]), radius_min=float(grid["r_min"][0]),
+            radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
+            seconds=seconds, phase_ms=phase_ms, active_pixels=self.active_pixels,
+            pixels=self.n_pixels, indirect="paths" if self.path_indirect else "photons",
+            caustic_fraction=self.caustic_fraction, light_tracing=self.lt_kappa > 0)
+        if overflow:     # this pass lost photons (counted); the next one has room
+            pm.allocate(2 * pm.capacity)
+        return stats
+
+    # ------------------------------------------------------------------------------------------
+    @_locked
+    def image(self) -> np.ndarray:
+        """Linear RGBA (h, w, 4) float32 of the render region, row 0 = bottom."""
+        ev, out = self.film.resolve()
+        ev.wait()
+        return out
+
+    @_locked
+    def passes(self) -> dict:
+        """The extra render passes (Film.aux_passes) of the render region."""
+        return self.film.aux_passes()
+
+    def _holders(self):
+        """(owner's dict, name, buffer) of every device buffer this render holds."""
+        import pyopencl as cl
+        for obj in (self.bvh, self.scene, self.scene.args, self.film, self.photon_map, self.vps,
+                    self):
+            items = obj if isinstance(obj, dict) else vars(obj)
+            for name, value in list(items.items()):
+                if isinstance(value, cl.MemoryObjectHolder):
+                    yield items, name, value
+
+    @_locked
+    def device_bytes(self) -> int:
+        """Bytes of the device buffers this render holds now (the BVH's sorted ids, kept
+        between refits, included)."""
+        seen, total = set(), 0
+        for _, _, buf in self._holders():
+            if id(buf) not in seen and buf.int_ptr:
+                seen.add(id(buf))
+                total += buf.size
+        ids = getattr(self.bvh, "sorted_ids", None)
+        return total + (ids.nbytes if ids is not None else 0)
+
+    @_locked
+    def close(self):
+        """Release this render's device buffers now (the device and its programs stay)."""
+        ids = getattr(self.bvh, "sorted_ids", None)
+        if ids is not None:                      # a pyopencl Array, not a buffer
+            ids.data.release()
+            self.bvh.sorted_ids = None
+        self.photon_map.sorted = None
+        released = set()
+        for items, name, value in self._holders():
+            if id(value) not in released:        # the BVH's buffers are scene args too
+                released.add(id(value))
+                value.release()
+            items[name] = None

@@ -1,0 +1,146 @@
+"""The benchmark's data about its scenes (ppm_engine.blender.scenes builds them): per scene, the floor
+region counted as "caustic pixels" (caustic_mask below: a world-space disk on the floor, or
+the set of floor points that see the light's mirror image through the mirror rectangle, exact;
+pixels whose camera ray meets one of the listed spheres first are left out), and the objects
+Cycles' shadow caustics (MNEE) needs flagged."""
+from __future__ import annotations
+
+import numpy as np
+
+from ppm_engine.blender.scenes.bulb_box import BALL_CENTER, BULB_CENTER
+from ppm_engine.blender.scenes.caustics import (
+    BALL,
+    LIGHT_RADIUS,
+    POINT_POS,
+    mirror_corners,
+    mirror_image,
+)
+
+# scene name -> caustic mask description (caustic_mask)
+CAUSTIC_MASKS = {
+    # the Cornell box has no caustic: the whole floor counts (its indirect light)
+    "cornell_box": {"kind": "disk", "center": (0.0, 0.0, 0.0), "radius": 1.5,
+                    "occluders": [], "note": "the floor (no caustic in this scene)"},
+    # the furnace: no caustic, no floor; every pixel counts
+    "furnace": {"kind": "all", "occluders": [], "note": "every pixel (no caustic)"},
+    # the city at night: no caustic; every pixel counts
+    "many_lights": {"kind": "all", "occluders": [], "note": "every pixel (no caustic)"},
+    # the pool: every pixel is the caustic, seen through the water
+    "pool_caustic": {"kind": "all", "occluders": [], "note": "every pixel (the floor's caustic, "
+                                                            "seen through the water)"},
+    # the HDRI's sun: every pixel (the glass ball's caustic is among them)
+    "hdri_sun": {"kind": "all", "occluders": [], "note": "every pixel"},
+    # the glossy metal: every pixel (the light's highlights, the floor's light in the metal)
+    "glossy_metal": {"kind": "all", "occluders": [], "note": "every pixel"},
+    # the floor beside and under the glass ball, where its caustic falls
+    "bulb_box": {"kind": "disk", "center": (BALL_CENTER[0] + 0.07, BALL_CENTER[1] + 0.05, 0.0),
+                 "radius": 0.45, "occluders": [(BALL_CENTER, 0.3), (BULB_CENTER, 0.15)],
+                 "note": "floor within 0.45 m of the point below the bulb-to-ball line, "
+                         "not hidden by the ball"},
+    "glass_caustic": {"kind": "disk", "center": (0.43, 0.0, 0.0), "radius": 0.35,
+                      "occluders": [BALL],
+                      "note": "floor within 0.35 m of where the ray from the spot through the "
+                              "ball centre meets the floor, not hidden by the ball"},
+    "mirror_caustic": {"kind": "mirror", "light": POINT_POS, "light_radius": LIGHT_RADIUS,
+                       "corners": None, "occluders": [],
+                       "note": "floor points that see the light's mirror image through the "
+                               "mirror (the reflected patch, exact)"},
+}
+
+# the point light stands where the spot does: the same floor
+CAUSTIC_MASKS["point_caustic"] = dict(
+    CAUSTIC_MASKS["glass_caustic"],
+    note="floor within 0.35 m of where the ray from the point light through the ball centre "
+         "meets the floor, not hidden by the ball")
+CAUSTIC_MASKS["rough_caustic"] = dict(
+    CAUSTIC_MASKS["point_caustic"],
+    note="point_caustic's floor (the same ball, of rough glass)")
+CAUSTIC_MASKS["mirror_caustic"]["corners"] = mirror_corners().tolist()
+CAUSTIC_MASKS["mirror_caustic"]["light_image"] = mirror_image(POINT_POS).tolist()
+
+# objects Cycles' shadow caustics (MNEE) uses, per scene: (casters, receivers, lights)
+MNEE_OBJECTS = {
+    "glass_caustic": (["GlassBall"], ["Floor", "Back"], ["Spot"]),
+    "point_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
+    "rough_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
+    "mirror_caustic": (["Mirror"], ["Floor", "Back"], ["Point"]),
+    "pool_caustic": (["Water"], ["Floor"], ["Sun"]),
+}
+
+
+# --- images and masks -------------------------------------------------------------------------
+def camera_rays(scene, w: int, h: int):
+    """(origin (3,), directions (h, w, 3)) through the pixel centres, rows top-down."""
+    cam = scene.camera
+    m = np.array(cam.matrix_world)
+    frame = np.array([tuple(v) for v in cam.data.view_frame(scene=scene)])  # tr, br, bl, tl
+    tr, br, bl, tl = frame
+    u = (np.arange(w) + 0.5) / w
+    v = (np.arange(h) + 0.5) / h
+    top = tl[None, :] + u[:, None] * (tr - tl)[None, :]
+    bottom = bl[None, :] + u[:, None] * (br - bl)[None, :]
+    local = top[None, :, :] + v[:, None, None] * (bottom - top)[None, :, :]   # (h, w, 3)
+    d = local @ m[:3, :3].T
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    return m[:3, 3].copy(), d
+
+
+def _sphere_t(o, d, center, radius):
+    """Nearest positive hit distance of rays o + t d with a sphere (inf where none)."""
+    oc = o - np.asarray(center, float)
+    b = d @ oc
+    c = oc @ oc - radius * radius
+    disc = b * b - c
+    s = np.sqrt(np.maximum(disc, 0.0))
+    t0, t1 = -b - s, -b + s
+    t = np.where(t0 > 1e-6, t0, np.where(t1 > 1e-6, t1, np.inf))
+    return np.where(disc > 0, t, np.inf)
+
+
+def caustic_mask(scene, name: str, w: int, h: int) -> np.ndarray:
+    """Boolean (h, w): the scene's caustic pixels (scenes.CAUSTIC_MASKS), top-down."""
+    spec = CAUSTIC_MASKS[name]
+    if spec["kind"] == "all":
+        return np.ones((h, w), bool)
+    o, d = camera_rays(scene, w, h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_floor = np.where(d[..., 2] < 0, -o[2] / d[..., 2], np.inf)
+    p = o + t_floor[..., None] * d
+    mask = np.isfinite(t_floor) & (np.abs(p[..., 0]) <= 2) & (np.abs(p[..., 1]) <= 2)
+    for center, radius in spec["occluders"]:
+        mask &= _sphere_t(o, d, center, radius) > t_floor
+    if spec["kind"] == "disk":
+        c = np.asarray(spec["center"], float)
+        mask &= np.hypot(p[..., 0] - c[0], p[..., 1] - c[1]) <= spec["radius"]
+    else:           # floor points whose segment to the light's mirror image crosses the mirror
+        corners = np.asarray(spec["corners"], float)
+        img = np.asarray(spec["light_image"], float)
+        n = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        n /= np.linalg.norm(n)
+        seg = img - p
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = ((corners[0] - p) @ n) / (seg @ n)
+        q = p + s[..., None] * seg
+        inside = (s > 0) & (s < 1)
+        for k in range(4):
+            a, b = corners[k], corners[(k + 1) % 4]
+            inside &= (np.cross(b - a, q - a) @ n) >= 0
+        # ... and the mirror does not hide the point from the camera
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tm = ((corners[0] - o) @ n) / (d @ n)
+        qm = o + tm[..., None] * d
+        hidden = (tm > 0) & (tm < t_floor)
+        for k in range(4):
+            a, b = corners[k], corners[(k + 1) % 4]
+            hidden &= (np.cross(b - a, qm - a) @ n) >= 0
+        mask &= inside & ~hidden
+    return mask
+
+
+def excluded_pixels(scene, name: str, w: int, h: int) -> np.ndarray:
+    """Pixels left out of every figure: those that see the bulb of the bulb box."""
+    if name != "bulb_box":
+        return np.zeros((h, w), bool)
+    o, d = camera_rays(scene, w, h)
+    # the bulb's radius is 0.15; a pixel margin keeps its anti-aliased edge out too
+    return np.isfinite(_sphere_t(o, d, BULB_CENTER, 0.15 + 1.5 * 2.0 / w))
