@@ -1,5 +1,6 @@
 """Pass times and a correctness check on a lent GPU (docs/BENCHMARKS.md, "On a GPU"), without
-Blender: the array-built scenes of ppm_engine/oracle/procedural.py and ppm_engine/oracle/analytic.py.
+Blender: the array-built scenes of ppm_engine/oracle/procedural.py and
+ppm_engine/oracle/analytic.py.
 
     python docs/gpu_check.py OUT.json
 

@@ -355,7 +355,7 @@ pytest -m slow tests`.
 
 FOOTER = """## 8. Progressive radius update
 
-`kernels/progressive.cl` `ppm_update` equals the closed form N' = N + αM,
+`kernels/integrator/progressive.cl` `ppm_update` equals the closed form N' = N + αM,
 R' = R·√((N+αM)/(N+M)), τ' = (τ+Φ)·R'²/R² on random inputs to float32 precision
 (`test_kernels.py::test_progressive_update_equals_closed_form`), and radii never grow
 (`test_renderer.py::test_cornell_box_statistics_and_monotone_radii`).

@@ -6,8 +6,8 @@
  * instructions already) the names below are macros for overloads that compile to instructions:
  * each has the OpenCL definition (fmin and fmax keep the non-NaN argument, clamp is
  * fmin(fmax(x, lo), hi), mix is a + (b - a) t, isfinite is |x| <= FLT_MAX; the programs are
- * built without -cl-finite-math-only, which would fold that), and length and normalize fall back to the
- * library's scaled versions where the squared length is not a normal float.  Included first by
+ * built without -cl-finite-math-only, which would fold that), and length and normalize fall back to
+ * the library's scaled versions where the squared length is not a normal float.  Included first by
  * every program. */
 #ifndef PPM_BUILTINS_H
 #define PPM_BUILTINS_H

@@ -23,15 +23,16 @@ inline float rnd(uint *s) { return bits_unit(rng_next(s)); }
  * indirect_paths.h), as Cycles' default sampler draws them: the Sobol sequence with Owen
  * scrambling by hashing (Burley, "Practical Hash-based Owen Scrambling", JCGT 2020).  The
  * dimensions come in sets of four; each set is the 4D Sobol sequence (Joe & Kuo's direction
- * numbers for its first four dimensions, SOBOL_V: every dimension's first 2^m points stratify [0, 1)
- * into 2^m equal cells, the first two dimensions are a (0, 2)-sequence, the other pairs have
+ * numbers for its first four dimensions, SOBOL_V: every dimension's first 2^m points stratify [0,
+ * 1) into 2^m equal cells, the first two dimensions are a (0, 2)-sequence, the other pairs have
  * t <= 2), its pass index shuffled and each dimension's bits scrambled with seeds hashed from
  * the pixel's key and the set: sets are independent of each other (padding), pixels of each
  * other, and every pass's sample is uniform (the estimate stays unbiased).  Over the passes a
  * pixel's samples stay stratified in every dimension and pair of its set: the share of its
  * light samples in a soft shadow, or of its paths that survive Russian roulette, follows the
  * probability closely.  It replaced Weyl sequences of square roots of primes (rotated per
- * pixel), whose error fell more slowly than 1/sqrt(N) after a few hundred passes (docs/BENCHMARKS.md). */
+ * pixel), whose error fell more slowly than 1/sqrt(N) after a few hundred passes
+ * (docs/BENCHMARKS.md). */
 #define LD_SETS 24          /* 12 vertices of two sets (indirect_paths.h) */
 /* SOBOL_V[d - 1][i]: the direction number of bit i of the index in dimension d = 1, 2, 3, its
  * bits reversed (dimension 0, the van der Corput sequence, is the index's bits reversed): the

@@ -1,5 +1,5 @@
-"""The closures (kernels/closure.h, microfacet.h, shader.h) on their own: sampling agrees with
-evaluation (the sampled directions' histogram against the pdf, chi-square; each sample's weight
+"""The closures (kernels/closure/closure.h, microfacet.h, shader.h) on their own: sampling agrees
+with evaluation (the sampled directions' histogram against the pdf, chi-square; each sample's weight
 equal to f cos / pdf), white furnaces (a closure's albedo by its own samples), the Principled
 BSDF's layering, and the shading tables (layout, known values, a recomputation)."""
 import math
@@ -59,7 +59,7 @@ class Shading:
                                  shading_tables=up(st.load(), "t"),
                                  uvs=up(np.zeros(6, np.float32), "uv"),
                                  tangents=up(tangent, "tangents"))
-        self.prog = device.programs.get("closure_test.cl", defines)
+        self.prog = device.programs.get("test/closure_test.cl", defines)
 
     def sample(self, mat, wi, n, seed=1, mask=MASK_ALL):
         q = self.device.queue
@@ -141,9 +141,10 @@ def test_ggx_albedo_table_known_values():
 
 
 def test_shipped_ggx_tables_match_a_recomputation(device):
-    """The tables in the package data are what kernels/precompute.cl computes (fewer samples
+    """The tables in the package data are what kernels/closure/precompute.cl computes (fewer samples
     here: within their noise)."""
-    fresh = make_shading_tables.compute(device, ["ggx_E", "glass_E", "schlick_ior_s"], samples=1 << 12)
+    fresh = make_shading_tables.compute(device, ["ggx_E", "glass_E", "schlick_ior_s"],
+                                        samples=1 << 12)
     shipped = st.unpack(st.load())
     for name, a in fresh.items():
         np.testing.assert_allclose(a, shipped[name], atol=6e-3, err_msg=name)
@@ -346,11 +347,11 @@ def test_principled_layers_as_cycles_orders_them(device):
 
 @pytest.mark.parametrize("caustic_roughness", [None, 0.2])
 def test_closures_split_into_gathered_glossy_and_caustic(device, caustic_roughness):
-    """Whose each closure's light is (kernels/shader.h): diffuse closures and lobes at least
+    """Whose each closure's light is (kernels/closure/shader.h): diffuse closures and lobes at least
     PPM_GATHER_ROUGHNESS (0.7) rough are gathered; the followed glossy reflections at least
     PPM_CAUSTIC_ROUGHNESS rough (here 0.2; by default the gather's roughness: none) are the eye
-    paths' (next-event estimation through them, kernels/indirect_paths.h); mirrors, smoother
-    reflections and every refraction below the gather's roughness make caustic photons."""
+    paths' (next-event estimation through them, kernels/integrator/indirect_paths.h); mirrors,
+    smoother reflections and every refraction below the gather's roughness make caustic photons."""
     mats = [[dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.3)],
             [dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.1)],
             [dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.8)],

@@ -28,7 +28,7 @@ def direct_light(scene, pts, nrm, samples):
     r = Renderer(scene, RenderOptions(max_bounces=0))
     dev, n = r.device, len(pts)
     out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * n)
-    k = dev.programs.get("debug.cl").launch("direct_light_at", "test")
+    k = dev.programs.get("test/debug.cl").launch("direct_light_at", "test")
     k(dev.queue, n, SHADING_GROUP, **r.scene.args, points=dev.upload(pts, "p"),
       nrm=dev.upload(nrm, "n"), n_samples=np.int32(samples), out=out, n=np.uint32(n))
     got = np.empty((n, 4), np.float32)
@@ -62,7 +62,7 @@ def test_grazing_emitter_does_not_shadow_itself():
 
 def emitter_picks(r, pts, nrm, n_u):
     """Next-event estimation's pick at points pts (normals nrm, float4 rows) from n_u
-    stratified numbers (kernels/debug.cl emitter_pick_at), on renderer r's scene: per point and
+    stratified numbers (kernels/test/debug.cl emitter_pick_at), on renderer r's scene: per point and
     emitter, "counts" how often it was picked, "pmf" the probability the pick returned (-1:
     never picked) and "table" the one the MIS of a ray that finds it uses."""
     import pyopencl as cl
@@ -70,7 +70,7 @@ def emitter_picks(r, pts, nrm, n_u):
     m = int(r.scene.emitters.info["n_emitters"][0])
     bufs = {k: cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 4 * n * m)
             for k in ("counts", "pmf", "table")}
-    k = dev.programs.get("debug.cl").launch("emitter_pick_at", "test")
+    k = dev.programs.get("test/debug.cl").launch("emitter_pick_at", "test")
     k(dev.queue, n, SHADING_GROUP, **r.scene.args, points=dev.upload(pts, "p"),
       nrm=dev.upload(nrm, "n"), n_u=np.uint32(n_u), **bufs, n=np.uint32(n))
     got = {}

@@ -1,5 +1,5 @@
-"""The exact-geometry reference of point_caustic (ppm_engine/tools/bench/exact_caustic.py): its pixel
-filter, camera and dielectric against closed forms, its light-traced direct light against the
+"""The exact-geometry reference of point_caustic (ppm_engine/tools/bench/exact_caustic.py): its
+pixel filter, camera and dielectric against closed forms, its light-traced direct light against the
 closed form of a point light on a Lambertian plane and against its own closed form (which
 renders the direct light since 2026-11-27), the split of the light between the two, and the
 point light's intensity convention (P / (4 pi) W/sr per watt) against Cycles."""

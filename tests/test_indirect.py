@@ -1,6 +1,6 @@
 """The two estimators of indirect light (RenderOptions.indirect): the paper's photons for every
-bounce, and eye paths with photons for caustics only (kernels/indirect_paths.h).  They split the
-light paths differently, so on the same scene they must agree (no path counted twice or
+bounce, and eye paths with photons for caustics only (kernels/integrator/indirect_paths.h).  They
+split the light paths differently, so on the same scene they must agree (no path counted twice or
 missed), and "auto" must choose by the scene's share of caustic first scatterings."""
 import numpy as np
 import pytest
@@ -233,7 +233,7 @@ def _ld_sets(keys, passes, first_pass=0, set_index=0):
     mf = cl.mem_flags
     kb = cl.Buffer(dev.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=keys)
     ob = cl.Buffer(dev.context, mf.WRITE_ONLY, out.nbytes)
-    dev.programs.get("debug.cl").ld_sets(dev.queue, (out.shape[0],), None, kb,
+    dev.programs.get("test/debug.cl").ld_sets(dev.queue, (out.shape[0],), None, kb,
                                          np.uint32(len(keys)), np.uint32(passes),
                                          np.uint32(first_pass), np.uint32(set_index), ob)
     cl.enqueue_copy(dev.queue, out, ob)

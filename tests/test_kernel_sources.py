@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
-KERNEL_FILES = sorted(f for f in KERNELS.iterdir() if f.suffix in (".h", ".cl"))
+KERNEL_FILES = sorted(f for f in KERNELS.rglob("*") if f.suffix in (".h", ".cl"))
 MAX_PARAMS = 12
 
 
@@ -77,7 +77,8 @@ def test_no_helper_takes_more_than_twelve_parameters():
     assert not too_many, too_many
 
 
-HEADERS = sorted(f.name for f in KERNELS.glob("*.h"))
+# as a program includes them: their path from kernels/ (the one -I folder)
+HEADERS = sorted(f.relative_to(KERNELS).as_posix() for f in KERNELS.rglob("*.h"))
 
 
 @pytest.fixture(scope="module")
@@ -123,6 +124,6 @@ def test_kernels_are_formatted():
 def test_every_program_includes_the_inline_builtins_first():
     """kernels/builtins.h names PoCL's out-of-line builtins by macros for inline overloads: a
     program that includes anything before it would call the library's in the code before."""
-    for f in sorted(KERNELS.glob("*.cl")):
+    for f in sorted(KERNELS.rglob("*.cl")):
         first = re.search(r'^#include\s+"([^"]+)"', f.read_text(), re.M)
         assert first and first.group(1) == "builtins.h", f.name

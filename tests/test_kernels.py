@@ -1,4 +1,5 @@
-"""Every kernel against the NumPy reference (ppm_engine/oracle/reference.py), on every OpenCL device."""
+"""Every kernel against the NumPy reference (ppm_engine/oracle/reference.py), on every OpenCL
+device."""
 import numpy as np
 import pytest
 
@@ -41,7 +42,7 @@ def _read(dev, buf, shape, dtype):
 
 def test_struct_layouts_match_dtypes(device):
     out = cl.Buffer(device.context, cl.mem_flags.WRITE_ONLY, 4 * 8)
-    device.programs.get("debug.cl").struct_sizes(device.queue, (1,), None, out)
+    device.programs.get("test/debug.cl").struct_sizes(device.queue, (1,), None, out)
     sizes = _read(device, out, 8, np.uint32)[:5]
     assert list(sizes) == [LIGHT_DTYPE.itemsize, CAMERA_DTYPE.itemsize, KMATERIAL_DTYPE.itemsize,
                            EMITTER_INFO_DTYPE.itemsize, GRID_DTYPE.itemsize]
@@ -65,7 +66,7 @@ def _trace(device, bvh, o, d, tmax, any_hit=False, mask=0xFFFFFFFF):
     ob = _upload(device, np.c_[o, np.zeros(n)].astype(np.float32))
     db = _upload(device, np.c_[d, tmax].astype(np.float32))
     hits = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n)
-    device.programs.get("debug.cl").launch("trace_rays", "test")(
+    device.programs.get("test/debug.cl").launch("trace_rays", "test")(
         device.queue, n, **placeholders(device, **bvh.args), origins=ob, dirs=db,
         mask=np.uint32(mask), any_hit=np.int32(any_hit), hits=hits, n=np.uint32(n))
     h = _read(device, hits, (n, 4), np.float32)
@@ -378,7 +379,7 @@ def test_progressive_update_equals_closed_form(device):
     vp_pos = _upload(device, np.c_[np.zeros((n, 3)), valid].astype(np.float32))
     bufs = dict(beta=_upload(device, f4(beta)), g=_upload(device, np.c_[phi, M].astype(np.float32)),
                 R=_upload(device, R), N=_upload(device, N), tau=_upload(device, f4(tau)))
-    device.programs.get("progressive.cl").progressive_update(
+    device.programs.get("integrator/progressive.cl").progressive_update(
         device.queue, (n,), None, vp_pos, bufs["beta"], bufs["g"], bufs["R"], bufs["N"],
         bufs["tau"], np.float32(alpha), np.uint32(n))
     M_eff = np.where(valid > 0, M, 0)
@@ -404,7 +405,7 @@ def test_counter_table_matches_the_kernel_header():
 def _debug_run(device, kernel, n, inputs, out_shape, out_dtype=np.float32):
     bufs = [_upload(device, a) for a in inputs]
     out = cl.Buffer(device.context, cl.mem_flags.WRITE_ONLY, int(np.prod(out_shape)) * 4)
-    getattr(device.programs.get("debug.cl"), kernel)(device.queue, (n,), None, *bufs,
+    getattr(device.programs.get("test/debug.cl"), kernel)(device.queue, (n,), None, *bufs,
                                                         np.uint32(n), out)
     return _read(device, out, out_shape, out_dtype)
 

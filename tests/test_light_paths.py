@@ -211,8 +211,9 @@ def test_clamping_as_cycles(name, bpy, tmp_path, render_exr, tiny):
     """Clamp Direct and Clamp Indirect against Cycles with the same clamp, per 8 x 8 block
     within 7 %: eye-path samples are clamped as Cycles clamps its samples; a photon as the
     camera path that finds its light would be (its radiance, the visible point's sample weight,
-    and next-event estimation's density at the light's first scattering: kernels/gather.cl),
-    which matches Cycles' clamped mean without being its sample for sample."""
+    and next-event estimation's density at the light's first scattering:
+    kernels/integrator/gather.cl), which matches Cycles' clamped mean without being its sample for
+    sample."""
     _setting_agrees(bpy, tmp_path, render_exr, tiny, *CLAMPS[name], 0.07)
 
 
@@ -230,5 +231,5 @@ CAUSTICS = {
 def test_caustics_toggles_as_cycles(name, bpy, tmp_path, render_exr, tiny):
     """Reflective and Refractive Caustics off against Cycles, per 8 x 8 block within 6 %: a
     glossy reflection or transmission right after a diffuse bounce is not made, by the eye
-    paths (shader.h shader_caustics_off) nor by photons (light_path.h path_caustic_off)."""
+    paths (shader.h shader_caustics_off) nor by photons (path_state.h path_caustic_off)."""
     _setting_agrees(bpy, tmp_path, render_exr, tiny, *CAUSTICS[name], 0.06)

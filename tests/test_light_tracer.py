@@ -1,6 +1,7 @@
-"""Light tracing (ppm_engine/render/light_tracer.py, kernels/light_trace.cl), the benchmark's independent
-reference for the caustic scenes: the same image as Cycles where both converge (the Cornell box,
-per 8x8 block), the pixels it cannot render left out, and the pixel filter's density."""
+"""Light tracing (ppm_engine/render/light_tracer.py, kernels/integrator/light_trace.cl), the
+benchmark's independent reference for the caustic scenes: the same image as Cycles where both
+converge (the Cornell box, per 8x8 block), the pixels it cannot render left out, and the pixel
+filter's density."""
 import numpy as np
 import pytest
 

@@ -1,9 +1,9 @@
-"""The photons' light tracing (kernels/photon_pass.cl connect_camera): every stored photon is
-also connected to the camera, and the connection and the merge at a visible point the camera
-sees directly share the paths by the balance heuristic (kernels/camera_connect.h
-merge_factor, kernels/eye_pass.cl).  Against the exact answer of the analytic mirror caustic
-(ppm_engine/oracle/analytic.py: the image source), with the two strategies sharing the light in
-proportions that make a missing or doubled weight show."""
+"""The photons' light tracing (kernels/integrator/photon_pass.cl connect_camera): every stored
+photon is also connected to the camera, and the connection and the merge at a visible point the
+camera sees directly share the paths by the balance heuristic (kernels/integrator/camera_connect.h
+merge_factor, kernels/integrator/eye_pass.cl).  Against the exact answer of the analytic mirror
+caustic (ppm_engine/oracle/analytic.py: the image source), with the two strategies sharing the light
+in proportions that make a missing or doubled weight show."""
 import numpy as np
 import pytest
 

@@ -1,7 +1,7 @@
-"""The light tree (ppm_engine/scene/light_tree.py, kernels/light_tree.h): its build (every node
-bounds its emitters), and next-event estimation's pick through it on the device held to a
+"""The light tree (ppm_engine/scene/light_tree.py, kernels/light/light_tree.h): its build (every
+node bounds its emitters), and next-event estimation's pick through it on the device held to a
 float64 reference of the same importance, with the frequencies of the pick, the pmf it
-returns, and the pmf the MIS of a ray that finds the emitter uses (kernels/debug.cl
+returns, and the pmf the MIS of a ray that finds the emitter uses (kernels/test/debug.cl
 emitter_pick_at)."""
 import sys
 from pathlib import Path

@@ -29,9 +29,10 @@ def test_zip_holds_the_add_on_and_no_tooling(tmp_path):
     names = set(zipfile.ZipFile(zip_path).namelist())
     assert {"__init__.py", "blender_manifest.toml", "ppm_engine/__init__.py",
             "ppm_engine/blender/engine.py", "ppm_engine/render/passes/eye.py"} <= names
-    kernels = {f"kernels/{p.name}" for p in (REPO / "kernels").iterdir()
+    kernels = {p.relative_to(REPO).as_posix() for p in (REPO / "kernels").rglob("*")
                if p.suffix in (".cl", ".h")}
-    assert kernels and kernels <= names
+    shipped = {k for k in kernels if not k.startswith("kernels/test/")}  # test-only kernels
+    assert shipped and shipped <= names and not kernels - shipped & names
     modules = {n for n in names if n.endswith(".py")}
     source = {p.relative_to(REPO).as_posix() for p in (REPO / "ppm_engine").rglob("*.py")}
     tooling = {n for n in source if n.startswith("ppm_engine/tools/bench/")
@@ -55,7 +56,7 @@ def test_linux_zip_installs_enables_and_renders(tmp_path):
                            "--local-dir", str(repo), str(zips[0])], capture_output=True, text=True)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0 and "ERROR" not in out, out
-    assert (repo / "ppm_engine" / "kernels" / "gather.cl").is_file()
+    assert (repo / "ppm_engine" / "kernels" / "integrator" / "gather.cl").is_file()
 
     home = tmp_path / "home"
     home.mkdir()

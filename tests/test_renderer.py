@@ -157,9 +157,9 @@ def test_kernel_build_failure_carries_the_compiler_log():
     from ppm_engine.render.device import get_device
     dev = get_device()
     with pytest.raises(KernelBuildError) as e:
-        dev.programs.get("gather.cl", {"PPM_INT64_ATOMICS": True, "uint": "float"})
+        dev.programs.get("integrator/gather.cl", {"PPM_INT64_ATOMICS": True, "uint": "float"})
     msg = str(e.value)
-    assert "kernels/gather.cl" in msg and "error:" in msg     # the compiler log itself
+    assert "kernels/integrator/gather.cl" in msg and "error:" in msg     # the compiler log itself
 
 
 def test_pixel_filter_table_samples_cycles_blackman_harris():

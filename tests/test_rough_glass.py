@@ -6,7 +6,7 @@ visible point, the photons arriving from inside) or eye paths do, per sphere aga
 Photons scatter with the closures set up for the direction they arrive from, while a camera
 path meeting the same two directions comes from the other end.  Cycles' multiple-scattering
 compensation (1 / E of the view, with E from inside a dielectric far from E from outside) makes
-rough glass non-reciprocal, so photons need the adjoint factor (kernels/microfacet.h
+rough glass non-reciprocal, so photons need the adjoint factor (kernels/closure/microfacet.h
 microfacet_adjoint).  Without it the spheres below rendered at 0.41-0.61 of Cycles' radiance by
 photons (roughness 1.0 to 0.7) where eye paths gave 1.00.
 

@@ -1,5 +1,5 @@
-"""The node-graph compiler (ppm_engine/blender/export/shader_graph.py): constant folding, node groups
-inlined, a shared sub-graph evaluated once, an unsupported node warned once, a cycle cut, the
+"""The node-graph compiler (ppm_engine/blender/export/shader_graph.py): constant folding, node
+groups inlined, a shared sub-graph evaluated once, an unsupported node warned once, a cycle cut, the
 program's layout and ops (shader_program.ops_used), a graph too large for the stack."""
 import numpy as np
 import pytest

@@ -1,8 +1,8 @@
-"""Photons on smooth-shaded low-poly meshes as Cycles renders them (kernels/photon_pass.cl,
-kernels/gather.cl): a cone of 16 sides with its base, smooth shaded, so that its normals lean
-up to 60 degrees from its faces near the base and the tip (the base's normals average in the
-base's), on a white floor under a sun, its indirect light by photons, per block against
-Cycles."""
+"""Photons on smooth-shaded low-poly meshes as Cycles renders them
+(kernels/integrator/photon_pass.cl, kernels/integrator/gather.cl): a cone of 16 sides with its base,
+smooth shaded, so that its normals lean up to 60 degrees from its faces near the base and the tip
+(the base's normals average in the base's), on a white floor under a sun, its indirect light by
+photons, per block against Cycles."""
 import math
 import sys
 from pathlib import Path
@@ -94,7 +94,7 @@ def _icosphere(bpy, offset):
 @pytest.mark.parametrize("offset", [0.1, 0.0])
 def test_the_shadow_terminator_offset_as_cycles(bpy, cycles, tiny, render_exr, tmp_path, offset):
     """A low-poly smooth sphere's terminator: the shadow ray leaves from the smooth surface its
-    normals describe (kernels/bvh.h terminator_lift) near the terminator, by the object's
+    normals describe (kernels/geom/bvh.h terminator_lift) near the terminator, by the object's
     Geometry Offset (Cycles' default 0.1); each 8 x 8 block within 3 % of Cycles (256
     samples, direct light) plus a small absolute margin for the dark side.  Without it the
     image's mean was 4 % below Cycles' at the default (the two Cycles settings differ by 4 %)."""

@@ -11,13 +11,14 @@ import pytest
 from ppm_engine.tools import shared_header
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
-KERNEL_FILES = sorted(f for f in KERNELS.iterdir() if f.suffix in (".h", ".cl"))
+KERNEL_FILES = sorted(f for f in KERNELS.rglob("*") if f.suffix in (".h", ".cl"))
 GENERATED = (shared_header.HEADER, shared_header.SVM_HEADER)
 PKG = Path(__file__).resolve().parents[1] / "ppm_engine"
 
 
 def test_the_headers_are_current():
-    """Fails after a change to a Python table until `python -m ppm_engine.tools.shared_header` ran."""
+    """Fails after a change to a Python table until `python -m ppm_engine.tools.shared_header`
+    ran."""
     generated = shared_header.generate_all()
     assert set(generated) == set(GENERATED)
     for name, text in generated.items():

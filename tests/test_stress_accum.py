@@ -164,12 +164,12 @@ def test_photon_term_does_not_drift_long(device, fp64):
 
 @pytest.mark.parametrize("fp64", [True, False], ids=["fp64", "kahan"])
 def test_global_radius_schedule_is_its_sequence_whatever_the_samples(device, fp64):
-    """RenderOptions.radius_schedule "global" (Knaus & Zwicker's, kernels/progressive.cl): a
-    pixel's radius after its k-th active pass is R_1 sqrt(prod_{j<=k} (j + alpha) / (j + 1)),
-    whether its visible points found photons, found none or missed the scene; a pixel stops
-    shrinking while it is inactive (adaptive sampling) and goes on from its own count.  The
-    photon term is still each pass's Phi / R_k^2 at that pass's radius, and N the photons
-    gathered: brute force in float64 over random passes."""
+    """RenderOptions.radius_schedule "global" (Knaus & Zwicker's,
+    kernels/integrator/progressive.cl): a pixel's radius after its k-th active pass is R_1
+    sqrt(prod_{j<=k} (j + alpha) / (j + 1)), whether its visible points found photons, found none or
+    missed the scene; a pixel stops shrinking while it is inactive (adaptive sampling) and goes on
+    from its own count.  The photon term is still each pass's Phi / R_k^2 at that pass's radius, and
+    N the photons gathered: brute force in float64 over random passes."""
     import pyopencl as cl
 
     from ppm_engine.render.film import Film

@@ -118,7 +118,7 @@ def test_external_image_file_and_a_missing_one(tmp_path):
 
 
 def _bilinear(tex, uv):
-    """NumPy reference of kernels/textures.h texture_rgb (REPEAT, Linear)."""
+    """NumPy reference of kernels/svm/textures.h texture_rgb (REPEAT, Linear)."""
     h, w = tex.shape[:2]
     x, y = uv[..., 0] * w - 0.5, uv[..., 1] * h - 0.5
     x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)

@@ -45,8 +45,11 @@ def test_wheel_holds_every_subpackage_and_the_kernels(wheel):
     for init in (REPO / "ppm_engine").rglob("__init__.py"):
         rel = init.relative_to(REPO).as_posix()
         assert rel in names, f"{rel} is missing from the wheel (pyproject.toml packages)"
-    kernels = sorted(p.name for p in (REPO / "kernels").iterdir() if p.suffix in (".cl", ".h"))
-    assert kernels and all(f"ppm_engine/kernels/{k}" in names for k in kernels)
+    kernels = sorted(p.relative_to(REPO / "kernels").as_posix()
+                     for p in (REPO / "kernels").rglob("*") if p.suffix in (".cl", ".h"))
+    shipped = [k for k in kernels if not k.startswith("test/")]     # test-only kernels stay out
+    assert shipped and all(f"ppm_engine/kernels/{k}" in names for k in shipped)
+    assert not any(n.startswith("ppm_engine/kernels/test/") for n in names)
     assert "ppm_engine/data/shading_tables.npz" in names         # the closures' tables
     assert not any(n.startswith(("tests/", "docs/", "kernels/")) for n in names)
 

@@ -130,7 +130,7 @@ def test_map_sampling_follows_the_map_and_its_density_integrates_to_one():
     from ppm_engine.render.world_map import direction_to_uv, map_pdf
     dev, m = _map_device()
     n = 1 << 18
-    prog = dev.programs.get("world_map.cl", {})
+    prog = dev.programs.get("light/world_map.cl", {})
     dirs, again = dev.buffer(16 * n, "dirs"), dev.buffer(4 * n, "pdf")
     prog.launch("world_sample_test", "test")(
         dev.queue, n, map=dev.upload(m.buffer, "map"), w=np.int32(m.width),
@@ -273,10 +273,10 @@ def test_constant_world_renders_as_before():
     6f8d7a4, same seed) and again when photons took the adjoint of shading normals and the
     gather's disc the face's plane (docs/SHADING.md "Photons on smooth-shaded meshes"): only
     the 16 x 8 glass sphere and its caustic changed then, the image's mean by 0.05 %; and again
-    when the photons were also light-traced to the camera (kernels/photon_pass.cl
+    when the photons were also light-traced to the camera (kernels/integrator/photon_pass.cl
     connect_camera): the photons' noise in four passes changed, the mean by 0.16 %; and again
     when the eye pass drew its camera positions and choices from the pixel's Sobol sets
-    (kernels/eye_pass.cl): four passes' samples changed, the mean by 0.6 %."""
+    (kernels/integrator/eye_pass.cl): four passes' samples changed, the mean by 0.6 %."""
     from ppm_engine.render.options import RenderOptions
     from ppm_engine.render.renderer import Renderer
     before = np.load(Path(__file__).parent / "data" / "constant_world.npy")

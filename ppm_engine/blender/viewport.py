@@ -4,8 +4,8 @@
     view_draw(context, depsgraph)   -> view_camera(...) compared -> session.update_view
                                      -> draw_frame(...) (the only gpu calls) -> header stats
 
-The rendering is ppm_engine.render.viewport_session.ViewportSession's worker thread; nothing here waits for
-it.  Everything but ``draw_frame`` runs headless and is tested with real depsgraphs
+The rendering is ppm_engine.render.viewport_session.ViewportSession's worker thread; nothing here
+waits for it.  Everything but ``draw_frame`` runs headless and is tested with real depsgraphs
 (tests/test_viewport.py); ``draw_frame`` cannot be (bpy's gpu module refuses every call in
 background mode), so it is kept to the few calls Blender's documentation shows for a render
 engine's viewport (bpy.types.RenderEngine's example: a GPUTexture of the float image drawn

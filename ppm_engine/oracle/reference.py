@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-# the gather's acceptance rules (kernels/gather.cl)
+# the gather's acceptance rules (kernels/integrator/gather.cl)
 from ppm_engine.render.passes.gather import DISC_HALF_THICKNESS, NORMAL_COS_MIN
 
 
@@ -42,7 +42,8 @@ def closest_hits(origins, dirs, tmax, tris, chunk=256):
     return best_t, best_i
 
 
-# --- the hash (bit-exact with kernels/rng.h and kernels/hash.h) ------------------------------
+# --- the hash (bit-exact with kernels/rng.h and kernels/integrator/hash.h)
+# ------------------------------
 def pcg_hash(v):
     v = np.asarray(v, np.uint32)
     with np.errstate(over="ignore"):
@@ -88,7 +89,7 @@ def gather_exact(vp_pos, vp_nrm, radius, ph_pos, ph_nrm, ph_wi, ph_flux):
 
 
 def ppm_update(alpha, M, phi, N, R, tau):
-    """Closed form of the progressive update (kernels/progressive.cl ppm_update)."""
+    """Closed form of the progressive update (kernels/integrator/progressive.cl ppm_update)."""
     M, N, R = (np.asarray(a, np.float64) for a in (M, N, R))
     tau, phi = np.asarray(tau, np.float64), np.asarray(phi, np.float64)
     active = M > 0
@@ -99,7 +100,7 @@ def ppm_update(alpha, M, phi, N, R, tau):
 
 
 def pack_unit(n):
-    """Octahedral packing of unit vectors into uint32 (kernels/geometry.h pack_unit)."""
+    """Octahedral packing of unit vectors into uint32 (kernels/geom/geometry.h pack_unit)."""
     n = np.asarray(n, np.float32)
     n = n / np.abs(n).sum(axis=-1, keepdims=True)
     x, y, z = n[..., 0], n[..., 1], n[..., 2]

@@ -1,4 +1,4 @@
-"""The BVH over all triangles, built data-parallel on the device (kernels/bvh_build.cl): Morton
+"""The BVH over all triangles, built data-parallel on the device (kernels/geom/bvh_build.cl): Morton
 codes sorted with pyopencl's RadixSort, then PLOC (Meister & Bittner 2018, the default: nearest
 neighbours merged bottom-up) or Karras' LBVH hierarchy, bottom-up boxes, packed nodes; refitted
 in place when only positions change."""
@@ -13,7 +13,7 @@ from ppm_engine.scene.arrays import SceneArrays
 
 
 class BVH:
-    """Device buffers ``nodes``, ``tri_v0``, ``tri_e1``, ``tri_e2`` (layout: kernels/bvh.h) and
+    """Device buffers ``nodes``, ``tri_v0``, ``tri_e1``, ``tri_e2`` (layout: kernels/geom/bvh.h) and
     ``leaf_order`` (host copy: original triangle index of each leaf)."""
 
     def __init__(self, device, scene: SceneArrays, method: str = "ploc"):
@@ -26,7 +26,7 @@ class BVH:
         q = device.queue
         n = scene.n_triangles
         self.n_triangles = n
-        prog = self.prog = device.programs.get("bvh_build.cl")
+        prog = self.prog = device.programs.get("geom/bvh_build.cl")
         self._scene = scene
         self.cost = self.built_cost = 1.0
         ntri = max(n, 1)
@@ -101,7 +101,7 @@ class BVH:
                     tri_e2=self.tri_e2)
 
     def _ploc(self, pos, n: int) -> None:
-        """PLOC over the Morton-sorted leaves (kernels/bvh_build.cl): rounds of nearest
+        """PLOC over the Morton-sorted leaves (kernels/geom/bvh_build.cl): rounds of nearest
         neighbours in a window, mutual pairs merged, survivors compacted by a pyopencl scan."""
         import pyopencl as cl
         device, q, prog = self.device, self.device.queue, self.prog

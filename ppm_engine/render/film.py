@@ -23,10 +23,10 @@ class Film:
     noise) and whether it is still sampled; photons emitted in all on the host (a Python int).
 
     The sums are 32 bytes per pixel: double4 where the device has cl_khr_fp64, else a float4
-    sum and its Neumaier compensation (``fp64=False`` forces that path; kernels/progressive.cl).
-    A float32 sum would lose ~1e-5 of a constant pixel in 2,000 passes and ~1e-4 in 10,000
-    (docs/STABILITY.md).  The eye pass writes each pass's sample to ``direct_pass``; the
-    progressive update (passes/update.py) adds it to the sums.
+    sum and its Neumaier compensation (``fp64=False`` forces that path;
+    kernels/integrator/progressive.cl). A float32 sum would lose ~1e-5 of a constant pixel in
+    2,000 passes and ~1e-4 in 10,000 (docs/STABILITY.md).  The eye pass writes each pass's sample to
+    ``direct_pass``; the progressive update (passes/update.py) adds it to the sums.
 
     A pixel's photon term is (S / pi + its light tracing's sum) / the photons emitted while it
     was active, so a pixel that adaptive sampling stopped keeps its value while the others go
@@ -69,7 +69,8 @@ class Film:
             cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
         cl.enqueue_fill_buffer(device.queue, self.active, np.uint32(1), 0, 4 * n)
         self.photons_emitted = 0      # Python int: exact at any count
-        self.prog = device.programs.get("progressive.cl", {"PPM_FP64": True} if self.fp64 else {})
+        self.prog = device.programs.get("integrator/progressive.cl",
+                                        {"PPM_FP64": True} if self.fp64 else {})
 
     def enable_light_tracing(self) -> None:
         """Allocate (zeroed) the light tracing's per-pixel buffers: the render connects its

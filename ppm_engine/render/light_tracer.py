@@ -1,9 +1,9 @@
-"""Light tracing (kernels/light_trace.cl): an unbiased estimator independent of the photon map,
-for references (the benchmark's, where no Cycles estimator samples the light: a point light's
-caustic in a mirror).  Photons leave the emitters as in the photon pass and every non-singular
-vertex is connected to the pinhole camera, splatted through the scene's pixel filter.  It renders
-what the camera sees of surfaces it can evaluate directly (``coverage()``); not emitters seen
-directly, nor anything seen through mirrors or glass."""
+"""Light tracing (kernels/integrator/light_trace.cl): an unbiased estimator independent of the
+photon map, for references (the benchmark's, where no Cycles estimator samples the light: a point
+light's caustic in a mirror).  Photons leave the emitters as in the photon pass and every
+non-singular vertex is connected to the pinhole camera, splatted through the scene's pixel filter.
+It renders what the camera sees of surfaces it can evaluate directly (``coverage()``); not emitters
+seen directly, nor anything seen through mirrors or glass."""
 from __future__ import annotations
 
 import numpy as np
@@ -26,7 +26,7 @@ class LightTracer:
         self.device = dev = get_device(device)
         self.scene = DeviceScene(dev, scene)
         _, defines = self.scene.kernel_defines(True)
-        self.program = dev.programs.get("light_trace.cl", defines)
+        self.program = dev.programs.get("integrator/light_trace.cl", defines)
         self.kernel = self.program.launch("light_trace", "light trace")
         self.coverage_kernel = self.program.launch("lt_coverage", "coverage")
         cam = self.scene.scene.camera[0]

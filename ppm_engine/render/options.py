@@ -34,8 +34,9 @@ LIMITS = {
                         "adaptive sampling; 0 = off); the render ends when every pixel has"),
 }
 
-# The viewport's own settings (Rendered shading in the 3D view; ppm_engine/render/viewport_session.py), as
-# Cycles' viewport samples: name: (min, max, default, description)
+# The viewport's own settings (Rendered shading in the 3D view;
+# ppm_engine/render/viewport_session.py), as Cycles' viewport samples: name: (min, max, default,
+# description)
 VIEWPORT_LIMITS = {
     "viewport_passes": (1, 1_000_000, 1024,
                         "Passes of the viewport's Rendered shading (as Cycles' viewport "
@@ -61,7 +62,8 @@ AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
 # How indirect light is estimated (RenderOptions.indirect):
 #   "photons": the paper's SPPM, every bounce of indirect light from the photon map;
 #   "paths": eye paths continue from the visible points through diffuse bounces with next-event
-#            estimation (kernels/indirect_paths.h), photons only for caustics (the light paths
+#            estimation (kernels/integrator/indirect_paths.h), photons only for caustics (the light
+# paths
 #            whose first scattering is by a mirror, glass or a smooth glossy lobe);
 #   "auto": per scene, from a pilot of photons (Renderer.caustic_fraction): "photons" when most
 #           of the light's first scatterings are caustic ones (a bulb inside glass, a room lit
@@ -72,7 +74,7 @@ INDIRECT_MODES = ("auto", "photons", "paths")
 # measurement (docs/BENCHMARKS.md, "Light tracing")
 LIGHT_TRACING_KAPPA = 0.1
 # How each pixel's gather radius shrinks over the passes (RenderOptions.radius_schedule,
-# kernels/progressive.cl film_update):
+# kernels/integrator/progressive.cl film_update):
 #   "pixel": the paper's (Hachisuka & Jensen 2009), from the photons the pixel gathered;
 #   "global": Knaus & Zwicker 2011 (VCM's), R_k^2 = R_1^2 prod (j + alpha) / (j + 1), the same
 #             sequence for every pixel, independent of the samples (so any sampler may place the
@@ -123,8 +125,8 @@ class RenderOptions:
     skip_blind_light_tracing: bool = True   # False: photons are connected to the camera even
                                             # where no pixel sees what that renders
     # the photons' second strategy: each stored photon also connected to the camera (light
-    # tracing), combined with the merge by MIS (kernels/photon_pass.cl connect_camera); for a
-    # pinhole camera only
+    # tracing), combined with the merge by MIS (kernels/integrator/photon_pass.cl connect_camera);
+    # for a pinhole camera only
     light_tracing: bool = True
     # RADIUS_SCHEDULES; a setting to measure with (docs/BENCHMARKS.md, "The radius schedule")
     radius_schedule: str = "pixel"

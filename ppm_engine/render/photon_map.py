@@ -1,12 +1,12 @@
 """The photon map's storage: this pass's photons, the grid over the visible points and the
-stochastic spatial hash table (layout: kernels/hash.h), with host views for tests and
+stochastic spatial hash table (layout: kernels/integrator/hash.h), with host views for tests and
 statistics.  The passes that fill and read it: passes/photons.py, passes/hash_build.py,
 passes/gather.py."""
 from __future__ import annotations
 
 import numpy as np
 
-# the stochastic hash's grid, written on the device by grid_setup (kernels/hash_build.cl)
+# the stochastic hash's grid, written on the device by grid_setup (kernels/integrator/hash_build.cl)
 GRID_DTYPE = np.dtype([
     ("bmin", np.float32, 3),
     ("bmax", np.float32, 3),
@@ -40,14 +40,16 @@ class PhotonMap:
         self.capacity = int(capacity)
         self.ph_pos = dev.buffer(16 * self.capacity, "photon map")
         self.ph_flux = dev.buffer(16 * self.capacity, "photon map")
-        # the photon's bounces as the Light Paths limits count them (kernels/light_path.h) and
-        # the radiance its light path carries over its flux (the clamp; kernels/gather.cl);
-        # zero: no bounce, no clamp, what photons written by hand (tests, benchmarks) stand for
+        # the photon's bounces as the Light Paths limits count them
+        # (kernels/integrator/path_state.h) and the radiance its light path carries over its flux
+        # (the clamp; kernels/integrator/gather.cl); zero: no bounce, no clamp, what photons written
+        # by hand (tests, benchmarks) stand for
         self.ph_path = dev.buffer(8 * self.capacity, "photon map")
         import pyopencl as cl
         cl.enqueue_fill_buffer(dev.queue, self.ph_path, np.uint32(0), 0, 8 * self.capacity)
         self.table_size = next_pow2(self.capacity)
-        self.table = dev.buffer(16 * self.table_size, "hash table")   # layout: kernels/hash.h
+        self.table = dev.buffer(16 * self.table_size, "hash table")   # layout:
+                                                                      # kernels/integrator/hash.h
         if self.exact:
             self.sort_keys = dev.buffer(4 * self.capacity, "photon sort keys")
             self.sort_ids = dev.buffer(4 * self.capacity, "photon sort keys")

@@ -93,8 +93,8 @@ class Renderer:
         self.film.exposure = float(self.scene.scene.camera["exposure"][0])
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
         programs = dev.programs
-        self.eye = EyePass(self.scene, programs.get("eye_pass.cl", self.defines), self.film,
-                           self.vps, self.counters)
+        self.eye = EyePass(self.scene, programs.get("integrator/eye_pass.cl", self.defines),
+                           self.film, self.vps, self.counters)
         # the photon pass and the gather are built when first used: a scene whose indirect
         # light is all eye paths never compiles them (half of a new scene's kernel builds)
         self._photon_pass = self._gather = None
@@ -123,7 +123,7 @@ class Renderer:
         """The photon pass (photon_pass.cl for the scene's features), built on first use."""
         if self._photon_pass is None:
             self._photon_pass = PhotonPass(
-                self.scene, self.device.programs.get("photon_pass.cl", self.defines),
+                self.scene, self.device.programs.get("integrator/photon_pass.cl", self.defines),
                 self.photon_map, self.counters)
         return self._photon_pass
 

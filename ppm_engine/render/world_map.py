@@ -1,7 +1,7 @@
 """The world's importance map (Cycles' background map): the radiance of the world's shader
-program baked on the device at the texel centres of a lat-long map (kernels/world_map.cl),
+program baked on the device at the texel centres of a lat-long map (kernels/light/world_map.cl),
 then, on the host, the map's values f = mean(|rgb|) x sin(theta) and their 2-D CDF, which the
-kernels sample for next-event estimation and photon emission (kernels/world.h).  The density
+kernels sample for next-event estimation and photon emission (kernels/light/world.h).  The density
 of a direction is f / mean(f) in (u, v), over solid angle / (2 pi^2 sin(theta)); the world's
 power is pi R^2 x 2 pi^2 mean(f) (radiance over the sphere through a disc of radius R)."""
 from __future__ import annotations
@@ -42,7 +42,7 @@ class WorldMap:
     width: int
     height: int
     f: np.ndarray          # (h, w) float64 mean radiance x sin(theta) at the texel centres
-    buffer: np.ndarray     # float32: marginal CDF, row CDFs, f (kernels/world.h layout)
+    buffer: np.ndarray     # float32: marginal CDF, row CDFs, f (kernels/light/world.h layout)
     mean: float            # mean of f
 
     @property
@@ -86,7 +86,7 @@ def build_map(rgb: np.ndarray) -> WorldMap:
 
 
 def direction_to_uv(d: np.ndarray) -> np.ndarray:
-    """Cycles' equirectangular (u, v) of directions (n, 3) (kernels/svm.h)."""
+    """Cycles' equirectangular (u, v) of directions (n, 3) (kernels/svm/svm.h)."""
     d = d / np.linalg.norm(d, axis=-1, keepdims=True)
     return np.stack([0.5 - np.arctan2(d[..., 1], d[..., 0]) / (2 * np.pi),
                      1.0 - np.arccos(np.clip(d[..., 2], -1, 1)) / np.pi], -1)
@@ -98,7 +98,7 @@ def uv_to_direction(u, v) -> np.ndarray:
 
 
 def map_pdf(m: WorldMap, d: np.ndarray) -> np.ndarray:
-    """The map's density over solid angle of directions d (n, 3) (kernels/world.h)."""
+    """The map's density over solid angle of directions d (n, 3) (kernels/light/world.h)."""
     uv = direction_to_uv(d)
     j = np.clip(np.floor(uv[:, 0] * m.width).astype(int), 0, m.width - 1)
     i = np.clip(np.floor(uv[:, 1] * m.height).astype(int), 0, m.height - 1)
@@ -109,7 +109,7 @@ def map_pdf(m: WorldMap, d: np.ndarray) -> np.ndarray:
 
 
 def bake_defines(svm: np.ndarray, program: int) -> dict:
-    """-D flags of kernels/world_map.cl for the world's program."""
+    """-D flags of kernels/light/world_map.cl for the world's program."""
     ops = ops_used(svm, [program])
     return {"PPM_SPECIALIZED": True, "PPM_SVM": True, "PPM_SVM_OPS": ops_define(ops),
             "PPM_SVM_STACK": max(stack_used(svm, [program]), 1),
@@ -150,7 +150,7 @@ def bake(device, args: dict, svm: np.ndarray, program: int, width: int, height: 
     over the texel, sun_hint), evaluated on ``device``; ``args``: the scene's buffers by name
     (device_scene.SCENE_BUFFERS; the program reads svm and the textures)."""
     import pyopencl as cl
-    prog = device.programs.get("world_map.cl", bake_defines(svm, program))
+    prog = device.programs.get("light/world_map.cl", bake_defines(svm, program))
     kernel = prog.launch("world_bake", "world map")
     n = width * height
     out = device.buffer(16 * n, "world map")

@@ -238,7 +238,7 @@ class SceneArrays:
     texels: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 4), np.float16))
     # (T, 3, 3) float32 per-corner tangent directions, or (0, 3, 3) when no material is
     # anisotropic: the default tangent of anisotropic closures, Cycles' radial tangent around
-    # the object's Z axis (kernels/shader.h makes it orthogonal to the normal)
+    # the object's Z axis (kernels/closure/shader.h makes it orthogonal to the normal)
     tangents: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros((0, 3, 3), np.float32))
     # (T, 3, 4) float32 per-corner tangents of the UV map (Blender's MikkTSpace: direction and
@@ -259,7 +259,7 @@ class SceneArrays:
     objects: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros((0, 9, 4), np.float32))
     # (T,) float32 each triangle's object's Shadow Terminator > Geometry Offset (Cycles' object
-    # setting; kernels/bvh.h terminator_lift), or (0,) when every object has the default
+    # setting; kernels/geom/bvh.h terminator_lift), or (0,) when every object has the default
     terminator: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
     # (W, 4) int32 shader programs (ppm_engine/scene/shader_program.py); word 0 is never one
     svm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((1, 4), np.int32))

@@ -2,7 +2,7 @@
 scene lights, then emissive triangles, then the world; chosen in proportion to power, so dim
 lights get few photons and lights that cannot contribute are never sampled.  Next-event
 estimation keeps the emissive triangles' share of the table but, where there are at most eight
-of them, picks among them by the light each gives the shading point (kernels/light_mesh.h
+of them, picks among them by the light each gives the shading point (kernels/light/light_mesh.h
 pick_emitter_at)."""
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("world", np.float32, 3),
     ("scene_center", np.float32, 3),
     ("scene_radius", np.float32),
-    # the scale of the ray offsets (scene_prep.offset_scale; kernels/geometry.h offset_ray)
+    # the scale of the ray offsets (scene_prep.offset_scale; kernels/geom/geometry.h offset_ray)
     ("offset_scale", np.float32),
     ("world_program", np.int32),   # the world's program (SceneArrays.world_shader), 0 = none
     ("world_flags", np.int32),     # WORLD_HIDDEN_CAMERA
@@ -38,7 +38,7 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("map_h", np.int32),
     ("map_mean", np.float32),
     # few emissive triangles: their bounding ball, near which next-event estimation picks among
-    # them by their light at the point (kernels/light_mesh.h pick_emitter_at); radius 0: never
+    # them by their light at the point (kernels/light/light_mesh.h pick_emitter_at); radius 0: never
     ("local_center", np.float32, 3),
     ("local_radius", np.float32),
     # the light tree (light_tree.py) over more than LOCAL_PICK_MAX local emitters: its node
@@ -48,7 +48,7 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("n_suns", np.int32),          # suns among the lights
 ])
 
-# at most this many emissive triangles are picked among locally (kernels/light_mesh.h
+# at most this many emissive triangles are picked among locally (kernels/light/light_mesh.h
 # LOCAL_PICK_MAX, the size of its arrays)
 LOCAL_PICK_MAX = 8
 
@@ -79,7 +79,7 @@ def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray,
     """The light tree over the local emitters (lights other than suns, the emissive triangles
     whose corners tri_corners are in table order, of materials tri_materials) when there are
     more than LOCAL_PICK_MAX of them; fewer keep the power table and the local pick
-    (kernels/light_mesh.h).  So do emissive triangles of one material alone, with no light
+    (kernels/light/light_mesh.h).  So do emissive triangles of one material alone, with no light
     among the local emitters (a lamp, a sign, a closed emissive sphere): the tree's bound
     favours the emitters beside a shading point that lies on them, whose light there is
     grazing, and from the inside of the furnace's sphere it left 2.3x the power table's noise

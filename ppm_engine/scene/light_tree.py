@@ -5,7 +5,7 @@ their power, over the square of the distance, times the cosines the orientation 
 at the emitters and at the point (Estevez & Conty 2018, "Importance Sampling of Many Lights
 with Adaptive Tree Splitting"; the same idea as Cycles' kernel/light/tree.h).  The MIS of an
 emitter a ray finds walks up from its leaf and multiplies the same choices
-(kernels/light_tree.h).  Suns and the world stay in the power table (emitters.py): the tree
+(kernels/light/light_tree.h).  Suns and the world stay in the power table (emitters.py): the tree
 takes its members' share of the table's power, and the rest is picked by power as before.
 
 The tree is binary with one emitter per leaf (2 n - 1 nodes for n emitters), built level by
@@ -46,15 +46,15 @@ LIGHT_TREE_NODE_DTYPE = np.dtype([
 
 # a node whose ball is seen under sin^2 of its half angle below this picks among its emitters
 # by power (the tree's order keeps them contiguous) instead of descending: from that far the
-# importance of its parts is their power to within the angle (kernels/light_tree.h)
+# importance of its parts is their power to within the angle (kernels/light/light_tree.h)
 LIGHT_TREE_STOP = 0.01
 
 
 # the margin added to every orientation bound (rad)
 ANGLE_MARGIN = 1e-3
-# the kernels' traversal stack for rays (kernels/direct_light.h lights_seen) and the MIS's
-# path from a leaf (kernels/light_tree.h light_tree_pmf): the tree is at most 30 radix levels
-# deep (a 30-bit Morton code loses a bit per level) and then splits equal codes at their
+# the kernels' traversal stack for rays (kernels/integrator/direct_light.h lights_seen) and the
+# MIS's path from a leaf (kernels/light/light_tree.h light_tree_pmf): the tree is at most 30 radix
+# levels deep (a 30-bit Morton code loses a bit per level) and then splits equal codes at their
 # middle, so 2^32 emitters in one cell would need 63 (build_light_tree checks the depth)
 LIGHT_TREE_STACK = 64
 
@@ -175,7 +175,7 @@ def build_light_tree(lo: np.ndarray, hi: np.ndarray, axis: np.ndarray, theta_o: 
 
 
 def importance(nodes: np.ndarray, p, n) -> np.ndarray:
-    """Each node's importance at point p of normal n (kernels/light_tree.h
+    """Each node's importance at point p of normal n (kernels/light/light_tree.h
     light_tree_importance, in float64: the reference the tests hold the kernel to)."""
     p, n = np.asarray(p, np.float64), np.asarray(n, np.float64)
     lo, hi = nodes["bmin"].astype(np.float64), nodes["bmax"].astype(np.float64)
@@ -208,7 +208,7 @@ def pmf(nodes: np.ndarray, leaf_of_emitter: np.ndarray, p, n,
         sorted_energy: np.ndarray | None = None) -> np.ndarray:
     """The probability of each emitter's leaf (leaf_of_emitter: node indices) at p, normal n:
     the choices down the tree, and where the descent stops (sorted_energy given) the emitter's
-    power over its node's (kernels/light_tree.h light_tree_pmf)."""
+    power over its node's (kernels/light/light_tree.h light_tree_pmf)."""
     imp = importance(nodes, p, n)
     stop = stops(nodes, p) if sorted_energy is not None else np.zeros(nodes.shape[0], bool)
     prob = np.ones(nodes.shape[0])           # the probability of reaching each node

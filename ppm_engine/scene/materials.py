@@ -3,7 +3,7 @@ them: one header per material (its nodes, its constant emission for the emitter 
 pass must know before shading a hit) and the BSDF nodes with every input made finite; and what
 the nodes need of the kernels (features.py), e.g. the most closures one material can make.
 
-The closures themselves are made at each hit by kernels/shader.h, as Cycles makes them.
+The closures themselves are made at each hit by kernels/closure/shader.h, as Cycles makes them.
 """
 from __future__ import annotations
 
@@ -30,12 +30,13 @@ from ppm_engine.scene.shader_program import BOUND
 KMATERIAL_DTYPE = np.dtype([
     ("emission", np.float32, 3),   # emitted radiance of its emission closures, before textures
     ("flags", np.uint32),          # MAT_*
-    ("emission_tex", np.int32),    # 1-based texture of the emission (kernels/textures.h), 0 = none
+    ("emission_tex", np.int32),    # 1-based texture of the emission (kernels/svm/textures.h), 0 =
+                                   # none
     ("node_first", np.int32),      # its BSDF nodes: shader_nodes[node_first, + node_count)
     ("node_count", np.int32),
     ("absorption", np.float32, 3),  # absorption coefficient inside (per metre; glass only:
-                                    # kernels/medium.h)
-    ("program", np.int32),         # first word of its shader program in svm (kernels/svm.h),
+                                    # kernels/geom/medium.h)
+    ("program", np.int32),         # first word of its shader program in svm (kernels/svm/svm.h),
                                    # 0 = none
 ])
 MAT_EMISSIVE = 1          # constant emission > 0: an emitter
@@ -49,9 +50,9 @@ MAT_LAMBERT = 8           # one node making one Lambert closure: the shader's sh
 SINGULAR_ALPHA2 = 2e-10
 SINGULAR_ROUGHNESS = SINGULAR_ALPHA2 ** 0.25
 # closures whose sample weight is below this are not made (Cycles' CLOSURE_WEIGHT_CUTOFF); the
-# node inputs that make no closure below it (kernels/shader.h)
+# node inputs that make no closure below it (kernels/closure/shader.h)
 CLOSURE_WEIGHT_CUTOFF = 1e-5
-# closures of one material beyond this are dropped (kernels/shader_data.h PPM_MAX_CLOSURES)
+# closures of one material beyond this are dropped (kernels/closure/shader_data.h PPM_MAX_CLOSURES)
 MAX_CLOSURES = 16
 
 _FLOAT_DEFAULTS = {"weight": 0.0, "alpha": 1.0, "ior": 1.5, "coat_ior": 1.5,
@@ -148,8 +149,8 @@ def gather_capable(nodes: np.ndarray) -> np.ndarray:
 
 def follow_capable(nodes: np.ndarray, gather_roughness: float,
                    caustic_roughness: float = 0.7) -> np.ndarray:
-    """Per node: whether it can make a closure that makes caustics (kernels/shader.h): glass or
-    a refraction smoother than ``gather_roughness``, a glossy reflection smoother than
+    """Per node: whether it can make a closure that makes caustics (kernels/closure/shader.h): glass
+    or a refraction smoother than ``gather_roughness``, a glossy reflection smoother than
     ``caustic_roughness`` (rougher ones eye paths follow are the eye paths' light) and than
     ``gather_roughness``.  Transparency is no scattering and does not count."""
     t = nodes["type"]

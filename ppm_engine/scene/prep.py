@@ -112,7 +112,7 @@ def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
 
 def offset_scale(scene: SceneArrays) -> float:
     """A power of two near half the scene's largest extent (1 for the 2 m Cornell box): the
-    scale of the absolute ray offsets near the axis planes (kernels/geometry.h offset_ray)."""
+    scale of the absolute ray offsets near the axis planes (kernels/geom/geometry.h offset_ray)."""
     pos = scene.positions.reshape(-1, 3)
     if pos.shape[0] == 0:
         return 1.0

@@ -1,8 +1,8 @@
 """Shader programs: a material's node graph as a short list of instructions the kernels run at
-every hit (kernels/svm.h; the design Cycles calls SVM).  The exporter
+every hit (kernels/svm/svm.h; the design Cycles calls SVM).  The exporter
 (export/shader_graph.py) compiles each material's graph; this module holds what the exporter,
 the core and the kernels share: the op codes, the encoding, the BSDF node fields a program may
-drive, and the ops' arithmetic for constant folding (the same formulas as kernels/svm_nodes.h).
+drive, and the ops' arithmetic for constant folding (the same formulas as kernels/svm/svm_nodes.h).
 
 A program is a run of int4 words in ``SceneArrays.svm``; a material names its first word
 (MATERIAL_DTYPE ``program``, 0 = none: word 0 is never a program).  Layout::
@@ -22,13 +22,13 @@ import numpy as np
 
 from ppm_engine.scene.arrays import SHADER_NODE_DTYPE
 
-# --- op codes (kernels/svm.h SVM_*) -----------------------------------------------------------
+# --- op codes (kernels/svm/svm.h SVM_*) -----------------------------------------------------------
 SVM_END = 0
 SVM_CONST = 1          # (op, slot, n, 0) + (x, y, z, w) as float bits
 SVM_GEOMETRY = 2       # (op, slot, what, 0): GEOM_*
 SVM_IMAGE = 3          # (op, color_slot, alpha_slot, vector_slot) + (texture, unassociate,
 #                        IMAGE_PROJECTIONS, n) + (blend bits, normal slot, 0, 0) + n words of
-#                        UDIM tiles (tile, texture, tile, texture) (kernels/svm_image.h)
+#                        UDIM tiles (tile, texture, tile, texture) (kernels/svm/svm_image.h)
 SVM_MAPPING = 4        # (op, out, vector, type) + 3 words: the 3x4 matrix rows (float bits)
 SVM_MATH = 5           # (op, out, a, b) + (c, MATH_*, clamp, 0)
 SVM_VECTOR_MATH = 6    # (op, out_vector, a, b) + (c, VMATH_*, out_value, scale)
@@ -48,7 +48,7 @@ SVM_HSV = 17           # (op, out, color, fac) + (hue, saturation, value, 0)
 SVM_FRESNEL = 18       # (op, out, ior, 0)
 SVM_LAYER_WEIGHT = 19  # (op, out_fresnel, blend, out_facing)
 SVM_NORMAL_MAP = 20    # (op, out, color, strength) + (NORMAL_MAP_SPACES, 0, 0, 0)
-# Procedural textures (kernels/svm_textures.h).  An output slot of -1 is not written (the
+# Procedural textures (kernels/svm/svm_textures.h).  An output slot of -1 is not written (the
 # output is not linked); a float input is a pair of words at the same position in a "slots"
 # and a "values" word: its stack slot, or -1 and its constant's float bits.
 SVM_TEX_CHECKER = 21   # (op, color, fac, vector) + (color1, color2, scale slot, scale)
@@ -70,14 +70,14 @@ SVM_TEX_VORONOI = 28   # (op, distance, color, vector) + slots (w, scale, detail
 #                        + (dimensions, VORONOI_FEATURES, VORONOI_METRICS, normalize)
 #                        + (position, w out, radius, 0)
 SVM_TEX_LAST = 28
-SVM_BLACKBODY = 29     # (op, out, temperature, 0): kernels/svm_color.h
+SVM_BLACKBODY = 29     # (op, out, temperature, 0): kernels/svm/svm_color.h
 SVM_WAVELENGTH = 30    # (op, out, wavelength, 0)
 SVM_BUMP = 31          # (op, out, normal (-1: the shading normal), distance)
 #                        + (height at the centre, at offset 1, at offset 2, strength)
-#                        + (invert, filter width, 0, 0): the Bump node (kernels/svm_bump.h)
+#                        + (invert, filter width, 0, 0): the Bump node (kernels/svm/svm_bump.h)
 # (32-34: free)
 SVM_TEX_SKY = 35       # (op, color, vector, SKY_*) + (n, 0, 0, 0) + n words of float
-#                        parameters (kernels/svm_sky.h; export/sky.py)
+#                        parameters (kernels/svm/svm_sky.h; export/sky.py)
 SVM_OPS = 36           # op codes stay < 64 (PPM_SVM_OPS is a bitmask in a ulong)
 
 OP_NAMES = ("end", "const", "geometry", "image", "mapping", "math", "vector_math", "mix",
@@ -94,7 +94,7 @@ OP_EXTRA = {SVM_CONST: 1, SVM_IMAGE: 2, SVM_MAPPING: 3, SVM_MATH: 1, SVM_VECTOR_
             SVM_TEX_MAGIC: 3, SVM_TEX_WAVE: 5, SVM_TEX_BRICK: 6, SVM_TEX_VORONOI: 6,
             SVM_BUMP: 2, SVM_TEX_SKY: 1}   # (a sky's n parameter words follow)
 SKY_TYPES = {"PREETHAM": 0, "HOSEK_WILKIE": 1, "SINGLE_SCATTERING": 2,
-             "MULTIPLE_SCATTERING": 2}     # kernels/svm_sky.h SKY_*
+             "MULTIPLE_SCATTERING": 2}     # kernels/svm/svm_sky.h SKY_*
 assert len(OP_NAMES) == SVM_OPS <= 64
 # an Image Texture's projection (and the Environment Texture's equirectangular one)
 IMAGE_PROJECTIONS = {"FLAT": 0, "EQUIRECTANGULAR": 1, "BOX": 2, "SPHERE": 3, "TUBE": 4,
@@ -114,7 +114,8 @@ GEOM_OBJECT_COLOR = 10
 GEOM_OBJECT_ALPHA = 11     # (one float, as the three below)
 GEOM_OBJECT_INDEX = 12     # the object's pass index
 GEOM_OBJECT_RANDOM = 13
-GEOM_LIGHT_PATH = 14   # (op, slot, GEOM_LIGHT_PATH, output): one float (kernels/light_path.h)
+GEOM_LIGHT_PATH = 14   # (op, slot, GEOM_LIGHT_PATH, output): one float
+                       # (kernels/integrator/path_state.h)
 LIGHT_PATH_OUTPUTS = ("Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray",
                       "Is Singular Ray", "Is Reflection Ray", "Is Transmission Ray",
                       "Is Volume Scatter Ray", "Ray Length", "Ray Depth", "Diffuse Depth",
@@ -124,7 +125,7 @@ GEOM_ATTRIBUTE = 16    # + k: attribute k's colour or vector (SceneArrays.attrib
 GEOM_ATTRIBUTE_ALPHA = 24  # + k: attribute k's alpha
 MAX_ATTRIBUTES = 8     # distinct mesh attributes a scene's programs may read
 # what | GEOM_BUMP_OFFSET * k, with the op's last word the filter width's float bits: a
-# position-dependent input at the Bump node's offset k = 1, 2 (kernels/svm_bump.h)
+# position-dependent input at the Bump node's offset k = 1, 2 (kernels/svm/svm_bump.h)
 GEOM_BUMP_OFFSET = 256
 
 COLOR_RGB_TO_HSV, COLOR_HSV_TO_RGB, COLOR_RGB_TO_HSL, COLOR_HSL_TO_RGB = 0, 1, 2, 3
@@ -133,7 +134,7 @@ MIXF_CLAMP_FACTOR, MIXF_CLAMP_RESULT, MIXF_SCALAR, MIXF_VECTOR_FACTOR = 1, 2, 4,
 TABLE_SCALAR, TABLE_RGB, TABLE_VECTOR = 0, 1, 2   # ramp/float curve, RGB curves, vector curves
 TABLE_SIZE = 257     # entries of a baked ramp or curve: Cycles' RAMP_TABLE_SIZE + 1, at i / 256
 
-# Math node operations (Blender's enum names; kernels/svm_nodes.h MATH_*)
+# Math node operations (Blender's enum names; kernels/svm/svm_nodes.h MATH_*)
 MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM",
             "SQRT", "INVERSE_SQRT", "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN",
             "GREATER_THAN", "SIGN", "COMPARE", "SMOOTH_MIN", "SMOOTH_MAX", "ROUND", "FLOOR",
@@ -152,14 +153,14 @@ MIX_OPS = ("MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN", "DIVIDE", "DIFFERENCE
 MIX = {name: i for i, name in enumerate(MIX_OPS)}
 MAP_RANGE_TYPES = {"LINEAR": 0, "STEPPED": 1, "SMOOTHSTEP": 2, "SMOOTHERSTEP": 3}
 MAPPING_TYPES = {"POINT": 0, "TEXTURE": 1, "VECTOR": 2, "NORMAL": 3}
-# SVM_MAPPING's kinds past MAPPING_TYPES: by the shading object's own matrices (kernels/svm.h),
+# SVM_MAPPING's kinds past MAPPING_TYPES: by the shading object's own matrices (kernels/svm/svm.h),
 # a point, a direction or a normal into the object's space or out of it to the world
 MAPPING_OBJECT = {"TO_OBJECT_POINT": 4, "TO_OBJECT_VECTOR": 5, "TO_OBJECT_NORMAL": 6,
                   "TO_WORLD_POINT": 7, "TO_WORLD_VECTOR": 8, "TO_WORLD_NORMAL": 9}
 CLAMP_TYPES = {"MINMAX": 0, "RANGE": 1}
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
                      "BLENDER_WORLD": 4}
-# texture node options (Blender's enum names; kernels/svm_textures.h)
+# texture node options (Blender's enum names; kernels/svm/svm_textures.h)
 GRADIENT_TYPES = {"LINEAR": 0, "QUADRATIC": 1, "EASING": 2, "DIAGONAL": 3, "RADIAL": 4,
                   "QUADRATIC_SPHERE": 5, "SPHERICAL": 6}
 NOISE_TYPES = {"FBM": 0, "MULTIFRACTAL": 1, "HYBRID_MULTIFRACTAL": 2, "RIDGED_MULTIFRACTAL": 3,
@@ -187,7 +188,7 @@ PROGRAM_GENERATED = 4  # Generated coordinates are read (SceneArrays.generated)
 PROGRAM_ATTRIBUTES = 8  # mesh attributes are read (SceneArrays.attributes)
 PROGRAM_OBJECT = 16    # the object's data are read (SceneArrays.object, objects)
 PROGRAM_WINDOW = 32    # the Window coordinates are read (the camera's projection)
-PROGRAM_BUMP = 64      # a Bump node reads the footprint's offsets (kernels/svm_bump.h)
+PROGRAM_BUMP = 64      # a Bump node reads the footprint's offsets (kernels/svm/svm_bump.h)
 MAX_STACK = 256        # floats of stack a program may use (kernels: PPM_SVM_STACK, the most a
                        # scene's programs use)
 

@@ -1,9 +1,9 @@
-"""The shading tables the closures read (kernels/shading_tables.h states the same layout;
+"""The shading tables the closures read (kernels/closure/shading_tables.h states the same layout;
 tests/test_closures.py checks the two agree): GGX albedos for the compensation of multiple
 scattering, the Fresnel albedos of the Principled BSDF's layering, the sheen's LTC fit.
 
 They ship as package data (data/shading_tables.npz).  The GGX tables are computed with the
-closures' own sampling code (kernels/precompute.cl), as expectations that Cycles defines the
+closures' own sampling code (kernels/closure/precompute.cl), as expectations that Cycles defines the
 same way (docs/SHADING.md); ``python -m ppm_engine.tools.make_shading_tables`` computes them
 again.
 The sheen table is measured from Cycles' own renders of its Sheen BSDF
@@ -32,7 +32,7 @@ LAYOUT = {
     "sheen": (17952, (3, 32, 32)),           # [a, b, albedo][rough][mu]
 }
 SIZE = 21024
-# kernels/precompute.cl KIND_* for the GGX tables, and the samples per cell used for the
+# kernels/closure/precompute.cl KIND_* for the GGX tables, and the samples per cell used for the
 # shipped tables
 KINDS = {"ggx_E": 0, "ggx_Eavg": 1, "glass_E": 2, "glass_Eavg": 3, "glass_inv_E": 4,
          "glass_inv_Eavg": 5, "schlick_ior_s": 6, "schlick_s": 7}

@@ -1,5 +1,5 @@
 """Compute the GGX shading tables (ppm_engine/scene/shading_tables.py) again with the closures'
-own sampling code on an OpenCL device (kernels/precompute.cl), into the package data:
+own sampling code on an OpenCL device (kernels/closure/precompute.cl), into the package data:
 ``python -m ppm_engine.tools.make_shading_tables`` (about 12 minutes on 2 cores; the sheen
 table, measured from Cycles' renders by docs/make_sheen_table.py, is kept)."""
 from __future__ import annotations
@@ -14,7 +14,7 @@ from ppm_engine.scene import shading_tables as st
 def compute(device, names=None, samples: int | None = None) -> dict:
     """The GGX tables ``names`` (all when None) computed on ``device`` (device.get_device),
     with ``samples`` per cell (SAMPLES when None)."""
-    prog = device.programs.get("precompute.cl")
+    prog = device.programs.get("closure/precompute.cl")
     out = {}
     for name in names or st.KINDS:
         shape = st.LAYOUT[name][1]

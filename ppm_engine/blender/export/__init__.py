@@ -170,7 +170,7 @@ def export_scene(depsgraph, engine=None, camera=None) -> SceneArrays:
 
 def terminator_offset(obj) -> float:
     """The object's Shadow Terminator > Geometry Offset (Object Properties > Shading, which
-    Cycles reads; kernels/bvh.h terminator_lift), 0-1."""
+    Cycles reads; kernels/geom/bvh.h terminator_lift), 0-1."""
     v = getattr(obj, "shadow_terminator_geometry_offset", TERMINATOR_OFFSET)
     try:
         v = float(v)

@@ -10,7 +10,7 @@ def _rot(x: int, k: int) -> int:
 
 
 def _hash_uint2(kx: int, ky: int) -> int:
-    """Bob Jenkins' lookup3 of two 32-bit keys (Cycles' hash_uint2; kernels/svm_noise.h)."""
+    """Bob Jenkins' lookup3 of two 32-bit keys (Cycles' hash_uint2; kernels/svm/svm_noise.h)."""
     a = b = c = (0xDEADBEEF + (2 << 2) + 13) & 0xFFFFFFFF
     a, b = (a + kx) & 0xFFFFFFFF, (b + ky) & 0xFFFFFFFF
     v = {"a": a, "b": b, "c": c}
@@ -32,7 +32,7 @@ def random_id(obj, inst) -> int:
 
 
 def object_row(obj, m: np.ndarray, inst) -> np.ndarray:
-    """(9, 4) float32 of one object instance as shader programs read it (kernels/svm.h
+    """(9, 4) float32 of one object instance as shader programs read it (kernels/svm/svm.h
     svm_context): its inverse world matrix (3 rows), (location, pass index), its colour and
     alpha, (random, 0, 0, 0) with Cycles' random number (random_id / (2^32 - 1)), its world
     matrix (3 rows)."""

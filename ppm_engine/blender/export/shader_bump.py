@@ -2,7 +2,7 @@
 refine_bump_nodes and BumpNode): the Height sub-graph is compiled three times, at the shading
 point and with every position-dependent input moved by the filter width times one of the ray
 footprint's two offsets (Compiler.bump, Compiler.geometry), and one SVM_BUMP op makes the
-normal from the three heights (kernels/svm_bump.h); fn(compiler, node, output socket, group
+normal from the three heights (kernels/svm/svm_bump.h); fn(compiler, node, output socket, group
 context) -> Val."""
 from __future__ import annotations
 

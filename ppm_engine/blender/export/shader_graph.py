@@ -1,4 +1,5 @@
-"""A material's node graph -> a shader program (ppm_engine/scene/shader_program.py, kernels/svm.h).
+"""A material's node graph -> a shader program (ppm_engine/scene/shader_program.py,
+kernels/svm/svm.h).
 
 ``Graph`` resolves links as Cycles' compiler sees them: through reroutes, muted nodes (their
 internal links), node groups (inlined: a group's Group Output leads into its tree, its Group

@@ -1,4 +1,4 @@
-"""The image nodes of a shader program (kernels/svm_image.h runs them): the Image Texture with
+"""The image nodes of a shader program (kernels/svm/svm_image.h runs them): the Image Texture with
 its interpolations (the texture table's flags, export/textures.py), its Flat, Box (with
 Projection Blend), Sphere and Tube projections and UDIM tiles, and the Environment Texture
 (equirectangular, mirror ball), each as Cycles evaluates it.  fn(compiler, node, output

@@ -174,7 +174,7 @@ def _uv_map(c, node, out, ctx):
 
 
 def _normal_map(c, node, out, ctx):
-    """Cycles' Normal Map: a colour to a shading normal (kernels/svm.h svm_normal_map); the
+    """Cycles' Normal Map: a colour to a shading normal (kernels/svm/svm.h svm_normal_map); the
     tangent space's frame from the UV map's MikkTSpace tangents (SceneArrays.uv_tangents)."""
     space = NORMAL_MAP_SPACES.get(node.space, 0)
     if node.space in ("OBJECT", "BLENDER_OBJECT"):
@@ -205,8 +205,8 @@ def _object_info(c, node, out, ctx):
 
 
 def _light_path(c, node, out, ctx):
-    """Light Path: the type and bounces of the ray that reached the point (kernels/light_path.h;
-    photons' rays are never camera rays)."""
+    """Light Path: the type and bounces of the ray that reached the point
+    (kernels/integrator/path_state.h; photons' rays are never camera rays)."""
     if out.name not in LIGHT_PATH_OUTPUTS:
         c.warn(f"'{node.name}': the Light Path output {out.name} is not evaluated (0)")
         return c.const(0.0, width(out.type))

@@ -1,4 +1,4 @@
-"""The value nodes of a shader program, each compiled as Cycles evaluates it (kernels/svm.h and
+"""The value nodes of a shader program, each compiled as Cycles evaluates it (kernels/svm/svm.h and
 svm_nodes.h run them): Mapping, Math, Vector Math, Mix, the colour and converter nodes, ramps
 and curves, Fresnel, Layer Weight (the input nodes: shader_inputs.py; the image nodes:
 shader_images.py).  Each is fn(compiler, node, output socket, group context) -> Val, using

@@ -1,4 +1,4 @@
-"""The Blackbody and Wavelength nodes of a shader program (kernels/svm_color.h runs them), as
+"""The Blackbody and Wavelength nodes of a shader program (kernels/svm/svm_color.h runs them), as
 Cycles evaluates them; a constant input folds at export into the same float32 colour
 (ppm_engine/scene/spectra.py).  fn(compiler, node, output socket, group context) -> Val."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Cycles' procedural texture nodes in the shader programs (kernels/svm_textures.h runs them;
+"""Cycles' procedural texture nodes in the shader programs (kernels/svm/svm_textures.h runs them;
 shader_program.py has the layouts): Checker, Gradient, White Noise, Noise, Magic, Wave, Brick
 and Voronoi, every option as Cycles compiles it (its scene/shader_nodes.cpp).
 
@@ -54,7 +54,7 @@ def _dimensions(node, prop: str) -> int:
 
 def _params(c, vals) -> list:
     """Float inputs in words of four: the stack slots (-1 for a constant), then the constants'
-    bits (kernels/svm_textures.h tex_in4)."""
+    bits (kernels/svm/svm_textures.h tex_in4)."""
     vals = list(vals) + [c.const(0.0, 1)] * (-len(vals) % 4)
     slots = [-1 if v.is_const else v.slot for v in vals]
     bits = [f2i(v.const[0]) if v.is_const else 0 for v in vals]

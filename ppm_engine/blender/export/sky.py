@@ -1,4 +1,4 @@
-"""Cycles' Sky Texture node in shader programs (SVM_TEX_SKY, kernels/svm_sky.h): the host
+"""Cycles' Sky Texture node in shader programs (SVM_TEX_SKY, kernels/svm/svm_sky.h): the host
 precomputes what Cycles precomputes (its scene/shader_nodes.cpp SkyTextureNode), the kernel
 evaluates the rest.
 

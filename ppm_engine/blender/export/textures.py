@@ -1,4 +1,4 @@
-"""Image Texture nodes -> the texture table and texels of SceneArrays (kernels/textures.h).
+"""Image Texture nodes -> the texture table and texels of SceneArrays (kernels/svm/textures.h).
 
 Images are read once each (deduplicated by datablock) with ``pixels.foreach_get`` into a
 float32 buffer (rows bottom-up; 8-bit images read as their stored bytes / 255)

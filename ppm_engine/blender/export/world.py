@@ -1,7 +1,7 @@
 """The world: a constant background radiance = colour x strength (Cycles units), or, when the
 Background's Color or Strength comes from a node graph (an HDRI through an Environment
 Texture, Mapping, Math, ...), that graph compiled into a shader program (shader_graph.Compiler)
-whose one bound value is colour x strength (kernels/svm.h svm_world)."""
+whose one bound value is colour x strength (kernels/svm/svm.h svm_world)."""
 from __future__ import annotations
 
 import numpy as np

@@ -6,8 +6,8 @@
 
 Each builder takes an optional ``scene``: None resets the file (empty factory settings) and
 builds into its scene; a given scene is emptied and reused.  The render engine is left as it
-is.  The geometry matches ``ppm_engine.oracle.procedural.cornell_box`` (the arrays version used by the
-core tests and the benchmark)."""
+is.  The geometry matches ``ppm_engine.oracle.procedural.cornell_box`` (the arrays version used by
+the core tests and the benchmark)."""
 from __future__ import annotations
 
 from ppm_engine.blender.scenes import (

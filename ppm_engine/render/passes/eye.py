@@ -1,6 +1,6 @@
-"""The eye pass (kernels/eye_pass.cl): one jittered camera ray per pixel through the closures
-paths follow to a hit whose closures the gather evaluates, where it stores a visible point and
-adds direct light."""
+"""The eye pass (kernels/integrator/eye_pass.cl): one jittered camera ray per pixel through the
+closures paths follow to a hit whose closures the gather evaluates, where it stores a visible point
+and adds direct light."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,9 +10,9 @@ from ppm_engine.render.device.program import in_pieces
 
 
 class VisiblePoints:
-    """Per pixel, 64 bytes, what the gather needs (kernels/gather.cl): position (w: 0 none, 1 a
-    visible point, 2 one whose closures transmit), shading normal, the path weight (the photon
-    term's factor), and the hit it shades again (barycentrics, BVH leaf, the view direction
+    """Per pixel, 64 bytes, what the gather needs (kernels/integrator/gather.cl): position (w: 0
+    none, 1 a visible point, 2 one whose closures transmit), shading normal, the path weight (the
+    photon term's factor), and the hit it shades again (barycentrics, BVH leaf, the view direction
     packed; leaf -1 for a Lambert point, whose constant f is in the path weight); and 16 bytes
     of the gather's result."""
     BYTES = 64
@@ -37,7 +37,7 @@ class EyePass:
 
     def enqueue(self, q, pass_index: int, options, path_indirect: bool = False,
                 lt_kappa: float = 0.0, interrupt=None, piece: int = 1 << 15) -> list | None:
-        """``path_indirect``: indirect light by eye paths (kernels/indirect_paths.h);
+        """``path_indirect``: indirect light by eye paths (kernels/integrator/indirect_paths.h);
         ``lt_kappa`` > 0: the photons' light tracing is on,
         and a visible point the camera sees directly weighs its merge against it (eye_pass.cl,
         camera_connect.h merge_factor).

@@ -1,5 +1,5 @@
-"""The gather (kernels/gather.cl): each visible point reads the cells its disc overlaps, one
-photon per cell (the entry's photon stands for its n photons), or every photon of the entry in
+"""The gather (kernels/integrator/gather.cl): each visible point reads the cells its disc overlaps,
+one photon per cell (the entry's photon stands for its n photons), or every photon of the entry in
 the exact reference mode; each photon weighted by the point's BSDF for its direction."""
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.device_scene import placeholders
 
 # photons on a surface facing another way (thin walls, corners) are not a visible point's: the
-# least cosine between their normals (kernels/gather.cl, reference.py)
+# least cosine between their normals (kernels/integrator/gather.cl, reference.py)
 NORMAL_COS_MIN = 0.5
 # the gather region is a disc: photons farther than this x r from the visible point's tangent
-# plane are not its own (kernels/gather.cl says why)
+# plane are not its own (kernels/integrator/gather.cl says why)
 DISC_HALF_THICKNESS = 0.25
 # cells per axis a gather visits at most (the grid keeps cell >= r_max / 2: 5)
 MAX_CELLS_PER_AXIS = 5
@@ -51,7 +51,7 @@ class Gather:
         self.photon_map = photon_map
         defines = {**gather_defines(defines),
                    **({"PPM_INT64_ATOMICS": True} if device.int64_atomics else {})}
-        p = device.programs.get("gather.cl", defines)
+        p = device.programs.get("integrator/gather.cl", defines)
         self.k_gather = p.launch("gather", "gather")
         self.k_exact = p.launch("gather_exact", "gather")
         self.scene_args = scene.args if scene is not None else placeholders(device)

@@ -1,6 +1,6 @@
-"""The stochastic spatial hash build (kernels/hash_build.cl, Hachisuka & Jensen 2010): the grid
-over this pass's visible points, then a table in which each entry counts its photons and keeps
-one, chosen uniformly (or, in the exact reference mode, the photons sorted by entry)."""
+"""The stochastic spatial hash build (kernels/integrator/hash_build.cl, Hachisuka & Jensen 2010):
+the grid over this pass's visible points, then a table in which each entry counts its photons and
+keeps one, chosen uniformly (or, in the exact reference mode, the photons sorted by entry)."""
 from __future__ import annotations
 
 import numpy as np
@@ -15,16 +15,18 @@ class HashBuild:
     # bring the stochastic map's error down to the exact gather's: 2.0 (8 cells) gave 12
     # photons/entry and 30 % more error in the Cornell box, 0.5 gives ~1.4 and matches it.
     CELL_SCALE = 0.5
-    # work-group of the visible points' bounds reduction (kernels/hash_build.cl vp_bounds)
+    # work-group of the visible points' bounds reduction (kernels/integrator/hash_build.cl
+    # vp_bounds)
     BOUNDS_GROUP = 64
 
     def __init__(self, device, photon_map, counters, cell_scale: float = CELL_SCALE):
         self.device, self.photon_map, self.counters = device, photon_map, counters
         self.cell_scale = cell_scale
         defines = {"PPM_INT64_ATOMICS": True} if device.int64_atomics else {}
-        # photons per work-item of the build (kernels/hash_build.cl PPM_BUILD_BATCH)
+        # photons per work-item of the build (kernels/integrator/hash_build.cl PPM_BUILD_BATCH)
         self.batch = 8 if device.info.type == "CPU" else 1
-        p = device.programs.get("hash_build.cl", {**defines, "PPM_BUILD_BATCH": self.batch})
+        p = device.programs.get("integrator/hash_build.cl",
+                                {**defines, "PPM_BUILD_BATCH": self.batch})
         self.k_bounds_init = p.launch("bounds_init", "grid")
         self.k_bounds = p.launch("vp_bounds", "grid")
         self.k_grid = p.launch("grid_setup", "grid")

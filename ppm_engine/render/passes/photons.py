@@ -1,5 +1,5 @@
-"""The photon pass (kernels/photon_pass.cl): photons leave the emitters in proportion to their
-power and are stored at diffuse hits after the first, inside this pass's grid."""
+"""The photon pass (kernels/integrator/photon_pass.cl): photons leave the emitters in proportion to
+their power and are stored at diffuse hits after the first, inside this pass's grid."""
 from __future__ import annotations
 
 import numpy as np
@@ -21,9 +21,9 @@ class PhotonPass:
         """``caustics_only``: only photons whose first scattering is caustic live on (indirect
         light by eye paths); ``pilot``: they are only counted (Counter.CAUSTIC), none stored.
         ``lt_kappa`` > 0 (with ``film``): every stored photon is also connected to the camera
-        and splatted into film.lt_pass, weighted against the merge (kernels/photon_pass.cl
-        connect_camera; Renderer.light_tracing_kappa).  ``interrupt``: as EyePass.enqueue's,
-        over ranges of about ``piece`` photons."""
+        and splatted into film.lt_pass, weighted against the merge
+        (kernels/integrator/photon_pass.cl connect_camera; Renderer.light_tracing_kappa).
+        ``interrupt``: as EyePass.enqueue's, over ranges of about ``piece`` photons."""
         def launch(count, start):
             return self._launch(q, count, start, pass_index, options, n_photons,
                                 caustics_only, pilot, film, lt_kappa)

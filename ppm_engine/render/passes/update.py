@@ -1,6 +1,6 @@
-"""The progressive update (kernels/progressive.cl, Hachisuka & Jensen 2009): N and R per pixel
-from this pass's gather, the photon sum S = sum of Phi / R^2, and the end of a pass: its direct
-sample into the film's sums and its whole sample into the per-pixel moments (each pixel's own
+"""The progressive update (kernels/integrator/progressive.cl, Hachisuka & Jensen 2009): N and R per
+pixel from this pass's gather, the photon sum S = sum of Phi / R^2, and the end of a pass: its
+direct sample into the film's sums and its whole sample into the per-pixel moments (each pixel's own
 photon count and noise); adaptive sampling stops pixels whose noise is low enough."""
 from __future__ import annotations
 

@@ -1,9 +1,9 @@
 """An exact-geometry reference for the benchmark's ``point_caustic`` and ``rough_caustic`` scenes
-in NumPy, on the scene as ppm_engine/blender/scenes/caustics.py defines it (a true sphere, two finite
-planes, a point light): the direct light in closed form, the rest by light tracing.  It shares
-no code with this engine's estimators (no export, kernels, film or light tracer): the reference
-stays independent once light tracing is one of the engine's own strategies (issue 25).  Where
-the engine sees a 192 x 96 smooth-shaded mesh, this sees the sphere.
+in NumPy, on the scene as ppm_engine/blender/scenes/caustics.py defines it (a true sphere, two
+finite planes, a point light): the direct light in closed form, the rest by light tracing.  It
+shares no code with this engine's estimators (no export, kernels, film or light tracer): the
+reference stays independent once light tracing is one of the engine's own strategies (issue 25).
+Where the engine sees a 192 x 96 smooth-shaded mesh, this sees the sphere.
 
 The light transport, as Cycles renders the scene with the bench's settings:
 

@@ -1,7 +1,8 @@
-"""An exact-geometry reference for the benchmark's ``pool_caustic`` (ppm_engine/blender/scenes/pool.py)
-in NumPy: the water's true height field (the engine sees it meshed), the floor, the sun, the
-pinhole camera.  It shares no code with this engine's estimators (no export, kernels, film or
-light tracer), so it stays independent of the engine's light tracing and photons.
+"""An exact-geometry reference for the benchmark's ``pool_caustic``
+(ppm_engine/blender/scenes/pool.py) in NumPy: the water's true height field (the engine sees it
+meshed), the floor, the sun, the pinhole camera.  It shares no code with this engine's estimators
+(no export, kernels, film or light tracer), so it stays independent of the engine's light tracing
+and photons.
 
 What no camera-side connection can do here is connect a floor point to the camera through the
 waves: the refracted path from the camera to a given floor point is a root of a non-linear

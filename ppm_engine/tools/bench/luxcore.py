@@ -212,9 +212,9 @@ def render(seconds: float, seed: int, depsgraph=None, threads: int = THREADS,
         env = dict(os.environ)
         root = str(Path(__file__).resolve().parents[3])
         env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
-        proc = subprocess.run([sys.executable, "-m", "ppm_engine.tools.bench.luxcore", str(job_path),
-                               str(out_path)], env=env, capture_output=True, text=True,
-                              timeout=seconds + 120)
+        proc = subprocess.run([sys.executable, "-m", "ppm_engine.tools.bench.luxcore",
+                               str(job_path), str(out_path)], env=env, capture_output=True,
+                              text=True, timeout=seconds + 120)
         if proc.returncode != 0 or not out_path.is_file():
             raise RuntimeError(f"LuxCore failed (exit {proc.returncode}):\n"
                                f"{proc.stderr.strip()[-3000:]}")

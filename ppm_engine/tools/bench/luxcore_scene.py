@@ -28,8 +28,8 @@ not written per scene, and only where the translation is exact (anything else ra
 Units (the conversion, derived from both renderers' sources, not fitted):
 
 - Cycles' point light of power P (colour c, exposure e: S = c P 2^e) has radiant intensity
-  S / (4 pi) W/sr in every direction (ppm_engine/blender/export/lights.py, as Cycles); with a radius r
-  it is a sphere of radiance L = S / (4 pi * pi r^2), power S.  LuxCore's point light with
+  S / (4 pi) W/sr in every direction (ppm_engine/blender/export/lights.py, as Cycles); with a radius
+  r it is a sphere of radiance L = S / (4 pi * pi r^2), power S.  LuxCore's point light with
   ``power`` 0 (so ``efficency`` and ``normalizebycolor`` play no part) has emittedFactor =
   gain x color and intensity emittedFactor / (4 pi) (pointlight.cpp Illuminate/Emit): so
   **gain = S, color = 1** -- the same number as Blender's Watts.  With a radius, not LuxCore's
@@ -396,8 +396,8 @@ def enclosed_emission(tr: Translation, camera: np.ndarray) -> None:
     says so: its eye paths carry eta^2 through every refraction and its light paths keep the
     flux (glass.cpp EvalSpecularTransmission), so radiance out of the glass is 1 / n^2 of
     radiance in it.  Cycles' sharp glass (and this engine, its adjoint in the photons:
-    kernels/light_trace.cl) passes radiance through unscaled.  For light from outside that
-    enters a closed glass object and leaves it again the two agree; light emitted inside one
+    kernels/integrator/light_trace.cl) passes radiance through unscaled.  For light from outside
+    that enters a closed glass object and leaves it again the two agree; light emitted inside one
     leaves once more than it enters, so LuxCore renders it 1 / n^2 as bright (measured: the
     bulb box's filament in its glass bulb, 0.444 of the light tracer's everywhere).  Raising
     the emission by n^2 puts it back exactly.  An emitter partly inside a glass mesh, or the

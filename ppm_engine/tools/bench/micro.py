@@ -136,7 +136,7 @@ def _rays_per_second(device, bvh, n=1 << 16) -> float:
     dd[:, :3], dd[:, 3] = d, 1e30
     ob, db = device.upload(o, "rays"), device.upload(dd, "rays")
     hits = device.buffer(16 * n, "hits")
-    k = device.programs.get("debug.cl").launch("trace_rays", "bench")
+    k = device.programs.get("test/debug.cl").launch("trace_rays", "bench")
     scene = placeholders(device, **bvh.args)
 
     def once():
@@ -234,8 +234,8 @@ def _big_mesh(n_side: int):
 
 
 def export_big_mesh(n_triangles: int = 1_000_000, repeat: int = 3) -> dict:
-    """Wall time of ppm_engine.blender.export.export_scene for one mesh of ~n_triangles (plus a camera
-    and a light) in an otherwise empty file; median of ``repeat`` after one warm-up."""
+    """Wall time of ppm_engine.blender.export.export_scene for one mesh of ~n_triangles (plus a
+    camera and a light) in an otherwise empty file; median of ``repeat`` after one warm-up."""
     import bpy
 
     from ppm_engine.blender.export import export_scene

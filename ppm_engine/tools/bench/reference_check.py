@@ -3,9 +3,9 @@ LIGHTCPU (``LUXCORE_LIGHT``, luxcore.py) and this engine's (``LIGHT_TRACE``,
 ppm_engine/render/light_tracer.py), each rendered with two seeds, and how far apart they are against
 their own noise (docs/BENCHMARKS.md, "LuxCore's light tracer as the reference").
 
-    python -m ppm_engine.tools.bench.reference_check render SCENE LUXCORE_LIGHT --seconds 60 --out DIR
-    python -m ppm_engine.tools.bench.reference_check render SCENE LIGHT_TRACE --seconds 60 --out DIR
-    python -m ppm_engine.tools.bench.reference_check compare SCENE --out DIR
+    python -m ppm_engine.tools.bench.reference_check render SCENE LUXCORE_LIGHT --seconds 60 --out
+    DIR python -m ppm_engine.tools.bench.reference_check render SCENE LIGHT_TRACE --seconds 60 --out
+    DIR python -m ppm_engine.tools.bench.reference_check compare SCENE --out DIR
 
 ``render`` writes each seed's image (DIR/SCENE_ENGINE_SEED.npy, top-down) and the masks
 (DIR/SCENE_ENGINE_masks.npz: the engine's coverage, the benchmark's kept and caustic pixels);

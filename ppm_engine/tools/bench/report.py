@@ -120,7 +120,7 @@ def reference_table(result: dict) -> str:
     for name, s in result["scenes"].items():
         r, b = s["reference"], s["bias_check"]
         # this engine's light tracer: one of its strategies since light tracing joined the
-        # photons (kernels/photon_pass.cl connect_camera)
+        # photons (kernels/integrator/photon_pass.cl connect_camera)
         independent = {"PPM": "no (ours)", "LIGHT_TRACE": "no (our light tracer)"}.get(
             r["engine"], "yes")
         lines.append(f"| {name} | {r['engine']} | {independent} | {r['seconds_per_half']:g} | "

@@ -1,5 +1,5 @@
-"""The benchmark's data about its scenes (ppm_engine.blender.scenes builds them): per scene, the floor
-region counted as "caustic pixels" (caustic_mask below: a world-space disk on the floor, or
+"""The benchmark's data about its scenes (ppm_engine.blender.scenes builds them): per scene, the
+floor region counted as "caustic pixels" (caustic_mask below: a world-space disk on the floor, or
 the set of floor points that see the light's mirror image through the mirror rectangle, exact;
 pixels whose camera ray meets one of the listed spheres first are left out), and the objects
 Cycles' shadow caustics (MNEE) needs flagged."""

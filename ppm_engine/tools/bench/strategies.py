@@ -4,8 +4,9 @@ settings; the film's sums say how much of the image each strategy brought:
 
 - camera paths: direct light, emitters seen, and (with eye paths) the diffuse indirect light;
 - the merge: photons gathered at visible points, weighted by their side of the balance
-  heuristic where the camera sees the point directly (kernels/eye_pass.cl);
-- light tracing: the photons connected to the camera (kernels/photon_pass.cl connect_camera).
+  heuristic where the camera sees the point directly (kernels/integrator/eye_pass.cl);
+- light tracing: the photons connected to the camera (kernels/integrator/photon_pass.cl
+connect_camera).
 
 Over the whole image and over the scene's caustic pixels (bench/scenes.py), as shares of the
 mean; and, for the photons' light alone, the light tracing's share (its MIS weights' share of

@@ -281,7 +281,8 @@ def cold_start(name: str, device: str = "", quick: bool = False,
     ("all"; viewport.KERNELS)."""
     with tempfile.TemporaryDirectory(prefix="ppm-cold-") as cache:
         env = dict(os.environ, POCL_CACHE_DIR=cache, PYOPENCL_NO_CACHE="1")
-        code = ("import json, sys; from ppm_engine.tools.bench.viewport_latency import _cold_child; "
+        code = ("import json, sys; "
+                "from ppm_engine.tools.bench.viewport_latency import _cold_child; "
                 f"print('RESULT' + json.dumps(_cold_child({name!r}, {device!r}, {quick!r}, "
                 f"{kernels!r})))")
         p = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,

@@ -1,0 +1,488 @@
+#ifndef PPM_SHADER_H
+#define PPM_SHADER_H
+#include "geom/bvh.h"
+#include "svm/shader_inputs.h"
+
+/* The shader: a hit's closures from its material's BSDF nodes (scene_arrays.SHADER_NODE_DTYPE,
+ * weights already propagated through Mix and Add Shader nodes), each node set up as Cycles sets
+ * it up (kernel/svm/closure.h there; docs/SHADING.md lists what differs), then each closure
+ * marked for the gather or for the path (PPM_GATHER_ROUGHNESS).  One set of functions samples
+ * and evaluates the mixture for every pass. */
+
+/* (PPM_GATHER_ROUGHNESS, shared.h: microfacet lobes at least this rough, sqrt of alpha, hold
+ * visible points and photons like diffuse ones; smoother ones are followed by the eye path;
+ * -D from RenderOptions.gather_roughness) */
+
+inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alpha, float3 emission,
+                             float3 tangent, TABLES_ARG) {
+    float w1 = nd->weight;
+    float3 w = (float3)(w1), N = node_normal(sd, F3(nd->normal)),
+           cbase = fmin(base, (float3)(1.0f));
+    float ior = fmax(nd->ior, 1e-5f), rough = clamp(nd->roughness, 0.0f, 1.0f);
+    float metallic = clamp(nd->metallic, 0.0f, 1.0f);
+    float3 spec_tint = fmax(F3(nd->edge_tint), (float3)(0.0f));
+    float tw = clamp(nd->transmission, 0.0f, 1.0f), ss = clamp(nd->subsurface_weight, 0.0f, 1.0f);
+    float coat = fmax(nd->coat_weight, 0.0f), sheen = fmax(nd->sheen_weight, 0.0f);
+    bool multi = (nd->flags & NODE_FLAG_MULTI_GGX) != 0;
+    bool has_t = dot(tangent, tangent) > 0.0f;
+    float2 al = aniso_alphas(rough, clamp(nd->anisotropic, 0.0f, 1.0f), has_t);
+    float3 T = has_t ? rotate_tangent(tangent, N, nd->anisotropic_rotation) : (float3)(0.0f);
+    if (alpha < 1.0f) {
+        shader_transparent(sd, w * (1.0f - alpha));
+        w *= alpha;
+    }
+    if (sheen > CLOSURE_WEIGHT_CUTOFF) {
+        float3 tint = fmax(F3(nd->sheen_tint), (float3)(0.0f));
+        int k = shader_sheen(sd, sheen * tint * w, N, clamp(nd->sheen_roughness, 0.0f, 1.0f),
+                             shading_tables);
+        if (k >= 0) w = layering_weight(sd->c[k].weight, w);
+    }
+    if (PPM_MICROFACET && coat > CLOSURE_WEIGHT_CUTOFF) {
+        float cr = clamp(nd->coat_roughness, 0.0f, 1.0f), cior = fmax(nd->coat_ior, 1.0f);
+        float3 Nc = node_normal(sd, F3(nd->coat_normal));
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, coat * w, Nc, cr * cr, cr * cr, cior);
+        if (k >= 0) {
+            Closure *c = &sd->c[k];
+            c->fresnel = FRESNEL_DIELECTRIC;
+            microfacet_sample_weight(sd, k, shading_tables);
+            microfacet_preserve_energy(c, sd->wi, (float3)(fresnel_dielectric_fss(cior)),
+                                       shading_tables);
+            w = layering_weight(c->weight
+                                    * microfacet_albedo(c, sd->wi, true, false, shading_tables),
+                                w);
+        }
+        float3 tint = fmax(F3(nd->coat_tint), (float3)(0.0f));
+        if (tint.x != 1.0f || tint.y != 1.0f || tint.z != 1.0f) {
+            float cos_ni = dot(sd->wi, Nc);
+            float cos_nt = sqrt(1.0f - sqr(1.0f / cior) * (1.0f - cos_ni * cos_ni));
+            w *= mix((float3)(1.0f), pow(tint, 1.0f / cos_nt), coat);
+        }
+    }
+    sd->emission += emission * w;
+    if (PPM_MICROFACET && metallic > CLOSURE_WEIGHT_CUTOFF) {
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, metallic * w, N, al.x, al.y, 1.0f);
+        if (k >= 0) {
+            sd->c[k].T = T;
+            f82_setup(sd, k, cbase, fmin(spec_tint, (float3)(1.0f)), multi, shading_tables);
+        }
+        w *= 1.0f - metallic;
+    }
+    if (PPM_MICROFACET && tw > CLOSURE_WEIGHT_CUTOFF) {
+        int k = shader_microfacet(sd, CLOSURE_GGX_GLASS, tw * w, N, rough * rough, rough * rough,
+                                  sd->backfacing ? 1.0f / ior : ior);
+        if (k >= 0)
+            schlick_ior_setup(sd, k, f0_from_ior(ior) * spec_tint, (float3)(1.0f), sqrt(cbase),
+                              multi, shading_tables);
+        w *= 1.0f - tw;
+    }
+    float eta = ior, f0 = f0_from_ior(eta);
+    if (nd->specular_ior_level != 0.5f) {
+        f0 *= 2.0f * fmax(nd->specular_ior_level, 0.0f);
+        eta = ior_from_f0(f0);
+        if (ior < 1.0f) eta = 1.0f / eta;
+    }
+    if (PPM_MICROFACET && eta != 1.0f) {
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, w, N, al.x, al.y, eta);
+        if (k >= 0) {
+            sd->c[k].T = T;
+            schlick_ior_setup(sd, k, f0 * spec_tint, (float3)(1.0f), (float3)(0.0f), multi,
+                              shading_tables);
+            w = layering_weight(sd->c[k].weight
+                                    * microfacet_albedo(&sd->c[k], sd->wi, true, false,
+                                                        shading_tables),
+                                w);
+        }
+    }
+    /* subsurface scattering renders as diffuse with the (clamped) base colour */
+    float3 wd = cbase * ss * w + base * (1.0f - ss) * w;
+    shader_diffuse(sd, wd, N, clamp(nd->diffuse_roughness, 0.0f, 1.0f), base);
+}
+
+/* the BSDF nodes other than the Principled */
+inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color, float3 emission,
+                            float3 tangent, TABLES_ARG) {
+    float w1 = nd->weight, rough = clamp(nd->roughness, 0.0f, 1.0f);
+    float3 N = node_normal(sd, F3(nd->normal)), w = (float3)(w1);
+    bool multi = (nd->flags & NODE_FLAG_MULTI_GGX) != 0, has_t = dot(tangent, tangent) > 0.0f;
+    int t = nd->type;
+    if (t == NODE_DIFFUSE) {
+        shader_diffuse(sd, color * w1, N, nd->roughness < 1e-5f ? 0.0f : rough, color);
+    } else if (t == NODE_TRANSLUCENT) {
+        if (PPM_TRANSLUCENT) shader_alloc(sd, CLOSURE_TRANSLUCENT, color * w1, N);
+    } else if (t == NODE_TRANSPARENT) {
+        shader_transparent(sd, color * w1);
+    } else if (t == NODE_SHEEN) {
+        shader_sheen(sd, color * w1, N, rough, shading_tables);
+    } else if (t == NODE_EMISSION) {
+        sd->emission += emission * w1;
+    } else if (t == NODE_HOLDOUT) {
+        sd->holdout += w;
+    } else if (t == NODE_GLOSSY) {                 /* Glossy BSDF: anisotropy in [-1, 1] */
+        float a = rough * rough, an = clamp(nd->anisotropic, -0.99f, 0.99f), ax = a, ay = a;
+        if (has_t && fabs(an) > 1e-4f) {
+            ax = an < 0.0f ? a / (1.0f + an) : a * (1.0f - an);
+            ay = an < 0.0f ? a * (1.0f + an) : a / (1.0f - an);
+        }
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, color * w1, N, ax, ay, 1.0f);
+        if (k >= 0) {
+            sd->c[k].T = has_t ? rotate_tangent(tangent, N, nd->anisotropic_rotation)
+                               : (float3)(0.0f);
+            if (multi)
+                microfacet_preserve_energy(&sd->c[k], sd->wi, fmax(color, 0.0f), shading_tables);
+        }
+    } else if (t == NODE_METALLIC) {
+        float2 al = aniso_alphas(rough, clamp(nd->anisotropic, 0.0f, 1.0f), has_t);
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, w, N, al.x, al.y, 1.0f);
+        if (k < 0) return;
+        Closure *c = &sd->c[k];
+        c->T = has_t ? rotate_tangent(tangent, N, nd->anisotropic_rotation) : (float3)(0.0f);
+        if (nd->flags & NODE_FLAG_CONDUCTOR) {
+            float3 n = fmax(color, 0.0f), kk = fmax(F3(nd->edge_tint), (float3)(0.0f));
+            c->fresnel = FRESNEL_CONDUCTOR;
+            c->f0 = n;
+            c->f90 = kk;
+            microfacet_sample_weight(sd, k, shading_tables);
+            float3 F0 = fresnel_conductor(1.0f, n, kk), F82 = fresnel_conductor(1.0f / 7.0f, n, kk);
+            if (multi)
+                microfacet_preserve_energy(c, sd->wi,
+                                           sat3(fresnel_f82_fss(F0,
+                                                                fresnel_f82_b_from_f82(F0, F82))),
+                                           shading_tables);
+        } else {
+            f82_setup(sd, k, sat3(color), sat3(F3(nd->edge_tint)), multi, shading_tables);
+        }
+    } else if (t == NODE_GLASS || t == NODE_REFRACTION) {
+        float ior = fmax(nd->ior, 1e-5f);
+        bool glass = t == NODE_GLASS;
+        int k = shader_microfacet(sd, glass ? CLOSURE_GGX_GLASS : CLOSURE_GGX_REFRACT,
+                                  glass ? w : color * w1, N, rough * rough, rough * rough,
+                                  sd->backfacing ? 1.0f / ior : ior);
+        if (k >= 0 && glass) {
+            float3 c3 = fmax(color, 0.0f);
+            schlick_ior_setup(sd, k, (float3)(f0_from_ior(ior)), c3, c3, multi, shading_tables);
+        }
+    }
+}
+
+/* The sample weights of the gathered and the followed closures, and what they hold */
+inline void shader_sums(ShaderData *sd) {
+    sd->sw_gather = sd->sw_continue = sd->sw_glossy = 0.0f;
+    sd->gather_transmits = sd->continue_glossy = false;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        bool micro = c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS;
+        if (c->gather) {
+            sd->sw_gather += c->sample_weight;
+            sd->gather_transmits |= c->type == CLOSURE_TRANSLUCENT || c->type == CLOSURE_GGX_GLASS
+                                    || c->type == CLOSURE_GGX_REFRACT;
+        } else {
+            sd->sw_continue += c->sample_weight;
+            if (c->glossy) sd->sw_glossy += c->sample_weight;
+            sd->continue_glossy |= micro && !microfacet_singular(c);
+        }
+    }
+}
+
+/* Closures at a hit at barycentrics (u, v) of the surface s (its material, triangle, position
+ * and stored normals: bvh.h surface_at), reached by the ray `path` (path_state.h) after a last
+ * segment of length path_length, wi towards the viewer, the ray's footprint fp there (the Bump
+ * node's, svm_bump.h). */
+inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, float u, float v,
+                         uint path, float path_length, float3 wi, Footprint fp) {
+    int mat = s->material;
+    uint tri = s->tri;
+    float3 P = s->p, ng = s->ng, ns = s->ns;
+    sd->n = 0;
+    sd->emission = sd->transparent = sd->holdout = (float3)(0.0f);
+    sd->wi = wi;
+    sd->crossings = max(scene->light_paths->transparent_max_bounces
+                            - (int)path_count(path, PATH_TRANSPARENT_DEPTH),
+                        0);
+    sd->backfacing = dot(wi, ng) < 0.0f;
+    sd->leaf = s->leaf;
+    sd->tri = tri;
+    sd->u = u;
+    sd->v = v;
+    sd->Ng = sd->backfacing ? -ng : ng;
+    sd->N = sd->backfacing ? -ns : ns;
+    Material m = scene->materials[mat];
+#if PPM_SHADER
+    if (m.flags & MAT_LAMBERT) {
+#else
+    {                                   /* every material is one Lambert closure */
+#endif
+        /* the short path for the commonest material: what the loop below makes of it */
+        __global const ShaderNode *nd = scene->shader_nodes + m.node_first;
+        sd->emission = F3(nd->emission) * nd->weight
+                       * texture_tint(scene, nd->emission_texture, tri, u, v);
+        int k = shader_alloc(sd, CLOSURE_DIFFUSE, lambert_weight(scene, nd, tri, u, v), sd->N);
+        sd->sw_gather = k >= 0 ? sd->c[k].sample_weight : 0.0f;
+        if (k >= 0) sd->c[k].gather = 1;
+        sd->sw_continue = sd->sw_glossy = 0.0f;
+        sd->gather_transmits = sd->continue_glossy = false;
+        return;
+    }
+    float3 tangent = surface_tangent(scene, tri, u, v, sd->N);
+    MATERIAL_PROGRAM(m, stack, P, path, path_length, sd->N, sd->Ng, wi, sd->backfacing, fp);
+    for (int i = 0; i < m.node_count; i++) {
+        MATERIAL_NODE(nd, m, i, stack);
+        if (!(nd->weight > 0.0f)) continue;
+        float3 color = F3(nd->color) * texture_tint(scene, nd->color_texture, tri, u, v);
+        float3 emission = F3(nd->emission) * texture_tint(scene, nd->emission_texture, tri, u, v);
+        if (nd->type == NODE_PRINCIPLED) {
+            float alpha = clamp(nd->alpha * texture_alpha(scene, nd->alpha_texture, tri, u, v),
+                                0.0f, 1.0f);
+            principled_setup(sd, nd, fmax(color, 0.0f), alpha, emission, tangent,
+                             scene->shading_tables);
+        } else {
+            bsdf_node_setup(sd, nd, color, emission, tangent, scene->shading_tables);
+        }
+    }
+    for (int k = 0; k < sd->n; k++) {
+        Closure *c = &sd->c[k];
+        bool micro = c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS;
+        c->gather = c->type == CLOSURE_TRANSPARENT
+                        ? 0
+                        : !micro
+                              || (!microfacet_singular(c)
+                                  && microfacet_rough(c) >= PPM_GATHER_ROUGHNESS);
+        /* a glossy reflection rough enough that next-event estimation through it serves (as
+         * Cycles' does): its light is the eye paths', not a caustic's */
+        c->glossy = !c->gather && c->type == CLOSURE_GGX_REFLECT && !microfacet_singular(c)
+                    && microfacet_rough(c) >= PPM_CAUSTIC_ROUGHNESS;
+    }
+    shader_sums(sd);
+}
+
+/* the sample weight of the followed closures that are not glossy (MASK_SPECULAR: a caustic's) */
+inline float shader_sw_specular(const ShaderData *sd) {
+    return fmax(sd->sw_continue - sd->sw_glossy, 0.0f);
+}
+
+/* which closures a mixture function looks at: the gather's, the followed ones (MASK_CONTINUE),
+ * and of these the glossy ones (whose light eye paths count) or the others (caustics') */
+#define MASK_GATHER 1
+#define MASK_CONTINUE 2
+#define MASK_ALL 3
+#define MASK_GLOSSY 4
+#define MASK_SPECULAR 8
+inline bool closure_in(const Closure *c, int mask) {
+    if (c->gather) return (mask & MASK_GATHER) != 0;
+    return (mask & (MASK_CONTINUE | (c->glossy ? MASK_GLOSSY : MASK_SPECULAR))) != 0;
+}
+
+/* Sum of weight x eval (f cos) over the closures in mask, for light from wo; *pdf: the
+ * density shader_sample gives wo (Veach's one-sample model). */
+/* Cycles' bump shadowing term (learnt from its bsdf.h: Conty Estevez et al.'s microfacet-based
+ * term), for a closure whose normal differs from the smooth normal sd->N (a Normal input):
+ * directions on the wrong side of the smooth surface get nothing when evaluated (sampled:
+ * diffuse closures only), and diffuse closures are softened near their terminator by a GGX
+ * shadowing of the normals' deviation. */
+inline float bump_shadowing(const ShaderData *sd, const Closure *c, float3 wo, bool is_eval) {
+    if (all(isequal(c->N, sd->N))) return 1.0f;
+    float cos_si = dot(sd->N, wo), cos_sn = dot(sd->N, c->N), cos_ni = dot(c->N, wo);
+    bool diffuse = c->type >= CLOSURE_DIFFUSE && c->type <= CLOSURE_SHEEN;
+    if (cos_si * cos_sn * cos_ni < 0.0f && (is_eval || diffuse)) return 0.0f;
+    if (!diffuse) return 1.0f;
+    float ci = fabs(cos_si), cd = fabs(cos_sn);
+    if (cd >= 1.0f || ci >= 1.0f) return 1.0f;
+    if (ci < 1e-6f) return 0.0f;
+    float a2 = clamp(0.125f * (1.0f / (cd * cd) - 1.0f), 0.0f, 1.0f);
+    return 2.0f / (1.0f + sqrt(1.0f + a2 * (1.0f - ci * ci) / (ci * ci)));    /* 1/(1+lambda) */
+}
+
+/* whether closure c's f cos / cos (the gather's estimate's factor) is one constant, albedo / pi:
+ * a Lambert closure on the smooth normal (a driven normal's cosine and bump shadowing vary with
+ * the direction) */
+inline bool closure_lambert(const ShaderData *sd, const Closure *c) {
+    return c->type == CLOSURE_DIFFUSE && all(isequal(c->N, sd->N));
+}
+
+/* closure c's f cos at wo with its bump shadowing; *p its density (0 where shadowed) */
+inline float3 closure_eval_bumped(const ShaderData *sd, const Closure *c, float3 wo, float *p) {
+    float3 e = closure_eval(c, sd->wi, wo, p);
+    float b = bump_shadowing(sd, c, wo, true);
+    if (b == 0.0f) *p = 0.0f;
+    return e * b;
+}
+
+/* the kind of bounce (path_state.h JOIN_*) closure c makes towards wo */
+inline uint closure_join_kind(const ShaderData *sd, const Closure *c, float3 wo) {
+    bool diffuse = c->type >= CLOSURE_DIFFUSE && c->type <= CLOSURE_SHEEN;
+    if (dot(wo, sd->Ng) < 0.0f) return diffuse ? JOIN_DIFFUSE_TRANSMIT : JOIN_GLOSSY_TRANSMIT;
+    return diffuse ? JOIN_DIFFUSE : JOIN_GLOSSY;
+}
+
+/* Reflective / Refractive Caustics off (path_state.h path_caustic_off) at a surface a ray from
+ * a diffuse bounce reached: its glossy reflections (its refractions) are not made, as Cycles
+ * makes them: a Principled glass loses that part (its tint is zero), a Glass BSDF only when
+ * both are off.  For eye paths (the caller knows the ray came from a diffuse bounce). */
+inline void shader_caustics_off(ShaderData *sd, __global const LightPaths *lp) {
+    bool refl = (lp->flags & LP_CAUSTICS_REFLECTIVE) != 0;
+    bool refr = (lp->flags & LP_CAUSTICS_REFRACTIVE) != 0;
+    if (refl && refr) return;
+    for (int k = 0; k < sd->n; k++) {
+        Closure *c = &sd->c[k];
+        if ((c->type == CLOSURE_GGX_REFLECT && !refl) || (c->type == CLOSURE_GGX_REFRACT && !refr)
+            || (c->type == CLOSURE_GGX_GLASS && !refl && !refr)) {
+            c->weight = (float3)(0.0f);
+            c->sample_weight = 0.0f;
+        } else if (c->type == CLOSURE_GGX_GLASS && c->fresnel == FRESNEL_SCHLICK_IOR) {
+            if (!refl) c->refl_tint = (float3)(0.0f);
+            if (!refr) c->trans_tint = (float3)(0.0f);
+        }
+    }
+    shader_sums(sd);
+}
+
+/* shader_eval of the closures in mask whose bounce towards wo is of the kinds given (JOIN_*:
+ * the Light Paths limits, path_state.h path_join); the density still that of all in mask */
+inline float3 shader_eval_kinds(const ShaderData *sd, float3 wo, int mask, uint kinds, float *pdf) {
+    float3 f = (float3)(0.0f);
+    float sum_pdf = 0.0f, sum_sw = 0.0f;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        if (!closure_in(c, mask)) continue;
+        sum_sw += c->sample_weight;
+        if (kinds != JOIN_ALL && !(closure_join_kind(sd, c, wo) & kinds)) continue;
+        float p;
+        float3 e = closure_eval_bumped(sd, c, wo, &p);
+        if (p != 0.0f) {
+            f += c->weight * e;
+            sum_pdf += p * c->sample_weight;
+        }
+    }
+    *pdf = sum_sw > 0.0f ? sum_pdf / sum_sw : 0.0f;
+    return f;
+}
+
+inline float3 shader_eval(const ShaderData *sd, float3 wo, int mask, float *pdf) {
+    float3 f = (float3)(0.0f);
+    float sum_pdf = 0.0f, sum_sw = 0.0f;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        if (!closure_in(c, mask)) continue;
+        float p;
+        float3 e = closure_eval_bumped(sd, c, wo, &p);
+        if (p != 0.0f) {
+            f += c->weight * e;
+            sum_pdf += p * c->sample_weight;
+        }
+        sum_sw += c->sample_weight;
+    }
+    *pdf = sum_sw > 0.0f ? sum_pdf / sum_sw : 0.0f;
+    return f;
+}
+
+typedef struct {
+    float3 wo;
+    float3 weight;       /* f cos / pdf of the mixture: the path's throughput factor */
+    float pdf;           /* the mixture's density (INFINITY: a singular lobe) */
+    float eta;           /* relative index crossed (1 unless refracted) */
+    float roughness2;    /* the sampled lobe's alpha_x alpha_y (transparent glass) */
+    int label;
+} BsdfSample;
+
+/* The visibility class of the ray a sampled bounce makes (path_state.h's ray types; as in
+ * Cycles, a transmission is a transmission ray even when diffuse). */
+inline uint bounce_visibility(int label) {
+    return (label & LABEL_TRANSMIT)  ? VIS_TRANSMISSION
+           : (label & LABEL_DIFFUSE) ? VIS_DIFFUSE
+                                     : VIS_GLOSSY;
+}
+
+/* A direction from the closures in mask, picked in proportion to their sample weights. */
+/* closure c's adjoint factor for light from sd->wi to wo (1 for camera paths: adjoint null) */
+inline float3 closure_adjoint(const ShaderData *sd, const Closure *c, float3 wo,
+                              __global const float *adjoint) {
+#if PPM_MICROFACET
+    if (adjoint != 0 && c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS)
+        return microfacet_adjoint(c, sd->wi, wo, adjoint);
+#endif
+    return (float3)(1.0f);
+}
+
+/* shader_sample, and shader_sample_light: light's paths (photons), whose throughput is the
+ * adjoint of the camera's (closure_adjoint; adjoint: the shading tables) */
+inline bool shader_sample_with(const ShaderData *sd, int mask, float3 rand, BsdfSample *s,
+                               __global const float *adjoint) {
+    if (sd->n == 1) {                       /* one closure: no pick, no mixture */
+        const Closure *c = &sd->c[0];
+        if (!closure_in(c, mask)) return false;
+        float3 eval;
+        float pdf;
+        s->label = closure_sample(c, sd->Ng, sd->wi, rand, &eval, &s->wo, &pdf, &s->eta);
+        if (s->label == LABEL_NONE || !(pdf > 0.0f)) return false;
+        if (!(s->label & LABEL_TRANSMIT)) eval *= bump_shadowing(sd, c, s->wo, false);
+        s->roughness2 = c->alpha_x * c->alpha_y;
+        s->pdf = (s->label & LABEL_SINGULAR) ? INFINITY : pdf;
+        s->weight = c->weight * eval * closure_adjoint(sd, c, s->wo, adjoint) / pdf;
+        return true;
+    }
+    float sum_sw = 0.0f;
+    for (int k = 0; k < sd->n; k++)
+        if (closure_in(&sd->c[k], mask)) sum_sw += sd->c[k].sample_weight;
+    if (!(sum_sw > 0.0f)) return false;
+    float r = rand.z * sum_sw, partial = 0.0f;
+    int pick = -1, last = -1;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        if (!closure_in(c, mask)) continue;
+        last = k;
+        if (pick < 0 && r < partial + c->sample_weight) {
+            pick = k;
+            rand.z = clamp((r - partial) / c->sample_weight, 0.0f, 0.99999994f);
+        }
+        partial += c->sample_weight;
+    }
+    if (pick < 0) {                  /* r rounded up to the sum */
+        pick = last;
+        rand.z = 0.99999994f;
+    }
+    const Closure *c = &sd->c[pick];
+    float3 eval;
+    float pdf;
+    s->label = closure_sample(c, sd->Ng, sd->wi, rand, &eval, &s->wo, &pdf, &s->eta);
+    if (s->label == LABEL_NONE || !(pdf > 0.0f)) return false;
+    if (!(s->label & LABEL_TRANSMIT)) eval *= bump_shadowing(sd, c, s->wo, false);
+    s->roughness2 = c->alpha_x * c->alpha_y;
+    if (s->label & LABEL_SINGULAR) {
+        s->pdf = INFINITY;
+        s->weight = c->weight * eval * (sum_sw / (pdf * c->sample_weight));
+        return true;
+    }
+    float3 f = c->weight * eval * closure_adjoint(sd, c, s->wo, adjoint);
+    float sum_pdf = pdf * c->sample_weight;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *o = &sd->c[k];
+        if (k == pick || !closure_in(o, mask)) continue;
+        float p;
+        float3 e = closure_eval_bumped(sd, o, s->wo, &p);
+        if (p != 0.0f) {
+            f += o->weight * e * closure_adjoint(sd, o, s->wo, adjoint);
+            sum_pdf += p * o->sample_weight;
+        }
+    }
+    s->pdf = sum_pdf / sum_sw;
+    s->weight = f / s->pdf;
+    return true;
+}
+
+inline bool shader_sample(const ShaderData *sd, int mask, float3 rand, BsdfSample *s) {
+    return shader_sample_with(sd, mask, rand, s, (__global const float *)0);
+}
+
+inline bool shader_sample_light(const ShaderData *sd, int mask, float3 rand, BsdfSample *s,
+                                TABLES_ARG) {
+    return shader_sample_with(sd, mask, rand, s, shading_tables);
+}
+
+/* Shading normals for light (Veach's thesis, 5.3): a light path arriving along d that leaves
+ * along wo carries |d.N| |wo.Ng| / (|d.Ng| |wo.N|) on top of the sample's weight (N the shading
+ * normal, Ng the surface's), so that it transports what a camera path through the same vertex
+ * finds; 0 where a cosine is (photon_pass.cl, light_trace.cl). */
+inline float shading_adjoint(float3 d, float3 wo, float3 N, float3 Ng) {
+    float c_ng = fabs(dot(d, Ng)), o_n = fabs(dot(wo, N));
+    return o_n > 0.0f && c_ng > 0.0f ? fabs(dot(d, N)) * fabs(dot(wo, Ng)) / (c_ng * o_n) : 0.0f;
+}
+#endif

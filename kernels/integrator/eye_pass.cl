@@ -1,0 +1,271 @@
+/* Eye pass (the paper's first phase): one jittered camera ray per pixel, through the closures
+ * paths follow (mirrors, glass, smooth glossy lobes, transparency) to a hit whose closures the
+ * gather evaluates, where it stores a visible point and adds direct light by next-event
+ * estimation and a sample of those closures (MIS).  At each vertex one of the two is chosen in
+ * proportion to the closures' sample weights.  Emission and background seen along the way go
+ * to the pixel's direct sum. */
+#include "builtins.h"
+#include "rng.h"
+#include "integrator/direct_light.h"
+#include "geom/camera.h"
+#include "integrator/camera_connect.h"
+#include "shared.h"
+#include "geom/medium.h"
+#include "integrator/indirect_paths.h"
+
+/* offset from the pixel centre: the filter table (inverse CDF) at u in [0, 1), lerped */
+inline float filter_offset(__global const float *table, float u) {
+    float x = u * (float)FILTER_TABLE_SIZE - 0.5f;
+    x = clamp(x, 0.0f, (float)(FILTER_TABLE_SIZE - 1));
+    int k = min((int)x, FILTER_TABLE_SIZE - 2);
+    float t = x - (float)k;
+    return mix(table[k], table[k + 1], t);
+}
+
+/* The numbers of the next-event estimation at the eye path's vertex `depth` (a mirror, glass
+ * or glossy vertex before the visible point): the pixel's Sobol set for it (rng.h ld_set, its
+ * own scramble), as Cycles samples its lights; pseudo-random past LD_SETS vertices. */
+inline float3 eye_nee_u(uint pass, uint key, int depth, uint *rng) {
+    if (depth < LD_SETS) return ld_set(pass, key, (uint)depth).xyz;
+    return (float3)(rnd(rng), rnd(rng), rnd(rng));
+}
+
+__kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_radius,
+                       float auto_radius_pixels, __global const float *filter_table,
+                       __global float4 *direct, __global float *radius, __global float *radius0,
+                       __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
+                       __global float4 *vp_shade, __global uint *counters,
+                       __global float4 *aux_albedo, __global float4 *aux_normal,
+                       __global const uint *active, __global float *transparency,
+                       uint path_indirect, float lt_kappa) {
+    SCENE_LOAD(scene);
+    __global const Camera *cam = scene->camera;
+    int id = get_global_id(0);
+    int rw = cam->region[2], rh = cam->region[3];
+    if (id >= rw * rh) return;
+    if (!active[id]) {               /* converged (adaptive sampling): no visible point */
+        vp_pos[id] = (float4)(0.0f);
+        return;
+    }
+    int i = id % rw, j = id / rw;
+    uint rng = rng_seed(seed, pass_index, (uint)id, 1u);
+    /* the pixel's position and the lens, stratified over the passes: a set of the pixel's
+     * Owen-scrambled Sobol numbers (rng.h ld_set), the position the set's (0, 2)-sequence pair,
+     * as the path's choices and directions below (sets of their own key).  Most of a Cornell
+     * box's noise is at its lamp's edge: its direct light's noise at 256 passes was 0.0088
+     * with the R2 sequence, 0.0076 with these (Cycles: 0.0078).  Where visible points gather
+     * photons the pixel's radius statistics follow where its points fell, pass after pass, and
+     * Sobol's passes alternate between parts of the pixel; the estimate stays consistent (a
+     * pass's radius depends only on the passes before it, and its photons estimate the light
+     * blurred by that radius), and on the benchmark's caustics it converges as fast as with
+     * pseudo-random positions (docs/BENCHMARKS.md, "The eye pass's numbers"): the glossy
+     * spheres' error fell by 10-14 % with these. */
+    uint prng = rng_seed(seed, 0u, (uint)id, 4u);    /* the pixel's key, the same each pass */
+    uint nee_key = rng_seed(seed, 0u, (uint)id, 6u);  /* its next-event estimation's */
+    uint path_key = rng_seed(seed, 0u, (uint)id, 7u); /* its path's choices and directions */
+    float4 uc = ld_set(pass_index, prng, 0u);
+    /* pixel filter by importance sampling (as Cycles): offsets from the filter's inverse CDF */
+    float px = (float)(cam->region[0] + i) + 0.5f + filter_offset(filter_table, uc.x);
+    float py = (float)(cam->region[1] + j) + 0.5f + filter_offset(filter_table, uc.y);
+    float3 o, d;
+    float tmax;
+    camera_ray(cam, px, py, uc.z, uc.w, &o, &d, &tmax);
+    /* the ray's footprint (Bump nodes: svm_bump.h) */
+    float2 diff = SVM_FOOTPRINT ? camera_differential(cam, px, py) : (float2)(0.0f);
+    float3 beta = (float3)(1.0f), L = (float3)(0.0f);
+    float path_len = 0.0f;
+    uint mask = VIS_CAMERA;
+    uint path = PATH_CAMERA;           /* the ray, as the Light Path node sees it */
+    /* the density of the sample that made this ray, and the normal its vertex sampled the world
+     * around, for the MIS weight of the emitter it finds */
+    float prev_pdf = INFINITY;
+    float3 prev_n = (float3)(0.0f, 0.0f, 1.0f), prev_p = (float3)(0.0f);
+    float4 vp = (float4)(0.0f);
+    /* alpha: a camera ray (through transparent surfaces, and transparent glass) that reaches
+     * the world on a transparent film, or a holdout, is transparency, not radiance (Cycles'
+     * transparent background path) */
+    bool film_clear = true;
+    float clear = 0.0f;
+    ShaderData sd;
+#if PPM_ABSORPTION
+    Media media;
+    media_init(&media);
+#endif
+    __global const LightPaths *lp = scene->light_paths;
+    int term = TERM_NONE; /* past a Light Paths limit: how the path ends (path_state.h) */
+    for (int depth = 0, transparent = 0, vertex = 0;;) {
+        Hit h = bvh_intersect(scene, o, d, tmax, mask, false);
+        /* the clamp of what this ray finds: direct after at most one bounce (path_state.h) */
+        float clamp_found = clamp_limit(depth - 1, lp);
+#if PPM_ABSORPTION
+        /* the segment inside a medium (lights seen inside one: attenuated as far as the hit) */
+        if (h.leaf >= 0) beta *= media_transmittance(&media, scene->materials, h.t);
+#endif
+        float pdf_l = 0.0f;
+#if PPM_LIGHTS_SEEN
+        float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? tmax : h.t, h.leaf < 0, mask, prev_p,
+                                prev_n, &pdf_l);
+        L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l), clamp_found);
+#endif
+        if (h.leaf < 0) {
+            if (film_clear && cam->film_transparent) {
+                clear += (beta.x + beta.y + beta.z) * (1.0f / 3.0f);
+                break;
+            }
+            if (mask == VIS_CAMERA && (scene->emitter_info->world_flags & WORLD_HIDDEN_CAMERA))
+                break;
+            pdf_l = PPM_WORLD && scene->emitter_info->has_world && !isinf(prev_pdf)
+                        ? world_light_pdf(scene, d, prev_n)
+                        : 0.0f;
+            L += clamp_sample(beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l), clamp_found);
+            break;
+        }
+        path_len += h.t;
+        Surface s = surface_at(scene, h);
+        float foot_r = diff.x + path_len * diff.y;
+        shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, -d,
+                     footprint_at(scene, s.tri, h.leaf, h.u, h.v, foot_r));
+        if (film_clear && max3(sd.holdout) > 0.0f) {
+            float3 t = beta * sd.holdout;
+            clear += (t.x + t.y + t.z) * (1.0f / 3.0f);
+        }
+        if (max3(sd.emission) > 0.0f)
+            L += clamp_sample(beta * sd.emission
+                                  * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n),
+                              clamp_found);
+        if (term != TERM_NONE) {
+            /* past a limit: the emission above, and after the last bounce on through the
+             * surface's transparency (Cycles' TERMINATE_AFTER_TRANSPARENT) */
+            if (term == TERM_ON_NEXT_SURFACE || !(max3(sd.transparent) > 0.0f)) break;
+            beta *= sd.transparent;
+            if (!(max3(beta) > 0.0f)) break;
+            o = offset_ray(s.p, -sd.Ng, scene->emitter_info->offset_scale);
+            tmax = PPM_INF;
+            path = path_transparent(path);
+            term = max(term, path_limit_transparent(++transparent, lp));
+            continue;
+        }
+        float sw = sd.sw_gather + sd.sw_continue;
+        if (!(sw > 0.0f)) break;
+        /* A vertex with gathered and followed closures (a diffuse base under a glossy layer):
+         * next-event estimation for all of them here, before the path picks one side; each
+         * side's sample of its closures is then weighted against that estimate's density (all
+         * the closures').  Estimated on the side chosen, the direct light carried the choice's
+         * noise: a sun-lit Principled cone and ground rendered at 3.5x the noise (issue 24). */
+        bool mixed = sd.sw_gather > 0.0f && sd.sw_continue > 0.0f && sd.continue_glossy;
+        if (mixed)
+            L += clamp_sample(beta
+                                  * direct_nee_u(scene, &sd, s.p, MASK_ALL, true,
+                                                 eye_nee_u(pass_index, nee_key, depth, &rng)),
+                              clamp_limit(depth, lp));
+        /* the choice of the vertex's side and the continuing sample's numbers: the pixel's
+         * Sobol set for the vertex (pseudo-random past LD_SETS) */
+        float4 uv = ld_set_or_rnd(pass_index, path_key, (uint)vertex++, &rng);
+        if (uv.w * sw < sd.sw_gather) {
+            /* a visible point: the gather's closures, weighted by 1 / their probability */
+            float3 bvp = beta * (sw / sd.sw_gather);
+            /* direct light: next-event estimation and a sample of the closures (MIS); with
+             * path_indirect the continuing path's (indirect_paths below) */
+            if (!path_indirect && mixed)
+                L += clamp_sample(bvp * direct_bsdf(scene, &sd, s.p, MASK_GATHER, MASK_ALL, &rng),
+                                  clamp_limit(depth, lp));
+            else if (!path_indirect)
+                L += direct_light(scene, &sd, s.p, MASK_GATHER, bvp, clamp_limit(depth, lp), &rng);
+            vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
+            /* the surface's own normal: the gather's disc lies in it, as the photons do (the
+             * gather shades the point again) */
+            vp_nrm[id] = (float4)(sd.Ng, as_float(path));
+            float3 albedo = (float3)(0.0f);
+            bool lambert = true;
+            for (int k = 0; k < sd.n; k++) {
+                if (!sd.c[k].gather) continue;
+                albedo += sd.c[k].weight;
+                lambert &= closure_lambert(&sd, &sd.c[k]);
+            }
+            if (lambert) {
+                /* f is one constant: it goes into the path weight, the gather sums flux */
+                vp_beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), foot_r);
+                vp_shade[id] = (float4)(0.0f, 0.0f, as_float(-1), 0.0f);
+            } else {
+                vp_beta[id] = (float4)(bvp, foot_r); /* (w: the gather's footprint) */
+                vp_shade[id] = (float4)(h.u, h.v, as_float(h.leaf), as_float(pack_unit(sd.wi)));
+            }
+            /* denoising passes: albedo through the specular chain, world-space normal */
+            aux_albedo[id] += (float4)(beta * albedo, 1.0f);
+            aux_normal[id] += (float4)(sd.N, 1.0f);
+            if (radius[id] <= 0.0f) {
+                float foot = camera_pixel_size(cam) * (cam->type == CAMERA_ORTHO ? 1.0f : path_len);
+                float r0 = initial_radius > 0.0f ? initial_radius : auto_radius_pixels * foot;
+                radius[id] = radius0[id] = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
+            }
+            /* a point the camera sees directly: the photons' light tracing renders the same
+             * paths, and the merge takes its side of the balance heuristic (photon_pass.cl
+             * connect_camera) */
+            if (lt_kappa > 0.0f && depth == 0) {
+                /* the first pass counts them: with none, the render stops connecting photons
+                 * to the camera (Renderer.iterate) */
+                if (pass_index == 0u) atomic_inc(&counters[CNT_SEEN]);
+                float m = merge_factor(cam, s.p, sd.Ng, lt_kappa) * radius[id] * radius[id];
+                if (m > 0.0f) {
+                    float4 b = vp_beta[id];
+                    vp_beta[id] = (float4)(b.xyz * (m / (1.0f + m)), b.w);
+                }
+            }
+            /* direct and indirect light by path tracing (indirect_paths.h); the photons bring
+             * caustics */
+            if (path_indirect)
+                L += indirect_paths(scene, &sd, s.p, s.material, bvp, depth, path, pass_index,
+                                    rng_seed(seed, 0u, (uint)id, 5u), mixed,
+#if PPM_ABSORPTION
+                                    &media,
+#endif
+                                    &rng);
+            break;
+        }
+        /* the path goes on through the other closures (mirrors, glass, smooth glossy lobes,
+         * transparency), weighted by 1 / their probability */
+        beta *= sw / sd.sw_continue;
+        if (sd.continue_glossy && !mixed)
+            L += clamp_sample(beta
+                                  * direct_nee_u(scene, &sd, s.p, MASK_CONTINUE, true,
+                                                 eye_nee_u(pass_index, nee_key, depth, &rng)),
+                              clamp_limit(depth, lp));
+        BsdfSample b;
+        if (!shader_sample(&sd, MASK_CONTINUE, uv.xyz, &b)) break;
+        float pdf_mis = b.pdf; /* the density the emitter it finds is weighed against */
+        if (mixed && !isinf(pdf_mis)) shader_eval(&sd, b.wo, MASK_ALL, &pdf_mis);
+        beta *= b.weight;
+        bool transmit = (b.label & LABEL_TRANSMIT) != 0;
+        o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng, scene->emitter_info->offset_scale);
+        d = b.wo;
+        tmax = PPM_INF;
+        if (!(max3(beta) > 0.0f)) break;
+        if (b.label & LABEL_TRANSPARENT) {
+            /* straight through: not a bounce (as Cycles' transparent bounces), the ray keeps
+             * its type and its MIS state */
+            path = path_transparent(path);
+            term = path_limit_transparent(++transparent, lp);
+            continue;
+        }
+        film_clear = film_clear && (cam->film_transparent & FILM_TRANSPARENT_GLASS)
+                     && (b.label & LABEL_TRANSMIT) && !(b.label & LABEL_DIFFUSE)
+                     && b.roughness2 <= cam->glass_roughness * cam->glass_roughness;
+        depth++;
+        path = path_bounce(path, b.label);
+        term = path_limit(path, depth, lp); /* past it: the emitter this sample finds only */
+        prev_pdf = sd.continue_glossy ? pdf_mis : INFINITY;
+        prev_n = sd.N;
+        prev_p = s.p;
+        mask = transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
+#if PPM_ABSORPTION
+        if (transmit) media_cross(&media, s.material, !sd.backfacing);
+#endif
+    }
+    vp_pos[id] = vp;
+    /* this pass's sample (the film adds it to its sums, progressive.cl film_add_sample);
+     * NaN/Inf guard: drop the sample, count it (render stats) */
+    bool ok = isfinite(L.x) && isfinite(L.y) && isfinite(L.z);
+    direct[id] = ok ? (float4)(L, 1.0f) : (float4)(0.0f);
+    if (!ok) atomic_inc(&counters[CNT_NAN]);
+    if (clear > 0.0f && isfinite(clear)) transparency[id] += clear;
+}

@@ -1,0 +1,216 @@
+#ifndef PPM_INDIRECT_PATHS_H
+#define PPM_INDIRECT_PATHS_H
+#include "rng.h"
+#include "integrator/direct_light.h"
+#include "geom/camera.h"
+#include "geom/medium.h"
+
+/* Indirect light at a visible point by path tracing (RenderOptions.indirect = "paths"): the eye
+ * path goes on from the visible point through a sample of the gather's closures, with
+ * next-event estimation at every vertex, and the photon map keeps only the light paths that
+ * path tracing cannot sample well: those whose first scattering from the emitter is by a mirror,
+ * glass or a glossy reflection smoother than PPM_CAUSTIC_ROUGHNESS (caustics,
+ * kernels/integrator/photon_pass.cl).  Followed glossy reflections at least that rough (by default
+ * none: it is the gather's roughness, RenderOptions.caustic_roughness) are the eye path's:
+ * next-event estimation through them, as Cycles does.
+ *
+ * The two estimators split the light paths without overlap by that one vertex, the light's
+ * first scattering: at every vertex the path chooses the gather's closures, the glossy followed
+ * ones or the other followed ones in proportion to their sample weights.  Light counts here
+ * only when the vertex before it chose the gather's or the glossy closures (next-event
+ * estimation of those closures and emitters their sample finds, combined by MIS); light
+ * reached through another followed closure, or whose shadow ray meets glass, is the caustic
+ * photons' (a photon whose first scattering chose the gather's or glossy closures is ended
+ * there: next-event estimation and these paths have it).  Transparent surfaces are no
+ * scattering for either.
+ *
+ * Russian roulette (survival: the square root of the path's throughput relative to the visible
+ * point's, below), decided by one number for the whole path; bounces counted from the camera
+ * as in the eye pass, and a path past a Light Paths limit only adds the emitters its last
+ * sample found (through transparent surfaces after its last bounce; path_state.h).  The numbers of
+ * the first twelve vertices are low-discrepancy over the passes (Owen-scrambled Sobol sets, as
+ * Cycles' default sampler; rng.h ld_set).  In a closed emissive sphere (the benchmark's furnace)
+ * both estimators, next-event estimation and the cosine sample, are constant: all of its noise is
+ * Russian roulette's, and the roulette's one number stratifies it over the passes. */
+
+/* Russian roulette spares the hit of the visible point's own sample: measured at equal time
+ * (docs/BENCHMARKS.md) the furnace's error fell from 0.023 to 0.013 and the Cornell box's
+ * stayed (0.0127, 0.0125); sparing two hits was worse on both */
+#define INDIRECT_RR_FIRST 1
+/* the most a bounce's survival is raised to (the roulette below): 3/4, a tail of three more
+ * bounces on average after a survival */
+#define INDIRECT_RR_Q 0.75f
+
+/* the path's vertices draw their numbers from the pixel's low-discrepancy stream over the
+ * passes (rng.h ld_set), two sets of four each: set one (the point on the emitter as the set's
+ * (0, 2)-sequence pair, the emitter's pick, the closure set), set two (the sampled direction as
+ * the pair, the closure's pick, and at the first vertex the path's one Russian-roulette
+ * number); vertices past LD_SETS / 2 from the generator */
+inline float4 indirect_set(int vertex, uint which, uint pass, uint key, uint *rng) {
+    return ld_set_or_rnd(pass, key, 2u * (uint)vertex + which, rng);
+}
+
+/* Light reaching the visible point p (material mat, closures sd, weight beta towards the pixel,
+ * reached after depth bounces by the ray `path`) by next-event estimation there and paths that
+ * continue from it; pass and key: the pixel's low-discrepancy stream.  nee_all: the caller has
+ * done next-event estimation at p for all the closures (a vertex with gathered and followed
+ * ones, eye_pass.cl): none here, and the first sample is weighted against that one's density.
+ * sd is overwritten. */
+inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int mat, float3 beta,
+                             int depth, uint path, uint pass, uint key, bool nee_all,
+#if PPM_ABSORPTION
+                             Media *media,
+#endif
+                             uint *rng) {
+    float3 L = (float3)(0.0f);
+    float beta0 = max3(beta);
+    if (!(beta0 > 0.0f)) return L;
+    int set = MASK_GATHER;           /* the closures this vertex samples */
+    bool counts = true;              /* whether emitters the next ray finds are these paths' */
+    float prev_pdf = INFINITY;
+    float3 prev_n = sd->N, prev_p = p;
+    uint mask = VIS_DIFFUSE;
+    /* Russian roulette by one number for the whole path: it survives its k-th roulette while
+     * u_rr < q_1 ... q_k (each survival given the last has probability q_k, as with a number per
+     * roulette), so over the passes a pixel's path lengths are stratified as that one
+     * dimension is: measured, the furnace's error at 256 passes fell from 0.0065 to 0.0031
+     * (0.0010 with the Sobol numbers) and the Cornell box's stayed */
+    float u_rr = 0.0f, survive = 1.0f;
+    float4 ua = indirect_set(0, 0u, pass, key, rng);
+    __global const LightPaths *lp = scene->light_paths;
+    int term = TERM_NONE; /* past a Light Paths limit: how the path ends (path_state.h) */
+    for (int vertex = 0, transparent = (int)path_count(path, PATH_TRANSPARENT_DEPTH);; vertex++) {
+        if (set != MASK_SPECULAR && !(vertex == 0 && nee_all)) {
+            float3 u = (float3)(ua.z, ua.x, ua.y);
+            L += clamp_sample(beta * direct_nee_u(scene, sd, p, set, EMITTERS_HITTABLE, u),
+                              clamp_limit(depth, lp));
+        }
+        float4 ub = indirect_set(vertex, 1u, pass, key, rng);
+        if (vertex == 0) u_rr = ub.w;
+        BsdfSample b;
+        float3 rand = ub.xyz;
+        if (!shader_sample(sd, set, rand, &b)) break;
+        beta *= b.weight;
+        bool transmit = (b.label & LABEL_TRANSMIT) != 0;
+        float3 o = offset_ray(p, transmit ? -sd->Ng : sd->Ng, scene->emitter_info->offset_scale);
+        float3 d = b.wo;
+        if (b.label & LABEL_TRANSPARENT) {
+            /* straight through: no scattering, the ray keeps its type and MIS state */
+            path = path_transparent(path);
+            term = path_limit_transparent(++transparent, lp);
+        } else {
+            depth++;
+            path = path_bounce(path, b.label);
+            term = path_limit(path, depth, lp);
+            counts = set != MASK_SPECULAR;
+            prev_pdf = b.pdf;
+            if (vertex == 0 && nee_all && !isinf(b.pdf))
+                shader_eval(sd, b.wo, MASK_ALL, &prev_pdf); /* the eye pass's NEE's density */
+            prev_n = sd->N;
+            prev_p = p;
+            mask = bounce_visibility(b.label);
+#if PPM_ABSORPTION
+            if (transmit) media_cross(media, mat, !sd->backfacing);
+#endif
+        }
+        if (!(max3(beta) > 0.0f)) break;
+        Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
+#if PPM_ABSORPTION
+        if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);
+#endif
+        float pdf_l = 0.0f;
+#if PPM_LIGHTS_SEEN
+        if (counts) {
+            float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, mask,
+                                    prev_p, prev_n, &pdf_l);
+            L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l), clamp_limit(depth - 1, lp));
+        }
+#endif
+        while (h.leaf >= 0 && term == TERM_AFTER_TRANSPARENT) {
+            /* past a bounce limit: on through transparent surfaces to an emitter (Cycles'
+             * TERMINATE_AFTER_TRANSPARENT), whose emission counts below */
+            Surface s = surface_at(scene, h);
+            if (!(scene->materials[s.material].flags & MAT_TRANSPARENT)) break;
+            if (counts && (scene->materials[s.material].flags & MAT_EMISSIVE)) break;
+            beta *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
+            if (!(max3(beta) > 0.0f)) return L;
+            o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
+                           scene->emitter_info->offset_scale);
+            path = path_transparent(path);
+            term = max(term, path_limit_transparent(++transparent, lp));
+            h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
+#if PPM_ABSORPTION
+            if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);
+#endif
+#if PPM_LIGHTS_SEEN
+            if (counts) {
+                float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, mask,
+                                        prev_p, prev_n, &pdf_l);
+                L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l),
+                                  clamp_limit(depth - 1, lp));
+            }
+#endif
+        }
+        if (h.leaf < 0) {
+            if (counts && PPM_WORLD && scene->emitter_info->has_world) {
+                pdf_l = !isinf(prev_pdf) ? world_light_pdf(scene, d, prev_n) : 0.0f;
+                L += clamp_sample(beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l),
+                                  clamp_limit(depth - 1, lp));
+            }
+            break;
+        }
+        Surface s = surface_at(scene, h);
+        shader_setup(scene, sd, &s, h.u, h.v, path, h.t, -d,
+                     footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                  SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p) : 0.0f));
+        if (path & PATH_DIFFUSE) shader_caustics_off(sd, lp); /* the caustics toggles */
+        if (counts && max3(sd->emission) > 0.0f)
+            L += clamp_sample(beta * sd->emission
+                                  * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n),
+                              clamp_limit(depth - 1, lp));
+        if (term != TERM_NONE) break;  /* past a limit: that emission only */
+        float sw = sd->sw_gather + sd->sw_continue;
+        if (!(sw > 0.0f)) break;
+        /* Russian roulette after the hit's emission, before its next-event estimation and
+         * sample (moved here from before the ray, the furnace's error fell from 0.034 to 0.023
+         * at 8 s).  Cycles' survival, the square root of the throughput relative to the
+         * visible point's (t, after the roulettes' 1 / q), settles at q = the albedo per bounce;
+         * here a bounce survives with at least that and up to sqrt(albedo), at most
+         * INDIRECT_RR_Q: the path survives to a vertex with probability min(sqrt of its
+         * throughput before the roulettes, Q per bounce).  Low albedos are where the roulette's
+         * noise is all there is (the furnace, albedo 0.5: error at 4 s 0.0060 -> 0.0037, at
+         * 16 s 0.0019 -> 0.0013), and with the cap longer paths cost high albedos nothing
+         * (the Cornell box 0.0084 -> 0.0083; docs/BENCHMARKS.md) */
+        float q = 1.0f;
+        if (vertex >= INDIRECT_RR_FIRST) {
+            float t = max3(beta) / beta0;
+            float cycles = survive * fmin(1.0f, sqrt(t));
+            /* both terms are at most survive: the survival never rises */
+            float keep = fmax(cycles, fmin(sqrt(survive * t), survive * INDIRECT_RR_Q));
+            q = keep / survive;
+            survive = keep;
+        }
+        if (!(survive > 0.0f) || u_rr >= survive) break;
+        beta /= q;
+        p = s.p;
+        mat = s.material;
+        ua = indirect_set(vertex + 1, 0u, pass, key, rng);
+        /* the vertex's closures: the gather's, the glossy followed ones or the others (the
+         * caustic photons' light), in proportion to their sample weights */
+        float sw_specular = shader_sw_specular(sd);
+        sw = sd->sw_gather + sd->sw_glossy + sw_specular;
+        float pick = ua.w * sw;
+        if (pick < sd->sw_gather) {
+            set = MASK_GATHER;
+            beta *= sw / sd->sw_gather;
+        } else if (pick < sd->sw_gather + sd->sw_glossy) {
+            set = MASK_GLOSSY;
+            beta *= sw / sd->sw_glossy;
+        } else {
+            set = MASK_SPECULAR;
+            beta *= sw / sw_specular;
+        }
+    }
+    return L;
+}
+#endif

@@ -1,0 +1,279 @@
+/* Photon pass: photons emitted from the emitters in proportion to power, scattered by sampling
+ * the closures of every surface they meet (Russian roulette keeps their power about constant),
+ * and stored where the gather can evaluate a closure (kernels/closure/shader.h: diffuse, sheen,
+ * translucent and rough lobes), after the first scattering (direct light is next-event
+ * estimation's).  Photons outside this pass's grid (visible points' bounds) cannot be gathered
+ * and are only counted.  With caustics_only (eye paths bring the rest of the indirect light,
+ * indirect_paths.h) a photon lives on only if its first scattering is by a followed closure;
+ * with capacity 0 (a pilot) photons are only classified at their first scattering and counted
+ * (CNT_CAUSTIC, CNT_DIFFUSE_FIRST). */
+#include "builtins.h"
+#include "rng.h"
+#include "integrator/photon_emission.h"
+#include "geom/camera.h"
+#include "closure/shader.h"
+#include "integrator/hash.h"
+#include "integrator/direct_light.h"
+#include "integrator/camera_connect.h"
+
+#include "shared.h"
+#include "geom/medium.h"
+
+/* A stored photon as the camera connection needs it: its flux (before shading, its cos_N /
+ * cos_Ng factor), path and clamp ratio as stored; a Lambert surface's colour and normals
+ * (facing where the photon came from; the others' are in the ShaderData). */
+typedef struct {
+    float3 flux, color, N, Ng;
+    float shading, rs;
+    uint ppath;
+    bool lambert;
+} PhotonHit;
+
+/* Light tracing, the photons' second strategy (VCM's camera connection, Georgiev et al. 2012):
+ * a photon stored at s (arriving along d) is connected to the pinhole camera through the
+ * closures the gather evaluates, as the camera sees them, and splatted with the pixel filter,
+ * each pixel weighted by the balance heuristic against the merge of the same path at a visible
+ * point the camera sees directly (camera_connect.h merge_factor; the eye pass gives the merge
+ * the other side).  Returns whether sd was set up again (as the camera sees it). */
+inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s, Hit h, float3 d,
+                           const PhotonHit *ph, const Splat *sp) {
+    __global const Camera *cam = scene->camera;
+    float px, py, dist, we;
+    float3 wc;
+    if (!(ph->shading > 0.0f) || !camera_project(cam, s->p, sp->reach, &px, &py, &wc, &dist, &we))
+        return false;
+    float cos_c = dot(wc, ph->Ng); /* Ng faces where the photon came from */
+    if (ph->lambert && !(cos_c > 0.0f && dot(wc, ph->N) > 0.0f)) return false;
+    uint kinds = path_join(PATH_CAMERA, ph->ppath, scene->light_paths);
+    if (kinds == 0u || (ph->lambert && !(kinds & JOIN_DIFFUSE))) return false;
+    float3 org = offset_ray(s->p, cos_c > 0.0f ? ph->Ng : -ph->Ng,
+                            scene->emitter_info->offset_scale);
+    /* the segment as a camera ray sees it: through objects hidden from the camera, as the
+     * eye pass's rays that make the merge's visible points */
+    float3 T = ray_transmittance(scene, org, wc, dist * 0.9999f,
+                                 scene->light_paths->transparent_max_bounces, VIS_CAMERA);
+    if (!(max3(T) > 0.0f)) return false;
+    /* the photon's flux times f (the gather's photon_term, gather.cl), ratio: the camera
+     * path's sample weight f cos / pdf for the photon's direction (Clamp Indirect) */
+    float3 f, ratio;
+    bool setup = false;
+    if (ph->lambert) {
+        f = ph->color * (1.0f / PPM_PI);
+        ratio = ph->color;
+    } else {
+        shader_setup(scene, sd, s, h.u, h.v, PATH_CAMERA, dist, wc,
+                     footprint_at(scene, s->tri, h.leaf, h.u, h.v,
+                                  SVM_FOOTPRINT ? camera_footprint_at(cam, s->p) : 0.0f));
+        setup = true;
+        float pdf, cs = fabs(dot(d, sd->N));
+        float3 fc = shader_eval_kinds(sd, -d, MASK_GATHER, kinds, &pdf);
+        if (!(cs > 1e-6f) || !(max3(fc) > 0.0f)) return true;
+        f = fc * (1.0f / cs);
+        ratio = pdf > 0.0f ? fc * (1.0f / pdf) : (float3)(0.0f);
+    }
+    float3 c = ph->flux * ph->shading * f * T * (fabs(cos_c) * we);
+    float limit = scene->light_paths->clamp_indirect;
+    if (limit > 0.0f && ph->rs > 0.0f) {
+        float3 x = ratio * ph->flux * ph->rs;
+        float sum = fabs(x.x) + fabs(x.y) + fabs(x.z);
+        if (sum > limit) c *= limit / sum;
+    }
+    if (isfinite(c.x) && isfinite(c.y) && isfinite(c.z) && max3(c) > 0.0f)
+        splat(cam, sp, px, py, c, merge_density(sp->kappa, cos_c, we));
+    return setup;
+}
+
+__kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photons,
+                          __global const Grid *grid, uint capacity, __global float4 *ph_pos,
+                          __global float4 *ph_flux, __global uint2 *ph_path,
+                          __global uint *counters, uint caustics_only, __global float *lt_image,
+                          __global const float *lt_filter, int lt_n_table, float lt_reach,
+                          __global const float *radius, float lt_kappa) {
+    SCENE_LOAD(scene);
+    uint id = get_global_id(0);
+    if (id >= n_photons) return;
+    Grid g = *grid;
+    if (g.valid == 0u && capacity > 0u) return;
+    uint rng = rng_seed(seed, pass_index, id, 2u);
+    Splat sp = {lt_image, lt_filter, radius, lt_n_table, lt_reach, lt_kappa};
+    float3 o, d, flux;
+    float rs; /* the radiance its light path carries over its flux (the clamp, gather.cl) */
+    float2 nee;
+    if (!emit_photon(scene, &rng, &o, &d, &flux, &rs, &nee)) return;
+    uint mask = VIS_SHADOW; /* the light's own segment: objects that cast no shadow let it by */
+#if PPM_ABSORPTION
+    Media media;
+    media_init(&media);
+#endif
+    ShaderData sd;
+    bool direct = true; /* nothing but transparent surfaces crossed yet */
+    uint path = 0u; /* the Light Path node's view: light's rays are no camera rays */
+    /* the bounces the Light Paths limits count (path_state.h path_join): all after the light's
+     * first scattering, which a camera path reaches by next-event estimation; the type bits
+     * those of the last scattering */
+    uint ppath = 0u;
+    __global const LightPaths *lp = scene->light_paths;
+    int max_bounces = lp->max_bounces;
+    float reach = 0.0f; /* from the emitter to the light's first scattering */
+    for (int bounce = 0, transparent = 0; bounce <= max_bounces;) {
+        Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
+        if (h.leaf < 0) break;
+        float3 before = flux; /* Russian roulette below: this bounce's albedo */
+        if (direct) reach += h.t;
+#if PPM_ABSORPTION
+        flux *= media_transmittance(&media, scene->materials, h.t); /* the segment's medium */
+#endif
+        Surface s = surface_at(scene, h);
+        Material mt = scene->materials[s.material];
+        /* a Lambert material's one closure without the closure list (shader.h's short path:
+         * the same closure, sampled the same way) */
+#if PPM_SHADER
+        bool lambert = (mt.flags & MAT_LAMBERT) != 0;
+#else
+        bool lambert = true;              /* every material is one Lambert closure */
+#endif
+        float3 color = (float3)(0.0f), N, Ng;
+        bool gather;
+        if (lambert) {
+            color = lambert_weight(scene, scene->shader_nodes + mt.node_first, s.tri, h.u, h.v);
+            bool back = dot(d, s.ng) > 0.0f;
+            N = back ? -s.ns : s.ns;
+            Ng = back ? -s.ng : s.ng;
+            gather = fabs(avg3(color)) >= CLOSURE_WEIGHT_CUTOFF;
+        } else {
+            shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, -d,
+                         footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                      SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p)
+                                                    : 0.0f));
+            N = sd.N;
+            Ng = sd.Ng;
+            gather = sd.sw_gather > 0.0f;
+        }
+        /* Shading normals for light (Veach's thesis, 5.3): photons land with the density of
+         * their cosine to the surface as it is (Ng), where a camera path weighs the light it
+         * finds by the cosine to the shading normal (N), as Cycles does (none from below N).
+         * So a stored photon counts cos_N / cos_Ng of its arrival, and a scattered one also
+         * cos_Ng / cos_N of its departure (the adjoint of a BSDF with shading normals).  Its
+         * normal is the geometric one: the gather's disc lies in the surface as it is
+         * (gather.cl). */
+        float c_ng = fabs(dot(d, Ng)), c_n = -dot(d, N);
+        float shading = c_ng > 0.0f ? fmax(c_n, 0.0f) / c_ng : 0.0f;
+        if (!direct && gather) {
+            if (!(isfinite(flux.x) && isfinite(flux.y) && isfinite(flux.z))) {
+                atomic_inc(&counters[CNT_NAN]);
+                break;
+            }
+            if (in_grid(s.p, &g)) {
+                uint k = atomic_inc(&counters[CNT_STORED]);
+                if (k < capacity) {
+                    ph_pos[k] = (float4)(s.p, as_float(pack_unit(Ng)));
+                    ph_flux[k] = (float4)(flux * shading, as_float(pack_unit(-d)));
+                    /* (the camera path's sample has no such factor: gather.cl's clamp) */
+                    ph_path[k] = (uint2)(ppath, as_uint(shading > 0.0f ? rs / shading : rs));
+                } else {
+                    atomic_inc(&counters[CNT_OVERFLOW]);
+                }
+            } else {
+                atomic_inc(&counters[CNT_OUTSIDE]);
+            }
+            PhotonHit ph = {flux, color, N, Ng, shading, rs, ppath, lambert};
+            if (lt_kappa > 0.0f && capacity > 0u && connect_camera(scene, &sd, &s, h, d, &ph, &sp)
+                && !lambert) /* sd was the camera's: the light's again for its scattering */
+                shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, -d,
+                             footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                          SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p)
+                                                        : 0.0f));
+        }
+        int set = MASK_ALL;
+        if (caustics_only && direct) {
+            /* The light's first scattering, with eye paths for the indirect light
+             * (indirect_paths.h): the gather's closures and the glossy followed ones, or the
+             * other followed ones (mirrors, glass), in proportion to their sample weights; the
+             * first ends the photon (next-event estimation and the eye paths count that
+             * light), the second makes a caustic photon. */
+            float sg = lambert ? (gather ? 1.0f : 0.0f) : sd.sw_gather + sd.sw_glossy;
+            float sc = lambert ? 0.0f : shader_sw_specular(&sd);
+            if (!(sc > 0.0f) || rnd(&rng) * (sg + sc) < sg) {
+                /* a pilot counts the light the gather's closures scatter first (not what
+                 * meets a black surface: a filament's inside) */
+                if (capacity == 0u && sg > 0.0f) atomic_inc(&counters[CNT_DIFFUSE_FIRST]);
+                break;
+            }
+            flux *= (sg + sc) / sc;
+            rs *= sc / (sg + sc);
+            set = MASK_SPECULAR;
+        }
+        if (bounce == max_bounces) break;
+        BsdfSample b;
+        float3 rand = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
+        if (lambert) {
+            if (!gather) break;
+            b.wo = sample_cosine_hemisphere(N, rand.x, rand.y);
+            if (dot(b.wo, Ng) <= 0.0f) break;
+            b.weight = color;
+            b.label = LABEL_REFLECT | LABEL_DIFFUSE;
+            b.eta = 1.0f;
+        } else if (!shader_sample_light(&sd, set, rand, &b, scene->shading_tables)) {
+            break;
+        }
+        if (capacity == 0u && set == MASK_SPECULAR && !(b.label & LABEL_TRANSPARENT)) {
+            atomic_inc(&counters[CNT_CAUSTIC]); /* a pilot (Renderer.caustic_fraction_pilot) */
+            return;
+        }
+        flux *= b.weight;
+        if (!(b.label & LABEL_TRANSPARENT)) {
+            float adj = shading_adjoint(d, b.wo, N, Ng);
+            if (!(adj > 0.0f)) break;
+            flux *= adj;
+            rs /= adj;
+        }
+        bool transmit = (b.label & LABEL_TRANSMIT) != 0;
+        /* refraction's (eta_i / eta_t)^2 on the flux (kernels/closure/closure.h: camera paths carry
+         * none, as Cycles; photons the matching factor, so both agree) */
+        float measure = 1.0f;
+        if (transmit && b.eta != 1.0f) {
+            measure = 1.0f / (b.eta * b.eta);
+            flux *= measure;
+            rs /= measure; /* camera paths carry no such factor */
+        }
+        if (b.label & LABEL_TRANSPARENT) { /* not a bounce (Cycles' transparent bounces) */
+            if (++transparent > lp->transparent_max_bounces) break;
+            path = path_transparent(path);
+            ppath = path_transparent(ppath);
+        } else {
+            if (direct && rs > 0.0f && !(b.label & LABEL_SINGULAR)) {
+                /* A camera path reaches the light from this first scattering by next-event
+                 * estimation as much as by its sample (MIS): its sample is about f cos over the
+                 * larger of the two densities, where the chain above assumed the sample's */
+                float p_b = lambert ? fabs(dot(N, d)) * (1.0f / PPM_PI) : b.pdf;
+                float p_l = nee.x * reach * reach + nee.y;
+                rs *= p_b / fmax(p_l, p_b);
+            }
+            /* a caustic bounce that is off (Reflective / Refractive Caustics) before this diffuse
+             * one: light no camera path carries (path_state.h path_caustic_off) */
+            if (!direct && (b.label & LABEL_DIFFUSE) && path_caustic_off(ppath & 127u, lp)) break;
+            ppath = direct ? (ppath & ~127u) | path_kind(b.label) : path_bounce(ppath, b.label);
+            /* past a limit of its kind: no visible point's path can take it */
+            if (path_limit(ppath, bounce, lp) != TERM_NONE) break;
+            bounce++;
+            path = path_bounce(path, b.label);
+            direct = false;
+            mask = bounce_visibility(b.label);
+#if PPM_ABSORPTION
+            if (transmit) media_cross(&media, s.material, dot(d, s.ng) < 0.0f);
+#endif
+        }
+        o = offset_ray(s.p, transmit ? -Ng : Ng, scene->emitter_info->offset_scale);
+        d = b.wo;
+        /* Russian roulette keeps photon power roughly constant: survival is the scattering's
+         * albedo (times the medium's transmittance).  The change of measure of refraction is
+         * left out of it: a photon entering glass (flux x 1/eta^2) survived with probability
+         * 1/eta^2 = 0.44, and one leaving it got x eta^2 back, so behind n panes 0.44^n of the
+         * photons carried 2.25^n of the flux: the same mean, and no photon at all behind 20
+         * panes in a pass. */
+        float q = fmin(1.0f, max3(flux) / (max3(before) * measure));
+        if (!(q > 0.0f) || rnd(&rng) >= q) break;
+        flux /= q;
+        rs *= q;
+    }
+}
