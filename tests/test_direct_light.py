@@ -206,7 +206,7 @@ def test_direct_light_beside_a_large_emitter_has_bounded_variance():
     emit): irradiance pi Le F with F the point-to-parallel-rectangle form factor (closed form).
     Next-event estimation alone has a per-sample spread of ~(a/h) times the mean here (1/d^2
     near the lamp's centre); with solid-angle sampling of the lamp and MIS with the BSDF sample
-    (lights.h direct_lighting) one sample's standard deviation stays well below the mean."""
+    (direct_light.h direct_light) one sample's standard deviation stays well below the mean."""
     from ppm_engine.oracle.procedural import cornell_box
     n = 8192
     pts = np.tile(np.float32([0.0, 0.0, 2.0, 0]), (n, 1))          # above the lamp's centre
@@ -226,7 +226,7 @@ def test_direct_light_beside_a_large_emitter_has_bounded_variance():
     assert np.isfinite(e).all()
     se = e.std(ddof=1) / np.sqrt(n)
     assert abs(e.mean() - 1) < 4 * se + 0.01, (e.mean(), se)
-    # solid-angle sampling of the lamp's triangles (lights.h spherical_triangle): 0.27 measured
+    # solid-angle sampling of the lamp's triangles (light_mesh.h spherical_triangle): 0.27 measured
     # (area sampling with MIS: 0.9)
     assert e.std() < 0.4, e.std()
 

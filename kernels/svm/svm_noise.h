@@ -153,7 +153,7 @@ inline float tex_snoise(int dim, float4 p) {
     return r * (dim == 1 ? 0.25f : dim == 2 ? 0.6616f : dim == 3 ? 0.9820f : 0.8344f);
 }
 
-/* --- fractal noise (fractal_noise.h); `detail` already clamped by the caller ----------------- */
+/* --- fractal noise (Cycles' fractal_noise.h); `detail` already clamped by the caller --------- */
 
 inline float tex_fbm(int dim, float4 p, float detail, float rough, float lacun, bool normalize) {
     float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;

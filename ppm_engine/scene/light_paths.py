@@ -7,7 +7,7 @@ LightPaths, the scene buffer ``light_paths``).  What each setting means for a ph
 in docs/SHADING.md, "Light Paths":
 
 - bounce limits count the bounces of the whole light path, eye and photon parts together, as
-  Cycles counts them from the camera (kernels/integrator/path_state.h path_within);
+  Cycles counts them from the camera (kernels/integrator/path_state.h path_limit, path_join);
 - clamping scales each contribution whose path-traced sample would exceed the limit, as
   Cycles' film does per sample (photons: the sample a camera path would make of the same light
   path, kernels/integrator/path_state.h);

@@ -43,7 +43,7 @@ class PackageError(PPMError):
 
 
 def blender_ext_tool() -> Path:
-    """blender_ext.py inside the installed bpy wheel."""
+    """Blender's extension tool (blender_ext.py) inside the installed bpy wheel."""
     import importlib.util
     spec = importlib.util.find_spec("bpy")
     if spec is None or spec.origin is None:
