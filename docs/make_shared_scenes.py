@@ -49,7 +49,7 @@ def _render(bpy, scene, out: Path) -> np.ndarray:
 
 def render_ours(path: Path, size: int, passes: int) -> np.ndarray:
     """This engine's image with the Light Paths Cycles' reference renders with
-    (blender_io.unbiased_light_paths, which cycles_reference sets): both engines read
+    (harness.unbiased_light_paths, which cycles_reference sets): both engines read
     scene.cycles, so the scene's own (Cycles' defaults: 4 diffuse bounces, Clamp Indirect 10)
     would compare a clamped, shorter transport with the reference's."""
     from ppm_engine.blender.harness import ensure_registered, unbiased_light_paths

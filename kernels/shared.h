@@ -119,20 +119,20 @@
 #define VIS_TRANSMISSION 8u
 #define VIS_SHADOW 16u
 
-/* light types (scene_arrays.py LIGHT_*) */
+/* light types (scene/arrays.py LIGHT_*) */
 #define LIGHT_POINT 0
 #define LIGHT_SPOT 1
 #define LIGHT_SUN 2
 #define LIGHT_AREA_RECT 3
 #define LIGHT_AREA_ELLIPSE 4
 
-/* light flags (scene_arrays.py) */
+/* light flags (scene/arrays.py) */
 #define LIGHT_FLAG_SOFT_FALLOFF 1u
 
 /* a light hidden from rays of type VIS_x has VIS_x << this in its flags */
 #define LIGHT_HIDDEN_SHIFT 8
 
-/* the world's flags (scene_arrays.py) */
+/* the world's flags (scene/arrays.py) */
 #define WORLD_HIDDEN_CAMERA 1
 
 /* camera types and film flags (ppm_engine/scene/camera.py) */
@@ -151,7 +151,7 @@
 #define MAT_TRANSPARENT 4u
 #define MAT_LAMBERT 8u
 
-/* BSDF node types (scene_arrays.py NODE_*) */
+/* BSDF node types (scene/arrays.py NODE_*) */
 #define NODE_PRINCIPLED 0
 #define NODE_DIFFUSE 1
 #define NODE_GLOSSY 2
@@ -164,11 +164,11 @@
 #define NODE_EMISSION 9
 #define NODE_HOLDOUT 10
 
-/* BSDF node flags (scene_arrays.py NODE_FLAG_*) */
+/* BSDF node flags (scene/arrays.py NODE_FLAG_*) */
 #define NODE_FLAG_MULTI_GGX 1u
 #define NODE_FLAG_CONDUCTOR 2u
 
-/* image texture extension modes and flags (scene_arrays.py TEX_*) */
+/* image texture extension modes and flags (scene/arrays.py TEX_*) */
 #define TEX_REPEAT 0u
 #define TEX_EXTEND 1u
 #define TEX_CLIP 2u
@@ -364,7 +364,7 @@ typedef struct {
     float world[3];
     float scene_center[3];
     float scene_radius;
-    /* the scale of the ray offsets (scene_prep.offset_scale; kernels/geom/geometry.h offset_ray) */
+    /* the scale of the ray offsets (prep.offset_scale; kernels/geom/geometry.h offset_ray) */
     float offset_scale;
     int world_program;      /* the world's program (SceneArrays.world_shader), 0 = none */
     int world_flags;        /* WORLD_HIDDEN_CAMERA */

@@ -137,7 +137,7 @@ def run_cli(*args, timeout=600):
 
 
 def cycles_settings(scene, samples: int, width: int = 32) -> None:
-    """Cycles with the same light transport as ours (blender_io.cycles_reference), ``samples``
+    """Cycles with the same light transport as ours (harness.cycles_reference), ``samples``
     per pixel, a square image ``width`` pixels wide."""
     from ppm_engine.blender.harness import cycles_reference
     cycles_reference(scene, samples=samples, seed=1)
@@ -185,7 +185,7 @@ def render_direct(cycles, tiny, render_exr):
 # (markers in pytest.ini; README "Tests" has the commands)
 #   blender  needs the bpy module: any test using the `bpy` fixture, directly or through another
 #   cycles   renders a Cycles reference in the test: it calls the `cycles` or `render_direct`
-#            fixture, blender_io.cycles_reference or cycles_settings, or sets the engine to
+#            fixture, harness.cycles_reference or cycles_settings, or sets the engine to
 #            CYCLES, in its body or in a function of its module that it calls
 #   bench, gpu, slow: marked where they are (the benchmark's tooling; the tests to run on a lent
 #            GPU, on every OpenCL device; the long variants)

@@ -1,5 +1,5 @@
 """Materials against Cycles, rendered by both engines in the same test (Filter Glossy 0, no
-clamping, no denoising: blender_io.cycles_reference): a sphere of each material under an area
+clamping, no denoising: harness.cycles_reference): a sphere of each material under an area
 light and a constant world, on a grey floor, per 8 x 8 block (mean within 3 %), direct light
 only and full transport (one material's inputs come from a node graph: the shader program); and
 white furnaces (the sphere alone in a white world), whose mean must match Cycles' within 1 %."""

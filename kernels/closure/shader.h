@@ -3,7 +3,7 @@
 #include "geom/bvh.h"
 #include "svm/shader_inputs.h"
 
-/* The shader: a hit's closures from its material's BSDF nodes (scene_arrays.SHADER_NODE_DTYPE,
+/* The shader: a hit's closures from its material's BSDF nodes (arrays.SHADER_NODE_DTYPE,
  * weights already propagated through Mix and Add Shader nodes), each node set up as Cycles sets
  * it up (kernel/svm/closure.h there; docs/SHADING.md lists what differs), then each closure
  * marked for the gather or for the path (PPM_GATHER_ROUGHNESS).  One set of functions samples

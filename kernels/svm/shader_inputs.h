@@ -78,7 +78,7 @@ inline float3 lambert_weight(const Scene *scene, __global const ShaderNode *nd, 
 }
 
 /* The default tangent of anisotropic closures at barycentrics (u, v) of triangle tri: the
- * exported radial tangent (scene_arrays.SceneArrays.tangents) made orthogonal to N, as Cycles'
+ * exported radial tangent (arrays.SceneArrays.tangents) made orthogonal to N, as Cycles'
  * Tangent node; 0 without anisotropy (PPM_ANISOTROPY) */
 inline float3 surface_tangent(const Scene *scene, uint tri, float u, float v, float3 N) {
 #if PPM_ANISOTROPY

@@ -1,5 +1,5 @@
 """The RenderEngine: Blender-facing flags and one-line hand-offs to session.py (final renders
-and previews) and viewport_engine.py (the 3D viewport's Rendered shading)."""
+and previews) and blender/viewport.py (the 3D viewport's Rendered shading)."""
 import bpy
 
 from ppm_engine.blender import session
@@ -22,7 +22,7 @@ class PPMRenderEngine(bpy.types.RenderEngine):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self.session = session.Session()      # one per engine instance; reusable across renders
-        self.viewport = None                  # viewport_engine.ViewportDriver (Rendered mode)
+        self.viewport = None                  # ViewportDriver (blender/viewport.py) (Rendered mode)
 
     def __del__(self):
         try:  # Blender may call __del__ on a partly built or already freed instance
@@ -40,7 +40,7 @@ class PPMRenderEngine(bpy.types.RenderEngine):
         for name, channels, chan_id, kind in session.RENDER_PASSES:
             self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
 
-    # -- the 3D viewport in Rendered shading: viewport_engine.py --------------------------------
+    # -- the 3D viewport in Rendered shading: blender/viewport.py --------------------------------
     def view_update(self, context, depsgraph):
         if self.viewport is None:
             from ppm_engine.blender.viewport import ViewportDriver

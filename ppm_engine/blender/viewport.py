@@ -191,7 +191,7 @@ class ViewportDriver:
 
 
 def draw_frame(engine, scene, frame, width: int, height: int, cache: dict) -> None:
-    """Draw ``frame`` (viewport.Frame) over the region (``width`` x ``height`` pixels) with
+    """Draw ``frame`` (viewport_session.Frame) over the region (``width`` x ``height`` pixels) with
     Blender's view transform.  The texture is made once per image."""
     import gpu
     from gpu_extras.presets import draw_texture_2d

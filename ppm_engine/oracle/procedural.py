@@ -42,7 +42,7 @@ class MeshBuilder:
 
     def shader(self, name, nodes, absorption=(0, 0, 0)) -> int:
         """A material of BSDF nodes: dicts of SHADER_NODE_DTYPE fields (type required, Blender's
-        defaults for the rest; scene_arrays.shader_node)."""
+        defaults for the rest; arrays.shader_node)."""
         k = len(self.materials)
         m = np.zeros(1, MATERIAL_DTYPE)
         m["absorption"] = absorption

@@ -1,4 +1,4 @@
-"""The scene on one device: the prepared arrays (scene_prep.py), the BVH, and the materials,
+"""The scene on one device: the prepared arrays (scene/prep.py), the BVH, and the materials,
 emitters, lights, textures, camera and pixel filter as buffers; the feature flags the passes'
 kernels are specialised with (features.py); and ``args``, the scene's buffers by name.
 

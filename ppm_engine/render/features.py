@@ -105,7 +105,8 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarra
         if ops_used(scene.svm, [world_program]) & (1 << SVM_IMAGE):
             f.add("PPM_TEXTURES")
     # lights a camera or specular ray can see: area lights, point lights with a radius
-    # (kernels/integrator/direct_light.h lights_seen), unless hidden from every ray type that looks for them
+    # (kernels/integrator/direct_light.h lights_seen), unless hidden from every ray type that looks
+    # for them
     hidden_all = (VIS_CAMERA | VIS_GLOSSY | VIS_TRANSMISSION) << LIGHT_HIDDEN_SHIFT
     shown = (lights["flags"] & np.uint32(hidden_all)) != hidden_all
     # seen by rays: area lights, points with a radius, suns with an angle (light_types.h)

@@ -65,7 +65,7 @@ class Renderer:
 
     @property
     def warnings(self) -> list[str]:
-        """What the device copy of the scene dropped (scene_prep.prepare_scene)."""
+        """What the device copy of the scene dropped (prep.prepare_scene)."""
         return self.scene.warnings
 
     @property

@@ -130,7 +130,7 @@ class ViewportSession:
             self._cond.notify_all()
 
     def update_view(self, camera: np.ndarray) -> bool:
-        """The view's camera record at full region size (camera_model.camera_from_view).
+        """The view's camera record at full region size (camera.camera_from_view).
         Returns whether it differs from the last one posted (then accumulation restarts)."""
         camera = np.array(camera, copy=True)
         with self._cond:

@@ -30,7 +30,7 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("world", np.float32, 3),
     ("scene_center", np.float32, 3),
     ("scene_radius", np.float32),
-    # the scale of the ray offsets (scene_prep.offset_scale; kernels/geom/geometry.h offset_ray)
+    # the scale of the ray offsets (prep.offset_scale; kernels/geom/geometry.h offset_ray)
     ("offset_scale", np.float32),
     ("world_program", np.int32),   # the world's program (SceneArrays.world_shader), 0 = none
     ("world_flags", np.int32),     # WORLD_HIDDEN_CAMERA

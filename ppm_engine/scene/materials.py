@@ -1,4 +1,4 @@
-"""The scene's materials (scene_arrays.MATERIAL_DTYPE and SHADER_NODE_DTYPE) as the kernels read
+"""The scene's materials (arrays.MATERIAL_DTYPE and SHADER_NODE_DTYPE) as the kernels read
 them: one header per material (its nodes, its constant emission for the emitter table, what a
 pass must know before shading a hit) and the BSDF nodes with every input made finite; and what
 the nodes need of the kernels (features.py), e.g. the most closures one material can make.

@@ -170,14 +170,14 @@ def generate() -> str:
     fam = []
     fam += [_family("triangle and ray visibility bits (ppm_engine/scene/arrays.py VIS_*)",
                     _constants(sa, "VIS_", ("VIS_ALL",)), "u")]
-    fam += [_family("light types (scene_arrays.py LIGHT_*)",
+    fam += [_family("light types (scene/arrays.py LIGHT_*)",
                     [(k, v) for k, v in _constants(sa, "LIGHT_") if "FLAG" not in k
                      and "SHIFT" not in k]),
-            _family("light flags (scene_arrays.py)", [("LIGHT_FLAG_SOFT_FALLOFF",
+            _family("light flags (scene/arrays.py)", [("LIGHT_FLAG_SOFT_FALLOFF",
                                                        sa.LIGHT_FLAG_SOFT_FALLOFF)], "u"),
             _family("a light hidden from rays of type VIS_x has VIS_x << this in its flags",
                     [("LIGHT_HIDDEN_SHIFT", sa.LIGHT_HIDDEN_SHIFT)]),
-            _family("the world's flags (scene_arrays.py)",
+            _family("the world's flags (scene/arrays.py)",
                     [("WORLD_HIDDEN_CAMERA", sa.WORLD_HIDDEN_CAMERA)]),
             _family("camera types and film flags (ppm_engine/scene/camera.py)",
                     _constants(camera_model, "CAMERA_") + _constants(camera_model, "FILM_")),
@@ -185,11 +185,11 @@ def generate() -> str:
                     _constants(light_paths, "LP_"), "u"),
             _family("material flags (ppm_engine/scene/materials.py MAT_*)",
                     _constants(materials, "MAT_"), "u"),
-            _family("BSDF node types (scene_arrays.py NODE_*)",
+            _family("BSDF node types (scene/arrays.py NODE_*)",
                     [(k, v) for k, v in _constants(sa, "NODE_") if "FLAG" not in k]),
-            _family("BSDF node flags (scene_arrays.py NODE_FLAG_*)",
+            _family("BSDF node flags (scene/arrays.py NODE_FLAG_*)",
                     _constants(sa, "NODE_FLAG_"), "u"),
-            _family("image texture extension modes and flags (scene_arrays.py TEX_*)",
+            _family("image texture extension modes and flags (scene/arrays.py TEX_*)",
                     _constants(sa, "TEX_"), "u"),
             _family("counters the passes share (ppm_engine/render/counters.py Counter)",
                     [("CNT_" + c.name, c.value) for c in counters.Counter]

@@ -64,7 +64,7 @@ def export_scene(depsgraph, engine=None, camera=None) -> SceneArrays:
     """Everything the core needs from one evaluated depsgraph (render or viewport).
 
     ``camera``: a CAMERA_DTYPE record to render with instead of the scene camera's (the
-    viewport's view, camera_model.camera_from_view); the scene then needs no camera.
+    viewport's view, camera.camera_from_view); the scene then needs no camera.
     Raises SceneError when the scene cannot be rendered (no/invalid camera, empty border)."""
     scene = depsgraph.scene
     warn = Warnings(engine)

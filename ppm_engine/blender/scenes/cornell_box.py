@@ -163,7 +163,7 @@ def camera_world_render(scene, location=(0.0, -2.9, 1.0), rotation=(math.pi / 2,
                         resolution=RESOLUTION):
     """A 35 mm lens on a 36 mm sensor (by default at (0, -2.9, 1) looking along +y); black
     world; ``resolution`` squared at 100 %, no dithering, opaque film; Light Paths of 12
-    bounces of every kind, no clamping (blender_io.unbiased_light_paths: the converged light
+    bounces of every kind, no clamping (harness.unbiased_light_paths: the converged light
     the benchmark's references render; Cycles' defaults would stop diffuse light after 4
     bounces and clamp it).  The render engine is left to the caller."""
     cam_data = bpy.data.cameras.new("Camera")

@@ -50,7 +50,7 @@ def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentP
     b.add_argument("--viewport", action="store_true",
                    help="the viewport's latencies (camera move, material edit, transform, second "
                         "open), kernel builds per edit, cold starts per scene and memory per "
-                        "session (bench/viewport.py)")
+                        "session (bench/viewport_latency.py)")
     b.add_argument("--skips", action="store_true",
                    help="what each skip of work a scene does not need saves, with and without")
     b.add_argument("--phases", metavar="SCENE", help="per-phase breakdown of a pass of SCENE")

@@ -8,7 +8,7 @@ with the OpenEXR package:
 
 - ours: ``scene.ppm.time_limit`` = budget, passes unlimited (1e6), everything else default;
 - Cycles: CPU, ``scene.cycles.time_limit`` = budget, samples unlimited, adaptive sampling and
-  denoising off, the bounce settings of ``blender_io.cycles_reference``;
+  denoising off, the bounce settings of ``harness.cycles_reference``;
 - Cycles + MNEE (caustic scenes only): the same with shadow caustics on (the glass ball or the
   mirror ``cycles.is_caustics_caster``, floor and wall ``is_caustics_receiver``, the light
   ``cycles.is_caustics_light``).

@@ -85,7 +85,7 @@ from ppm_engine.tools.bench.luxcore_scene import Unsupported, film_size, transla
 ENGINE = "BIDIRCPU"
 LIGHT_ENGINE = "LIGHTCPU"         # the light tracer: the benchmark's reference (module docstring)
 THREADS = 2
-MAX_DEPTH = 13                    # path vertices: 12 bounces (blender_io.cycles_reference's)
+MAX_DEPTH = 13                    # path vertices: 12 bounces (harness.cycles_reference's)
 # LIGHTCPU's Russian roulette starts at this depth: past MAX_DEPTH, so never (module docstring)
 NO_ROULETTE = MAX_DEPTH + 1
 # LIGHTCPU's film: this many pixels per pixel along each axis, unfiltered; the pixel filter is

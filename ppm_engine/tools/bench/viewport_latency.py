@@ -278,7 +278,7 @@ def cold_start(name: str, device: str = "", quick: bool = False,
     """A fresh process with an empty PoCL kernel cache opens a viewport on example ``name``:
     seconds to its first image, and each build's seconds.  ``kernels``: the viewport's
     ("editable"), the scene's own as a final render builds them ("scene"), or every feature
-    ("all"; viewport.KERNELS)."""
+    ("all"; viewport_session.KERNELS)."""
     with tempfile.TemporaryDirectory(prefix="ppm-cold-") as cache:
         env = dict(os.environ, POCL_CACHE_DIR=cache, PYOPENCL_NO_CACHE="1")
         code = ("import json, sys; "
