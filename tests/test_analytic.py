@@ -1,7 +1,7 @@
 """Scenes with exact answers, rendered by the whole engine (no Blender needed): the furnace,
 point (soft falloff too), spot, area and sun lights over a diffuse plane, the world, and lights
-seen by the camera.  The direct light at chosen points: test_direct_light.py (which imports
-light() from here).
+seen by the camera.  The direct light at chosen points: test_direct_light.py.  The scenes
+the two share and the render are tests/helpers/ (procedural_scenes.py, renders.py).
 
 Tolerances come from the estimator's own spread: several independent renders (seeds) give the
 standard error of the mean."""
@@ -11,8 +11,6 @@ import numpy as np
 import pytest
 
 from ppm_engine.oracle.procedural import MeshBuilder, look_at
-from ppm_engine.render.options import RenderOptions
-from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import (
     CAMERA_ORTHO,
     LIGHT_AREA_ELLIPSE,
@@ -23,17 +21,9 @@ from ppm_engine.scene.arrays import (
     LIGHT_SPOT,
     LIGHT_SUN,
 )
-from ppm_engine.scene.camera import make_camera, perspective_extent
-
-
-def render(scene, passes, seed=0, **opts):
-    r = Renderer(scene, RenderOptions(seed=seed, **opts))
-    for _ in range(passes):
-        stats = r.iterate()
-    img = r.image()
-    assert np.isfinite(img).all() and stats.nan_dropped == 0
-    r.close()
-    return img
+from ppm_engine.scene.camera import make_camera
+from tests.helpers.procedural_scenes import furnace_scene, light
+from tests.helpers.renders import render
 
 
 def mean_and_se(values):
@@ -55,16 +45,6 @@ def assert_matches(scene, ref, passes, seeds=12, rel_bias=0.005, **opts):
 
 
 # --- furnace -----------------------------------------------------------------------------------
-def furnace_scene(rho, Le, W=16):
-    mb = MeshBuilder()
-    m = mb.material("furnace", (rho,) * 3, emission=(Le,) * 3)
-    mb.sphere((0, 0, 0), 1.0, m, 24, 12, smooth=False, inward=True)
-    ext = perspective_extent(W, W, 20, 36)
-    cam = make_camera(width=W, height=W, to_world=look_at((0, 0, 0), (1, 0.2, 0.1)),
-                      extent=ext[:2], clip=(0.01, 100))
-    return mb.build(camera=cam)
-
-
 @pytest.mark.gpu
 @pytest.mark.parametrize("indirect", ["photons", "paths"])
 @pytest.mark.parametrize("rho", [0.3, 0.7])
@@ -99,15 +79,6 @@ def pixel_centers(W, half):
     c = (np.arange(W) + 0.5) / W * 2 * half - half
     x, y = np.meshgrid(c, c)          # row 0 = bottom = smallest y
     return x, y
-
-
-def light(type, **kw):
-    L = np.zeros(1, LIGHT_DTYPE)
-    L["type"] = type
-    L["direction"] = (0, 0, -1)
-    for k, v in kw.items():
-        L[k] = v
-    return L
 
 
 def supersample(f, W, half, n=6):

@@ -21,6 +21,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from tests.helpers.blender_scenes import add_camera
+
 T = 8                       # pixels per side of one plane (orthographic view)
 SUN = (math.radians(50.0), 0.0, math.radians(30.0))
 
@@ -130,15 +132,6 @@ def _sun_scene():
     return scene
 
 
-def _camera(scene, ortho_width=None, location=(0, 0, 5), rotation=(0, 0, 0)):
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    if ortho_width is not None:
-        cam.data.type, cam.data.ortho_scale = "ORTHO", ortho_width
-    cam.location, cam.rotation_euler = location, rotation
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-
-
 def _triangle(name, location):
     """One triangle covering the square [-1, 1]^2 around ``location`` (a plane's two triangles
     would share a diagonal that Cycles' shadow rays from samples exactly on it can find: black
@@ -169,7 +162,7 @@ def test_bump_linear_height_per_pixel_as_cycles(render_direct, tmp_path):
         mat = bpy.data.materials.new(name)
         LINEAR[name](*_diffuse(mat))
         obj.data.materials.append(mat)
-    _camera(scene, ortho_width=4.0 * cols)
+    add_camera(scene, ortho_width=4.0 * cols)
     ours, ref = render_direct(scene, tmp_path, cols * 2 * T,
                              rows * 2 * T, 4, 2)
     flat = 0.8 / math.pi * 3.0 * math.cos(SUN[0])       # the unbumped plane
@@ -201,7 +194,7 @@ def test_bump_noise_height_per_block_as_cycles(render_direct, tmp_path):
     b = _bump(t, noise.outputs["Fac"], Distance=1.0)
     t.links.new(b.outputs[0], d.inputs["Normal"])
     bpy.context.active_object.data.materials.append(mat)
-    _camera(scene, location=(0.0, -2.5, 3.5), rotation=(math.radians(35.0), 0.0, 0.0))
+    add_camera(scene, location=(0.0, -2.5, 3.5), rotation=(math.radians(35.0), 0.0, 0.0))
     ours, ref = render_direct(scene, tmp_path, 32, 32, 16, 16)
     blocks = [x.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3)) for x in (ours, ref)]
     flat = 0.8 / math.pi * 3.0 * math.cos(SUN[0])
@@ -236,9 +229,9 @@ def test_bump_footprint_per_column_as_cycles(view, render_direct, tmp_path):
     t.links.new(b.outputs[0], d.inputs["Normal"])
     bpy.data.objects["fine"].data.materials.append(mat)
     if view == "ortho":
-        _camera(scene, ortho_width=2.0)
+        add_camera(scene, ortho_width=2.0)
     else:
-        _camera(scene, location=(0.0, 0.0, 3.0))
+        add_camera(scene, location=(0.0, 0.0, 3.0))
         scene.camera.data.lens, scene.camera.data.clip_start = 55.0, 2.0
     ours, ref = render_direct(scene, tmp_path, 32, 32, 16, 16)
     cols = [x.mean(axis=(0, 2)) for x in (ours, ref)]
@@ -289,7 +282,7 @@ def test_bump_footprint_after_a_mirror_per_column_as_cycles(cycles, render_exr, 
     em.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
     t.links.new(em.outputs[0], t.nodes["Material Output"].inputs["Surface"])
     obj.data.materials.append(mat)
-    _camera(scene, location=(0.0, -2.0, 2.0), rotation=(math.radians(45.0), 0.0, 0.0))
+    add_camera(scene, location=(0.0, -2.0, 2.0), rotation=(math.radians(45.0), 0.0, 0.0))
     scene.camera.data.lens = 55.0
     cycles(scene, 16, width=32)
     c = scene.cycles
@@ -322,7 +315,7 @@ def test_bump_image_height_per_block_as_cycles(render_direct, tmp_path):
     b = _bump(t, tex.outputs["Color"], Distance=0.08)
     t.links.new(b.outputs[0], d.inputs["Normal"])
     obj.data.materials.append(mat)
-    _camera(scene, ortho_width=2.0)
+    add_camera(scene, ortho_width=2.0)
     ours, ref = render_direct(scene, tmp_path, 32, 32, 16, 16)
     blocks = [x.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3)) for x in (ours, ref)]
     err = np.abs(blocks[0] - blocks[1]) / blocks[1]
@@ -348,7 +341,7 @@ def test_bump_texture_coordinate_normal_per_block_as_cycles(render_direct, tmp_p
     b = _bump(t, wave.outputs["Fac"], Distance=0.1)
     t.links.new(b.outputs[0], d.inputs["Normal"])
     bpy.context.active_object.data.materials.append(mat)
-    _camera(scene, ortho_width=0.8)
+    add_camera(scene, ortho_width=0.8)
     ours, ref = render_direct(scene, tmp_path, 32, 32, 16, 16)
     blocks = [x.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3)) for x in (ours, ref)]
     err = np.abs(blocks[0] - blocks[1]) / blocks[1]

@@ -4,9 +4,6 @@ among few emissive triangles (its frequencies and both pmfs), one sample's sprea
 and above a large emitter, a mesh light through a transparent surface and one that casts no
 shadow.  Where the answer is a mean, the tolerance comes from the estimates' own spread (the
 standard error over independent samples)."""
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -16,9 +13,8 @@ from ppm_engine.render.options import RenderOptions
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import CAMERA_ORTHO, LIGHT_POINT
 from ppm_engine.scene.camera import make_camera
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_analytic import light
+from tests.helpers.debug_kernels import emitter_picks
+from tests.helpers.procedural_scenes import light
 
 
 def direct_light(scene, pts, nrm, samples):
@@ -58,26 +54,6 @@ def test_grazing_emitter_does_not_shadow_itself():
         ref = (15.0 * cos * cos / d2).sum() * (0.5 / 1000) ** 2
         se = e.std(ddof=1) / np.sqrt(copies)
         assert abs(e.mean() - ref) < 4 * se + 0.015 * ref, (y, e.mean(), ref, se)
-
-
-def emitter_picks(r, pts, nrm, n_u):
-    """Next-event estimation's pick at points pts (normals nrm, float4 rows) from n_u
-    stratified numbers (kernels/test/debug.cl emitter_pick_at), on renderer r's scene: per point and
-    emitter, "counts" how often it was picked, "pmf" the probability the pick returned (-1:
-    never picked) and "table" the one the MIS of a ray that finds it uses."""
-    import pyopencl as cl
-    dev, n = r.device, len(pts)
-    m = int(r.scene.emitters.info["n_emitters"][0])
-    bufs = {k: cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 4 * n * m)
-            for k in ("counts", "pmf", "table")}
-    k = dev.programs.get("test/debug.cl").launch("emitter_pick_at", "test")
-    k(dev.queue, n, SHADING_GROUP, **r.scene.args, points=dev.upload(pts, "p"),
-      nrm=dev.upload(nrm, "n"), n_u=np.uint32(n_u), **bufs, n=np.uint32(n))
-    got = {}
-    for key, dt in (("counts", np.uint32), ("pmf", np.float32), ("table", np.float32)):
-        got[key] = np.empty((n, m), dt)
-        cl.enqueue_copy(dev.queue, got[key], bufs[key])
-    return got
 
 
 def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():

@@ -1,7 +1,8 @@
 """Blender scene -> SceneArrays: each light type (point, spot, sun, area), their units, cones
-and axes, colour temperature, unnormalized power and ray visibility.  export(), add_light() and
-add_plane() here serve test_export_materials.py, test_export_geometry.py and
-test_export_camera.py too (they import them); the ``empty`` scene is conftest.py's."""
+and axes, colour temperature, unnormalized power and ray visibility.  export() and
+add_light() are tests/helpers/blender_scenes.py's (test_export_materials.py,
+test_export_geometry.py and test_export_camera.py use them too); the ``empty`` scene is
+conftest.py's."""
 import math
 
 import numpy as np
@@ -9,7 +10,6 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.blender.export import export_scene
 from ppm_engine.scene.arrays import (
     LIGHT_AREA_ELLIPSE,
     LIGHT_AREA_RECT,
@@ -18,29 +18,7 @@ from ppm_engine.scene.arrays import (
     LIGHT_SPOT,
     LIGHT_SUN,
 )
-
-
-def export():
-    return export_scene(bpy.context.evaluated_depsgraph_get())
-
-
-def add_light(kind, name="L", loc=(0, 0, 3), **props):
-    data = bpy.data.lights.new(name, kind)
-    for k, v in props.items():
-        setattr(data, k, v)
-    obj = bpy.data.objects.new(name, data)
-    obj.location = loc
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
-
-
-def add_plane(name="Plane", material=None, loc=(0, 0, 0), size=2.0):
-    bpy.ops.mesh.primitive_plane_add(size=size, location=loc)
-    obj = bpy.context.active_object
-    obj.name = name
-    if material is not None:
-        obj.data.materials.append(material)
-    return obj
+from tests.helpers.blender_scenes import add_light, export
 
 
 # --- lights -------------------------------------------------------------------------------------

@@ -1,10 +1,8 @@
 """Blender scene -> SceneArrays: each camera type (perspective and orthographic rays against
 Blender's projection, the border, depth of field, the cameras refused), the Cycles film settings,
 and the world colour with its fallbacks and the .npz round trip; the helpers are
-test_export.py's."""
+tests/helpers/blender_scenes.py's."""
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,9 +20,7 @@ from ppm_engine.scene.arrays import (
     FILTER_GAUSSIAN,
     SceneArrays,
 )
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_export import add_light, add_plane, export
+from tests.helpers.blender_scenes import add_light, add_plane, export
 
 
 # --- camera -------------------------------------------------------------------------------------

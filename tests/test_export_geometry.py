@@ -1,10 +1,9 @@
 """Blender scene -> SceneArrays: geometry and instancing (transforms, collection and geometry
 nodes instances, linked duplicates read once, mirrored objects, text and curves), smooth and
 flat normals, UVs, NaN vertices dropped, visibility flags, and the render depsgraph (objects and
-lights hidden from the render, warnings reported); the helpers are test_export.py's."""
+lights hidden from the render, warnings reported); the helpers are
+tests/helpers/blender_scenes.py's."""
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,9 +12,7 @@ bpy = pytest.importorskip("bpy")
 
 from ppm_engine.blender.export import export_scene
 from ppm_engine.scene.arrays import LIGHT_POINT, VIS_CAMERA, VIS_SHADOW
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_export import add_light, add_plane, export
+from tests.helpers.blender_scenes import add_light, add_plane, export
 
 
 # --- geometry -----------------------------------------------------------------------------------

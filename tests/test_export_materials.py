@@ -1,10 +1,8 @@
 """Blender scene -> SceneArrays: each material kind (Principled, Emission, every BSDF node,
 the fallbacks for the rest), Mix and Add Shader weights, an alpha texture, tangents for
 anisotropic materials and tangent-space normal maps, material slots, one table entry per
-material and empty slots (the helpers are test_export.py's)."""
+material and empty slots (the helpers are tests/helpers/blender_scenes.py's)."""
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,9 +23,7 @@ from ppm_engine.scene.arrays import (
     NODE_TRANSLUCENT,
     NODE_TRANSPARENT,
 )
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_export import add_plane, export
+from tests.helpers.blender_scenes import add_plane, export
 
 
 # --- materials ----------------------------------------------------------------------------------

@@ -1,27 +1,17 @@
 """The Image Texture node in shader programs, per pixel against Cycles (the harness of
-test_shader_nodes.py: one plane per case, image A's colour one value per pixel): cubic and Smart
-interpolation with every extension, box, sphere and tube projections (box on a turned sphere
-too), UDIM tiles (a tile without a file and one not in the image magenta), alpha association
-and the Environment Texture's projections; and UDIM tiles packed or unreadable at export.  The
-scene and export helpers are test_textures.py's."""
-import sys
-from pathlib import Path
-
+tests/helpers/shader_grid.py: one plane per case, image A's colour one value per
+pixel): cubic and Smart interpolation with every extension, box, sphere and tube projections
+(box on a turned sphere too), UDIM tiles (a tile without a file and one not in the image
+magenta), alpha association and the Environment Texture's projections; and UDIM tiles packed
+or unreadable at export.  The scene and export helpers are tests/helpers/blender_scenes.py's
+(test_textures.py uses them too)."""
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_textures import _export, _scene_with_texture
-
-
-def _harness():
-    import sys
-    from pathlib import Path
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from test_shader_nodes import _compare
-    return _compare
+from tests.helpers.blender_scenes import export, scene_with_texture
+from tests.helpers.shader_grid import compare_cases
 
 
 def _small_image(name, w, h, seed, float_buffer=True, alpha=False):
@@ -74,7 +64,7 @@ def test_cubic_every_extension_as_cycles(render_direct, tmp_path):
         "cubic alpha clip": _tex(alpha, wide, "Alpha", interpolation="Cubic", extension="CLIP"),
         "linear mirror": _tex(img, wide, interpolation="Linear", extension="MIRROR"),
     })
-    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _tilted(normal, case):
@@ -119,7 +109,7 @@ def test_box_sphere_and_tube_projections_as_cycles(render_direct, tmp_path):
     cases["tube"] = _tex(img, unit, projection="TUBE", interpolation="Cubic")
     cases["sphere alpha"] = _tex(lambda: _small_image("Alpha", 3, 4, 9, alpha=True), unit,
                                  "Alpha", projection="SPHERE")
-    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _udim(folder, missing=1011):
@@ -165,8 +155,8 @@ def test_udim_tiles_as_cycles(render_direct, tmp_path):
                                      interpolation="Cubic", extension="EXTEND"),
              "box reads 1001": _tilted(BOX_NORMALS["corner"], _tex(
                  img, lambda i: _spread(i, 1.0, 0.0), projection="BOX", projection_blend=0.3))}
-    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
-    warnings = _export().warnings
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
+    warnings = export().warnings
     assert any("tile 1011" in w and "udim.1011.exr" in w and "magenta" in w
                for w in warnings), warnings
 
@@ -174,13 +164,13 @@ def test_udim_tiles_as_cycles(render_direct, tmp_path):
 def test_udim_tiles_packed_and_a_corrupt_tile(tmp_path):
     """Packed tiles are read from their packed data (the files gone); a tile file that is not
     an image is warned about (magenta), never an error."""
-    _scene_with_texture()
+    scene_with_texture()
     img = _udim(tmp_path, missing=None)
     img.pack()
     for tile in (1001, 1002):
         (tmp_path / f"udim.{tile}.exr").unlink()
     bpy.data.materials["Textured"].node_tree.nodes["Image Texture"].image = img
-    a = _export()
+    a = export()
     assert not a.warnings, a.warnings
     got = a.texels.astype(np.float32).reshape(-1, 4, 4, 4)
     for k, tile in enumerate((1001, 1002)):
@@ -194,7 +184,7 @@ def test_udim_tiles_packed_and_a_corrupt_tile(tmp_path):
     bad.source = "TILED"
     (tmp_path / "bad.1001.exr").write_bytes(b"not an image")
     bpy.data.materials["Textured"].node_tree.nodes["Image Texture"].image = bad
-    a = _export()
+    a = export()
     assert any("tile 1001" in w and "bad.1001.exr" in w and "magenta" in w
                for w in a.warnings), a.warnings
 
@@ -299,7 +289,7 @@ def test_alpha_association_as_cycles(render_direct, tmp_path):
             cases[f"{kind} {interp}"] = _tex(img, wide, interpolation=interp)
             cases[f"{kind} {interp} alpha linked"] = _with_alpha_linked(
                 _tex(img, wide, interpolation=interp))
-    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def test_environment_projections_as_cycles(render_direct, tmp_path):
@@ -316,4 +306,4 @@ def test_environment_projections_as_cycles(render_direct, tmp_path):
         return build
     cases = {f"{p} {k}": env(p, k) for p in ("EQUIRECTANGULAR", "MIRROR_BALL")
              for k in ("Linear", "Cubic")}
-    _harness()(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))

@@ -11,6 +11,8 @@ from ppm_engine.render.options import RenderOptions, SettingsError
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import CAMERA_PERSP
 from ppm_engine.scene.camera import make_camera, perspective_extent
+from tests.helpers.procedural_scenes import furnace_scene
+from tests.helpers.renders import render
 
 
 def renders(scene, passes, seeds, **opts):
@@ -291,10 +293,6 @@ def test_roulette_survival_keeps_the_furnace_s_noise_low_between_powers_of_two()
     of two, where the roulette's one Sobol number covers [0, 1) least evenly) the error
     against the closed form, 16 x 16, albedo 0.5, is 0.0047-0.0053 with this rule and
     0.0069-0.0077 with Cycles' (seeds 0-2); the mean stays the closed form."""
-    import sys
-    from pathlib import Path
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from test_analytic import furnace_scene, render
     rho = 0.5
     scene = furnace_scene(rho, 1.0)
     expected = 1.0 / (1.0 - rho)

@@ -3,9 +3,6 @@ node bounds its emitters), and next-event estimation's pick through it on the de
 float64 reference of the same importance, with the frequencies of the pick, the pmf it
 returns, and the pmf the MIS of a ray that finds the emitter uses (kernels/test/debug.cl
 emitter_pick_at)."""
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -21,10 +18,9 @@ from ppm_engine.scene.arrays import (
     LIGHT_SUN,
 )
 from ppm_engine.scene.camera import make_camera
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_analytic import light
-from test_direct_light import emitter_picks
+from tests.helpers.debug_kernels import emitter_picks
+from tests.helpers.procedural_scenes import furnace_scene, light
+from tests.helpers.renders import render
 
 
 def _tree(n, rng):
@@ -227,8 +223,8 @@ def _room_of_lights(bpy, n_side, energy, radius=0.01):
             scene.collection.objects.link(o)
     import math
 
-    from test_bump import _camera
-    _camera(scene, location=(0, -1.9, 1.2), rotation=(math.radians(55), 0, 0))
+    from tests.helpers.blender_scenes import add_camera
+    add_camera(scene, location=(0, -1.9, 1.2), rotation=(math.radians(55), 0, 0))
     scene.camera.data.lens = 14
     scene.world = None
     return scene
@@ -256,7 +252,6 @@ def test_a_room_lit_by_many_small_lights_as_cycles(bpy, n_side, cycles, tiny, re
 
 def _pixel_noise(scene, passes, **opts):
     """The RMS of two renders' difference over sqrt(2): one render's noise per pixel."""
-    from test_analytic import render
     a, b = (render(scene, passes, seed=s, **opts)[..., :3].astype(np.float64) for s in (1, 2))
     return float(np.sqrt(np.mean((a - b) ** 2) / 2))
 
@@ -267,7 +262,6 @@ def test_one_emissive_material_alone_is_picked_by_power_not_by_the_tree():
     tree's bound favours the triangles beside a point on the sphere, whose light there is
     grazing, and left 1.6x this noise here (0.023 against 0.015 at 32 x 32, 32 passes).  A
     second emissive material, or a light, brings the tree back."""
-    from test_analytic import furnace_scene
     scene = furnace_scene(0.5, 1.0, W=32)
     r = Renderer(scene, RenderOptions())
     em = r.scene.emitters

@@ -10,7 +10,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-W = 48          # image size: 6 x 6 blocks of 8 x 8 pixels
+from tests.helpers.blender_scenes import light_world_camera
+from tests.helpers.cycles_blocks import blocks, compare_blocks, render_both
 
 
 def _principled(mat, **inputs):
@@ -226,56 +227,10 @@ def _scene(material: str, floor: bool, world: float, light: bool):
         _principled(g, **{"Base Color": (0.5, 0.5, 0.5), "Roughness": 1.0,
                           "Specular IOR Level": 0.0})
         bpy.context.active_object.data.materials.append(g)
-    _light_world_camera(scene, light=((40.0, 1.0), (1.2, -1.0, 2.0), (0.5, 0.45, 0.0))
-                        if light else None, world=world,
-                        camera=((0.0, -3.2, 0.9), (1.32, 0.0, 0.0), 60))
+    light_world_camera(scene, light=((40.0, 1.0), (1.2, -1.0, 2.0), (0.5, 0.45, 0.0))
+                       if light else None, world=world,
+                       camera=((0.0, -3.2, 0.9), (1.32, 0.0, 0.0), 60))
     return scene
-
-
-def _light_world_camera(scene, *, light, world, camera):
-    """An area light ((energy, size), location, rotation) or none, a constant grey world and a
-    camera (location, rotation, lens) with a 1-pixel box filter."""
-    if light is not None:
-        (energy, size), location, rotation = light
-        ld = bpy.data.lights.new("Area", "AREA")
-        ld.energy, ld.size = energy, size
-        lo = bpy.data.objects.new("Area", ld)
-        lo.location, lo.rotation_euler = location, rotation
-        scene.collection.objects.link(lo)
-    scene.world = bpy.data.worlds.new("W")
-    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (world, world,
-                                                                               world, 1)
-    location, rotation, lens = camera
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    cam.location, cam.rotation_euler, cam.data.lens = location, rotation, lens
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    scene.render.dither_intensity = 0.0
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    scene.render.filter_size = 0.0
-
-
-def _both(scene, cycles, render_exr, tmp_path, tiny, *, samples, passes, bounces, photons):
-    cycles(scene, samples, width=W)
-    c = scene.cycles
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
-    c.transparent_max_bounces = max(bounces, 8)
-    ref = render_exr(tmp_path / "cycles.exr")
-    tiny(scene, width=W, height=W, passes=passes, photons=photons)
-    ours = render_exr(tmp_path / "ours.exr")
-    return ours, ref
-
-
-def _blocks(img):
-    return img.reshape(W // 8, 8, W // 8, 8, 3).mean(axis=(1, 3))
-
-
-def _compare(ours, ref, rtol, atol):
-    a, b = _blocks(ours), _blocks(ref)
-    bad = np.abs(a - b) > rtol * np.abs(b) + atol
-    assert not bad.any(), (f"{bad.any(-1).sum()} of {bad.shape[0] * bad.shape[1]} blocks "
-                           f"differ; worst ratio {np.max(a / np.maximum(b, 1e-6)):.3f} / "
-                           f"{np.min(a / np.maximum(b, 1e-6)):.3f}")
 
 
 def _cases(default, known=None):
@@ -291,9 +246,9 @@ def test_direct_light_per_block_as_cycles(material, cycles, render_exr, tmp_path
     """Direct light only (no bounce): the closures' evaluation with next-event estimation and
     the BSDF sample, per 8 x 8 block within 3 %."""
     scene = _scene(material, floor=True, world=0.1, light=True)
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=512,
-                      bounces=0, photons=1024)
-    _compare(ours, ref, 0.03, 0.002)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=512,
+                            bounces=0, photons=1024)
+    compare_blocks(ours, ref, 0.03, 0.002)
 
 
 @pytest.mark.parametrize("material", _cases(DEFAULT_FULL, KNOWN_FULL))
@@ -302,9 +257,10 @@ def test_full_transport_per_block_as_cycles(material, cycles, render_exr, tmp_pa
     glass), per 8 x 8 block within 3 %."""
     scene = _scene(material, floor=True, world=0.1, light=True)
     long = material not in DEFAULT_FULL       # -m slow: twice the samples, less noise
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096 if long else 2048,
-                      passes=768 if long else 384, bounces=8, photons=16384)
-    _compare(ours, ref, 0.03, 0.004)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny,
+                            samples=4096 if long else 2048, passes=768 if long else 384,
+                            bounces=8, photons=16384)
+    compare_blocks(ours, ref, 0.03, 0.004)
 
 
 FURNACE = {
@@ -323,10 +279,10 @@ def test_white_furnace_as_cycles(material, cycles, render_exr, tmp_path, tiny):
     scene.camera.location = (0.0, -3.2, 0.0)
     scene.camera.rotation_euler = (1.5707963, 0.0, 0.0)
     scene.camera.data.lens = 150                      # the sphere fills the image
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=512, passes=128,
-                      bounces=8, photons=4096)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=512, passes=128,
+                            bounces=8, photons=4096)
     assert ref.mean() == pytest.approx(ours.mean(), rel=0.01)
-    _compare(ours, ref, 0.03, 0.003)
+    compare_blocks(ours, ref, 0.03, 0.003)
 
 
 def _caustic_scene(floor_material):
@@ -344,8 +300,8 @@ def _caustic_scene(floor_material):
     floor = bpy.data.materials.new("Floor")
     MATERIALS[floor_material](floor)
     bpy.context.active_object.data.materials.append(floor)
-    _light_world_camera(scene, light=((60.0, 0.25), (0.0, 0.0, 2.4), (0.0, 0.0, 0.0)),
-                        world=0.0, camera=((0.0, -2.6, 1.7), (0.95, 0.0, 0.0), 50))
+    light_world_camera(scene, light=((60.0, 0.25), (0.0, 0.0, 2.4), (0.0, 0.0, 0.0)),
+                       world=0.0, camera=((0.0, -2.6, 1.7), (0.95, 0.0, 0.0), 50))
     return scene
 
 
@@ -358,9 +314,9 @@ def test_caustic_on_a_glossy_floor_where_cycles_shows_it(floor, cycles, render_e
     10 %; over ten seeds our two blocks move by 10-13 % at 256 passes, their mean 1.5 % above
     Cycles', docs/BENCHMARKS.md "The eye pass's numbers"), the floor around it as Cycles'."""
     scene = _caustic_scene(floor)
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=2048, passes=256,
-                      bounces=8, photons=16384)
-    a, b = _blocks(ours).mean(-1), _blocks(ref).mean(-1)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=2048, passes=256,
+                            bounces=8, photons=16384)
+    a, b = blocks(ours).mean(-1), blocks(ref).mean(-1)
     # the caustic: the two blocks under the ball, inside its shadow (rows 16-24 of the image),
     # several times brighter than the shadow beside them
     caustic, shadow = b[2, 2:4], b[1, 2:4]

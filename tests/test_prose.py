@@ -560,7 +560,6 @@ def test_the_checker_finds_stale_names():
              # a sentence after the one that names Cycles is ours again
              "lights.h direct_lighting": "As Cycles does.  The lamp (lights.h direct_lighting)",
              # the stale names this test was written to find
-             "kernels/light_path.h path_within": "(kernels/light_path.h path_within)",
              "kernels/integrator/path_state.h path_within":
                  "(kernels/integrator/path_state.h path_within)"}
     bad = _check(r, list(stale.values()))

@@ -1,18 +1,14 @@
 """Nodes that read the shading point, the object, the camera or the path, against Cycles per
-pixel (the harness of test_shader_nodes.py: one plane per case, inputs from two images read with
-Closest interpolation, every pixel within 1e-3): Normal Map, Texture Coordinate and Geometry,
-Attribute and Color Attribute, Object Info, Light Path, Vector Transform, Mapping with linked
-inputs, and the Window coordinates under perspective and orthographic cameras."""
-import sys
-from pathlib import Path
-
+pixel (the harness of tests/helpers/shader_grid.py: one plane per case, inputs from two images
+read with Closest interpolation, every pixel within 1e-3): Normal Map, Texture Coordinate and
+Geometry, Attribute and Color Attribute, Object Info, Light Path, Vector Transform, Mapping
+with linked inputs, and the Window coordinates under perspective and orthographic cameras."""
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_shader_nodes import Inputs, T, _compare, _emit, _view
+from tests.helpers.shader_grid import Inputs, T, compare_cases, emit, ortho_view
 
 
 def test_normal_map_as_cycles(render_direct, tmp_path):
@@ -42,7 +38,7 @@ def test_normal_map_as_cycles(render_direct, tmp_path):
              "object back": nmap("OBJECT", rx=math.pi),
              "blender object turned": nmap("BLENDER_OBJECT", rz=-math.pi / 2),
              "object turned 0.6": nmap("OBJECT", 0.6, rz=math.pi)}
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def test_coordinates_and_geometry_as_cycles(render_direct, tmp_path):
@@ -74,7 +70,7 @@ def test_coordinates_and_geometry_as_cycles(render_direct, tmp_path):
              "position": out(geo, "Position"), "position mirrored": out(geo, "Position", sx=-1.0),
              "normal": out(geo, "Normal", rx=math.pi), "true normal": out(geo, "True Normal"),
              "incoming": out(geo, "Incoming"), "backfacing": out(geo, "Backfacing", rx=math.pi)}
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _attributes(me):
@@ -115,7 +111,7 @@ def test_attributes_as_cycles(render_direct, tmp_path):
              "default colour": attr("", idname="ShaderNodeVertexColor"),
              "default alpha": attr("", "Alpha", idname="ShaderNodeVertexColor"),
              "point float": attr("px", "Fac", step=True), "missing": attr("nope")}
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def test_object_info_and_object_coordinates_as_cycles(render_direct, tmp_path):
@@ -152,7 +148,7 @@ def test_object_info_and_object_coordinates_as_cycles(render_direct, tmp_path):
              "random 2": info("Random"), "material index": info("Material Index"),
              "object": obj_coords(), "object turned": obj_coords(rz=math.pi / 2),
              "object mirrored": obj_coords(sx=-1.0)}
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def test_light_path_as_cycles(cycles, render_exr, tmp_path, tiny):
@@ -190,7 +186,7 @@ def test_light_path_as_cycles(cycles, render_exr, tmp_path, tiny):
             obj = bpy.context.active_object
             obj.data.materials.append(m)
             obj.visible_camera = seen
-    _view(scene, 8.0)
+    ortho_view(scene, 8.0)
     w, h = 4 * T, 8 * T
     cycles(scene, 4, width=w)
     scene.render.resolution_y = h
@@ -236,7 +232,7 @@ def test_vector_transform_and_camera_coordinates_as_cycles(render_direct, tmp_pa
             cases[f"{kind.lower()} {frm.lower()} to {to.lower()}"] = vt(
                 frm, to, kind, rz=math.pi / 2, sx=-1.0)
     cases["camera coordinates"] = camera
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def test_mapping_with_linked_inputs_as_cycles(render_direct, tmp_path):
@@ -268,7 +264,7 @@ def test_mapping_with_linked_inputs_as_cycles(render_direct, tmp_path):
     cases = {f"mapping {k.lower()}": mapping(k) for k in ("POINT", "TEXTURE", "VECTOR", "NORMAL")}
     cases.update({"normal coordinate": normal(rz=math.pi / 2, sx=-1.0),
                   "normal coordinate back": normal(rx=math.pi)})
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _window_scene(kind, res, fit="AUTO", shift=(0.0, 0.0)):
@@ -279,7 +275,7 @@ def _window_scene(kind, res, fit="AUTO", shift=(0.0, 0.0)):
     import math
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    _view(scene, 1.0)
+    ortho_view(scene, 1.0)
     cam = scene.camera
     cam.data.type, cam.data.sensor_fit = kind, fit
     cam.data.shift_x, cam.data.shift_y = shift
@@ -298,7 +294,7 @@ def _window_scene(kind, res, fit="AUTO", shift=(0.0, 0.0)):
         f = i.node("ShaderNodeMath", [(0, m.outputs[0])], operation="FLOOR")
         d = i.node("ShaderNodeMath", [(0, f.outputs[0])], operation="DIVIDE", in_1=float(n))
         t.links.new(d.outputs[0], comb.inputs[k])
-    _emit(t, comb.outputs[0], 0.0)
+    emit(t, comb.outputs[0], 0.0)
     bpy.context.active_object.data.materials.append(mat)
     return scene
 

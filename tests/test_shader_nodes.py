@@ -6,154 +6,14 @@ stays positive); the node's inputs come from two float images of random values r
 Closest interpolation, one texel per pixel under an orthographic camera, so every pixel sees
 one set of inputs whatever its samples.  A family of cases (every Math operation, every blend
 mode, ...) is a grid of planes rendered once by Cycles and once by this engine (no bounces) in
-the same test; every pixel agrees within 1e-3.  The harness is here: test_shader_inputs.py,
-test_shader_textures.py, test_image_texture_node.py and test_sky.py import it."""
-import numpy as np
+the same test; every pixel agrees within 1e-3.  The harness is tests/helpers/shader_grid.py
+(test_shader_inputs.py, test_shader_textures.py, test_image_texture_node.py and test_sky.py
+use it too)."""
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
-
-T = 8                     # texels (and pixels) per side of one case's plane
-OFFSET = 8.0              # added to every output: emission stays positive
-
-
-def _image(name, seed, lo=0.0, hi=1.0):
-    rng = np.random.default_rng(seed)
-    v = (lo + (hi - lo) * rng.random((T, T, 4))).astype(np.float16).astype(np.float32)
-    v[..., 3] = 1.0
-    img = bpy.data.images.new(name, T, T, float_buffer=True, alpha=True)
-    img.colorspace_settings.name = "Non-Color"
-    img.pixels.foreach_set(v.ravel())
-    return img
-
-
-class Inputs:
-    """Sockets of one material: colours A and B (images), floats x, y, z (B's channels), s
-    (4x - 2: signed)."""
-
-    def __init__(self, tree, images):
-        self.t = tree
-        ta, tb = (tree.nodes.new("ShaderNodeTexImage") for _ in range(2))
-        for node, img in zip((ta, tb), images):
-            node.image, node.interpolation = img, "Closest"
-        sep = tree.nodes.new("ShaderNodeSeparateColor")
-        tree.links.new(tb.outputs["Color"], sep.inputs[0])
-        self.A, self.B = ta.outputs["Color"], tb.outputs["Color"]
-        self.x, self.y, self.z = sep.outputs
-        s = tree.nodes.new("ShaderNodeMath")
-        s.operation = "MULTIPLY_ADD"
-        tree.links.new(self.x, s.inputs[0])
-        s.inputs[1].default_value, s.inputs[2].default_value = 4.0, -2.0
-        self.s = s.outputs[0]
-
-    def node(self, idname, links=(), **props):
-        """A new node: props set, links (input index or name, socket) made."""
-        n = self.t.nodes.new(idname)
-        for k, v in props.items():
-            if k.startswith("in_"):
-                n.inputs[int(k[3:])].default_value = v
-            else:
-                setattr(n, k, v)
-        for i, sock in links:
-            target = n.inputs[i] if isinstance(i, int) else next(
-                s for s in n.inputs if s.name == i and s.enabled)
-            self.t.links.new(sock, target)
-        return n
-
-
-def _emit(tree, out, offset=OFFSET):
-    """out -> Emission -> the material output: a float v as (max(v, 0), max(-v, 0), OFFSET)
-    (both signs, each positive), a colour or vector plus ``offset`` (every case's stays above
-    -offset; 0 for a colour that is never negative: the comparison's tolerance then is the
-    colour's own)."""
-    em = tree.nodes.new("ShaderNodeEmission")
-    if out.type == "VALUE":
-        pos, neg, inv = (tree.nodes.new("ShaderNodeMath") for _ in range(3))
-        pos.operation = neg.operation = "MAXIMUM"
-        inv.operation = "MULTIPLY"
-        tree.links.new(out, pos.inputs[0])
-        tree.links.new(out, inv.inputs[0])
-        inv.inputs[1].default_value = -1.0
-        tree.links.new(inv.outputs[0], neg.inputs[0])
-        pos.inputs[1].default_value = neg.inputs[1].default_value = 0.0
-        comb = tree.nodes.new("ShaderNodeCombineXYZ")
-        tree.links.new(pos.outputs[0], comb.inputs[0])
-        tree.links.new(neg.outputs[0], comb.inputs[1])
-        comb.inputs[2].default_value = OFFSET
-        result = comb.outputs[0]
-    else:
-        add = tree.nodes.new("ShaderNodeVectorMath")
-        add.operation = "ADD"
-        tree.links.new(out, add.inputs[0])
-        add.inputs[1].default_value = (offset,) * 3
-        result = add.outputs[0]
-    tree.links.new(result, em.inputs["Color"])
-    tree.links.new(em.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
-
-
-def _view(scene, width: float):
-    """An orthographic camera looking down at the planes (``width`` across), a black world, one
-    sample per pixel's box filter, no dither: each pixel sees one set of inputs."""
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    cam.data.type, cam.data.ortho_scale = "ORTHO", width
-    cam.location = (0.0, 0.0, 5.0)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    scene.world = bpy.data.worlds.new("W")
-    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
-    scene.render.dither_intensity = 0.0
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    scene.render.filter_size = 0.0
-
-
-def _grid(cases):
-    """A scene of one plane per case (case(inputs) -> output socket), in rows of 8."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    images = (_image("A", 1), _image("B", 2))
-    cols = min(len(cases), 8)
-    rows = -(-len(cases) // cols)
-    for k, case in enumerate(cases):
-        r, c = divmod(k, cols)
-        loc = (2 * c - cols + 1, rows - 1 - 2 * r, 0)
-        setup = getattr(case, "mesh", None)      # a case may give its plane T x T faces
-        if setup is None:
-            bpy.ops.mesh.primitive_plane_add(size=2, location=loc)
-        else:
-            bpy.ops.mesh.primitive_grid_add(x_subdivisions=T, y_subdivisions=T, size=2,
-                                            location=loc)
-            setup(bpy.context.active_object.data)
-        obj = bpy.context.active_object          # a case may turn or mirror its plane
-        obj.rotation_euler = (getattr(case, "rx", 0.0), 0.0, getattr(case, "rz", 0.0))
-        obj.scale.x = getattr(case, "sx", 1.0)
-        obj.color = getattr(case, "ocolor", (1.0, 1.0, 1.0, 1.0))
-        obj.pass_index = getattr(case, "pindex", 0)
-        mat = bpy.data.materials.new(f"case{k}")
-        t = mat.node_tree
-        t.nodes.remove(t.nodes["Principled BSDF"])
-        _emit(t, case(Inputs(t, images)), getattr(case, "offset", OFFSET))
-        bpy.context.active_object.data.materials.append(mat)
-    _view(scene, 2.0 * cols)
-    return scene, cols * T, rows * T
-
-
-def _compare(cases, render_direct, tmp_path, names):
-    scene, w, h = _grid(cases)
-    ours, ref = render_direct(scene, tmp_path, w, h, 4, 2)
-    err = np.abs(ours - ref)
-    cols = w // T
-    bad = []
-    for k, name in enumerate(names):
-        r, c = divmod(k, cols)
-        e = err[r * T:(r + 1) * T, c * T:(c + 1) * T]
-        if not (e.max() <= 1e-3 * max(1.0, float(np.abs(ref[r * T:(r + 1) * T,
-                                                           c * T:(c + 1) * T]).max()))):
-            bad.append((name, float(e.max())))
-    assert not bad, f"cases differing from Cycles (max abs error): {bad}"
-    # the inputs vary per pixel: a case that ignored them would be caught above
-    assert np.ptp(ref[:T, :T]) > 1e-2
-
+from tests.helpers.shader_grid import compare_cases
 
 MATH_OPS = [e.identifier for e in bpy.types.ShaderNodeMath.bl_rna.properties["operation"]
             .enum_items] if bpy else []
@@ -168,8 +28,7 @@ def test_math_every_operation_as_cycles(render_direct, tmp_path):
         return lambda i: i.node("ShaderNodeMath", [(0, i.s), (1, i.y), (2, i.z)], operation=op,
                                 use_clamp=clamp).outputs[0]
     cases = [case(op) for op in MATH_OPS] + [case("SINE", True), case("SUBTRACT", True)]
-    _compare(cases, render_direct, tmp_path, MATH_OPS + ["SINE clamp",
-                                                                    "SUBTRACT clamp"])
+    compare_cases(cases, render_direct, tmp_path, MATH_OPS + ["SINE clamp", "SUBTRACT clamp"])
 
 
 def test_vector_math_every_operation_as_cycles(render_direct, tmp_path):
@@ -180,7 +39,7 @@ def test_vector_math_every_operation_as_cycles(render_direct, tmp_path):
             value = op in ("DOT_PRODUCT", "DISTANCE", "LENGTH")
             return n.outputs["Value" if value else "Vector"]
         return build
-    _compare([case(op) for op in VMATH_OPS], render_direct, tmp_path, VMATH_OPS)
+    compare_cases([case(op) for op in VMATH_OPS], render_direct, tmp_path, VMATH_OPS)
 
 
 def test_mix_every_blend_mode_as_cycles(render_direct, tmp_path):
@@ -197,7 +56,7 @@ def test_mix_every_blend_mode_as_cycles(render_direct, tmp_path):
     names = list(BLENDS)
     cases += [case("MULTIPLY", clamp_result=True), case("ADD", clamp_result=True)]
     names += ["MULTIPLY clamp", "ADD clamp"]
-    _compare(cases, render_direct, tmp_path, names)
+    compare_cases(cases, render_direct, tmp_path, names)
 
 
 def test_mix_float_vector_and_legacy_as_cycles(render_direct, tmp_path):
@@ -224,9 +83,9 @@ def test_mix_float_vector_and_legacy_as_cycles(render_direct, tmp_path):
         return build
     cases = [flt, vec, lambda i: vec(i, False), legacy("MIX", False), legacy("OVERLAY", True),
              legacy("SUBTRACT", False)]
-    _compare(cases, render_direct, tmp_path,
-             ["float", "vector", "vector non-uniform", "legacy mix", "legacy overlay clamp",
-              "legacy subtract"])
+    compare_cases(cases, render_direct, tmp_path,
+                  ["float", "vector", "vector non-uniform", "legacy mix", "legacy overlay clamp",
+                   "legacy subtract"])
 
 
 def test_color_and_converter_nodes_as_cycles(render_direct, tmp_path):
@@ -269,7 +128,7 @@ def test_color_and_converter_nodes_as_cycles(render_direct, tmp_path):
         "combine xyz": lambda i: i.node("ShaderNodeCombineXYZ",
                                         [(0, i.s), (1, i.x), (2, i.y)]).outputs[0],
     }
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def test_ramps_curves_and_mapping_as_cycles(render_direct, tmp_path):
@@ -326,7 +185,7 @@ def test_ramps_curves_and_mapping_as_cycles(render_direct, tmp_path):
                                                       [(0, i.x)]).outputs[0],
              "layer weight facing": lambda i: i.node("ShaderNodeLayerWeight",
                                                      [(0, i.x)]).outputs[1]}
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def test_map_range_vector_as_cycles(render_direct, tmp_path):
@@ -348,7 +207,7 @@ def test_map_range_vector_as_cycles(render_direct, tmp_path):
     cases = {f"{k.lower()}{' clamp' if c else ''}{' reversed' if r else ''}": case(k, c, r)
              for k in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
              for c in (False, True) for r in (False, True)}
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def _map_range(i, lo, hi):
@@ -381,7 +240,7 @@ def test_blackbody_as_cycles(render_direct, tmp_path):
     cases = {f"linked {a:g}-{b:g} K": _spectral("ShaderNodeBlackbody", (a, b))
              for a, b in ranges}
     cases.update({f"{t:g} K": _spectral("ShaderNodeBlackbody", value=t) for t in temps})
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 def test_wavelength_as_cycles(render_direct, tmp_path):
@@ -393,4 +252,4 @@ def test_wavelength_as_cycles(render_direct, tmp_path):
     cases = {f"linked {a:g}-{b:g} nm": _spectral("ShaderNodeWavelength", (a, b))
              for a, b in ranges}
     cases.update({f"{w:g} nm": _spectral("ShaderNodeWavelength", value=w) for w in waves})
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))

@@ -1,19 +1,17 @@
-"""Procedural texture nodes against Cycles, per pixel (the harness of test_shader_nodes.py: one
-plane per case, inputs from two images read with Closest interpolation, every pixel within
+"""Procedural texture nodes against Cycles, per pixel (the harness of tests/helpers/shader_grid.py:
+one plane per case, inputs from two images read with Closest interpolation, every pixel within
 1e-3): Checker, Gradient, White Noise, Noise, Magic, Wave, Brick and Voronoi with their options
 and several input values.  A texture's Vector comes from image A, spread over several cells
 (a coordinate that varied inside a pixel would not give one value per pixel); linked float
 inputs come from image B.  And the compiler's side: a scene without textures builds no texture
 code."""
-import sys
 from pathlib import Path
 
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_shader_nodes import _compare
+from tests.helpers.shader_grid import compare_cases
 
 
 def spread(i, s=4.0, o=0.0):
@@ -40,7 +38,7 @@ def case(idname, out, vector=spread, links=(), inputs=None, **props):
 
 
 def run(cases: dict, render_direct, tmp_path):
-    _compare(list(cases.values()), render_direct, tmp_path, list(cases))
+    compare_cases(list(cases.values()), render_direct, tmp_path, list(cases))
 
 
 X = ("Scale", lambda i: i.x)

@@ -4,14 +4,11 @@ smooth shaded, so that its normals lean up to 60 degrees from its faces near the
 (the base's normals average in the base's), on a white floor under a sun, its indirect light by
 photons, per block against Cycles."""
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_bump import _camera
+from tests.helpers.blender_scenes import add_camera
 
 W = 48
 
@@ -43,7 +40,7 @@ def _cone(bpy):
     sun.data.energy = 5.0
     sun.rotation_euler = (math.radians(40), 0, math.radians(30))
     scene.collection.objects.link(sun)
-    _camera(scene, location=(0, -3.2, 1.05), rotation=(math.radians(88), 0, 0))
+    add_camera(scene, location=(0, -3.2, 1.05), rotation=(math.radians(88), 0, 0))
     scene.camera.data.lens = 35
     _black_world(bpy, scene)
     return scene
@@ -86,7 +83,7 @@ def _icosphere(bpy, offset):
     sun.data.energy = 3.0
     sun.rotation_euler = (0, math.radians(80), 0)
     scene.collection.objects.link(sun)
-    _camera(scene, ortho_width=2.4, location=(0, -5, 0), rotation=(math.pi / 2, 0, 0))
+    add_camera(scene, ortho_width=2.4, location=(0, -5, 0), rotation=(math.pi / 2, 0, 0))
     _black_world(bpy, scene)
     return scene
 

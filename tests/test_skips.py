@@ -23,6 +23,7 @@ from ppm_engine.scene.arrays import (
     VIS_TRANSMISSION,
 )
 from ppm_engine.scene.camera import make_camera, perspective_extent
+from tests.helpers.procedural_scenes import room
 
 
 def _light(kind, emit, position=(0, 0, 1.5), direction=(0, 0, -1), radius=0.0, size=0.3,
@@ -35,24 +36,6 @@ def _light(kind, emit, position=(0, 0, 1.5), direction=(0, 0, -1), radius=0.0, s
     return L
 
 
-def _room(lights=None, glass=False, mirror=False, world=(0, 0, 0), aperture=0.0, W=20):
-    mb = MeshBuilder()
-    white = mb.material("white", (0.7, 0.7, 0.7))
-    mb.quad((0, 0, 0), (1, 0, 0), (0, 1, 0), white)
-    mb.quad((0, 1, 1), (0, 0, 1), (1, 0, 0), white)
-    if glass:
-        mb.sphere((0.3, 0.2, 0.3), 0.3, mb.material("glass", (1, 1, 1), transmission=1.0,
-                                                    roughness=0.0), 16, 8)
-    if mirror:
-        mb.quad((-0.5, 0.5, 0.5), (0.3, 0, 0), (0, 0, 0.3),
-                mb.material("mirror", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.0))
-    ext = perspective_extent(W, W, 35.0, 36.0)
-    cam = make_camera(width=W, height=W, to_world=look_at((0, -2.9, 1), (0, 0, 0.5)),
-                      extent=ext[:2], clip=(0.1, 100), aperture_radius=aperture,
-                      focus_distance=3.0)
-    return mb.build(camera=cam, lights=lights, world=world)
-
-
 def _features(scene):
     r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=256))
     f = r.features
@@ -62,26 +45,26 @@ def _features(scene):
 
 def test_features_follow_the_scene():
     point = _light(LIGHT_POINT, (10, 10, 10))
-    assert _features(_room(point)) == {"PPM_LIGHT_POINT"}
+    assert _features(room(point)) == {"PPM_LIGHT_POINT"}
     # glass and a mirror are not one Lambert closure (the shader's full path), and have no
     # closure a visible point evaluates (the gather does not shade)
-    assert _features(_room(point, glass=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET",
+    assert _features(room(point, glass=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET",
                                                    "PPM_SHADER"}
-    assert _features(_room(point, mirror=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET",
+    assert _features(room(point, mirror=True)) == {"PPM_LIGHT_POINT", "PPM_MICROFACET",
                                                     "PPM_SHADER"}
-    assert _features(_room(point, aperture=0.05)) == {"PPM_LIGHT_POINT", "PPM_DOF"}
-    assert _features(_room(point, world=(0.2, 0.2, 0.2))) == {"PPM_LIGHT_POINT", "PPM_WORLD"}
+    assert _features(room(point, aperture=0.05)) == {"PPM_LIGHT_POINT", "PPM_DOF"}
+    assert _features(room(point, world=(0.2, 0.2, 0.2))) == {"PPM_LIGHT_POINT", "PPM_WORLD"}
     sun = _light(LIGHT_SUN, (3, 3, 3), direction=(0.3, 0.2, -1))
-    assert _features(_room(sun)) == {"PPM_LIGHT_SUN"}
+    assert _features(room(sun)) == {"PPM_LIGHT_SUN"}
     area = _light(LIGHT_AREA_RECT, (5, 5, 5))
-    assert _features(_room(area)) == {"PPM_LIGHT_AREA", "PPM_LIGHTS_SEEN"}
+    assert _features(room(area)) == {"PPM_LIGHT_AREA", "PPM_LIGHTS_SEEN"}
     hidden = VIS_CAMERA | VIS_GLOSSY | VIS_TRANSMISSION
-    assert _features(_room(_light(LIGHT_AREA_RECT, (5, 5, 5), hidden=hidden))) == {"PPM_LIGHT_AREA"}
+    assert _features(room(_light(LIGHT_AREA_RECT, (5, 5, 5), hidden=hidden))) == {"PPM_LIGHT_AREA"}
     sphere = _light(LIGHT_POINT, (10, 10, 10), radius=0.1)
-    assert _features(_room(sphere)) == {"PPM_LIGHT_POINT", "PPM_LIGHTS_SEEN"}
+    assert _features(room(sphere)) == {"PPM_LIGHT_POINT", "PPM_LIGHTS_SEEN"}
     # a zero-power light needs no code: it is never sampled
     both = np.concatenate([point, _light(LIGHT_SUN, (0, 0, 0))])
-    assert _features(_room(both)) == {"PPM_LIGHT_POINT"}
+    assert _features(room(both)) == {"PPM_LIGHT_POINT"}
     assert _features(cornell_box(8, 8)) == {"PPM_EMISSIVE"}
     assert _features(cornell_box(8, 8, bulb=True)) == {"PPM_EMISSIVE", "PPM_MICROFACET",
                                                        "PPM_SHADER"}
@@ -131,11 +114,11 @@ def test_specialised_kernels_are_separate_programs():
 SCENES = {
     "cornell": lambda: cornell_box(20, 20),
     "bulb": lambda: cornell_box(20, 20, bulb=True),
-    "point_glass_mirror": lambda: _room(_light(LIGHT_POINT, (10, 10, 10), radius=0.05),
-                                        glass=True, mirror=True),
-    "sun_dof": lambda: _room(_light(LIGHT_SUN, (3, 3, 3), direction=(0.3, 0.2, -1)),
-                             aperture=0.05),
-    "area_world": lambda: _room(_light(LIGHT_AREA_RECT, (5, 5, 5)), world=(0.1, 0.1, 0.2)),
+    "point_glass_mirror": lambda: room(_light(LIGHT_POINT, (10, 10, 10), radius=0.05),
+                                       glass=True, mirror=True),
+    "sun_dof": lambda: room(_light(LIGHT_SUN, (3, 3, 3), direction=(0.3, 0.2, -1)),
+                            aperture=0.05),
+    "area_world": lambda: room(_light(LIGHT_AREA_RECT, (5, 5, 5)), world=(0.1, 0.1, 0.2)),
     "mirror_caustic": lambda: analytic.mirror_caustic(16),
     "plastic_sheen": lambda: _materials_room(type=NODE_PRINCIPLED, sheen_weight=1.0,
                                              alpha=0.8, diffuse_roughness=0.5),
@@ -216,7 +199,7 @@ def test_no_photon_storage_or_light_tracing_film_where_no_photon_pass_runs():
 
 def test_photons_nobody_sees_are_not_stored():
     """Photons landing outside the visible points' grid are counted, not stored or hashed."""
-    scene = _room(_light(LIGHT_POINT, (30, 30, 30), position=(0, 0, 0.5)))
+    scene = room(_light(LIGHT_POINT, (30, 30, 30), position=(0, 0, 0.5)))
     cam = scene.camera.copy()                                # look at one corner of the floor
     cam["to_world"] = look_at((0.6, 0.6, 0.6), (0.8, 0.8, 0.0))[:3]
     s, _ = _phases(scene.replace(camera=cam))
@@ -228,8 +211,8 @@ def test_lights_without_power_are_never_sampled():
     without it (same random streams)."""
     point = _light(LIGHT_POINT, (10, 10, 10))
     dark = np.concatenate([_light(LIGHT_SUN, (0, 0, 0)), point, _light(LIGHT_AREA_RECT, (0, 0, 0))])
-    a = _phases(_room(point), passes=3, seed=2, exact_gather=True)[1]
-    b = _phases(_room(dark), passes=3, seed=2, exact_gather=True)[1]
+    a = _phases(room(point), passes=3, seed=2, exact_gather=True)[1]
+    b = _phases(room(dark), passes=3, seed=2, exact_gather=True)[1]
     assert a[..., :3].mean() > 0
     np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)
 

@@ -2,15 +2,12 @@
 colour along a direction per pixel (a float image of random values read with Closest
 interpolation, mapped to [-1, 1] and normalised), each plane one sky (sun, turbidity,
 atmosphere, disc); rendered by Cycles and by this engine with no bounces in the same test."""
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
-sys.path.insert(0, str(Path(__file__).parent))
-from test_shader_nodes import T, _image, _view
+
+from tests.helpers.shader_grid import T, ortho_view, random_image
 
 
 def _sun(props):
@@ -25,7 +22,7 @@ def _sky_grid(skies, up=False):
     (z = |z|)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    img = _image("dirs", 5)
+    img = random_image("dirs", 5)
     cols = min(len(skies), 8)
     rows = -(-len(skies) // cols)
     for k, props in enumerate(skies):
@@ -71,7 +68,7 @@ def _sky_grid(skies, up=False):
         t.links.new(sky.outputs["Color"], em.inputs["Color"])
         t.links.new(em.outputs[0], t.nodes["Material Output"].inputs["Surface"])
         bpy.context.active_object.data.materials.append(mat)
-    _view(scene, 2.0 * cols)
+    ortho_view(scene, 2.0 * cols)
     return scene, cols * T, rows * T
 
 
@@ -178,7 +175,7 @@ def test_sun_disc_as_cycles(model, cycles, render_exr, tmp_path, tiny):
     single precision)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    _view(scene, 1.0)
+    ortho_view(scene, 1.0)
     sky = scene.world.node_tree.nodes.new("ShaderNodeTexSky")
     bg = scene.world.node_tree.nodes["Background"]
     scene.world.node_tree.links.new(sky.outputs["Color"], bg.inputs["Color"])

@@ -1,8 +1,8 @@
 """Image textures on Base Color and Emission Color: export (8-bit sRGB decoded, float kept,
 packed and external images, a missing file warned and magenta), the kernels' lookup against a
 NumPy bilinear reference, and a textured scene as bright as Cycles renders it.  The Image
-Texture node's options: test_image_texture_node.py (which imports _scene_with_texture() and
-_export() from here)."""
+Texture node's options: test_image_texture_node.py (the textured scene and the export are
+tests/helpers/blender_scenes.py's)."""
 
 
 import numpy as np
@@ -10,7 +10,6 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from ppm_engine.blender.export import export_scene
 from ppm_engine.blender.export.textures import srgb_to_linear
 from ppm_engine.oracle.procedural import MeshBuilder, look_at
 from ppm_engine.render.options import RenderOptions
@@ -24,50 +23,12 @@ from ppm_engine.scene.arrays import (
     TEXTURE_DTYPE,
 )
 from ppm_engine.scene.camera import make_camera
-
-# a 4 x 2 image, rows bottom-up (Blender's order), values on the 8-bit grid
-PIXELS = np.array([[[0.0, 0.2, 0.4, 1], [1.0, 0.0, 0.0, 1], [0.0, 1.0, 0.0, 1],
-                    [0.0, 0.0, 1.0, 1]],
-                   [[1.0, 1.0, 1.0, 1], [0.5, 0.5, 0.5, 1], [0.2, 0.6, 0.8, 1],
-                    [0.8, 0.4, 0.1, 1]]], np.float32)
-PIXELS = np.round(PIXELS * 255) / 255
-
-
-def _scene_with_texture(socket="Base Color", float_image=False, packed=False, path=None,
-                        extension="REPEAT", interpolation="Linear"):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    cam.location = (0, 0, 3)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    img = bpy.data.images.new("Tex", 4, 2, float_buffer=float_image)
-    img.pixels.foreach_set(PIXELS.ravel())
-    if packed:
-        img.pack()
-    if path is not None:
-        img.filepath = str(path)
-        img.source = 'FILE'
-    m = bpy.data.materials.new("Textured")
-    t = m.node_tree
-    p = t.nodes["Principled BSDF"]
-    node = t.nodes.new("ShaderNodeTexImage")
-    node.image, node.extension, node.interpolation = img, extension, interpolation
-    t.links.new(node.outputs["Color"], p.inputs[socket])
-    if socket == "Emission Color":
-        p.inputs["Emission Strength"].default_value = 3.0
-    bpy.ops.mesh.primitive_plane_add(size=2.0)
-    bpy.context.active_object.data.materials.append(m)
-    return scene, img
-
-
-def _export():
-    return export_scene(bpy.context.evaluated_depsgraph_get())
+from tests.helpers.blender_scenes import PIXELS, export, scene_with_texture
 
 
 def test_srgb_image_on_base_color_is_kept_encoded_and_flagged():
-    _scene_with_texture()
-    a = _export()
+    scene_with_texture()
+    a = export()
     (mat,) = a.nodes_of("Textured")
     assert mat["color_texture"] == 1 and tuple(mat["color"]) == (1, 1, 1)
     t = a.textures[0]
@@ -79,9 +40,9 @@ def test_srgb_image_on_base_color_is_kept_encoded_and_flagged():
 
 
 def test_float_image_on_emission_is_linear_and_modes_are_kept():
-    _scene_with_texture("Emission Color", float_image=True, extension="CLIP",
-                        interpolation="Closest")
-    a = _export()
+    scene_with_texture("Emission Color", float_image=True, extension="CLIP",
+                       interpolation="Closest")
+    a = export()
     (mat,) = a.nodes_of("Textured")
     assert mat["emission_texture"] == 1 and mat["color_texture"] == 0
     np.testing.assert_allclose(mat["emission"], 3.0)                  # strength x white
@@ -90,27 +51,27 @@ def test_float_image_on_emission_is_linear_and_modes_are_kept():
 
 
 def test_packed_image_reads_like_a_generated_one():
-    _scene_with_texture(packed=True)
-    a = _export()
+    scene_with_texture(packed=True)
+    a = export()
     np.testing.assert_allclose(a.texels.astype(np.float32).reshape(2, 4, 4), PIXELS, atol=2.5e-4)
     assert a.textures[0]["flags"] & TEX_FLAG_SRGB
 
 
 def test_external_image_file_and_a_missing_one(tmp_path):
-    _scene, img = _scene_with_texture()
+    _scene, img = scene_with_texture()
     png = tmp_path / "tex.png"
     img.filepath_raw = str(png)
     img.file_format = 'PNG'
     img.save()
     ext = bpy.data.images.load(str(png))
     bpy.data.materials["Textured"].node_tree.nodes["Image Texture"].image = ext
-    a = _export()
+    a = export()
     np.testing.assert_allclose(a.texels.astype(np.float32).reshape(2, 4, 4), PIXELS, atol=2.5e-4)
     gone = bpy.data.images.load(str(png))
     gone.filepath = str(tmp_path / "no-such-file.png")
     gone.reload()
     bpy.data.materials["Textured"].node_tree.nodes["Image Texture"].image = gone
-    a = _export()
+    a = export()
     assert any("Textured" in w and "no-such-file.png" in w and "magenta" in w
                for w in a.warnings), a.warnings
     (mat,) = a.nodes_of("Textured")
@@ -170,7 +131,7 @@ def test_textured_scene_as_bright_as_cycles(cycles, render_exr, tmp_path):
     """A plane with an 8-bit sRGB texture on its base colour, lit by a sun, and a textured
     emissive panel: our image agrees with Cycles' per quarter of the image (UV orientation,
     sRGB decoding, the emission texture as a light)."""
-    scene, _img = _scene_with_texture()
+    scene, _img = scene_with_texture()
     big = bpy.data.images.new("Checker", 64, 64)
     yy, xx = np.mgrid[0:64, 0:64]
     check = (((xx // 16) + (yy // 16)) % 2).astype(np.float32)

@@ -3,16 +3,16 @@ and a bright sun-like spot) through Texture Coordinate, Mapping and an Environme
 lighting a diffuse sphere on a plane per 8 x 8 block (direct light only and full transport),
 and seen by the camera per pixel; the importance map's sampling against its density; and a
 constant world rendered exactly as the kernels without world programs render it."""
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
-sys.path.insert(0, str(Path(__file__).parent))
-from test_materials import _both, _compare, _light_world_camera
-from test_skips import _room
+
+from tests.helpers.blender_scenes import light_world_camera
+from tests.helpers.cycles_blocks import compare_blocks, render_both
+from tests.helpers.procedural_scenes import room
 
 SUN = (0.3, 0.75)   # the spot's (u, v): above the horizon, to the side
 
@@ -48,8 +48,8 @@ def _world(scene, rotation=0.0, strength=1.0):
 
 
 def _camera(scene, location, rotation, lens):
-    """The camera and the pixel filter of tests/test_materials.py."""
-    _light_world_camera(scene, light=None, world=0.0, camera=(location, rotation, lens))
+    """The camera and the pixel filter of tests/test_materials.py (light_world_camera)."""
+    light_world_camera(scene, light=None, world=0.0, camera=(location, rotation, lens))
 
 
 def _diffuse(name, color):
@@ -84,9 +84,9 @@ def _sphere_scene(wall=False):
 def test_hdri_direct_light_per_block_as_cycles(cycles, render_exr, tmp_path, tiny):
     """Direct light only: the map's next-event estimation with MIS against the BSDF sample."""
     scene = _sphere_scene()
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=256,
-                      bounces=0, photons=1024)
-    _compare(ours, ref, 0.04, 0.003)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=256,
+                            bounces=0, photons=1024)
+    compare_blocks(ours, ref, 0.04, 0.003)
 
 
 @pytest.mark.parametrize("wall", [pytest.param(False, marks=pytest.mark.slow), True])  # 38 s each
@@ -94,9 +94,9 @@ def test_hdri_full_transport_per_block_as_cycles(wall, cycles, render_exr, tmp_p
     """All bounces: photons emitted from the map light the floor under the sphere (and, with
     the wall, the light it reflects onto the sphere's front)."""
     scene = _sphere_scene(wall)
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=1024,
-                      bounces=4, photons=65536)
-    _compare(ours, ref, 0.07, 0.004)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=1024,
+                            bounces=4, photons=65536)
+    compare_blocks(ours, ref, 0.07, 0.004)
 
 
 def test_background_per_pixel_as_cycles(cycles, render_exr, tmp_path, tiny):
@@ -105,8 +105,8 @@ def test_background_per_pixel_as_cycles(cycles, render_exr, tmp_path, tiny):
     scene = bpy.context.scene
     _camera(scene, (0.0, 0.0, 0.0), (2.3, 0.0, -1.35), 18)
     _world(scene, rotation=1.1, strength=1.5)
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=512, passes=512,
-                      bounces=0, photons=256)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=512, passes=512,
+                            bounces=0, photons=256)
     assert ref.max() > 20.0              # the spot is in view
     np.testing.assert_allclose(ours, ref, rtol=0.03, atol=0.01)
 
@@ -280,7 +280,7 @@ def test_constant_world_renders_as_before():
     from ppm_engine.render.options import RenderOptions
     from ppm_engine.render.renderer import Renderer
     before = np.load(Path(__file__).parent / "data" / "constant_world.npy")
-    scene = _room(None, glass=True, world=(0.3, 0.4, 0.5))
+    scene = room(None, glass=True, world=(0.3, 0.4, 0.5))
     for specialize in (True, False):
         r = Renderer(scene, RenderOptions(photons_per_pass=2048, seed=4, specialize=specialize,
                                           exact_gather=True, indirect="photons"))
@@ -353,10 +353,10 @@ def test_preetham_sky_direct_light_per_block_as_cycles(cycles, render_exr, tmp_p
     the BSDF sample gives Cycles' image per 8 x 8 block within 4 %."""
     scene = _sphere_scene()
     _sky_world(scene, sky_type="PREETHAM", sun_direction=(0.6, -0.5, 0.35), turbidity=3.0)
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=256,
-                      bounces=0, photons=1024)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=256,
+                            bounces=0, photons=1024)
     assert ref.max() > 0.3
-    _compare(ours, ref, 0.04, 0.003)
+    compare_blocks(ours, ref, 0.04, 0.003)
 
 
 @pytest.mark.parametrize("model", ["SINGLE_SCATTERING", "MULTIPLE_SCATTERING"])
@@ -370,10 +370,10 @@ def test_sun_disc_sky_direct_light_per_block_as_cycles(model, cycles, render_exr
     world = _sky_world(scene, sky_type=model, sun_elevation=0.7, sun_rotation=2.2,
                        sun_size=0.02)
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.02
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=256,
-                      bounces=0, photons=1024)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=1024, passes=256,
+                            bounces=0, photons=1024)
     assert ref.max() > 0.3
-    _compare(ours, ref, 0.04, 0.003)
+    compare_blocks(ours, ref, 0.04, 0.003)
 
 
 @pytest.mark.slow
@@ -384,6 +384,6 @@ def test_sun_disc_sky_full_transport_per_block_as_cycles(cycles, render_exr, tmp
     world = _sky_world(scene, sky_type="MULTIPLE_SCATTERING", sun_elevation=0.7,
                        sun_rotation=2.2, sun_size=0.02)
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.02
-    ours, ref = _both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=1024,
-                      bounces=4, photons=65536)
-    _compare(ours, ref, 0.07, 0.004)
+    ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=4096, passes=1024,
+                            bounces=4, photons=65536)
+    compare_blocks(ours, ref, 0.07, 0.004)
