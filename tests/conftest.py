@@ -182,7 +182,7 @@ def render_direct(cycles, tiny, render_exr):
 
 
 # --- test tiers ---------------------------------------------------------------------------------
-# (markers in pytest.ini; README "Tests" has the commands)
+# (markers in pytest.ini; tests/README.md has the commands)
 #   blender  needs the bpy module: any test using the `bpy` fixture, directly or through another
 #   cycles   renders a Cycles reference in the test: it calls the `cycles` or `render_direct`
 #            fixture, harness.cycles_reference or cycles_settings, or sets the engine to
