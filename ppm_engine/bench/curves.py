@@ -33,11 +33,11 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
 - point_caustic (the glass ball under a radius-0 point light) and rough_caustic (the same ball
   of rough glass, GGX roughness 0.1): the exact-geometry reference
   (exact_caustic.py, "EXACT"): in NumPy on the true sphere and the two finite planes, the
-  direct light in closed form and the rest by light tracing, sharing no code with this engine,
-  so it stays independent now that light tracing is one of the engine's own strategies
-  (issue 25).  Cycles with MNEE is no reference there: it gives the brightest pixel of the
-  focus 5.9 where light tracing and this engine agree on 32 and 29 (docs/BENCHMARKS.md).  Each
-  half computes the closed form, then renders whole batches of photons for the rest of the
+  direct light in closed form and the rest by light tracing, sharing no code with this engine, so it
+  stays independent now that light tracing is one of the engine's own strategies (issue 25).  Cycles
+  with MNEE is no reference there: it gives the brightest pixel of the focus 5.9 where light tracing
+  and this engine agree on 32 and 29 (docs/history/benchmarks-notebook.md, "The hard caustic").
+  Each half computes the closed form, then renders whole batches of photons for the rest of the
   reference budget;
 - pool_caustic (the sun's caustic on a pool's floor, seen through the waves that make it):
   the exact-geometry reference exact_pool.py ("EXACT_POOL"): in NumPy on the true height field,
@@ -52,8 +52,8 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
   of this engine's light tracing.  Each half renders for the reference budget; without
   pyluxcore (the ``bench`` extra; CI installs the ``test`` one) this engine's light tracer
   renders them instead and the JSON says why (``reference["fallback"]``).  It agrees with this
-  engine's light tracer within their noise on both (docs/BENCHMARKS.md, "LuxCore's light tracer
-  as the reference");
+  engine's light tracer within their noise on both (docs/BENCHMARKS.md, "References, and how
+  independent each is");
 - glass_caustic: this engine's light tracer (ppm_engine/light_tracer.py, "LIGHT_TRACE":
   photons connected to the camera, unbiased, no photon map, no radius), although light
   tracing is one of the engine's own strategies: LuxCore has no spot light that matches
@@ -125,12 +125,12 @@ REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": 
                     "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES"}
 LIGHT_TRACE_PHOTONS = 1 << 17      # photons per light-tracing pass
 REF_SEEDS = (1001, 2002)
-# reference seconds per half over the run's (2 x its longest budget): LuxCore's light tracer is
-# the noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror
-# caustic, and the ratio to LuxCore's BIDIR the reference's: docs/BENCHMARKS.md); per scene (its
-# entry wins over its engine's) on glossy_metal, whose Cycles reference is slowest where it
-# matters most: the metal's caustics on the floor and the 0.1 m light's highlight on polished
-# metal (2 x 240 s: noise 0.024)
+# reference seconds per half over the run's (2 x its longest budget): LuxCore's light tracer is the
+# noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror caustic,
+# and the ratio to LuxCore's BIDIR the reference's: docs/history/benchmarks-notebook.md); per scene
+# (its entry wins over its engine's) on glossy_metal, whose Cycles reference is slowest where it
+# matters most: the metal's caustics on the floor and the 0.1 m light's highlight on polished metal
+# (2 x 240 s: noise 0.024)
 REF_TIME_FACTOR = {"LUXCORE_LIGHT": 4.0, "EXACT_POOL": 4.0, "glossy_metal": 4.0}
 EQUAL_TIME = 16.0
 # ours / Cycles, EQUAL_TIME (issue 25's targets: the furnace at half Cycles' error)

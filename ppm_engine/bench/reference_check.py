@@ -1,7 +1,7 @@
 """Two light tracers on one benchmark scene, before one becomes the other's reference: LuxCore's
 LIGHTCPU (``LUXCORE_LIGHT``, luxcore.py) and this engine's (``LIGHT_TRACE``,
 ppm_engine/light_tracer.py), each rendered with two seeds, and how far apart they are against
-their own noise (docs/BENCHMARKS.md, "LuxCore's light tracer as the reference").
+their own noise (docs/history/benchmarks-notebook.md, "LuxCore's light tracer as the reference").
 
     python -m ppm_engine.bench.reference_check render SCENE LUXCORE_LIGHT --seconds 60 --out DIR
     python -m ppm_engine.bench.reference_check render SCENE LIGHT_TRACE --seconds 60 --out DIR
