@@ -1,7 +1,7 @@
-"""The noise of point_caustic's exact-geometry reference (docs/BENCHMARKS.md, "The exact-geometry
-reference"), as the benchmark measures it: two halves of ``seconds`` each (seeds 1001 and 2002,
-128x128, ``exact_caustic.render`` as ``Curves.exact`` calls it), RMSE between them / 2 over the
-pixels both cover and over the caustic mask, and the mean over the covered pixels.
+"""The noise of point_caustic's exact-geometry reference (docs/history/benchmarks-notebook.md, "Its
+direct light in closed form"), as the benchmark measures it: two halves of ``seconds`` each (seeds
+1001 and 2002, 128x128, ``exact_caustic.render`` as ``Curves.exact`` calls it), RMSE between them /
+2 over the pixels both cover and over the caustic mask, and the mean over the covered pixels.
 
     python docs/exact_reference_noise.py 32            # as it renders now
     python docs/exact_reference_noise.py 32 --before   # as before 2026-11-27

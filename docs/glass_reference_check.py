@@ -1,5 +1,5 @@
-"""Could Cycles + MNEE be glass_caustic's independent reference? (docs/BENCHMARKS.md: "Tried
-this stop and not kept")
+"""Could Cycles + MNEE be glass_caustic's independent reference? (docs/BENCHMARKS.md: "References,
+and how independent each is")
 
     python docs/glass_reference_check.py 60
 

@@ -1,5 +1,5 @@
-"""How the light tracing's kappa was chosen (docs/BENCHMARKS.md, "Light tracing"): one scene's
-RMSE at equal time for several values of kappa, against a light-traced reference.
+"""How the light tracing's kappa was chosen (docs/BENCHMARKS.md, "Settings chosen by measurement"):
+one scene's RMSE at equal time for several values of kappa, against a light-traced reference.
 
     python docs/light_tracing_kappa.py point_caustic 8 0.01,0.03,0.1,0.3,1
 

@@ -1,6 +1,6 @@
 """glossy_metal's error split between its polished ball's highlight and the rest, ours against
-Cycles at equal time or at equal samples (docs/BENCHMARKS.md: "Glossy metal lit by a small
-light"):
+Cycles at equal time or at equal samples (docs/history/benchmarks-notebook.md: "Glossy metal
+lit by a small light"):
 
     python docs/metal_blocks.py time 8 3          # 8 s per render, seeds 1-3
     python docs/metal_blocks.py samples 256 3     # 256 samples (passes) per render

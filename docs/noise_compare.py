@@ -1,5 +1,6 @@
 """One render's pixel noise and time per pass, for example scenes, at equal passes, from one
-or more checkouts of the package (docs/BENCHMARKS.md: "The furnace and the light tree"):
+or more checkouts of the package (docs/history/benchmarks-notebook.md: "The furnace and
+the light tree"):
 
     python docs/noise_compare.py PASSES SCENE[,SCENE...] [ROOT ...]
     git worktree add /tmp/before COMMIT

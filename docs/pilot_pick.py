@@ -1,5 +1,5 @@
 """Could Automatic pick the estimator of indirect light by a pilot's measured error per second?
-(docs/BENCHMARKS.md: "Automatic by a pilot's error per second: measured, not built")
+(docs/BENCHMARKS.md: "Settings chosen by measurement")
 
     python docs/pilot_pick.py 8,32 cornell_box,furnace,point_caustic,glossy_metal
 

@@ -1,4 +1,5 @@
-"""Two checks of the pool (docs/BENCHMARKS.md, "A caustic seen through water: the pool"):
+"""Two checks of the pool (docs/history/benchmarks-notebook.md, "A caustic
+seen through water: the pool"):
 
     python docs/pool_checks.py bounces [SAMPLES]   # the second floor bounce: reference, Cycles,
                                                    # ours

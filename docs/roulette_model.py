@@ -1,5 +1,6 @@
 """The furnace's roulette in NumPy: why its error depends on the pass count, and what raising
-the survival buys (docs/BENCHMARKS.md, "The eye paths' roulette").
+the survival buys (docs/history/benchmarks-notebook.md,
+"The eye paths' roulette").
 
     python docs/roulette_model.py
 

@@ -1,5 +1,5 @@
-"""Settings against each other at equal time on one scene (docs/BENCHMARKS.md: "The eye pass's
-numbers", "The radius schedule"), each against the benchmark's independent reference:
+"""Settings against each other at equal time on one scene (docs/BENCHMARKS.md: "Settings chosen
+by measurement"), each against the benchmark's independent reference:
 
     python docs/settings_compare.py SCENE SECONDS SEEDS NAME=OPTIONS [NAME=OPTIONS ...]
     python docs/settings_compare.py point_caustic 8 3 pixel="" global="radius_schedule='global'"

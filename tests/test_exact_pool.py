@@ -96,8 +96,8 @@ def test_engine_renders_the_pool_as_the_exact_reference(bpy, tiny, render_exr, t
 
 def test_sunlight_past_the_waters_edge_is_refused(bpy, monkeypatch):
     """A floor as wide as the water: the low sun reaches its edge past the water's.  The
-    reference does not render that path (docs/BENCHMARKS.md: 2-3 % of the image off Cycles
-    there), so it says so rather than render it wrong."""
+    reference does not render that path (docs/history/benchmarks-notebook.md, the pool: 2-3 % of the
+    image off Cycles there), so it says so rather than render it wrong."""
     monkeypatch.setattr(pool, "FLOOR_HALF", pool.HALF)
     scene = _scene(bpy, 16, waves=())
     with pytest.raises(ValueError, match="past the water's edge"):

@@ -59,9 +59,9 @@ def test_luxcore_mirror_caustic_matches_light_tracing(bpy, pocl_key, tmp_path):
 
 # LuxCore's light tracer (LIGHTCPU), the reference of these two scenes (curves.REFERENCE_ENGINE):
 # at 128 x 128, 2 x 60 s, it agrees with ours within 0.05 % in mean and within the two's noise
-# per pixel (docs/BENCHMARKS.md).  Here 32 x 32, 3 s each: the covered mean within 2 % (a few
-# times the seed spread; a unit or normalisation error, or the bulb's IOR^2, is 100 % or more),
-# the caustic's within 5 % (CAUSTIC_TOL).
+# per pixel (docs/BENCHMARKS.md, "References, and how independent each is").  Here 32 x 32, 3 s
+# each: the covered mean within 2 % (a few times the seed spread; a unit or normalisation error, or
+# the bulb's IOR^2, is 100 % or more), the caustic's within 5 % (CAUSTIC_TOL).
 LIGHT_COVERED_TOL = 0.02
 
 

@@ -309,10 +309,11 @@ def _caustic_scene(floor_material):
 def test_caustic_on_a_glossy_floor_where_cycles_shows_it(floor, cycles, render_exr, tmp_path,
                                                          tiny):
     """A glass ball's caustic on a rough metal floor (0.45: a lobe the eye path follows, so the
-    caustic is path-traced through the glass to the lamp, no photon is gathered) and on a
-    plastic floor (a glossy layer over diffuse): where Cycles shows it and as bright (within
-    10 %; over ten seeds our two blocks move by 10-13 % at 256 passes, their mean 1.5 % above
-    Cycles', docs/BENCHMARKS.md "The eye pass's numbers"), the floor around it as Cycles'."""
+    caustic is path-traced through the glass to the lamp, no photon is gathered) and on a plastic
+    floor (a glossy layer over diffuse): where Cycles shows it and as bright (within 10 %; over ten
+    seeds our two blocks move by 10-13 % at 256 passes, their mean 1.5 % above Cycles',
+    docs/history/benchmarks-notebook.md, "The eye pass's numbers"), the floor around it as
+    Cycles'."""
     scene = _caustic_scene(floor)
     ours, ref = render_both(scene, cycles, render_exr, tmp_path, tiny, samples=2048, passes=256,
                             bounces=8, photons=16384)

@@ -175,9 +175,10 @@ def test_no_photon_pass_without_bounces_or_diffuse_surfaces():
 def test_no_photon_storage_or_light_tracing_film_where_no_photon_pass_runs():
     """Photon storage (ppm_engine/render/photon_map.py: 2 x the photons per pass, and the hash
     table) and the light tracing's film buffers (44 bytes per pixel) are allocated only by a
-    render that traces photons: at 1920 x 1080 that is 305 MiB a Cornell box lit by eye paths
-    no longer holds (docs/BENCHMARKS.md).  The same box by eye paths (no caustics: no photon
-    pass) and by the paper's photons: the device's byte count differs by those buffers."""
+    render that traces photons: at 1920 x 1080 that is 305 MiB a Cornell box lit by eye paths no
+    longer holds (docs/history/benchmarks-notebook.md, "Memory and time per pass at 1920x1080").
+    The same box by eye paths (no caustics: no photon pass) and by the paper's photons: the device's
+    byte count differs by those buffers."""
     from ppm_engine.render.device import get_device
     dev = get_device(RenderOptions().device)
     grown = {}

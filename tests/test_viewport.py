@@ -1,6 +1,7 @@
 """The viewport (Rendered shading): the bpy-free ViewportSession driven with exports of real
 scenes and real depsgraph updates, the view's camera from Blender's own matrices, and the
-engine's hand-offs.  What cannot run headless: draw_frame's gpu calls (docs/ARCHITECTURE.md, "The viewport")."""
+engine's hand-offs.  What cannot run headless: draw_frame's gpu calls (docs/ARCHITECTURE.md,
+"The viewport")."""
 import time
 
 import numpy as np

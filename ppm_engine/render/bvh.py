@@ -17,8 +17,8 @@ class BVH:
     ``leaf_order`` (host copy: original triangle index of each leaf)."""
 
     def __init__(self, device, scene: SceneArrays, method: str = "ploc"):
-        """``method``: "ploc" (default: near-SAH quality, docs/BENCHMARKS.md) or "lbvh" (Karras'
-        hierarchy from the Morton codes alone: faster to build, slower to trace)."""
+        """``method``: "ploc" (default: near-SAH quality, docs/BENCHMARKS.md, "Micro benchmarks") or
+        "lbvh" (Karras' hierarchy from the Morton codes alone: faster to build, slower to trace)."""
         if method not in ("ploc", "lbvh"):
             raise ValueError(f"unknown BVH build method {method!r}")
         t0 = time.perf_counter()
@@ -88,7 +88,7 @@ class BVH:
     # the Morton codes, the scan that compacts PLOC's clusters, the reduction of the boxes'
     # areas) run in NumPy on the host instead, with the same results: they are microseconds
     # there, while their kernels cost a process 0.6 s to load from the kernel cache and a cold
-    # cache some 10 s to compile (docs/BENCHMARKS.md, "The viewport").  0: always the device.
+    # cache some 10 s to compile (docs/BENCHMARKS.md, "Viewport").  0: always the device.
     HOST_PRIMITIVES = 1 << 14
 
     def _on_host(self, n: int) -> bool:

@@ -3,8 +3,8 @@
 The programs are cached per device by (file, defines), so each feature set is built once; a
 scene without microfacet lobes runs kernels without their code (likewise sheen, Oren-Nayar,
 translucency, transparency), its closure lists as long as its materials need, a scene lit by one
-point light kernels with no sun, area, mesh-light or world sampling (docs/BENCHMARKS.md, "Skip
-what a scene doesn't need").
+point light kernels with no sun, area, mesh-light or world sampling (docs/BENCHMARKS.md,
+"Skips").
 """
 from __future__ import annotations
 

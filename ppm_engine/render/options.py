@@ -52,11 +52,11 @@ VIEWPORT_LIMITS = {
 
 # The automatic photon count (RenderOptions.photons_per_pass = None, the default): one photon
 # per pixel of the render region per pass -- the paper's 512^2 photons at 512 x 512 pixels --
-# within these bounds.  Chosen from the error-against-time curves (docs/BENCHMARKS.md): at a
-# fixed budget the error is flat between 1/2 and 1 photon per pixel per pass and grows on both
-# sides (2^18 photons per pass at 128 x 128 pixels: 3x the Cornell box's error at 16 s), because
-# the eye pass (direct light, anti-aliasing, the radius shrinking) and the photon pass must
-# progress together.
+# within these bounds.  Chosen from the error-against-time curves (docs/BENCHMARKS.md, "Settings
+# chosen by measurement"): at a fixed budget the error is flat between 1/2 and 1 photon per pixel
+# per pass and grows on both sides (2^18 photons per pass at 128 x 128 pixels: 3x the Cornell box's
+# error at 16 s), because the eye pass (direct light, anti-aliasing, the radius shrinking) and the
+# photon pass must progress together.
 AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
 
 # How indirect light is estimated (RenderOptions.indirect):
@@ -71,7 +71,7 @@ AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
 INDIRECT_MODES = ("auto", "photons", "paths")
 # Light tracing against the merge (RenderOptions.light_tracing): the balance heuristic with the
 # merge's density kappa pi r^2 p_E (camera_connect.h merge_factor); kappa 1 is VCM's.  Chosen by
-# measurement (docs/BENCHMARKS.md, "Light tracing")
+# measurement (docs/BENCHMARKS.md, "Settings chosen by measurement")
 LIGHT_TRACING_KAPPA = 0.1
 # How each pixel's gather radius shrinks over the passes (RenderOptions.radius_schedule,
 # kernels/integrator/progressive.cl film_update):
@@ -81,7 +81,8 @@ LIGHT_TRACING_KAPPA = 0.1
 #             camera rays).
 # Their index is film_update's `schedule` (RADIUS_PIXEL, RADIUS_GLOBAL).
 RADIUS_SCHEDULES = ("pixel", "global")
-# "auto" chooses "photons" above this fraction of caustic first scatterings (docs/BENCHMARKS.md)
+# "auto" chooses "photons" above this fraction of caustic first scatterings (docs/BENCHMARKS.md,
+# "Settings chosen by measurement")
 AUTO_PHOTONS_CAUSTIC_FRACTION = 0.5
 
 
@@ -102,15 +103,15 @@ class RenderOptions:
     indirect: str = "auto"         # INDIRECT_MODES
     exact_gather: bool = False     # reference mode: gather every photon, not the stochastic map
     # microfacet lobes at least this rough hold visible points and photons (the gather evaluates
-    # them); smoother ones are followed by the eye path.  Chosen by measurement
-    # (docs/BENCHMARKS.md, "Glossy surfaces"); a setting to measure with, not in the UI.
+    # them); smoother ones are followed by the eye path.  Chosen by measurement (docs/BENCHMARKS.md,
+    # "Materials and shader programs"); a setting to measure with, not in the UI.
     gather_roughness: float = 0.7
     # followed glossy reflections at least this rough are the eye paths' (next-event estimation
     # through them, as Cycles), smoother ones (and refractions below gather_roughness) make
     # caustic photons.  The default, gather_roughness's, leaves every followed lobe to caustic
     # photons: measured, eye paths through glossy lobes were no better at equal time on four
-    # scenes (docs/BENCHMARKS.md, "Glossy light: eye paths or caustic photons"); a setting to
-    # measure with, not in the UI.
+    # scenes (docs/BENCHMARKS.md, "Settings chosen by measurement"); a setting to measure with, not
+    # in the UI.
     caustic_roughness: float = 0.7
     # Skips of work a scene does not need, each on by default; off only to measure what it saves
     # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.
@@ -128,7 +129,8 @@ class RenderOptions:
     # tracing), combined with the merge by MIS (kernels/integrator/photon_pass.cl connect_camera);
     # for a pinhole camera only
     light_tracing: bool = True
-    # RADIUS_SCHEDULES; a setting to measure with (docs/BENCHMARKS.md, "The radius schedule")
+    # RADIUS_SCHEDULES; a setting to measure with (docs/BENCHMARKS.md, "Settings chosen by
+    # measurement")
     radius_schedule: str = "pixel"
 
     def validate(self) -> RenderOptions:

@@ -30,7 +30,7 @@ DEFAULT_WIDTH = 512        # without an Environment Texture
 # few texels in an HDRI) has the density of its dark neighbours, and the sample of a closure
 # that finds it is a firefly (Cycles bakes at least 4096 x 2048 there).  Measured on a 256 x 128
 # HDRI with a 2 x 2-texel sun, direct light on the floor per sample: standard deviation 40 at
-# 1x, 1.66 at 4x, 1.50 at 16x (docs/BENCHMARKS.md, "An HDRI's sun").
+# 1x, 1.66 at 4x, 1.50 at 16x (docs/BENCHMARKS.md, "Settings chosen by measurement").
 ENV_OVERSAMPLING = 4
 ENV_MIN_WIDTH = 1024
 ENV_MAX_WIDTH = 4096

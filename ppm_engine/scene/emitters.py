@@ -83,8 +83,9 @@ def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray,
     among the local emitters (a lamp, a sign, a closed emissive sphere): the tree's bound
     favours the emitters beside a shading point that lies on them, whose light there is
     grazing, and from the inside of the furnace's sphere it left 2.3x the power table's noise
-    at equal passes and took 2.5x its time per pass (docs/BENCHMARKS.md); the power table picks
-    such a mesh by area, which is exact inside a sphere and what the tree does from afar."""
+    at equal passes and took 2.5x its time per pass (docs/BENCHMARKS.md, "Settings chosen by
+    measurement"); the power table picks such a mesh by area, which is exact inside a sphere and
+    what the tree does from afar."""
     import time
     n = int(em.info["n_emitters"][0])
     n_lights = lights.shape[0]

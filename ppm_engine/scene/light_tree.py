@@ -16,7 +16,7 @@ reductions over all emitters (reduceat), so the build is O(n log n) in vectorise
 (10^5 emitters in 0.4 s).  Split at the middle of the range instead, node after node of the
 bench's city (lamps, spots, windows) carried a few of its neon sign's 3,000 dim triangles and
 a box as wide as the street, and its next-event estimation had 1.25x Cycles' RMSE at equal
-time where the radix split gives 0.76x (docs/BENCHMARKS.md).
+time where the radix split gives 0.76x (docs/history/benchmarks-notebook.md, "Many lights").
 
 Bounds, all conservative (an emitter that can light the point always has importance > 0):
 - the box holds the emitter whole (a point light's ball, an area light's rectangle);

@@ -50,8 +50,8 @@ BALL = ((0.0, 0.0, 0.3), 0.3)                    # centre, radius
 SPOT_POS = (-2.0, 0.0, 1.7)
 SPOT_POWER = 300.0                               # W (Cycles units)
 SPOT_SIZE = math.radians(30.0)
-# point_caustic's ball: fine enough that its focus is the true sphere's within the exact
-# reference's noise (docs/BENCHMARKS.md: the 48 x 24 ball dims the focus 3 %, ten times the
+# point_caustic's ball: fine enough that its focus is the true sphere's within the exact reference's
+# noise (docs/history/benchmarks-notebook.md: the 48 x 24 ball dims the focus 3 %, ten times the
 # noise; 192 x 96 leaves a sixth of that), since its reference is the exact sphere
 POINT_BALL_SEGMENTS = (192, 96)
 

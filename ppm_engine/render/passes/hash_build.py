@@ -10,9 +10,9 @@ _EMPTY_HI = np.array([-np.inf, -np.inf, -np.inf, 0], np.float32)
 
 
 class HashBuild:
-    # cell size / r_max.  Measured (docs/BENCHMARKS.md): on a CPU the gather is ~1 % of a
-    # pass, so small cells (few photons per entry, up to 5 cells per axis) cost nothing and
-    # bring the stochastic map's error down to the exact gather's: 2.0 (8 cells) gave 12
+    # cell size / r_max.  Measured (docs/BENCHMARKS.md, "Micro benchmarks"): on a CPU the gather is
+    # ~1 % of a pass, so small cells (few photons per entry, up to 5 cells per axis) cost nothing
+    # and bring the stochastic map's error down to the exact gather's: 2.0 (8 cells) gave 12
     # photons/entry and 30 % more error in the Cornell box, 0.5 gives ~1.4 and matches it.
     CELL_SCALE = 0.5
     # work-group of the visible points' bounds reduction (kernels/integrator/hash_build.cl

@@ -268,9 +268,10 @@ def _write_curves(result: dict, cmdline: str, args, out: Path, md_path: Path, pr
         report.write_json(result, json_path)
     report.plot(result, plot_path)
     text = (f"`{cmdline}`\n\nReference per scene:\n\n{report.reference_table(result)}\n\n"
-            f"Light tracing (the reference of bulb_box, glass_caustic and mirror_caustic) "
-            f"against Cycles where both converge, and on point_caustic's mesh ball against the "
-            f"exact sphere's reference:"
+            f"This engine's light tracer (glass_caustic's reference, and the bulb box's and "
+            f"mirror_caustic's without pyluxcore) against Cycles where both converge, on "
+            f"point_caustic's mesh ball against the exact sphere's reference, and against "
+            f"LuxCore's light tracer where that is the reference:"
             f"\n\n{report.light_trace_check_table(result)}\n\n"
             f"Error against time (RMSE over RGB; relative = RMSE / mean of the reference):\n\n"
             f"{report.table(result)}\n\nAt equal time:\n\n{report.ratio_table(result)}\n\n"

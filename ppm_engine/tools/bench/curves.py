@@ -8,7 +8,7 @@ with the OpenEXR package:
 
 - ours: ``scene.ppm.time_limit`` = budget, passes unlimited (1e6), everything else default;
 - Cycles: CPU, ``scene.cycles.time_limit`` = budget, samples unlimited, adaptive sampling and
-  denoising off, the bounce settings of ``harness.cycles_reference``;
+  denoising off, the bounce settings of ``blender_io.cycles_reference``;
 - Cycles + MNEE (caustic scenes only): the same with shadow caustics on (the glass ball or the
   mirror ``cycles.is_caustics_caster``, floor and wall ``is_caustics_receiver``, the light
   ``cycles.is_caustics_light``).
@@ -33,11 +33,11 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
 - point_caustic (the glass ball under a radius-0 point light) and rough_caustic (the same ball
   of rough glass, GGX roughness 0.1): the exact-geometry reference
   (exact_caustic.py, "EXACT"): in NumPy on the true sphere and the two finite planes, the
-  direct light in closed form and the rest by light tracing, sharing no code with this engine,
-  so it stays independent now that light tracing is one of the engine's own strategies
-  (issue 25).  Cycles with MNEE is no reference there: it gives the brightest pixel of the
-  focus 5.9 where light tracing and this engine agree on 32 and 29 (docs/BENCHMARKS.md).  Each
-  half computes the closed form, then renders whole batches of photons for the rest of the
+  direct light in closed form and the rest by light tracing, sharing no code with this engine, so it
+  stays independent now that light tracing is one of the engine's own strategies (issue 25).  Cycles
+  with MNEE is no reference there: it gives the brightest pixel of the focus 5.9 where light tracing
+  and this engine agree on 32 and 29 (docs/history/benchmarks-notebook.md, "The hard caustic").
+  Each half computes the closed form, then renders whole batches of photons for the rest of the
   reference budget;
 - pool_caustic (the sun's caustic on a pool's floor, seen through the waves that make it):
   the exact-geometry reference exact_pool.py ("EXACT_POOL"): in NumPy on the true height field,
@@ -52,8 +52,8 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
   of this engine's light tracing.  Each half renders for the reference budget; without
   pyluxcore (the ``bench`` extra; CI installs the ``test`` one) this engine's light tracer
   renders them instead and the JSON says why (``reference["fallback"]``).  It agrees with this
-  engine's light tracer within their noise on both (docs/BENCHMARKS.md, "LuxCore's light tracer
-  as the reference");
+  engine's light tracer within their noise on both (docs/BENCHMARKS.md, "References, and how
+  independent each is");
 - glass_caustic: this engine's light tracer (ppm_engine/render/light_tracer.py, "LIGHT_TRACE":
   photons connected to the camera, unbiased, no photon map, no radius), although light
   tracing is one of the engine's own strategies: LuxCore has no spot light that matches
@@ -101,12 +101,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ppm_engine.blender import session
-from ppm_engine.blender.harness import cycles_reference, ensure_registered, read_exr, set_output
-from ppm_engine.blender.scenes import build_example, furnace, pool
-from ppm_engine.tools.bench import exact_caustic, exact_pool, luxcore
-from ppm_engine.tools.bench.report import machine_info
-from ppm_engine.tools.bench.scenes import CAUSTIC_MASKS, MNEE_OBJECTS, caustic_mask, excluded_pixels
+from .. import session
+from ..blender_io import cycles_reference, ensure_registered, read_exr, set_output
+from ..scenes import build_example, furnace, pool
+from . import exact_caustic, exact_pool, luxcore
+from .report import machine_info
+from .scenes import CAUSTIC_MASKS, MNEE_OBJECTS, caustic_mask, excluded_pixels
 
 DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
@@ -125,12 +125,12 @@ REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": 
                     "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES"}
 LIGHT_TRACE_PHOTONS = 1 << 17      # photons per light-tracing pass
 REF_SEEDS = (1001, 2002)
-# reference seconds per half over the run's (2 x its longest budget): LuxCore's light tracer is
-# the noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror
-# caustic, and the ratio to LuxCore's BIDIR the reference's: docs/BENCHMARKS.md); per scene (its
-# entry wins over its engine's) on glossy_metal, whose Cycles reference is slowest where it
-# matters most: the metal's caustics on the floor and the 0.1 m light's highlight on polished
-# metal (2 x 240 s: noise 0.024)
+# reference seconds per half over the run's (2 x its longest budget): LuxCore's light tracer is the
+# noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror caustic,
+# and the ratio to LuxCore's BIDIR the reference's: docs/history/benchmarks-notebook.md); per scene
+# (its entry wins over its engine's) on glossy_metal, whose Cycles reference is slowest where it
+# matters most: the metal's caustics on the floor and the 0.1 m light's highlight on polished metal
+# (2 x 240 s: noise 0.024)
 REF_TIME_FACTOR = {"LUXCORE_LIGHT": 4.0, "EXACT_POOL": 4.0, "glossy_metal": 4.0}
 EQUAL_TIME = 16.0
 # ours / Cycles, EQUAL_TIME (issue 25's targets: the furnace at half Cycles' error)
@@ -248,9 +248,9 @@ def light_tree_stats(scene, device: str) -> dict | None:
     time; None when the scene has none (LOCAL_PICK_MAX emitters or fewer)."""
     import bpy
 
-    from ppm_engine.blender.export import export_scene
-    from ppm_engine.render.options import RenderOptions
-    from ppm_engine.render.renderer import Renderer
+    from ..export import export_scene
+    from ..options import RenderOptions
+    from ..renderer import Renderer
     r = Renderer(export_scene(bpy.context.evaluated_depsgraph_get()), RenderOptions(device=device))
     try:
         em = r.scene.emitters
@@ -278,7 +278,7 @@ class Bench:
     def _scene(self, name):
         import bpy
         if name == "glossy":        # the glossy spheres of --glossy (glossy.py), for --noise
-            from ppm_engine.tools.bench.glossy import build_scene
+            from .glossy import build_scene
             return build_scene(self.res)
         if name == "pool_caustic":     # its water meshed as finely as the image needs
             scene = pool.build(grid=pool.grid_for(self.res))
@@ -304,8 +304,8 @@ class Bench:
         top-down, wall seconds, info, coverage top-down)."""
         import bpy
 
-        from ppm_engine.blender.export import export_scene
-        from ppm_engine.render.light_tracer import LightTracer
+        from ..export import export_scene
+        from ..light_tracer import LightTracer
         t = time.perf_counter()
         lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()),
                          photons=LIGHT_TRACE_PHOTONS, seed=seed, device=self.device)
@@ -329,8 +329,8 @@ class Bench:
         outermost row 18 % dark at Blackman-Harris 1.5).  Only a mask: nothing is traced."""
         import bpy
 
-        from ppm_engine.blender.export import export_scene
-        from ppm_engine.render.light_tracer import LightTracer
+        from ..export import export_scene
+        from ..light_tracer import LightTracer
         lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()), photons=1,
                          device=self.device)
         try:

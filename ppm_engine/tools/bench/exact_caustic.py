@@ -20,11 +20,12 @@ The light transport, as Cycles renders the scene with the bench's settings:
   test_exact_caustic.py checks it against a brute-force integral of the BSDF written out in
   full).  Cycles' Multiscatter GGX adds an energy compensation this does not model, so the
   reference asks for GGX;
-- the direct light (what the floor and the wall the camera sees receive straight from the
-  light, past the ball: the glass is opaque to the shadow ray, as to Cycles') is the closed form
-  of a point light on a Lambertian plane, integrated over each pixel's filter on a fixed grid
-  (``direct_light``): no noise.  Light tracing rendered it too until 2026-11-27, which made
-  most of the reference's noise over the whole image (docs/BENCHMARKS.md);
+- the direct light (what the floor and the wall the camera sees receive straight from the light,
+  past the ball: the glass is opaque to the shadow ray, as to Cycles') is the closed form of a point
+  light on a Lambertian plane, integrated over each pixel's filter on a fixed grid
+  (``direct_light``): no noise.  Light tracing rendered it too until 2026-11-27, which made most of
+  the reference's noise over the whole image (docs/history/benchmarks-notebook.md, "Its direct light
+  in closed form");
 - every other photon hitting the floor or the wall is connected to the pinhole camera, unless
   the ball is on the segment (the glass is opaque to that connection too), and splatted into
   the pixels through Cycles' Blackman-Harris pixel filter: those that went through or off the

@@ -18,7 +18,7 @@ mapped once, forwards, and inverted by geometry (``CameraMap``):
   |dp/dx| (the triangle's raster area over its floor area): the pixel integral of radiance,
   written over the floor instead of the film.  Folds (several p for one x) are counted in full;
   the map is exact at the grid's points and linear between them (``SUPERSAMPLE`` 6 and 12 agree
-  within the reference's noise: docs/BENCHMARKS.md).
+  within the reference's noise).
 
 The light transport, as Cycles renders it with the bench's settings:
 
@@ -43,8 +43,8 @@ The light transport, as Cycles renders it with the bench's settings:
 
 Sunlight that reaches the floor past the water's edge is refused (``render`` raises): that path
 (then reflected down by the water's underside) came out 2-3 % of the image dimmer here than in
-Cycles and this engine, which agreed, and was not resolved (docs/BENCHMARKS.md, the pool).  The
-bench's pool has none: its floor is lit only through the water.
+Cycles and this engine, which agreed, and was not resolved (docs/history/benchmarks-notebook.md, the
+pool).  The bench's pool has none: its floor is lit only through the water.
 
 ``render`` returns the image (RGB, rows top-down, as the bench's EXRs read), the coverage (the
 pixels whose filter footprint sees only the floor through the water) and what it did.
@@ -511,7 +511,7 @@ def render(scene, photons: int = 0, seed: int = 0, batch: int = BATCH, seconds: 
         if st["beside_water"]:
             # sunlight on the floor past the water's edge, then reflected down by the water's
             # underside, came out 2-3 % of the image dimmer here than in Cycles and this engine
-            # (docs/BENCHMARKS.md, the pool): that path is not rendered
+            # (docs/history/benchmarks-notebook.md, the pool): that path is not rendered
             raise ValueError("sunlight reaches the floor past the water's edge: the exact pool "
                              "renders a floor lit only through the water")
         done += n

@@ -1,8 +1,8 @@
 """``python -m ppm_engine bench --glossy``: where glossy lobes should hold visible points
-(RenderOptions.gather_roughness; docs/BENCHMARKS.md, "Glossy surfaces"), and with
+(RenderOptions.gather_roughness; docs/BENCHMARKS.md, "Materials and shader programs"), and with
 ``--glossy-setting caustic_roughness`` which glossy reflections' light is the eye paths' rather
-than caustic photons' (RenderOptions.caustic_roughness; "Glossy light: eye paths or caustic
-photons").
+than caustic photons' (RenderOptions.caustic_roughness; "Settings chosen by
+measurement").
 
 A scene of glossy materials (a mirror-like metal at roughness 0.15, a plastic at 0.3, a coated
 red, a rough metal at 0.45, rough glass at 0.3) on a glossy floor under an area light (or, with

@@ -49,11 +49,12 @@ vertices (``path.maxdepth``; RenderLightSample stops there), as our light tracer
 Russian roulette is unbiased (the flux divided by its probability), but a reference need not
 trust it: ``path.russianroulette.depth`` is past the path length, so it never plays.  The film
 is ``LIGHT_SUPERSAMPLE`` times the scene's resolution along each axis with no filter (each
-splat in the one fine pixel it falls in), and ``pixel_filter`` applies Cycles' filter here,
-by its integral over each fine pixel: so the splats land where they fall (the tables above
-put mirror_caustic's caustic rim 1.7 x the two tracers' noise off ours; with this the RMSE
-to our light tracer is their noise's, docs/BENCHMARKS.md).  The sampler (SOBOL) renders the
-same number of light paths a second at 8 x 8 fine pixels per pixel as at one.
+splat in the one fine pixel it falls in), and ``pixel_filter`` applies Cycles' filter here, by its
+integral over each fine pixel: so the splats land where they fall (the tables above put
+mirror_caustic's caustic rim 1.7 x the two tracers' noise off ours; with this the RMSE to our light
+tracer is their noise's, docs/history/benchmarks-notebook.md, "LuxCore's light tracer as the
+reference").  The sampler (SOBOL) renders the same number of light paths a second at 8 x 8 fine
+pixels per pixel as at one.
 
 Timing: the budget counts from the session's start (``RenderSession.Start`` preprocesses the
 scene and starts the threads) to ``Stop``, polled every 5 ms -- as our ``time_limit`` counts

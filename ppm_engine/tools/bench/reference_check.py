@@ -1,11 +1,14 @@
 """Two light tracers on one benchmark scene, before one becomes the other's reference: LuxCore's
 LIGHTCPU (``LUXCORE_LIGHT``, luxcore.py) and this engine's (``LIGHT_TRACE``,
-ppm_engine/render/light_tracer.py), each rendered with two seeds, and how far apart they are against
-their own noise (docs/BENCHMARKS.md, "LuxCore's light tracer as the reference").
+ppm_engine/render/light_tracer.py), each rendered with two seeds, and how far apart they are
+against their own noise (docs/history/benchmarks-notebook.md, "LuxCore's light tracer as the
+reference").
 
-    python -m ppm_engine.tools.bench.reference_check render SCENE LUXCORE_LIGHT --seconds 60 --out
-    DIR python -m ppm_engine.tools.bench.reference_check render SCENE LIGHT_TRACE --seconds 60 --out
-    DIR python -m ppm_engine.tools.bench.reference_check compare SCENE --out DIR
+    python -m ppm_engine.tools.bench.reference_check render SCENE LUXCORE_LIGHT --seconds 60 \
+        --out DIR
+    python -m ppm_engine.tools.bench.reference_check render SCENE LIGHT_TRACE --seconds 60 \
+        --out DIR
+    python -m ppm_engine.tools.bench.reference_check compare SCENE --out DIR
 
 ``render`` writes each seed's image (DIR/SCENE_ENGINE_SEED.npy, top-down) and the masks
 (DIR/SCENE_ENGINE_masks.npz: the engine's coverage, the benchmark's kept and caustic pixels);
@@ -59,9 +62,9 @@ def agreement(a: tuple, b: tuple, pixels: np.ndarray, caustic: np.ndarray) -> di
 
 def render(scene_name: str, engine: str, seconds: float, resolution: int, folder: Path,
            seeds=SEEDS, device: str = "") -> None:
-    from ppm_engine.blender.harness import ensure_registered
-    from ppm_engine.tools.bench.curves import Bench
-    from ppm_engine.tools.bench.scenes import caustic_mask, excluded_pixels
+    from ..blender_io import ensure_registered
+    from .curves import Bench
+    from .scenes import caustic_mask, excluded_pixels
     ensure_registered()
     folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="ppm-refcheck-") as tmp:

@@ -1,6 +1,6 @@
 """``python -m ppm_engine bench --strategies``: what each strategy contributes to a scene's image
-(docs/BENCHMARKS.md, "Light tracing").  Each scene renders for a time budget with the default
-settings; the film's sums say how much of the image each strategy brought:
+(docs/BENCHMARKS.md, "What each strategy brings").  Each scene renders for a time budget with the
+default settings; the film's sums say how much of the image each strategy brought:
 
 - camera paths: direct light, emitters seen, and (with eye paths) the diffuse indirect light;
 - the merge: photons gathered at visible points, weighted by their side of the balance
