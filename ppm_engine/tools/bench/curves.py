@@ -101,12 +101,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import session
-from ..blender_io import cycles_reference, ensure_registered, read_exr, set_output
-from ..scenes import build_example, furnace, pool
-from . import exact_caustic, exact_pool, luxcore
-from .report import machine_info
-from .scenes import CAUSTIC_MASKS, MNEE_OBJECTS, caustic_mask, excluded_pixels
+from ppm_engine.blender import session
+from ppm_engine.blender.harness import cycles_reference, ensure_registered, read_exr, set_output
+from ppm_engine.blender.scenes import build_example, furnace, pool
+from ppm_engine.tools.bench import exact_caustic, exact_pool, luxcore
+from ppm_engine.tools.bench.report import machine_info
+from ppm_engine.tools.bench.scenes import CAUSTIC_MASKS, MNEE_OBJECTS, caustic_mask, excluded_pixels
 
 DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
@@ -248,9 +248,9 @@ def light_tree_stats(scene, device: str) -> dict | None:
     time; None when the scene has none (LOCAL_PICK_MAX emitters or fewer)."""
     import bpy
 
-    from ..export import export_scene
-    from ..options import RenderOptions
-    from ..renderer import Renderer
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
     r = Renderer(export_scene(bpy.context.evaluated_depsgraph_get()), RenderOptions(device=device))
     try:
         em = r.scene.emitters
@@ -278,7 +278,7 @@ class Bench:
     def _scene(self, name):
         import bpy
         if name == "glossy":        # the glossy spheres of --glossy (glossy.py), for --noise
-            from .glossy import build_scene
+            from ppm_engine.tools.bench.glossy import build_scene
             return build_scene(self.res)
         if name == "pool_caustic":     # its water meshed as finely as the image needs
             scene = pool.build(grid=pool.grid_for(self.res))
@@ -304,8 +304,8 @@ class Bench:
         top-down, wall seconds, info, coverage top-down)."""
         import bpy
 
-        from ..export import export_scene
-        from ..light_tracer import LightTracer
+        from ppm_engine.blender.export import export_scene
+        from ppm_engine.render.light_tracer import LightTracer
         t = time.perf_counter()
         lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()),
                          photons=LIGHT_TRACE_PHOTONS, seed=seed, device=self.device)
@@ -329,8 +329,8 @@ class Bench:
         outermost row 18 % dark at Blackman-Harris 1.5).  Only a mask: nothing is traced."""
         import bpy
 
-        from ..export import export_scene
-        from ..light_tracer import LightTracer
+        from ppm_engine.blender.export import export_scene
+        from ppm_engine.render.light_tracer import LightTracer
         lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()), photons=1,
                          device=self.device)
         try:

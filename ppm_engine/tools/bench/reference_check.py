@@ -62,9 +62,9 @@ def agreement(a: tuple, b: tuple, pixels: np.ndarray, caustic: np.ndarray) -> di
 
 def render(scene_name: str, engine: str, seconds: float, resolution: int, folder: Path,
            seeds=SEEDS, device: str = "") -> None:
-    from ..blender_io import ensure_registered
-    from .curves import Bench
-    from .scenes import caustic_mask, excluded_pixels
+    from ppm_engine.blender.harness import ensure_registered
+    from ppm_engine.tools.bench.curves import Bench
+    from ppm_engine.tools.bench.scenes import caustic_mask, excluded_pixels
     ensure_registered()
     folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="ppm-refcheck-") as tmp:
