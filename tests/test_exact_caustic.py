@@ -26,8 +26,8 @@ def _scene(width=W):
 
 def test_shares_no_code_with_the_engine():
     """Independent of the estimators it checks: of this package it imports only the scene's
-    constants (ppm_engine/blender/scenes/caustics.py), nothing of the export, kernels, film or light
-    tracer."""
+    constants (ppm_engine/blender/scenes/caustics.py), nothing of the export, kernels, film or
+    light tracer."""
     import ast
     from pathlib import Path
     tree = ast.parse(Path(ec.__file__).read_text())
@@ -38,7 +38,7 @@ def test_shares_no_code_with_the_engine():
         elif isinstance(node, ast.ImportFrom):
             imported.add("." * node.level + (node.module or ""))
     assert imported == {"__future__", "math", "time", "dataclasses", "numpy",
-                        "..scenes.caustics"}, imported
+                        "ppm_engine.blender.scenes.caustics"}, imported
 
 
 # --- the pixel filter ------------------------------------------------------------------------

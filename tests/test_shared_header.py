@@ -106,7 +106,7 @@ def test_the_features_the_host_sets_are_the_kernels_flags():
     is in features.FEATURES, and every one of those is tested somewhere in the kernels."""
     from ppm_engine.render.features import FEATURES
     used = set()
-    for name in ("features.py", "materials.py", "world_map.py"):
+    for name in ("render/features.py", "scene/materials.py", "render/world_map.py"):
         text = (PKG / name).read_text()
         used |= set(re.findall(r"add\(\"(PPM_\w+)\"\)", text))
         used |= set(re.findall(r"\"(PPM_\w+)\": True", text))
