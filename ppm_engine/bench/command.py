@@ -9,7 +9,7 @@ import importlib.util
 from pathlib import Path
 
 from ..errors import UsageError
-from . import curves, digest, glossy, micro, noise, phases, report, shader, skips
+from . import curves, digest, glossy, micro, noise, phases, report, scoring, shader, skips
 
 # where a run from an installed package (no checkout beside it) writes, in the current folder
 DEFAULT_OUT = "ppm_bench"
@@ -228,7 +228,7 @@ def run(args, cmdline: str, progress=print) -> int:
         if "scenes" not in result or "ratios_at" not in result:
             raise UsageError(f"{args.report} is not the JSON of a 'python -m ppm_engine bench' "
                              "run")
-        result["ratios"] = curves.ratios(result, result["ratios_at"])
+        result["ratios"] = scoring.ratios(result, result["ratios_at"])
         return _write_curves(result, result.get("command", cmdline), args, out, md_path,
                              progress, json_out=False)
     q = curves.QUICK if args.quick else {}
