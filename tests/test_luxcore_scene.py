@@ -45,12 +45,12 @@ def test_lights_outside_glass_keep_their_gain(bpy):
 
 
 def test_inside_a_closed_mesh():
-    from ppm_engine.bench import luxcore_scene
-    v, f = luxcore_scene.icosphere(2)
+    from ppm_engine.bench import luxcore_lights
+    v, f = luxcore_lights.icosphere(2)
     tris = v[f]
-    assert luxcore_scene._closed(tris) and not luxcore_scene._closed(tris[1:])
+    assert luxcore_lights._closed(tris) and not luxcore_lights._closed(tris[1:])
     pts = np.array([[0.0, 0.0, 0.0], [0.5, 0.3, -0.2], [1.5, 0.0, 0.0], [0.0, 0.0, -2.0]])
-    assert luxcore_scene.inside(pts, tris).tolist() == [True, True, False, False]
+    assert luxcore_lights.inside(pts, tris).tolist() == [True, True, False, False]
 
 
 def test_pixel_filter_of_a_supersampled_film():
