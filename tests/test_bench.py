@@ -9,7 +9,8 @@ import re
 import numpy as np
 import pytest
 
-from ppm_engine.tools.bench.curves import FIREFLY_MARGIN, MERGE_SCENES, SCENES, brightest, fireflies
+from ppm_engine.tools.bench.curves import MERGE_SCENES, SCENES
+from ppm_engine.tools.bench.scoring import FIREFLY_MARGIN, brightest, fireflies
 
 pytest.importorskip("OpenEXR")
 pytest.importorskip("matplotlib")

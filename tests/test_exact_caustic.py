@@ -12,6 +12,9 @@ bpy = pytest.importorskip("bpy")
 
 from ppm_engine.blender.scenes.caustics import BALL, FLOOR, point_caustic
 from ppm_engine.tools.bench import exact_caustic as ec
+from ppm_engine.tools.bench import exact_caustic_scene as ecs
+from ppm_engine.tools.bench import exact_film as ef
+from ppm_engine.tools.bench import exact_optics as eo
 
 W = 32                # the tests' image: 32 x 32 of the bench's 128 x 128 frame
 
@@ -25,20 +28,20 @@ def _scene(width=W):
 
 
 def test_shares_no_code_with_the_engine():
-    """Independent of the estimators it checks: of this package it imports only the scene's
-    constants (ppm_engine/blender/scenes/caustics.py), nothing of the export, kernels, film or
-    light tracer."""
+    """Independent of the estimators it checks: of this package it (with its exact_caustic_scene,
+    exact_film and exact_optics) imports only the scene's constants (ppm_engine/blender/scenes/
+    caustics.py), nothing of the export, kernels, film or light tracer."""
     import ast
     from pathlib import Path
-    tree = ast.parse(Path(ec.__file__).read_text())
     imported = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            imported |= {a.name for a in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            imported.add("." * node.level + (node.module or ""))
-    assert imported == {"__future__", "math", "time", "dataclasses", "numpy",
-                        "ppm_engine.blender.scenes.caustics"}, imported
+    for module in (ec, ecs, ef, eo):
+        for node in ast.walk(ast.parse(Path(module.__file__).read_text())):
+            if isinstance(node, ast.Import):
+                imported |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                imported.add("." * node.level + (node.module or ""))
+    assert imported - {".exact_caustic_scene", ".exact_film", ".exact_optics"} == {
+        "__future__", "math", "time", "dataclasses", "numpy", "..scenes.caustics"}, imported
 
 
 # --- the pixel filter ------------------------------------------------------------------------
@@ -47,43 +50,43 @@ def test_filter_is_cycles_blackman_harris_normalised():
     divided by its integral: a0 x span."""
     dx = 3.0 / 30000
     x = -1.5 + (np.arange(30000) + 0.5) * dx             # midpoints
-    assert ec.filter_1d(x, 1.5).sum() * dx == pytest.approx(1.0, abs=1e-6)
+    assert ef.filter_1d(x, 1.5).sum() * dx == pytest.approx(1.0, abs=1e-6)
     # the centre: the window's sum of coefficients (1) over a0 x 3 px
-    assert ec.filter_1d(0.0, 1.5) == pytest.approx(1.0 / (0.35875 * 3.0), rel=1e-9)
-    assert ec.filter_1d(1.5, 1.5) == 0.0 and ec.filter_1d(-1.6, 1.5) == 0.0
-    assert ec.filter_1d(1.4999, 1.5) < 1e-4          # the window ends at (nearly) zero
-    assert ec.filter_1d(0.7, 1.5) == pytest.approx(ec.filter_1d(-0.7, 1.5))
+    assert ef.filter_1d(0.0, 1.5) == pytest.approx(1.0 / (0.35875 * 3.0), rel=1e-9)
+    assert ef.filter_1d(1.5, 1.5) == 0.0 and ef.filter_1d(-1.6, 1.5) == 0.0
+    assert ef.filter_1d(1.4999, 1.5) < 1e-4          # the window ends at (nearly) zero
+    assert ef.filter_1d(0.7, 1.5) == pytest.approx(ef.filter_1d(-0.7, 1.5))
 
 
 def test_constant_radiance_splats_to_a_constant_image():
     """A constant field (contributions on a regular grid of raster points, 1 per unit area)
     gives every pixel the filter can fully reach the same value, 1."""
-    s = ec.setup_of(_scene(16))
+    s = ecs.setup_of(_scene(16))
     k = 16                                      # points per pixel and axis
     g = (np.arange(-3 * k, (s.width + 3) * k) + 0.5) / k
     px, py = (a.ravel() for a in np.meshgrid(g, g))
     acc = np.zeros(s.width * s.height)
-    ec.splat(acc, s, px, py, np.full(px.size, 1.0 / (k * k)))
+    ef.splat(acc, s, px, py, np.full(px.size, 1.0 / (k * k)))
     img = acc.reshape(s.height, s.width)
     assert np.abs(img - 1.0).max() < 1e-6
     # a single splat: the 3 x 3 pixels whose centres are within the filter's reach, each
     # weighted by the filter at its offset
     acc[:] = 0
-    ec.splat(acc, s, np.array([7.3]), np.array([8.9]), np.array([2.0]))
+    ef.splat(acc, s, np.array([7.3]), np.array([8.9]), np.array([2.0]))
     img = acc.reshape(s.height, s.width)
     assert (img > 0).sum() == 9 and (img[7:10, 6:9] > 0).all()
     assert img[9, 6] == pytest.approx(
-        2.0 * ec.filter_1d(7.3 - 6.5, 1.5) * ec.filter_1d(8.9 - 9.5, 1.5))
+        2.0 * ef.filter_1d(7.3 - 6.5, 1.5) * ef.filter_1d(8.9 - 9.5, 1.5))
 
 
 # --- the camera ------------------------------------------------------------------------------
 def test_projection_inverts_camera_rays():
-    s = ec.setup_of(_scene())
+    s = ecs.setup_of(_scene())
     rng = np.random.default_rng(0)
     px, py = rng.random(100) * W, rng.random(100) * W
-    d = ec.camera_rays(s, px, py)
+    d = ef.camera_rays(s, px, py)
     p = s.eye + rng.uniform(0.5, 5.0, (100, 1)) * d
-    qx, qy, to_eye, dist, cos_cam, ok = ec.project(s, p)
+    qx, qy, to_eye, dist, cos_cam, ok = ef.project(s, p)
     assert ok.all()
     np.testing.assert_allclose(qx, px, atol=1e-9)
     np.testing.assert_allclose(qy, py, atol=1e-9)
@@ -91,22 +94,22 @@ def test_projection_inverts_camera_rays():
     np.testing.assert_allclose(dist, np.linalg.norm(p - s.eye, axis=1), rtol=1e-12)
     np.testing.assert_allclose(cos_cam, -d @ s.axes[:, 2], rtol=1e-6)
     # the camera looks down at the stage: row 0 (top) sees farther than the last row
-    top, bottom = ec.camera_rays(s, np.array([W / 2, W / 2]), np.array([0.5, W - 0.5]))
+    top, bottom = ef.camera_rays(s, np.array([W / 2, W / 2]), np.array([0.5, W - 0.5]))
     assert top[2] > bottom[2]
 
 
 def test_coverage_leaves_out_the_ball_and_its_rim():
-    s = ec.setup_of(_scene())
-    cover = ec.coverage(s)
-    px, py, *_ = ec.project(s, np.array([BALL[0]]))
+    s = ecs.setup_of(_scene())
+    cover = ecs.coverage(s)
+    px, py, *_ = ef.project(s, np.array([BALL[0]]))
     i, j = int(px[0]), int(py[0])
     assert not cover[j, i] and not cover[j, i + 2]
     assert 0.6 * W * W < cover.sum() < 0.95 * W * W
     # every pixel within the filter's reach of an uncovered centre that sees the ball is out
-    d = ec.camera_rays(s, *(a.ravel() + 0.5 for a in np.meshgrid(np.arange(W), np.arange(W))))
+    d = ef.camera_rays(s, *(a.ravel() + 0.5 for a in np.meshgrid(np.arange(W), np.arange(W))))
     no = np.zeros(W * W, bool)
-    _, hit = ec.first_hit(np.broadcast_to(s.eye, d.shape), d, no, no)
-    ball = (hit == ec.BALL_ID).reshape(W, W)
+    _, hit = ecs.first_hit(np.broadcast_to(s.eye, d.shape), d, no, no)
+    ball = (hit == ecs.BALL_ID).reshape(W, W)
     near = np.zeros_like(ball)
     for dj in (-1, 0, 1):
         for di in (-1, 0, 1):
@@ -116,7 +119,7 @@ def test_coverage_leaves_out_the_ball_and_its_rim():
 
 # --- the glass -------------------------------------------------------------------------------
 def _fresnel_snell(theta_i, n):
-    """Fresnel's reflectance from the angles (the textbook form, independent of ec.fresnel)."""
+    """Fresnel's reflectance from the angles (the textbook form, independent of eo.fresnel)."""
     theta_t = np.arcsin(np.sin(theta_i) / n)
     rs = np.sin(theta_i - theta_t) ** 2 / np.sin(theta_i + theta_t) ** 2
     rp = np.tan(theta_i - theta_t) ** 2 / np.tan(theta_i + theta_t) ** 2
@@ -125,18 +128,18 @@ def _fresnel_snell(theta_i, n):
 
 def test_fresnel_and_refraction():
     th = np.radians([10.0, 30.0, 60.0, 85.0])
-    f, cos_t = ec.fresnel(np.cos(th), 1.0 / ec.IOR)
-    np.testing.assert_allclose(f, _fresnel_snell(th, ec.IOR), rtol=1e-9)
-    np.testing.assert_allclose(cos_t, np.cos(np.arcsin(np.sin(th) / ec.IOR)), rtol=1e-12)
-    assert ec.fresnel(np.array([1.0]), 1.0 / 1.5)[0][0] == pytest.approx(0.04)
+    f, cos_t = eo.fresnel(np.cos(th), 1.0 / eo.IOR)
+    np.testing.assert_allclose(f, _fresnel_snell(th, eo.IOR), rtol=1e-9)
+    np.testing.assert_allclose(cos_t, np.cos(np.arcsin(np.sin(th) / eo.IOR)), rtol=1e-12)
+    assert eo.fresnel(np.array([1.0]), 1.0 / 1.5)[0][0] == pytest.approx(0.04)
     # from inside, beyond the critical angle: total internal reflection
-    assert ec.fresnel(np.cos(np.radians([45.0])), 1.5)[0][0] == 1.0
+    assert eo.fresnel(np.cos(np.radians([45.0])), 1.5)[0][0] == 1.0
     # Snell's law of the refracted direction
     d = np.array([[np.sin(th[1]), 0.0, -np.cos(th[1])]])
     n = np.array([[0.0, 0.0, 1.0]])
-    out, refl, inside = ec.glass_scatter(d, n, np.array([False]), np.array([0.99]))
+    out, refl, inside = eo.glass_scatter(d, n, np.array([False]), np.array([0.99]))
     assert not refl[0] and inside[0]
-    assert out[0, 0] == pytest.approx(np.sin(th[1]) / ec.IOR) and out[0, 1] == 0.0
+    assert out[0, 0] == pytest.approx(np.sin(th[1]) / eo.IOR) and out[0, 1] == 0.0
 
 
 def test_glass_ball_conserves_energy():
@@ -156,20 +159,20 @@ def test_glass_ball_conserves_energy():
     alive = np.ones(n, bool)
     for bounce in range(32):
         idx = np.flatnonzero(alive)
-        t = ec._ball_hits(o[idx], d[idx], inside[idx])
+        t = ecs._ball_hits(o[idx], d[idx], inside[idx])
         t = np.where(left[idx] & ~inside[idx], np.inf, t)
         gone = ~np.isfinite(t)
         exits_after[idx[gone]] = bounce
         alive[idx[gone]] = False
         idx = idx[~gone]
         p = o[idx] + t[~gone, None] * d[idx]
-        new_d, _, new_in = ec.glass_scatter(d[idx], (p - c) / r, inside[idx], rng.random(idx.size))
+        new_d, _, new_in = eo.glass_scatter(d[idx], (p - c) / r, inside[idx], rng.random(idx.size))
         o[idx], d[idx], inside[idx], left[idx] = p, new_d, new_in, True
     assert not alive.any()                      # all light leaves: nothing lost, none absorbed
     # the weight of an incidence angle over the disk: 2 sin cos
     th = (np.arange(20000) + 0.5) / 20000 * np.pi / 2
     wgt = 2 * np.sin(th) * np.cos(th) * (np.pi / 2 / 20000)
-    rf = _fresnel_snell(th, ec.IOR)
+    rf = _fresnel_snell(th, eo.IOR)
     for k, share in ((1, np.sum(wgt * rf)), (2, np.sum(wgt * (1 - rf) ** 2)),
                      (3, np.sum(wgt * (1 - rf) ** 2 * rf))):
         got = np.mean(exits_after == k)
@@ -184,7 +187,7 @@ def _flux_bsdf_cos(a, b, alpha, inside):
     surface with normal +z, the photon outside (above) or inside (below); GGX of ``alpha``,
     Smith's height-correlated G2, the exact Fresnel factor."""
     nf = np.array([0.0, 0.0, -1.0 if inside else 1.0])
-    eta_a, eta_b_t = (ec.IOR, 1.0) if inside else (1.0, ec.IOR)
+    eta_a, eta_b_t = (eo.IOR, 1.0) if inside else (1.0, eo.IOR)
     ca, cb = a @ nf, b @ nf
     refl = cb > 0
     eta_p = np.where(refl, 1.0, eta_b_t / eta_a)        # eta of b's side over a's
@@ -224,7 +227,7 @@ def test_rough_glass_scatter_is_the_bsdf(inside, cos_a):
     a = np.array([math.sqrt(1 - cos_a ** 2), 0.0, -cos_a if inside else cos_a])
     d = np.tile(-a, (n, 1))
     normal = np.tile([0.0, 0.0, 1.0], (n, 1))
-    out, refl, now_inside, w = ec.rough_glass_scatter(d, normal, np.full(n, inside),
+    out, refl, now_inside, w = eo.rough_glass_scatter(d, normal, np.full(n, inside),
                                                       rng.random(n), alpha, rng)
     assert np.all(now_inside == np.where(refl, inside, not inside))
     assert np.all(np.where(refl, out[:, 2] * a[2] > 0, out[:, 2] * a[2] < 0) | (w == 0))
@@ -348,7 +351,7 @@ def test_closed_form_direct_is_the_light_traced_direct(traced_direct):
     (of 0.17 %)."""
     scene = _scene()
     parts, cover = traced_direct
-    s = ec.setup_of(scene)
+    s = ecs.setup_of(scene)
     closed = ec.direct_light(s).reshape(W, W) * s.power[0] * s.film_exposure
     assert closed.shape == cover.shape and closed[cover].min() >= 0.0
     k = parts.shape[0]
@@ -376,9 +379,9 @@ def test_direct_light_is_the_tests_closed_form():
     the mean over the covered pixels within 1e-4 (1.5e-5), each pixel off its penumbra within
     0.5 % (0.29 %: this file's grid, unrefined, at the floor's corner with the wall)."""
     scene = _scene()
-    s = ec.setup_of(scene)
+    s = ecs.setup_of(scene)
     closed = ec.direct_light(s).reshape(W, W) * s.power[0]
-    cover = ec.coverage(s)
+    cover = ecs.coverage(s)
     ref, penumbra = direct_closed_form(scene, 48)
     assert closed[cover].mean() == pytest.approx(ref[cover].mean(), rel=1e-4)
     px = cover & ~penumbra & (ref > 0.05)
@@ -391,8 +394,8 @@ def test_direct_light_grid_converges():
     jumps, is within 5.2e-4 (of 0.53 on average; RMS 5e-5) of 24 x 24 refined 24 x 24 at every
     covered pixel (16 x 16 refined 16 x 16: 1.6e-4); unrefined, the same grid is 5.8e-3 off at
     the shadow's edge."""
-    s = ec.setup_of(_scene())
-    cover = ec.coverage(s)
+    s = ecs.setup_of(_scene())
+    cover = ecs.coverage(s)
     power = s.power[0]
     default = ec.direct_light(s) * power
     fine = ec.direct_light(s, 24, 24) * power
@@ -412,7 +415,7 @@ def test_point_light_intensity_is_cycles(render_exr, cycles, tmp_path):
     scene.cycles.max_bounces = 0
     got = render_exr(tmp_path / "cycles.exr")
     ref, penumbra = direct_closed_form(scene)
-    cover = ec.coverage(ec.setup_of(scene))
+    cover = ecs.coverage(ecs.setup_of(scene))
     px = cover & ~penumbra & (ref > 0.05)
     assert px.sum() > 0.5 * W * W
     assert got[..., 0][px].mean() == pytest.approx(ref[px].mean(), rel=0.01)
@@ -427,7 +430,7 @@ def test_split_and_stratified_emission_are_unbiased():
     noisy with the split, 0.2 % light-traced; the rest's (0.108) 0.7 % stratified, 0.9 % not
     (over six seeds)."""
     scene = _scene()
-    s = ec.setup_of(scene)
+    s = ecs.setup_of(scene)
     closed = ec.direct_light(s).reshape(W, W) * s.power[0]
     a, cover, info = ec.render(scene, photons=1 << 20, seed=5)
     assert info["direct"] == "closed"

@@ -6,7 +6,10 @@ import pytest
 
 from ppm_engine.blender.scenes import pool
 from ppm_engine.tools.bench import exact_pool as ep
-from ppm_engine.tools.bench.exact_caustic import camera_rays, fresnel
+from ppm_engine.tools.bench import exact_pool_camera
+from ppm_engine.tools.bench import exact_pool_water as water
+from ppm_engine.tools.bench.exact_film import camera_rays
+from ppm_engine.tools.bench.exact_optics import fresnel
 
 
 def _scene(bpy, res, waves=pool.WAVES):
@@ -21,11 +24,11 @@ def _forward(s, px, py):
     d = camera_rays(s, px, py)
     o = np.broadcast_to(s.eye, d.shape).copy()
     no = np.zeros(len(d), bool)
-    t = ep.crossing(o, d, no, s.waves, no)
+    t = water.crossing(o, d, no, s.waves, no)
     assert np.isfinite(t).all()
     p = o + t[:, None] * d
-    nrm = ep.normal(p[:, 0], p[:, 1], s.waves)
-    dt, tr = ep.refract_in(d, nrm, pool.WATER_IOR)
+    nrm = water.normal(p[:, 0], p[:, 1], s.waves)
+    dt, tr = water.refract_in(d, nrm, pool.WATER_IOR)
     tf = (-pool.DEPTH - p[:, 2]) / dt[:, 2]
     return p[:, :2] + tf[:, None] * dt[:, :2], tr / pool.WATER_IOR ** 2
 
@@ -36,7 +39,7 @@ def test_camera_map_finds_every_view_of_a_floor_point_with_its_jacobian(bpy):
     |dp/dx| that central differences of the forward trace give.  The map's |dp/dx| is its
     triangle's (constant over 1/6 pixel): a few percent from the point's, zero on average."""
     s = ep.setup_of(_scene(bpy, 64))
-    cmap = ep.CameraMap(s, 6)
+    cmap = exact_pool_camera.CameraMap(s, 6)
     assert cmap.folded == 0
     rng = np.random.default_rng(3)
     px, py = rng.uniform(0, 64, 400), rng.uniform(0, 64, 400)

@@ -254,3 +254,40 @@ from ppm_engine.oracle.procedural import MeshBuilder
 print(sys.path, render, MeshBuilder)
 """
     assert _test_layout_breaches(allowed) == []
+
+
+# --- no long source file --------------------------------------------------------------------------
+ROOT = PKG.parent
+MAX_LINES = 450
+LINE_RULE_FOLDERS = ("ppm_engine", "kernels", "tests", "docs")
+
+
+def _long_files(root: Path, limit: int = MAX_LINES) -> dict:
+    """{path from root: lines} of the .py, .h and .cl files under the rule's folders that are
+    longer than ``limit`` lines."""
+    out = {}
+    for folder in LINE_RULE_FOLDERS:
+        for f in sorted((root / folder).rglob("*")):
+            if f.suffix in (".py", ".h", ".cl") and f.is_file():
+                lines = len(f.read_text().splitlines())
+                if lines > limit:
+                    out[f.relative_to(root).as_posix()] = lines
+    return out
+
+
+def test_no_source_file_is_over_450_lines():
+    """Every Python module, kernel source and test, generated headers included (their
+    generator, shared_header.py, writes several), at most MAX_LINES lines: a longer one is
+    split by what its parts do."""
+    assert not _long_files(ROOT), _long_files(ROOT)
+
+
+def test_the_line_rule_sees_long_files(tmp_path):
+    """The rule above can fail: it counts lines in every folder it names, at any depth, and only
+    in source files."""
+    for name, lines in (("kernels/long.cl", MAX_LINES + 1), ("kernels/short.h", MAX_LINES),
+                        ("tests/data/deep.py", 500), ("docs/notes.md", 500),
+                        ("elsewhere/long.py", 500)):
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text("x\n" * lines)
+    assert _long_files(tmp_path) == {"kernels/long.cl": MAX_LINES + 1, "tests/data/deep.py": 500}

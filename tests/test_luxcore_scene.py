@@ -45,20 +45,20 @@ def test_lights_outside_glass_keep_their_gain(bpy):
 
 
 def test_inside_a_closed_mesh():
-    from ppm_engine.tools.bench import luxcore_scene
-    v, f = luxcore_scene.icosphere(2)
+    from ppm_engine.tools.bench import luxcore_lights
+    v, f = luxcore_lights.icosphere(2)
     tris = v[f]
-    assert luxcore_scene._closed(tris) and not luxcore_scene._closed(tris[1:])
+    assert luxcore_lights._closed(tris) and not luxcore_lights._closed(tris[1:])
     pts = np.array([[0.0, 0.0, 0.0], [0.5, 0.3, -0.2], [1.5, 0.0, 0.0], [0.0, 0.0, -2.0]])
-    assert luxcore_scene.inside(pts, tris).tolist() == [True, True, False, False]
+    assert luxcore_lights.inside(pts, tris).tolist() == [True, True, False, False]
 
 
 def test_pixel_filter_of_a_supersampled_film():
     """Cycles' Blackman-Harris 1.5 px from a film of 8 x 8 fine pixels per pixel: a constant
     stays itself where the filter stays inside the frame, and one fine pixel's light reaches the
-    pixels within the filter's reach of it, each by the filter (exact_caustic's, written apart)
+    pixels within the filter's reach of it, each by the filter (exact_film's, written apart)
     at their distance, over the fine pixel's area."""
-    from ppm_engine.tools.bench import exact_caustic, luxcore
+    from ppm_engine.tools.bench import exact_film, luxcore
     scene = types.SimpleNamespace(cycles=types.SimpleNamespace(
         pixel_filter_type="BLACKMAN_HARRIS", filter_width=1.5))
     k, n = 8, 12
@@ -70,7 +70,7 @@ def test_pixel_filter_of_a_supersampled_film():
     x, y = 6 + 4.5 / k, 5 + 3.5 / k
     out = luxcore.pixel_filter(fine, scene, k)[..., 0]
     c = np.arange(n) + 0.5
-    f = exact_caustic.filter_1d
+    f = exact_film.filter_1d
     expect = np.outer(f(y - c, 1.5), f(x - c, 1.5)) / (k * k)
     assert np.abs(out - expect).max() < 0.01 * expect.max()
     assert (out > 0).sum() == 9 and out[5, 6] == out.max()   # 3 x 3 within 1.5 px

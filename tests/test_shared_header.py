@@ -1,8 +1,10 @@
-"""kernels/shared.h and shared_svm.h, generated from the Python tables
-(ppm_engine/tools/shared_header.py): the files are current, every struct field sits on the device
+"""kernels/shared.h, shared_features.h, shared_svm.h and shared_color.h, generated from the Python
+tables (ppm_engine/tools/shared_header.py): the files are current, their float literals are the
+tables' float32 values exactly, every struct field sits on the device
 where its dtype puts it, no kernel file defines again a name the headers define, and the feature
 flags the host sets are the header's."""
 import re
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +14,8 @@ from ppm_engine.tools import shared_header
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
 KERNEL_FILES = sorted(f for f in KERNELS.rglob("*") if f.suffix in (".h", ".cl"))
-GENERATED = (shared_header.HEADER, shared_header.SVM_HEADER)
+GENERATED = (shared_header.HEADER, shared_header.FEATURES_HEADER, shared_header.SVM_HEADER,
+             shared_header.COLOR_HEADER)
 PKG = Path(__file__).resolve().parents[1] / "ppm_engine"
 
 
@@ -41,6 +44,36 @@ def test_float_literals_read_back_exactly():
     for x in (0.7, 0.25, 2e-10, 1e-5, 3.0, 1e9, -0.1, 0.0, 1 / 3):
         lit = shared_header.c_float(x)
         assert lit.endswith("f") and np.float32(lit[:-1]) == np.float32(x), lit
+
+
+def _c_float32(literal: str) -> np.float32:
+    """The float32 a C compiler makes of a decimal literal: the nearest to its exact value (ties
+    to even), not through a double."""
+    q = Fraction(literal.rstrip("f"))
+    a = np.float32(float(q))
+    near = (a, np.nextafter(a, np.float32(np.inf)), np.nextafter(a, np.float32(-np.inf)))
+    return min(near, key=lambda c: (abs(Fraction(float(c)) - q), int(c.view(np.uint32)) & 1))
+
+
+def test_the_colour_tables_are_spectras_float32_values():
+    """kernels/shared_color.h's arrays and matrix, read as the OpenCL compiler reads them, are
+    bit for bit ppm_engine/scene/spectra.py's tables (the kernel and the export's folding agree)."""
+    from ppm_engine.scene import spectra
+    text = re.sub(r"/\*.*?\*/", "", (KERNELS / shared_header.COLOR_HEADER).read_text(), flags=re.S)
+    literal = r"-?[\d.]+(?:e-?\d+)?f"
+    tables = {"XYZ_TO_REC709": [_c_float32(x) for c in "RGB" for x in re.findall(
+        literal, re.search(rf"#define XYZ_TO_REC709_{c} (.*)", text)[1])]}
+    for name, body in re.findall(r"__constant float (\w+)\[[^\]]*\] = \{([^}]*)\}", text):
+        tables[name] = [_c_float32(x) for x in re.findall(literal, body)]
+    names = ("BLACKBODY_FROM", "BLACKBODY_FIT", "BLACKBODY_BELOW", "BLACKBODY_ABOVE", "CIE_1931",
+             "XYZ_TO_REC709")
+    assert set(tables) == set(names)
+    for name in names:
+        want = getattr(spectra, name).ravel()
+        assert want.dtype == np.float32
+        got = np.array(tables[name], np.float32)
+        assert np.array_equal(got.view(np.uint32), want.view(np.uint32)), name
+    assert f"#define BLACKBODY_INTERVALS {len(spectra.BLACKBODY_FROM)}" in text
 
 
 def _structs():

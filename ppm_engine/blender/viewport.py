@@ -6,7 +6,7 @@
 
 The rendering is ppm_engine.render.viewport_session.ViewportSession's worker thread; nothing here
 waits for it.  Everything but ``draw_frame`` runs headless and is tested with real depsgraphs
-(tests/test_viewport.py); ``draw_frame`` cannot be (bpy's gpu module refuses every call in
+(tests/test_viewport_blender.py); ``draw_frame`` cannot be (bpy's gpu module refuses every call in
 background mode), so it is kept to the few calls Blender's documentation shows for a render
 engine's viewport (bpy.types.RenderEngine's example: a GPUTexture of the float image drawn
 with draw_texture_2d between bind_display_space_shader and unbind_display_space_shader).

@@ -17,6 +17,7 @@ from ppm_engine.tools.bench import (
     noise,
     phases,
     report,
+    scoring,
     shader,
     skips,
 )
@@ -238,7 +239,7 @@ def run(args, cmdline: str, progress=print) -> int:
         if "scenes" not in result or "ratios_at" not in result:
             raise UsageError(f"{args.report} is not the JSON of a 'python -m ppm_engine bench' "
                              "run")
-        result["ratios"] = curves.ratios(result, result["ratios_at"])
+        result["ratios"] = scoring.ratios(result, result["ratios_at"])
         return _write_curves(result, result.get("command", cmdline), args, out, md_path,
                              progress, json_out=False)
     q = curves.QUICK if args.quick else {}

@@ -8,7 +8,7 @@ with the OpenEXR package:
 
 - ours: ``scene.ppm.time_limit`` = budget, passes unlimited (1e6), everything else default;
 - Cycles: CPU, ``scene.cycles.time_limit`` = budget, samples unlimited, adaptive sampling and
-  denoising off, the bounce settings of ``blender_io.cycles_reference``;
+  denoising off, the bounce settings of ``harness.cycles_reference``;
 - Cycles + MNEE (caustic scenes only): the same with shadow caustics on (the glass ball or the
   mirror ``cycles.is_caustics_caster``, floor and wall ``is_caustics_receiver``, the light
   ``cycles.is_caustics_light``).
@@ -79,22 +79,11 @@ At the equal-time budget (``EQUAL_TIME``, the targets' point) ours and Cycles ar
 with three seeds (``EQUAL_TIME_SEEDS``) and the targets compare the mean RMSEs: one render's
 RMSE varies by about 3 % from seed to seed, as much as a target's margin.
 
-Errors: RMSE over RGB (linear radiance) against the reference, over the whole image and over
-the scene's caustic pixels (scenes.CAUSTIC_MASKS), and the relative RMSE = RMSE / mean of
-the reference over the same pixels.  ``rmse_corrected`` = sqrt(max(RMSE^2 - ref_noise^2, 0))
-removes the reference's own (independent) noise from the expected squared error.  In the bulb
-box the pixels that see the bulb (the filament and its glass, radiance ~120) are left out of
-both: their anti-aliased edges would dominate every figure.
-
-Fireflies (issue 25: "no firefly that Cycles does not have"): every render records its
-brightest pixel (luminance) and how many pixels are brighter than FIREFLY_MARGIN x the
-reference's range (the brighter of its two halves' brightest pixels); at the equal-time budget
-a scene has no firefly of ours when our brightest pixel over the seeds is within that ceiling
-or no brighter than Cycles' brightest at the same time (``ratios``: "no_firefly").
+How the renders are scored (errors, fireflies, the ratios to the targets): scoring.py; the
+references' renderers: references.py.
 """
 from __future__ import annotations
 
-import math
 import tempfile
 import time
 from pathlib import Path
@@ -104,9 +93,11 @@ import numpy as np
 from ppm_engine.blender import session
 from ppm_engine.blender.harness import cycles_reference, ensure_registered, read_exr, set_output
 from ppm_engine.blender.scenes import build_example, furnace, pool
-from ppm_engine.tools.bench import exact_caustic, exact_pool, luxcore
+from ppm_engine.tools.bench import luxcore
+from ppm_engine.tools.bench.references import References
 from ppm_engine.tools.bench.report import machine_info
 from ppm_engine.tools.bench.scenes import CAUSTIC_MASKS, MNEE_OBJECTS, caustic_mask, excluded_pixels
+from ppm_engine.tools.bench.scoring import FIREFLY_MARGIN, brightest, errors, fireflies, ratios
 
 DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
@@ -123,7 +114,6 @@ REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": 
                     "rough_caustic": "EXACT",
                     "mirror_caustic": "LUXCORE_LIGHT", "pool_caustic": "EXACT_POOL",
                     "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES"}
-LIGHT_TRACE_PHOTONS = 1 << 17      # photons per light-tracing pass
 REF_SEEDS = (1001, 2002)
 # reference seconds per half over the run's (2 x its longest budget): LuxCore's light tracer is the
 # noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror caustic,
@@ -133,20 +123,9 @@ REF_SEEDS = (1001, 2002)
 # (2 x 240 s: noise 0.024)
 REF_TIME_FACTOR = {"LUXCORE_LIGHT": 4.0, "EXACT_POOL": 4.0, "glossy_metal": 4.0}
 EQUAL_TIME = 16.0
-# ours / Cycles, EQUAL_TIME (issue 25's targets: the furnace at half Cycles' error)
-TARGETS = {"bulb_box": 0.25, "cornell_box": 1.0, "furnace": 0.5, "many_lights": 1.0,
-           "hdri_sun": 1.0, "glossy_metal": 1.0}
-# ours / (Cycles with MNEE), EQUAL_TIME: the issue's point light's caustic through a glass ball
-# (a spot light here: a point light whose power goes towards the ball)
-TARGETS_MNEE = {"glass_caustic": 1.0, "point_caustic": 1.0}
-# scenes with LuxCore's bidirectional path tracer as a curve; ours / LuxCore BIDIR, EQUAL_TIME
-# (issue 15: the point light's caustic in a mirror, which no Cycles estimator samples; issue
-# 25: at most 0.3 of its error)
+# scenes with LuxCore's bidirectional path tracer as a curve (issue 15: the point light's caustic
+# in a mirror, which no Cycles estimator samples; its target: scoring.TARGETS_LUXCORE)
 LUXCORE_SCENES = ("mirror_caustic",)
-TARGETS_LUXCORE = {"mirror_caustic": 0.3}
-# issue 25's new scenes: ahead of the best peer that renders them, ours / the lower of Cycles'
-# and Cycles + MNEE's RMSE at EQUAL_TIME
-TARGETS_BEST_PEER = {"rough_caustic": 1.0, "pool_caustic": 1.0}
 # at the equal-time budget, the curves the targets compare are rendered with these seeds and
 # the ratio is that of the mean RMSEs ("image_rmse_mean"): seed to seed a render's RMSE varies
 # by about 3 % (the Cornell box at 16 s), as much as a target's margin
@@ -156,44 +135,7 @@ SEEDED_CURVES = ("ours", "cycles")
 QUICK = dict(times=(0.25, 0.5), resolution=16, ref_seconds=1.0, photons=1 << 13)
 
 
-# --- errors ----------------------------------------------------------------------------------
-def errors(img, ref, pixels, ref_noise=0.0) -> dict:
-    """RMSE over RGB, relative RMSE (RMSE / mean of ref) and the noise-corrected RMSE."""
-    if not pixels.any():
-        return {"rmse": float("nan"), "rel_rmse": float("nan"), "rmse_corrected": float("nan"),
-                "pixels": 0}
-    diff = (img - ref)[pixels]
-    rmse = float(np.sqrt(np.mean(diff.astype(np.float64) ** 2)))
-    mean = float(np.mean(ref[pixels]))
-    corr = math.sqrt(max(rmse * rmse - ref_noise * ref_noise, 0.0))
-    return {"rmse": rmse, "rel_rmse": rmse / mean if mean > 0 else float("nan"),
-            "rmse_corrected": corr, "pixels": int(pixels.sum())}
-
-
 # --- rendering through bpy --------------------------------------------------------------------
-# Rec. 709 luminance of linear RGB: what "the brightest pixel" is measured by
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
-# a firefly: a pixel brighter than this many times the reference's range (the brighter of its
-# two halves' brightest pixels).  The brightest pixels of the references and of Cycles' and our
-# renders at equal time differ by 1-2 % among themselves where nothing is wrong (the Cornell
-# box's light, seen directly: 10.7 to 10.8), so the check looks past that
-FIREFLY_MARGIN = 1.1
-
-
-def brightest(img, pixels) -> float:
-    """The luminance of the brightest of ``pixels`` (NaN where there is none)."""
-    return float((img[..., :3] @ LUMINANCE)[pixels].max()) if pixels.any() else float("nan")
-
-
-def fireflies(img, pixels, ceiling: float) -> dict:
-    """Issue 25's firefly check of one render: its brightest pixel and how many of ``pixels``
-    are brighter than ``ceiling`` (FIREFLY_MARGIN x the reference's range: the brighter of its
-    two halves' brightest pixels, each half a render of its own with its own noise)."""
-    lum = img[..., :3] @ LUMINANCE
-    return {"brightest": brightest(img, pixels),
-            "over_reference_range": int(((lum > ceiling) & pixels).sum())}
-
-
 def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | None,
                  indirect: str = "AUTO", light_tracing: bool = True) -> None:
     if scene.render.engine != "PPM":
@@ -263,7 +205,7 @@ def light_tree_stats(scene, device: str) -> dict | None:
         r.close()
 
 
-class Bench:
+class Bench(References):
     def __init__(self, resolution: int, device: str, photons: int | None, folder: Path,
                  progress=print, warm_up: bool = True, quick: bool = False):
         self.res = resolution
@@ -298,74 +240,6 @@ class Bench:
         else:
             cycles_reference(scene, seconds=seconds, seed=seed)
         return render(scene, self.folder / f"r{self.count:04d}.exr")
-
-    def light_traced(self, seconds: float, seed: int):
-        """A light-traced image of the current scene for ``seconds`` (whole passes): (RGB image
-        top-down, wall seconds, info, coverage top-down)."""
-        import bpy
-
-        from ppm_engine.blender.export import export_scene
-        from ppm_engine.render.light_tracer import LightTracer
-        t = time.perf_counter()
-        lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()),
-                         photons=LIGHT_TRACE_PHOTONS, seed=seed, device=self.device)
-        try:
-            while True:
-                lt.trace(1)
-                if time.perf_counter() - t >= seconds:
-                    break
-            img, cover = lt.image()[::-1].copy(), lt.coverage()[::-1].copy()
-        finally:
-            lt.close()
-        info = {"passes": lt.passes, "photons": lt.passes * lt.photons}
-        return img, time.perf_counter() - t, info, cover
-
-    def luxcore_coverage(self) -> np.ndarray:
-        """What LuxCore's light tracer renders of the current scene, top-down: what ours does
-        (``LightTracer.coverage``: the pixels whose camera ray first meets a non-emitting
-        surface with only evaluable closures, eroded by the filter's reach), less the pixels
-        whose filter reaches past the frame: LuxCore connects only points that project inside
-        the frame (``Camera::GetSamplePosition``), so those miss what lies just outside (the
-        outermost row 18 % dark at Blackman-Harris 1.5).  Only a mask: nothing is traced."""
-        import bpy
-
-        from ppm_engine.blender.export import export_scene
-        from ppm_engine.render.light_tracer import LightTracer
-        lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()), photons=1,
-                         device=self.device)
-        try:
-            cover, reach = lt.coverage()[::-1].copy(), lt.reach
-        finally:
-            lt.close()
-        h, w = cover.shape
-        y, x = np.mgrid[0:h, 0:w]
-        edge = np.minimum(np.minimum(x, w - 1 - x), np.minimum(y, h - 1 - y)) + 0.5
-        return cover & (edge >= reach)
-
-    def luxcore_light(self, seconds: float, seed: int):
-        """The current scene by LuxCore's light tracer (LIGHTCPU, luxcore.py) for ``seconds``:
-        (RGB image top-down, wall seconds, info, coverage top-down).  LIGHTCPU renders what our
-        light tracer does (light-path vertices connected to the camera; nothing for emitters,
-        mirrors or glass the camera sees), so the same coverage masks it, and the frame's
-        edge (``luxcore_coverage``)."""
-        img, wall, info = luxcore.render(seconds, seed, engine=luxcore.LIGHT_ENGINE)
-        return img, wall, info, self.luxcore_coverage()
-
-    def exact(self, seconds: float, seed: int):
-        """point_caustic or rough_caustic by the exact-geometry reference (exact_caustic.py) for
-        ``seconds`` (whole batches): (RGB image top-down, wall seconds, info, coverage top-down)."""
-        import bpy
-        t = time.perf_counter()
-        img, cover, info = exact_caustic.render(bpy.context.scene, seed=seed, seconds=seconds)
-        return img, time.perf_counter() - t, {"photons": info["photons"]}, cover
-
-    def exact_pool(self, seconds: float, seed: int):
-        """pool_caustic by its exact-geometry reference (exact_pool.py) for ``seconds`` (whole
-        batches): (RGB image top-down, wall seconds, info, coverage top-down)."""
-        import bpy
-        t = time.perf_counter()
-        img, cover, info = exact_pool.render(bpy.context.scene, seed=seed, seconds=seconds)
-        return img, time.perf_counter() - t, {"photons": info["photons"]}, cover
 
     def reference_half(self, scene, engine: str, seconds: float, seed: int):
         """One half of the current scene's reference by ``engine`` (REFERENCE_ENGINE's): (RGB
@@ -540,79 +414,6 @@ class Bench:
         return out
 
 
-def _at(rows, seconds):
-    for r in rows:
-        if abs(r["seconds"] - seconds) < 1e-9:
-            return r
-    return None
-
-
-def ratios(result: dict, seconds: float) -> dict:
-    """RMSE ours / Cycles at the given budget, per scene (whole image and caustic pixels), and
-    ours / Cycles + MNEE and ours / LuxCore BIDIR where the run has those curves."""
-    out = {}
-    for name, s in result["scenes"].items():
-        o, c = _at(s["curves"]["ours"], seconds), _at(s["curves"]["cycles"], seconds)
-        if o is None or c is None:
-            continue
-        r = {}
-        for region in ("image", "caustic"):
-            for key in ("rmse", "rmse_corrected"):
-                a, b = o[region][key], c[region][key]
-                r[f"{region}_{key}"] = a / b if b > 0 else float("nan")
-        m = _at(s["curves"].get("cycles_mnee", []), seconds)
-        if m is not None:
-            r["image_rmse_vs_mnee"] = o["image"]["rmse"] / m["image"]["rmse"]
-            r["caustic_rmse_vs_mnee"] = o["caustic"]["rmse"] / m["caustic"]["rmse"]
-        if m is not None or name in TARGETS_BEST_PEER:
-            best = min(c["image"]["rmse"], m["image"]["rmse"] if m is not None else math.inf)
-            r["image_rmse_vs_best_peer"] = o["image"]["rmse"] / best
-        x = _at(s["curves"].get("luxcore_bidir", []), seconds)
-        if x is not None:
-            r["image_rmse_vs_luxcore"] = o["image"]["rmse"] / x["image"]["rmse"]
-            r["caustic_rmse_vs_luxcore"] = o["caustic"]["rmse"] / x["caustic"]["rmse"]
-        if "image_rmse_mean" in o and "image_rmse_mean" in c:
-            r["image_rmse_seeds"] = o["image_rmse_mean"] / c["image_rmse_mean"]
-            r["seeds"] = o["seeds"]
-        r["indirect"] = o.get("indirect", "photons")
-        p = _at(s["curves"].get("ours_photons", []), seconds)
-        if p is not None:
-            r["photons_image_rmse"] = p["image"]["rmse"] / c["image"]["rmse"]
-        g = _at(s["curves"].get("ours_merge", []), seconds)
-        if g is not None:       # what the photons' light tracing gives: ours over the merge alone
-            r["ours_over_merge_alone"] = o["image"]["rmse"] / g["image"]["rmse"]
-        # issue 25: no firefly that Cycles does not have; ours' brightest pixel at this budget
-        # (over the seeds where there are several) within the reference's range (up to
-        # FIREFLY_MARGIN) or no brighter than Cycles' brightest at the same time
-        # (a run's JSON from before the check has none)
-        if "brightest_half" in s["reference"] and "brightest" in o and "brightest" in c:
-            ref_range = s["reference"]["brightest_half"]
-            ceiling = s["reference"]["firefly_ceiling"]
-            ob = max(o.get("brightest_seeds", [o["brightest"]]))
-            cb = max(c.get("brightest_seeds", [c["brightest"]]))
-            r["brightest"] = {"ours": ob, "cycles": cb, "reference_range": ref_range,
-                              "firefly_ceiling": ceiling,
-                              "ours_over_range": sum(o.get("over_reference_range_seeds",
-                                                           [o["over_reference_range"]])),
-                              "cycles_over_range": sum(c.get("over_reference_range_seeds",
-                                                             [c["over_reference_range"]]))}
-            r["no_firefly"] = bool(ob <= max(ceiling, cb))
-        if name in TARGETS:
-            r["target"] = TARGETS[name]
-            r["met"] = bool(r.get("image_rmse_seeds", r["image_rmse"]) <= TARGETS[name])
-        elif name in TARGETS_BEST_PEER:
-            r["target_best_peer"] = TARGETS_BEST_PEER[name]
-            r["met"] = bool(r["image_rmse_vs_best_peer"] <= TARGETS_BEST_PEER[name])
-        elif name in TARGETS_MNEE and "image_rmse_vs_mnee" in r:
-            r["target_mnee"] = TARGETS_MNEE[name]
-            r["met"] = bool(r["image_rmse_vs_mnee"] <= TARGETS_MNEE[name])
-        elif name in TARGETS_LUXCORE and "image_rmse_vs_luxcore" in r:
-            r["target_luxcore"] = TARGETS_LUXCORE[name]
-            r["met"] = bool(r["image_rmse_vs_luxcore"] <= TARGETS_LUXCORE[name])
-        out[name] = r
-    return out
-
-
 def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
               ref_seconds: float | None = None, device: str = "", photons: int | None = None,
               progress=print, warm_up: bool = True, quick: bool = False) -> dict:
@@ -638,5 +439,3 @@ def run_bench(times=DEFAULT_TIMES, resolution=DEFAULT_RESOLUTION, scenes=SCENES,
     result["ratios_at"] = eq
     result["ratios"] = ratios(result, eq)
     return result
-
-

@@ -32,7 +32,7 @@ The light transport, as Cycles renders it with the bench's settings:
   what leaves goes to the sky; the camera sees the floor through the surface with radiance
   times (1 - F) / IOR^2 (radiance leaving a denser medium);
 - the floor is Lambertian (``pool.FLOOR``, per channel): every photon landing on it is splatted
-  (through Cycles' Blackman-Harris filter, exact_caustic.splat) and bounces on, cosine-
+  (through Cycles' Blackman-Harris filter, exact_film.splat) and bounces on, cosine-
   distributed, its flux times the albedo;
 - bounce limits are Cycles' Light Paths: a splat at the photon's vertex j (0 = its refraction
   into the water) is the Cycles path camera, refraction into the water, the photon's vertices
@@ -48,10 +48,13 @@ pool).  The bench's pool has none: its floor is lit only through the water.
 
 ``render`` returns the image (RGB, rows top-down, as the bench's EXRs read), the coverage (the
 pixels whose filter footprint sees only the floor through the water) and what it did.
+
+This module has the Setup from bpy and the light's side (emission, tracing, ``render``); the
+height field and the crossings are exact_pool_water.py's, the camera map exact_pool_camera.py's,
+the camera, the pixel filter and the scattering exact_film.py's and exact_optics.py's.
 """
 from __future__ import annotations
 
-import functools
 import math
 import time
 from dataclasses import dataclass
@@ -59,29 +62,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ppm_engine.blender.scenes import pool
-from ppm_engine.tools.bench.exact_caustic import (
-    _cone_dirs,
-    camera_fields,
-    camera_rays,
-    cosine_dirs,
-    fresnel,
-    splat,
-    window_clear,
-)
+from ppm_engine.tools.bench.exact_film import camera_fields, splat
+from ppm_engine.tools.bench.exact_optics import cone_dirs, cosine_dirs, fresnel
+from ppm_engine.tools.bench.exact_pool_camera import SUPERSAMPLE, CameraMap
+from ppm_engine.tools.bench.exact_pool_water import bounds, crossing, normal, refract_in
 
-SUPERSAMPLE = 6                 # camera-map points per pixel and axis
 BATCH = 1 << 17
-NEWTON = 8                      # Newton steps to a surface crossing
-MARCH = 32                      # steps through the waves' slab for a ray that may cross twice
-EPS = 1e-7                      # m: a ray leaving the surface starts this far along
 NEAR_SHARE = 0.75               # photons starting where the light to the floor in view crosses
 NEAR_MARGIN = 0.3               # m, around that rectangle
-GLINT_MARGIN = math.radians(0.5)
 
 
 @dataclass
 class Setup:
-    """What the tracer needs of the bpy scene (exact_caustic's camera and filter fields)."""
+    """What the tracer needs of the bpy scene (exact_film's camera and filter fields)."""
     eye: np.ndarray
     axes: np.ndarray
     frame: tuple
@@ -157,236 +150,14 @@ def setup_of(scene, waves=pool.WAVES) -> Setup:
                  diffuse_bounces=int(c.diffuse_bounces), glossy_bounces=int(c.glossy_bounces),
                  transmission_bounces=int(c.transmission_bounces), waves=tuple(waves))
 
-
-# --- the height field ------------------------------------------------------------------------
-@functools.lru_cache(maxsize=8)
-def _waves(waves):
-    """(amplitudes (m,), wave vectors (m, 2), phases (m,)) of a waves tuple."""
-    return pool.wave_vectors(waves)
-
-
-def _bounds(waves):
-    """(the largest height, the largest slope) of the sum of ``waves``."""
-    a, k, _ = pool.wave_vectors(waves)
-    return float(np.abs(a).sum()), float((np.abs(a) * np.linalg.norm(k, axis=1)).sum())
-
-
-def normal(x, y, waves):
-    """Unit upward normals of the height field at (x, y)."""
-    _, hx, hy = pool.height(x, y, waves)
-    n = np.stack([-hx, -hy, np.ones_like(hx)], -1)
-    return n / np.linalg.norm(n, axis=-1, keepdims=True)
-
-
-def crossing(o, d, below, waves, on_surface):
-    """Distances along rays o + t d (unit d) to where they first cross the water's surface
-    inside the patch, from below it (``below``) or above; inf where they do not.  Rays that
-    leave the surface (``on_surface``) start EPS along."""
-    n = o.shape[0]
-    t_hit = np.full(n, np.inf)
-    if n == 0:
-        return t_hit
-    amp, slope = _bounds(waves)
-    if amp == 0.0:                                   # flat water: the plane z = 0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = -o[:, 2] / d[:, 2]
-        t_hit = np.where((t > EPS) & ~on_surface, t, np.inf)
-    else:
-        side = np.where(below, -1.0, 1.0)
-        dz = d[:, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ta, tb = (amp - o[:, 2]) / dz, (-amp - o[:, 2]) / dz
-        t0 = np.maximum(np.minimum(ta, tb), 0.0)
-        t0 = np.where(on_surface, EPS, t0)
-        t1 = np.maximum(ta, tb)
-        live = np.isfinite(t1) & (t1 > t0)
-
-        a_, k_, ph_ = _waves(waves)
-
-        def g(i, t, grad=False):                     # > 0 on the ray's starting side
-            p = o[i] + t[:, None] * d[i]
-            arg = p[:, :1] * k_[:, 0] + p[:, 1:2] * k_[:, 1] + ph_
-            val = side[i] * (p[:, 2] - np.sin(arg) @ a_)
-            if not grad:
-                return val
-            c = np.cos(arg) * a_
-            slope = d[i, 2] - (c @ k_[:, 0]) * d[i, 0] - (c @ k_[:, 1]) * d[i, 1]
-            return val, side[i] * slope
-
-        dxy = np.linalg.norm(d[:, :2], axis=1)
-        steep = np.abs(dz) > 2.0 * slope * dxy       # g monotonic: one crossing at most
-        lo, hi = np.zeros(n), np.zeros(n)
-        found = np.zeros(n, bool)
-        i = np.nonzero(live & steep)[0]
-        if i.size:
-            ok = g(i, t1[i]) <= 0.0
-            i = i[ok]
-            lo[i], hi[i], found[i] = t0[i], t1[i], True
-        i = np.nonzero(live & ~steep)[0]
-        if i.size:                                   # march to the first sign change
-            prev = t0[i].copy()
-            todo = np.ones(i.size, bool)
-            for step in range(1, MARCH + 1):
-                t = t0[i] + (t1[i] - t0[i]) * (step / MARCH)
-                cross = todo & (g(i, t) <= 0.0)
-                lo[i[cross]], hi[i[cross]], found[i[cross]] = prev[cross], t[cross], True
-                todo &= ~cross
-                prev = t
-        i = np.nonzero(found)[0]
-        a, b = lo[i], hi[i]
-        # Newton's method kept inside the bracket g(a) > 0 >= g(b), which every step narrows;
-        # a step that leaves it bisects instead
-        t = 0.5 * (a + b)
-        for _ in range(NEWTON):
-            val, dg = g(i, t, True)
-            if np.abs(val).max(initial=0.0) <= 1e-12:
-                break
-            pos = val > 0.0
-            a, b = np.where(pos, t, a), np.where(pos, b, t)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                step = t - val / dg
-            t = np.where((step >= a) & (step <= b), step, 0.5 * (a + b))
-        val = g(i, t)
-        bad = np.abs(val) > 1e-10
-        if bad.any():                                # the rare slow one: bisection
-            a, b = a[bad], b[bad]
-            for _ in range(48):
-                m = 0.5 * (a + b)
-                pos = g(i[bad], m) > 0.0
-                a, b = np.where(pos, m, a), np.where(pos, b, m)
-            t[bad] = b
-        t_hit[i] = t
-    p = o + np.where(np.isfinite(t_hit), t_hit, 0.0)[:, None] * d
-    inside = (np.abs(p[:, 0]) <= pool.HALF) & (np.abs(p[:, 1]) <= pool.HALF)
-    return np.where(inside, t_hit, np.inf)
-
-
-def refract_in(d, nrm, ior):
-    """Rays from the air through the surface (upward normals): (new directions, 1 - F)."""
-    cos_i = -np.einsum("ij,ij->i", d, nrm)
-    eta = 1.0 / ior
-    f, cos_t = fresnel(cos_i, eta)
-    t = eta * d + (eta * cos_i - cos_t)[:, None] * nrm
-    return t / np.linalg.norm(t, axis=1, keepdims=True), 1.0 - f
-
-
-# --- the camera's side -----------------------------------------------------------------------
-class CameraMap:
-    """Camera rays through a raster grid, traced through the water to the floor, and the grid's
-    triangles binned by their floor triangles, to find every raster position that sees a floor
-    point (the module docstring)."""
-
-    def __init__(self, s: Setup, supersample: int = SUPERSAMPLE):
-        self.s = s
-        k = supersample
-        reach = s.filter_width
-        pad = math.ceil(reach * k) + 1
-        gx = (np.arange(-pad, s.width * k + pad + 1)) / k
-        gy = (np.arange(-pad, s.height * k + pad + 1)) / k
-        px, py = np.meshgrid(gx, gy)                 # rows: y
-        shape = px.shape
-        d = camera_rays(s, px.ravel(), py.ravel())
-        o = np.broadcast_to(s.eye, d.shape).copy()
-        t = crossing(o, d, np.zeros(len(d), bool), s.waves, np.zeros(len(d), bool))
-        ok = np.isfinite(t)
-        p = o + np.where(ok, t, 0.0)[:, None] * d
-        nrm = normal(p[:, 0], p[:, 1], s.waves)
-        reflected = d - 2.0 * np.einsum("ij,ij->i", d, nrm)[:, None] * nrm
-        near = reflected[ok] @ s.sun
-        limit = math.cos(math.acos(s.cos_half) + GLINT_MARGIN)
-        if near.size and near.max() > limit:
-            raise ValueError("the camera sees the sun reflected in the water: the exact pool "
-                             "renders no glint")
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dt, tau = refract_in(d, nrm, pool.WATER_IOR)
-        tau = tau / pool.WATER_IOR ** 2              # radiance leaving the water
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tf = (-pool.DEPTH - p[:, 2]) / dt[:, 2]
-        x = p[:, :2] + tf[:, None] * dt[:, :2]
-        ok &= ((tf > 0) & (np.abs(x[:, 0]) <= pool.FLOOR_HALF)
-               & (np.abs(x[:, 1]) <= pool.FLOOR_HALF))
-        # a refracted ray that met the surface again would need more than this map
-        back = crossing(p, dt, np.ones(len(d), bool), s.waves, np.ones(len(d), bool))
-        ok &= ~(np.isfinite(back) & (back < tf))
-        self.valid = ok.reshape(shape)
-        self.coverage = window_clear(~self.valid, s, k, pad, 0.0)
-        # two triangles per grid cell, where all three corners are valid
-        idx = np.arange(shape[0] * shape[1]).reshape(shape)
-        a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
-        c, e = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
-        tri = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, e], 1)])
-        tri = tri[ok[tri].all(1)]
-        P = np.stack([px.ravel(), py.ravel()], 1)[tri]          # (m, 3, 2) raster
-        X = x[tri]                                              # (m, 3, 2) floor
-        ex1, ex2 = X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
-        det = ex1[:, 0] * ex2[:, 1] - ex1[:, 1] * ex2[:, 0]
-        keep = np.abs(det) > 1e-18
-        tri, P, X, ex1, ex2, det = tri[keep], P[keep], X[keep], ex1[keep], ex2[keep], det[keep]
-        ep1, ep2 = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
-        det_p = ep1[:, 0] * ep2[:, 1] - ep1[:, 1] * ep2[:, 0]
-        area_p = np.abs(det_p)
-        # where the waves fold the camera's view, triangles turn over: there one floor point is
-        # seen at several raster positions, and |dp/dx| grows without bound at the fold's line
-        # (exact, but the splats' variance grows with it)
-        turned = np.sign(det_p) != np.sign(det)
-        self.folded = int(min(turned.sum(), (~turned).sum()))
-        self.jacobian = area_p / np.abs(det)                    # raster px^2 per floor m^2
-        self.inv = np.stack([ex2[:, 1], -ex2[:, 0], -ex1[:, 1], ex1[:, 0]], 1) / det[:, None]
-        self.X0, self.P0, self.ep1, self.ep2 = X[:, 0], P[:, 0], ep1, ep2
-        self.tau = tau[tri]                                     # (m, 3)
-        self.triangles = len(tri)
-        # bins over the floor, about two triangles across
-        lo, hi = X.reshape(-1, 2).min(0), X.reshape(-1, 2).max(0)
-        self.floor_lo, self.floor_hi = lo, hi
-        size = 2.0 * float(np.median(np.linalg.norm(ex1, axis=1)))
-        nb = np.maximum(np.ceil((hi - lo) / size).astype(np.int64), 1)
-        self.lo, self.size, self.nb = lo, size, nb
-        bmin = np.clip(((X.min(1) - lo) / size).astype(np.int64), 0, nb - 1)
-        bmax = np.clip(((X.max(1) - lo) / size).astype(np.int64), 0, nb - 1)
-        span = bmax - bmin + 1
-        count = span[:, 0] * span[:, 1]
-        owner = np.repeat(np.arange(len(tri)), count)
-        local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-        bx = bmin[owner, 0] + local % span[owner, 0]
-        by = bmin[owner, 1] + local // span[owner, 0]
-        bins = by * nb[0] + bx
-        order = np.argsort(bins, kind="stable")
-        self.bin_tris = owner[order]
-        self.bin_start = np.searchsorted(bins[order], np.arange(nb[0] * nb[1] + 1))
-
-    def locate(self, x):
-        """Every (photon index, raster px, py, weight) where the camera sees floor points x
-        (n, 2): weight = the transmission into the camera (radiance times (1 - F) / IOR^2) x
-        |dp/dx| (raster pixels^2 per floor m^2)."""
-        b = np.floor((x - self.lo) / self.size).astype(np.int64)
-        inb = (b >= 0).all(1) & (b < self.nb).all(1)
-        pid = np.nonzero(inb)[0]
-        bid = b[pid, 1] * self.nb[0] + b[pid, 0]
-        start, end = self.bin_start[bid], self.bin_start[bid + 1]
-        cnt = end - start
-        rep = np.repeat(pid, cnt)
-        local = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        cand = self.bin_tris[np.repeat(start, cnt) + local]
-        q = x[rep] - self.X0[cand]
-        inv = self.inv[cand]
-        l1 = inv[:, 0] * q[:, 0] + inv[:, 1] * q[:, 1]
-        l2 = inv[:, 2] * q[:, 0] + inv[:, 3] * q[:, 1]
-        hit = (l1 >= 0.0) & (l2 >= 0.0) & (l1 + l2 <= 1.0)
-        rep, cand, l1, l2 = rep[hit], cand[hit], l1[hit], l2[hit]
-        p = self.P0[cand] + l1[:, None] * self.ep1[cand] + l2[:, None] * self.ep2[cand]
-        tau = self.tau[cand]
-        t = (1.0 - l1 - l2) * tau[:, 0] + l1 * tau[:, 1] + l2 * tau[:, 2]
-        return rep, p[:, 0], p[:, 1], t * self.jacobian[cand]
-
-
 # --- the light's side ------------------------------------------------------------------------
 def emit(s: Setup, n: int, rng, near):
     """n sun photons: (origins on a horizontal rectangle above the water, unit directions,
     flux per photon (n,) per unit of the sun's irradiance).  Stratified: ``NEAR_SHARE`` of them
     start in ``near`` ((lo, hi) corners), where the light to the floor the camera sees crosses,
     the rest over the whole rectangle less ``near``; each carries its stratum's share."""
-    amp, _ = _bounds(s.waves)
-    d = -_cone_dirs(s.sun, s.cos_half, n, rng)
+    amp, _ = bounds(s.waves)
+    d = -cone_dirs(s.sun, s.cos_half, n, rng)
     top = amp + 1e-3
     # every ray to the floor crosses z = top within the floor shifted back along the unrefracted
     # direction and the floor itself (refraction only steepens a ray)
@@ -411,7 +182,7 @@ def near_rectangle(s: Setup, cmap: CameraMap):
     """Where on the photons' starting plane the sun's light to the floor the camera sees
     crosses (with a margin for the waves' deflection): the flat water's refraction traced back
     from the corners of the floor the camera map reaches."""
-    amp, slope = _bounds(s.waves)
+    amp, slope = bounds(s.waves)
     top = amp + 1e-3
     d = -s.sun
     dt, _ = refract_in(d[None], np.array([[0.0, 0.0, 1.0]]), pool.WATER_IOR)

@@ -208,7 +208,7 @@ def ratio_table(result: dict) -> str:
 
 
 def _brightest(r: dict) -> str:
-    """The firefly check's cell (curves.ratios: "brightest")."""
+    """The firefly check's cell (scoring.ratios: "brightest")."""
     b = r.get("brightest")
     if not b:
         return "–"

@@ -1,0 +1,171 @@
+"""``point_caustic`` and ``rough_caustic`` as their exact-geometry reference (exact_caustic.py)
+sees them, in NumPy: the scene as ppm_engine/blender/scenes/caustics.py defines it (a true sphere,
+two finite planes, a point light), the Setup read from the bpy scene (camera, film, light, bounce
+limits, the glass's roughness; what the reference does not model is refused), the rays' first
+hits, the ball's shadow, and the pixels light tracing covers (``coverage``)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ppm_engine.blender.scenes.caustics import BALL, FLOOR, SPOT_POS
+from ppm_engine.tools.bench.exact_film import camera_fields, camera_rays, window_clear
+from ppm_engine.tools.bench.exact_optics import IOR
+
+FLOOR_HALF = 2.0                 # the floor: z = 0, |x|, |y| <= 2
+WALL_Y, WALL_TOP = 2.0, 2.5      # the back wall: y = 2, |x| <= 2, 0 <= z <= 2.5
+EPS = 1e-9                       # hit distances at or below it are the surface a ray left
+
+FLOOR_ID, WALL_ID, BALL_ID = 0, 1, 2
+
+
+# --- the scene -------------------------------------------------------------------------------
+@dataclass
+class Setup:
+    """What the tracer needs of the bpy scene."""
+    eye: np.ndarray              # camera position (3,)
+    axes: np.ndarray             # (3, 3), columns: the camera's x, y, z in world space
+    frame: tuple                 # (x_left, x_right, y_bottom, y_top) on the plane at depth 1
+    width: int
+    height: int
+    clip: tuple                  # (start, end) depth
+    filter_width: float          # the scene's, in pixels: the filter reaches this far
+    film_exposure: float
+    light: np.ndarray            # position (3,)
+    power: np.ndarray            # RGB watts (colour x energy x 2^exposure)
+    max_bounces: int
+    diffuse_bounces: int
+    glossy_bounces: int
+    transmission_bounces: int
+    roughness: float = 0.0       # the glass's (Principled Roughness; alpha = its square)
+
+    @property
+    def pixel_area(self) -> float:
+        """A pixel's area on the image plane at depth 1."""
+        x0, x1, y0, y1 = self.frame
+        return (x1 - x0) * (y1 - y0) / (self.width * self.height)
+
+
+def setup_of(scene, max_bounces: int | None = None) -> Setup:
+    """The camera, film, light and bounce limits of a ``point_caustic`` bpy scene (its geometry
+    is the module's constants; the light must stand where caustics.point_caustic puts it).
+    ``max_bounces`` overrides all of the scene's bounce limits."""
+    scene.view_layers[0].update()       # the objects' matrix_world after a script's edits
+    if len(set(FLOOR)) != 1:
+        raise ValueError("the exact reference traces one channel: the stage must be grey")
+    camera = camera_fields(scene)
+    c = scene.cycles
+    lights = [o for o in scene.objects if o.type == 'LIGHT' and not o.hide_render]
+    if len(lights) != 1 or lights[0].data.type != 'POINT' or lights[0].data.shadow_soft_size:
+        raise ValueError("the exact reference renders one point light of radius 0")
+    light = lights[0]
+    pos = np.array(light.matrix_world.translation, float)
+    if not np.allclose(pos, SPOT_POS):
+        raise ValueError(f"the point light is at {tuple(pos)}, not at point_caustic's {SPOT_POS}")
+    power = (np.array(light.data.color, float) * light.data.energy
+             * 2.0 ** getattr(light.data, "exposure", 0.0))
+    roughness = glass_roughness(scene)
+    limits = [c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces]
+    if max_bounces is not None:
+        limits = [max_bounces] * 4
+    return Setup(**camera, light=pos, power=power, max_bounces=int(limits[0]),
+                 diffuse_bounces=int(limits[1]), glossy_bounces=int(limits[2]),
+                 transmission_bounces=int(limits[3]), roughness=roughness)
+
+
+def glass_roughness(scene) -> float:
+    """The ball's roughness: its material must be the clear glass the reference models (a
+    Principled BSDF straight into the output, Transmission Weight 1, IOR 1.5, white, constant
+    inputs), rough only with the single-scattering GGX distribution (Cycles' Multiscatter GGX
+    adds an energy compensation this does not model)."""
+    ball = next((o for o in scene.objects if o.name.startswith("GlassBall")), None)
+    mat = ball.active_material if ball is not None else None
+    nodes = mat.node_tree.nodes if mat is not None and mat.node_tree is not None else []
+    p = next((n for n in nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"), None)
+    if p is None:
+        raise ValueError("the exact reference needs the ball 'GlassBall' with a Principled BSDF")
+    used = [k for k in ("Roughness", "Transmission Weight", "IOR", "Base Color")
+            if p.inputs[k].is_linked]
+    if used:
+        raise ValueError(f"the exact reference needs constant glass inputs, not linked {used}")
+    if (p.inputs["Transmission Weight"].default_value != 1.0
+            or abs(p.inputs["IOR"].default_value - IOR) > 1e-6
+            or tuple(p.inputs["Base Color"].default_value)[:3] != (1.0, 1.0, 1.0)):
+        raise ValueError(f"the exact reference models clear white glass of IOR {IOR}")
+    r = float(p.inputs["Roughness"].default_value)
+    if r > 0.0 and p.distribution != 'GGX':
+        raise ValueError("the exact reference models rough glass with the GGX distribution, "
+                         f"not {p.distribution}")
+    return r
+
+
+# --- geometry --------------------------------------------------------------------------------
+def _ball_hits(o, d, inside):
+    """Distance along unit rays to the ball: the far root for rays inside it, else the near root
+    (inf where none)."""
+    center, radius = np.asarray(BALL[0], float), BALL[1]
+    oc = o - center
+    b = np.einsum("ij,ij->i", d, oc)
+    disc = b * b - (np.einsum("ij,ij->i", oc, oc) - radius * radius)
+    s = np.sqrt(np.maximum(disc, 0.0))
+    t = np.where(inside, -b + s, -b - s)
+    return np.where((disc > 0) & (t > EPS), t, np.inf)
+
+
+def _plane_hits(o, d):
+    """Distances to the floor and to the back wall (inf where a ray misses them)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tf = -o[:, 2] / d[:, 2]
+        tw = (WALL_Y - o[:, 1]) / d[:, 1]
+    pf = o + tf[:, None] * d
+    pw = o + tw[:, None] * d
+    tf = np.where((tf > EPS) & (np.abs(pf[:, 0]) <= FLOOR_HALF)
+                  & (np.abs(pf[:, 1]) <= FLOOR_HALF), tf, np.inf)
+    tw = np.where((tw > EPS) & (np.abs(pw[:, 0]) <= FLOOR_HALF) & (pw[:, 2] >= 0.0)
+                  & (pw[:, 2] <= WALL_TOP), tw, np.inf)
+    return tf, tw
+
+
+def first_hit(o, d, inside, left_ball):
+    """(distance, surface id) of the first hit along unit rays; id -1 where nothing is hit.
+    A ray inside the ball meets only the ball (the floor touches it at one point); a ray that
+    left the ball outwards never meets it again (it is convex)."""
+    tf, tw = _plane_hits(o, d)
+    tb = _ball_hits(o, d, inside)
+    tb = np.where(left_ball & ~inside, np.inf, tb)
+    tf = np.where(inside, np.inf, tf)
+    tw = np.where(inside, np.inf, tw)
+    t = np.stack([tf, tw, tb])
+    k = np.argmin(t, axis=0)
+    tmin = t[k, np.arange(t.shape[1])]
+    return tmin, np.where(np.isfinite(tmin), k, -1)
+
+
+def ball_blocks(p, u, dist):
+    """Whether the ball cuts the segments from p along unit u of length dist."""
+    center, radius = np.asarray(BALL[0], float), BALL[1]
+    oc = p - center
+    b = np.einsum("ij,ij->i", u, oc)
+    disc = b * b - (np.einsum("ij,ij->i", oc, oc) - radius * radius)
+    s = np.sqrt(np.maximum(disc, 0.0))
+    return (disc > 0) & (-b + s > EPS) & (-b - s < dist)
+
+
+# --- the pixels light tracing covers ---------------------------------------------------------
+def coverage(s: Setup, supersample: int = 8) -> np.ndarray:
+    """(h, w) bool, rows top-down: the pixels whose filter footprint (every point within the
+    filter's reach of the pixel centre, sampled ``supersample`` times per pixel) sees the floor
+    or the wall directly; not the ball, not the void beyond the stage."""
+    r, k = s.filter_width, supersample
+    pad = math.ceil(r * k) + 1
+    ix = np.arange(-pad, s.width * k + pad)
+    iy = np.arange(-pad, s.height * k + pad)
+    gx, gy = np.meshgrid((ix + 0.5) / k, (iy + 0.5) / k)
+    d = camera_rays(s, gx.ravel(), gy.ravel())
+    o = np.broadcast_to(s.eye, d.shape)
+    no = np.zeros(d.shape[0], bool)
+    _, hit = first_hit(o, d, no, no)
+    bad = ~((hit == FLOOR_ID) | (hit == WALL_ID))
+    return window_clear(bad.reshape(gy.shape), s, k, pad, 0.5)

@@ -1,0 +1,86 @@
+"""The reference renderers of the error-against-time run (curves.py, whose docstring says which
+scene has which reference and why): this engine's light tracer, LuxCore's (LIGHTCPU) with the
+pixels it covers, and the exact-geometry references of point_caustic and rough_caustic
+(exact_caustic.py) and of the pool (exact_pool.py), as the methods of ``References``, which
+curves.Bench extends."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ppm_engine.tools.bench import exact_caustic, exact_pool, luxcore
+
+LIGHT_TRACE_PHOTONS = 1 << 17      # photons per light-tracing pass
+
+
+class References:
+    """curves.Bench's reference renderers (they use its ``device``)."""
+
+    def light_traced(self, seconds: float, seed: int):
+        """A light-traced image of the current scene for ``seconds`` (whole passes): (RGB image
+        top-down, wall seconds, info, coverage top-down)."""
+        import bpy
+
+        from ppm_engine.blender.export import export_scene
+        from ppm_engine.render.light_tracer import LightTracer
+        t = time.perf_counter()
+        lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()),
+                         photons=LIGHT_TRACE_PHOTONS, seed=seed, device=self.device)
+        try:
+            while True:
+                lt.trace(1)
+                if time.perf_counter() - t >= seconds:
+                    break
+            img, cover = lt.image()[::-1].copy(), lt.coverage()[::-1].copy()
+        finally:
+            lt.close()
+        info = {"passes": lt.passes, "photons": lt.passes * lt.photons}
+        return img, time.perf_counter() - t, info, cover
+
+    def luxcore_coverage(self) -> np.ndarray:
+        """What LuxCore's light tracer renders of the current scene, top-down: what ours does
+        (``LightTracer.coverage``: the pixels whose camera ray first meets a non-emitting
+        surface with only evaluable closures, eroded by the filter's reach), less the pixels
+        whose filter reaches past the frame: LuxCore connects only points that project inside
+        the frame (``Camera::GetSamplePosition``), so those miss what lies just outside (the
+        outermost row 18 % dark at Blackman-Harris 1.5).  Only a mask: nothing is traced."""
+        import bpy
+
+        from ppm_engine.blender.export import export_scene
+        from ppm_engine.render.light_tracer import LightTracer
+        lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()), photons=1,
+                         device=self.device)
+        try:
+            cover, reach = lt.coverage()[::-1].copy(), lt.reach
+        finally:
+            lt.close()
+        h, w = cover.shape
+        y, x = np.mgrid[0:h, 0:w]
+        edge = np.minimum(np.minimum(x, w - 1 - x), np.minimum(y, h - 1 - y)) + 0.5
+        return cover & (edge >= reach)
+
+    def luxcore_light(self, seconds: float, seed: int):
+        """The current scene by LuxCore's light tracer (LIGHTCPU, luxcore.py) for ``seconds``:
+        (RGB image top-down, wall seconds, info, coverage top-down).  LIGHTCPU renders what our
+        light tracer does (light-path vertices connected to the camera; nothing for emitters,
+        mirrors or glass the camera sees), so the same coverage masks it, and the frame's
+        edge (``luxcore_coverage``)."""
+        img, wall, info = luxcore.render(seconds, seed, engine=luxcore.LIGHT_ENGINE)
+        return img, wall, info, self.luxcore_coverage()
+
+    def exact(self, seconds: float, seed: int):
+        """point_caustic or rough_caustic by the exact-geometry reference (exact_caustic.py) for
+        ``seconds`` (whole batches): (RGB image top-down, wall seconds, info, coverage top-down)."""
+        import bpy
+        t = time.perf_counter()
+        img, cover, info = exact_caustic.render(bpy.context.scene, seed=seed, seconds=seconds)
+        return img, time.perf_counter() - t, {"photons": info["photons"]}, cover
+
+    def exact_pool(self, seconds: float, seed: int):
+        """pool_caustic by its exact-geometry reference (exact_pool.py) for ``seconds`` (whole
+        batches): (RGB image top-down, wall seconds, info, coverage top-down)."""
+        import bpy
+        t = time.perf_counter()
+        img, cover, info = exact_pool.render(bpy.context.scene, seed=seed, seconds=seconds)
+        return img, time.perf_counter() - t, {"photons": info["photons"]}, cover
