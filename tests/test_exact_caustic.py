@@ -40,8 +40,10 @@ def test_shares_no_code_with_the_engine():
                 imported |= {a.name for a in node.names}
             elif isinstance(node, ast.ImportFrom):
                 imported.add("." * node.level + (node.module or ""))
-    assert imported - {".exact_caustic_scene", ".exact_film", ".exact_optics"} == {
-        "__future__", "math", "time", "dataclasses", "numpy", "..scenes.caustics"}, imported
+    own = {f"ppm_engine.tools.bench.{m}" for m in ("exact_caustic_scene", "exact_film",
+                                                    "exact_optics")}
+    assert imported - own == {"__future__", "math", "time", "dataclasses", "numpy",
+                              "ppm_engine.blender.scenes.caustics"}, imported
 
 
 # --- the pixel filter ------------------------------------------------------------------------
