@@ -98,8 +98,13 @@ def cli():
 
 
 def configure_tiny(scene, pocl_key: str, *, width=TINY["width"], height=TINY["height"],
-                   passes=TINY["passes"], photons=TINY["photons_per_pass"]) -> None:
-    """Tiny, deterministic render settings on the PoCL device."""
+                   passes=TINY["passes"], photons=TINY["photons_per_pass"],
+                   specialize=False) -> None:
+    """Tiny, deterministic render settings on the PoCL device.  Kernels of every feature by
+    default (scene.ppm.specialize off): the same image as the scene's own kernels
+    (test_skips.py checks it), from one build shared by every scene of the test run instead of a
+    build per feature set, which is most of a cold run's time; the tests of specialisation (the
+    skips, the viewport's builds per edit) ask for the scene's own."""
     if scene.render.engine != "PPM":
         scene.render.engine = "PPM"
     assert scene.render.engine == "PPM"
@@ -111,6 +116,7 @@ def configure_tiny(scene, pocl_key: str, *, width=TINY["width"], height=TINY["he
     scene.ppm.photons_per_pass = photons
     scene.ppm.time_limit = 0.0
     scene.ppm.device = pocl_key
+    scene.ppm.specialize = specialize
 
 
 def set_exr_output(scene, path: Path) -> None:

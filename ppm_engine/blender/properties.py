@@ -122,6 +122,15 @@ class PPMSettings(bpy.types.PropertyGroup):
         description="Stop refining the viewport's Rendered shading (it keeps its image)",
         default=False,
     )
+    specialize: BoolProperty(
+        name="Kernels for the Scene",
+        description="Build the kernels for the features this scene uses (no glass code "
+                    "without glass, only its light types): faster passes, and a scene with "
+                    "other features builds its own kernels (seconds on a CPU, then cached on "
+                    "disk). Off: one build with every feature, shared by every scene; the "
+                    "same image",
+        default=True,
+    )
     device: EnumProperty(
         name="Device",
         description="OpenCL device that renders (Default: a GPU if present, else the PoCL CPU "
@@ -143,6 +152,7 @@ def to_options(settings) -> RenderOptions:
         noise_threshold=float(settings.noise_threshold),
         indirect=str(settings.indirect).lower(),
         light_tracing=bool(settings.light_tracing),
+        specialize=bool(settings.specialize),
         device="" if device in ("", DEFAULT_DEVICE) else device,
     ).validate()
 

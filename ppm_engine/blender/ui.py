@@ -80,7 +80,7 @@ class PPM_PT_device(PPMPanel, bpy.types.Panel):
     bl_label = "Device"
 
     def draw(self, context):
-        _draw_props(self.layout, context.scene.ppm, ("device",))
+        _draw_props(self.layout, context.scene.ppm, ("device", "specialize"))
 
 
 CLASSES = (PPM_PT_sampling, PPM_PT_sampling_viewport, PPM_PT_photons, PPM_PT_device)

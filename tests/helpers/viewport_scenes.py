@@ -13,7 +13,7 @@ def sphere_scene(bpy, tiny):
     from ppm_engine.blender.scenes.cornell_box import principled
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    tiny(scene, width=W, height=H, passes=PASSES, photons=4096)
+    tiny(scene, width=W, height=H, passes=PASSES, photons=4096, specialize=True)
     scene.ppm.viewport_passes = PASSES
     scene.ppm.viewport_start_resolution = START
     bpy.ops.mesh.primitive_plane_add(size=8.0)
