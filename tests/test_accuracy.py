@@ -8,11 +8,12 @@ import pytest
 from ppm_engine.oracle import analytic as A
 from ppm_engine.render.options import RenderOptions
 from ppm_engine.render.renderer import Renderer
+from tests.helpers.renders import every_feature
 
 
 def progressive(scene, checkpoints, max_bounces, photons=1 << 15, seed=0):
     """Images at the given pass counts, one render."""
-    r = Renderer(scene, RenderOptions(photons_per_pass=photons, max_bounces=max_bounces,
+    r = Renderer(scene, every_feature(photons_per_pass=photons, max_bounces=max_bounces,
                                       seed=seed))
     out = {}
     for k in range(1, max(checkpoints) + 1):

@@ -9,19 +9,19 @@ import pytest
 
 from ppm_engine.oracle.procedural import MeshBuilder, look_at
 from ppm_engine.render.device import SHADING_GROUP
-from ppm_engine.render.options import RenderOptions
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import CAMERA_ORTHO, LIGHT_POINT
 from ppm_engine.scene.camera import make_camera
 from tests.helpers.debug_kernels import emitter_picks
 from tests.helpers.procedural_scenes import light
+from tests.helpers.renders import every_feature
 
 
 def direct_light(scene, pts, nrm, samples):
     """The eye pass's direct-light estimate (debug.cl direct_light_at: NEE + BSDF sample with MIS,
     averaged over ``samples``) at points pts with normals nrm, (n, 4) float32 each."""
     import pyopencl as cl
-    r = Renderer(scene, RenderOptions(max_bounces=0))
+    r = Renderer(scene, every_feature(max_bounces=0))
     dev, n = r.device, len(pts)
     out = cl.Buffer(dev.context, cl.mem_flags.READ_WRITE, 16 * n)
     k = dev.programs.get("test/debug.cl").launch("direct_light_at", "test")
@@ -84,7 +84,7 @@ def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
                       [-0.6, -0.2, 1.3, 0], [2.9, -2.9, 0.0, 0]])
     nrm = np.float32([[0, 0, 1, 0], [0, 0, 1, 0], [0, 0.6, 0.8, 0], [0, 0, -1, 0], [0, 0, 1, 0],
                       [0, 0, 1, 0]])
-    r = Renderer(scene, RenderOptions(max_bounces=0))
+    r = Renderer(scene, every_feature(max_bounces=0))
     n, n_u = len(pts), 200000
     em = r.scene.emitters
     m, first = int(em.info["n_emitters"][0]), int(em.info["n_lights"][0])

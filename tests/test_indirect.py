@@ -12,7 +12,7 @@ from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import CAMERA_PERSP
 from ppm_engine.scene.camera import make_camera, perspective_extent
 from tests.helpers.procedural_scenes import furnace_scene
-from tests.helpers.renders import render
+from tests.helpers.renders import every_feature, render
 
 
 def renders(scene, passes, seeds, **opts):
@@ -118,7 +118,7 @@ def test_both_match_light_tracing_in_a_box_with_a_glass_ball():
     photons = renders(scene, 100, range(4), indirect="photons", max_bounces=32).mean(axis=0)
     assert abs(photons[cover].mean() / ref[cover].mean() - 1.0) < 0.05
     # the scene has both: the auto mode's pilot sees some caustic first scatterings
-    r = Renderer(scene, RenderOptions())
+    r = Renderer(scene, every_feature())
     try:
         assert 0.0 < r.caustic_fraction < 0.5 and r.path_indirect
     finally:
@@ -142,7 +142,7 @@ def test_glossy_light_is_counted_once_by_either_estimator():
         assert_matches_light_tracing(paths, ref, cover, tol, what=f"caustic_roughness {cr}")
     # where the ball's light is the eye paths', it makes no caustics: no photon pass
     for cr, photon_pass in ((0.2, False), (1.0, True)):
-        r = Renderer(scene, RenderOptions(indirect="paths", caustic_roughness=cr))
+        r = Renderer(scene, every_feature(indirect="paths", caustic_roughness=cr))
         try:
             assert ("photon" in r.iterate().phase_ms) == photon_pass
         finally:
@@ -159,7 +159,7 @@ def test_paths_and_photons_agree_beside_a_mirror():
 
 def test_auto_chooses_paths_without_caustics():
     """A diffuse Cornell box: no closure makes caustics, so paths, and no photon pass at all."""
-    r = Renderer(cornell_box(16, 16), RenderOptions())
+    r = Renderer(cornell_box(16, 16), every_feature())
     try:
         assert r.path_indirect and r.caustic_fraction == 0.0 and not r.photons_needed
         stats = r.iterate()
@@ -172,7 +172,7 @@ def test_auto_chooses_paths_without_caustics():
 def test_auto_chooses_photons_for_a_bulb_in_glass():
     """Every photon leaves the bulb through its glass: the pilot measures a caustic fraction
     near 1 and auto keeps the paper's photons for all indirect light."""
-    r = Renderer(cornell_box(16, 16, bulb=True), RenderOptions())
+    r = Renderer(cornell_box(16, 16, bulb=True), every_feature())
     try:
         assert r.caustic_fraction > 0.95 and not r.path_indirect and r.photons_needed
         assert r.iterate().indirect == "photons"
@@ -183,7 +183,7 @@ def test_auto_chooses_photons_for_a_bulb_in_glass():
 def test_auto_chooses_paths_beside_a_mirror():
     """Most of the point light's photons meet the floor first: paths, with caustic photons for
     the mirror's caustic (the pilot's fraction is the mirror's share of the light)."""
-    r = Renderer(analytic.mirror_caustic(W=16), RenderOptions())
+    r = Renderer(analytic.mirror_caustic(W=16), every_feature())
     try:
         assert 0.0 < r.caustic_fraction < 0.5 and r.path_indirect and r.photons_needed
         stats = r.iterate()
@@ -309,17 +309,17 @@ def test_a_re_render_keeps_its_pilot(monkeypatch):
     fraction (no device work before its first pass); another seed or a new scene measures
     again."""
     scene = analytic.mirror_caustic(W=16)
-    r = Renderer(scene, RenderOptions())
+    r = Renderer(scene, every_feature())
     try:
         f = r.caustic_fraction
         calls = []
         real = r.caustic_fraction_pilot
         monkeypatch.setattr(r, "caustic_fraction_pilot", lambda o: calls.append(o) or real(o))
-        r.reset(RenderOptions())
+        r.reset(every_feature())
         assert r.caustic_fraction == f and calls == []
-        r.reset(RenderOptions(seed=5))
+        r.reset(every_feature(seed=5))
         assert len(calls) == 1 and abs(r.caustic_fraction - f) < 0.02
-        r.reset(RenderOptions(seed=5), scene.replace(lights=scene.lights.copy()))
+        r.reset(every_feature(seed=5), scene.replace(lights=scene.lights.copy()))
         assert len(calls) == 2
     finally:
         r.close()

@@ -8,15 +8,16 @@ import numpy as np
 import pytest
 
 from ppm_engine.oracle import analytic as A
-from ppm_engine.render.options import LIGHT_TRACING_KAPPA, RenderOptions
+from ppm_engine.render.options import LIGHT_TRACING_KAPPA
 from ppm_engine.render.renderer import Renderer
+from tests.helpers.renders import every_feature
 
 
 def _render(scene, passes, monkeypatch, kappa=None, **opts):
     """(image, the light tracing's share of it (h, w)) after ``passes``."""
     if kappa is not None:
         monkeypatch.setattr("ppm_engine.render.renderer.LIGHT_TRACING_KAPPA", kappa)
-    r = Renderer(scene, RenderOptions(photons_per_pass=1 << 14, max_bounces=1, seed=2, **opts))
+    r = Renderer(scene, every_feature(photons_per_pass=1 << 14, max_bounces=1, seed=2, **opts))
     for _ in range(passes):
         s = r.iterate()
     assert s.nan_dropped == 0
@@ -68,20 +69,20 @@ def test_light_tracing_is_off_through_a_lens_and_without_photons():
     a scene with no photon pass: no light tracing."""
     from ppm_engine.oracle.procedural import cornell_box
     scene = A.mirror_caustic(8)
-    r = Renderer(scene, RenderOptions(max_bounces=1))
+    r = Renderer(scene, every_feature(max_bounces=1))
     assert r.lt_kappa == LIGHT_TRACING_KAPPA
     assert "photons + light tracing" in r.iterate().line()
     r.close()
     cam = scene.camera.copy()
     cam["aperture_radius"] = 0.01
     cam["focus_distance"] = 3.0
-    r = Renderer(scene.replace(camera=cam), RenderOptions(max_bounces=1))
+    r = Renderer(scene.replace(camera=cam), every_feature(max_bounces=1))
     assert r.lt_kappa == 0.0
     r.close()
-    r = Renderer(scene, RenderOptions(max_bounces=1, light_tracing=False))
+    r = Renderer(scene, every_feature(max_bounces=1, light_tracing=False))
     assert r.lt_kappa == 0.0
     r.close()
-    r = Renderer(cornell_box(8, 8), RenderOptions())     # diffuse only: eye paths, no photons
+    r = Renderer(cornell_box(8, 8), every_feature())     # diffuse only: eye paths, no photons
     assert not r.photons_needed and r.lt_kappa == 0.0
     r.close()
 
@@ -128,7 +129,7 @@ def test_a_fixed_seed_renders_the_same_caustic_frame_after_frame(scene):
             "mirror_caustic": lambda: A.mirror_caustic(W=32)}[scene]
 
     def render(seed):
-        r = Renderer(make(), RenderOptions(seed=seed))
+        r = Renderer(make(), every_feature(seed=seed))
         try:
             for _ in range(32):
                 r.iterate()
@@ -155,7 +156,7 @@ def test_light_tracing_stops_where_no_pixel_sees_what_it_renders(bpy):
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
     images = []
     for light_tracing in (True, False):
-        r = Renderer(arrays, RenderOptions(photons_per_pass=1 << 14, seed=3,
+        r = Renderer(arrays, every_feature(photons_per_pass=1 << 14, seed=3,
                                            light_tracing=light_tracing, indirect="photons"))
         stats = [r.iterate() for _ in range(16)]
         assert not any(s.light_tracing for s in stats) and r.lt_kappa == 0
@@ -165,11 +166,11 @@ def test_light_tracing_stops_where_no_pixel_sees_what_it_renders(bpy):
     assert images[0][..., :3].mean() > 0
     assert images[0][..., :3].mean() == pytest.approx(images[1][..., :3].mean(), rel=0.02)
     # the skip off (bench --skips measures it): the connections go on
-    r = Renderer(arrays, RenderOptions(photons_per_pass=1 << 12, seed=3, indirect="photons",
+    r = Renderer(arrays, every_feature(photons_per_pass=1 << 12, seed=3, indirect="photons",
                                        skip_blind_light_tracing=False))
     assert all(r.iterate().light_tracing for _ in range(2)) and r.film.light_tracing
     r.close()
-    r = Renderer(A.mirror_caustic(16), RenderOptions(photons_per_pass=1 << 12, seed=3))
+    r = Renderer(A.mirror_caustic(16), every_feature(photons_per_pass=1 << 12, seed=3))
     stats = [r.iterate() for _ in range(2)]
     assert all(s.light_tracing for s in stats) and r.film.light_tracing
     r.close()

@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from ppm_engine.oracle.procedural import MeshBuilder, look_at
-from ppm_engine.render.options import RenderOptions
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene import light_tree as lt
 from ppm_engine.scene.arrays import (
@@ -20,7 +19,7 @@ from ppm_engine.scene.arrays import (
 from ppm_engine.scene.camera import make_camera
 from tests.helpers.debug_kernels import emitter_picks
 from tests.helpers.procedural_scenes import furnace_scene, light
-from tests.helpers.renders import render
+from tests.helpers.renders import every_feature, render
 
 
 def _tree(n, rng):
@@ -159,7 +158,7 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
     suns' and the world's power share outside it); they sum to one."""
     rng = np.random.default_rng(11)
     scene = _many_lights_scene(rng)
-    r = Renderer(scene, RenderOptions(max_bounces=0))
+    r = Renderer(scene, every_feature(max_bounces=0))
     em = r.scene.emitters
     m, n_lights = int(em.info["n_emitters"][0]), int(em.info["n_lights"][0])
     assert (m, n_lights, int(em.info["n_emissive"][0])) == (51, 44, 6)
@@ -263,7 +262,7 @@ def test_one_emissive_material_alone_is_picked_by_power_not_by_the_tree():
     grazing, and left 1.6x this noise here (0.023 against 0.015 at 32 x 32, 32 passes).  A
     second emissive material, or a light, brings the tree back."""
     scene = furnace_scene(0.5, 1.0, W=32)
-    r = Renderer(scene, RenderOptions())
+    r = Renderer(scene, every_feature())
     em = r.scene.emitters
     assert int(em.info["n_emissive"][0]) > 8 and int(em.info["n_tree"][0]) == 0
     r.close()
@@ -278,6 +277,6 @@ def test_one_emissive_material_alone_is_picked_by_power_not_by_the_tree():
                  for k in range(materials)]
         for k in range(2):
             mb.sphere((3.0 * k, 0, 0), 1.0, lamps[k % materials], 8, 4, smooth=False)
-        r = Renderer(mb.build(camera=cam, lights=lights), RenderOptions())
+        r = Renderer(mb.build(camera=cam, lights=lights), every_feature())
         assert int(r.scene.emitters.info["n_tree"][0]) > 0, (materials, lights)
         r.close()

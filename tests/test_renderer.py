@@ -10,6 +10,7 @@ from ppm_engine.render.options import RenderOptions, SettingsError
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import NODE_PRINCIPLED, SceneArrays
 from ppm_engine.scene.camera import make_camera
+from tests.helpers.renders import every_feature
 
 
 @pytest.mark.parametrize("bad", [dict(passes=-1), dict(passes=0), dict(alpha=0.0),
@@ -23,29 +24,29 @@ def test_invalid_settings_are_refused_with_the_name(bad):
 
 def test_automatic_photon_count_is_one_per_pixel_within_bounds():
     from ppm_engine.render.options import AUTO_PHOTONS_MAX, AUTO_PHOTONS_MIN
-    auto = RenderOptions()
+    auto = every_feature()
     assert auto.photons_per_pass is None
     assert auto.photons_for(512 * 512) == 1 << 18          # the paper's count at 512 x 512
     assert auto.photons_for(128 * 128) == 128 * 128
     assert auto.photons_for(1) == AUTO_PHOTONS_MIN
     assert auto.photons_for(8192 * 8192) == AUTO_PHOTONS_MAX
-    assert RenderOptions(photons_per_pass=777).photons_for(128 * 128) == 777
+    assert every_feature(photons_per_pass=777).photons_for(128 * 128) == 777
     # 6400 pixels: 6400 photons a pass (the paper's photons: a diffuse box has no caustics)
     r = Renderer(cornell_box(80, 80), auto.replace(indirect="photons"))
     s = r.iterate()
     assert r.photons_per_pass == 6400 and s.photons_emitted == 6400
-    r.reset(RenderOptions(photons_per_pass=1000, indirect="photons"))
+    r.reset(every_feature(photons_per_pass=1000, indirect="photons"))
     assert r.iterate().photons_emitted == 1000
     r.close()
 
 
 def test_unknown_device_lists_the_available_ones():
     with pytest.raises(DeviceError, match="available"):
-        Renderer(cornell_box(8, 8), RenderOptions(device="no-such-device-xyz"))
+        Renderer(cornell_box(8, 8), every_feature(device="no-such-device-xyz"))
 
 
 def test_cornell_box_statistics_and_monotone_radii():
-    r = Renderer(cornell_box(32, 32), RenderOptions(photons_per_pass=1 << 13, seed=3,
+    r = Renderer(cornell_box(32, 32), every_feature(photons_per_pass=1 << 13, seed=3,
                                                     indirect="photons"))
     radii = []
     for _ in range(8):
@@ -83,7 +84,7 @@ def test_cornell_box_statistics_and_monotone_radii():
 def test_photon_buffer_overflow_is_counted_then_grows():
     class Tight(Renderer):
         STORE_FACTOR = 0.05
-    r = Tight(cornell_box(16, 16), RenderOptions(photons_per_pass=1 << 12, indirect="photons"))
+    r = Tight(cornell_box(16, 16), every_feature(photons_per_pass=1 << 12, indirect="photons"))
     cap = r.photon_map.capacity
     s1 = r.iterate()
     assert s1.photons_dropped > 0 and s1.photons_stored == cap
@@ -101,7 +102,7 @@ def test_empty_scene_shows_the_world():
     scene = MeshBuilder().build(
         camera=make_camera(width=8, height=8, to_world=look_at((0, 0, 0), (1, 0, 0)),
                            extent=(1, 1)), world=(0.25, 0.5, 1.0))
-    r = Renderer(scene, RenderOptions(photons_per_pass=1000))
+    r = Renderer(scene, every_feature(photons_per_pass=1000))
     r.iterate()
     np.testing.assert_allclose(r.image()[..., :3], np.broadcast_to([0.25, 0.5, 1.0], (8, 8, 3)),
                                rtol=1e-6)
@@ -131,7 +132,7 @@ def test_stochastic_hash_and_exact_gather_converge_to_the_same_image():
     for exact in (False, True):
         imgs, photon_terms = [], []
         for seed in range(8):
-            r = Renderer(scene, RenderOptions(photons_per_pass=1 << 12, seed=seed,
+            r = Renderer(scene, every_feature(photons_per_pass=1 << 12, seed=seed,
                                               indirect="photons", exact_gather=exact))
             for _ in range(25):
                 r.iterate()

@@ -13,13 +13,13 @@ from ppm_engine.oracle import reference as ref
 from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.render.counters import N_COUNTERS, Counter
 from ppm_engine.render.device import get_device
-from ppm_engine.render.options import RenderOptions
 from ppm_engine.render.passes import Gather, HashBuild, unshaded
 from ppm_engine.render.photon_map import PhotonMap
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
 from ppm_engine.scene.camera import make_camera, perspective_extent
 from ppm_engine.scene.prep import prepare_scene
+from tests.helpers.renders import every_feature
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +29,7 @@ def device(pocl_key):
 
 def render(scene, passes=8, photons=4096, well_formed=True, **opts):
     """(image rgb (h, w, 3), list of PassStats, radius (h, w)) after ``passes`` passes."""
-    r = Renderer(scene, RenderOptions(photons_per_pass=photons, seed=opts.pop("seed", 1), **opts))
+    r = Renderer(scene, every_feature(photons_per_pass=photons, seed=opts.pop("seed", 1), **opts))
     try:
         stats = [r.iterate() for _ in range(passes)]
         img = r.image()[..., :3]
@@ -81,7 +81,7 @@ def floor_scene(w=16, h=16, lights=None, extra=None, world=(0, 0, 0)):
 # ------------------------------------------------------------------------------------------------
 # Long runs
 def _long_run(passes, check_every):
-    r = Renderer(cornell_box(4, 4), RenderOptions(photons_per_pass=256, seed=2,
+    r = Renderer(cornell_box(4, 4), every_feature(photons_per_pass=256, seed=2,
                                                   indirect="photons"))
     prev_r = prev_n = None
     means = {}
@@ -301,7 +301,7 @@ def test_nan_and_inf_vertices_are_skipped_with_a_warning():
     moved, warnings = prepare_scene(s.replace(positions=p))
     assert moved.positions.shape[0] == p.shape[0] - 2
     assert any("2 triangles" in w and "NaN" in w for w in warnings)
-    r = Renderer(s.replace(positions=p), RenderOptions(photons_per_pass=1024))
+    r = Renderer(s.replace(positions=p), every_feature(photons_per_pass=1024))
     try:
         assert r.warnings == warnings
         st = r.iterate()
@@ -426,13 +426,13 @@ def test_photons_per_pass_over_the_device_limit_is_refused_with_a_message(pocl_k
     monkeypatch.setattr(dev, "max_alloc", 1 << 20)        # a device that allows 1 MiB buffers
     # (the paper's photons: a box lit by eye paths would allocate no photon storage at all)
     with pytest.raises(DeviceError, match=r"photons per pass|MAX_MEM_ALLOC_SIZE"):
-        Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=1 << 16, device=pocl_key,
+        Renderer(cornell_box(8, 8), every_feature(photons_per_pass=1 << 16, device=pocl_key,
                                                   indirect="photons"))
-    r = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=1 << 16, device=pocl_key))
+    r = Renderer(cornell_box(8, 8), every_feature(photons_per_pass=1 << 16, device=pocl_key))
     assert not r.photons_needed and r.photon_map.capacity == 0
     r.close()
     monkeypatch.undo()
-    r = Renderer(cornell_box(8, 8), RenderOptions(photons_per_pass=1 << 10, device=pocl_key))
+    r = Renderer(cornell_box(8, 8), every_feature(photons_per_pass=1 << 10, device=pocl_key))
     assert np.isfinite(r.iterate().radius_max)       # the device is still usable
     r.close()
 
