@@ -273,6 +273,7 @@ def test_bench_strategies_quick(cli, tmp_path):
         "light tracing of the photons' light"] < 0.999
 
 
+@pytest.mark.slow             # tooling: 15-19 s of the default run (the skips: test_skips.py)
 def test_bench_skips_quick(cli, tmp_path):
     md = tmp_path / "B.md"
     p = cli("bench", "--skips", "--quick", "--json", tmp_path / "s.json", "--markdown", md)

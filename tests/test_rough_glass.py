@@ -52,7 +52,10 @@ def _centres(img, k):
     return np.array([img[5:N - 5, i * N + 5:i * N + N - 5].mean() for i in range(k)])
 
 
-@pytest.mark.parametrize("indirect", ["PHOTONS", pytest.param("AUTO", marks=pytest.mark.slow)])
+# (25 s each on 2 cores: the slow tier; rough glass against Cycles in the default run:
+# test_materials.py's full transport, and test_rough_glass_caustic_is_the_exact_spheres)
+@pytest.mark.slow
+@pytest.mark.parametrize("indirect", ["PHOTONS", "AUTO"])
 def test_light_through_rough_glass_by_photons_and_eye_paths_as_cycles(
         bpy, indirect, cycles, tiny, render_exr, tmp_path):
     scene = _furnace(bpy, ROUGH)
