@@ -1,0 +1,78 @@
+"""The README's picture: the bulb box rendered by this engine and by Cycles in the same time.
+
+    .venv/bin/python docs/make_readme_image.py [--seconds 45] [--size 320]
+
+Both render the same scene (``python -m ppm_engine example bulb_box``: a Cornell box lit only by
+a filament inside a glass bulb) through the same bpy, each with a time limit of ``--seconds``
+of rendering (Cycles: the same light transport as ours, ``harness.cycles_reference``, no
+denoising; ours: the scene's settings, the passes that fit), on this machine's CPU.  The two
+images, through the scene's view transform, go side by side into docs/images/bulb_box_vs_cycles.png.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "docs" / "images" / "bulb_box_vs_cycles.png"
+
+
+def render_png(bpy, scene, path: Path) -> float:
+    """Render ``scene`` to the PNG ``path`` (its view transform applied); the wall seconds."""
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = str(path)
+    t0 = time.perf_counter()
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    return time.perf_counter() - t0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=45.0)
+    ap.add_argument("--size", type=int, default=320)
+    args = ap.parse_args(argv)
+
+    import bpy
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ppm_engine.blender.harness import cycles_reference, ensure_registered
+    from ppm_engine.blender.scenes import build_example
+
+    ensure_registered()
+    tmp = Path(tempfile.mkdtemp(prefix="ppm-readme-"))
+    walls = {}
+    for engine in ("PPM", "CYCLES"):
+        scene = build_example("bulb_box")
+        scene.render.resolution_x = scene.render.resolution_y = args.size
+        scene.render.resolution_percentage = 100
+        if engine == "PPM":
+            scene.render.engine = "PPM"
+            scene.ppm.passes = 1 << 20
+            scene.ppm.time_limit = args.seconds
+        else:
+            cycles_reference(scene, seconds=args.seconds)
+        walls[engine] = render_png(bpy, scene, tmp / f"{engine}.png")
+        print(f"{engine}: {walls[engine]:.1f} s", file=sys.stderr)
+
+    fig, axes = plt.subplots(1, 2, figsize=(2 * args.size / 100, args.size / 100 + 0.45),
+                             dpi=100)
+    titles = {"PPM": f"Progressive Photon Mapping, {args.seconds:.0f} s",
+              "CYCLES": f"Cycles, {args.seconds:.0f} s"}
+    for ax, engine in zip(axes, ("PPM", "CYCLES")):
+        ax.imshow(plt.imread(tmp / f"{engine}.png"))
+        ax.set_title(titles[engine], fontsize=9)
+        ax.axis("off")
+    fig.subplots_adjust(left=0.005, right=0.995, bottom=0.005, top=0.92, wspace=0.01)
+    fig.savefig(OUT)
+    print(f"wrote {OUT}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
