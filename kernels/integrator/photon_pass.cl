@@ -15,6 +15,7 @@
 #include "integrator/hash.h"
 #include "integrator/direct_light.h"
 #include "integrator/camera_connect.h"
+#include "integrator/pass_state.h"
 
 #include "shared.h"
 #include "geom/medium.h"
@@ -83,19 +84,20 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
     return setup;
 }
 
-__kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photons,
+__kernel void photon_pass(SCENE_PARAMS FILM_PARAMS uint pass_index, uint seed, uint n_photons,
                           __global const Grid *grid, uint capacity, __global float4 *ph_pos,
                           __global float4 *ph_flux, __global uint2 *ph_path,
-                          __global uint *counters, uint caustics_only, __global float *lt_image,
+                          __global uint *counters, uint caustics_only,
                           __global const float *lt_filter, int lt_n_table, float lt_reach,
-                          __global const float *radius, float lt_kappa) {
+                          float lt_kappa) {
     SCENE_LOAD(scene);
+    FILM_LOAD(film);
     uint id = get_global_id(0);
     if (id >= n_photons) return;
     Grid g = *grid;
     if (g.valid == 0u && capacity > 0u) return;
     uint rng = rng_seed(seed, pass_index, id, 2u);
-    Splat sp = {lt_image, lt_filter, radius, lt_n_table, lt_reach, lt_kappa};
+    Splat sp = {film->lt_pass, lt_filter, film->radius, lt_n_table, lt_reach, lt_kappa};
     float3 o, d, flux;
     float rs; /* the radiance its light path carries over its flux (the clamp, gather.cl) */
     float2 nee;

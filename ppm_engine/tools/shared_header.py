@@ -9,9 +9,11 @@ shared.h holds, each with the table it comes from: the ``#define`` families of c
 (visibility bits, light and node types, material flags, counters, the shading tables'
 offsets...), the structs that mirror the NumPy dtypes field for field (the dtypes' field comments
 come along), and the scene's buffers as one X-macro list (``SCENE_DATA``,
-device_scene.SCENE_BUFFERS); it includes shared_features.h, the kernels' feature flags and build
-parameters (``#ifndef`` defaults: a program built without ``-D`` flags has every feature), and
-shared_svm.h, the shader program's op codes and the codes of its nodes' options.  shared_color.h
+device_scene.SCENE_BUFFERS), the film's and the visible points' as two more (``FILM_DATA``,
+film.FILM_BUFFERS; ``VP_DATA``, passes/eye.py VP_BUFFERS); it includes shared_features.h, the
+kernels' feature flags and build parameters (``#ifndef`` defaults: a program built without
+``-D`` flags has every feature), and shared_svm.h, the shader program's op codes and the codes
+of its nodes' options.  shared_color.h
 (which kernels/svm/svm_color.h includes) holds the Blackbody and Wavelength nodes' tables
 (ppm_engine/scene/spectra.py).
 
@@ -384,20 +386,38 @@ def generate_all() -> dict[str, str]:
 
 
 def _scene_data(struct_types: dict) -> list[str]:
-    """The scene's buffers as the X-macro SCENE_DATA(X): X(element type, name) for each."""
+    """The scene's buffers as the X-macro SCENE_DATA(X), the film's as FILM_DATA(X) and the
+    visible points' as VP_DATA(X): X(element type, name) for each."""
     from ppm_engine.render.device_scene import SCENE_BUFFERS
+    from ppm_engine.render.film import FILM_BUFFERS
+    from ppm_engine.render.passes.eye import VP_BUFFERS
+    return [*_buffer_data("SCENE_DATA", SCENE_BUFFERS, struct_types,
+                          "the scene's buffers (ppm_engine/render/device_scene.py SCENE_BUFFERS), "
+                          "in the kernels' parameter order: X(element type, name); "
+                          "kernels/scene.h makes the kernels' parameters and the Scene struct of "
+                          "them"), "",
+            *_buffer_data("FILM_DATA", FILM_BUFFERS, struct_types,
+                          "the film's per-pixel buffers (ppm_engine/render/film.py FILM_BUFFERS), "
+                          "in the kernels' parameter order: X(element type, name); "
+                          "kernels/integrator/pass_state.h makes the kernels' parameters "
+                          "(film_NAME) and the Film struct of them"), "",
+            *_buffer_data("VP_DATA", VP_BUFFERS, struct_types,
+                          "the visible points' buffers (ppm_engine/render/passes/eye.py "
+                          "VP_BUFFERS), in the kernels' parameter order: X(element type, name); "
+                          "kernels/integrator/pass_state.h makes the kernels' parameters "
+                          "(vp_NAME) and the VisiblePoints struct of them")]
+
+
+def _buffer_data(macro: str, buffers, struct_types: dict, what: str) -> list[str]:
+    """``buffers`` (rows of name, element, what) as the X-macro ``macro``(X)."""
     vector = {np.dtype((np.float32, 4)): "float4", np.dtype((np.int32, 4)): "int4",
               np.dtype(np.float16): "half"}
     rows = []
-    for b in SCENE_BUFFERS:
+    for b in buffers:
         ctype = struct_types.get(b.element) or vector.get(b.element) or _C_TYPES[b.element]
         rows.append((f"X({ctype}, {b.name})", b.what))
     width = max(len(x) for x, _ in rows) + 1
-    lines = _comment("--- the scene's buffers (ppm_engine/render/device_scene.py SCENE_BUFFERS), "
-                     "in the "
-                     "kernels' parameter order: X(element type, name); kernels/scene.h makes "
-                     "the kernels' parameters and the Scene struct of them") + \
-        ["#define SCENE_DATA(X) \\"]
+    lines = _comment(f"--- {what}") + [f"#define {macro}(X) \\"]
     for k, (x, what) in enumerate(rows):
         end = " \\" if k < len(rows) - 1 else ""
         line = f"    {x:<{width}}/* {what} */"
