@@ -96,6 +96,10 @@
 /* entries of the pixel filter's table (ppm_engine/render/film.py FILTER_TABLE_SIZE) */
 #define FILTER_TABLE_SIZE 256
 
+/* samples of the pixel filter's density, the light tracing's splat (ppm_engine/render/film.py
+ * FILTER_SAMPLES) */
+#define FILTER_SAMPLES 257
+
 /* offsets of the shading tables in their buffer (ppm_engine/scene/shading_tables.py LAYOUT,
  * SIZE) */
 #define TAB_GGX_E 0
@@ -379,5 +383,14 @@ typedef struct {
     X(float4, beta)     /* the path weight (the photon term's factor); w: the footprint */ \
     X(float4, shade)    /* the hit shaded again: u, v, BVH leaf (-1: Lambert), wi packed */ \
     X(float4, gathered) /* the gather's result: (sum of flux x f, photons) */
+
+/* --- the photons' buffers (ppm_engine/render/photon_map.py PHOTON_BUFFERS), in the kernels'
+ * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'
+ * parameters (ph_NAME) and the Photons struct of them */
+#define PHOTON_DATA(X) \
+    X(Grid, grid)   /* the grid over this pass's visible points */ \
+    X(float4, pos)  /* position; w: the normal packed */ \
+    X(float4, flux) /* flux; w: where it came from, packed */ \
+    X(uint2, path)  /* its bounces (path_state.h), the radiance over its flux (the clamp) */
 
 #endif

@@ -148,15 +148,15 @@ inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l, uint2 p
     return term;
 }
 
-__kernel void gather(SCENE_PARAMS VP_PARAMS __global const float *radius, __global const Grid *grid,
-                     __global const ulong *table, uint table_mask, __global const float4 *ph_pos,
-                     __global const float4 *ph_flux, __global const uint2 *ph_path, uint n) {
+__kernel void gather(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *radius,
+                     __global const ulong *table, uint table_mask, uint n) {
     SCENE_LOAD(scene);
     VP_LOAD(vps);
+    PHOTON_LOAD(photons);
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 vp = vps->pos[id];
-    Grid g = *grid;
+    Grid g = *photons->grid;
     if (vp.w <= 0.0f || g.valid == 0u) {
         vps->gathered[id] = (float4)(0.0f);
         return;
@@ -180,27 +180,26 @@ __kernel void gather(SCENE_PARAMS VP_PARAMS __global const float *radius, __glob
                 uint pi = ENTRY_INDEX(table, h);
                 float4 pf;
                 float cos_l;
-                if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi, c, &g,
-                                     &pf, &cos_l))
+                if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, photons->pos[pi],
+                                     photons->flux, pi, c, &g, &pf, &cos_l))
                     continue;
                 M += (float)cnt;
-                phi += (float)cnt * photon_term(&gp, pf, cos_l, ph_path[pi]);
+                phi += (float)cnt * photon_term(&gp, pf, cos_l, photons->path[pi]);
             }
     vps->gathered[id] = (float4)(phi, M);
 }
 
 /* Exact gather (reference mode): every photon of every cell the disc overlaps. */
-__kernel void gather_exact(SCENE_PARAMS VP_PARAMS __global const float *radius,
-                           __global const Grid *grid, __global const uint *ranges,
-                           __global const uint *sorted_ids, uint table_mask,
-                           __global const float4 *ph_pos, __global const float4 *ph_flux,
-                           __global const uint2 *ph_path, uint n) {
+__kernel void gather_exact(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *radius,
+                           __global const uint *ranges, __global const uint *sorted_ids,
+                           uint table_mask, uint n) {
     SCENE_LOAD(scene);
     VP_LOAD(vps);
+    PHOTON_LOAD(photons);
     uint id = get_global_id(0);
     if (id >= n) return;
     float4 vp = vps->pos[id];
-    Grid g = *grid;
+    Grid g = *photons->grid;
     if (vp.w <= 0.0f || g.valid == 0u) {
         vps->gathered[id] = (float4)(0.0f);
         return;
@@ -223,11 +222,11 @@ __kernel void gather_exact(SCENE_PARAMS VP_PARAMS __global const float *radius,
                     uint pi = sorted_ids[s];
                     float4 pf;
                     float cos_l;
-                    if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi,
-                                         (long3)(cx, cy, cz), &g, &pf, &cos_l))
+                    if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, photons->pos[pi],
+                                         photons->flux, pi, (long3)(cx, cy, cz), &g, &pf, &cos_l))
                         continue;
                     M += 1.0f;
-                    phi += photon_term(&gp, pf, cos_l, ph_path[pi]);
+                    phi += photon_term(&gp, pf, cos_l, photons->path[pi]);
                 }
             }
     vps->gathered[id] = (float4)(phi, M);

@@ -27,11 +27,12 @@ def has_fp64(device) -> bool:
 
 @dataclasses.dataclass(frozen=True)
 class PassBuffer:
-    """One per-pixel buffer of a pass's state (FILM_BUFFERS, passes/eye.py VP_BUFFERS)."""
+    """One buffer of a pass's state (FILM_BUFFERS, passes/eye.py VP_BUFFERS, photon_map.py
+    PHOTON_BUFFERS)."""
     name: str             # the struct's field (film->name) and, prefixed, the kernels' parameter
     element: np.dtype     # one element as the kernels read it (its C type: shared_header)
-    bytes: int            # bytes per pixel (a sum of 32 bytes: a double4, or a float4 and its
-                          # compensation)
+    bytes: int            # bytes per pixel where a film or the visible points allocate it (a
+                          # sum of 32 bytes: a double4, or a float4 and its compensation)
     what: str             # what it holds (the allocation's label, the header's comment)
     fill: int | None = 0  # the uint32 a new film clears it to; None: not cleared
 

@@ -9,8 +9,9 @@ shared.h holds, each with the table it comes from: the ``#define`` families of c
 (visibility bits, light and node types, material flags, counters, the shading tables'
 offsets...), the structs that mirror the NumPy dtypes field for field (the dtypes' field comments
 come along), and the scene's buffers as one X-macro list (``SCENE_DATA``,
-device_scene.SCENE_BUFFERS), the film's and the visible points' as two more (``FILM_DATA``,
-film.FILM_BUFFERS; ``VP_DATA``, passes/eye.py VP_BUFFERS); it includes shared_features.h, the
+device_scene.SCENE_BUFFERS), the film's, the visible points' and the photons' as three more
+(``FILM_DATA``, film.FILM_BUFFERS; ``VP_DATA``, passes/eye.py VP_BUFFERS; ``PHOTON_DATA``,
+photon_map.PHOTON_BUFFERS); it includes shared_features.h, the
 kernels' feature flags and build parameters (``#ifndef`` defaults: a program built without
 ``-D`` flags has every feature), and shared_svm.h, the shader program's op codes and the codes
 of its nodes' options.  shared_color.h
@@ -132,7 +133,7 @@ def _struct(ctype: str, dtype: np.dtype, origin: str, comments: dict[str, str]) 
 def generate() -> str:
     """The text of kernels/shared.h from the Python tables."""
     from ppm_engine.render import counters, photon_map
-    from ppm_engine.render.film import FILTER_TABLE_SIZE
+    from ppm_engine.render.film import FILTER_SAMPLES, FILTER_TABLE_SIZE
     from ppm_engine.render.passes import gather, hash_build
     from ppm_engine.scene import arrays as sa
     from ppm_engine.scene import camera as camera_model
@@ -178,6 +179,9 @@ def generate() -> str:
             _family("entries of the pixel filter's table (ppm_engine/render/film.py "
                     "FILTER_TABLE_SIZE)",
                     [("FILTER_TABLE_SIZE", FILTER_TABLE_SIZE)]),
+            _family("samples of the pixel filter's density, the light tracing's splat "
+                    "(ppm_engine/render/film.py FILTER_SAMPLES)",
+                    [("FILTER_SAMPLES", FILTER_SAMPLES)]),
             _family("offsets of the shading tables in their buffer "
                     "(ppm_engine/scene/shading_tables.py LAYOUT, SIZE)",
                     [("TAB_" + k.upper(), off) for k, (off, _) in st.LAYOUT.items()]
@@ -391,6 +395,7 @@ def _scene_data(struct_types: dict) -> list[str]:
     from ppm_engine.render.device_scene import SCENE_BUFFERS
     from ppm_engine.render.film import FILM_BUFFERS
     from ppm_engine.render.passes.eye import VP_BUFFERS
+    from ppm_engine.render.photon_map import PHOTON_BUFFERS
     return [*_buffer_data("SCENE_DATA", SCENE_BUFFERS, struct_types,
                           "the scene's buffers (ppm_engine/render/device_scene.py SCENE_BUFFERS), "
                           "in the kernels' parameter order: X(element type, name); "
@@ -405,13 +410,18 @@ def _scene_data(struct_types: dict) -> list[str]:
                           "the visible points' buffers (ppm_engine/render/passes/eye.py "
                           "VP_BUFFERS), in the kernels' parameter order: X(element type, name); "
                           "kernels/integrator/pass_state.h makes the kernels' parameters "
-                          "(vp_NAME) and the VisiblePoints struct of them")]
+                          "(vp_NAME) and the VisiblePoints struct of them"), "",
+            *_buffer_data("PHOTON_DATA", PHOTON_BUFFERS, struct_types,
+                          "the photons' buffers (ppm_engine/render/photon_map.py "
+                          "PHOTON_BUFFERS), in the kernels' parameter order: X(element type, "
+                          "name); kernels/integrator/pass_state.h makes the kernels' parameters "
+                          "(ph_NAME) and the Photons struct of them")]
 
 
 def _buffer_data(macro: str, buffers, struct_types: dict, what: str) -> list[str]:
     """``buffers`` (rows of name, element, what) as the X-macro ``macro``(X)."""
     vector = {np.dtype((np.float32, 4)): "float4", np.dtype((np.int32, 4)): "int4",
-              np.dtype(np.float16): "half"}
+              np.dtype((np.uint32, 2)): "uint2", np.dtype(np.float16): "half"}
     rows = []
     for b in buffers:
         ctype = struct_types.get(b.element) or vector.get(b.element) or _C_TYPES[b.element]

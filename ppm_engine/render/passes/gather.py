@@ -63,9 +63,8 @@ class Gather:
         (the film's).  vps.beta's w: the visible points' ray footprints (Bump nodes)."""
         pm = self.photon_map
         n = vps.n if n is None else n
-        common = dict(**vps.args, radius=radius, grid=pm.grid, table_mask=pm.table_mask,
-                      ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, ph_path=pm.ph_path, n=np.uint32(n),
-                      **self.scene_args)
+        common = dict(**self.scene_args, **vps.args, **pm.args, radius=radius,
+                      table_mask=pm.table_mask, n=np.uint32(n))
         if pm.exact:
             ev = self.k_exact(q, n, SHADING_GROUP, **common, ranges=pm.ranges,
                               sorted_ids=pm.sorted[1].data)
