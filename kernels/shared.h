@@ -93,11 +93,9 @@
 /* the light tree's traversal stack for rays (ppm_engine/scene/light_tree.py LIGHT_TREE_STACK) */
 #define LIGHT_TREE_STACK 64
 
-/* entries of the pixel filter's table (ppm_engine/render/film.py FILTER_TABLE_SIZE) */
+/* entries of the pixel filter's table, samples of its density (the light tracing's splat;
+ * ppm_engine/render/film.py) */
 #define FILTER_TABLE_SIZE 256
-
-/* samples of the pixel filter's density, the light tracing's splat (ppm_engine/render/film.py
- * FILTER_SAMPLES) */
 #define FILTER_SAMPLES 257
 
 /* offsets of the shading tables in their buffer (ppm_engine/scene/shading_tables.py LAYOUT,
@@ -356,7 +354,7 @@ typedef struct {
 
 /* --- the film's per-pixel buffers (ppm_engine/render/film.py FILM_BUFFERS), in the kernels'
  * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'
- * parameters (film_NAME) and the Film struct of them */
+ * parameters and the Film struct (film_NAME) of them */
 #define FILM_DATA(X) \
     X(float4, direct_pass) /* this pass's sample (rgb, 1; eye_pass.cl) */ \
     X(float4, direct)      /* sum of the direct samples (rgb, count) */ \
@@ -376,7 +374,7 @@ typedef struct {
 
 /* --- the visible points' buffers (ppm_engine/render/passes/eye.py VP_BUFFERS), in the kernels'
  * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'
- * parameters (vp_NAME) and the VisiblePoints struct of them */
+ * parameters and the VisiblePoints struct (vp_NAME) of them */
 #define VP_DATA(X) \
     X(float4, pos)      /* position; w: 0 none, 1 a visible point, 2 one that transmits */ \
     X(float4, nrm)      /* the surface's normal; w: the path (path_state.h), as bits */ \
@@ -386,7 +384,7 @@ typedef struct {
 
 /* --- the photons' buffers (ppm_engine/render/photon_map.py PHOTON_BUFFERS), in the kernels'
  * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'
- * parameters (ph_NAME) and the Photons struct of them */
+ * parameters and the Photons struct (ph_NAME) of them */
 #define PHOTON_DATA(X) \
     X(Grid, grid)   /* the grid over this pass's visible points */ \
     X(float4, pos)  /* position; w: the normal packed */ \

@@ -36,8 +36,8 @@ def gather_defines(defines: dict | None) -> dict:
 
 
 def unshaded(device, n: int):
-    """A VisiblePoints.shade buffer of n visible points with no hit to shade: their f is 1, so
-    the gather sums plain flux (kernel tests, micro benchmarks)."""
+    """The shade buffer (passes/eye.py VP_BUFFERS) of n visible points with no hit to shade:
+    their f is 1, so the gather sums plain flux (kernel tests, micro benchmarks)."""
     shade = np.zeros((n, 4), np.float32)
     shade.view(np.int32)[:, 2] = -1
     return device.upload(shade, "visible points")
