@@ -93,8 +93,10 @@
 /* the light tree's traversal stack for rays (ppm_engine/scene/light_tree.py LIGHT_TREE_STACK) */
 #define LIGHT_TREE_STACK 64
 
-/* entries of the pixel filter's table (ppm_engine/render/film.py FILTER_TABLE_SIZE) */
+/* entries of the pixel filter's table, samples of its density (the light tracing's splat;
+ * ppm_engine/render/film.py) */
 #define FILTER_TABLE_SIZE 256
+#define FILTER_SAMPLES 257
 
 /* offsets of the shading tables in their buffer (ppm_engine/scene/shading_tables.py LAYOUT,
  * SIZE) */
@@ -349,5 +351,44 @@ typedef struct {
     X(int, tree_emitters)        /* the light tree's emitters in its order */ \
     X(float, tree_cdf)           /* their power's CDF in that order */ \
     X(float, world_map)          /* world importance map */
+
+/* --- the film's per-pixel buffers (ppm_engine/render/film.py FILM_BUFFERS), in the kernels'
+ * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'
+ * parameters and the Film struct (film_NAME) of them */
+#define FILM_DATA(X) \
+    X(float4, direct_pass) /* this pass's sample (rgb, 1; eye_pass.cl) */ \
+    X(float4, direct)      /* sum of the direct samples (rgb, count) */ \
+    X(float4, photon_sum)  /* S = sum of Phi / R^2 */ \
+    X(float, nstat)        /* N, the photons gathered */ \
+    X(float, radius)       /* R, the gather radius */ \
+    X(float, radius0)      /* the initial radius */ \
+    X(float4, moments)     /* (sum y, sum y^2, photons while active, passes) of samples y */ \
+    X(uint, active)        /* 1 while the pixel is sampled (adaptive sampling) */ \
+    X(float, error)        /* estimated error (adaptive sampling) */ \
+    X(float4, aux_albedo)  /* denoising albedo (sum, count) */ \
+    X(float4, aux_normal)  /* denoising normal (sum, count) */ \
+    X(float, transparency) /* sum of the passes' transparency (transparent film) */ \
+    X(float, lt_pass)      /* light tracing: this pass's splats (rgb) */ \
+    X(float4, lt_sum)      /* light tracing: sum of the passes' splats */ \
+    X(float4, image)       /* the resolved image (film_resolve) */
+
+/* --- the visible points' buffers (ppm_engine/render/passes/eye.py VP_BUFFERS), in the kernels'
+ * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'
+ * parameters and the VisiblePoints struct (vp_NAME) of them */
+#define VP_DATA(X) \
+    X(float4, pos)      /* position; w: 0 none, 1 a visible point, 2 one that transmits */ \
+    X(float4, nrm)      /* the surface's normal; w: the path (path_state.h), as bits */ \
+    X(float4, beta)     /* the path weight (the photon term's factor); w: the footprint */ \
+    X(float4, shade)    /* the hit shaded again: u, v, BVH leaf (-1: Lambert), wi packed */ \
+    X(float4, gathered) /* the gather's result: (sum of flux x f, photons) */
+
+/* --- the photons' buffers (ppm_engine/render/photon_map.py PHOTON_BUFFERS), in the kernels'
+ * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'
+ * parameters and the Photons struct (ph_NAME) of them */
+#define PHOTON_DATA(X) \
+    X(Grid, grid)   /* the grid over this pass's visible points */ \
+    X(float4, pos)  /* position; w: the normal packed */ \
+    X(float4, flux) /* flux; w: where it came from, packed */ \
+    X(uint2, path)  /* its bounces (path_state.h), the radiance over its flux (the clamp) */
 
 #endif

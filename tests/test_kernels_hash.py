@@ -11,7 +11,7 @@ import pyopencl as cl
 from ppm_engine.oracle import reference as ref
 from ppm_engine.render.counters import N_COUNTERS, Counter
 from ppm_engine.render.device import get_device
-from ppm_engine.render.passes import Gather, HashBuild, unshaded
+from ppm_engine.render.passes import Gather, HashBuild, VisiblePoints, unshaded
 from ppm_engine.render.photon_map import PhotonMap
 from tests.helpers.device_buffers import DEVICES, read, upload
 
@@ -64,6 +64,13 @@ def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None, exact=False,
     return dict(pm=pm, hb=hb, gather=Gather(device, pm), ph=ph, flux=flux, up=up, wi=wi, vp=vp,
                 radius=radius, counters=counters, vp_pos=vp_pos, vp_nrm=vp_nrm,
                 vp_shade=unshaded(device, n_vp), rad=rad, n_vp=n_vp)
+
+
+def _vps(device, s, gathered) -> VisiblePoints:
+    """The setup's visible points (their path weight: the normals' buffer, any float4 of n)
+    gathering into ``gathered``."""
+    return VisiblePoints(device, s["n_vp"], pos=s["vp_pos"], nrm=s["vp_nrm"], beta=s["vp_nrm"],
+                         shade=s["vp_shade"], gathered=gathered)
 
 
 def test_grid_bounds_cover_visible_points(device):
@@ -134,7 +141,7 @@ def test_stochastic_gather_is_unbiased(device, table, cell_scale):
     est = np.zeros((trials, n_vp, 4))
     for t in range(trials):
         s["hb"].build(q, t, 11)
-        s["gather"].enqueue(q, s["vp_pos"], s["vp_nrm"], s["vp_shade"], s["rad"], gathered, n_vp)
+        s["gather"].enqueue(q, _vps(device, s, gathered), s["rad"])
         est[t] = read(device, gathered, (n_vp, 4), np.float32)
     phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
                                       s["ph"], s["up"], s["wi"], s["flux"])
@@ -161,7 +168,7 @@ def test_exact_gather_equals_brute_force(device, table):
     q, n_vp = device.queue, s["n_vp"]
     gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
     s["hb"].build(q, 0, 0)
-    s["gather"].enqueue(q, s["vp_pos"], s["vp_nrm"], s["vp_shade"], s["rad"], gathered, n_vp)
+    s["gather"].enqueue(q, _vps(device, s, gathered), s["rad"])
     got = read(device, gathered, (n_vp, 4), np.float32)
     phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
                                       s["ph"], s["up"], s["wi"], s["flux"])

@@ -14,7 +14,7 @@ from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.render.counters import N_COUNTERS, Counter
 from ppm_engine.render.device import get_device
 from ppm_engine.render.options import RenderOptions
-from ppm_engine.render.passes import Gather, HashBuild, unshaded
+from ppm_engine.render.passes import Gather, HashBuild, VisiblePoints, unshaded
 from ppm_engine.render.photon_map import PhotonMap
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
@@ -185,7 +185,9 @@ def _map(device, ph, vp, radius, exact=False, wi=None):
     hb = HashBuild(device, pm, counters)
     hb.grid(q, vp_pos, rad, n_vp)
     hb.build(q, 0, 3)
-    Gather(device, pm).enqueue(q, vp_pos, vp_nrm, unshaded(device, n_vp), rad, gathered, n_vp)
+    vps = VisiblePoints(device, n_vp, pos=vp_pos, nrm=vp_nrm, beta=vp_nrm,
+                        shade=unshaded(device, n_vp), gathered=gathered)
+    Gather(device, pm).enqueue(q, vps, rad)
     got = np.empty((n_vp, 4), np.float32)
     cl.enqueue_copy(q, got, gathered)
     M_ref = ref.gather_exact(vp, np.tile([0, 0, 1.0], (n_vp, 1)), np.asarray(radius, np.float32),

@@ -99,7 +99,7 @@ def _constant_density(device, fp64, passes, kernel):
     import pyopencl as cl
 
     from ppm_engine.render.film import Film
-    from ppm_engine.render.passes import ProgressiveUpdate
+    from ppm_engine.render.passes import ProgressiveUpdate, VisiblePoints
     n, q = 16, device.queue
     film = Film(device, 4, 4, fp64=fp64)
     update = ProgressiveUpdate(device, film)
@@ -119,7 +119,8 @@ def _constant_density(device, fp64, passes, kernel):
         g[:, :3] = (f * M)[:, None]
         cl.enqueue_copy(q, gathered, g)
         if kernel == "film_update":
-            update.update(q, vp_pos, vp_beta, gathered, 0.7)
+            update.update(q, VisiblePoints(device, n, pos=vp_pos, beta=vp_beta,
+                                           gathered=gathered), 0.7)
         else:
             film.prog.progressive_update(q, (64,), None, vp_pos, vp_beta, gathered, film.radius,
                                          film.nstat, tau, np.float32(0.7), np.uint32(n))
@@ -173,7 +174,7 @@ def test_global_radius_schedule_is_its_sequence_whatever_the_samples(device, fp6
     import pyopencl as cl
 
     from ppm_engine.render.film import Film
-    from ppm_engine.render.passes import ProgressiveUpdate
+    from ppm_engine.render.passes import ProgressiveUpdate, VisiblePoints
     if fp64 and not __import__("ppm_engine.render.film", fromlist=["has_fp64"]).has_fp64(device):
         pytest.skip("the device has no cl_khr_fp64")
     n, q, passes, alpha = 16, device.queue, 300, 0.7
@@ -198,8 +199,9 @@ def test_global_radius_schedule_is_its_sequence_whatever_the_samples(device, fp6
         cl.enqueue_copy(q, film.active, active)
         cl.enqueue_copy(q, vp_pos, np.c_[np.zeros((n, 3)), hit].astype(np.float32))
         cl.enqueue_copy(q, gathered, np.c_[phi, M].astype(np.float32))
-        update.update(q, vp_pos, vp_beta, gathered, alpha, "global")
-        update.add_sample(q, gathered, photons=1000)
+        vps = VisiblePoints(device, n, pos=vp_pos, beta=vp_beta, gathered=gathered)
+        update.update(q, vps, alpha, "global")
+        update.add_sample(q, vps, photons=1000)
         on = hit & (M > 0)
         S[on] += beta[on] * phi[on] / R[on, None] ** 2
         N[on] += M[on]

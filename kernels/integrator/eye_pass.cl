@@ -12,6 +12,7 @@
 #include "shared.h"
 #include "geom/medium.h"
 #include "integrator/indirect_paths.h"
+#include "integrator/pass_state.h"
 
 /* offset from the pixel centre: the filter table (inverse CDF) at u in [0, 1), lerped */
 inline float filter_offset(__global const float *table, float u) {
@@ -30,21 +31,19 @@ inline float3 eye_nee_u(uint pass, uint key, int depth, uint *rng) {
     return (float3)(rnd(rng), rnd(rng), rnd(rng));
 }
 
-__kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_radius,
-                       float auto_radius_pixels, __global const float *filter_table,
-                       __global float4 *direct, __global float *radius, __global float *radius0,
-                       __global float4 *vp_pos, __global float4 *vp_nrm, __global float4 *vp_beta,
-                       __global float4 *vp_shade, __global uint *counters,
-                       __global float4 *aux_albedo, __global float4 *aux_normal,
-                       __global const uint *active, __global float *transparency,
+__kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint seed,
+                       float initial_radius, float auto_radius_pixels,
+                       __global const float *filter_table, __global uint *counters,
                        uint path_indirect, float lt_kappa) {
     SCENE_LOAD(scene);
+    FILM_LOAD(film);
+    VP_LOAD(vps);
     __global const Camera *cam = scene->camera;
     int id = get_global_id(0);
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;
-    if (!active[id]) {               /* converged (adaptive sampling): no visible point */
-        vp_pos[id] = (float4)(0.0f);
+    if (!film->active[id]) {               /* converged (adaptive sampling): no visible point */
+        vps->pos[id] = (float4)(0.0f);
         return;
     }
     int i = id % rw, j = id / rw;
@@ -174,7 +173,7 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
             vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
             /* the surface's own normal: the gather's disc lies in it, as the photons do (the
              * gather shades the point again) */
-            vp_nrm[id] = (float4)(sd.Ng, as_float(path));
+            vps->nrm[id] = (float4)(sd.Ng, as_float(path));
             float3 albedo = (float3)(0.0f);
             bool lambert = true;
             for (int k = 0; k < sd.n; k++) {
@@ -184,19 +183,19 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
             }
             if (lambert) {
                 /* f is one constant: it goes into the path weight, the gather sums flux */
-                vp_beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), foot_r);
-                vp_shade[id] = (float4)(0.0f, 0.0f, as_float(-1), 0.0f);
+                vps->beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), foot_r);
+                vps->shade[id] = (float4)(0.0f, 0.0f, as_float(-1), 0.0f);
             } else {
-                vp_beta[id] = (float4)(bvp, foot_r); /* (w: the gather's footprint) */
-                vp_shade[id] = (float4)(h.u, h.v, as_float(h.leaf), as_float(pack_unit(sd.wi)));
+                vps->beta[id] = (float4)(bvp, foot_r); /* (w: the gather's footprint) */
+                vps->shade[id] = (float4)(h.u, h.v, as_float(h.leaf), as_float(pack_unit(sd.wi)));
             }
             /* denoising passes: albedo through the specular chain, world-space normal */
-            aux_albedo[id] += (float4)(beta * albedo, 1.0f);
-            aux_normal[id] += (float4)(sd.N, 1.0f);
-            if (radius[id] <= 0.0f) {
+            film->aux_albedo[id] += (float4)(beta * albedo, 1.0f);
+            film->aux_normal[id] += (float4)(sd.N, 1.0f);
+            if (film->radius[id] <= 0.0f) {
                 float foot = camera_pixel_size(cam) * (cam->type == CAMERA_ORTHO ? 1.0f : path_len);
                 float r0 = initial_radius > 0.0f ? initial_radius : auto_radius_pixels * foot;
-                radius[id] = radius0[id] = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
+                film->radius[id] = film->radius0[id] = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
             }
             /* a point the camera sees directly: the photons' light tracing renders the same
              * paths, and the merge takes its side of the balance heuristic (photon_pass.cl
@@ -205,10 +204,11 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
                 /* the first pass counts them: with none, the render stops connecting photons
                  * to the camera (Renderer.iterate) */
                 if (pass_index == 0u) atomic_inc(&counters[CNT_SEEN]);
-                float m = merge_factor(cam, s.p, sd.Ng, lt_kappa) * radius[id] * radius[id];
+                float m = merge_factor(cam, s.p, sd.Ng, lt_kappa) * film->radius[id]
+                          * film->radius[id];
                 if (m > 0.0f) {
-                    float4 b = vp_beta[id];
-                    vp_beta[id] = (float4)(b.xyz * (m / (1.0f + m)), b.w);
+                    float4 b = vps->beta[id];
+                    vps->beta[id] = (float4)(b.xyz * (m / (1.0f + m)), b.w);
                 }
             }
             /* direct and indirect light by path tracing (indirect_paths.h); the photons bring
@@ -261,11 +261,11 @@ __kernel void eye_pass(SCENE_PARAMS uint pass_index, uint seed, float initial_ra
         if (transmit) media_cross(&media, s.material, !sd.backfacing);
 #endif
     }
-    vp_pos[id] = vp;
+    vps->pos[id] = vp;
     /* this pass's sample (the film adds it to its sums, progressive.cl film_add_sample);
      * NaN/Inf guard: drop the sample, count it (render stats) */
     bool ok = isfinite(L.x) && isfinite(L.y) && isfinite(L.z);
-    direct[id] = ok ? (float4)(L, 1.0f) : (float4)(0.0f);
+    film->direct_pass[id] = ok ? (float4)(L, 1.0f) : (float4)(0.0f);
     if (!ok) atomic_inc(&counters[CNT_NAN]);
-    if (clear > 0.0f && isfinite(clear)) transparency[id] += clear;
+    if (clear > 0.0f && isfinite(clear)) film->transparency[id] += clear;
 }

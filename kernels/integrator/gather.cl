@@ -10,6 +10,7 @@
 #include "integrator/hash.h"
 #include "closure/shader.h"
 #include "geom/bvh.h"
+#include "integrator/pass_state.h"
 
 /* photons on a surface facing another way (thin walls, corners) are not this point's */
 /* the gather region is a disc, not a ball: photons farther than this x r from the visible
@@ -55,8 +56,8 @@ typedef struct {
     bool transmits;
 } GatherPoint;
 
-inline void gather_point(const Scene *scene, float4 vp, float4 nrm, float4 shade, float4 beta,
-                         GatherPoint *gp) {
+inline void gather_point(const Scene *scene, const VisiblePoints *vps, uint id, GatherPoint *gp) {
+    float4 vp = vps->pos[id], nrm = vps->nrm[id], shade = vps->shade[id], beta = vps->beta[id];
     float foot_r = SVM_FOOTPRINT ? beta.w : 0.0f;
     gp->nrm = nrm.xyz;
     gp->path = as_uint(nrm.w);
@@ -147,23 +148,21 @@ inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l, uint2 p
     return term;
 }
 
-__kernel void gather(SCENE_PARAMS __global const float4 *vp_pos, __global const float4 *vp_nrm,
-                     __global const float4 *vp_shade, __global const float4 *vp_beta,
-                     __global const float *radius, __global const Grid *grid,
-                     __global const ulong *table, uint table_mask, __global const float4 *ph_pos,
-                     __global const float4 *ph_flux, __global const uint2 *ph_path,
-                     __global float4 *gathered, uint n) {
+__kernel void gather(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *radius,
+                     __global const ulong *table, uint table_mask, uint n) {
     SCENE_LOAD(scene);
+    VP_LOAD(vps);
+    PHOTON_LOAD(photons);
     uint id = get_global_id(0);
     if (id >= n) return;
-    float4 vp = vp_pos[id];
-    Grid g = *grid;
+    float4 vp = vps->pos[id];
+    Grid g = *photons->grid;
     if (vp.w <= 0.0f || g.valid == 0u) {
-        gathered[id] = (float4)(0.0f);
+        vps->gathered[id] = (float4)(0.0f);
         return;
     }
     GatherPoint gp;
-    gather_point(scene, vp, vp_nrm[id], vp_shade[id], vp_beta[id], &gp);
+    gather_point(scene, vps, id, &gp);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
@@ -181,34 +180,32 @@ __kernel void gather(SCENE_PARAMS __global const float4 *vp_pos, __global const 
                 uint pi = ENTRY_INDEX(table, h);
                 float4 pf;
                 float cos_l;
-                if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi, c, &g,
-                                     &pf, &cos_l))
+                if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, photons->pos[pi],
+                                     photons->flux, pi, c, &g, &pf, &cos_l))
                     continue;
                 M += (float)cnt;
-                phi += (float)cnt * photon_term(&gp, pf, cos_l, ph_path[pi]);
+                phi += (float)cnt * photon_term(&gp, pf, cos_l, photons->path[pi]);
             }
-    gathered[id] = (float4)(phi, M);
+    vps->gathered[id] = (float4)(phi, M);
 }
 
 /* Exact gather (reference mode): every photon of every cell the disc overlaps. */
-__kernel void gather_exact(SCENE_PARAMS __global const float4 *vp_pos,
-                           __global const float4 *vp_nrm, __global const float4 *vp_shade,
-                           __global const float4 *vp_beta, __global const float *radius,
-                           __global const Grid *grid, __global const uint *ranges,
-                           __global const uint *sorted_ids, uint table_mask,
-                           __global const float4 *ph_pos, __global const float4 *ph_flux,
-                           __global const uint2 *ph_path, __global float4 *gathered, uint n) {
+__kernel void gather_exact(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *radius,
+                           __global const uint *ranges, __global const uint *sorted_ids,
+                           uint table_mask, uint n) {
     SCENE_LOAD(scene);
+    VP_LOAD(vps);
+    PHOTON_LOAD(photons);
     uint id = get_global_id(0);
     if (id >= n) return;
-    float4 vp = vp_pos[id];
-    Grid g = *grid;
+    float4 vp = vps->pos[id];
+    Grid g = *photons->grid;
     if (vp.w <= 0.0f || g.valid == 0u) {
-        gathered[id] = (float4)(0.0f);
+        vps->gathered[id] = (float4)(0.0f);
         return;
     }
     GatherPoint gp;
-    gather_point(scene, vp, vp_nrm[id], vp_shade[id], vp_beta[id], &gp);
+    gather_point(scene, vps, id, &gp);
     float3 x = vp.xyz;
     float r = radius[id], r2 = r * r;
     long3 lo, hi;
@@ -225,12 +222,12 @@ __kernel void gather_exact(SCENE_PARAMS __global const float4 *vp_pos,
                     uint pi = sorted_ids[s];
                     float4 pf;
                     float cos_l;
-                    if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, ph_pos[pi], ph_flux, pi,
-                                         (long3)(cx, cy, cz), &g, &pf, &cos_l))
+                    if (!photon_accepted(x, gp.nrm, gp.transmits, r2, r, photons->pos[pi],
+                                         photons->flux, pi, (long3)(cx, cy, cz), &g, &pf, &cos_l))
                         continue;
                     M += 1.0f;
-                    phi += photon_term(&gp, pf, cos_l, ph_path[pi]);
+                    phi += photon_term(&gp, pf, cos_l, photons->path[pi]);
                 }
             }
-    gathered[id] = (float4)(phi, M);
+    vps->gathered[id] = (float4)(phi, M);
 }

@@ -15,6 +15,7 @@
 #include "integrator/hash.h"
 #include "integrator/direct_light.h"
 #include "integrator/camera_connect.h"
+#include "integrator/pass_state.h"
 
 #include "shared.h"
 #include "geom/medium.h"
@@ -83,19 +84,19 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
     return setup;
 }
 
-__kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photons,
-                          __global const Grid *grid, uint capacity, __global float4 *ph_pos,
-                          __global float4 *ph_flux, __global uint2 *ph_path,
-                          __global uint *counters, uint caustics_only, __global float *lt_image,
-                          __global const float *lt_filter, int lt_n_table, float lt_reach,
-                          __global const float *radius, float lt_kappa) {
+__kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index, uint seed,
+                          uint n_photons, uint capacity, __global uint *counters,
+                          uint caustics_only, __global const float *lt_filter, float lt_reach,
+                          float lt_kappa) {
     SCENE_LOAD(scene);
+    FILM_LOAD(film);
+    PHOTON_LOAD(photons);
     uint id = get_global_id(0);
     if (id >= n_photons) return;
-    Grid g = *grid;
+    Grid g = *photons->grid;
     if (g.valid == 0u && capacity > 0u) return;
     uint rng = rng_seed(seed, pass_index, id, 2u);
-    Splat sp = {lt_image, lt_filter, radius, lt_n_table, lt_reach, lt_kappa};
+    Splat sp = {film->lt_pass, lt_filter, film->radius, FILTER_SAMPLES, lt_reach, lt_kappa};
     float3 o, d, flux;
     float rs; /* the radiance its light path carries over its flux (the clamp, gather.cl) */
     float2 nee;
@@ -166,10 +167,10 @@ __kernel void photon_pass(SCENE_PARAMS uint pass_index, uint seed, uint n_photon
             if (in_grid(s.p, &g)) {
                 uint k = atomic_inc(&counters[CNT_STORED]);
                 if (k < capacity) {
-                    ph_pos[k] = (float4)(s.p, as_float(pack_unit(Ng)));
-                    ph_flux[k] = (float4)(flux * shading, as_float(pack_unit(-d)));
+                    photons->pos[k] = (float4)(s.p, as_float(pack_unit(Ng)));
+                    photons->flux[k] = (float4)(flux * shading, as_float(pack_unit(-d)));
                     /* (the camera path's sample has no such factor: gather.cl's clamp) */
-                    ph_path[k] = (uint2)(ppath, as_uint(shading > 0.0f ? rs / shading : rs));
+                    photons->path[k] = (uint2)(ppath, as_uint(shading > 0.0f ? rs / shading : rs));
                 } else {
                     atomic_inc(&counters[CNT_OVERFLOW]);
                 }

@@ -12,6 +12,7 @@
 #include "builtins.h"
 #include "geom/geometry.h"
 #include "shared.h"
+#include "integrator/pass_state.h"
 
 #ifdef PPM_FP64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -80,21 +81,20 @@ __kernel void progressive_update(__global const float4 *vp_pos, __global const f
  * A radius whose square underflows (or a contribution that overflows) adds nothing: nothing
  * non-finite ever enters the sums.  gathered[id] is overwritten with this pass's photon term
  * (Phi / R^2, 0 when none) for film_add_sample, which counts the pass in moments after this. */
-__kernel void film_update(__global const float4 *vp_pos, __global const float4 *vp_beta,
-                          __global float4 *gathered, __global float *radius, __global float *nstat,
-                          __global float4 *photon_sum, float alpha, uint schedule,
-                          __global const uint *active, __global const float4 *moments, uint n) {
+__kernel void film_update(FILM_PARAMS VP_PARAMS float alpha, uint schedule, uint n) {
+    FILM_LOAD(film);
+    VP_LOAD(vps);
     uint id = get_global_id(0);
     if (id >= n) return;
-    float4 g = gathered[id];
-    gathered[id] = (float4)(0.0f);
-    float R = radius[id];
-    if (schedule == RADIUS_GLOBAL && active[id] && R > 0.0f) {
-        float k = (float)acc_get(moments, id).w + 1.0f; /* this pass is the pixel's k-th */
-        radius[id] = R * sqrt((k + alpha) / (k + 1.0f));
+    float4 g = vps->gathered[id];
+    vps->gathered[id] = (float4)(0.0f);
+    float R = film->radius[id];
+    if (schedule == RADIUS_GLOBAL && film->active[id] && R > 0.0f) {
+        float k = (float)acc_get(film->moments, id).w + 1.0f; /* this pass is the pixel's k-th */
+        film->radius[id] = R * sqrt((k + alpha) / (k + 1.0f));
     }
-    if (vp_pos[id].w <= 0.0f || !(g.w > 0.0f)) return;
-    float3 phi = vp_beta[id].xyz * g.xyz;
+    if (vps->pos[id].w <= 0.0f || !(g.w > 0.0f)) return;
+    float3 phi = vps->beta[id].xyz * g.xyz;
 #ifdef PPM_FP64
     double3 s = convert_double3(phi) / ((double)R * (double)R);
     float3 add = convert_float3(s);
@@ -104,16 +104,16 @@ __kernel void film_update(__global const float4 *vp_pos, __global const float4 *
 #endif
     if (!(R > 0.0f && isfinite(add.x) && isfinite(add.y) && isfinite(add.z))) return;
     if (schedule == RADIUS_GLOBAL) {
-        nstat[id] += g.w;
+        film->nstat[id] += g.w;
     } else {
-        float N = nstat[id];
+        float N = film->nstat[id];
         float3 t = (float3)(0.0f);
         ppm_update(alpha, g.w, phi, &N, &R, &t);
-        nstat[id] = N;
-        radius[id] = R;
+        film->nstat[id] = N;
+        film->radius[id] = R;
     }
-    acc_add(photon_sum, id, (float4)(add, 0.0f));
-    gathered[id] = (float4)(add, 0.0f);
+    acc_add(film->photon_sum, id, (float4)(add, 0.0f));
+    vps->gathered[id] = (float4)(add, 0.0f);
 }
 
 /* End of a pass, per active pixel: direct += this pass's (L, 1) (the eye pass writes (0, 0)
@@ -123,49 +123,46 @@ __kernel void film_update(__global const float4 *vp_pos, __global const float4 *
  * (direct + (photon term / pi + light tracing) / photons): the pixel's own photon count (for
  * film_resolve) and its noise (film_error).  photons: emitted this pass (0: no photon pass,
  * gathered and lt_pass are not read). */
-__kernel void film_add_sample(__global const float4 *direct_pass, __global const float4 *gathered,
-                              __global const uint *active, uint photons, __global float4 *direct,
-                              __global float4 *moments, __global float *lt_pass,
-                              __global float4 *lt_sum, uint lt, uint n) {
+__kernel void film_add_sample(FILM_PARAMS VP_PARAMS uint photons, uint lt, uint n) {
+    FILM_LOAD(film);
+    VP_LOAD(vps);
     uint id = get_global_id(0);
     if (id >= n) return;
     float3 l = (float3)(0.0f);
     if (lt && photons) {
-        l = vload3(id, lt_pass);
-        vstore3((float3)(0.0f), id, lt_pass);
+        l = vload3(id, film->lt_pass);
+        vstore3((float3)(0.0f), id, film->lt_pass);
         if (!(isfinite(l.x) && isfinite(l.y) && isfinite(l.z))) l = (float3)(0.0f);
     }
-    if (!active[id]) return;
-    float4 v = direct_pass[id];
-    if (v.w > 0.0f) acc_add(direct, id, v);
-    if (lt && photons) acc_add(lt_sum, id, (float4)(l, 0.0f));
+    if (!film->active[id]) return;
+    float4 v = film->direct_pass[id];
+    if (v.w > 0.0f) acc_add(film->direct, id, v);
+    if (lt && photons) acc_add(film->lt_sum, id, (float4)(l, 0.0f));
     float y = luminance(v.xyz);
     if (photons)
-        y += (luminance(gathered[id].xyz) * (1.0f / PPM_PI) + luminance(l))
+        y += (luminance(vps->gathered[id].xyz) * (1.0f / PPM_PI) + luminance(l))
              * (1.0f / (float)photons);
-    acc_add(moments, id, (float4)(y, y * y, (float)photons, 1.0f));
+    acc_add(film->moments, id, (float4)(y, y * y, (float)photons, 1.0f));
 }
 
 /* The per-pixel image: (direct mean + (S / pi + the light tracing's sum, lt: there is one) /
  * the photons emitted while the pixel was active, in moments.z: a pixel that converged keeps
  * its value) x the film's exposure; alpha 1 - the mean transparency of its passes (transparent
  * film, eye_pass.cl). */
-__kernel void film_resolve(__global const float4 *direct, __global const float4 *photon_sum,
-                           __global const float4 *moments, __global const float *transparency,
-                           __global const float4 *lt_sum, uint lt, float exposure,
-                           __global float4 *image, uint n) {
+__kernel void film_resolve(FILM_PARAMS uint lt, float exposure, uint n) {
+    FILM_LOAD(film);
     uint id = get_global_id(0);
     if (id >= n) return;
-    acc4 d = acc_get(direct, id);
+    acc4 d = acc_get(film->direct, id);
     acc4 c = d.w > 0 ? d / d.w : (acc4)(0);
-    acc4 m = acc_get(moments, id);
+    acc4 m = acc_get(film->moments, id);
     if (m.z > 0) {
-        acc4 s = acc_get(photon_sum, id) / PPM_PI;
-        if (lt) s += acc_get(lt_sum, id);
+        acc4 s = acc_get(film->photon_sum, id) / PPM_PI;
+        if (lt) s += acc_get(film->lt_sum, id);
         c += s / m.z;
     }
-    float alpha = m.w > 0 ? 1.0f - clamp(transparency[id] / (float)m.w, 0.0f, 1.0f) : 1.0f;
-    image[id] = (float4)(convert_float3(c.xyz) * exposure, alpha);
+    float alpha = m.w > 0 ? 1.0f - clamp(film->transparency[id] / (float)m.w, 0.0f, 1.0f) : 1.0f;
+    film->image[id] = (float4)(convert_float3(c.xyz) * exposure, alpha);
 }
 
 /* Adaptive sampling, step 1: each pixel's estimated error, the standard error of its mean
@@ -173,37 +170,37 @@ __kernel void film_resolve(__global const float4 *direct, __global const float4 
  * dark pixels need less absolute precision); infinite before min_passes, and while a pixel
  * that gathers photons still has a radius above max_radius x its initial one (passes/update.py
  * ProgressiveUpdate.ADAPTIVE_MAX_RADIUS: the spread does not show the radius' bias). */
-__kernel void film_error(__global const float4 *moments, __global const float *nstat,
-                         __global const float *radius, __global const float *radius0,
-                         float max_radius, uint min_passes, __global float *error, uint n) {
+__kernel void film_error(FILM_PARAMS float max_radius, uint min_passes, uint n) {
+    FILM_LOAD(film);
     uint id = get_global_id(0);
     if (id >= n) return;
-    acc4 m = acc_get(moments, id);
+    acc4 m = acc_get(film->moments, id);
     float k = (float)m.w;
     if (k < (float)max(min_passes, 2u)
-        || (nstat[id] > 0.0f && radius[id] > max_radius * radius0[id])) {
-        error[id] = INFINITY;
+        || (film->nstat[id] > 0.0f && film->radius[id] > max_radius * film->radius0[id])) {
+        film->error[id] = INFINITY;
         return;
     }
     float mean = (float)(m.x / m.w);
     float var = fmax((float)((m.y - m.x * m.x / m.w) / (m.w - 1)), 0.0f);
-    error[id] = sqrt(var / k) / sqrt(fmax(mean, 1e-4f));
+    film->error[id] = sqrt(var / k) / sqrt(fmax(mean, 1e-4f));
 }
 
 /* Step 2: a pixel stays active while any pixel of its 3x3 neighbourhood is above the threshold
  * (an isolated lucky pixel does not stop early); counts the active pixels. */
-__kernel void film_converge(__global const float *error, int width, int height, float threshold,
-                            __global uint *active, __global uint *counters) {
+__kernel void film_converge(FILM_PARAMS int width, int height, float threshold,
+                            __global uint *counters) {
+    FILM_LOAD(film);
     int id = get_global_id(0);
     if (id >= width * height) return;
-    if (!active[id]) return;
+    if (!film->active[id]) return;
     int x = id % width, y = id / width;
     float e = 0.0f;
     for (int dy = -1; dy <= 1; dy++)
         for (int dx = -1; dx <= 1; dx++) {
             int xx = clamp(x + dx, 0, width - 1), yy = clamp(y + dy, 0, height - 1);
-            e = fmax(e, error[yy * width + xx]);
+            e = fmax(e, film->error[yy * width + xx]);
         }
     if (e > threshold) atomic_inc(&counters[CNT_ACTIVE]);
-    else active[id] = 0u;
+    else film->active[id] = 0u;
 }

@@ -1,5 +1,13 @@
-"""Per-pixel SPPM accumulators on the device and their resolve to a linear RGBA image."""
+"""Per-pixel SPPM accumulators on the device and their resolve to a linear RGBA image.
+
+FILM_BUFFERS lists the film's per-pixel buffers once.  kernels/shared.h gets it as the X-macro
+FILM_DATA (ppm_engine/tools/shared_header.py), from which kernels/integrator/pass_state.h makes
+the kernels' film parameters (``film_NAME``) and the struct every kernel reads them from
+(``const Film *film``); Launch binds them by name from ``Film.args``.  A new per-pixel buffer
+is one row here."""
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
@@ -15,6 +23,44 @@ def has_fp64(device) -> bool:
         return bool(d.double_fp_config)
     except Exception:       # devices without doubles may refuse the query
         return False
+
+
+@dataclasses.dataclass(frozen=True)
+class PassBuffer:
+    """One buffer of a pass's state (FILM_BUFFERS, passes/eye.py VP_BUFFERS, photon_map.py
+    PHOTON_BUFFERS)."""
+    name: str             # the struct's field (film->name) and, prefixed, the kernels' parameter
+    element: np.dtype     # one element as the kernels read it (its C type: shared_header)
+    bytes: int            # bytes per pixel where a film or the visible points allocate it (a
+                          # sum of 32 bytes: a double4, or a float4 and its compensation)
+    what: str             # what it holds (the allocation's label, the header's comment)
+    fill: int | None = 0  # the uint32 a new film clears it to; None: not cleared
+
+
+_F4 = np.dtype((np.float32, 4))
+_F, _U = np.dtype(np.float32), np.dtype(np.uint32)
+
+# The film's per-pixel buffers, in the kernels' parameter order (film_NAME).
+FILM_BUFFERS = (
+    PassBuffer("direct_pass", _F4, 16, "this pass's sample (rgb, 1; eye_pass.cl)"),
+    PassBuffer("direct", _F4, 32, "sum of the direct samples (rgb, count)"),
+    PassBuffer("photon_sum", _F4, 32, "S = sum of Phi / R^2"),
+    PassBuffer("nstat", _F, 4, "N, the photons gathered"),
+    PassBuffer("radius", _F, 4, "R, the gather radius"),
+    PassBuffer("radius0", _F, 4, "the initial radius"),
+    PassBuffer("moments", _F4, 32,
+               "(sum y, sum y^2, photons while active, passes) of samples y"),
+    PassBuffer("active", _U, 4, "1 while the pixel is sampled (adaptive sampling)", fill=1),
+    PassBuffer("error", _F, 4, "estimated error (adaptive sampling)", fill=None),
+    PassBuffer("aux_albedo", _F4, 16, "denoising albedo (sum, count)"),
+    PassBuffer("aux_normal", _F4, 16, "denoising normal (sum, count)"),
+    PassBuffer("transparency", _F, 4, "sum of the passes' transparency (transparent film)"),
+    PassBuffer("lt_pass", _F, 12, "light tracing: this pass's splats (rgb)"),
+    PassBuffer("lt_sum", _F4, 32, "light tracing: sum of the passes' splats"),
+    PassBuffer("image", _F4, 16, "the resolved image (film_resolve)", fill=None),
+)
+# allocated only for a render that connects photons to the camera (enable_light_tracing)
+_LIGHT_TRACING = ("lt_pass", "lt_sum")
 
 
 class Film:
@@ -38,23 +84,10 @@ class Film:
         self.width, self.height = width, height
         self.fp64 = has_fp64(device) if fp64 is None else bool(fp64)
         n = self.n_pixels = width * height
-        self.direct_pass = device.buffer(16 * n, "film (direct light)")
-        self.direct = device.buffer(32 * n, "film (direct light)")
-        self.photon_sum = device.buffer(32 * n, "film (photon flux)")
-        self.nstat = device.buffer(4 * n, "film (N)")
-        self.radius = device.buffer(4 * n, "film (radius)")
-        self.radius0 = device.buffer(4 * n, "film (initial radius)")
-        self.image_buf = device.buffer(16 * n, "film (image)")
-        # per pixel: (sum y, sum y^2, photons emitted while active, passes) of its samples y
-        # (progressive.cl film_add_sample); 1 while the pixel is sampled (adaptive sampling)
-        self.moments = device.buffer(32 * n, "film (moments)")
-        self.active = device.buffer(4 * n, "film (active pixels)")
-        self.error = device.buffer(4 * n, "film (error)")
-        # denoising passes (eye_pass.cl adds (value, 1) at each visible point)
-        self.aux_albedo = device.buffer(16 * n, "film (denoising albedo)")
-        self.aux_normal = device.buffer(16 * n, "film (denoising normal)")
-        # transparent film: the sum over passes of the share of the sample that reached the world
-        self.transparency = device.buffer(4 * n, "film (transparency)")
+        # FILM_BUFFERS, each an attribute of its name (the light tracing's below)
+        for b in FILM_BUFFERS:
+            if b.name not in _LIGHT_TRACING:
+                setattr(self, b.name, device.buffer(b.bytes * n, f"film ({b.what})"))
         # the photons' light tracing (photon_pass.cl connect_camera): this pass's splats (rgb
         # per pixel, float atomics) and their sum over the passes the pixel was active in (its
         # photon count is the photon term's, moments.z).  44 bytes per pixel (87 MiB at
@@ -63,14 +96,18 @@ class Film:
         self.light_tracing = False
         self.lt_pass = self.lt_sum = device.buffer(16, "film (light tracing: none)")
         self.exposure = 1.0           # Cycles' film exposure (the camera's; Renderer sets it)
-        for b, size in ((self.direct_pass, 16), (self.direct, 32), (self.photon_sum, 32),
-                        (self.nstat, 4), (self.radius, 4), (self.radius0, 4), (self.aux_albedo, 16),
-                        (self.aux_normal, 16), (self.moments, 32), (self.transparency, 4)):
-            cl.enqueue_fill_buffer(device.queue, b, np.uint32(0), 0, size * n)
-        cl.enqueue_fill_buffer(device.queue, self.active, np.uint32(1), 0, 4 * n)
+        for b in FILM_BUFFERS:
+            if b.fill is not None and b.name not in _LIGHT_TRACING:
+                cl.enqueue_fill_buffer(device.queue, getattr(self, b.name), np.uint32(b.fill), 0,
+                                       b.bytes * n)
         self.photons_emitted = 0      # Python int: exact at any count
         self.prog = device.programs.get("integrator/progressive.cl",
                                         {"PPM_FP64": True} if self.fp64 else {})
+
+    @property
+    def args(self) -> dict:
+        """The film's buffers by the kernels' parameter names (film_NAME; FILM_BUFFERS)."""
+        return {f"film_{b.name}": getattr(self, b.name) for b in FILM_BUFFERS}
 
     def enable_light_tracing(self) -> None:
         """Allocate (zeroed) the light tracing's per-pixel buffers: the render connects its
@@ -98,12 +135,10 @@ class Film:
         q = self.device.queue
         n = self.n_pixels
         ev = self.prog.launch("film_resolve", "resolve")(
-            q, n, wait_for=wait_for, direct=self.direct, photon_sum=self.photon_sum,
-            moments=self.moments, transparency=self.transparency, lt_sum=self.lt_sum,
-            lt=np.uint32(self.light_tracing), exposure=np.float32(self.exposure),
-            image=self.image_buf, n=np.uint32(n))
+            q, n, wait_for=wait_for, **self.args, lt=np.uint32(self.light_tracing),
+            exposure=np.float32(self.exposure), n=np.uint32(n))
         out = np.empty((self.height, self.width, 4), np.float32)
-        ev2 = cl.enqueue_copy(q, out, self.image_buf, wait_for=[ev], is_blocking=False)
+        ev2 = cl.enqueue_copy(q, out, self.image, wait_for=[ev], is_blocking=False)
         return ev2, out
 
     def aux_passes(self) -> dict:

@@ -1,10 +1,17 @@
 """The photon map's storage: this pass's photons, the grid over the visible points and the
 stochastic spatial hash table (layout: kernels/integrator/hash.h), with host views for tests and
 statistics.  The passes that fill and read it: passes/photons.py, passes/hash_build.py,
-passes/gather.py."""
+passes/gather.py.
+
+PHOTON_BUFFERS lists the buffers the photon pass writes and the gather reads: kernels/shared.h
+gets them as the X-macro PHOTON_DATA, from which kernels/integrator/pass_state.h makes the
+kernels' parameters (``ph_NAME``) and the struct ``Photons`` (``const Photons *photons``);
+Launch binds them by name from ``PhotonMap.args``."""
 from __future__ import annotations
 
 import numpy as np
+
+from ppm_engine.render.film import PassBuffer
 
 # the stochastic hash's grid, written on the device by grid_setup (kernels/integrator/hash_build.cl)
 GRID_DTYPE = np.dtype([
@@ -17,6 +24,16 @@ GRID_DTYPE = np.dtype([
     ("valid", np.uint32),         # the visible points of this pass
     ("pad", np.uint32),
 ])
+
+
+# The photons' buffers, in the kernels' parameter order (ph_NAME; PhotonMap.args).
+PHOTON_BUFFERS = (
+    PassBuffer("grid", GRID_DTYPE, 0, "the grid over this pass's visible points"),
+    PassBuffer("pos", np.dtype((np.float32, 4)), 0, "position; w: the normal packed"),
+    PassBuffer("flux", np.dtype((np.float32, 4)), 0, "flux; w: where it came from, packed"),
+    PassBuffer("path", np.dtype((np.uint32, 2)), 0,
+               "its bounces (path_state.h), the radiance over its flux (the clamp)"),
+)
 
 
 def next_pow2(n: int) -> int:
@@ -54,6 +71,13 @@ class PhotonMap:
             self.sort_keys = dev.buffer(4 * self.capacity, "photon sort keys")
             self.sort_ids = dev.buffer(4 * self.capacity, "photon sort keys")
             self.ranges = dev.buffer(8 * self.table_size, "photon ranges")
+
+    @property
+    def args(self) -> dict:
+        """The photons' buffers by the kernels' parameter names (ph_NAME; PHOTON_BUFFERS), each
+        the attribute ph_NAME (the grid: ``grid``)."""
+        return {f"ph_{b.name}": self.grid if b.name == "grid" else getattr(self, f"ph_{b.name}")
+                for b in PHOTON_BUFFERS}
 
     @property
     def table_mask(self) -> np.uint32:

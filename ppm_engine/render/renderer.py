@@ -255,12 +255,9 @@ class Renderer:
                 return None
             events += photon_events
             events += self.hash_build.build(q, pass_index, o.seed)
-            events += self.gather.enqueue(q, v.pos, v.nrm, v.shade, film.radius, v.gathered, n,
-                                          vp_beta=v.beta)
-            events += self.update.update(q, v.pos, v.beta, v.gathered, o.alpha,
-                                         o.radius_schedule)
-        events += self.update.add_sample(q, v.gathered, emitted,
-                                         light_traced=self.lt_kappa > 0)
+            events += self.gather.enqueue(q, v, film.radius)
+            events += self.update.update(q, v, o.alpha, o.radius_schedule)
+        events += self.update.add_sample(q, v, emitted, light_traced=self.lt_kappa > 0)
         converge = self.update.due(pass_index + 1, o.noise_threshold)
         if converge:
             events += self.update.converge(q, o.noise_threshold, self.counters)

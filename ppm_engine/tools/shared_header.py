@@ -8,12 +8,13 @@ written once.
 shared.h holds, each with the table it comes from: the ``#define`` families of codes and flags
 (visibility bits, light and node types, material flags, counters, the shading tables'
 offsets...), the structs that mirror the NumPy dtypes field for field (the dtypes' field comments
-come along), and the scene's buffers as one X-macro list (``SCENE_DATA``,
-device_scene.SCENE_BUFFERS); it includes shared_features.h, the kernels' feature flags and build
-parameters (``#ifndef`` defaults: a program built without ``-D`` flags has every feature), and
-shared_svm.h, the shader program's op codes and the codes of its nodes' options.  shared_color.h
-(which kernels/svm/svm_color.h includes) holds the Blackbody and Wavelength nodes' tables
-(ppm_engine/scene/spectra.py).
+come along), and the scene's, the film's, the visible points' and the photons' buffers as
+X-macro lists (``SCENE_DATA``, ``FILM_DATA``, ``VP_DATA``, ``PHOTON_DATA`` from SCENE_BUFFERS,
+FILM_BUFFERS, VP_BUFFERS, PHOTON_BUFFERS); it includes shared_features.h, the kernels' feature
+flags and build parameters (``#ifndef`` defaults: a program built without ``-D`` flags has every
+feature), and shared_svm.h, the shader program's op codes and the codes of its nodes' options.
+shared_color.h (which kernels/svm/svm_color.h includes) holds the Blackbody and Wavelength
+nodes' tables (ppm_engine/scene/spectra.py).
 
 Kernel code uses these names and never repeats a number of theirs; what only the kernels use
 (closure types, sample labels, the Light Path node's bits) stays in the kernel headers."""
@@ -130,7 +131,7 @@ def _struct(ctype: str, dtype: np.dtype, origin: str, comments: dict[str, str]) 
 def generate() -> str:
     """The text of kernels/shared.h from the Python tables."""
     from ppm_engine.render import counters, photon_map
-    from ppm_engine.render.film import FILTER_TABLE_SIZE
+    from ppm_engine.render.film import FILTER_SAMPLES, FILTER_TABLE_SIZE
     from ppm_engine.render.passes import gather, hash_build
     from ppm_engine.scene import arrays as sa
     from ppm_engine.scene import camera as camera_model
@@ -173,9 +174,9 @@ def generate() -> str:
                     [("LOCAL_PICK_MAX", emitters.LOCAL_PICK_MAX)]),
             _family("the light tree's traversal stack for rays (ppm_engine/scene/light_tree.py "
                     "LIGHT_TREE_STACK)", [("LIGHT_TREE_STACK", light_tree.LIGHT_TREE_STACK)]),
-            _family("entries of the pixel filter's table (ppm_engine/render/film.py "
-                    "FILTER_TABLE_SIZE)",
-                    [("FILTER_TABLE_SIZE", FILTER_TABLE_SIZE)]),
+            _family("entries of the pixel filter's table, samples of its density (the light "
+                    "tracing's splat; ppm_engine/render/film.py)",
+                    [("FILTER_TABLE_SIZE", FILTER_TABLE_SIZE), ("FILTER_SAMPLES", FILTER_SAMPLES)]),
             _family("offsets of the shading tables in their buffer "
                     "(ppm_engine/scene/shading_tables.py LAYOUT, SIZE)",
                     [("TAB_" + k.upper(), off) for k, (off, _) in st.LAYOUT.items()]
@@ -384,25 +385,39 @@ def generate_all() -> dict[str, str]:
 
 
 def _scene_data(struct_types: dict) -> list[str]:
-    """The scene's buffers as the X-macro SCENE_DATA(X): X(element type, name) for each."""
+    """The buffer lists as X-macros X(element type, name): the scene's (SCENE_DATA; scene.h
+    makes the Scene struct of them), the film's, the visible points' and the photons' (FILM_DATA,
+    VP_DATA, PHOTON_DATA; integrator/pass_state.h makes Film, VisiblePoints, Photons)."""
     from ppm_engine.render.device_scene import SCENE_BUFFERS
+    from ppm_engine.render.film import FILM_BUFFERS
+    from ppm_engine.render.passes.eye import VP_BUFFERS
+    from ppm_engine.render.photon_map import PHOTON_BUFFERS
     vector = {np.dtype((np.float32, 4)): "float4", np.dtype((np.int32, 4)): "int4",
-              np.dtype(np.float16): "half"}
-    rows = []
-    for b in SCENE_BUFFERS:
-        ctype = struct_types.get(b.element) or vector.get(b.element) or _C_TYPES[b.element]
-        rows.append((f"X({ctype}, {b.name})", b.what))
-    width = max(len(x) for x, _ in rows) + 1
-    lines = _comment("--- the scene's buffers (ppm_engine/render/device_scene.py SCENE_BUFFERS), "
-                     "in the "
-                     "kernels' parameter order: X(element type, name); kernels/scene.h makes "
-                     "the kernels' parameters and the Scene struct of them") + \
-        ["#define SCENE_DATA(X) \\"]
-    for k, (x, what) in enumerate(rows):
-        end = " \\" if k < len(rows) - 1 else ""
-        line = f"    {x:<{width}}/* {what} */"
-        lines.append(line + end if len(line + end) <= WIDTH else f"    {x}{end}")
-    return lines
+              np.dtype((np.uint32, 2)): "uint2", np.dtype(np.float16): "half"}
+    pass_h = "integrator/pass_state.h"
+    lines = []
+    for macro, buffers, what, table, header, struct in (
+            ("SCENE", SCENE_BUFFERS, "scene's", "device_scene.py SCENE_BUFFERS", "scene.h",
+             "Scene struct"),
+            ("FILM", FILM_BUFFERS, "film's per-pixel", "film.py FILM_BUFFERS", pass_h,
+             "Film struct (film_NAME)"),
+            ("VP", VP_BUFFERS, "visible points'", "passes/eye.py VP_BUFFERS", pass_h,
+             "VisiblePoints struct (vp_NAME)"),
+            ("PHOTON", PHOTON_BUFFERS, "photons'", "photon_map.py PHOTON_BUFFERS", pass_h,
+             "Photons struct (ph_NAME)")):
+        rows = [(f"X({struct_types.get(b.element) or vector.get(b.element) or _C_TYPES[b.element]}"
+                 f", {b.name})", b.what) for b in buffers]
+        width = max(len(x) for x, _ in rows) + 1
+        lines += _comment(f"--- the {what} buffers (ppm_engine/render/{table}), in the kernels' "
+                          f"parameter order: X(element type, name); kernels/{header} makes the "
+                          f"kernels' parameters and the {struct} of them")
+        lines.append(f"#define {macro}_DATA(X) \\")
+        for k, (x, note) in enumerate(rows):
+            end = " \\" if k < len(rows) - 1 else ""
+            line = f"    {x:<{width}}/* {note} */"
+            lines.append(line + end if len(line + end) <= WIDTH else f"    {x}{end}")
+        lines.append("")
+    return lines[:-1]
 
 
 def folder() -> Path:

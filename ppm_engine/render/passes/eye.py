@@ -1,12 +1,29 @@
 """The eye pass (kernels/integrator/eye_pass.cl): one jittered camera ray per pixel through the
 closures paths follow to a hit whose closures the gather evaluates, where it stores a visible point
-and adds direct light."""
+and adds direct light.
+
+VP_BUFFERS lists the visible points' buffers once: kernels/shared.h gets them as the X-macro
+VP_DATA, from which kernels/integrator/pass_state.h makes the kernels' parameters (``vp_NAME``)
+and the struct ``VisiblePoints`` (``const VisiblePoints *vps``); Launch binds them by name from
+``VisiblePoints.args``."""
 from __future__ import annotations
 
 import numpy as np
 
 from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.device.program import in_pieces
+from ppm_engine.render.film import PassBuffer
+
+_F4 = np.dtype((np.float32, 4))
+
+# The visible points' buffers, in the kernels' parameter order (vp_NAME).
+VP_BUFFERS = (
+    PassBuffer("pos", _F4, 16, "position; w: 0 none, 1 a visible point, 2 one that transmits"),
+    PassBuffer("nrm", _F4, 16, "the surface's normal; w: the path (path_state.h), as bits"),
+    PassBuffer("beta", _F4, 16, "the path weight (the photon term's factor); w: the footprint"),
+    PassBuffer("shade", _F4, 16, "the hit shaded again: u, v, BVH leaf (-1: Lambert), wi packed"),
+    PassBuffer("gathered", _F4, 16, "the gather's result: (sum of flux x f, photons)"),
+)
 
 
 class VisiblePoints:
@@ -14,16 +31,24 @@ class VisiblePoints:
     none, 1 a visible point, 2 one whose closures transmit), shading normal, the path weight (the
     photon term's factor), and the hit it shades again (barycentrics, BVH leaf, the view direction
     packed; leaf -1 for a Lambert point, whose constant f is in the path weight); and 16 bytes
-    of the gather's result."""
+    of the gather's result.  ``given``: device buffers to use for some of VP_BUFFERS (kernel
+    tests), the others allocated."""
     BYTES = 64
 
-    def __init__(self, device, n: int):
+    def __init__(self, device, n: int, **given):
+        unknown = set(given) - {b.name for b in VP_BUFFERS}
+        if unknown:
+            raise TypeError(f"not visible points' buffers: {sorted(unknown)}")
         self.n = n
-        self.pos = device.buffer(16 * n, "visible points")
-        self.nrm = device.buffer(16 * n, "visible points")
-        self.beta = device.buffer(16 * n, "visible points")
-        self.shade = device.buffer(16 * n, "visible points")
-        self.gathered = device.buffer(16 * n, "gather results")
+        for b in VP_BUFFERS:
+            setattr(self, b.name, given[b.name] if b.name in given else
+                    device.buffer(b.bytes * n, "gather results" if b.name == "gathered"
+                                  else "visible points"))
+
+    @property
+    def args(self) -> dict:
+        """The buffers by the kernels' parameter names (vp_NAME; VP_BUFFERS)."""
+        return {f"vp_{b.name}": getattr(self, b.name) for b in VP_BUFFERS}
 
 
 class EyePass:
@@ -52,14 +77,10 @@ class EyePass:
 
     def _launch(self, q, count: int, start: int, pass_index: int, options, path_indirect: bool,
                 lt_kappa: float):
-        f, v = self.film, self.vps
         return self.kernel(
-            q, count, SHADING_GROUP, offset=start, **self.scene.args,
-            pass_index=np.uint32(pass_index),
-            seed=np.uint32(options.seed), initial_radius=np.float32(options.initial_radius),
+            q, count, SHADING_GROUP, offset=start, **self.scene.args, **self.film.args,
+            **self.vps.args, pass_index=np.uint32(pass_index), seed=np.uint32(options.seed),
+            initial_radius=np.float32(options.initial_radius),
             auto_radius_pixels=np.float32(self.AUTO_RADIUS_PIXELS),
-            filter_table=self.scene.filter_table, direct=f.direct_pass, radius=f.radius,
-            radius0=f.radius0, vp_pos=v.pos, vp_nrm=v.nrm, vp_beta=v.beta, vp_shade=v.shade,
-            counters=self.counters, aux_albedo=f.aux_albedo, aux_normal=f.aux_normal,
-            active=f.active, transparency=f.transparency,
+            filter_table=self.scene.filter_table, counters=self.counters,
             path_indirect=np.uint32(path_indirect), lt_kappa=np.float32(lt_kappa))

@@ -36,8 +36,8 @@ def gather_defines(defines: dict | None) -> dict:
 
 
 def unshaded(device, n: int):
-    """A vp_shade buffer of n visible points with no hit to shade: their f is 1, so the gather
-    sums plain flux (kernel tests, micro benchmarks)."""
+    """The shade buffer (passes/eye.py VP_BUFFERS) of n visible points with no hit to shade:
+    their f is 1, so the gather sums plain flux (kernel tests, micro benchmarks)."""
     shade = np.zeros((n, 4), np.float32)
     shade.view(np.int32)[:, 2] = -1
     return device.upload(shade, "visible points")
@@ -56,18 +56,15 @@ class Gather:
         self.k_exact = p.launch("gather_exact", "gather")
         self.scene_args = scene.args if scene is not None else placeholders(device)
 
-    def enqueue(self, q, vp_pos, vp_nrm, vp_shade, radius, gathered, n: int,
-                vp_beta=None) -> list:
-        """gathered[i] = (sum of n x flux x f, sum of n) over the accepted entries, f the
-        visible point's BSDF for the photon's direction; ``vp_beta``'s w: the visible points'
-        ray footprints (Bump nodes; any float4 buffer of n where nothing is shaded)."""
+    def enqueue(self, q, vps, radius, n: int | None = None) -> list:
+        """vps.gathered[i] = (sum of n x flux x f, sum of n) over the accepted entries, f the
+        visible point's BSDF for the photon's direction, for the first ``n`` (all) of ``vps``
+        (passes/eye.py VisiblePoints: their buffers bound by name); ``radius``: each one's
+        (the film's).  vps.beta's w: the visible points' ray footprints (Bump nodes)."""
         pm = self.photon_map
-        common = dict(vp_pos=vp_pos, vp_nrm=vp_nrm, vp_shade=vp_shade,
-                      vp_beta=vp_nrm if vp_beta is None else vp_beta, radius=radius,
-                      grid=pm.grid, table_mask=pm.table_mask, ph_pos=pm.ph_pos,
-                      ph_flux=pm.ph_flux, ph_path=pm.ph_path, gathered=gathered,
-                      n=np.uint32(n),
-                      **self.scene_args)
+        n = vps.n if n is None else n
+        common = dict(**self.scene_args, **vps.args, **pm.args, radius=radius,
+                      table_mask=pm.table_mask, n=np.uint32(n))
         if pm.exact:
             ev = self.k_exact(q, n, SHADING_GROUP, **common, ranges=pm.ranges,
                               sorted_ids=pm.sorted[1].data)

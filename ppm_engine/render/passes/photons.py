@@ -6,7 +6,7 @@ import numpy as np
 
 from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.device.program import in_pieces
-from ppm_engine.render.film import FILTER_SAMPLES
+from ppm_engine.render.film import FILM_BUFFERS
 
 
 class PhotonPass:
@@ -33,16 +33,14 @@ class PhotonPass:
                 caustics_only: bool, pilot: bool, film, lt_kappa: float):
         pm = self.photon_map
         lt = film is not None and lt_kappa > 0 and not pilot
+        # the film's buffers, read only where light tracing is on: any buffer stands for them
+        # without a film
+        film_args = film.args if film is not None else dict.fromkeys(
+            (f"film_{b.name}" for b in FILM_BUFFERS), pm.ph_pos)
         return self.kernel(
-            q, count, SHADING_GROUP, offset=start, **self.scene.args,
-            pass_index=np.uint32(pass_index),
-            seed=np.uint32(options.seed), n_photons=np.uint32(n_photons), grid=pm.grid,
-            capacity=np.uint32(0 if pilot else pm.capacity),
-            ph_pos=pm.ph_pos, ph_flux=pm.ph_flux, ph_path=pm.ph_path,
-            counters=self.counters,
-            caustics_only=np.uint32(caustics_only or pilot),
-            lt_image=film.lt_pass if lt else pm.ph_pos,
-            lt_filter=self.scene.filter_density, lt_n_table=np.int32(FILTER_SAMPLES),
-            lt_reach=np.float32(self.scene.filter_reach),
-            radius=film.radius if lt else pm.ph_pos,
+            q, count, SHADING_GROUP, offset=start, **self.scene.args, **film_args, **pm.args,
+            pass_index=np.uint32(pass_index), seed=np.uint32(options.seed),
+            n_photons=np.uint32(n_photons), capacity=np.uint32(0 if pilot else pm.capacity),
+            counters=self.counters, caustics_only=np.uint32(caustics_only or pilot),
+            lt_filter=self.scene.filter_density, lt_reach=np.float32(self.scene.filter_reach),
             lt_kappa=np.float32(lt_kappa if lt else 0.0))

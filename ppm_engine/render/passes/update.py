@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ppm_engine.render.options import RADIUS_SCHEDULES
+from ppm_engine.render.passes.eye import VP_BUFFERS
 
 
 class ProgressiveUpdate:
@@ -27,32 +28,29 @@ class ProgressiveUpdate:
         self.k_error = p.launch("film_error", "adaptive")
         self.k_converge = p.launch("film_converge", "adaptive")
 
-    def update(self, q, vp_pos, vp_beta, gathered, alpha: float,
-               schedule: str = "pixel") -> list:
-        """S from this pass's gather, N and R for the next by ``schedule`` (a
-        RenderOptions.radius_schedule); leaves this pass's photon term in ``gathered`` for
-        add_sample."""
+    def update(self, q, vps, alpha: float, schedule: str = "pixel") -> list:
+        """S from this pass's gather (``vps``: passes/eye.py VisiblePoints, its gathered), N and R
+        for the next by ``schedule`` (a RenderOptions.radius_schedule); leaves this pass's photon
+        term in vps.gathered for add_sample."""
         f = self.film
-        return [("update", self.k_update(q, f.n_pixels, vp_pos=vp_pos, vp_beta=vp_beta,
-                                         gathered=gathered, radius=f.radius, nstat=f.nstat,
-                                         photon_sum=f.photon_sum, alpha=np.float32(alpha),
+        return [("update", self.k_update(q, f.n_pixels, **f.args, **vps.args,
+                                         alpha=np.float32(alpha),
                                          schedule=np.uint32(RADIUS_SCHEDULES.index(schedule)),
-                                         active=f.active, moments=f.moments,
                                          n=np.uint32(f.n_pixels)))]
 
-    def add_sample(self, q, gathered=None, photons: int = 0, light_traced: bool = False
-                   ) -> list:
+    def add_sample(self, q, vps=None, photons: int = 0, light_traced: bool = False) -> list:
         """This pass's direct sample (film.direct_pass) into the sums, and the pass's sample
-        (direct + the photon term in ``gathered`` over ``photons`` emitted) into the moments,
+        (direct + the photon term in vps.gathered over ``photons`` emitted) into the moments,
         for active pixels; ``light_traced``: also the photons' light tracing of this pass
-        (film.lt_pass, cleared for the next) into its sum."""
+        (film.lt_pass, cleared for the next) into its sum.  Without ``vps`` (no photons) any
+        buffer stands for the visible points', which are not read."""
         f = self.film
         f.photons_emitted += photons
-        return [("update", self.k_add(q, f.n_pixels, direct_pass=f.direct_pass,
-                                      gathered=gathered if gathered is not None else f.direct_pass,
-                                      active=f.active, photons=np.uint32(photons),
-                                      direct=f.direct, moments=f.moments, lt_pass=f.lt_pass,
-                                      lt_sum=f.lt_sum, lt=np.uint32(light_traced and photons > 0),
+        vp_args = vps.args if vps is not None else dict.fromkeys(
+            (f"vp_{b.name}" for b in VP_BUFFERS), f.direct_pass)
+        return [("update", self.k_add(q, f.n_pixels, **f.args, **vp_args,
+                                      photons=np.uint32(photons),
+                                      lt=np.uint32(light_traced and photons > 0),
                                       n=np.uint32(f.n_pixels)))]
 
     def due(self, passes_done: int, threshold: float) -> bool:
@@ -64,13 +62,10 @@ class ProgressiveUpdate:
         """Pixels whose 3x3 neighbourhood's estimated error is at most ``threshold`` stop being
         sampled; counters[Counter.ACTIVE] += the pixels still active."""
         f = self.film
-        e1 = self.k_error(q, f.n_pixels, moments=f.moments, nstat=f.nstat, radius=f.radius,
-                          radius0=f.radius0, max_radius=np.float32(self.ADAPTIVE_MAX_RADIUS),
-                          min_passes=np.uint32(self.ADAPTIVE_MIN_PASSES), error=f.error,
-                          n=np.uint32(f.n_pixels))
-        e2 = self.k_converge(q, f.n_pixels, wait_for=[e1], error=f.error,
-                             width=np.int32(f.width), height=np.int32(f.height),
-                             threshold=np.float32(threshold), active=f.active,
+        e1 = self.k_error(q, f.n_pixels, **f.args, max_radius=np.float32(self.ADAPTIVE_MAX_RADIUS),
+                          min_passes=np.uint32(self.ADAPTIVE_MIN_PASSES), n=np.uint32(f.n_pixels))
+        e2 = self.k_converge(q, f.n_pixels, wait_for=[e1], **f.args, width=np.int32(f.width),
+                             height=np.int32(f.height), threshold=np.float32(threshold),
                              counters=counters)
         return [("adaptive", e1), ("adaptive", e2)]
 

@@ -20,7 +20,7 @@ from ppm_engine.render.counters import N_COUNTERS, Counter
 from ppm_engine.render.device import get_device
 from ppm_engine.render.device_scene import placeholders
 from ppm_engine.render.options import RenderOptions
-from ppm_engine.render.passes import Gather, HashBuild, unshaded
+from ppm_engine.render.passes import Gather, HashBuild, VisiblePoints, unshaded
 from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.camera import make_camera
@@ -76,7 +76,8 @@ def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
     pm, hb, counters, (vp_pos, vp_nrm, radius, gathered) = _synthetic_photons(
         device, n_photons, n_vp, rng)
     gather_pass = Gather(device, pm)
-    shade = unshaded(device, n_vp)
+    vps = VisiblePoints(device, n_vp, pos=vp_pos, nrm=vp_nrm, beta=vp_nrm,
+                        shade=unshaded(device, n_vp), gathered=gathered)
     import pyopencl as cl
     q = device.queue
     it = iter(range(10 ** 9))
@@ -88,7 +89,7 @@ def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
         return _events_ms([e for _, e in evs])
 
     def gather():
-        evs = gather_pass.enqueue(q, vp_pos, vp_nrm, shade, radius, gathered, n_vp)
+        evs = gather_pass.enqueue(q, vps, radius)
         q.finish()
         return _events_ms([e for _, e in evs])
 
