@@ -79,15 +79,12 @@ class Film:
     on."""
 
     def __init__(self, device, width: int, height: int, fp64: bool | None = None):
-        import pyopencl as cl
         self.device = device
         self.width, self.height = width, height
         self.fp64 = has_fp64(device) if fp64 is None else bool(fp64)
-        n = self.n_pixels = width * height
+        self.n_pixels = width * height
         # FILM_BUFFERS, each an attribute of its name (the light tracing's below)
-        for b in FILM_BUFFERS:
-            if b.name not in _LIGHT_TRACING:
-                setattr(self, b.name, device.buffer(b.bytes * n, f"film ({b.what})"))
+        self._allocate(b for b in FILM_BUFFERS if b.name not in _LIGHT_TRACING)
         # the photons' light tracing (photon_pass.cl connect_camera): this pass's splats (rgb
         # per pixel, float atomics) and their sum over the passes the pixel was active in (its
         # photon count is the photon term's, moments.z).  44 bytes per pixel (87 MiB at
@@ -96,13 +93,20 @@ class Film:
         self.light_tracing = False
         self.lt_pass = self.lt_sum = device.buffer(16, "film (light tracing: none)")
         self.exposure = 1.0           # Cycles' film exposure (the camera's; Renderer sets it)
-        for b in FILM_BUFFERS:
-            if b.fill is not None and b.name not in _LIGHT_TRACING:
-                cl.enqueue_fill_buffer(device.queue, getattr(self, b.name), np.uint32(b.fill), 0,
-                                       b.bytes * n)
         self.photons_emitted = 0      # Python int: exact at any count
         self.prog = device.programs.get("integrator/progressive.cl",
                                         {"PPM_FP64": True} if self.fp64 else {})
+
+    def _allocate(self, rows) -> None:
+        """Each of the FILM_BUFFERS ``rows`` allocated as the attribute of its name, per pixel,
+        and filled where its row says (in order on the queue: no wait)."""
+        import pyopencl as cl
+        n, dev = self.n_pixels, self.device
+        for b in rows:
+            buf = dev.buffer(b.bytes * n, f"film ({b.what})")
+            setattr(self, b.name, buf)
+            if b.fill is not None:
+                cl.enqueue_fill_buffer(dev.queue, buf, np.uint32(b.fill), 0, b.bytes * n)
 
     @property
     def args(self) -> dict:
@@ -114,12 +118,7 @@ class Film:
         photons to the camera (Renderer.lt_kappa > 0)."""
         if self.light_tracing:
             return
-        import pyopencl as cl
-        n = self.n_pixels
-        self.lt_pass = self.device.buffer(12 * n, "film (light tracing, this pass)")
-        self.lt_sum = self.device.buffer(32 * n, "film (light tracing)")
-        for b, size in ((self.lt_pass, 12), (self.lt_sum, 32)):
-            cl.enqueue_fill_buffer(self.device.queue, b, np.uint32(0), 0, size * n)
+        self._allocate(b for b in FILM_BUFFERS if b.name in _LIGHT_TRACING)
         self.light_tracing = True
 
     def disable_light_tracing(self) -> None:
