@@ -148,6 +148,24 @@ inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l, uint2 p
     return term;
 }
 
+/* The start of visible point id's gather, the same in both gathers: false where it has no
+ * visible point or this pass no grid (its result written: zero); else its shading (gp), the
+ * grid, its radius and the cells its disc overlaps. */
+inline bool gather_begin(const Scene *scene, const VisiblePoints *vps, const Photons *photons,
+                         __global const float *radius, uint id, GatherPoint *gp, Grid *g, float *r,
+                         long3 *lo, long3 *hi) {
+    float4 vp = vps->pos[id];
+    *g = *photons->grid;
+    if (vp.w <= 0.0f || g->valid == 0u) {
+        vps->gathered[id] = (float4)(0.0f);
+        return false;
+    }
+    gather_point(scene, vps, id, gp);
+    *r = radius[id];
+    disc_cells(vp.xyz, gp->nrm, *r, g, lo, hi);
+    return true;
+}
+
 __kernel void gather(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *radius,
                      __global const ulong *table, uint table_mask, uint n) {
     SCENE_LOAD(scene);
@@ -155,18 +173,13 @@ __kernel void gather(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *
     PHOTON_LOAD(photons);
     uint id = get_global_id(0);
     if (id >= n) return;
-    float4 vp = vps->pos[id];
-    Grid g = *photons->grid;
-    if (vp.w <= 0.0f || g.valid == 0u) {
-        vps->gathered[id] = (float4)(0.0f);
-        return;
-    }
     GatherPoint gp;
-    gather_point(scene, vps, id, &gp);
-    float3 x = vp.xyz;
-    float r = radius[id], r2 = r * r;
+    Grid g;
+    float r;
     long3 lo, hi;
-    disc_cells(x, gp.nrm, r, &g, &lo, &hi);
+    if (!gather_begin(scene, vps, photons, radius, id, &gp, &g, &r, &lo, &hi)) return;
+    float3 x = vps->pos[id].xyz;
+    float r2 = r * r;
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
     for (long cz = lo.z; cz <= hi.z; cz++)
@@ -198,18 +211,13 @@ __kernel void gather_exact(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const f
     PHOTON_LOAD(photons);
     uint id = get_global_id(0);
     if (id >= n) return;
-    float4 vp = vps->pos[id];
-    Grid g = *photons->grid;
-    if (vp.w <= 0.0f || g.valid == 0u) {
-        vps->gathered[id] = (float4)(0.0f);
-        return;
-    }
     GatherPoint gp;
-    gather_point(scene, vps, id, &gp);
-    float3 x = vp.xyz;
-    float r = radius[id], r2 = r * r;
+    Grid g;
+    float r;
     long3 lo, hi;
-    disc_cells(x, gp.nrm, r, &g, &lo, &hi);
+    if (!gather_begin(scene, vps, photons, radius, id, &gp, &g, &r, &lo, &hi)) return;
+    float3 x = vps->pos[id].xyz;
+    float r2 = r * r;
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
     for (long cz = lo.z; cz <= hi.z; cz++)
