@@ -85,7 +85,8 @@
 #define CNT_CAUSTIC 7
 #define CNT_DIFFUSE_FIRST 8
 #define CNT_SEEN 9
-#define N_COUNTERS 10
+#define CNT_CASTER 10
+#define N_COUNTERS 11
 
 /* emissive triangles picked among locally at most (ppm_engine/scene/emitters.py LOCAL_PICK_MAX) */
 #define LOCAL_PICK_MAX 8
@@ -280,6 +281,9 @@ typedef struct {
     int n_tree;
     float tree_share;
     int n_suns;             /* suns among the lights */
+    /* the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
+     * aim.h), set for the render's options by DeviceScene.set_casters */
+    int n_casters;
 } EmitterInfo;
 
 /* mirrors ppm_engine/scene/light_tree.py LIGHT_TREE_NODE_DTYPE */
@@ -350,7 +354,10 @@ typedef struct {
     X(float, far_cdf)            /* power CDF of the emitters outside the tree */ \
     X(int, tree_emitters)        /* the light tree's emitters in its order */ \
     X(float, tree_cdf)           /* their power's CDF in that order */ \
-    X(float, world_map)          /* world importance map */
+    X(float, world_map)          /* world importance map */ \
+    X(float4, casters)           /* casters' bounding spheres (ppm_engine/scene/casters.py) */ \
+    X(float, caster_weight)      /* casters' weights */ \
+    X(float, caustic_cdf)
 
 /* --- the film's per-pixel buffers (ppm_engine/render/film.py FILM_BUFFERS), in the kernels'
  * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'

@@ -6,7 +6,10 @@
  * and are only counted.  With caustics_only (eye paths bring the rest of the indirect light,
  * indirect_paths.h) a photon lives on only if its first scattering is by a followed closure;
  * with capacity 0 (a pilot) photons are only classified at their first scattering and counted
- * (CNT_CAUSTIC, CNT_DIFFUSE_FIRST). */
+ * (CNT_CAUSTIC, CNT_DIFFUSE_FIRST).  ``mode``'s bits (ppm_engine/render/passes/photons.py):
+ * PHOTONS_CAUSTIC, caustics only; PHOTONS_AIMED, emitted toward the casters
+ * (photon_emission.h); CNT_CASTER counts the caustic photons whose first scattering is a
+ * caster's. */
 #include "builtins.h"
 #include "rng.h"
 #include "integrator/photon_emission.h"
@@ -19,6 +22,10 @@
 
 #include "shared.h"
 #include "geom/medium.h"
+
+/* the photon pass's mode bits (ppm_engine/render/passes/photons.py PhotonMode) */
+#define PHOTONS_CAUSTIC 1u
+#define PHOTONS_AIMED 2u
 
 /* A stored photon as the camera connection needs it: its flux (before shading, its cos_N /
  * cos_Ng factor), path and clamp ratio as stored; a Lambert surface's colour and normals
@@ -85,9 +92,8 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
 }
 
 __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index, uint seed,
-                          uint n_photons, uint capacity, __global uint *counters,
-                          uint caustics_only, __global const float *lt_filter, float lt_reach,
-                          float lt_kappa) {
+                          uint n_photons, uint capacity, __global uint *counters, uint mode,
+                          __global const float *lt_filter, float lt_reach, float lt_kappa) {
     SCENE_LOAD(scene);
     FILM_LOAD(film);
     PHOTON_LOAD(photons);
@@ -100,7 +106,8 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
     float3 o, d, flux;
     float rs; /* the radiance its light path carries over its flux (the clamp, gather.cl) */
     float2 nee;
-    if (!emit_photon(scene, &rng, &o, &d, &flux, &rs, &nee)) return;
+    bool caustics_only = (mode & PHOTONS_CAUSTIC) != 0u;
+    if (!emit_photon(scene, &rng, (mode & PHOTONS_AIMED) != 0u, &o, &d, &flux, &rs, &nee)) return;
     uint mask = VIS_SHADOW; /* the light's own segment: objects that cast no shadow let it by */
 #if PPM_ABSORPTION
     Media media;
@@ -194,6 +201,7 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
              * light), the second makes a caustic photon. */
             float sg = lambert ? (gather ? 1.0f : 0.0f) : sd.sw_gather + sd.sw_glossy;
             float sc = lambert ? 0.0f : shader_sw_specular(&sd);
+            if (sc > 0.0f && capacity > 0u) atomic_inc(&counters[CNT_CASTER]);
             if (!(sc > 0.0f) || rnd(&rng) * (sg + sc) < sg) {
                 /* a pilot counts the light the gather's closures scatter first (not what
                  * meets a black surface: a filament's inside) */

@@ -293,9 +293,9 @@ inline bool mesh_direct(const Scene *scene, int k, float3 o, float u1, float u2,
 }
 
 /* A photon from emissive BVH leaf k: a uniform point, a side with probability 1/2 each, a
- * cosine-weighted direction. */
+ * cosine-weighted direction; *q the point on the triangle, *n its normal (either side). */
 inline bool mesh_emit(const Scene *scene, int k, float pmf, float u1, float u2, float u3, float u4,
-                      float3 *o, float3 *d, float3 *flux) {
+                      float3 *o, float3 *d, float3 *flux, float3 *q_out, float3 *n_out) {
     float4 v0 = scene->tri_v0[k], e1 = scene->tri_e1[k], e2 = scene->tri_e2[k];
     float2 b = sample_triangle(u1, u2);
     float3 q = v0.xyz + b.x * e1.xyz + b.y * e2.xyz;
@@ -303,6 +303,8 @@ inline bool mesh_emit(const Scene *scene, int k, float pmf, float u1, float u2, 
     float area2 = length(cr);
     if (!(area2 > 0.0f)) return false;
     float3 nt = cr / area2;
+    *q_out = q;
+    *n_out = nt;
     float side = u3 < 0.5f ? 1.0f : -1.0f;
     float uu = u3 < 0.5f ? 2.0f * u3 : 2.0f * u3 - 1.0f;
     nt *= side;

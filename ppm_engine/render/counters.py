@@ -17,6 +17,8 @@ class Counter(enum.IntEnum):
     DIFFUSE_FIRST = 8   # a pilot's photons whose first scattering was by the gather's closures
     SEEN = 9        # the first pass's visible points the camera sees directly, where the
                     # photons' light tracing can render (counted only with it on)
+    CASTER = 10     # caustic photons this pass whose first scattering was a caster's (its
+                    # caustic closures: photon_pass.cl), the rest of those emitted wasted
 
 
 N_COUNTERS = len(Counter)

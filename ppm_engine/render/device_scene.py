@@ -26,6 +26,7 @@ from ppm_engine.scene.arrays import (
     SceneArrays,
 )
 from ppm_engine.scene.camera import CAMERA_DTYPE
+from ppm_engine.scene.casters import caster_reach, caster_spheres, caustic_cdf, material_weights
 from ppm_engine.scene.emitters import EMITTER_INFO_DTYPE, build_emitters
 from ppm_engine.scene.light_paths import LIGHT_PATHS_DTYPE, engine_defaults
 from ppm_engine.scene.light_tree import LIGHT_TREE_NODE_DTYPE
@@ -88,6 +89,10 @@ SCENE_BUFFERS = (
     SceneBuffer("tree_emitters", np.dtype(np.int32), "the light tree's emitters in its order"),
     SceneBuffer("tree_cdf", np.dtype(np.float32), "their power's CDF in that order"),
     SceneBuffer("world_map", np.dtype(np.float32), "world importance map"),
+    SceneBuffer("casters", _F4, "casters' bounding spheres (ppm_engine/scene/casters.py)"),
+    SceneBuffer("caster_weight", np.dtype(np.float32), "casters' weights"),
+    SceneBuffer("caustic_cdf", np.dtype(np.float32),
+                "emitter table's CDF for aimed caustic photons (power toward the casters)"),
 )
 
 
@@ -164,11 +169,43 @@ class DeviceScene:
             emitter_info=em.info, light_tree=em.tree, emitter_leaf=em.emitter_leaf,
             far_cdf=em.far_cdf, tree_emitters=em.tree_emitters, tree_cdf=em.tree_cdf,
             world_map=(self.world_map.buffer if self.world_map is not None
-                       else np.zeros(0, np.float32))))
+                       else np.zeros(0, np.float32)),
+            casters=np.zeros((0, 4), np.float32), caster_weight=np.zeros(0, np.float32),
+            caustic_cdf=np.zeros(0, np.float32)))
+        self._casters_key = None         # set_casters' options: none for a new upload
         self.args = {b.name: args[b.name] for b in SCENE_BUFFERS}
         self.camera = args["camera"]
         self.light_paths = prepared.light_paths
         self._upload_filter(prepared.camera)
+
+    def set_casters(self, gather_roughness: float, caustic_roughness: float) -> int:
+        """The casters caustic photons are aimed at for these options (casters.py: the surfaces
+        whose closures follow_capable finds, as bounding spheres), their weights and the
+        emitters' CDF by power toward them, uploaded with the emitter table's header (its
+        n_casters).  Nothing is built: a moved caster (refit) or another roughness needs only
+        this.  Returns the number of spheres."""
+        key = (gather_roughness, caustic_roughness, int(self.light_paths["flags"][0]))
+        if key == self._casters_key:
+            return int(self.emitters.info["n_casters"][0])
+        p, em = self.prepared, self.emitters
+        mw = material_weights(self.knodes, self.kmaterials.shape[0], gather_roughness,
+                              caustic_roughness, key[2])
+        m = p.material
+        ok = (m >= 0) & (m < mw.shape[0])
+        tri_w = np.zeros(m.shape[0], np.float32)
+        tri_w[ok] = mw[m[ok]]
+        spheres, weights = caster_spheres(p.positions.reshape(-1, 3, 3), tri_w)
+        corners = p.positions.reshape(-1, 3, 3)[self.bvh.leaf_order[em.emissive_leaves]]
+        reach = caster_reach(p.lights, corners, bool(em.info["has_world"][0]),
+                             float(em.info["scene_radius"][0]), spheres, weights)
+        em.info["n_casters"] = spheres.shape[0]
+        self.args.update(self._upload(
+            casters=spheres, caster_weight=weights,
+            caustic_cdf=caustic_cdf(em.power, reach) if em.power.size else np.zeros(0, np.float32),
+            emitter_info=em.info))
+        self.caster_spheres, self.caster_weights, self.caster_reach = spheres, weights, reach
+        self._casters_key = key
+        return spheres.shape[0]
 
     def set_camera(self, scene: SceneArrays) -> None:
         """``scene`` is the current one with another camera (the viewport's view; its other

@@ -125,6 +125,9 @@ class RenderOptions:
                                        # outside the visible points' bounds are stored too
     skip_blind_light_tracing: bool = True   # False: photons are connected to the camera even
                                             # where no pixel sees what that renders
+    skip_unaimed_caustics: bool = True   # False: caustic photons leave the emitters as all
+                                         # photons do, not aimed at the casters (kernels/light/
+                                         # aim.h), so most miss them and are dropped
     # the photons' second strategy: each stored photon also connected to the camera (light
     # tracing), combined with the merge by MIS (kernels/integrator/photon_pass.cl connect_camera);
     # for a pinhole camera only

@@ -106,6 +106,9 @@ class Renderer:
         self.path_indirect, self.caustic_fraction = self._choose_indirect(o, useful, caustics)
         useful = useful and (caustics or not self.path_indirect)
         self.photons_needed = useful or not o.skip_unneeded_photon_pass
+        # caustic photons aimed at the casters (a pilot's photons are not)
+        self.casters = (self.scene.set_casters(o.gather_roughness, o.caustic_roughness)
+                        if self.photons_needed and self.path_indirect else 0)
         store = self.STORE_FACTOR * self.photons_per_pass
         if self.photons_needed and self.photon_map.capacity < store:
             self.photon_map.allocate(store)
@@ -295,7 +298,9 @@ class Renderer:
             radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
             seconds=seconds, phase_ms=phase_ms, active_pixels=self.active_pixels,
             pixels=self.n_pixels, indirect="paths" if self.path_indirect else "photons",
-            caustic_fraction=self.caustic_fraction, light_tracing=self.lt_kappa > 0)
+            caustic_fraction=self.caustic_fraction, light_tracing=self.lt_kappa > 0,
+            caster_fraction=(int(counters[Counter.CASTER]) / self.photons_per_pass
+                             if self.photons_needed and self.path_indirect else None))
         if overflow:     # this pass lost photons (counted); the next one has room
             pm.allocate(2 * pm.capacity)
         return stats

@@ -24,6 +24,9 @@ class PassStats:
     indirect: str = ""         # the estimator of indirect light (options.INDIRECT_MODES, chosen)
     caustic_fraction: float | None = None   # the pilot's share of caustic first scatterings
     light_tracing: bool = False  # the photons are also connected to the camera (photon_pass.cl)
+    # caustic photons only: this pass's share of them whose first scattering was a caster's
+    # (aimed at the casters: most; emitted as all photons are: the casters' share of the light)
+    caster_fraction: float | None = None
 
     @property
     def converged(self) -> bool:
@@ -50,6 +53,8 @@ class PassStats:
             s += f" · {_si(self.photons_emitted)} photons"
         if self.light_tracing and self.photons_emitted:
             s += " + light tracing"
+        if self.caster_fraction is not None and self.photons_emitted:
+            s += f" · {100 * self.caster_fraction:.3g} % reach a caster"
         if self.radius_max > 0:
             s += f" · r {self.radius_min:.3g}–{self.radius_max:.3g}"
         if elapsed is not None:

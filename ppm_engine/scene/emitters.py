@@ -46,6 +46,9 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("n_tree", np.int32),
     ("tree_share", np.float32),
     ("n_suns", np.int32),          # suns among the lights
+    # the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
+    # aim.h), set for the render's options by DeviceScene.set_casters
+    ("n_casters", np.int32),
 ])
 
 # at most this many emissive triangles are picked among locally (kernels/light/light_mesh.h

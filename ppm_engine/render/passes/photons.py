@@ -8,6 +8,10 @@ from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.device.program import in_pieces
 from ppm_engine.render.film import FILM_BUFFERS
 
+# the photon pass's mode bits (kernels/integrator/photon_pass.cl PHOTONS_*)
+PHOTONS_CAUSTIC = 1     # only photons whose first scattering is a caster's live on
+PHOTONS_AIMED = 2       # emitted toward the casters (kernels/light/aim.h)
+
 
 class PhotonPass:
     def __init__(self, scene, program, photon_map, counters):
@@ -19,7 +23,9 @@ class PhotonPass:
                 pilot: bool = False, film=None, lt_kappa: float = 0.0, interrupt=None,
                 piece: int = 1 << 15) -> list | None:
         """``caustics_only``: only photons whose first scattering is caustic live on (indirect
-        light by eye paths); ``pilot``: they are only counted (Counter.CAUSTIC), none stored.
+        light by eye paths), emitted toward the casters (DeviceScene.set_casters) unless
+        ``options.skip_unaimed_caustics`` is off; ``pilot``: photons emitted as all are, only
+        counted at their first scattering (Counter.CAUSTIC), none stored.
         ``lt_kappa`` > 0 (with ``film``): every stored photon is also connected to the camera
         and splatted into film.lt_pass, weighted against the merge
         (kernels/integrator/photon_pass.cl connect_camera; Renderer.light_tracing_kappa).
@@ -41,6 +47,9 @@ class PhotonPass:
             q, count, SHADING_GROUP, offset=start, **self.scene.args, **film_args, **pm.args,
             pass_index=np.uint32(pass_index), seed=np.uint32(options.seed),
             n_photons=np.uint32(n_photons), capacity=np.uint32(0 if pilot else pm.capacity),
-            counters=self.counters, caustics_only=np.uint32(caustics_only or pilot),
+            counters=self.counters, mode=np.uint32(
+                (PHOTONS_CAUSTIC if caustics_only or pilot else 0)
+                | (PHOTONS_AIMED if caustics_only and not pilot and options.skip_unaimed_caustics
+                   else 0)),
             lt_filter=self.scene.filter_density, lt_reach=np.float32(self.scene.filter_reach),
             lt_kappa=np.float32(lt_kappa if lt else 0.0))

@@ -1,0 +1,171 @@
+"""Casters: the surfaces that can start a caustic (a mirror, glass, a smooth glossy lobe:
+materials.follow_capable), as a few bounding spheres, and each emitter's power toward them.
+
+With indirect light by eye paths, a photon lives on only when its first scattering is by one of
+these closures (kernels/integrator/photon_pass.cl), so caustic photons are aimed at the spheres
+(kernels/light/aim.h) and the emitters picked by the power they send toward them
+(``caustic_cdf``).  Both only move samples where they count: every photon's flux is divided
+by the density it was drawn with, so the image's expectation is the same as without aiming
+(tests/test_aim.py)."""
+from __future__ import annotations
+
+import heapq
+
+import numpy as np
+
+from ppm_engine.scene.arrays import (
+    LIGHT_AREA_ELLIPSE,
+    LIGHT_AREA_RECT,
+    LIGHT_SUN,
+    NODE_GLASS,
+    NODE_GLOSSY,
+    NODE_METALLIC,
+    NODE_PRINCIPLED,
+    NODE_REFRACTION,
+)
+from ppm_engine.scene.light_paths import LP_CAUSTICS_REFLECTIVE, LP_CAUSTICS_REFRACTIVE
+from ppm_engine.scene.materials import _principled_parts, follow_capable
+
+# the most spheres: every aimed photon loops over them three times (aim.h)
+MAX_CASTERS = 32
+# a cluster is split in two only when the halves' spheres are this much smaller (their r^2
+# summed against the cluster's): a ball stays one sphere, two balls apart become two
+SPLIT_GAIN = 0.8
+# a caster whose only caustic closure is a dielectric's specular layer or a coat sends on a
+# few percent of what reaches it: its weight (glass, metal, a glossy BSDF: 1)
+LAYER_WEIGHT = 0.1
+
+
+def material_weights(knodes: np.ndarray, n_materials: int, gather_roughness: float,
+                     caustic_roughness: float, lp_flags: int) -> np.ndarray:
+    """(n_materials,) float32: each material's caster weight, 0 for one that starts no
+    caustic; none at all when the Light Paths turn both kinds of caustics off."""
+    out = np.zeros(n_materials, np.float32)
+    if not lp_flags & (LP_CAUSTICS_REFLECTIVE | LP_CAUSTICS_REFRACTIVE) or not knodes.size:
+        return out
+    capable = follow_capable(knodes, gather_roughness, caustic_roughness)
+    t = knodes["type"]
+    w = np.where(np.isin(t, (NODE_GLASS, NODE_REFRACTION, NODE_GLOSSY, NODE_METALLIC)), 1.0, 0.0)
+    p = t == NODE_PRINCIPLED
+    if p.any():
+        parts = _principled_parts(knodes[p])
+        w[p] = np.where(parts["glass"] | parts["metal"], 1.0, LAYER_WEIGHT)
+    w = np.where(capable, w, 0.0)
+    m = knodes["material"]
+    ok = (m >= 0) & (m < n_materials)
+    np.maximum.at(out, m[ok], w[ok].astype(np.float32))
+    return out
+
+
+def _sphere(corners: np.ndarray) -> tuple[np.ndarray, float]:
+    """A bounding sphere of triangles (k, 3, 3): its box's centre, the farthest corner."""
+    v = corners.reshape(-1, 3)
+    c = 0.5 * (v.min(axis=0) + v.max(axis=0))
+    return c, float(np.sqrt(((v - c) ** 2).sum(axis=1).max()))
+
+
+def caster_spheres(corners: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(spheres (k, 4) float32: centre, radius; weights (k,) float32) over the triangles
+    ``corners`` (T, 3, 3) of weight > 0: clusters split at the median of their longest axis,
+    largest first, while that makes their spheres tighter (SPLIT_GAIN), at most MAX_CASTERS;
+    each cluster's weight its triangles' largest."""
+    sel = np.nonzero(weight > 0)[0]
+    if not sel.size:
+        return np.zeros((0, 4), np.float32), np.zeros(0, np.float32)
+    tri = corners[sel].astype(np.float64)
+    centroid = tri.mean(axis=1)
+    heap, done, tick = [], [], 0
+
+    def push(idx):
+        nonlocal tick
+        c, r = _sphere(tri[idx])
+        heapq.heappush(heap, (-r, tick, idx, c, r))
+        tick += 1
+
+    push(np.arange(sel.size))
+    while heap and len(heap) + len(done) < MAX_CASTERS:
+        _, _, idx, c, r = heapq.heappop(heap)
+        if idx.size < 2:
+            done.append((idx, c, r))
+            continue
+        pts = centroid[idx]
+        axis = int(np.argmax(pts.max(axis=0) - pts.min(axis=0)))
+        order = np.argsort(pts[:, axis], kind="stable")
+        a, b = idx[order[:idx.size // 2]], idx[order[idx.size // 2:]]
+        ra, rb = _sphere(tri[a])[1], _sphere(tri[b])[1]
+        if ra * ra + rb * rb < SPLIT_GAIN * r * r:
+            push(a)
+            push(b)
+        else:
+            done.append((idx, c, r))
+    done += [(idx, c, r) for _, _, idx, c, r in heap]
+    spheres = np.zeros((len(done), 4), np.float32)
+    weights = np.zeros(len(done), np.float32)
+    for k, (idx, c, r) in enumerate(done):
+        # a margin for float32 and the ray offsets: a triangle's edge stays inside
+        spheres[k, :3], spheres[k, 3] = c, r * (1.0 + 1e-4) + 1e-6 * (1.0 + np.abs(c).max())
+        weights[k] = weight[sel[idx]].max()
+    return spheres, weights
+
+
+def _solid_angle(dist: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """The solid angle of a sphere of ``radius`` from ``dist`` away (4 pi from inside)."""
+    x = np.clip((radius / np.maximum(dist, 1e-30)) ** 2, 0.0, 1.0)
+    omega = 2.0 * np.pi * x / (1.0 + np.sqrt(1.0 - x))
+    return np.where(dist > radius, omega, 4.0 * np.pi)
+
+
+def caster_reach(lights: np.ndarray, emissive_corners: np.ndarray, has_world: bool,
+                 scene_radius: float, spheres: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Per emitter (the lights, the emissive triangles, the world: the emitter table's order),
+    about the share of its photons that aimed emission sends toward the casters, weighted:
+    sum over casters of weight x (its solid angle over the sphere's, from anywhere on the
+    emitter: the emitter's size taken off the distance; its disc over the scene's for a sun
+    or the world), each term at most its weight.  0 only where no caster can be reached: every
+    one wholly behind a one-sided area light."""
+    n = lights.shape[0] + emissive_corners.shape[0] + int(has_world)
+    out = np.zeros(n, np.float64)
+    if not spheres.shape[0]:
+        return out
+    c, r, w = spheres[:, :3].astype(np.float64), spheres[:, 3].astype(np.float64), weights
+    disc = np.minimum((r / max(scene_radius, 1e-30)) ** 2, 1.0)
+    if lights.shape[0]:
+        pos = lights["position"].astype(np.float64)
+        size = lights["radius"].astype(np.float64)
+        area = np.isin(lights["type"], (LIGHT_AREA_RECT, LIGHT_AREA_ELLIPSE))
+        half = 0.5 * np.sqrt((lights["axis_x"].astype(np.float64) ** 2).sum(axis=1)
+                             + (lights["axis_y"].astype(np.float64) ** 2).sum(axis=1))
+        size = np.where(area, half, size)
+        to = c[None, :, :] - pos[:, None, :]
+        dist = np.sqrt((to ** 2).sum(axis=2)) - size[:, None]
+        share = np.minimum(_solid_angle(dist, r[None, :]) / (4.0 * np.pi), 1.0)
+        front = (to * lights["direction"].astype(np.float64)[:, None, :]).sum(axis=2) >= -r
+        share = np.where(area[:, None] & ~front, 0.0, share)
+        sun = lights["type"] == LIGHT_SUN
+        share[sun] = disc[None, :]
+        out[:lights.shape[0]] = (share * w[None, :]).sum(axis=1)
+    if emissive_corners.shape[0]:
+        tri = emissive_corners.astype(np.float64)
+        centre = tri.mean(axis=1)
+        size = np.sqrt(((tri - centre[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
+        k0 = lights.shape[0]
+        for s in range(0, tri.shape[0], 4096):      # bounded memory: 4096 x MAX_CASTERS
+            to = c[None, :, :] - centre[s:s + 4096, None, :]
+            dist = np.sqrt((to ** 2).sum(axis=2)) - size[s:s + 4096, None]
+            share = np.minimum(_solid_angle(dist, r[None, :]) / (4.0 * np.pi), 1.0)
+            out[k0 + s:k0 + s + share.shape[0]] = (share * w[None, :]).sum(axis=1)
+    if has_world:
+        out[-1] = float((disc * w).sum())
+    return out
+
+
+def caustic_cdf(power: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """The emitter table's CDF for aimed photons: power x reach, normalised (all zeros when
+    nothing reaches a caster: then no caustic photon is emitted)."""
+    p = np.asarray(power, np.float64) * reach
+    total = p.sum()
+    if not total > 0:
+        return np.zeros(p.shape[0], np.float32)
+    cdf = np.cumsum(p) / total
+    cdf[-1] = 1.0
+    return cdf.astype(np.float32)

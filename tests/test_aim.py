@@ -1,0 +1,158 @@
+"""Caustic photons aimed at the casters (kernels/light/aim.h, ppm_engine/scene/casters.py): the
+same light arrives as from photons emitted as all are, for every kind of emitter; an emitter
+with no caster in reach emits no caustic photon; a moved caster moves the aim with no build."""
+import numpy as np
+import pyopencl as cl
+import pytest
+
+from ppm_engine.oracle.procedural import MeshBuilder, look_at
+from ppm_engine.render.counters import Counter
+from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene.arrays import (
+    LIGHT_AREA_RECT,
+    LIGHT_POINT,
+    LIGHT_SPOT,
+    LIGHT_SUN,
+)
+from ppm_engine.scene.camera import make_camera, perspective_extent
+from ppm_engine.scene.casters import caster_spheres
+from tests.helpers.procedural_scenes import light
+from tests.helpers.renders import every_feature
+
+BALL = (0.0, 0.0, 0.5)
+
+
+def ball_scene(lights=None, world=(0, 0, 0), emissive=False, ball=BALL, W=16):
+    """A white floor (4 x 4 m), a glass ball of radius 0.5 on it, seen from the front."""
+    mb = MeshBuilder()
+    white = mb.material("white", (0.7, 0.7, 0.7))
+    mb.quad((-2, -2, 0), (4, 0, 0), (0, 4, 0), white)
+    mb.sphere(ball, 0.5, mb.material("glass", (1, 1, 1), transmission=1.0, roughness=0.0), 24, 12)
+    if emissive:      # a small two-sided emitter beside the ball
+        mb.quad((-1.3, -0.2, 0.6), (0, 0.4, 0), (0, 0, 0.4),
+                mb.material("lamp", (0, 0, 0), emission=(40.0, 40.0, 40.0)))
+    ext = perspective_extent(W, W, 35.0, 36.0)
+    cam = make_camera(width=W, height=W, to_world=look_at((0, -5, 3), (0, 0, 0.3)),
+                      extent=ext[:2], clip=(0.1, 100))
+    return mb.build(camera=cam, lights=lights, world=world)
+
+
+EMITTERS = {
+    "point": dict(lights=light(LIGHT_POINT, position=(-1.2, 0, 0.9), emit=(50, 50, 50))),
+    "sphere": dict(lights=light(LIGHT_POINT, position=(-1.2, 0, 0.9), emit=(50, 50, 50),
+                                radius=0.15)),
+    # a spot whose cone takes in the ball and much more
+    "spot": dict(lights=light(LIGHT_SPOT, position=(-1.2, 0, 0.9), emit=(50, 50, 50),
+                              direction=(np.cos(0.4), 0.0, -np.sin(0.4)), axis_x=(0, 1, 0),
+                              axis_y=(np.sin(0.4), 0, np.cos(0.4)), spot_scale_z=1.0,
+                              spot_cos_half=np.cos(np.radians(50)), spot_smooth=0.05)),
+    # a narrow spot on the ball's edge: its cone, the smaller, is sampled, where it meets the
+    # ball's (uniform emission does as well there)
+    "spot_edge": dict(lights=light(LIGHT_SPOT, position=(-1.2, 0, 0.9), emit=(50, 50, 50),
+                                   direction=(np.cos(0.75), 0.0, -np.sin(0.75)),
+                                   axis_x=(0, 1, 0), axis_y=(np.sin(0.75), 0, np.cos(0.75)),
+                                   spot_scale_z=1.0, spot_cos_half=np.cos(np.radians(12)),
+                                   spot_smooth=0.05)),
+    "area": dict(lights=light(LIGHT_AREA_RECT, position=(0.2, 0, 1.6), emit=(20, 20, 20),
+                              axis_x=(0.5, 0, 0), axis_y=(0, 0.5, 0))),
+    "sun": dict(lights=light(LIGHT_SUN, emit=(3, 3, 3), direction=(0.3, 0.1, -0.95),
+                             radius=0.01)),
+    "world": dict(world=(0.5, 0.5, 0.5)),
+    "mesh": dict(emissive=True),
+}
+
+
+def caustic_flux(scene, aimed: bool, passes: int, photons: int, seed=0):
+    """Per pass: the flux of the caustic photons stored on the floor per emitted photon, in the
+    floor's halves x < 0 and x >= 0 (photons outside the camera's view stored too), and the
+    Renderer's last stats."""
+    r = Renderer(scene, every_feature(seed=seed, indirect="paths", light_tracing=False,
+                                      skip_unseen_photons=False, photons_per_pass=photons,
+                                      skip_unaimed_caustics=aimed))
+    out = []
+    for _ in range(passes):
+        st = r.iterate()
+        n = st.photons_stored
+        pos, flux = np.empty((max(n, 1), 4), np.float32), np.empty((max(n, 1), 4), np.float32)
+        cl.enqueue_copy(r.queue, pos, r.photon_map.ph_pos)
+        cl.enqueue_copy(r.queue, flux, r.photon_map.ph_flux)
+        pos, flux = pos[:n], flux[:n]
+        floor = np.abs(pos[:, 2]) < 1e-3
+        half = (pos[:, 0] >= 0).astype(int)
+        out.append(np.bincount(half[floor], flux[floor, :3].mean(axis=1), minlength=2)
+                   / photons)
+    r.close()
+    return np.array(out), st
+
+
+@pytest.mark.parametrize("kind", sorted(EMITTERS))
+def test_aimed_photons_bring_the_light_emission_as_all_photons_brings(kind):
+    scene = ball_scene(**EMITTERS[kind])
+    aimed, st_a = caustic_flux(scene, True, 10, 1 << 15)
+    plain, st_p = caustic_flux(scene, False, 10, 1 << 16)
+    ma, mp = aimed.mean(axis=0), plain.mean(axis=0)
+    se = np.sqrt(aimed.var(axis=0, ddof=1) / aimed.shape[0]
+                 + plain.var(axis=0, ddof=1) / plain.shape[0])
+    assert mp.sum() > 0, "the ball makes no caustic on the floor"
+    big = mp > 0.05 * mp.sum()       # the halves the caustic reaches
+    assert big.any()
+    # (se from 10 passes each: 5 of them allow for its own error)
+    assert np.all(np.abs(ma - mp)[big] <= 5 * se[big]), (kind, ma, mp, se)
+    if kind == "spot_edge":
+        return
+    # aiming: most caustic photons reach the ball, and far fewer without it
+    assert st_a.caster_fraction > 0.3, st_a.caster_fraction
+    assert st_a.caster_fraction > 3 * st_p.caster_fraction, (st_a.caster_fraction,
+                                                             st_p.caster_fraction)
+    # the pass's noise: aimed photons (half as many) are far less noisy
+    assert np.sqrt(aimed.var(axis=0, ddof=1))[big].sum() < np.sqrt(
+        plain.var(axis=0, ddof=1))[big].sum()
+
+
+def test_an_emitter_with_no_caster_in_reach_emits_no_caustic_photon():
+    # an area light facing away from the ball (it lights the floor beside it only)
+    lamp = light(LIGHT_AREA_RECT, position=(1.5, 0, 1.0), emit=(20, 20, 20),
+                 direction=(0.8, 0, -0.6), axis_x=(0.24, 0, 0.32), axis_y=(0, 0.3, 0))
+    scene = ball_scene(lights=lamp)
+    r = Renderer(scene, every_feature(indirect="paths", skip_unseen_photons=False,
+                                      photons_per_pass=4096))
+    assert r.casters == 1 and r.photons_needed
+    assert r.scene.caster_reach.tolist() == [0.0]
+    st = r.iterate()
+    counters = np.empty(len(Counter), np.uint32)
+    cl.enqueue_copy(r.queue, counters, r.counters)
+    assert counters[Counter.CASTER] == 0 and st.photons_stored == 0
+    assert st.caster_fraction == 0.0
+    assert r.image()[..., :3].max() > 0          # the floor is lit
+    r.close()
+
+
+def test_a_moved_caster_moves_the_aim_without_a_build():
+    lamp = EMITTERS["point"]["lights"]
+    r = Renderer(ball_scene(lights=lamp), every_feature(indirect="paths", photons_per_pass=4096))
+    r.iterate()
+    before = r.scene.caster_spheres.copy()
+    builds = r.device.programs.builds
+    moved = ball_scene(lights=lamp, ball=(0.4, 0.3, 0.5))
+    assert r.refit(moved)
+    r.reset(r.options, moved)
+    st = r.iterate()
+    after = r.scene.caster_spheres
+    np.testing.assert_allclose(after[0, :3] - before[0, :3], (0.4, 0.3, 0.0), atol=1e-4)
+    assert st.caster_fraction > 0.5
+    assert r.device.programs.builds == builds, "moving the caster built a kernel"
+    r.close()
+
+
+def test_caster_spheres_split_apart_casters_and_keep_a_ball_whole():
+    scene = ball_scene()
+    corners = scene.positions.reshape(-1, 3, 3)[scene.material == 1] - np.array(BALL)
+    s, w = caster_spheres(corners, np.ones(corners.shape[0], np.float32))
+    assert s.shape == (1, 4) and abs(s[0, 3] - 0.5) < 0.01 and w.tolist() == [1.0]
+    two = np.concatenate([corners, corners + np.array([5.0, 0, 0])])
+    s, _ = caster_spheres(two, np.ones(two.shape[0], np.float32))
+    assert s.shape[0] == 2 and np.all(s[:, 3] < 0.51)
+    # every caster triangle's corners lie inside a sphere
+    inside = np.linalg.norm(two.reshape(-1, 3)[:, None, :] - s[None, :, :3], axis=2) \
+        <= s[None, :, 3]
+    assert inside.any(axis=1).all()
