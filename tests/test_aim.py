@@ -6,7 +6,7 @@ import pyopencl as cl
 import pytest
 
 from ppm_engine.oracle.procedural import MeshBuilder, look_at
-from ppm_engine.render.counters import Counter
+from ppm_engine.render.counters import N_COUNTERS, Counter
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import (
     LIGHT_AREA_RECT,
@@ -119,7 +119,7 @@ def test_an_emitter_with_no_caster_in_reach_emits_no_caustic_photon():
     assert r.casters == 1 and r.photons_needed
     assert r.scene.caster_reach.tolist() == [0.0]
     st = r.iterate()
-    counters = np.empty(len(Counter), np.uint32)
+    counters = np.empty(N_COUNTERS, np.uint32)
     cl.enqueue_copy(r.queue, counters, r.counters)
     assert counters[Counter.CASTER] == 0 and st.photons_stored == 0
     assert st.caster_fraction == 0.0
@@ -156,3 +156,44 @@ def test_caster_spheres_split_apart_casters_and_keep_a_ball_whole():
     inside = np.linalg.norm(two.reshape(-1, 3)[:, None, :] - s[None, :, :3], axis=2) \
         <= s[None, :, 3]
     assert inside.any(axis=1).all()
+
+
+def test_learned_weights_leave_a_caster_out_of_view_few_photons_and_the_image_unbiased():
+    """Two glass balls, one in view and one behind the camera, whose caustic lands out of
+    view: after a few passes the second gets few photons (its photons store nothing near
+    what the camera sees), and the caustic in view is the one uniform photons bring."""
+    mb = MeshBuilder()
+    white = mb.material("white", (0.7, 0.7, 0.7))
+    mb.quad((-2, -9, 0), (4, 0, 0), (0, 11, 0), white)
+    glass = mb.material("glass", (1, 1, 1), transmission=1.0, roughness=0.0)
+    mb.sphere(BALL, 0.5, glass, 24, 12)
+    mb.sphere((0, -7.5, 0.5), 0.5, glass, 24, 12)
+    cam = make_camera(width=16, height=16, to_world=look_at((0, -4.5, 2.5), (0, 0.5, 0.3)),
+                      extent=perspective_extent(16, 16, 35.0, 36.0)[:2], clip=(0.1, 100))
+    lamp = light(LIGHT_POINT, position=(0, -3.2, 1.6), emit=(100, 100, 100))
+    scene = mb.build(camera=cam, lights=lamp)
+
+    def run(aimed, photons):
+        r = Renderer(scene, every_feature(indirect="paths", light_tracing=False, seed=1,
+                                          photons_per_pass=photons,
+                                          skip_unaimed_caustics=aimed))
+        sums = []
+        for _ in range(10):
+            st = r.iterate()
+            flux = np.empty((max(st.photons_stored, 1), 4), np.float32)
+            cl.enqueue_copy(r.queue, flux, r.photon_map.ph_flux)
+            sums.append(flux[:st.photons_stored, :3].sum() / photons)
+        weights = r.scene.caster_weights.copy() if aimed else None
+        spheres = r.scene.caster_spheres.copy()
+        r.close()
+        return np.array(sums), weights, spheres
+
+    aimed, w, spheres = run(True, 1 << 14)
+    plain, _, _ = run(False, 1 << 16)
+    assert spheres.shape[0] == 2
+    near = int(np.argmax(spheres[:, 1]))          # the ball in view (y = 0, not -7.5)
+    assert w[near] == 1.0 and w[1 - near] < 0.1, w
+    se = np.sqrt(aimed.var(ddof=1) / 10 + plain.var(ddof=1) / 10)
+    assert abs(aimed.mean() - plain.mean()) <= 5 * se, (aimed.mean(), plain.mean(), se)
+    # the in-view caustic from half as many photons, less noisy
+    assert aimed.std() < plain.std()

@@ -16,11 +16,12 @@
  * the emitter's colour times a number), 0 from a point, spot or sun of no size, which no camera
  * path can hit; *nee the density next-event estimation would give the photon's origin from
  * where it lands, t away: nee.x t^2 + nee.y (per steradian, next-event estimation's pick of
- * the emitter included).  The emitter types a program has are the feature flags of shared.h
- * (0/1). */
+ * the emitter included); *caster the caster it was aimed at (-1: none).  The emitter types
+ * a program has are the feature flags of shared.h (0/1). */
 inline bool emit_photon(const Scene *scene, uint *rng, bool aim, float3 *o, float3 *d, float3 *flux,
-                        float *rs, float2 *nee) {
+                        float *rs, float2 *nee, int *caster) {
     *rs = 0.0f;
+    *caster = -1;
     *nee = (float2)(0.0f);
     bool clamped = scene->light_paths->clamp_indirect > 0.0f;
     EmitterInfo info = *scene->emitter_info;
@@ -45,7 +46,7 @@ inline bool emit_photon(const Scene *scene, uint *rng, bool aim, float3 *o, floa
         if (PPM_LIGHT_SUN && L.type == LIGHT_SUN) {
             sun_emit(&L, c, R, pmf, u1, u2, u3, u4, o, d, flux);
             float pa;
-            if (aim && !aim_origin(scene, *d, c, R, a0, a1, a2, o, &pa)) return false;
+            if (aim && !aim_origin(scene, *d, c, R, a0, a1, a2, o, &pa, caster)) return false;
             if (aim) ratio = 1.0f / (PPM_PI * R * R * pa);
             /* sun_seen's radiance over the flux; next-event estimation samples its cone */
             if (clamped && r > 0.0f) {
@@ -59,7 +60,7 @@ inline bool emit_photon(const Scene *scene, uint *rng, bool aim, float3 *o, floa
             if (aim) {
                 float pa, cm = L.type == LIGHT_SPOT ? spot_sample_cos(&L) : -1.0f;
                 if (!aim_direction(scene, *o, ns, sphere, F3(L.direction), 1.0f - cm, a0, a1, a2, d,
-                                   &pa))
+                                   &pa, caster))
                     return false;
                 float pd; /* point_emit's density of *d */
                 if (sphere) {
@@ -84,7 +85,8 @@ inline bool emit_photon(const Scene *scene, uint *rng, bool aim, float3 *o, floa
             float3 nl = F3(L.direction);
             if (aim) {
                 float pa;
-                if (!aim_direction(scene, *o, nl, true, nl, 2.0f, a0, a1, a2, d, &pa)) return false;
+                if (!aim_direction(scene, *o, nl, true, nl, 2.0f, a0, a1, a2, d, &pa, caster))
+                    return false;
                 ratio = fmax(dot(nl, *d), 0.0f) * (1.0f / PPM_PI) / pa;
             }
             if (clamped) {
@@ -98,7 +100,8 @@ inline bool emit_photon(const Scene *scene, uint *rng, bool aim, float3 *o, floa
         if (!mesh_emit(scene, k, pmf, u1, u2, u3, u4, o, d, flux, &q, &nt)) return false;
         if (aim) {
             float pa;
-            if (!aim_direction(scene, *o, nt, false, nt, 2.0f, a0, a1, a2, d, &pa)) return false;
+            if (!aim_direction(scene, *o, nt, false, nt, 2.0f, a0, a1, a2, d, &pa, caster))
+                return false;
             /* either side, as mesh_emit picks one; the origin off the side it leaves */
             float cs = dot(nt, *d);
             ratio = 0.5f * fabs(cs) * (1.0f / PPM_PI) / pa;
@@ -116,7 +119,7 @@ inline bool emit_photon(const Scene *scene, uint *rng, bool aim, float3 *o, floa
             nee->y = *rs * PPM_PI * R * R * (pn / pmf); /* the direction's density times the pick */
         }
         float pa;
-        if (aim && !aim_origin(scene, *d, c, R, a0, a1, a2, o, &pa)) return false;
+        if (aim && !aim_origin(scene, *d, c, R, a0, a1, a2, o, &pa, caster)) return false;
         if (aim) ratio = 1.0f / (PPM_PI * R * R * pa);
     } else return false;
     if (ratio != 1.0f) { /* aimed: the same radiance over a flux times ratio */

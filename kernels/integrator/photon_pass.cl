@@ -107,7 +107,13 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
     float rs; /* the radiance its light path carries over its flux (the clamp, gather.cl) */
     float2 nee;
     bool caustics_only = (mode & PHOTONS_CAUSTIC) != 0u;
-    if (!emit_photon(scene, &rng, (mode & PHOTONS_AIMED) != 0u, &o, &d, &flux, &rs, &nee)) return;
+    int caster; /* the caster it is aimed at (-1: none) */
+    if (!emit_photon(scene, &rng, (mode & PHOTONS_AIMED) != 0u, &o, &d, &flux, &rs, &nee, &caster))
+        return;
+    /* per caster: the photons aimed at it and those they store (Renderer.learn_caster_weights) */
+    __global uint *aimed = caster >= 0 && capacity > 0u ? counters + CNT_CASTER_STATS + 2 * caster
+                                                        : (__global uint *)0;
+    if (aimed) atomic_inc(aimed);
     uint mask = VIS_SHADOW; /* the light's own segment: objects that cast no shadow let it by */
 #if PPM_ABSORPTION
     Media media;
@@ -173,6 +179,7 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
             }
             if (in_grid(s.p, &g)) {
                 uint k = atomic_inc(&counters[CNT_STORED]);
+                if (aimed) atomic_inc(aimed + 1);
                 if (k < capacity) {
                     photons->pos[k] = (float4)(s.p, as_float(pack_unit(Ng)));
                     photons->flux[k] = (float4)(flux * shading, as_float(pack_unit(-d)));

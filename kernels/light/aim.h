@@ -65,10 +65,11 @@ inline float aim_part(const Scene *scene, int i, float3 o, float3 n, bool one_si
     return w * *omc;
 }
 
-/* A direction d from o toward the casters and its density (per steradian); false when no
- * caster is in reach.  lim_omc = 2: no limit cone (aim_part). */
+/* A direction d from o toward the casters and its density (per steradian), *caster the one
+ * picked; false when no caster is in reach.  lim_omc = 2: no limit cone (aim_part). */
 inline bool aim_direction(const Scene *scene, float3 o, float3 n, bool one_sided, float3 lim_axis,
-                          float lim_omc, float u0, float u1, float u2, float3 *d, float *pdf) {
+                          float lim_omc, float u0, float u1, float u2, float3 *d, float *pdf,
+                          int *caster) {
     int m = scene->emitter_info->n_casters;
     float total = 0.0f, omc;
     float3 axis;
@@ -85,6 +86,7 @@ inline bool aim_direction(const Scene *scene, float3 o, float3 n, bool one_sided
         else target -= wi;
     }
     if (pick < 0) return false;
+    *caster = pick;
     *d = sample_cone(axis, omc, u1, u2);
     /* the density: sum over the parts whose cone holds d of weight / (2 pi omc) x its share,
      * weight x omc / total: sum of weights / (2 pi total); the picked part always counts (its
@@ -104,10 +106,10 @@ inline bool aim_direction(const Scene *scene, float3 o, float3 n, bool one_sided
 
 /* An origin for a photon travelling along d from a sun or the world: on the plane through
  * c - R d facing d (where sun_emit and world_emit start theirs), within the casters' discs
- * (their spheres seen along d), with its density per unit area; false when no caster has
- * weight. */
+ * (their spheres seen along d), with its density per unit area and the caster picked; false
+ * when no caster has weight. */
 inline bool aim_origin(const Scene *scene, float3 d, float3 c, float R, float u0, float u1,
-                       float u2, float3 *o, float *pdf) {
+                       float u2, float3 *o, float *pdf, int *caster) {
     int m = scene->emitter_info->n_casters;
     float3 t, b;
     make_frame(d, &t, &b);
@@ -127,6 +129,7 @@ inline bool aim_origin(const Scene *scene, float3 d, float3 c, float R, float u0
         }
         target -= wi;
     }
+    *caster = pick;
     float4 s = scene->casters[pick];
     float2 q = (float2)(dot(s.xyz - c, t), dot(s.xyz - c, b)) + sample_disk(u1, u2) * s.w;
     *o = c - R * d + q.x * t + q.y * b;

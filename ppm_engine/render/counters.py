@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import enum
 
+from ppm_engine.scene.casters import MAX_CASTERS
+
 
 class Counter(enum.IntEnum):
     NAN = 0         # NaN/Inf samples and photons dropped by the kernel guards, whole render
@@ -19,8 +21,10 @@ class Counter(enum.IntEnum):
                     # photons' light tracing can render (counted only with it on)
     CASTER = 10     # caustic photons this pass whose first scattering was a caster's (its
                     # caustic closures: photon_pass.cl), the rest of those emitted wasted
+    CASTER_STATS = 11   # the first of two per caster (MAX_CASTERS): the photons this pass aimed
+                        # at it, and the photons they stored (Renderer.learn_caster_weights)
 
 
-N_COUNTERS = len(Counter)
+N_COUNTERS = len(Counter) - 1 + 2 * MAX_CASTERS
 # reset before every pass; Counter.NAN accumulates over the render
 PER_PASS = range(Counter.STORED, N_COUNTERS)

@@ -186,6 +186,8 @@ class DeviceScene:
         this.  Returns the number of spheres."""
         key = (gather_roughness, caustic_roughness, int(self.light_paths["flags"][0]))
         if key == self._casters_key:
+            if not np.array_equal(self.caster_weights, self.caster_static):
+                self.set_caster_weights(self.caster_static)     # a new render's start
             return int(self.emitters.info["n_casters"][0])
         p, em = self.prepared, self.emitters
         mw = material_weights(self.knodes, self.kmaterials.shape[0], gather_roughness,
@@ -194,18 +196,25 @@ class DeviceScene:
         ok = (m >= 0) & (m < mw.shape[0])
         tri_w = np.zeros(m.shape[0], np.float32)
         tri_w[ok] = mw[m[ok]]
-        spheres, weights = caster_spheres(p.positions.reshape(-1, 3, 3), tri_w)
-        corners = p.positions.reshape(-1, 3, 3)[self.bvh.leaf_order[em.emissive_leaves]]
-        reach = caster_reach(p.lights, corners, bool(em.info["has_world"][0]),
-                             float(em.info["scene_radius"][0]), spheres, weights)
-        em.info["n_casters"] = spheres.shape[0]
-        self.args.update(self._upload(
-            casters=spheres, caster_weight=weights,
-            caustic_cdf=caustic_cdf(em.power, reach) if em.power.size else np.zeros(0, np.float32),
-            emitter_info=em.info))
-        self.caster_spheres, self.caster_weights, self.caster_reach = spheres, weights, reach
+        self.caster_spheres, self.caster_static = caster_spheres(p.positions.reshape(-1, 3, 3),
+                                                                 tri_w)
+        em.info["n_casters"] = self.caster_spheres.shape[0]
+        self.args.update(self._upload(casters=self.caster_spheres, emitter_info=em.info))
+        self.set_caster_weights(self.caster_static)
         self._casters_key = key
-        return spheres.shape[0]
+        return self.caster_spheres.shape[0]
+
+    def set_caster_weights(self, weights: np.ndarray) -> None:
+        """Other weights for the casters of set_casters (Renderer.learn_caster_weights: what
+        the photons aimed at each stored), uploaded with the emitters' CDF toward them."""
+        p, em = self.prepared, self.emitters
+        self.caster_weights = w = np.asarray(weights, np.float32)
+        corners = p.positions.reshape(-1, 3, 3)[self.bvh.leaf_order[em.emissive_leaves]]
+        self.caster_reach = caster_reach(p.lights, corners, bool(em.info["has_world"][0]),
+                                         float(em.info["scene_radius"][0]), self.caster_spheres, w)
+        self.args.update(self._upload(
+            caster_weight=w, caustic_cdf=(caustic_cdf(em.power, self.caster_reach)
+                                          if em.power.size else np.zeros(0, np.float32))))
 
     def set_camera(self, scene: SceneArrays) -> None:
         """``scene`` is the current one with another camera (the viewport's view; its other

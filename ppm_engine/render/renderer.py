@@ -109,6 +109,7 @@ class Renderer:
         # caustic photons aimed at the casters (a pilot's photons are not)
         self.casters = (self.scene.set_casters(o.gather_roughness, o.caustic_roughness)
                         if self.photons_needed and self.path_indirect else 0)
+        self.caster_counts = np.zeros((self.casters, 2))   # learn_caster_weights' sums
         store = self.STORE_FACTOR * self.photons_per_pass
         if self.photons_needed and self.photon_map.capacity < store:
             self.photon_map.allocate(store)
@@ -278,7 +279,34 @@ class Renderer:
             self.lt_kappa = 0.0
             film.disable_light_tracing()
         self.passes_done += 1
+        if self.casters and o.skip_unaimed_caustics:
+            self.learn_caster_weights(counters)
         return self._stats(counters, grid, events, converge, time.perf_counter() - t0)
+
+    # learn_caster_weights: a caster's yield starts as this many photons' worth of its material's
+    # weight (casters.py) at the mean yield; no weight falls below this share of the largest
+    LEARN_PRIOR = 64
+    LEARN_FLOOR = 0.02
+
+    def learn_caster_weights(self, counters: np.ndarray) -> None:
+        """The casters' weights from what the photons aimed at each stored so far (per photon
+        aimed: its yield), after passes 1, 2, 4, 8, 16 and every 16th: photons go where they
+        are stored near what the camera sees (the grid over the visible points), not to a
+        mirror whose light lands out of view, nor to a floor's faint specular layer whose
+        photons mostly end there.  Each pass's photons carry the density they were drawn with,
+        so the image stays unbiased; no weight drops below LEARN_FLOOR of the largest, so
+        every caster keeps photons."""
+        k = self.casters
+        first = Counter.CASTER_STATS
+        self.caster_counts += counters[first:first + 2 * k].reshape(k, 2)
+        n = self.passes_done
+        sent, stored = self.caster_counts.T
+        if (n & (n - 1) and n % 16) or not stored.sum() > 0:
+            return
+        static = self.scene.caster_static / max(float(self.scene.caster_static.max()), 1e-30)
+        prior = self.LEARN_PRIOR * static * (stored.sum() / sent.sum())
+        y = (stored + prior) / (sent + self.LEARN_PRIOR)
+        self.scene.set_caster_weights(np.maximum(y / y.max(), self.LEARN_FLOOR))
 
     def _stats(self, counters, grid, events, converged: bool, seconds: float) -> PassStats:
         if converged:
