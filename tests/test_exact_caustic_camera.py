@@ -225,3 +225,24 @@ def test_every_pixel_is_rendered():
     assert (~stage).sum() > 10 and img[~stage][:, 0].mean() > 0.05 * img[stage][:, 0].mean()
     _, old, info = ec.render(scene, photons=1 << 16, seed=1, ball=False)
     assert (old == stage).all() and info["ball_points"] == 0
+
+
+@pytest.mark.slow
+def test_halving_the_texture_bins_changes_less_than_the_noise():
+    """The textures' bias (a bin's mean irradiance for each of its points): the same photons
+    binned at 2 cm, 1 cm (the default) and 5 mm give ball pixels whose differences are small
+    beside the reference's own noise there (two seeds), and shrink as the bins do: the bias
+    at 1 cm is within its noise (32 x 32, 2^22 photons)."""
+    scene = _scene(32)
+    s = ecs.setup_of(scene)
+    ball = ~ecs.coverage(s)
+    imgs = {b: ec.render(scene, photons=1 << 22, seed=4, texture_bins=b)[0][..., 0]
+            for b in (50, 100, 200)}
+    other = ec.render(scene, photons=1 << 22, seed=5)[0][..., 0]
+    noise = np.sqrt(np.mean((imgs[100] - other)[ball] ** 2)) / 2
+
+    def rms(a, b):
+        return np.sqrt(np.mean((a - b)[ball] ** 2))
+    coarse, fine = rms(imgs[50], imgs[100]), rms(imgs[100], imgs[200])
+    assert fine < noise and coarse < 2 * noise, (coarse, fine, noise)
+    assert abs(np.mean((imgs[100] - imgs[200])[ball])) < 0.2 * noise
