@@ -172,7 +172,8 @@ def rough_glass_eval(a, b, n, alpha):
     dist = alpha * alpha / (np.pi * (cm * cm * (alpha * alpha - 1.0) + 1.0) ** 2)
     g2 = 1.0 / (1.0 + smith_lambda(ca, alpha) + smith_lambda(np.abs(cb), alpha))
     am, bm = np.einsum("ij,ij->i", m, a), np.einsum("ij,ij->i", m, b)
-    f, _ = fresnel(np.clip(am, 0.0, 1.0), eta_a / eta_o)
+    with np.errstate(divide="ignore", invalid="ignore"):     # m edge-on: weight 0 below
+        f, _ = fresnel(np.clip(am, 0.0, 1.0), eta_a / eta_o)
     fr = f * dist * g2 / (4.0 * ca)
     with np.errstate(divide="ignore", invalid="ignore"):
         ft = (1.0 - f) * dist * g2 * np.abs(bm * am) / (ca * (bm + am / eta_p) ** 2)
