@@ -12,6 +12,7 @@ bpy = pytest.importorskip("bpy")
 
 from ppm_engine.blender.scenes.caustics import BALL, FLOOR, point_caustic
 from ppm_engine.tools.bench import exact_caustic as ec
+from ppm_engine.tools.bench import exact_caustic_camera as ecc
 from ppm_engine.tools.bench import exact_caustic_scene as ecs
 from ppm_engine.tools.bench import exact_film as ef
 from ppm_engine.tools.bench import exact_optics as eo
@@ -34,14 +35,14 @@ def test_shares_no_code_with_the_engine():
     import ast
     from pathlib import Path
     imported = set()
-    for module in (ec, ecs, ef, eo):
+    for module in (ec, ecc, ecs, ef, eo):
         for node in ast.walk(ast.parse(Path(module.__file__).read_text())):
             if isinstance(node, ast.Import):
                 imported |= {a.name for a in node.names}
             elif isinstance(node, ast.ImportFrom):
                 imported.add("." * node.level + (node.module or ""))
-    own = {f"ppm_engine.tools.bench.{m}" for m in ("exact_caustic_scene", "exact_film",
-                                                    "exact_optics")}
+    own = {f"ppm_engine.tools.bench.{m}" for m in ("exact_caustic_camera", "exact_caustic_scene",
+                                                    "exact_film", "exact_optics")}
     assert imported - own == {"__future__", "math", "time", "dataclasses", "numpy",
                               "ppm_engine.blender.scenes.caustics"}, imported
 
@@ -312,7 +313,7 @@ def traced_direct():
     parts = []
     for seed in range(100, 116):
         img, cover, info = ec.render(scene, photons=1 << 17, seed=seed, max_bounces=0,
-                                     direct="traced")
+                                     direct="traced", ball=False)
         assert info["photons"] == 1 << 17 and info["max_bounces"] == 0
         assert info["direct"] == "traced" and info["connections"] > 0
         parts.append(img[..., 0].astype(np.float64))
@@ -434,12 +435,12 @@ def test_split_and_stratified_emission_are_unbiased():
     scene = _scene()
     s = ecs.setup_of(scene)
     closed = ec.direct_light(s).reshape(W, W) * s.power[0]
-    a, cover, info = ec.render(scene, photons=1 << 20, seed=5)
+    a, cover, info = ec.render(scene, photons=1 << 20, seed=5, ball=False)
     assert info["direct"] == "closed"
-    traced, _, _ = ec.render(scene, photons=1 << 20, seed=6, direct="traced")
+    traced, _, _ = ec.render(scene, photons=1 << 20, seed=6, direct="traced", ball=False)
     assert a[cover].mean() == pytest.approx(0.641, abs=0.003)
     assert a[cover].mean() == pytest.approx(traced[cover].mean(), rel=0.007)
-    b, _, _ = ec.render(scene, photons=1 << 20, seed=7, stratified=False)
+    b, _, _ = ec.render(scene, photons=1 << 20, seed=7, stratified=False, ball=False)
     rest_a, rest_b = a[..., 0] - closed, b[..., 0] - closed
     assert rest_a[cover].mean() == pytest.approx(0.108, abs=0.004)
     assert rest_a[cover].mean() == pytest.approx(rest_b[cover].mean(), rel=0.035)

@@ -34,11 +34,12 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
   of rough glass, GGX roughness 0.1): the exact-geometry reference
   (exact_caustic.py, "EXACT"): in NumPy on the true sphere and the two finite planes, the
   direct light in closed form and the rest by light tracing, sharing no code with this engine, so it
-  stays independent now that light tracing is one of the engine's own strategies (issue 25).  Cycles
-  with MNEE is no reference there: it gives the brightest pixel of the focus 5.9 where light tracing
+  stays independent now that light tracing is one of the engine's own strategies (issue 25).  It
+  renders every pixel, the ball's by the camera's chains through the true sphere
+  (exact_caustic_camera.py): errors over the whole image, and the ball's pixels (``regions``).
+  Cycles with MNEE is no reference there: its focus's brightest pixel is 5.9 where light tracing
   and this engine agree on 32 and 29 (docs/history/benchmarks-notebook.md, "The hard caustic").
-  Each half computes the closed form, then renders whole batches of photons for the rest of the
-  reference budget;
+  Each half computes the closed form and the chains, then whole batches of photons for the rest;
 - pool_caustic (the sun's caustic on a pool's floor, seen through the waves that make it):
   the exact-geometry reference exact_pool.py ("EXACT_POOL"): in NumPy on the true height field,
   sun photons splatted into every raster position that sees where they land (the camera's
@@ -64,10 +65,12 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
   weigh in every curve's error.
 
 Light tracing, of any kind, renders what the camera sees of surfaces it can evaluate:
-pixels that see an emitter or a mirror, glass or smooth glossy surface, or nothing (and their
-neighbours within the pixel filter's reach) are left out of every figure of those scenes
-(``LightTracer.coverage``, ``exact_caustic.coverage``; LuxCore's also the frame's edge,
-``Bench.luxcore_coverage``).  This engine's light tracer is cross-checked in every run
+where a light-traced reference is used (bulb_box, mirror_caustic, glass_caustic), pixels that
+see an emitter or a mirror, glass or smooth glossy surface, or nothing (and their neighbours
+within the pixel filter's reach) are left out of that scene's figures (``LightTracer.coverage``;
+LuxCore's also the frame's edge, ``Bench.luxcore_coverage``), and the tables say how many
+pixels are counted.  The exact references (point_caustic, rough_caustic, pool_caustic) and
+Cycles' count every pixel.  This engine's light tracer is cross-checked in every run
 (``light_trace_check``: the means of the two over the covered pixels, and their RMSE
 against both references' noise): with Cycles on the Cornell box, on point_caustic, where
 it renders the scene's 48 x 24 mesh ball, with the exact sphere, and with LuxCore's light
@@ -305,6 +308,9 @@ class Bench(References):
         if fallback is not None:
             out["reference"]["fallback"] = {"engine": REFERENCE_ENGINE[name],
                                             "reason": fallback}
+        # regions beside the whole image (references.regions: the exact sphere's ball pixels)
+        regions, region_noise, out["regions"] = self.regions(scene, ref_engine, keep, halves)
+        out["pixels_counted"] = int(keep.sum())
         np.save(self.folder / f"{name}_reference.npy", ref)
         if ref_engine in ("CYCLES", "EXACT", "LUXCORE_LIGHT"):
             # the light tracer cross-checked with Cycles where both converge, on
@@ -373,6 +379,7 @@ class Bench(References):
                 row = {"seconds": budget, "wall_s": wall, **info,
                        "image": errors(img, ref, keep, noise_all),
                        "caustic": errors(img, ref, cmask, noise_c if cmask.any() else 0.0),
+                       **{k: errors(img, ref, m, region_noise[k]) for k, m in regions.items()},
                        "mean_over_reference": float(img[keep].mean() / ref[keep].mean()),
                        **fireflies(img, keep, ceiling)}
                 if budget == equal_time and curve in SEEDED_CURVES:
@@ -391,7 +398,9 @@ class Bench(References):
                     row["over_reference_range_seeds"] = [f["over_reference_range"] for f in flies]
                     row["image_rmse_mean"] = float(np.mean(per_seed))
                 rows.append(row)
-                self.progress(f"[{name}] {curve:11s} {budget:6.2f} s: RMSE "
+                what = ("whole image" if row["image"]["pixels"] == w * h
+                        else f"{row['image']['pixels']} px")
+                self.progress(f"[{name}] {curve:11s} {budget:6.2f} s: RMSE ({what}) "
                               f"{row['image']['rmse']:.4g} (rel {row['image']['rel_rmse']:.3f}), "
                               "caustic RMSE "
                               f"{row['caustic']['rmse']:.4g}, wall {wall:.1f} s"

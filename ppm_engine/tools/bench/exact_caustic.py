@@ -74,6 +74,7 @@ import time
 import numpy as np
 
 from ppm_engine.blender.scenes.caustics import BALL, FLOOR
+from ppm_engine.tools.bench.exact_caustic_camera import TEXTURE_BINS, BallView, Textures
 from ppm_engine.tools.bench.exact_caustic_scene import (
     BALL_ID,
     FLOOR_HALF,
@@ -83,10 +84,12 @@ from ppm_engine.tools.bench.exact_caustic_scene import (
     Setup,
     ball_blocks,
     coverage,
+    direct_irradiance,
     first_hit,
     setup_of,
+    stage_normals,
 )
-from ppm_engine.tools.bench.exact_film import camera_rays, filter_1d, project, splat
+from ppm_engine.tools.bench.exact_film import camera_rays, filtered, jump_cells, project, splat
 from ppm_engine.tools.bench.exact_optics import (
     cone_dirs,
     cosine_dirs,
@@ -113,23 +116,12 @@ def _direct_radiance(s: Setup, px, py):
     t, hit = first_hit(o, d, no, no)
     depth = t * (d @ -s.axes[:, 2])
     stage = ((hit == FLOOR_ID) | (hit == WALL_ID)) & (depth > s.clip[0]) & (depth < s.clip[1])
-    p, hd = s.eye + t[stage, None] * d[stage], hit[stage]
-    normal = np.zeros_like(p)
-    normal[hd == FLOOR_ID, 2] = 1.0
-    normal[hd == WALL_ID, 1] = -1.0
-    p[hd == FLOOR_ID, 2] = 0.0                      # exactly on the surface
-    p[hd == WALL_ID, 1] = WALL_Y
+    p, normal = stage_normals(s.eye + t[stage, None] * d[stage], hit[stage])
     # the side the camera sees (both sides are Lambertian)
     normal *= np.where(np.einsum("ij,ij->i", d[stage], normal) < 0, 1.0, -1.0)[:, None]
-    to_light = s.light - p
-    dist = np.linalg.norm(to_light, axis=1)
-    u = to_light / dist[:, None]
-    cos_l = np.einsum("ij,ij->i", u, normal)
-    # only the ball can shadow: the light stands above the floor and in front of the wall, so
-    # neither plane meets the segment from a point of the other to it
-    lit = (cos_l > 0) & ~ball_blocks(p, u, dist)
+    irradiance, lit = direct_irradiance(s, p, normal)
     radiance = np.zeros(d.shape[0])
-    radiance[stage] = np.where(lit, a / np.pi / (4.0 * np.pi) * cos_l / dist ** 2, 0.0)
+    radiance[stage] = a / np.pi * irradiance
     kind = 2 * (hit + 1)
     kind[stage] += lit
     return radiance, kind
@@ -144,8 +136,9 @@ def direct_light(s: Setup, per_pixel: int = DIRECT_GRID, refine: int = DIRECT_RE
     where a camera ray sees the ball or nothing.  Each pixel integrates it over the pixel
     filter on a fixed grid of ``per_pixel`` x ``per_pixel`` cells per pixel (weights f at the
     cell's centre / per_pixel^2: the splat's normalisation), so the image has no noise.  A cell
-    takes L at its centre, or where L jumps on the stage (the shadow's edge, the floor's corner
-    with the wall: what a cell or a neighbour sees differs from the next cell's) the mean of
+    takes L at its centre, or where L jumps (the shadow's edge, the floor's corner with the
+    wall, the ball's silhouette, the stage's edges on the void: what a cell or a neighbour sees
+    differs from the next cell's) the mean of
     ``refine`` x ``refine`` points in it: a grid's error at a jump only falls as 1 /
     points per axis, and most where the edge runs along the grid
     (tests/test_exact_caustic.py bounds what is left).  ``chunk`` points at a time."""
@@ -160,25 +153,9 @@ def direct_light(s: Setup, per_pixel: int = DIRECT_GRID, refine: int = DIRECT_RE
         i = np.arange(i0, min(i0 + chunk, radiance.size))
         radiance[i], kind[i] = _direct_radiance(s, gx[i % nx], gy[i // nx])
     radiance, kind = radiance.reshape(gy.size, nx), kind.reshape(gy.size, nx)
-    # the cells on either side of a change, and their neighbours: an edge that only clips a
-    # cell's corner changes nothing between centres next to it but does between its neighbours.
-    # Only changes on the stage: pixels whose filter sees the ball or the void are not covered
-    # (light tracing does not render them), so their edges are left at the grid's precision
-    on_stage = (kind >= 2) & (kind <= 5)
-    jump = np.zeros(kind.shape, bool)
-    dx = (kind[:, 1:] != kind[:, :-1]) & on_stage[:, 1:] & on_stage[:, :-1]
-    jump[:, 1:] |= dx
-    jump[:, :-1] |= dx
-    dy = (kind[1:] != kind[:-1]) & on_stage[1:] & on_stage[:-1]
-    jump[1:] |= dy
-    jump[:-1] |= dy
-    near = jump.copy()
-    near[1:] |= jump[:-1]
-    near[:-1] |= jump[1:]
-    grown = near.copy()
-    grown[:, 1:] |= near[:, :-1]
-    grown[:, :-1] |= near[:, 1:]
-    cells = np.flatnonzero(grown)
+    # every change refined: the ball's silhouette and the stage's edges too, since every pixel
+    # is rendered (exact_caustic_camera.py renders what the ball's points see)
+    cells = jump_cells(kind)
     sub = ((np.arange(refine) + 0.5) / refine - 0.5) / k
     ox, oy = (a.ravel() for a in np.meshgrid(sub, sub))
     per = max(chunk // ox.size, 1)
@@ -188,11 +165,7 @@ def direct_light(s: Setup, per_pixel: int = DIRECT_GRID, refine: int = DIRECT_RE
         px = (gx[c % nx][:, None] + ox).ravel()
         py = (gy[c // nx][:, None] + oy).ravel()
         flat[c] = _direct_radiance(s, px, py)[0].reshape(c.size, ox.size).mean(axis=1)
-    # pixel i's weight of the grid column at x: f(x - i - 1/2) / k (the same for rows), so a
-    # pixel is sum f(x) f(y) L / k^2: two matrix products instead of a splat per point
-    fx = filter_1d(gx[None, :] - (np.arange(s.width)[:, None] + 0.5), r) / k
-    fy = filter_1d(gy[None, :] - (np.arange(s.height)[:, None] + 0.5), r) / k
-    return (fy @ radiance @ fx.T).ravel()
+    return filtered(s, radiance, gx, gy, k)
 # --- light tracing ---------------------------------------------------------------------------
 def emit(s: Setup, n: int, rng, stratified: bool = True):
     """n photons from the light: (origins, unit directions, weights), per watt of the light's
@@ -229,11 +202,12 @@ def emit(s: Setup, n: int, rng, stratified: bool = True):
 
 
 def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
-          direct: bool = False) -> dict:
+          direct: bool = False, tex: Textures | None = None) -> dict:
     """Trace n photons (per watt of the light's power) and add their connections to the camera
-    to ``acc`` (h * w).  ``direct``: also where a photon first lands, which is the direct
-    light (otherwise ``direct_light``'s); those photons bounce on all the same.  Counts of what
-    happened."""
+    to ``acc`` (h * w), and where they land to the irradiance textures ``tex``, if any (what
+    the camera sees through the ball: exact_caustic_camera.py).  ``direct``: also where a
+    photon first lands, which is the direct light (otherwise ``direct_light``'s); those photons
+    bounce on all the same.  Counts of what happened."""
     a = float(FLOOR[0])          # grey (setup_of checks): one channel, times the light's RGB
     o, d, w = emit(s, n, rng, stratified)
     keep = w > 0
@@ -268,9 +242,12 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
         normal[hd == WALL_ID, 1] = -1.0
         pd[hd == FLOOR_ID, 2] = 0.0                    # exactly on the surface
         pd[hd == WALL_ID, 1] = WALL_Y
-        facing = np.where((np.einsum("ij,ij->i", dd, normal) < 0)[:, None], normal, -normal)
+        front = np.einsum("ij,ij->i", dd, normal) < 0
+        facing = np.where(front[:, None], normal, -normal)
         # a diffuse hit at vertex 0 came straight from the light, past the ball: the direct
         # light, in closed form unless asked for here
+        if tex is not None and (direct or not first):
+            tex.deposit(pd, hd, front & within, wd, vertex, cd)
         if direct or not first:
             px, py, to_eye, dist, cos_cam, ok = project(s, pd)
             cos_surf = np.einsum("ij,ij->i", to_eye, facing)
@@ -309,16 +286,23 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
         counts = np.concatenate([cd, cg])
         inside = np.concatenate([np.zeros(od.shape[0], bool), ig2])
         left_ball = np.concatenate([np.zeros(od.shape[0], bool), np.ones(pg.shape[0], bool)])
+    if tex is not None:
+        tex.flush(n)
     return stats
 
 
 def render(scene, photons: int = 0, seed: int = 0, batch: int = BATCH, seconds: float = 0.0,
-           max_bounces: int | None = None, stratified: bool = True, direct: str = "closed"):
+           max_bounces: int | None = None, stratified: bool = True, direct: str = "closed",
+           ball: bool = True, texture_bins: int = TEXTURE_BINS, ball_grid: int | None = None):
     """Render the ``point_caustic`` bpy scene: the direct light in closed form
-    (``direct_light``; ``direct="traced"``: light-traced as the rest) and the rest light-traced
+    (``direct_light``; ``direct="traced"``: light-traced as the rest), the rest light-traced
     by ``photons`` photons (in batches of ``batch``), or with ``seconds`` whole batches until
-    that time (the closed form's included) is spent.  (image (h, w, 3) float32 top-down,
-    coverage (h, w) bool top-down, info)."""
+    that time (the closed form's and the ball's chains included) is spent, and (``ball``) what
+    the pixels that see the ball see through it and in it (exact_caustic_camera.BallView: its
+    chains traced before the photons, the photons' irradiance in textures of ``texture_bins``
+    bins per metre, ``ball_grid`` points per pixel and axis).  (image (h, w, 3) float32
+    top-down, coverage (h, w) bool top-down: every pixel, or without ``ball`` those that see
+    only the floor and the wall, info)."""
     if direct not in ("closed", "traced"):
         raise ValueError(f"direct is 'closed' or 'traced', not {direct!r}")
     if photons <= 0 and seconds <= 0:
@@ -329,10 +313,17 @@ def render(scene, photons: int = 0, seed: int = 0, batch: int = BATCH, seconds: 
     t0 = time.perf_counter()
     closed = direct_light(s) if direct == "closed" else np.zeros_like(acc)
     direct_seconds = time.perf_counter() - t0
+    tex = view = None
+    if ball:
+        tex = Textures(s, texture_bins)
+        # the chains' own random numbers (rough glass), apart from the photons'
+        extra = {} if ball_grid is None else {"per_pixel": ball_grid}
+        view = BallView(s, tex, np.random.default_rng([seed, 1]), direct == "closed", **extra)
+    ball_seconds = time.perf_counter() - t0 - direct_seconds
     done, stats = 0, {"connections": 0, "ball_hits": 0}
     while True:
         n = batch if seconds > 0 else min(batch, photons - done)
-        st = trace(s, n, rng, acc, stratified, direct == "traced")
+        st = trace(s, n, rng, acc, stratified, direct == "traced", tex)
         done += n
         for key in stats:
             stats[key] += st[key]
@@ -340,9 +331,14 @@ def render(scene, photons: int = 0, seed: int = 0, batch: int = BATCH, seconds: 
                 (seconds <= 0 and done >= photons):
             break
     acc = acc / done + closed
+    if view is not None:
+        acc = acc + view.image()
     image = (acc.reshape(s.height, s.width)[..., None] * s.power * s.film_exposure)
     image = image.astype(np.float32)
     info = {"photons": done, "batches": -(-done // batch), "seconds": time.perf_counter() - t0,
             "max_bounces": s.max_bounces, "direct": direct, "direct_seconds": direct_seconds,
-            **stats}
-    return image, coverage(s), info
+            "ball": ball, "ball_seconds": ball_seconds,
+            "ball_points": view.points if view is not None else 0,
+            "texture_bins": texture_bins if ball else 0, **stats}
+    cover = np.ones((s.height, s.width), bool) if ball else coverage(s)
+    return image, cover, info

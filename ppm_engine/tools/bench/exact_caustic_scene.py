@@ -2,7 +2,9 @@
 sees them, in NumPy: the scene as ppm_engine/blender/scenes/caustics.py defines it (a true sphere,
 two finite planes, a point light), the Setup read from the bpy scene (camera, film, light, bounce
 limits, the glass's roughness; what the reference does not model is refused), the rays' first
-hits, the ball's shadow, and the pixels light tracing covers (``coverage``)."""
+hits, the ball's shadow, a point's direct irradiance (``direct_irradiance``), and the pixels
+that see only the floor and the wall directly (``coverage``: a region of the bench's tables,
+no longer the reference's limit: exact_caustic_camera.py renders the ball's pixels)."""
 from __future__ import annotations
 
 import math
@@ -153,7 +155,35 @@ def ball_blocks(p, u, dist):
     return (disc > 0) & (-b + s > EPS) & (-b - s < dist)
 
 
-# --- the pixels light tracing covers ---------------------------------------------------------
+def stage_normals(p, hit):
+    """The floor's or the wall's front normals (+z, -y) at points p on them, and p put exactly
+    on the surface."""
+    p = p.copy()
+    normal = np.zeros_like(p)
+    normal[hit == FLOOR_ID, 2] = 1.0
+    normal[hit == WALL_ID, 1] = -1.0
+    p[hit == FLOOR_ID, 2] = 0.0
+    p[hit == WALL_ID, 1] = WALL_Y
+    return p, normal
+
+
+def direct_irradiance(s: Setup, p, normal):
+    """The point light's irradiance (per watt of its power: I = 1 / (4 pi) W/sr) at points p
+    of the floor or the wall, on the side of unit normals ``normal``: I cos / d^2, 0 where the
+    ball is on the segment to the light (the glass is opaque to it, as to Cycles' shadow rays)
+    or the light is behind.  Only the ball can shadow: the light stands above the floor and in
+    front of the wall, so neither plane meets the segment from a point of the other to it.
+    (irradiance, lit)."""
+    to_light = s.light - p
+    dist = np.linalg.norm(to_light, axis=1)
+    u = to_light / dist[:, None]
+    cos_l = np.einsum("ij,ij->i", u, normal)
+    lit = cos_l > 0
+    lit[lit] = ~ball_blocks(p[lit], u[lit], dist[lit])
+    return np.where(lit, cos_l / (4.0 * np.pi * dist ** 2), 0.0), lit
+
+
+# --- the pixels that see only the stage --------------------------------------------------------
 def coverage(s: Setup, supersample: int = 8) -> np.ndarray:
     """(h, w) bool, rows top-down: the pixels whose filter footprint (every point within the
     filter's reach of the pixel centre, sampled ``supersample`` times per pixel) sees the floor

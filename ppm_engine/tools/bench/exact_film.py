@@ -101,6 +101,38 @@ def camera_rays(s, px, py):
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
+def jump_cells(kind) -> np.ndarray:
+    """Flat indices of a 2-D grid's cells to refine where ``kind`` (what each cell's centre
+    sees) changes: the cells on either side of a change and their neighbours (an edge that
+    only clips a cell's corner changes nothing between centres next to it but does between its
+    neighbours)."""
+    jump = np.zeros(kind.shape, bool)
+    dx = kind[:, 1:] != kind[:, :-1]
+    jump[:, 1:] |= dx
+    jump[:, :-1] |= dx
+    dy = kind[1:] != kind[:-1]
+    jump[1:] |= dy
+    jump[:-1] |= dy
+    near = jump.copy()
+    near[1:] |= jump[:-1]
+    near[:-1] |= jump[1:]
+    grown = near.copy()
+    grown[:, 1:] |= near[:, :-1]
+    grown[:, :-1] |= near[:, 1:]
+    return np.flatnonzero(grown)
+
+
+def filtered(s, values, gx, gy, k: int) -> np.ndarray:
+    """(h * w), rows top-down: the pixels' filter integrals of ``values`` given on the grid of
+    raster points gx (columns) x gy (rows), ``k`` per pixel and axis (cell area 1 / k^2).
+    Pixel i's weight of the column at x is f(x - i - 1/2) / k (the same for rows), so a pixel
+    is sum f(x) f(y) v / k^2: two matrix products instead of a splat per point."""
+    r = s.filter_width
+    fx = filter_1d(gx[None, :] - (np.arange(s.width)[:, None] + 0.5), r) / k
+    fy = filter_1d(gy[None, :] - (np.arange(s.height)[:, None] + 0.5), r) / k
+    return (fy @ values @ fx.T).ravel()
+
+
 def window_clear(bad, s, k: int, pad: int, offset: float) -> np.ndarray:
     """(h, w) bool, rows top-down: the pixels whose filter window (the points strictly within
     the filter's reach of the pixel centre) holds no ``bad`` point of a grid whose point (row,

@@ -1,7 +1,10 @@
 """The scattering and the direction sampling of the exact-geometry references (exact_caustic.py,
 exact_pool.py), in NumPy: the exact unpolarised dielectric Fresnel factor, the ball's smooth
-glass and its rough (GGX) glass (exact_caustic.py's docstring has the model),
-cosine-distributed directions about a normal and uniform ones in a cone."""
+glass and its rough (GGX) glass (exact_caustic.py's docstring has the model), both ways out of
+a glass vertex with their weights (``glass_split``, the camera's chains of
+exact_caustic_camera.py) and the rough glass's kernel evaluated (``rough_glass_eval``, their
+next-event estimation), cosine-distributed directions about a normal and uniform ones in a
+cone."""
 from __future__ import annotations
 
 import numpy as np
@@ -106,6 +109,76 @@ def rough_glass_scatter(d, n, inside, u, alpha, rng):
     li, lo = smith_lambda(np.abs(cos_o), alpha), smith_lambda(np.abs(cos_out), alpha)
     weight = np.where(valid, (1.0 + li) / (1.0 + li + lo), 0.0)
     return out, refl, np.where(refl, inside, ~inside), weight
+
+
+def glass_split(d, n, inside, alpha, rng=None):
+    """Both ways a ray along unit d leaves the ball's glass (outward normals n), each with its
+    weight: the expectation of glass_scatter's (alpha 0) or rough_glass_scatter's random choice
+    between reflection and refraction, taken exactly.  Smooth: F and 1 - F about n.  Rough
+    (GGX of ``alpha``): one microfacet normal m visible from where the ray came from (Heitz
+    2018, drawn from ``rng``), then F(m) G2 / G1 reflected and (1 - F(m)) G2 / G1 refracted
+    about it, 0 on the wrong side of the macro surface.  (reflected directions, their weights,
+    refracted directions, their weights); reflected rays stay on their side, refracted cross."""
+    wi = -d
+    cos_o = np.einsum("ij,ij->i", wi, n)
+    nf = np.where((cos_o > 0)[:, None], n, -n)         # the normal on the incident side
+    if alpha > 0.0:
+        t, b = _frame(nf)
+        wl = np.stack([np.einsum("ij,ij->i", wi, t), np.einsum("ij,ij->i", wi, b),
+                       np.abs(cos_o)], 1)
+        ml = ggx_visible_normals(wl, alpha, rng.random(d.shape[0]), rng.random(d.shape[0]))
+        m = ml[:, :1] * t + ml[:, 1:2] * b + ml[:, 2:3] * nf
+    else:
+        m = nf
+    cos_im = np.maximum(np.einsum("ij,ij->i", wi, m), 0.0)
+    eta = np.where(inside, IOR, 1.0 / IOR)
+    with np.errstate(divide="ignore", invalid="ignore"):     # m seen edge-on: weight 0
+        f, cos_t = fresnel(cos_im, eta)
+    f = np.nan_to_num(f, nan=1.0)
+    r = 2.0 * cos_im[:, None] * m - wi
+    tr = -eta[:, None] * wi + (eta * cos_im - cos_t)[:, None] * m
+    r /= np.linalg.norm(r, axis=1, keepdims=True)
+    tr /= np.maximum(np.linalg.norm(tr, axis=1, keepdims=True), 1e-300)
+    if alpha <= 0.0:
+        return r, f, tr, 1.0 - f
+    li = smith_lambda(np.abs(cos_o), alpha)
+    cr, ct = np.einsum("ij,ij->i", r, nf), np.einsum("ij,ij->i", tr, nf)
+    wr = np.where(cr > 0, f * (1.0 + li) / (1.0 + li + smith_lambda(cr, alpha)), 0.0)
+    wt = np.where((ct < 0) & (f < 1.0),
+                  (1.0 - f) * (1.0 + li) / (1.0 + li + smith_lambda(ct, alpha)), 0.0)
+    return r, wr, tr, wt
+
+
+def rough_glass_eval(a, b, n, alpha):
+    """The kernel rough_glass_scatter samples, evaluated: f(a -> b) |b.n| for a ray that came
+    from unit direction a (towards where it came from) leaving along unit b, at the ball's
+    surface of outward normals n (the ray outside where a.n > 0): Walter et al. 2007's rough
+    dielectric (GGX of ``alpha``, Smith's height-correlated G2, the exact Fresnel factor) in the
+    form whose samples rough_glass_scatter draws (tests/test_exact_caustic.py checks the two
+    against the BSDF written out in full)."""
+    ca = np.einsum("ij,ij->i", a, n)
+    outside = ca > 0
+    nf = np.where(outside[:, None], n, -n)
+    ca = np.abs(ca)
+    cb = np.einsum("ij,ij->i", b, nf)
+    refl = cb > 0
+    eta_a = np.where(outside, 1.0, IOR)
+    eta_o = np.where(outside, IOR, 1.0)                 # the other side's
+    eta_p = np.where(refl, 1.0, eta_o / eta_a)          # b's side over a's
+    m = np.where(refl[:, None], a + b, a + eta_p[:, None] * b)
+    m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-300)
+    m *= np.where(np.einsum("ij,ij->i", m, nf) < 0, -1.0, 1.0)[:, None]
+    cm = np.einsum("ij,ij->i", m, nf)
+    dist = alpha * alpha / (np.pi * (cm * cm * (alpha * alpha - 1.0) + 1.0) ** 2)
+    g2 = 1.0 / (1.0 + smith_lambda(ca, alpha) + smith_lambda(np.abs(cb), alpha))
+    am, bm = np.einsum("ij,ij->i", m, a), np.einsum("ij,ij->i", m, b)
+    with np.errstate(divide="ignore", invalid="ignore"):     # m edge-on: weight 0 below
+        f, _ = fresnel(np.clip(am, 0.0, 1.0), eta_a / eta_o)
+    fr = f * dist * g2 / (4.0 * ca)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ft = (1.0 - f) * dist * g2 * np.abs(bm * am) / (ca * (bm + am / eta_p) ** 2)
+    ok = (am > 0) & np.where(refl, bm > 0, bm < 0) & (ca > 0)
+    return np.where(ok, np.where(refl, fr, ft), 0.0)
 
 
 def cosine_dirs(n, rng):

@@ -1,8 +1,9 @@
 """The reference renderers of the error-against-time run (curves.py, whose docstring says which
 scene has which reference and why): this engine's light tracer, LuxCore's (LIGHTCPU) with the
 pixels it covers, and the exact-geometry references of point_caustic and rough_caustic
-(exact_caustic.py) and of the pool (exact_pool.py), as the methods of ``References``, which
-curves.Bench extends."""
+(exact_caustic.py: every pixel, the ball's too) and of the pool (exact_pool.py), as the methods
+of ``References``, which curves.Bench extends, with the regions scored beside the whole
+image."""
 from __future__ import annotations
 
 import time
@@ -71,11 +72,25 @@ class References:
 
     def exact(self, seconds: float, seed: int):
         """point_caustic or rough_caustic by the exact-geometry reference (exact_caustic.py) for
-        ``seconds`` (whole batches): (RGB image top-down, wall seconds, info, coverage top-down)."""
+        ``seconds`` (whole batches): (RGB image top-down, wall seconds, info, coverage top-down:
+        every pixel)."""
         import bpy
         t = time.perf_counter()
         img, cover, info = exact_caustic.render(bpy.context.scene, seed=seed, seconds=seconds)
         return img, time.perf_counter() - t, {"photons": info["photons"]}, cover
+
+    def regions(self, scene, engine: str, keep, halves):
+        """Regions scored beside the whole image: on the exact sphere's scenes ("EXACT") the
+        pixels that see the glass ball (through it or in it), which only that reference
+        renders.  (masks, their reference noise (RMSE of the halves / 2), what the JSON
+        records)."""
+        from ppm_engine.tools.bench.exact_caustic_scene import coverage, setup_of
+        from ppm_engine.tools.bench.scoring import errors
+        masks = {"ball": ~coverage(setup_of(scene)) & keep} if engine == "EXACT" else {}
+        noise = {k: errors(halves[0], halves[1], m)["rmse"] / 2 if m.any() else 0.0
+                 for k, m in masks.items()}
+        return masks, noise, {k: {"pixels": int(m.sum()), "noise_rmse": noise[k]}
+                              for k, m in masks.items()}
 
     def exact_pool(self, seconds: float, seed: int):
         """pool_caustic by its exact-geometry reference (exact_pool.py) for ``seconds`` (whole

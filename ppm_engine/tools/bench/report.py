@@ -66,7 +66,7 @@ def plot(result: dict, path) -> None:
             noise = s["reference"]["noise_rmse" if region == "image" else "noise_rmse_caustic"]
             if noise == noise and noise > 0:
                 ax.axhline(noise, color="gray", ls=":", lw=1, label="reference noise")
-            ax.set_title(f"{name}: {'whole image' if region == 'image' else 'caustic pixels'}",
+            ax.set_title(f"{name}: {_region_name(s) if region == 'image' else 'caustic pixels'}",
                          fontsize=9)
             ax.set_xlabel("render time (s)")
             ax.set_ylabel("RMSE vs reference")
@@ -81,14 +81,23 @@ def plot(result: dict, path) -> None:
     plt.close(fig)
 
 
+def _region_name(s: dict) -> str:
+    """What a scene's "image" errors are over: the whole image, or the pixels its reference
+    renders (light-traced references leave out what the camera sees of glass and mirrors)."""
+    w, h = s["resolution"]
+    n = s["curves"]["ours"][0]["image"]["pixels"] if s["curves"].get("ours") else w * h
+    return "whole image" if n == w * h else f"{n} of {w * h} pixels"
+
+
 def table(result: dict) -> str:
-    """Markdown: one row per scene and budget, RMSE (relative) per curve and region."""
-    lines = ["| scene | time (s) | ours RMSE (rel) | paper's photons RMSE (rel) "
+    """Markdown: one row per scene and budget, RMSE (relative) per curve and region; "image"
+    is every pixel unless the pixels column says fewer."""
+    lines = ["| scene | pixels | time (s) | ours RMSE (rel) | paper's photons RMSE (rel) "
              "| ours without light tracing RMSE (rel) "
              "| Cycles RMSE (rel) | Cycles+MNEE RMSE (rel) | LuxCore BIDIR RMSE (rel) "
              "| ours caustic RMSE (rel) | Cycles caustic RMSE (rel) | Cycles+MNEE caustic (rel) "
              "| LuxCore BIDIR caustic (rel) | ours passes |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
 
     def cell(row, region):
         if row is None:
@@ -103,7 +112,8 @@ def table(result: dict) -> str:
             p = c["ours_photons"][k] if "ours_photons" in c else None
             g = c["ours_merge"][k] if "ours_merge" in c else None
             x = c["luxcore_bidir"][k] if "luxcore_bidir" in c else None
-            lines.append(f"| {name} | {budget:g} | {cell(o, 'image')} | {cell(p, 'image')} | "
+            lines.append(f"| {name} | {_region_name(s)} | {budget:g} | {cell(o, 'image')} | "
+                         f"{cell(p, 'image')} | "
                          f"{cell(g, 'image')} | "
                          f"{cell(cy, 'image')} | {cell(m, 'image')} | {cell(x, 'image')} | "
                          f"{cell(o, 'caustic')} | {cell(cy, 'caustic')} | "
@@ -113,17 +123,18 @@ def table(result: dict) -> str:
 
 
 def reference_table(result: dict) -> str:
-    lines = ["| scene | reference engine | independent | s per half | mean "
+    lines = ["| scene | reference engine | independent | pixels it renders | s per half | mean "
              "| reference noise RMSE (rel) | caustic pixels | caustic noise RMSE "
              "| Cycles longest mean / ref | ours longest mean / ref |",
-             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for name, s in result["scenes"].items():
         r, b = s["reference"], s["bias_check"]
         # this engine's light tracer: one of its strategies since light tracing joined the
         # photons (kernels/integrator/photon_pass.cl connect_camera)
         independent = {"PPM": "no (ours)", "LIGHT_TRACE": "no (our light tracer)"}.get(
             r["engine"], "yes")
-        lines.append(f"| {name} | {r['engine']} | {independent} | {r['seconds_per_half']:g} | "
+        lines.append(f"| {name} | {r['engine']} | {independent} | {_region_name(s)} | "
+                     f"{r['seconds_per_half']:g} | "
                      f"{r['mean']:.4f} | "
                      f"{r['noise_rmse']:.4f} ({r['noise_rel_rmse']:.3f}) | "
                      f"{s['caustic_mask_pixels']} | {r['noise_rmse_caustic']:.4f} | "
@@ -173,12 +184,12 @@ def light_tree_table(result: dict) -> str:
 
 def ratio_table(result: dict) -> str:
     eq = result["ratios_at"]
-    lines = [f"| scene | ours: indirect light | RMSE ours/Cycles at {eq:g} s "
+    lines = [f"| scene | ours: indirect light | pixels | RMSE ours/Cycles at {eq:g} s "
              "| mean of seeds | corrected for ref. noise | caustic pixels | ours/(Cycles+MNEE) "
              "| ours/LuxCore BIDIR (caustic pixels) | paper's photons/Cycles | target | met "
              "| brightest pixel: ours / Cycles / reference's range (pixels over 1.1 x the "
              "range: ours, Cycles) | no firefly |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|"]
+             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|"]
     for name, r in result["ratios"].items():
         mn = f"{r['image_rmse_vs_mnee']:.3f}" if "image_rmse_vs_mnee" in r else "–"
         lx = (f"{r['image_rmse_vs_luxcore']:.3f} ({r['caustic_rmse_vs_luxcore']:.3f})"
@@ -192,10 +203,13 @@ def ratio_table(result: dict) -> str:
         ph = f"{r['photons_image_rmse']:.3f}" if "photons_image_rmse" in r else "–"
         sd = (f"{r['image_rmse_seeds']:.3f} ({len(r['seeds'])})" if "image_rmse_seeds" in r
               else "–")
-        lines.append(f"| {name} | {r.get('indirect', 'photons')} | {r['image_rmse']:.3f} | {sd} | "
+        region = _region_name(result["scenes"][name])
+        lines.append(f"| {name} | {r.get('indirect', 'photons')} | {region} | "
+                     f"{r['image_rmse']:.3f} | {sd} | "
                      f"{r['image_rmse_corrected']:.3f} | {r['caustic_rmse']:.3f} | {mn} | {lx} | "
                      f"{ph} | {tgt} | {met} | {_brightest(r)} | "
                      f"{('yes' if r['no_firefly'] else 'no') if 'no_firefly' in r else '–'} |")
+    lines += flat_peer_lines(result)
     # LuxCore's curve: its converged brightness (a bias raises its RMSE) or why it is missing
     for name, s in result["scenes"].items():
         b = s.get("bias_check", {}).get("luxcore_longest_mean_over_reference")
@@ -205,6 +219,32 @@ def ratio_table(result: dict) -> str:
         if isinstance(s.get("luxcore"), str):
             lines.append(f"\nLuxCore BIDIR on {name} skipped: {s['luxcore']}.")
     return "\n".join(lines)
+
+
+PEER_NAMES = {"cycles": "Cycles", "cycles_mnee": "Cycles + MNEE",
+              "luxcore_bidir": "LuxCore BIDIR"}
+
+
+def flat_peer_lines(result: dict) -> list:
+    """A sentence per peer whose error is flat with time (scoring.flat_peers): a bias, which a
+    ratio at one budget compares with our noise: not a speed-up; and when ours crosses it."""
+    out = []
+    times = result["times"]
+    for name, r in result["ratios"].items():
+        for curve, p in r.get("peers", {}).items():
+            if not p["flat"]:
+                continue
+            t = p["ours_crosses_at"]
+            when = (f"ours is below it from the shortest budget ({times[0]:g} s)"
+                    if t is not None and t <= times[0] else
+                    f"ours crosses it at {t:.3g} s" if t is not None else
+                    f"ours stays above it up to {times[-1]:g} s")
+            out.append(f"\n{name}: {PEER_NAMES.get(curve, curve)}'s error is flat with time "
+                       f"(log-log slope {p['slope']:+.2f} from {times[0]:g} to {times[-1]:g} s, "
+                       f"RMSE {p['plateau']:.4f} over the {_region_name(result['scenes'][name])}"
+                       f"): bias, which a ratio against it compares with our noise, not a "
+                       f"speed-up; {when}.")
+    return out
 
 
 def _brightest(r: dict) -> str:

@@ -13,12 +13,20 @@ reference's range (the brighter of its two halves' brightest pixels); at the equ
 a scene has no firefly of ours when our brightest pixel over the seeds is within that ceiling
 or no brighter than Cycles' brightest at the same time (``ratios``: "no_firefly").
 
+A peer whose error is flat with time has converged to a bias, and a ratio against it compares
+that bias with our noise: it is not a speed-up.  ``flat_peers`` says which peer curves are flat
+(their RMSE falls with a log-log slope above ``FLAT_SLOPE`` from the shortest budget to the
+longest, where noise alone falls with slope -1/2), their plateau (the longest budget's RMSE)
+and the budget at which our error crosses it, if it does within the run (interpolated log-log
+between budgets).
+
 At the equal-time budget ``ratios`` gives ours over Cycles (and over Cycles + MNEE, LuxCore's
 BIDIR and the best peer where the run has those curves) and whether each scene meets its target
 (``TARGETS``, ``TARGETS_MNEE``, ``TARGETS_LUXCORE``, ``TARGETS_BEST_PEER``).
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -35,6 +43,11 @@ TARGETS_LUXCORE = {"mirror_caustic": 0.3}
 # issue 25's new scenes: ahead of the best peer that renders them, ours / the lower of Cycles'
 # and Cycles + MNEE's RMSE at EQUAL_TIME
 TARGETS_BEST_PEER = {"rough_caustic": 1.0, "pool_caustic": 1.0}
+
+
+# a peer's RMSE whose log-log slope against time is above this is flat: a bias (noise: -1/2)
+FLAT_SLOPE = -0.15
+PEERS = ("cycles", "cycles_mnee", "luxcore_bidir")
 
 
 # --- errors ----------------------------------------------------------------------------------
@@ -75,6 +88,40 @@ def fireflies(img, pixels, ceiling: float) -> dict:
             "over_reference_range": int(((lum > ceiling) & pixels).sum())}
 
 
+# --- flat errors: a peer's bias --------------------------------------------------------------
+def _crossing(rows, level):
+    """The budget (log-log interpolated) at which the rows' image RMSE first falls to
+    ``level``; None if it stays above it."""
+    pts = [(r["seconds"], r["image"]["rmse"]) for r in rows]
+    if not pts or pts[0][1] <= level:
+        return pts[0][0] if pts else None
+    for (t0, e0), (t1, e1) in itertools.pairwise(pts):
+        if e1 <= level < e0:
+            f = math.log(e0 / level) / math.log(e0 / e1)
+            return float(math.exp(math.log(t0) + f * math.log(t1 / t0)))
+    return None
+
+
+def flat_peers(scene: dict) -> dict:
+    """Per peer curve of a scene's run (at least two budgets): the log-log slope of its image
+    RMSE against time, whether it is flat (a bias: slope above FLAT_SLOPE), its plateau (the
+    longest budget's RMSE) and when ours crosses that plateau (None: not within the run)."""
+    out = {}
+    ours = scene["curves"].get("ours", [])
+    for curve in PEERS:
+        rows = scene["curves"].get(curve, [])
+        if len(rows) < 2:
+            continue
+        (t0, e0), (t1, e1) = ((rows[i]["seconds"], rows[i]["image"]["rmse"]) for i in (0, -1))
+        if not (e0 > 0 and e1 > 0 and t1 > t0):
+            continue
+        slope = math.log(e1 / e0) / math.log(t1 / t0)
+        flat = slope > FLAT_SLOPE
+        out[curve] = {"slope": slope, "flat": bool(flat), "plateau": e1,
+                      "ours_crosses_at": _crossing(ours, e1) if flat else None}
+    return out
+
+
 # --- the targets -----------------------------------------------------------------------------
 def _at(rows, seconds):
     for r in rows:
@@ -111,6 +158,8 @@ def ratios(result: dict, seconds: float) -> dict:
             r["image_rmse_seeds"] = o["image_rmse_mean"] / c["image_rmse_mean"]
             r["seeds"] = o["seeds"]
         r["indirect"] = o.get("indirect", "photons")
+        r["pixels"] = o["image"]["pixels"]
+        r["peers"] = flat_peers(s)
         p = _at(s["curves"].get("ours_photons", []), seconds)
         if p is not None:
             r["photons_image_rmse"] = p["image"]["rmse"] / c["image"]["rmse"]
