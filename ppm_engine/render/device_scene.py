@@ -212,6 +212,10 @@ class DeviceScene:
         corners = p.positions.reshape(-1, 3, 3)[self.bvh.leaf_order[em.emissive_leaves]]
         self.caster_reach = caster_reach(p.lights, corners, bool(em.info["has_world"][0]),
                                          float(em.info["scene_radius"][0]), self.caster_spheres, w)
+        # the share of uniform photons that would reach a caster (weighted)
+        total = float(em.power.sum())
+        self.caster_share = (float(np.minimum(self.caster_reach, 1.0) @ em.power) / total
+                             if total > 0 else 0.0)
         self.args.update(self._upload(
             caster_weight=w, caustic_cdf=(caustic_cdf(em.power, self.caster_reach)
                                           if em.power.size else np.zeros(0, np.float32))))

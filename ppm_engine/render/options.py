@@ -58,6 +58,14 @@ VIEWPORT_LIMITS = {
 # error at 16 s), because the eye pass (direct light, anti-aliasing, the radius shrinking) and the
 # photon pass must progress together.
 AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
+# Caustic photons aimed at the casters (kernels/light/aim.h) nearly all reach one and go on
+# through the glass, where one emitted as all photons are mostly lands on a diffuse surface and
+# ends: each costs some ten times as much.  Automatically, a render aims this share of the
+# automatic count per pass (or the share of uniform photons that would reach a caster, if
+# larger), at least AIMED_PHOTONS_MIN: the eye pass and the photons progress together
+# (docs/BENCHMARKS.md, "Settings chosen by measurement").
+AIMED_PHOTONS_SHARE = 1 / 8
+AIMED_PHOTONS_MIN = 1 << 10
 
 # How indirect light is estimated (RenderOptions.indirect):
 #   "photons": the paper's SPPM, every bounce of indirect light from the photon map;
@@ -171,6 +179,15 @@ class RenderOptions:
         if self.photons_per_pass is not None:
             return int(self.photons_per_pass)
         return int(min(max(pixels, AUTO_PHOTONS_MIN), AUTO_PHOTONS_MAX))
+
+    def aimed_photons_for(self, pixels: int, caster_share: float) -> int:
+        """Aimed caustic photons per pass (AIMED_PHOTONS_SHARE) for a render region of
+        ``pixels`` pixels, where ``caster_share`` of uniform photons would reach a caster."""
+        base = self.photons_for(pixels)
+        if self.photons_per_pass is not None:
+            return base
+        share = min(max(AIMED_PHOTONS_SHARE, caster_share), 1.0)
+        return int(min(max(base * share, AIMED_PHOTONS_MIN), base))
 
     def replace(self, **changes) -> RenderOptions:
         return dataclasses.replace(self, **changes)

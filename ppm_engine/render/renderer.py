@@ -110,7 +110,11 @@ class Renderer:
         self.casters = (self.scene.set_casters(o.gather_roughness, o.caustic_roughness)
                         if self.photons_needed and self.path_indirect else 0)
         self.caster_counts = np.zeros((self.casters, 2))   # learn_caster_weights' sums
-        store = self.STORE_FACTOR * self.photons_per_pass
+        # this render's photons per pass: fewer where they are aimed (each costs more)
+        self.photon_count = (o.aimed_photons_for(self.n_pixels, self.scene.caster_share)
+                             if self.casters and o.skip_unaimed_caustics
+                             else self.photons_per_pass)
+        store = self.STORE_FACTOR * self.photon_count
         if self.photons_needed and self.photon_map.capacity < store:
             self.photon_map.allocate(store)
         self.grid_cover = None if o.skip_unseen_photons else self.scene.bounds()
@@ -250,7 +254,7 @@ class Renderer:
         if self.photons_needed:
             # the grid over the visible points: only photons use it
             events += self.hash_build.grid(q, v.pos, film.radius, n, cover=self.grid_cover)
-            emitted = self.photons_per_pass
+            emitted = self.photon_count
             photon_events = self.photons.enqueue(
                 q, pass_index, o, emitted, caustics_only=self.path_indirect, film=film,
                 lt_kappa=self.lt_kappa, interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
@@ -327,7 +331,7 @@ class Renderer:
             seconds=seconds, phase_ms=phase_ms, active_pixels=self.active_pixels,
             pixels=self.n_pixels, indirect="paths" if self.path_indirect else "photons",
             caustic_fraction=self.caustic_fraction, light_tracing=self.lt_kappa > 0,
-            caster_fraction=(int(counters[Counter.CASTER]) / self.photons_per_pass
+            caster_fraction=(int(counters[Counter.CASTER]) / self.photon_count
                              if self.photons_needed and self.path_indirect else None))
         if overflow:     # this pass lost photons (counted); the next one has room
             pm.allocate(2 * pm.capacity)
