@@ -11,7 +11,16 @@ import pyopencl as cl
 from ppm_engine.oracle import reference as ref
 from ppm_engine.render.counters import N_COUNTERS, Counter
 from ppm_engine.render.device import get_device
-from ppm_engine.render.passes import Gather, HashBuild, VisiblePoints, unshaded
+from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.passes import (
+    Gather,
+    GridSetup,
+    HashBuild,
+    Iteration,
+    PassContext,
+    VisiblePoints,
+    unshaded,
+)
 from ppm_engine.render.photon_map import PhotonMap
 from tests.helpers.device_buffers import DEVICES, read, upload
 
@@ -59,18 +68,18 @@ def _photon_setup(device, rng, n_ph=20000, n_vp=300, table=None, exact=False,
     vp_pos = upload(device, np.c_[vp, np.ones(n_vp)].astype(np.float32))
     vp_nrm = upload(device, np.tile([0, 0, 1, 0], (n_vp, 1)).astype(np.float32))
     rad = upload(device, radius)
-    hb = HashBuild(device, pm, counters, cell_scale=cell_scale)
-    hb.grid(q, vp_pos, rad, n_vp)
-    return dict(pm=pm, hb=hb, gather=Gather(device, pm), ph=ph, flux=flux, up=up, wi=wi, vp=vp,
-                radius=radius, counters=counters, vp_pos=vp_pos, vp_nrm=vp_nrm,
-                vp_shade=unshaded(device, n_vp), rad=rad, n_vp=n_vp)
+    # the visible points' path weight: the normals' buffer, any float4 of n
+    vps = VisiblePoints(device, n_vp, pos=vp_pos, nrm=vp_nrm, beta=vp_nrm,
+                        shade=unshaded(device, n_vp))
+    ctx = PassContext(device, vps=vps, photon_map=pm, counters=counters, radius=rad)
+    GridSetup(ctx, cell_scale=cell_scale).enqueue(q, _it(0, 0))
+    return dict(pm=pm, hb=HashBuild(ctx), gather=Gather(ctx), ph=ph, flux=flux, up=up, wi=wi,
+                vp=vp, radius=radius, counters=counters, n_vp=n_vp, gathered=vps.gathered)
 
 
-def _vps(device, s, gathered) -> VisiblePoints:
-    """The setup's visible points (their path weight: the normals' buffer, any float4 of n)
-    gathering into ``gathered``."""
-    return VisiblePoints(device, s["n_vp"], pos=s["vp_pos"], nrm=s["vp_nrm"], beta=s["vp_nrm"],
-                         shade=s["vp_shade"], gathered=gathered)
+def _it(pass_index, seed) -> Iteration:
+    """Pass ``pass_index`` of a render with this seed."""
+    return Iteration(pass_index, RenderOptions(seed=seed))
 
 
 def test_grid_bounds_cover_visible_points(device):
@@ -89,7 +98,7 @@ def test_grid_bounds_cover_visible_points(device):
 def test_hash_counts_and_selected_photons(device, n_ph):
     s = _photon_setup(device, np.random.default_rng(2), n_ph=n_ph)
     pm, q = s["pm"], device.queue
-    s["hb"].build(q, 0, 1)
+    s["hb"].enqueue(q, _it(0, 1))
     counts, idx = pm.read_table()
     g = pm.read_grid()
     expect = ref.hash_counts(s["ph"], g["bmin"], g["inv_cell_size"], pm.table_size)
@@ -109,7 +118,7 @@ def test_selection_is_uniform_within_an_entry(device):
     trials = 300
     picks = []
     for t in range(trials):
-        s["hb"].build(q, t, 5)
+        s["hb"].enqueue(q, _it(t, 5))
         counts, idx = pm.read_table()
         picks.append(idx.copy())
     picks = np.array(picks)
@@ -136,12 +145,12 @@ def test_stochastic_gather_is_unbiased(device, table, cell_scale):
                       cell_scale=cell_scale)
     q = device.queue
     n_vp = s["n_vp"]
-    gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
+    gathered = s["gathered"]
     trials = 200
     est = np.zeros((trials, n_vp, 4))
     for t in range(trials):
-        s["hb"].build(q, t, 11)
-        s["gather"].enqueue(q, _vps(device, s, gathered), s["rad"])
+        s["hb"].enqueue(q, _it(t, 11))
+        s["gather"].enqueue(q, _it(t, 11))
         est[t] = read(device, gathered, (n_vp, 4), np.float32)
     phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
                                       s["ph"], s["up"], s["wi"], s["flux"])
@@ -166,9 +175,9 @@ def test_exact_gather_equals_brute_force(device, table):
     brute-force range search finds."""
     s = _photon_setup(device, np.random.default_rng(6), n_ph=5000, table=table, exact=True)
     q, n_vp = device.queue, s["n_vp"]
-    gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
-    s["hb"].build(q, 0, 0)
-    s["gather"].enqueue(q, _vps(device, s, gathered), s["rad"])
+    gathered = s["gathered"]
+    s["hb"].enqueue(q, _it(0, 0))
+    s["gather"].enqueue(q, _it(0, 0))
     got = read(device, gathered, (n_vp, 4), np.float32)
     phi_ref, M_ref = ref.gather_exact(s["vp"], np.tile([0, 0, 1.0], (n_vp, 1)), s["radius"],
                                       s["ph"], s["up"], s["wi"], s["flux"])

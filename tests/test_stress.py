@@ -11,10 +11,10 @@ import pyopencl as cl
 from ppm_engine.errors import DeviceError
 from ppm_engine.oracle import reference as ref
 from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.render import passes as ps
 from ppm_engine.render.counters import N_COUNTERS, Counter
 from ppm_engine.render.device import get_device
 from ppm_engine.render.options import RenderOptions
-from ppm_engine.render.passes import Gather, HashBuild, VisiblePoints, unshaded
 from ppm_engine.render.photon_map import PhotonMap
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.arrays import CAMERA_PERSP, LIGHT_DTYPE, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN
@@ -182,12 +182,12 @@ def _map(device, ph, vp, radius, exact=False, wi=None):
     vp_nrm = mk(np.tile([0, 0, 1, 0], (n_vp, 1)).astype(np.float32))
     rad = mk(np.asarray(radius, np.float32))
     gathered = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 16 * n_vp)
-    hb = HashBuild(device, pm, counters)
-    hb.grid(q, vp_pos, rad, n_vp)
-    hb.build(q, 0, 3)
-    vps = VisiblePoints(device, n_vp, pos=vp_pos, nrm=vp_nrm, beta=vp_nrm,
-                        shade=unshaded(device, n_vp), gathered=gathered)
-    Gather(device, pm).enqueue(q, vps, rad)
+    vps = ps.VisiblePoints(device, n_vp, pos=vp_pos, nrm=vp_nrm, beta=vp_nrm,
+                           shade=ps.unshaded(device, n_vp), gathered=gathered)
+    ctx = ps.PassContext(device, vps=vps, photon_map=pm, counters=counters, radius=rad)
+    it = ps.Iteration(0, RenderOptions(seed=3))
+    for p in (ps.GridSetup(ctx), ps.HashBuild(ctx), ps.Gather(ctx)):
+        p.enqueue(q, it)
     got = np.empty((n_vp, 4), np.float32)
     cl.enqueue_copy(q, got, gathered)
     M_ref = ref.gather_exact(vp, np.tile([0, 0, 1.0], (n_vp, 1)), np.asarray(radius, np.float32),

@@ -49,14 +49,15 @@ def _run_direct(device, fp64, passes):
     import pyopencl as cl
 
     from ppm_engine.render.film import Film
-    from ppm_engine.render.passes import ProgressiveUpdate
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.passes import AddSample, Iteration, PassContext
     film = Film(device, 4, 4, fp64=fp64)
-    update = ProgressiveUpdate(device, film)
+    add_sample = AddSample(PassContext(device, film=film))
     q = device.queue
     v = _per_pass_values(passes, 16)
     for i in range(passes):
         cl.enqueue_copy(q, film.direct_pass, v[i], is_blocking=False)
-        update.add_sample(q)
+        add_sample.enqueue(q, Iteration(i, RenderOptions()))
     got = film.read_sum("direct").reshape(16, 4)
     img = film.resolve()[1]
     q.finish()
@@ -99,10 +100,10 @@ def _constant_density(device, fp64, passes, kernel):
     import pyopencl as cl
 
     from ppm_engine.render.film import Film
-    from ppm_engine.render.passes import ProgressiveUpdate, VisiblePoints
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.passes import Iteration, PassContext, RadiusUpdate, VisiblePoints
     n, q = 16, device.queue
     film = Film(device, 4, 4, fp64=fp64)
-    update = ProgressiveUpdate(device, film)
     R0 = np.linspace(0.05, 0.4, n).astype(np.float32)
     rho = np.linspace(2e3, 3e4, n)          # photons per unit area per pass
     f = 0.01
@@ -111,16 +112,17 @@ def _constant_density(device, fp64, passes, kernel):
     vp_beta = _up(device, np.ones((n, 4), np.float32))
     gathered = _up(device, np.zeros((n, 4), np.float32))
     tau = _up(device, np.zeros((n, 4), np.float32))
+    update = RadiusUpdate(PassContext(device, film=film, vps=VisiblePoints(
+        device, n, pos=vp_pos, beta=vp_beta, gathered=gathered)))
     R = R0.copy()
     g = np.zeros((n, 4), np.float32)
-    for _ in range(passes):
+    for i in range(passes):
         M = (rho * np.pi * R.astype(np.float64) ** 2).astype(np.float32)
         g[:, 3] = M
         g[:, :3] = (f * M)[:, None]
         cl.enqueue_copy(q, gathered, g)
         if kernel == "film_update":
-            update.update(q, VisiblePoints(device, n, pos=vp_pos, beta=vp_beta,
-                                           gathered=gathered), 0.7)
+            update.enqueue(q, Iteration(i, RenderOptions(alpha=0.7)))
         else:
             film.prog.progressive_update(q, (64,), None, vp_pos, vp_beta, gathered, film.radius,
                                          film.nstat, tau, np.float32(0.7), np.uint32(n))
@@ -174,13 +176,19 @@ def test_global_radius_schedule_is_its_sequence_whatever_the_samples(device, fp6
     import pyopencl as cl
 
     from ppm_engine.render.film import Film
-    from ppm_engine.render.passes import ProgressiveUpdate, VisiblePoints
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.passes import (
+        AddSample,
+        Iteration,
+        PassContext,
+        RadiusUpdate,
+        VisiblePoints,
+    )
     if fp64 and not __import__("ppm_engine.render.film", fromlist=["has_fp64"]).has_fp64(device):
         pytest.skip("the device has no cl_khr_fp64")
     n, q, passes, alpha = 16, device.queue, 300, 0.7
     rng = np.random.default_rng(3)
     film = Film(device, 4, 4, fp64=fp64)
-    update = ProgressiveUpdate(device, film)
     R0 = np.linspace(0.01, 2.0, n).astype(np.float32)
     cl.enqueue_copy(q, film.radius, R0)
     vp_beta = _up(device, np.c_[rng.uniform(0.1, 1, (n, 3)), np.zeros(n)].astype(np.float32))
@@ -189,9 +197,13 @@ def test_global_radius_schedule_is_its_sequence_whatever_the_samples(device, fp6
     beta = beta[:, :3].astype(np.float64)
     vp_pos = _up(device, np.zeros((n, 4), np.float32))
     gathered = _up(device, np.zeros((n, 4), np.float32))
+    ctx = PassContext(device, film=film,
+                      vps=VisiblePoints(device, n, pos=vp_pos, beta=vp_beta, gathered=gathered))
+    update, add_sample = RadiusUpdate(ctx), AddSample(ctx)
+    options = RenderOptions(alpha=alpha, radius_schedule="global")
     R, k = R0.astype(np.float64), np.zeros(n)
     S, N = np.zeros((n, 3)), np.zeros(n)
-    for _ in range(passes):
+    for i in range(passes):
         active = (rng.random(n) < 0.8).astype(np.uint32)
         hit = (rng.random(n) < 0.7) & (active > 0)          # the eye pass: no point if inactive
         M = np.where(rng.random(n) < 0.4, 0, rng.integers(1, 300, n)).astype(np.float32)
@@ -199,9 +211,9 @@ def test_global_radius_schedule_is_its_sequence_whatever_the_samples(device, fp6
         cl.enqueue_copy(q, film.active, active)
         cl.enqueue_copy(q, vp_pos, np.c_[np.zeros((n, 3)), hit].astype(np.float32))
         cl.enqueue_copy(q, gathered, np.c_[phi, M].astype(np.float32))
-        vps = VisiblePoints(device, n, pos=vp_pos, beta=vp_beta, gathered=gathered)
-        update.update(q, vps, alpha, "global")
-        update.add_sample(q, vps, photons=1000)
+        it = Iteration(i, options, photons=1000)
+        update.enqueue(q, it)
+        add_sample.enqueue(q, it)
         on = hit & (M > 0)
         S[on] += beta[on] * phi[on] / R[on, None] ** 2
         N[on] += M[on]

@@ -2,7 +2,7 @@
 & Jensen 2010; passes/__init__.py):
 
     eye pass -> grid over the visible points -> photon pass -> hash build -> gather
-    -> progressive update
+    -> radius update -> add sample (-> converge)
 
 Every pass is a small object owning its kernels and timing labels; launches are chained on one
 in-order queue without host waits, and the small per-pass statistics are read once at the end.
@@ -24,11 +24,16 @@ from ppm_engine.render.options import (
     RenderOptions,
 )
 from ppm_engine.render.passes import (
+    AddSample,
+    Converge,
     EyePass,
     Gather,
+    GridSetup,
     HashBuild,
+    Iteration,
+    PassContext,
     PhotonPass,
-    ProgressiveUpdate,
+    RadiusUpdate,
     VisiblePoints,
 )
 from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
@@ -92,14 +97,18 @@ class Renderer:
         self.film = Film(dev, w, h)
         self.film.exposure = float(self.scene.scene.camera["exposure"][0])
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
-        programs = dev.programs
-        self.eye = EyePass(self.scene, programs.get("integrator/eye_pass.cl", self.defines),
-                           self.film, self.vps, self.counters)
+        self.context = ctx = PassContext(dev, self.scene, self.defines, film=self.film,
+                                         vps=self.vps, photon_map=self.photon_map,
+                                         counters=self.counters)
+        self.eye = EyePass(ctx)
         # the photon pass and the gather are built when first used: a scene whose indirect
         # light is all eye paths never compiles them (half of a new scene's kernel builds)
         self._photon_pass = self._gather = None
-        self.hash_build = HashBuild(dev, self.photon_map, self.counters)
-        self.update = ProgressiveUpdate(dev, self.film)
+        self.grid_setup = GridSetup(ctx, cover=None if o.skip_unseen_photons
+                                    else self.scene.bounds())
+        self.hash_build = HashBuild(ctx)
+        self.radius_update, self.add_sample = RadiusUpdate(ctx), AddSample(ctx)
+        self.converge = Converge(ctx)
         self.scene.set_light_paths(with_max_bounces(self.scene.scene.light_paths, o.max_bounces))
         useful = self.scene.photons_useful()
         caustics = self.scene.caustics_possible(o.gather_roughness, o.caustic_roughness)
@@ -117,7 +126,6 @@ class Renderer:
         store = self.STORE_FACTOR * self.photon_count
         if self.photons_needed and self.photon_map.capacity < store:
             self.photon_map.allocate(store)
-        self.grid_cover = None if o.skip_unseen_photons else self.scene.bounds()
         self.lt_kappa = self.light_tracing_kappa(o)
         if self.lt_kappa > 0:
             self.film.enable_light_tracing()
@@ -130,16 +138,14 @@ class Renderer:
     def photons(self) -> PhotonPass:
         """The photon pass (photon_pass.cl for the scene's features), built on first use."""
         if self._photon_pass is None:
-            self._photon_pass = PhotonPass(
-                self.scene, self.device.programs.get("integrator/photon_pass.cl", self.defines),
-                self.photon_map, self.counters)
+            self._photon_pass = PhotonPass(self.context)
         return self._photon_pass
 
     @property
     def gather(self) -> Gather:
         """The gather (gather.cl for the scene's features), built on first use."""
         if self._gather is None:
-            self._gather = Gather(self.device, self.photon_map, self.scene, self.defines)
+            self._gather = Gather(self.context)
         return self._gather
 
     def light_tracing_kappa(self, o: RenderOptions) -> float:
@@ -181,7 +187,8 @@ class Renderer:
         first = slice(Counter.CAUSTIC, Counter.DIFFUSE_FIRST + 1)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * first.start,
                                4 * (first.stop - first.start))
-        self.photons.enqueue(q, 0x7FFFFFFF, o, self.PILOT_PHOTONS, pilot=True)
+        PhotonPass(self.context, pilot=True).enqueue(
+            q, Iteration(0x7FFFFFFF, o, photons=self.PILOT_PHOTONS))
         counters = np.empty(N_COUNTERS, np.uint32)
         cl.enqueue_copy(q, counters, self.counters)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * first.start,
@@ -239,36 +246,34 @@ class Renderer:
         viewport: a new view is waiting)."""
         import pyopencl as cl
         t0 = time.perf_counter()
-        o, q, n, v = self.options, self.queue, self.n_pixels, self.vps
+        o, q = self.options, self.queue
         pass_index = self.passes_done
         film = self.film
         # this pass's counters (Counter.NAN counts over the whole render)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
-        events = self.eye.enqueue(q, pass_index, o, self.path_indirect, lt_kappa=self.lt_kappa,
-                                  interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
+        it = Iteration(pass_index, o, photons=self.photon_count if self.photons_needed else 0,
+                       path_indirect=self.path_indirect, lt_kappa=self.lt_kappa,
+                       interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
+        events = self.eye.enqueue(q, it)
         if events is None:
             q.finish()
             return None
-        emitted = 0
         if self.photons_needed:
             # the grid over the visible points: only photons use it
-            events += self.hash_build.grid(q, v.pos, film.radius, n, cover=self.grid_cover)
-            emitted = self.photon_count
-            photon_events = self.photons.enqueue(
-                q, pass_index, o, emitted, caustics_only=self.path_indirect, film=film,
-                lt_kappa=self.lt_kappa, interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
+            events += self.grid_setup.enqueue(q, it)
+            photon_events = self.photons.enqueue(q, it)
             if photon_events is None:
                 q.finish()
                 return None
             events += photon_events
-            events += self.hash_build.build(q, pass_index, o.seed)
-            events += self.gather.enqueue(q, v, film.radius)
-            events += self.update.update(q, v, o.alpha, o.radius_schedule)
-        events += self.update.add_sample(q, v, emitted, light_traced=self.lt_kappa > 0)
-        converge = self.update.due(pass_index + 1, o.noise_threshold)
+            events += self.hash_build.enqueue(q, it)
+            events += self.gather.enqueue(q, it)
+            events += self.radius_update.enqueue(q, it)
+        events += self.add_sample.enqueue(q, it)
+        converge = self.converge.due(it)
         if converge:
-            events += self.update.converge(q, o.noise_threshold, self.counters)
+            events += self.converge.enqueue(q, it)
         counters = np.empty(N_COUNTERS, np.uint32)
         grid = np.zeros(1, GRID_DTYPE)     # no grid this pass (no photons): no visible points
         cl.enqueue_copy(q, counters, self.counters, is_blocking=False)    # counted, no radii

@@ -13,6 +13,7 @@ import numpy as np
 from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.device.program import in_pieces
 from ppm_engine.render.film import PassBuffer
+from ppm_engine.render.passes.context import Iteration, PassContext
 
 _F4 = np.dtype((np.float32, 4))
 
@@ -55,32 +56,32 @@ class EyePass:
     # initial radius when options.initial_radius == 0: this many pixel footprints at the point
     AUTO_RADIUS_PIXELS = 2.0
 
-    def __init__(self, scene, program, film, vps: VisiblePoints, counters):
-        """``scene``: the DeviceScene; ``program``: eye_pass.cl built for its features."""
-        self.scene, self.film, self.vps, self.counters = scene, film, vps, counters
-        self.kernel = program.launch("eye_pass", "eye")
+    def __init__(self, ctx: PassContext):
+        """eye_pass.cl built for the scene's features (``ctx.defines``)."""
+        self.ctx = ctx
+        self.kernel = ctx.device.programs.get("integrator/eye_pass.cl", ctx.defines).launch(
+            "eye_pass", "eye")
 
-    def enqueue(self, q, pass_index: int, options, path_indirect: bool = False,
-                lt_kappa: float = 0.0, interrupt=None, piece: int = 1 << 15) -> list | None:
-        """``path_indirect``: indirect light by eye paths (kernels/integrator/indirect_paths.h);
-        ``lt_kappa`` > 0: the photons' light tracing is on,
-        and a visible point the camera sees directly weighs its merge against it (eye_pass.cl,
-        camera_connect.h merge_factor).
+    def enqueue(self, q, it: Iteration) -> list | None:
+        """``it.path_indirect``: indirect light by eye paths
+        (kernels/integrator/indirect_paths.h); ``it.lt_kappa`` > 0: the photons' light tracing
+        is on, and a visible point the camera sees directly weighs its merge against it
+        (eye_pass.cl, camera_connect.h merge_factor).
 
-        ``interrupt``: a function asked between launches over consecutive ranges of about
-        ``piece`` pixels, each waited for (device.program.in_pieces); when it returns True the
-        pass stops there and None is returned (the viewport: a new view is waiting, this
+        ``it.interrupt``: a function asked between launches over consecutive ranges of about
+        ``it.piece`` pixels, each waited for (device.program.in_pieces); when it returns True
+        the pass stops there and None is returned (the viewport: a new view is waiting, this
         pass's work is dropped)."""
         def launch(count, start):
-            return self._launch(q, count, start, pass_index, options, path_indirect, lt_kappa)
-        return in_pieces(launch, self.vps.n, piece, interrupt, self.kernel.label)
+            return self._launch(q, count, start, it)
+        return in_pieces(launch, self.ctx.vps.n, it.piece, it.interrupt, self.kernel.label)
 
-    def _launch(self, q, count: int, start: int, pass_index: int, options, path_indirect: bool,
-                lt_kappa: float):
+    def _launch(self, q, count: int, start: int, it: Iteration):
+        c, o = self.ctx, it.options
         return self.kernel(
-            q, count, SHADING_GROUP, offset=start, **self.scene.args, **self.film.args,
-            **self.vps.args, pass_index=np.uint32(pass_index), seed=np.uint32(options.seed),
-            initial_radius=np.float32(options.initial_radius),
+            q, count, SHADING_GROUP, offset=start, **c.scene.args, **c.film.args,
+            **c.vps.args, pass_index=np.uint32(it.pass_index), seed=np.uint32(o.seed),
+            initial_radius=np.float32(o.initial_radius),
             auto_radius_pixels=np.float32(self.AUTO_RADIUS_PIXELS),
-            filter_table=self.scene.filter_table, counters=self.counters,
-            path_indirect=np.uint32(path_indirect), lt_kappa=np.float32(lt_kappa))
+            filter_table=c.scene.filter_table, counters=c.counters,
+            path_indirect=np.uint32(it.path_indirect), lt_kappa=np.float32(it.lt_kappa))

@@ -7,6 +7,7 @@ import numpy as np
 
 from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.device_scene import placeholders
+from ppm_engine.render.passes.context import Iteration, PassContext
 
 # photons on a surface facing another way (thin walls, corners) are not a visible point's: the
 # least cosine between their normals (kernels/integrator/gather.cl, reference.py)
@@ -44,30 +45,32 @@ def unshaded(device, n: int):
 
 
 class Gather:
-    def __init__(self, device, photon_map, scene=None, defines: dict | None = None):
-        """``scene``: the DeviceScene (the gather shades its visible points again) and
-        ``defines`` its kernel flags (DeviceScene.kernel_defines); without a scene (kernel
-        tests, micro benchmarks) every visible point's f is 1: a plain flux sum."""
-        self.photon_map = photon_map
-        defines = {**gather_defines(defines),
+    def __init__(self, ctx: PassContext):
+        """gather.cl for ``ctx.scene``'s shading (the gather shades its visible points again,
+        by ``ctx.defines``, DeviceScene.kernel_defines); without a scene (kernel tests, micro
+        benchmarks) every visible point's f is 1: a plain flux sum."""
+        self.ctx = ctx
+        device = ctx.device
+        defines = {**gather_defines(ctx.defines),
                    **({"PPM_INT64_ATOMICS": True} if device.int64_atomics else {})}
         p = device.programs.get("integrator/gather.cl", defines)
         self.k_gather = p.launch("gather", "gather")
         self.k_exact = p.launch("gather_exact", "gather")
-        self.scene_args = scene.args if scene is not None else placeholders(device)
+        self.scene_args = ctx.scene.args if ctx.scene is not None else placeholders(device)
 
-    def enqueue(self, q, vps, radius, n: int | None = None) -> list:
+    def enqueue(self, q, it: Iteration) -> list:
         """vps.gathered[i] = (sum of n x flux x f, sum of n) over the accepted entries, f the
-        visible point's BSDF for the photon's direction, for the first ``n`` (all) of ``vps``
-        (passes/eye.py VisiblePoints: their buffers bound by name); ``radius``: each one's
-        (the film's).  vps.beta's w: the visible points' ray footprints (Bump nodes)."""
-        pm = self.photon_map
-        n = vps.n if n is None else n
-        common = dict(**self.scene_args, **vps.args, **pm.args, radius=radius,
-                      table_mask=pm.table_mask, n=np.uint32(n))
+        visible point's BSDF for the photon's direction, for each of ``ctx.vps``
+        (passes/eye.py VisiblePoints: their buffers bound by name) within its radius
+        (``ctx.radius``: the film's).  vps.beta's w: the visible points' ray footprints (Bump
+        nodes)."""
+        c = self.ctx
+        pm, vps = c.photon_map, c.vps
+        common = dict(**self.scene_args, **vps.args, **pm.args, radius=c.radius,
+                      table_mask=pm.table_mask, n=np.uint32(vps.n))
         if pm.exact:
-            ev = self.k_exact(q, n, SHADING_GROUP, **common, ranges=pm.ranges,
+            ev = self.k_exact(q, vps.n, SHADING_GROUP, **common, ranges=pm.ranges,
                               sorted_ids=pm.sorted[1].data)
         else:
-            ev = self.k_gather(q, n, SHADING_GROUP, **common, table=pm.table)
+            ev = self.k_gather(q, vps.n, SHADING_GROUP, **common, table=pm.table)
         return [("gather", ev)]

@@ -20,7 +20,15 @@ from ppm_engine.render.counters import N_COUNTERS, Counter
 from ppm_engine.render.device import get_device
 from ppm_engine.render.device_scene import placeholders
 from ppm_engine.render.options import RenderOptions
-from ppm_engine.render.passes import Gather, HashBuild, VisiblePoints, unshaded
+from ppm_engine.render.passes import (
+    Gather,
+    GridSetup,
+    HashBuild,
+    Iteration,
+    PassContext,
+    VisiblePoints,
+    unshaded,
+)
 from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
 from ppm_engine.render.renderer import Renderer
 from ppm_engine.scene.camera import make_camera
@@ -43,7 +51,7 @@ def _median(f, repeat=7, warmup=2):
 
 def _synthetic_photons(device, n, n_vp, rng):
     """n photons and n_vp visible points on the floor of a 2x2 room (the Cornell box floor
-    density at 256x256), through the real kernels' buffers."""
+    density at 256x256), through the real kernels' buffers: their PassContext, the grid set up."""
     import pyopencl as cl
     pm = PhotonMap(device, n)
     q = device.queue
@@ -65,31 +73,32 @@ def _synthetic_photons(device, n, n_vp, rng):
     # radius: ~1.5 pixels of a 256x256 view of the 2 m floor
     radius = device.upload(np.full(n_vp, 1.5 * 2.0 / 256, np.float32), "radius")
     gathered = device.buffer(16 * n_vp, "gathered")
-    hb = HashBuild(device, pm, cbuf)
-    hb.grid(q, vp_pos, radius, n_vp)
+    vps = VisiblePoints(device, n_vp, pos=vp_pos, nrm=vp_nrm, beta=vp_nrm,
+                        shade=unshaded(device, n_vp), gathered=gathered)
+    ctx = PassContext(device, vps=vps, photon_map=pm, counters=cbuf, radius=radius)
+    GridSetup(ctx).enqueue(q, Iteration(0, RenderOptions()))
     q.finish()
-    return pm, hb, cbuf, (vp_pos, vp_nrm, radius, gathered)
+    return ctx
 
 
 def hash_and_gather(device, n_photons: int, n_vp: int = 65536, seed=0) -> dict:
     rng = np.random.default_rng(seed)
-    pm, hb, counters, (vp_pos, vp_nrm, radius, gathered) = _synthetic_photons(
-        device, n_photons, n_vp, rng)
-    gather_pass = Gather(device, pm)
-    vps = VisiblePoints(device, n_vp, pos=vp_pos, nrm=vp_nrm, beta=vp_nrm,
-                        shade=unshaded(device, n_vp), gathered=gathered)
+    ctx = _synthetic_photons(device, n_photons, n_vp, rng)
+    pm, counters = ctx.photon_map, ctx.counters
+    hb, gather_pass = HashBuild(ctx), Gather(ctx)
+    options = RenderOptions(seed=0)
     import pyopencl as cl
     q = device.queue
     it = iter(range(10 ** 9))
 
     def build():
         cl.enqueue_fill_buffer(q, counters, np.uint32(0), 4 * Counter.OCCUPIED, 4)
-        evs = hb.build(q, next(it), 0)
+        evs = hb.enqueue(q, Iteration(next(it), options))
         q.finish()
         return _events_ms([e for _, e in evs])
 
     def gather():
-        evs = gather_pass.enqueue(q, vps, radius)
+        evs = gather_pass.enqueue(q, Iteration(0, options))
         q.finish()
         return _events_ms([e for _, e in evs])
 
