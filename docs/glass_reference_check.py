@@ -17,8 +17,8 @@ import numpy as np
 
 def main(seconds: float) -> None:
     from ppm_engine.blender.harness import ensure_registered
-    from ppm_engine.tools.bench.curves import REF_SEEDS, Bench, set_mnee
-    from ppm_engine.tools.bench.scenes import caustic_mask
+    from ppm_engine.tools.bench.curves import REF_SEEDS, Bench
+    from ppm_engine.tools.bench.scenes import caustic_mask, set_mnee
     ensure_registered()
     b = Bench(128, "", None, Path(tempfile.mkdtemp()), print, False, False)
     scene = b._scene("glass_caustic")

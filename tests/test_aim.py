@@ -197,3 +197,16 @@ def test_learned_weights_leave_a_caster_out_of_view_few_photons_and_the_image_un
     assert abs(aimed.mean() - plain.mean()) <= 5 * se, (aimed.mean(), plain.mean(), se)
     # the in-view caustic from half as many photons, less noisy
     assert aimed.std() < plain.std()
+
+
+def test_the_stats_line_says_the_share_that_reaches_a_caster_and_the_bench_reads_it():
+    from ppm_engine.tools.bench.scoring import stats_info
+    r = Renderer(ball_scene(**EMITTERS["point"]), every_feature(indirect="paths"))
+    st = r.iterate()
+    r.close()
+    # automatic: a sixteenth of the photons, at least AIMED_PHOTONS_MIN, nearly all on the ball
+    assert st.photons_emitted == 1024 and st.caster_fraction > 0.95
+    info = stats_info(st.line())
+    assert info["indirect"] == "paths"
+    assert abs(info["caster_fraction"] - st.caster_fraction) < 0.01
+    assert "caster_fraction" not in stats_info("Pass 3 · 16.4K photons · r 0.1–0.2")

@@ -64,7 +64,7 @@ AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
 # automatic count per pass (or the share of uniform photons that would reach a caster, if
 # larger), at least AIMED_PHOTONS_MIN: the eye pass and the photons progress together
 # (docs/BENCHMARKS.md, "Settings chosen by measurement").
-AIMED_PHOTONS_SHARE = 1 / 8
+AIMED_PHOTONS_SHARE = 1 / 16
 AIMED_PHOTONS_MIN = 1 << 10
 
 # How indirect light is estimated (RenderOptions.indirect):

@@ -99,8 +99,15 @@ from ppm_engine.blender.scenes import build_example, furnace, pool
 from ppm_engine.tools.bench import luxcore
 from ppm_engine.tools.bench.references import References
 from ppm_engine.tools.bench.report import machine_info
-from ppm_engine.tools.bench.scenes import CAUSTIC_MASKS, MNEE_OBJECTS, caustic_mask, excluded_pixels
-from ppm_engine.tools.bench.scoring import FIREFLY_MARGIN, brightest, errors, fireflies, ratios
+from ppm_engine.tools.bench.scenes import CAUSTIC_MASKS, caustic_mask, excluded_pixels, set_mnee
+from ppm_engine.tools.bench.scoring import (
+    FIREFLY_MARGIN,
+    brightest,
+    errors,
+    fireflies,
+    ratios,
+    stats_info,
+)
 
 DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
@@ -155,18 +162,6 @@ def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | N
         s.device = device
 
 
-def set_mnee(name: str, on: bool) -> None:
-    """Cycles' shadow caustics flags on the scene's casters, receivers and light."""
-    import bpy
-    casters, receivers, lights = MNEE_OBJECTS[name]
-    for n in casters:
-        bpy.data.objects[n].cycles.is_caustics_caster = on
-    for n in receivers:
-        bpy.data.objects[n].cycles.is_caustics_receiver = on
-    for n in lights:
-        bpy.data.objects[n].data.cycles.is_caustics_light = on
-
-
 def render(scene, path) -> tuple[np.ndarray, float, dict]:
     """Render the scene to an EXR at ``path``; (RGB image, wall seconds, extra info)."""
     import bpy
@@ -180,7 +175,7 @@ def render(scene, path) -> tuple[np.ndarray, float, dict]:
     if scene.render.engine == "PPM":
         info["passes"] = len(passes)
         # the estimator of indirect light the render used, as its stats line shows it
-        info["indirect"] = "paths" if passes and " · paths" in passes[-1] else "photons"
+        info.update(stats_info(passes[-1] if passes else ""))
     img = read_exr(path)[..., :3]
     if not np.isfinite(img).all():
         raise RuntimeError(f"non-finite pixels in {path}")

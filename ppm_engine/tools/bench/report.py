@@ -204,7 +204,10 @@ def ratio_table(result: dict) -> str:
         sd = (f"{r['image_rmse_seeds']:.3f} ({len(r['seeds'])})" if "image_rmse_seeds" in r
               else "–")
         region = _region_name(result["scenes"][name])
-        lines.append(f"| {name} | {r.get('indirect', 'photons')} | {region} | "
+        how = r.get("indirect", "photons") + (
+            f" ({100 * r['caster_fraction']:.3g} % of caustic photons reach a caster)"
+            if "caster_fraction" in r else "")
+        lines.append(f"| {name} | {how} | {region} | "
                      f"{r['image_rmse']:.3f} | {sd} | "
                      f"{r['image_rmse_corrected']:.3f} | {r['caustic_rmse']:.3f} | {mn} | {lx} | "
                      f"{ph} | {tgt} | {met} | {_brightest(r)} | "

@@ -144,3 +144,15 @@ def excluded_pixels(scene, name: str, w: int, h: int) -> np.ndarray:
     o, d = camera_rays(scene, w, h)
     # the bulb's radius is 0.15; a pixel margin keeps its anti-aliased edge out too
     return np.isfinite(_sphere_t(o, d, BULB_CENTER, 0.15 + 1.5 * 2.0 / w))
+
+
+def set_mnee(name: str, on: bool) -> None:
+    """Cycles' shadow caustics flags on the scene's casters, receivers and light."""
+    import bpy
+    casters, receivers, lights = MNEE_OBJECTS[name]
+    for n in casters:
+        bpy.data.objects[n].cycles.is_caustics_caster = on
+    for n in receivers:
+        bpy.data.objects[n].cycles.is_caustics_receiver = on
+    for n in lights:
+        bpy.data.objects[n].data.cycles.is_caustics_light = on

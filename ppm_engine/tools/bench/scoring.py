@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 
 import numpy as np
 
@@ -158,6 +159,8 @@ def ratios(result: dict, seconds: float) -> dict:
             r["image_rmse_seeds"] = o["image_rmse_mean"] / c["image_rmse_mean"]
             r["seeds"] = o["seeds"]
         r["indirect"] = o.get("indirect", "photons")
+        if "caster_fraction" in o:
+            r["caster_fraction"] = o["caster_fraction"]
         r["pixels"] = o["image"]["pixels"]
         r["peers"] = flat_peers(s)
         p = _at(s["curves"].get("ours_photons", []), seconds)
@@ -196,3 +199,14 @@ def ratios(result: dict, seconds: float) -> dict:
             r["met"] = bool(r["image_rmse_vs_luxcore"] <= TARGETS_LUXCORE[name])
         out[name] = r
     return out
+
+
+def stats_info(line: str) -> dict:
+    """What a render's last stats line (PassStats.line) says of it: the estimator of indirect
+    light it used, and the share of its caustic photons that reached a caster (aimed
+    emission), where it says one."""
+    info = {"indirect": "paths" if " · paths" in line else "photons"}
+    reach = re.search(r" · ([0-9.e+-]+) % reach a caster", line)
+    if reach:
+        info["caster_fraction"] = float(reach.group(1)) / 100.0
+    return info
