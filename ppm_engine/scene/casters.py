@@ -9,8 +9,6 @@ by the density it was drawn with, so the image's expectation is the same as with
 (tests/test_aim.py)."""
 from __future__ import annotations
 
-import heapq
-
 import numpy as np
 
 from ppm_engine.scene.arrays import (
@@ -28,9 +26,12 @@ from ppm_engine.scene.materials import _principled_parts, follow_capable
 
 # the most spheres: every aimed photon loops over them three times (aim.h)
 MAX_CASTERS = 32
-# a cluster is split in two only when the halves' spheres are this much smaller (their r^2
-# summed against the cluster's): a ball stays one sphere, two balls apart become two
+# a cluster is cut in two (where its two parts' boxes are smallest, up to SPLIT_DEPTH times)
+# only where its parts' best spheres, their r^2 summed (the solid angle they subtend from
+# afar), come to less than this share of its own: a ball stays one sphere (its halves' spheres
+# sum to 2.5 times its r^2), balls apart become one each
 SPLIT_GAIN = 0.8
+SPLIT_DEPTH = 5             # 2^5 = MAX_CASTERS spheres at most
 # a caster whose only caustic closure is a dielectric's specular layer or a coat sends on a
 # few percent of what reaches it: its weight (glass, metal, a glossy BSDF: 1)
 LAYER_WEIGHT = 0.1
@@ -64,41 +65,48 @@ def _sphere(corners: np.ndarray) -> tuple[np.ndarray, float]:
     return c, float(np.sqrt(((v - c) ** 2).sum(axis=1).max()))
 
 
+def _split(tri: np.ndarray, centroid: np.ndarray, idx: np.ndarray):
+    """Triangles ``idx`` in two, by their centroids along an axis, where the two parts'
+    boxes' diagonals squared, each times its triangles, sum least (every cut along every
+    axis): at the gap between two objects rather than through one."""
+    best = None
+    for axis in range(3):
+        order = idx[np.argsort(centroid[idx, axis], kind="stable")]
+        lo, hi = tri[order].min(axis=1), tri[order].max(axis=1)
+        lo_a, hi_a = np.minimum.accumulate(lo), np.maximum.accumulate(hi)
+        lo_b = np.minimum.accumulate(lo[::-1])[::-1]
+        hi_b = np.maximum.accumulate(hi[::-1])[::-1]
+        n = np.arange(1, order.size)
+        cost = (n * ((hi_a[:-1] - lo_a[:-1]) ** 2).sum(axis=1)
+                + n[::-1] * ((hi_b[1:] - lo_b[1:]) ** 2).sum(axis=1))
+        k = int(np.argmin(cost))
+        if best is None or cost[k] < best[0]:
+            best = (cost[k], order[:k + 1], order[k + 1:])
+    return best[1], best[2]
+
+
 def caster_spheres(corners: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(spheres (k, 4) float32: centre, radius; weights (k,) float32) over the triangles
-    ``corners`` (T, 3, 3) of weight > 0: clusters split at the median of their longest axis,
-    largest first, while that makes their spheres tighter (SPLIT_GAIN), at most MAX_CASTERS;
-    each cluster's weight its triangles' largest."""
+    ``corners`` (T, 3, 3) of weight > 0: the cut through their tree of splits (_split,
+    SPLIT_DEPTH levels, so at most MAX_CASTERS spheres) whose spheres' summed r^2 is least, a
+    cluster kept whole unless its parts' come to less than SPLIT_GAIN of its own; each
+    sphere's weight its triangles' largest."""
     sel = np.nonzero(weight > 0)[0]
     if not sel.size:
         return np.zeros((0, 4), np.float32), np.zeros(0, np.float32)
     tri = corners[sel].astype(np.float64)
     centroid = tri.mean(axis=1)
-    heap, done, tick = [], [], 0
 
-    def push(idx):
-        nonlocal tick
+    def best(idx, depth):
+        """(summed r^2, [(triangles, centre, radius)]) of the best cut below this cluster"""
         c, r = _sphere(tri[idx])
-        heapq.heappush(heap, (-r, tick, idx, c, r))
-        tick += 1
+        if depth == 0 or idx.size < 2:
+            return r * r, [(idx, c, r)]
+        a, b = _split(tri, centroid, idx)
+        (ca, la), (cb, lb) = best(a, depth - 1), best(b, depth - 1)
+        return (ca + cb, la + lb) if ca + cb < SPLIT_GAIN * r * r else (r * r, [(idx, c, r)])
 
-    push(np.arange(sel.size))
-    while heap and len(heap) + len(done) < MAX_CASTERS:
-        _, _, idx, c, r = heapq.heappop(heap)
-        if idx.size < 2:
-            done.append((idx, c, r))
-            continue
-        pts = centroid[idx]
-        axis = int(np.argmax(pts.max(axis=0) - pts.min(axis=0)))
-        order = np.argsort(pts[:, axis], kind="stable")
-        a, b = idx[order[:idx.size // 2]], idx[order[idx.size // 2:]]
-        ra, rb = _sphere(tri[a])[1], _sphere(tri[b])[1]
-        if ra * ra + rb * rb < SPLIT_GAIN * r * r:
-            push(a)
-            push(b)
-        else:
-            done.append((idx, c, r))
-    done += [(idx, c, r) for _, _, idx, c, r in heap]
+    done = best(np.arange(sel.size), SPLIT_DEPTH)[1]
     spheres = np.zeros((len(done), 4), np.float32)
     weights = np.zeros(len(done), np.float32)
     for k, (idx, c, r) in enumerate(done):
