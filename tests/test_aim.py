@@ -152,6 +152,11 @@ def test_caster_spheres_split_apart_casters_and_keep_a_ball_whole():
     two = np.concatenate([corners, corners + np.array([5.0, 0, 0])])
     s, _ = caster_spheres(two, np.ones(two.shape[0], np.float32))
     assert s.shape[0] == 2 and np.all(s[:, 3] < 0.51)
+    # nine balls on a grid: nine spheres (the tree's cuts at the gaps between them)
+    grid = np.concatenate([corners + np.array([6.0 * i, 6.0 * j, 0]) for i in (-1, 0, 1)
+                           for j in (-1, 0, 1)])
+    s9, _ = caster_spheres(grid, np.ones(grid.shape[0], np.float32))
+    assert s9.shape[0] == 9 and np.all(s9[:, 3] < 0.51)
     # every caster triangle's corners lie inside a sphere
     inside = np.linalg.norm(two.reshape(-1, 3)[:, None, :] - s[None, :, :3], axis=2) \
         <= s[None, :, 3]

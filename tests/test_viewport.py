@@ -149,7 +149,14 @@ def test_light_power_and_world_strength_edits(bpy, lookdev):
 def test_transform_refits_and_objects_added_or_deleted_rebuild(bpy, lookdev):
     scene, s = lookdev
     ball = bpy.data.objects["Ball"]
+    # the ball's specular layer starts caustics: its sphere is where caustic photons are aimed
+    r = s._renderer
+    assert r.path_indirect and r.casters == 1
+    aim = r.scene.caster_spheres.copy()
     _edit_and_check(bpy, scene, s, lambda: setattr(ball, "location", (0.4, 0.0, 0.6)), "refit")
+    # the aim moved with the ball, with no kernel build (above)
+    moved = s._renderer.scene.caster_spheres
+    np.testing.assert_allclose(moved[:, :3] - aim[:, :3], [(0.4, 0.0, 0.0)], atol=1e-3)
 
     def add():
         bpy.ops.mesh.primitive_cube_add(size=0.8, location=(-1.2, 0.5, 0.4))
