@@ -243,7 +243,33 @@ def pytest_addoption(parser):
                           f"({', '.join(QUICK_SKIPS)}); about a minute with a warm kernel cache")
 
 
+# --- the order files are handed to the two processes (pytest.ini: --dist loadfile, and
+# --no-loadscope-reorder, which keeps this order) -------------------------------------------------
+# Each process takes the next file when it is nearly done with its own.  xdist's own order (most
+# tests first) left the files of few but long tests to the end, where one process ran them
+# while the other had finished.  These go first, longest first; while the first of them
+# compiles the kernels of every feature, the next ones (the kernel sources alone, the
+# benchmark's and the wheel's processes, which build the scene's own kernels) need none of
+# them, so the two processes do not compile the same programs at once.  The others follow in
+# xdist's order.
+FIRST = ("test_exact_pool.py", "test_kernel_sources.py", "test_bench.py", "test_wheel.py",
+         "test_viewport.py", "test_e2e.py", "test_indirect.py", "test_accuracy.py")
+
+
+def _file_order(items) -> None:
+    """Sort ``items`` by file: FIRST's files in its order, then the rest by their number of
+    tests, most first (ties by name); each file's tests keep their order."""
+    counts = {}
+    for item in items:
+        name = item.nodeid.split("::")[0].rsplit("/", 1)[-1]
+        counts[name] = counts.get(name, 0) + 1
+    rank = {f: i for i, f in enumerate(FIRST)}
+    key = {f: (0, rank[f], "") if f in rank else (1, -n, f) for f, n in counts.items()}
+    items.sort(key=lambda i: key[i.nodeid.split("::")[0].rsplit("/", 1)[-1]])
+
+
 def pytest_collection_modifyitems(config, items):
+    _file_order(items)
     seen = {}
     for item in items:
         module = getattr(item, "module", None)

@@ -5,6 +5,8 @@ import pytest
 
 from ppm_engine.oracle import analytic
 from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
+from ppm_engine.render.device import get_device
+from ppm_engine.render.device_scene import DeviceScene
 from ppm_engine.render.options import RenderOptions
 from ppm_engine.render.passes import ProgressiveUpdate
 from ppm_engine.render.renderer import Renderer
@@ -37,10 +39,14 @@ def _light(kind, emit, position=(0, 0, 1.5), direction=(0, 0, -1), radius=0.0, s
 
 
 def _features(scene):
-    r = Renderer(scene, RenderOptions(indirect="photons", photons_per_pass=256))
-    f = r.features
-    r.close()
-    return f
+    """The features a Renderer of ``scene`` builds its kernels for (Renderer._start's
+    kernel_defines), without building them: each feature set is a kernel build of its own
+    (test_specialised_kernels_are_separate_programs checks that a Renderer's are these)."""
+    o = RenderOptions(indirect="photons", photons_per_pass=256)
+    dev = get_device(o.device)
+    with dev.lock:
+        return DeviceScene(dev, scene).kernel_defines(o.specialize, o.gather_roughness,
+                                                      o.caustic_roughness, o.editable)[0]
 
 
 def test_features_follow_the_scene():
@@ -106,6 +112,8 @@ def test_specialised_kernels_are_separate_programs():
     c = Renderer(cornell_box(8, 8),
                  RenderOptions(indirect="photons", photons_per_pass=256, specialize=False))
     assert a.features != b.features and c.features is None
+    assert (a.features, b.features) == (_features(cornell_box(8, 8)),
+                                        _features(cornell_box(8, 8, bulb=True)))
     assert len({r.eye.kernel.kernel.program.int_ptr for r in (a, b, c)}) == 3
     for r in (a, b, c):
         r.close()

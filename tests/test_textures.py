@@ -24,6 +24,7 @@ from ppm_engine.scene.arrays import (
 )
 from ppm_engine.scene.camera import make_camera
 from tests.helpers.blender_scenes import PIXELS, export, scene_with_texture
+from tests.helpers.renders import every_feature
 
 
 def test_srgb_image_on_base_color_is_kept_encoded_and_flagged():
@@ -112,8 +113,12 @@ def test_kernel_lookup_equals_bilinear_reference():
     tx["width"], tx["height"] = 5, 3
     scene = scene.replace(uvs=uv.astype(np.float32), shader_nodes=nodes, textures=tx,
                           texels=tex.reshape(-1, 4))
-    r = Renderer(scene, RenderOptions(photons_per_pass=64, max_bounces=0))
-    assert "PPM_TEXTURES" in r.features
+    spec = Renderer(scene, RenderOptions(photons_per_pass=64, max_bounces=0))
+    assert "PPM_TEXTURES" in spec.features
+    spec.close()
+    # rendered by the kernels of every feature (every_feature): the scene's own would be a
+    # kernel build of their own, for the same image
+    r = Renderer(scene, every_feature(photons_per_pass=64, max_bounces=0))
     for _ in range(256):
         r.iterate()
     img = r.image()[..., :3]
@@ -155,6 +160,7 @@ def test_textured_scene_as_bright_as_cycles(cycles, render_exr, tmp_path):
     ref = render_exr(tmp_path / "cycles.exr")
     scene.render.engine = "PPM"
     scene.ppm.passes, scene.ppm.photons_per_pass = 128, 1024
+    scene.ppm.specialize = False          # the kernels every test shares (conftest.configure_tiny)
     ours = render_exr(tmp_path / "ours.exr")
     # 4 x 4 pixel blocks: each lies inside one checker tile (8 x 8 pixels), so a texture
     # flipped or turned would swap the colours of whole blocks

@@ -218,8 +218,8 @@ def _sun_sample_spread(bpy, manual_resolution: int = 0):
     mean)."""
     from ppm_engine.blender.export import export_scene
     from ppm_engine.blender.harness import unbiased_light_paths
-    from ppm_engine.render.options import RenderOptions
     from ppm_engine.render.renderer import Renderer
+    from tests.helpers.renders import every_feature
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     bpy.ops.mesh.primitive_plane_add(size=20)
@@ -243,7 +243,7 @@ def _sun_sample_spread(bpy, manual_resolution: int = 0):
     scene.render.resolution_x = scene.render.resolution_y = 16
     unbiased_light_paths(scene, 0)
     r = Renderer(export_scene(bpy.context.evaluated_depsgraph_get()),
-                 RenderOptions(max_bounces=0, seed=2))
+                 every_feature(max_bounces=0, seed=2))
     try:
         total, samples = np.zeros((16, 16)), []
         for k in range(1, 97):
