@@ -20,9 +20,9 @@ are small spheres (radius ``LIGHT_RADIUS``) kept out of view and invisible to ca
 - ``far_caustic``: the hard case an outside review used: a bigger clear glass ball (radius
   0.5 m, the same 192 x 96 faces) on the floor, lit by a point light of radius 0 3.5 m from its
   centre, up and to the left (``FAR_POS``): the ball subtends 0.5 % of the light's sphere of
-  directions, so its caustic (to the ball's right, about 0.8 m from the centre, nearly in
-  focus on the floor) gets few uniform photons; ``FAR_POWER`` exposes the image as
-  point_caustic's.
+  directions, so its caustic (a sharp focus on the floor to the ball's right, around x = 0.83
+  m where the ray from the light through the ball's centre meets it) gets few uniform photons;
+  ``FAR_POWER`` exposes the image as point_caustic's (mean 0.57 against 0.59).
 - ``mirror_caustic``: a point light and a perfect planar mirror (Principled metallic 1,
   roughness 0, base colour 1), a 0.8 x 0.6 m rectangle tilted towards the floor, which
   reflects the light onto a bright patch of floor in front of it.
