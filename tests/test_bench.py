@@ -48,7 +48,7 @@ def test_firefly_check_counts_the_pixels_brighter_than_the_reference_s_range():
 # with a Cycles reference and the exact sphere's (the bulb box renders in test_e2e.py), 100 s
 # less of the tier's longest test than all nine below; the slow tier runs every reference and
 # check (the closed form's, LuxCore's light tracer or its fallback, the photons' curve): the
-# nine, and all eleven
+# nine, and all twelve
 QUICK_SCENES = ("cornell_box", "point_caustic")
 CHECK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
                 "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights")
@@ -80,7 +80,7 @@ def _quick_bench(cli, tmp_path, scenes):
     luxcore_installed = importlib.util.find_spec("pyluxcore") is not None
     assert list(res["scenes"]) == list(scenes)
     assert set(SCENES) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
-                           "point_caustic", "rough_caustic", "mirror_caustic",
+                           "point_caustic", "rough_caustic", "far_caustic", "mirror_caustic",
                            "pool_caustic", "many_lights", "hdri_sun", "glossy_metal"}
     if "many_lights" in scenes:
         tree = res["scenes"]["many_lights"]["light_tree"]
@@ -130,7 +130,8 @@ def _quick_bench(cli, tmp_path, scenes):
         # (glass_caustic) or pyluxcore is not installed (the JSON says so)
         engine = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "many_lights": "CYCLES",
                   "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "point_caustic": "EXACT",
-                  "rough_caustic": "EXACT", "pool_caustic": "EXACT_POOL"}.get(name, "LIGHT_TRACE")
+                  "rough_caustic": "EXACT", "far_caustic": "EXACT",
+                  "pool_caustic": "EXACT_POOL"}.get(name, "LIGHT_TRACE")
         if name in ("bulb_box", "mirror_caustic"):
             if luxcore_installed:
                 engine = "LUXCORE_LIGHT"
@@ -141,7 +142,7 @@ def _quick_bench(cli, tmp_path, scenes):
         assert ref["engine"] == engine
         if name == "furnace":
             assert ref["mean"] == pytest.approx(1.0)        # E / (1 - albedo) = 0.5 / 0.5
-        elif name in ("point_caustic", "rough_caustic"):
+        elif name in ("point_caustic", "rough_caustic", "far_caustic"):
             # the exact reference renders every pixel, the ball's too: none left out
             assert s["excluded_pixels"] == 0
         elif name not in ("cornell_box", "many_lights", "hdri_sun", "glossy_metal",

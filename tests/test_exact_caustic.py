@@ -111,7 +111,7 @@ def test_coverage_leaves_out_the_ball_and_its_rim():
     # every pixel within the filter's reach of an uncovered centre that sees the ball is out
     d = ef.camera_rays(s, *(a.ravel() + 0.5 for a in np.meshgrid(np.arange(W), np.arange(W))))
     no = np.zeros(W * W, bool)
-    _, hit = ecs.first_hit(np.broadcast_to(s.eye, d.shape), d, no, no)
+    _, hit = ecs.first_hit(np.broadcast_to(s.eye, d.shape), d, no, no, s.ball)
     ball = (hit == ecs.BALL_ID).reshape(W, W)
     near = np.zeros_like(ball)
     for dj in (-1, 0, 1):
@@ -162,7 +162,7 @@ def test_glass_ball_conserves_energy():
     alive = np.ones(n, bool)
     for bounce in range(32):
         idx = np.flatnonzero(alive)
-        t = ecs._ball_hits(o[idx], d[idx], inside[idx])
+        t = ecs._ball_hits(o[idx], d[idx], inside[idx], BALL)
         t = np.where(left[idx] & ~inside[idx], np.inf, t)
         gone = ~np.isfinite(t)
         exits_after[idx[gone]] = bounce

@@ -151,7 +151,7 @@ def test_textures_are_the_closed_form_direct_light():
     for _ in range(4):
         o, d, w = ec.emit(s, 1 << 20, rng, stratified=False)
         no = np.zeros(d.shape[0], bool)
-        t, hit = ecs.first_hit(o, d, no, no)
+        t, hit = ecs.first_hit(o, d, no, no, s.ball)
         on = (hit == ecs.FLOOR_ID) | (hit == ecs.WALL_ID)
         p, normal = ecs.stage_normals(o[on] + t[on, None] * d[on], hit[on])
         front = np.einsum("ij,ij->i", d[on], normal) < 0

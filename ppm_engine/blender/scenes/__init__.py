@@ -27,6 +27,7 @@ EXAMPLES = {
     "glass_caustic": caustics.glass_caustic,     # also the benchmark's caustic scenes
     "point_caustic": caustics.point_caustic,     # the hard one: a radius-0 point light
     "rough_caustic": caustics.rough_caustic,     # the same through rough glass
+    "far_caustic": caustics.far_caustic,         # a bigger ball, the light 3.5 m away
     "mirror_caustic": caustics.mirror_caustic,
     "pool_caustic": pool.build,                  # the sun's caustic seen through water
     "furnace": furnace.build,                    # the benchmark's closed-form scene

@@ -1,7 +1,7 @@
-"""Four caustic scenes (example scenes, and the benchmark's: ``python -m ppm_engine bench``),
+"""Five caustic scenes (example scenes, and the benchmark's: ``python -m ppm_engine bench``),
 built with bpy from nothing.
 
-Both stand on the same stage: a 4 x 4 m white Lambertian floor (z = 0, x, y in [-2, 2]) and a
+All stand on the same stage: a 4 x 4 m white Lambertian floor (z = 0, x, y in [-2, 2]) and a
 back wall at y = 2, black world, the camera at the front looking down at the middle.  Lights
 are small spheres (radius ``LIGHT_RADIUS``) kept out of view and invisible to camera rays
 (lights are not visible to our camera rays; Cycles would show them).
@@ -17,6 +17,12 @@ are small spheres (radius ``LIGHT_RADIUS``) kept out of view and invisible to ca
   ``ROUGH_CAUSTIC_ROUGHNESS``, the single-scattering GGX distribution): the focus spreads into a
   soft-edged spot, which camera paths can reach only by next-event estimation through the
   glass's lobe.
+- ``far_caustic``: the hard case an outside review used: a bigger clear glass ball (radius
+  0.5 m, the same 192 x 96 faces) on the floor, lit by a point light of radius 0 3.5 m from its
+  centre, up and to the left (``FAR_POS``): the ball subtends 0.5 % of the light's sphere of
+  directions, so its caustic (a sharp focus on the floor to the ball's right, around x = 0.83
+  m where the ray from the light through the ball's centre meets it) gets few uniform photons;
+  ``FAR_POWER`` exposes the image as point_caustic's (mean 0.57 against 0.59).
 - ``mirror_caustic``: a point light and a perfect planar mirror (Principled metallic 1,
   roughness 0, base colour 1), a 0.8 x 0.6 m rectangle tilted towards the floor, which
   reflects the light onto a bright patch of floor in front of it.
@@ -54,6 +60,11 @@ SPOT_SIZE = math.radians(30.0)
 # noise (docs/history/benchmarks-notebook.md: the 48 x 24 ball dims the focus 3 %, ten times the
 # noise; 192 x 96 leaves a sixth of that), since its reference is the exact sphere
 POINT_BALL_SEGMENTS = (192, 96)
+
+# far_caustic: a ball of radius 0.5 m on the floor, the point light 3.5 m from its centre
+FAR_BALL = ((0.0, 0.0, 0.5), 0.5)                # centre, radius
+FAR_POS = (-3.0, 0.0, 2.3)
+FAR_POWER = 600.0                                # W
 
 # rough_caustic: point_caustic's ball of rough glass (GGX, the exact reference's model)
 ROUGH_CAUSTIC_ROUGHNESS = 0.1
@@ -114,11 +125,12 @@ def _light(scene, name, kind, location, power, direction=None):
     return obj
 
 
-def _glass_ball(scene=None, segments=48, rings=24):
-    """The stage with the glass ball on its floor (glass_caustic, point_caustic)."""
+def _glass_ball(scene=None, segments=48, rings=24, ball=BALL):
+    """The stage with a glass ball (centre, radius) on its floor (glass_caustic,
+    point_caustic; far_caustic's bigger ball)."""
     scene = new_scene(scene)
     _stage(scene)
-    center, radius = BALL
+    center, radius = ball
     sphere(scene, "GlassBall", center, radius, glass("Glass"), segments, rings)
     return scene
 
@@ -138,6 +150,15 @@ def point_caustic(scene=None):
     docstring)."""
     scene = _glass_ball(scene, *POINT_BALL_SEGMENTS)
     point = _light(scene, "Point", 'POINT', SPOT_POS, SPOT_POWER)
+    point.data.shadow_soft_size = 0.0
+    return scene
+
+
+def far_caustic(scene=None):
+    """The bigger glass ball under a point light of radius 0 3.5 m away (see the module
+    docstring)."""
+    scene = _glass_ball(scene, *POINT_BALL_SEGMENTS, ball=FAR_BALL)
+    point = _light(scene, "Point", 'POINT', FAR_POS, FAR_POWER)
     point.data.shadow_soft_size = 0.0
     return scene
 

@@ -30,11 +30,11 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
   there; on hdri_sun but for the sun's glint and caustic in the glass ball, where its
   reference's noise is most of its own error, and on glossy_metal but for the metal's
   caustics on the floor, which Cycles finds only through the light's 0.1 m);
-- point_caustic (the glass ball under a radius-0 point light) and rough_caustic (the same ball
-  of rough glass, GGX roughness 0.1): the exact-geometry reference
-  (exact_caustic.py, "EXACT"): in NumPy on the true sphere and the two finite planes, the
-  direct light in closed form and the rest by light tracing, sharing no code with this engine, so it
-  stays independent now that light tracing is one of the engine's own strategies (issue 25).  It
+- point_caustic (the glass ball under a radius-0 point light), rough_caustic (the same ball of
+  rough glass, GGX roughness 0.1) and far_caustic (a 0.5 m ball, the light 3.5 m away): the
+  exact-geometry reference (exact_caustic.py, "EXACT"): in NumPy on the true sphere and the two
+  finite planes, the direct light in closed form and the rest by light tracing, sharing no code
+  with this engine (independent of its light tracing, one of its own strategies: issue 25).  It
   renders every pixel, the ball's by the camera's chains through the true sphere
   (exact_caustic_camera.py): errors over the whole image, and the ball's pixels (``regions``).
   Cycles with MNEE is no reference there: its focus's brightest pixel is 5.9 where light tracing
@@ -69,7 +69,7 @@ where a light-traced reference is used (bulb_box, mirror_caustic, glass_caustic)
 see an emitter or a mirror, glass or smooth glossy surface, or nothing (and their neighbours
 within the pixel filter's reach) are left out of that scene's figures (``LightTracer.coverage``;
 LuxCore's also the frame's edge, ``Bench.luxcore_coverage``), and the tables say how many
-pixels are counted.  The exact references (point_caustic, rough_caustic, pool_caustic) and
+pixels are counted.  The exact references (the three glass balls', the pool's) and
 Cycles' count every pixel.  This engine's light tracer is cross-checked in every run
 (``light_trace_check``: the means of the two over the covered pixels, and their RMSE
 against both references' noise): with Cycles on the Cornell box, on point_caustic, where
@@ -112,16 +112,16 @@ from ppm_engine.tools.bench.scoring import (
 DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
 SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
-          "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights", "hdri_sun",
-          "glossy_metal")
-CAUSTIC_SCENES = ("glass_caustic", "point_caustic", "rough_caustic", "mirror_caustic",
-                  "pool_caustic")
+          "rough_caustic", "far_caustic", "mirror_caustic", "pool_caustic", "many_lights",
+          "hdri_sun", "glossy_metal")
+CAUSTIC_SCENES = ("glass_caustic", "point_caustic", "rough_caustic", "far_caustic",
+                  "mirror_caustic", "pool_caustic")
 # scenes whose light photons carry (caustics, a bulb in glass): the merge alone is measured too
 MERGE_SCENES = (*CAUSTIC_SCENES, "bulb_box")
 # reference engine per scene (see the module docstring)
 REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": "LUXCORE_LIGHT",
                     "glass_caustic": "LIGHT_TRACE", "point_caustic": "EXACT",
-                    "rough_caustic": "EXACT",
+                    "rough_caustic": "EXACT", "far_caustic": "EXACT",
                     "mirror_caustic": "LUXCORE_LIGHT", "pool_caustic": "EXACT_POOL",
                     "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES"}
 REF_SEEDS = (1001, 2002)
@@ -129,9 +129,9 @@ REF_SEEDS = (1001, 2002)
 # noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror caustic,
 # and the ratio to LuxCore's BIDIR the reference's: docs/history/benchmarks-notebook.md); per scene
 # (its entry wins over its engine's) on glossy_metal, whose Cycles reference is slowest where it
-# matters most: the metal's caustics on the floor and the 0.1 m light's highlight on polished metal
-# (2 x 240 s: noise 0.024)
-REF_TIME_FACTOR = {"LUXCORE_LIGHT": 4.0, "EXACT_POOL": 4.0, "glossy_metal": 4.0}
+# matters most (the metal's caustics on the floor, the light's highlight; 2 x 240 s: noise 0.024),
+# and far_caustic, whose big ball's camera chains took most of 2 x 32 s (noise 0.027, ours 0.033)
+REF_TIME_FACTOR = {"LUXCORE_LIGHT": 4.0, "EXACT_POOL": 4.0, "glossy_metal": 4.0, "far_caustic": 4.0}
 EQUAL_TIME = 16.0
 # scenes with LuxCore's bidirectional path tracer as a curve (issue 15: the point light's caustic
 # in a mirror, which no Cycles estimator samples; its target: scoring.TARGETS_LUXCORE)

@@ -1,7 +1,8 @@
-"""An exact-geometry reference for the benchmark's ``point_caustic`` and ``rough_caustic`` scenes
-in NumPy, on the scene as ppm_engine/blender/scenes/caustics.py defines it (a true sphere, two
-finite planes, a point light): the direct light in closed form, the rest by light tracing.  It
-shares no code with this engine's estimators (no export, kernels, film or light tracer): the
+"""An exact-geometry reference for the benchmark's ``point_caustic``, ``rough_caustic`` and
+``far_caustic`` scenes in NumPy, on the scene as ppm_engine/blender/scenes/caustics.py defines it
+(a true sphere, two finite planes, a point light; the ball and the light where the bpy scene has
+them: exact_caustic_scene.setup_of): the direct light in closed form, the rest by light tracing.
+It shares no code with this engine's estimators (no export, kernels, film or light tracer): the
 reference stays independent once light tracing is one of the engine's own strategies (issue 25).
 Where the engine sees a 192 x 96 smooth-shaded mesh, this sees the sphere.
 
@@ -43,19 +44,19 @@ The light transport, as Cycles renders the scene with the bench's settings:
   adds less than half of the light the one before did, 0.2 % of the mean from the 5th to the
   12th vertex, about 1e-5 beyond.
 
-Emission is stratified (exactly, not approximately): no geometry lies at x < -2, the light's x,
-so photons leave into x > 0 only; a share of them (``BALL_SHARE``) go uniformly into the cone
-the ball subtends, which makes the caustic much less noisy, and the rest uniformly into the
-half space less that cone; each carries its stratum's flux (intensity x solid angle / count).
-Strata are unbiased for any integrand over the directions, so for the light tracer's share of
-the light with the direct light taken out as well (tests/test_exact_caustic.py checks both).
-The cone, 0.8 % of the half space's solid angle, took a quarter of the photons while light
-tracing rendered the direct light; without it 5 % is the better share.  A cone photon costs
-about 3.7 times one of the rest (its vertices on the glass, and a splat where it lands, which
-the rest no longer make), so 5 % traces 1.5 times the photons a second; per photon a quarter
-is 10 % less noisy over the caustic and 12 % more over the image, so at equal time 5 % leaves
-27 % less noise over the image and 9 % less over the caustic (128 x 128, 2^22 photons per
-render, five seeds).
+Emission is stratified (exactly, not approximately): no geometry lies at x < -2 and the light
+stands at x <= -2 (setup_of refuses it elsewhere), so photons leave into x > 0 only; a share of
+them (``BALL_SHARE``) go uniformly into the cone the ball subtends, which makes the caustic much
+less noisy, and the rest uniformly into the half space less that cone; each carries its stratum's
+flux (intensity x solid angle / count). Strata are unbiased for any integrand over the directions,
+so for the light tracer's share of the light with the direct light taken out as well
+(tests/test_exact_caustic.py checks both). The cone (point_caustic's: 0.8 % of the half space's
+solid angle; far_caustic's 1 %) took a quarter of the photons while light tracing rendered the
+direct light; without it 5 % is the better share.  A cone photon costs about 3.7 times one of the
+rest (its vertices on the glass, and a splat where it lands, which the rest no longer make), so 5 %
+traces 1.5 times the photons a second; per photon a quarter is 10 % less noisy over the caustic and
+12 % more over the image, so at equal time 5 % leaves 27 % less noise over the image and 9 % less
+over the caustic (128 x 128, 2^22 photons per render, five seeds).
 
 ``render`` returns the image (RGB, rows top-down, as the bench's EXRs read), the coverage (the
 pixels light tracing renders: those whose filter footprint sees only the floor or the wall
@@ -73,7 +74,7 @@ import time
 
 import numpy as np
 
-from ppm_engine.blender.scenes.caustics import BALL, FLOOR
+from ppm_engine.blender.scenes.caustics import FLOOR
 from ppm_engine.tools.bench.exact_caustic_camera import TEXTURE_BINS, BallView, Textures
 from ppm_engine.tools.bench.exact_caustic_scene import (
     BALL_ID,
@@ -113,7 +114,7 @@ def _direct_radiance(s: Setup, px, py):
     d = camera_rays(s, px, py)
     o = np.broadcast_to(s.eye, d.shape)
     no = np.zeros(d.shape[0], bool)
-    t, hit = first_hit(o, d, no, no)
+    t, hit = first_hit(o, d, no, no, s.ball)
     depth = t * (d @ -s.axes[:, 2])
     stage = ((hit == FLOOR_ID) | (hit == WALL_ID)) & (depth > s.clip[0]) & (depth < s.clip[1])
     p, normal = stage_normals(s.eye + t[stage, None] * d[stage], hit[stage])
@@ -182,9 +183,9 @@ def emit(s: Setup, n: int, rng, stratified: bool = True):
         return o, d, np.full(n, intensity * 4.0 * np.pi)
     if s.light[0] > -FLOOR_HALF:
         raise ValueError("stratified emission needs all geometry on the light's +x side")
-    to_ball = np.asarray(BALL[0], float) - s.light
+    to_ball = s.ball_center - s.light
     dist = np.linalg.norm(to_ball)
-    axis, cos_max = to_ball / dist, math.sqrt(1.0 - (BALL[1] / dist) ** 2)
+    axis, cos_max = to_ball / dist, math.sqrt(1.0 - (s.ball_radius / dist) ** 2)
     omega_cone = 2.0 * np.pi * (1.0 - cos_max)
     n_cone = round(BALL_SHARE * n)
     n_rest = n - n_cone
@@ -222,7 +223,7 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
     for vertex in range(s.max_bounces + 1):
         if o.shape[0] == 0:
             break
-        t, hit = first_hit(o, d, inside, left_ball)
+        t, hit = first_hit(o, d, inside, left_ball, s.ball)
         alive = hit >= 0
         o, d, w, t, hit = o[alive], d[alive], w[alive], t[alive], hit[alive]
         inside, counts = inside[alive], counts[alive]
@@ -254,7 +255,7 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
             ok &= within & (cos_surf > 0)
             # only the ball can hide a point of the stage from the camera, which stands in
             # front of the wall and above the floor
-            ok[ok] &= ~ball_blocks(pd[ok], to_eye[ok], dist[ok])
+            ok[ok] &= ~ball_blocks(pd[ok], to_eye[ok], dist[ok], s.ball)
             value = (wd[ok] * (a / np.pi) * cos_surf[ok] * inv_area
                      / (cos_cam[ok] ** 3 * dist[ok] ** 2))
             splat(acc, s, px[ok], py[ok], value)
@@ -267,7 +268,7 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
         g = ~diffuse
         stats["ball_hits"] += int(g.sum())
         pg, dg, wg, cg, ig = p[g], d[g], w[g], counts[g], inside[g]
-        n_out = (pg - np.asarray(BALL[0], float)) / BALL[1]
+        n_out = (pg - s.ball_center) / s.ball_radius
         if s.roughness > 0.0:
             new_g, refl, ig2, wgl = rough_glass_scatter(dg, n_out, ig, rng.random(pg.shape[0]),
                                                         s.roughness ** 2, rng)
@@ -294,7 +295,8 @@ def trace(s: Setup, n: int, rng, acc: np.ndarray, stratified: bool = True,
 def render(scene, photons: int = 0, seed: int = 0, batch: int = BATCH, seconds: float = 0.0,
            max_bounces: int | None = None, stratified: bool = True, direct: str = "closed",
            ball: bool = True, texture_bins: int = TEXTURE_BINS, ball_grid: int | None = None):
-    """Render the ``point_caustic`` bpy scene: the direct light in closed form
+    """Render a ``point_caustic``, ``rough_caustic`` or ``far_caustic`` bpy scene (its ball and
+    light read from it: exact_caustic_scene.setup_of): the direct light in closed form
     (``direct_light``; ``direct="traced"``: light-traced as the rest), the rest light-traced
     by ``photons`` photons (in batches of ``batch``), or with ``seconds`` whole batches until
     that time (the closed form's and the ball's chains included) is spent, and (``ball``) what

@@ -1,4 +1,4 @@
-"""The camera's side of point_caustic's and rough_caustic's exact-geometry reference
+"""The camera's side of point_caustic's, rough_caustic's and far_caustic's exact-geometry reference
 (exact_caustic.py): what the pixels that see the glass ball see through it or in it, so that the
 reference renders every pixel.
 
@@ -53,7 +53,7 @@ import math
 
 import numpy as np
 
-from ppm_engine.blender.scenes.caustics import BALL, FLOOR
+from ppm_engine.blender.scenes.caustics import FLOOR
 from ppm_engine.tools.bench.exact_caustic_scene import (
     BALL_ID,
     FLOOR_HALF,
@@ -155,7 +155,7 @@ def chains(s: Setup, px, py, tex: Textures, rng, closed: bool = True):
     d = camera_rays(s, px, py)
     o = np.broadcast_to(s.eye, d.shape)
     no = np.zeros(n, bool)
-    t, hit = first_hit(o, d, no, no)
+    t, hit = first_hit(o, d, no, no, s.ball)
     depth = t * (d @ -s.axes[:, 2])
     pt = np.flatnonzero((hit == BALL_ID) & (depth > s.clip[0]) & (depth < s.clip[1]))
     kind = np.zeros(n, np.int64)
@@ -167,7 +167,7 @@ def chains(s: Setup, px, py, tex: Textures, rng, closed: bool = True):
     inside = np.zeros(pt.size, bool)
     g = np.zeros(pt.size, np.int64)
     tr = np.zeros(pt.size, np.int64)
-    centre, radius = np.asarray(BALL[0], float), BALL[1]
+    centre, radius = s.ball
     alpha = s.roughness ** 2
     for j in range(1, s.max_bounces + 2):
         if pt.size == 0:
@@ -198,7 +198,7 @@ def chains(s: Setup, px, py, tex: Textures, rng, closed: bool = True):
             out.append(tuple(x[sel_out] for x in branch))
             stay.append(tuple(x[sel_in] for x in branch))
         for bp, bo, bd, bw, bg, bt in out:          # leaving the ball: to the stage or the void
-            th, hh = first_hit(bo, bd, np.zeros(bp.size, bool), np.ones(bp.size, bool))
+            th, hh = first_hit(bo, bd, np.zeros(bp.size, bool), np.ones(bp.size, bool), s.ball)
             on = hh >= 0
             x, normal = stage_normals(bo[on] + th[on, None] * bd[on], hh[on])
             front = np.einsum("ij,ij->i", bd[on], normal) < 0
@@ -215,7 +215,7 @@ def chains(s: Setup, px, py, tex: Textures, rng, closed: bool = True):
                 sk[on] = _stage_kind(hh[on], lit)
                 kind[bp] = kind[bp] * 8 + sk
         ip, io, idr, iw, ig, it = (np.concatenate(x) for x in zip(*stay, strict=True))
-        th, _ = first_hit(io, idr, np.ones(ip.size, bool), np.ones(ip.size, bool))
+        th, _ = first_hit(io, idr, np.ones(ip.size, bool), np.ones(ip.size, bool), s.ball)
         good = np.isfinite(th)
         pt, d, w, g, tr = ip[good], idr[good], iw[good], ig[good], it[good]
         p = io[good] + th[good, None] * idr[good]
@@ -243,7 +243,7 @@ class BallView:
         gxx, gyy = np.meshgrid(cx, cy)
         d = camera_rays(s, gxx.ravel(), gyy.ravel())
         no = np.zeros(d.shape[0], bool)
-        _, hit = first_hit(np.broadcast_to(s.eye, d.shape), d, no, no)
+        _, hit = first_hit(np.broadcast_to(s.eye, d.shape), d, no, no, s.ball)
         ball = hit == BALL_ID
         self.points = 0
         if not ball.any():

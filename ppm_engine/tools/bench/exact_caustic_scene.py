@@ -1,7 +1,8 @@
-"""``point_caustic`` and ``rough_caustic`` as their exact-geometry reference (exact_caustic.py)
-sees them, in NumPy: the scene as ppm_engine/blender/scenes/caustics.py defines it (a true sphere,
-two finite planes, a point light), the Setup read from the bpy scene (camera, film, light, bounce
-limits, the glass's roughness; what the reference does not model is refused), the rays' first
+"""``point_caustic``, ``rough_caustic`` and ``far_caustic`` as their exact-geometry reference
+(exact_caustic.py) sees them, in NumPy: the scene as ppm_engine/blender/scenes/caustics.py defines
+it (a true sphere, two finite planes, a point light), the Setup read from the bpy scene (camera,
+film, light, bounce limits, the glass's roughness, and the geometry: the ball's centre and
+radius, the light's position; what the reference does not model is refused), the rays' first
 hits, the ball's shadow, a point's direct irradiance (``direct_irradiance``), and the pixels
 that see only the floor and the wall directly (``coverage``: a region of the bench's tables,
 no longer the reference's limit: exact_caustic_camera.py renders the ball's pixels)."""
@@ -12,13 +13,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ppm_engine.blender.scenes.caustics import BALL, FLOOR, SPOT_POS
+from ppm_engine.blender.scenes.caustics import FLOOR
 from ppm_engine.tools.bench.exact_film import camera_fields, camera_rays, window_clear
 from ppm_engine.tools.bench.exact_optics import IOR
 
 FLOOR_HALF = 2.0                 # the floor: z = 0, |x|, |y| <= 2
 WALL_Y, WALL_TOP = 2.0, 2.5      # the back wall: y = 2, |x| <= 2, 0 <= z <= 2.5
 EPS = 1e-9                       # hit distances at or below it are the surface a ray left
+PLACES = 6                       # the ball read from bpy, rounded to the micrometre
+SPHERE_TOL = 1e-4                # the ball's vertices' spread of distance to its centre, relative
 
 FLOOR_ID, WALL_ID, BALL_ID = 0, 1, 2
 
@@ -41,7 +44,14 @@ class Setup:
     diffuse_bounces: int
     glossy_bounces: int
     transmission_bounces: int
+    ball_center: np.ndarray      # the glass ball's centre (3,)
+    ball_radius: float
     roughness: float = 0.0       # the glass's (Principled Roughness; alpha = its square)
+
+    @property
+    def ball(self) -> tuple:
+        """(centre, radius): what the geometry's functions take."""
+        return self.ball_center, self.ball_radius
 
     @property
     def pixel_area(self) -> float:
@@ -51,21 +61,16 @@ class Setup:
 
 
 def setup_of(scene, max_bounces: int | None = None) -> Setup:
-    """The camera, film, light and bounce limits of a ``point_caustic`` bpy scene (its geometry
-    is the module's constants; the light must stand where caustics.point_caustic puts it).
-    ``max_bounces`` overrides all of the scene's bounce limits."""
+    """The camera, film, light, ball and bounce limits of a ``point_caustic``,
+    ``rough_caustic`` or ``far_caustic`` bpy scene: its geometry read from it (the point light's
+    position, the ball's centre and radius: ``light_and_ball``; the stage is the module's
+    constants).  ``max_bounces`` overrides all of the scene's bounce limits."""
     scene.view_layers[0].update()       # the objects' matrix_world after a script's edits
     if len(set(FLOOR)) != 1:
         raise ValueError("the exact reference traces one channel: the stage must be grey")
     camera = camera_fields(scene)
     c = scene.cycles
-    lights = [o for o in scene.objects if o.type == 'LIGHT' and not o.hide_render]
-    if len(lights) != 1 or lights[0].data.type != 'POINT' or lights[0].data.shadow_soft_size:
-        raise ValueError("the exact reference renders one point light of radius 0")
-    light = lights[0]
-    pos = np.array(light.matrix_world.translation, float)
-    if not np.allclose(pos, SPOT_POS):
-        raise ValueError(f"the point light is at {tuple(pos)}, not at point_caustic's {SPOT_POS}")
+    light, pos, center, radius = light_and_ball(scene)
     power = (np.array(light.data.color, float) * light.data.energy
              * 2.0 ** getattr(light.data, "exposure", 0.0))
     roughness = glass_roughness(scene)
@@ -74,7 +79,50 @@ def setup_of(scene, max_bounces: int | None = None) -> Setup:
         limits = [max_bounces] * 4
     return Setup(**camera, light=pos, power=power, max_bounces=int(limits[0]),
                  diffuse_bounces=int(limits[1]), glossy_bounces=int(limits[2]),
-                 transmission_bounces=int(limits[3]), roughness=roughness)
+                 transmission_bounces=int(limits[3]), ball_center=center, ball_radius=radius,
+                 roughness=roughness)
+
+
+def _read(values) -> np.ndarray:
+    """The ball's coordinates read from bpy (float32) rounded to the micrometre: caustics.py's
+    constants exactly (0.3 is stored as 0.30000001), which the reference traced before it read
+    the ball from bpy.  (The light's position is bpy's as it stands, as it always was.)"""
+    return np.array([round(float(v), PLACES) for v in values])
+
+
+def light_and_ball(scene):
+    """(the light object, its position, the ball's centre, its radius) of the bpy scene, and
+    the geometry the reference models, or ValueError: one point light of radius 0; the object
+    'GlassBall' a sphere (its vertices, in world space, all at one distance from its origin:
+    the reference traces the true sphere through them) resting on or above the floor, clear
+    of the stage's edges and the wall (a ray inside it meets only it); the light above the
+    floor, in front of the wall, at x <= -2 (no geometry on its far side: the stratified
+    emission sends photons into x > 0 only)."""
+    lights = [o for o in scene.objects if o.type == 'LIGHT' and not o.hide_render]
+    if len(lights) != 1 or lights[0].data.type != 'POINT' or lights[0].data.shadow_soft_size:
+        raise ValueError("the exact reference renders one point light of radius 0")
+    light = lights[0]
+    pos = np.array(light.matrix_world.translation, float)
+    ball = next((o for o in scene.objects if o.name.startswith("GlassBall")), None)
+    if ball is None or ball.type != 'MESH' or not ball.data.vertices:
+        raise ValueError("the exact reference needs the glass ball 'GlassBall', a mesh")
+    m = np.array(ball.matrix_world)
+    co = np.empty(3 * len(ball.data.vertices))
+    ball.data.vertices.foreach_get("co", co)
+    world = co.reshape(-1, 3) @ m[:3, :3].T
+    dist = np.linalg.norm(world, axis=1)
+    if dist.max() - dist.min() > SPHERE_TOL * dist.max():
+        raise ValueError("the exact reference traces a sphere: 'GlassBall''s vertices are not "
+                         "all at one distance from its origin")
+    center, radius = _read(m[:3, 3]), round(float(dist.max()), PLACES)
+    if (center[2] < radius or np.abs(center[:2]).max() + radius > FLOOR_HALF
+            or center[1] + radius > WALL_Y or center[2] + radius > WALL_TOP):
+        raise ValueError(f"the ball (centre {tuple(center)}, radius {radius}) must rest on or "
+                         "above the floor, clear of its edges and the wall")
+    if not (pos[0] <= -FLOOR_HALF and pos[2] > 0.0 and pos[1] < WALL_Y):
+        raise ValueError(f"the point light at {tuple(pos)} must stand at x <= {-FLOOR_HALF}, "
+                         "above the floor and in front of the wall")
+    return light, pos, center, radius
 
 
 def glass_roughness(scene) -> float:
@@ -104,10 +152,10 @@ def glass_roughness(scene) -> float:
 
 
 # --- geometry --------------------------------------------------------------------------------
-def _ball_hits(o, d, inside):
-    """Distance along unit rays to the ball: the far root for rays inside it, else the near root
-    (inf where none)."""
-    center, radius = np.asarray(BALL[0], float), BALL[1]
+def _ball_hits(o, d, inside, ball):
+    """Distance along unit rays to the ball (centre, radius: Setup.ball): the far root for rays
+    inside it, else the near root (inf where none)."""
+    center, radius = np.asarray(ball[0], float), ball[1]
     oc = o - center
     b = np.einsum("ij,ij->i", d, oc)
     disc = b * b - (np.einsum("ij,ij->i", oc, oc) - radius * radius)
@@ -130,12 +178,13 @@ def _plane_hits(o, d):
     return tf, tw
 
 
-def first_hit(o, d, inside, left_ball):
-    """(distance, surface id) of the first hit along unit rays; id -1 where nothing is hit.
+def first_hit(o, d, inside, left_ball, ball):
+    """(distance, surface id) of the first hit along unit rays, with the ball (centre, radius:
+    Setup.ball); id -1 where nothing is hit.
     A ray inside the ball meets only the ball (the floor touches it at one point); a ray that
     left the ball outwards never meets it again (it is convex)."""
     tf, tw = _plane_hits(o, d)
-    tb = _ball_hits(o, d, inside)
+    tb = _ball_hits(o, d, inside, ball)
     tb = np.where(left_ball & ~inside, np.inf, tb)
     tf = np.where(inside, np.inf, tf)
     tw = np.where(inside, np.inf, tw)
@@ -145,9 +194,10 @@ def first_hit(o, d, inside, left_ball):
     return tmin, np.where(np.isfinite(tmin), k, -1)
 
 
-def ball_blocks(p, u, dist):
-    """Whether the ball cuts the segments from p along unit u of length dist."""
-    center, radius = np.asarray(BALL[0], float), BALL[1]
+def ball_blocks(p, u, dist, ball):
+    """Whether the ball (centre, radius: Setup.ball) cuts the segments from p along unit u of
+    length dist."""
+    center, radius = np.asarray(ball[0], float), ball[1]
     oc = p - center
     b = np.einsum("ij,ij->i", u, oc)
     disc = b * b - (np.einsum("ij,ij->i", oc, oc) - radius * radius)
@@ -179,7 +229,7 @@ def direct_irradiance(s: Setup, p, normal):
     u = to_light / dist[:, None]
     cos_l = np.einsum("ij,ij->i", u, normal)
     lit = cos_l > 0
-    lit[lit] = ~ball_blocks(p[lit], u[lit], dist[lit])
+    lit[lit] = ~ball_blocks(p[lit], u[lit], dist[lit], s.ball)
     return np.where(lit, cos_l / (4.0 * np.pi * dist ** 2), 0.0), lit
 
 
@@ -196,6 +246,6 @@ def coverage(s: Setup, supersample: int = 8) -> np.ndarray:
     d = camera_rays(s, gx.ravel(), gy.ravel())
     o = np.broadcast_to(s.eye, d.shape)
     no = np.zeros(d.shape[0], bool)
-    _, hit = first_hit(o, d, no, no)
+    _, hit = first_hit(o, d, no, no, s.ball)
     bad = ~((hit == FLOOR_ID) | (hit == WALL_ID))
     return window_clear(bad.reshape(gy.shape), s, k, pad, 0.5)

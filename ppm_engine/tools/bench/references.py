@@ -1,9 +1,8 @@
 """The reference renderers of the error-against-time run (curves.py, whose docstring says which
 scene has which reference and why): this engine's light tracer, LuxCore's (LIGHTCPU) with the
-pixels it covers, and the exact-geometry references of point_caustic and rough_caustic
-(exact_caustic.py: every pixel, the ball's too) and of the pool (exact_pool.py), as the methods
-of ``References``, which curves.Bench extends, with the regions scored beside the whole
-image."""
+pixels it covers, and the exact-geometry references of point_caustic, rough_caustic and far_caustic
+(exact_caustic.py: every pixel, the ball's too) and of the pool (exact_pool.py), as the methods of
+``References``, which curves.Bench extends, with the regions scored beside the whole image."""
 from __future__ import annotations
 
 import time
@@ -71,7 +70,8 @@ class References:
         return img, wall, info, self.luxcore_coverage()
 
     def exact(self, seconds: float, seed: int):
-        """point_caustic or rough_caustic by the exact-geometry reference (exact_caustic.py) for
+        """point_caustic, rough_caustic or far_caustic by the exact-geometry reference
+        (exact_caustic.py) for
         ``seconds`` (whole batches): (RGB image top-down, wall seconds, info, coverage top-down:
         every pixel)."""
         import bpy
