@@ -60,8 +60,8 @@ VIEWPORT_LIMITS = {
 AUTO_PHOTONS_MIN, AUTO_PHOTONS_MAX = 1 << 12, 1 << 22
 # Caustic photons aimed at the casters (kernels/light/aim.h) nearly all reach one and go on
 # through the glass, where one emitted as all photons are mostly lands on a diffuse surface and
-# ends: each costs some ten times as much.  Automatically, a render aims this share of the
-# automatic count per pass (or the share of uniform photons that would reach a caster, if
+# ends: each costs some ten times as much.  A render aims this share of its photon count per
+# pass (automatic or set; or the share of uniform photons that would reach a caster, if
 # larger), at least AIMED_PHOTONS_MIN: the eye pass and the photons progress together
 # (docs/BENCHMARKS.md, "Settings chosen by measurement").
 AIMED_PHOTONS_SHARE = 1 / 16
@@ -181,11 +181,11 @@ class RenderOptions:
         return int(min(max(pixels, AUTO_PHOTONS_MIN), AUTO_PHOTONS_MAX))
 
     def aimed_photons_for(self, pixels: int, caster_share: float) -> int:
-        """Aimed caustic photons per pass (AIMED_PHOTONS_SHARE) for a render region of
-        ``pixels`` pixels, where ``caster_share`` of uniform photons would reach a caster."""
+        """Aimed caustic photons per pass for a render region of ``pixels`` pixels, where
+        ``caster_share`` of uniform photons would reach a caster: AIMED_PHOTONS_SHARE of the
+        photon count (automatic or set: a count set for photons emitted as all are keeps about
+        its time per pass), or ``caster_share`` of it if larger, at least AIMED_PHOTONS_MIN."""
         base = self.photons_for(pixels)
-        if self.photons_per_pass is not None:
-            return base
         share = min(max(AIMED_PHOTONS_SHARE, caster_share), 1.0)
         return int(min(max(base * share, AIMED_PHOTONS_MIN), base))
 
