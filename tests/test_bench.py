@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from ppm_engine.tools.bench.curves import MERGE_SCENES, SCENES
+from ppm_engine.tools.bench.curves import MERGE_SCENES, QUICK, SCENES
 from ppm_engine.tools.bench.scoring import FIREFLY_MARGIN, brightest, fireflies
 
 pytest.importorskip("OpenEXR")
@@ -160,7 +160,7 @@ def _quick_bench(cli, tmp_path, scenes):
     assert 0.9 < check["mean_over_reference"] < 1.1
     if "caustic_pixels" in check:   # (at 16 x 16 the mesh's coverage may leave it none)
         assert check["caustic_pixels"] > 0 and check["focus_reference"] > 0
-    assert res["scenes"]["point_caustic"]["reference"]["seconds_per_half"] == 1.0
+    assert res["scenes"]["point_caustic"]["reference"]["seconds_per_half"] == QUICK["ref_seconds"]
     # this engine's light tracer against LuxCore's, where that is the reference
     for name in {"bulb_box", "mirror_caustic"} & set(scenes):
         check = res["scenes"][name].get("light_trace_check")
@@ -175,7 +175,8 @@ def _quick_bench(cli, tmp_path, scenes):
         assert "light_trace_check" not in res["scenes"]["pool_caustic"]
         # (the quick run gives every reference the same second; REF_TIME_FACTOR is the full
         # run's)
-        assert res["scenes"]["pool_caustic"]["reference"]["seconds_per_half"] == 1.0
+        assert res["scenes"]["pool_caustic"]["reference"]["seconds_per_half"] == \
+            QUICK["ref_seconds"]
     assert all(math.isfinite(x) for x in _finite_numbers(res))
     assert set(res["ratios"]["cornell_box"]) >= {"image_rmse", "target", "met"}
     eq = res["ratios_at"]

@@ -160,7 +160,8 @@ def test_rough_glass_caustic_is_the_exact_spheres(bpy, tiny, render_exr, tmp_pat
     (ppm_engine/tools/bench/exact_caustic.py: the true sphere, the rough dielectric written out
     independently of the kernels): photons through two rough interfaces, connected to the
     camera and merged.  Over what light tracing covers within 1 %, over the caustic's pixels
-    within 2.5 % and at the focus within 5 % (measured: 0.0 %, +0.3 %, -2.1 %; the merge's
+    within 2.5 % and at the focus within 5 % (measured with aimed caustic photons and 256 passes:
+    0.0 %, +0.8 %, -2.2 %; the merge's
     share blurs the focus a little, and the engine's ball is a 192 x 96 mesh).  Cycles renders
     the same caustic 0.90-1.02 of the reference at the focus region over four seeds of 8192
     samples: too noisy to check this against."""
@@ -172,7 +173,7 @@ def test_rough_glass_caustic_is_the_exact_spheres(bpy, tiny, render_exr, tmp_pat
     scene.render.resolution_x = scene.render.resolution_y = w
     # (the stage's pixels: this checks the caustic, not what the ball shows)
     ref, cover, _ = exact_caustic.render(scene, photons=1 << 23, seed=5, ball=False)
-    tiny(scene, width=w, height=w, passes=512, photons=1 << 14)
+    tiny(scene, width=w, height=w, passes=256, photons=1 << 14)
     ours = render_exr(tmp_path / "ours.exr")
     c = caustic_mask(scene, "rough_caustic", w, w) & cover
     assert c.sum() >= 20

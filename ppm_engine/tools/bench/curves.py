@@ -142,7 +142,7 @@ LUXCORE_SCENES = ("mirror_caustic",)
 EQUAL_TIME_SEEDS = (1, 2, 3)
 WARM_UP_SECONDS = 0.25     # per scene and setting, before the timed curves (run_scene)
 SEEDED_CURVES = ("ours", "cycles")
-QUICK = dict(times=(0.25, 0.5), resolution=16, ref_seconds=1.0, photons=1 << 13)
+QUICK = dict(times=(0.125, 0.25), resolution=16, ref_seconds=0.5, photons=1 << 13)
 
 
 # --- rendering through bpy --------------------------------------------------------------------
