@@ -248,12 +248,13 @@ def pytest_addoption(parser):
 # Each process takes the next file when it is nearly done with its own.  xdist's own order (most
 # tests first) left the files of few but long tests to the end, where one process ran them
 # while the other had finished.  These go first, longest first; while the first of them
-# compiles the kernels of every feature, the next ones (the kernel sources alone, the
-# benchmark's and the wheel's processes, which build the scene's own kernels) need none of
-# them, so the two processes do not compile the same programs at once.  The others follow in
-# xdist's order.
-FIRST = ("test_exact_pool.py", "test_kernel_sources.py", "test_bench.py", "test_wheel.py",
-         "test_viewport.py", "test_e2e.py", "test_indirect.py", "test_accuracy.py")
+# compiles the kernels of every feature, the next ones (the kernel sources alone, the wheel's
+# process, which builds its own, the viewport's scene's own kernels) need none of them, so the
+# two processes do not compile the same programs at once; the benchmark's quick run (kernels of
+# every feature in its own process) comes after, when PoCL's disk cache holds them.  The others
+# follow in xdist's order.
+FIRST = ("test_exact_pool.py", "test_kernel_sources.py", "test_wheel.py", "test_viewport.py",
+         "test_bench.py", "test_e2e.py", "test_indirect.py", "test_accuracy.py")
 
 
 def _file_order(items) -> None:

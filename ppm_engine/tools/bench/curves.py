@@ -147,7 +147,9 @@ QUICK = dict(times=(0.125, 0.25), resolution=16, ref_seconds=0.5, photons=1 << 1
 
 # --- rendering through bpy --------------------------------------------------------------------
 def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | None,
-                 indirect: str = "AUTO", light_tracing: bool = True) -> None:
+                 indirect: str = "AUTO", light_tracing: bool = True,
+                 specialize: bool = True) -> None:
+    """``specialize`` off (--quick): kernels of every feature, the build every scene shares."""
     if scene.render.engine != "PPM":
         scene.render.engine = "PPM"
     s = scene.ppm
@@ -156,6 +158,7 @@ def ppm_settings(scene, seconds: float, seed: int, device: str, photons: int | N
     s.passes = 1_000_000
     s.time_limit = seconds
     s.seed = seed
+    s.specialize = specialize
     if photons:
         s.photons_per_pass = photons
     if device:
@@ -234,7 +237,7 @@ class Bench(References):
         self.count += 1
         if engine == "PPM":
             ppm_settings(scene, seconds, seed, self.device, self.photons, indirect,
-                         light_tracing)
+                         light_tracing, specialize=not self.quick)
         else:
             cycles_reference(scene, seconds=seconds, seed=seed)
         return render(scene, self.folder / f"r{self.count:04d}.exr")
