@@ -16,16 +16,13 @@ from ppm_engine.tools.bench import exact_caustic_camera as ecc
 from ppm_engine.tools.bench import exact_caustic_scene as ecs
 from ppm_engine.tools.bench import exact_film as ef
 from ppm_engine.tools.bench import exact_optics as eo
+from tests.helpers.blender_scenes import square
 
 W = 32                # the tests' image: 32 x 32 of the bench's 128 x 128 frame
 
 
 def _scene(width=W):
-    scene = point_caustic()
-    scene.render.resolution_x = scene.render.resolution_y = width
-    scene.render.resolution_percentage = 100
-    bpy.context.view_layer.update()
-    return scene
+    return square(point_caustic(), width)
 
 
 def test_shares_no_code_with_the_engine():

@@ -17,14 +17,11 @@ from ppm_engine.tools.bench import exact_caustic_camera as ecc
 from ppm_engine.tools.bench import exact_caustic_scene as ecs
 from ppm_engine.tools.bench import exact_film as ef
 from ppm_engine.tools.bench import exact_optics as eo
+from tests.helpers.blender_scenes import square
 
 
 def _scene(width=16):
-    scene = point_caustic()
-    scene.render.resolution_x = scene.render.resolution_y = width
-    scene.render.resolution_percentage = 100
-    bpy.context.view_layer.update()
-    return scene
+    return square(point_caustic(), width)
 
 
 def _dirs(n, rng):

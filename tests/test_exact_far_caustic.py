@@ -21,14 +21,11 @@ from ppm_engine.tools.bench import exact_caustic_camera as ecc
 from ppm_engine.tools.bench import exact_caustic_scene as ecs
 from ppm_engine.tools.bench import exact_film as ef
 from ppm_engine.tools.bench.scenes import CAUSTIC_MASKS, caustic_mask
+from tests.helpers.blender_scenes import square
 
 
 def _scene(build=far_caustic, width=16):
-    scene = build()
-    scene.render.resolution_x = scene.render.resolution_y = width
-    scene.render.resolution_percentage = 100
-    bpy.context.view_layer.update()
-    return scene
+    return square(build(), width)
 
 
 def test_setup_reads_the_ball_and_the_light_from_the_scene():

@@ -12,11 +12,9 @@ def _example(name, width):
     from ppm_engine.blender.export import export_scene
     from ppm_engine.blender.harness import ensure_registered
     from ppm_engine.blender.scenes import build_example
+    from tests.helpers.blender_scenes import square
     ensure_registered()
-    scene = build_example(name)
-    scene.render.resolution_x = scene.render.resolution_y = width
-    scene.render.resolution_percentage = 100
-    bpy.context.view_layer.update()
+    scene = square(build_example(name), width)
     return scene, export_scene(bpy.context.evaluated_depsgraph_get())
 
 

@@ -1,6 +1,6 @@
 """Blender scenes built with bpy for the exporter's and the renders' tests: a light, a plane, a
 camera, a plane with an image texture, an area light with a grey world and a camera; and the
-current scene exported to SceneArrays."""
+current scene exported to SceneArrays; a built scene set to a square size."""
 import numpy as np
 import pytest
 
@@ -10,8 +10,17 @@ from ppm_engine.blender.export import export_scene
 
 
 def export():
-    """The current scene exported to SceneArrays."""
+    """The current scene exported to SceneArrays; a built scene set to a square size."""
     return export_scene(bpy.context.evaluated_depsgraph_get())
+
+
+def square(scene, width):
+    """``scene`` rendering ``width`` x ``width`` pixels at 100 %, its objects' matrices current
+    (a script's edits): the bench's scenes at a test's size."""
+    scene.render.resolution_x = scene.render.resolution_y = width
+    scene.render.resolution_percentage = 100
+    bpy.context.view_layer.update()
+    return scene
 
 
 def add_light(kind, name="L", loc=(0, 0, 3), **props):
