@@ -21,6 +21,7 @@ from ppm_engine.scene.arrays import (
     NODE_PRINCIPLED,
     NODE_REFRACTION,
 )
+from ppm_engine.scene.emitters import power_cdf
 from ppm_engine.scene.light_paths import LP_CAUSTICS_REFLECTIVE, LP_CAUSTICS_REFRACTIVE
 from ppm_engine.scene.materials import _principled_parts, follow_capable
 
@@ -168,12 +169,6 @@ def caster_reach(lights: np.ndarray, emissive_corners: np.ndarray, has_world: bo
 
 
 def caustic_cdf(power: np.ndarray, reach: np.ndarray) -> np.ndarray:
-    """The emitter table's CDF for aimed photons: power x reach, normalised (all zeros when
-    nothing reaches a caster: then no caustic photon is emitted)."""
-    p = np.asarray(power, np.float64) * reach
-    total = p.sum()
-    if not total > 0:
-        return np.zeros(p.shape[0], np.float32)
-    cdf = np.cumsum(p) / total
-    cdf[-1] = 1.0
-    return cdf.astype(np.float32)
+    """The emitter table's CDF for aimed photons: power x reach (all zeros when nothing
+    reaches a caster: then no caustic photon is emitted)."""
+    return power_cdf(np.asarray(power, np.float64) * reach).astype(np.float32)

@@ -56,6 +56,18 @@ EMITTER_INFO_DTYPE = np.dtype([
 LOCAL_PICK_MAX = 8
 
 
+def power_cdf(power: np.ndarray) -> np.ndarray:
+    """The CDF (float64, last exactly 1) that picks emitters in proportion to ``power``; all
+    zeros when nothing has power (kernels/scene.h pick_emitter then finds pmf 0)."""
+    p = np.asarray(power, np.float64)
+    total = p.sum()
+    if not total > 0:
+        return np.zeros(p.shape[0])
+    cdf = np.cumsum(p) / total
+    cdf[-1] = 1.0
+    return cdf
+
+
 @dataclasses.dataclass
 class Emitters:
     info: np.ndarray          # (1,) EMITTER_INFO_DTYPE
@@ -215,11 +227,7 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
     power = np.concatenate([lp, tp, [wp] if has_world else []])
     total = float(power.sum())
     n = power.shape[0]
-    if total > 0:
-        cdf = np.cumsum(power) / total
-        cdf[-1] = 1.0
-    else:
-        cdf = np.zeros(n)
+    cdf = power_cdf(power)
     info = np.zeros(1, EMITTER_INFO_DTYPE)
     info["n_lights"] = scene.lights.shape[0]
     info["n_suns"] = int((scene.lights["type"] == LIGHT_SUN).sum())
