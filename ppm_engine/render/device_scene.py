@@ -199,6 +199,10 @@ class DeviceScene:
         self.caster_spheres, self.caster_static = caster_spheres(p.positions.reshape(-1, 3, 3),
                                                                  tri_w)
         em.info["n_casters"] = self.caster_spheres.shape[0]
+        # the emissive triangles' corners in the emitter table's order, for caster_reach at
+        # every change of weights
+        self._emissive_corners = p.positions.reshape(-1, 3, 3)[
+            self.bvh.leaf_order[em.emissive_leaves]]
         self.args.update(self._upload(casters=self.caster_spheres, emitter_info=em.info))
         self.set_caster_weights(self.caster_static)
         self._casters_key = key
@@ -209,16 +213,15 @@ class DeviceScene:
         the photons aimed at each stored), uploaded with the emitters' CDF toward them."""
         p, em = self.prepared, self.emitters
         self.caster_weights = w = np.asarray(weights, np.float32)
-        corners = p.positions.reshape(-1, 3, 3)[self.bvh.leaf_order[em.emissive_leaves]]
-        self.caster_reach = caster_reach(p.lights, corners, bool(em.info["has_world"][0]),
+        self.caster_reach = caster_reach(p.lights, self._emissive_corners,
+                                         bool(em.info["has_world"][0]),
                                          float(em.info["scene_radius"][0]), self.caster_spheres, w)
         # the share of uniform photons that would reach a caster (weighted)
         total = float(em.power.sum())
         self.caster_share = (float(np.minimum(self.caster_reach, 1.0) @ em.power) / total
                              if total > 0 else 0.0)
-        self.args.update(self._upload(
-            caster_weight=w, caustic_cdf=(caustic_cdf(em.power, self.caster_reach)
-                                          if em.power.size else np.zeros(0, np.float32))))
+        self.args.update(self._upload(caster_weight=w,
+                                      caustic_cdf=caustic_cdf(em.power, self.caster_reach)))
 
     def set_camera(self, scene: SceneArrays) -> None:
         """``scene`` is the current one with another camera (the viewport's view; its other

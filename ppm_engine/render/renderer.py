@@ -119,10 +119,10 @@ class Renderer:
         self.casters = (self.scene.set_casters(o.gather_roughness, o.caustic_roughness)
                         if self.photons_needed and self.path_indirect else 0)
         self.caster_counts = np.zeros((self.casters, 2))   # learn_caster_weights' sums
+        self.aimed = bool(self.casters) and o.skip_unaimed_caustics
         # this render's photons per pass: fewer where they are aimed (each costs more)
         self.photon_count = (o.aimed_photons_for(self.n_pixels, self.scene.caster_share)
-                             if self.casters and o.skip_unaimed_caustics
-                             else self.photons_per_pass)
+                             if self.aimed else self.photons_per_pass)
         store = self.STORE_FACTOR * self.photon_count
         if self.photons_needed and self.photon_map.capacity < store:
             self.photon_map.allocate(store)
@@ -288,7 +288,7 @@ class Renderer:
             self.lt_kappa = 0.0
             film.disable_light_tracing()
         self.passes_done += 1
-        if self.casters and o.skip_unaimed_caustics:
+        if self.aimed:
             self.learn_caster_weights(counters)
         return self._stats(counters, grid, events, converge, time.perf_counter() - t0)
 
