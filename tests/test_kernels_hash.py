@@ -137,6 +137,27 @@ def test_selection_is_uniform_within_an_entry(device):
     assert chi2 < dof + 5 * np.sqrt(2 * dof), (chi2, dof)
 
 
+def test_the_photon_kept_does_not_depend_on_the_order_photons_were_stored(device):
+    """The photon pass stores photons in the order its threads reach an atomic counter, which
+    changes with whatever else runs (a viewport beside a final render): the photon an entry
+    keeps is the same with the photons stored in reverse order."""
+    s = _photon_setup(device, np.random.default_rng(3), n_ph=4000, n_vp=50)
+    pm, q = s["pm"], device.queue
+    s["hb"].enqueue(q, _it(7, 5))
+    counts, idx = pm.read_table()
+    occupied = np.nonzero(counts)[0]
+    kept = s["ph"][idx[occupied]]
+    for buf in (pm.ph_pos, pm.ph_flux):
+        a = np.empty((4000, 4), np.float32)
+        cl.enqueue_copy(q, a, buf)
+        cl.enqueue_copy(q, buf, np.ascontiguousarray(a[::-1]))
+    s["hb"].enqueue(q, _it(7, 5))
+    counts2, idx2 = pm.read_table()
+    assert (counts2 == counts).all()
+    assert (s["ph"][::-1][idx2[occupied]] == kept).all()
+    assert (idx2[occupied] != idx[occupied]).mean() > 0.9          # the slots did change
+
+
 @pytest.mark.parametrize("table,cell_scale", [(None, 0.5), (None, 2.0), (64, 0.5), (64, 1.0)])
 def test_stochastic_gather_is_unbiased(device, table, cell_scale):
     """Mean over passes of the stochastic gather = the brute-force range sum (and it fails if
@@ -159,13 +180,11 @@ def test_stochastic_gather_is_unbiased(device, table, cell_scale):
         # the sum over all visible points, trial by trial: a z-test with its own spread
         total = est[:, :, k].sum(axis=1)
         z_total = (total.mean() - exact.sum()) / (total.std(ddof=1) / np.sqrt(trials))
-        assert abs(z_total) < 5, (k, z_total)
+        assert abs(z_total) < 4, (k, z_total)
         # each visible point with enough photons in reach
         many = M_ref >= 20
         z = (mean[many, k] - exact[many]) / se[many, k]
         assert np.abs(z).max() < 5.5, (k, np.abs(z).max())
-    if table is None:
-        assert mean[:, 3].sum() == pytest.approx(M_ref.sum(), rel=0.01)
     assert M_ref.mean() > 5                                       # the test has photons to find
 
 

@@ -101,7 +101,14 @@ __kernel void clear_table(__global ulong2 *table, uint n) {
     table[i] = (ulong2)(0UL);
 }
 
-inline uint photon_key(uint seed, uint pass, uint i) { return rng_seed(seed, pass, i, 3u) | 1u; }
+/* A photon's random key in its entry: a hash of its position's bits, not of the slot the photon
+ * pass gave it (an atomic counter whose order follows the threads' scheduling), so the photon
+ * kept is the same whatever runs beside the render (a viewport, another process) and the same
+ * seed gives the same image.  Independent of the photon's flux: the pick stays uniform. */
+inline uint photon_key(uint seed, uint pass, float4 p) {
+    uint id = pcg_hash(as_uint(p.x) ^ pcg_hash(as_uint(p.y) ^ pcg_hash(as_uint(p.z) ^ pcg_hash(as_uint(p.w)))));
+    return rng_seed(seed, pass, id, 3u) | 1u;
+}
 
 /* Photons per work-item (passes/hash_build.py HashBuild.batch: 8 on CPUs, 1 on GPUs).  An atomic on
  * x86 is a full barrier, so one photon after another waits for each entry's cache miss in turn; a
@@ -124,8 +131,11 @@ __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
 #if PPM_BUILD_BATCH > 1
     uint touch = 0u;
 #endif
+    uint keys[PPM_BUILD_BATCH];
     for (uint k = 0; k < m; k++) {
-        hs[k] = cell_hash(cell_of(ph_pos[i0 + k].xyz, &g), table_mask);
+        float4 p = ph_pos[i0 + k];
+        hs[k] = cell_hash(cell_of(p.xyz, &g), table_mask);
+        keys[k] = photon_key(seed, pass_index, p);
 #if PPM_BUILD_BATCH > 1
         touch += ((volatile __global const uint *)table)[4 * hs[k]];     /* prefetch */
 #endif
@@ -134,7 +144,7 @@ __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
     for (uint k = 0; k < m; k++) {
         uint h = hs[k], i = i0 + k;
         if (atomic_inc(&ENTRY_COUNT(table, h)) == 0u) occupied++;
-        uint key = photon_key(seed, pass_index, i);
+        uint key = keys[k];
 #ifdef PPM_INT64_ATOMICS
         atom_max(&table[2 * h + 1], ((ulong)key << 32) | (ulong)i);
 #else
@@ -155,9 +165,10 @@ __kernel void hash_pick(__global const float4 *ph_pos, __global const uint *coun
     uint i = get_global_id(0);
     if (i >= min(counters[CNT_STORED], capacity)) return;
     Grid g = *grid;
-    uint h = cell_hash(cell_of(ph_pos[i].xyz, &g), table_mask);
+    float4 p = ph_pos[i];
+    uint h = cell_hash(cell_of(p.xyz, &g), table_mask);
     __global uint *t32 = (__global uint *)table;
-    if (t32[4 * h + 2] == photon_key(seed, pass_index, i)) t32[4 * h + 3] = i;
+    if (t32[4 * h + 2] == photon_key(seed, pass_index, p)) t32[4 * h + 3] = i;
 }
 #endif
 
