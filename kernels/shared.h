@@ -203,7 +203,7 @@ typedef struct {
     /* Cycles' limit on a sample's r + g + b (3 x the setting; 0: off): light with no bounce */
     float clamp_direct;
     float clamp_indirect;   /* the same for light with one bounce or more */
-    float filter_glossy;    /* Filter Glossy: read, not applied */
+    float filter_glossy;    /* Filter Glossy (Cycles' blur_glossy; 0: off) */
     uint flags;             /* LP_CAUSTICS_REFLECTIVE | LP_CAUSTICS_REFRACTIVE */
 } LightPaths;
 

@@ -33,6 +33,24 @@ inline void shader_sums(ShaderData *sd) {
     }
 }
 
+/* Each closure marked for the gather or for the path by its roughness, and the sums */
+inline void shader_classify(ShaderData *sd) {
+    for (int k = 0; k < sd->n; k++) {
+        Closure *c = &sd->c[k];
+        bool micro = c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS;
+        c->gather = c->type == CLOSURE_TRANSPARENT
+                        ? 0
+                        : !micro
+                              || (!microfacet_singular(c)
+                                  && microfacet_rough(c) >= PPM_GATHER_ROUGHNESS);
+        /* a glossy reflection rough enough that next-event estimation through it serves (as
+         * Cycles' does): its light is the eye paths', not a caustic's */
+        c->glossy = !c->gather && c->type == CLOSURE_GGX_REFLECT && !microfacet_singular(c)
+                    && microfacet_rough(c) >= PPM_CAUSTIC_ROUGHNESS;
+    }
+    shader_sums(sd);
+}
+
 /* Closures at a hit at barycentrics (u, v) of the surface s (its material, triangle, position
  * and stored normals: bvh.h surface_at), reached by the ray `path` (path_state.h) after a last
  * segment of length path_length, wi towards the viewer, the ray's footprint fp there (the Bump
@@ -88,20 +106,54 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
             bsdf_node_setup(sd, nd, color, emission, tangent, scene->shading_tables);
         }
     }
+    shader_classify(sd);
+}
+
+/* Filter Glossy at a blurred vertex (path_state.h filter_glossy_alpha): every microfacet lobe
+ * at least alpha rough along both axes, as Cycles' bsdf_blur; its weight, sample weight and
+ * energy compensation stay as set up for its own roughness (Cycles does not compute them
+ * again either), and the lobes are marked again by their new roughness. */
+inline void shader_blur(ShaderData *sd, float alpha) {
+    bool changed = false;
     for (int k = 0; k < sd->n; k++) {
         Closure *c = &sd->c[k];
-        bool micro = c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS;
-        c->gather = c->type == CLOSURE_TRANSPARENT
-                        ? 0
-                        : !micro
-                              || (!microfacet_singular(c)
-                                  && microfacet_rough(c) >= PPM_GATHER_ROUGHNESS);
-        /* a glossy reflection rough enough that next-event estimation through it serves (as
-         * Cycles' does): its light is the eye paths', not a caustic's */
-        c->glossy = !c->gather && c->type == CLOSURE_GGX_REFLECT && !microfacet_singular(c)
-                    && microfacet_rough(c) >= PPM_CAUSTIC_ROUGHNESS;
+        if (c->type < CLOSURE_GGX_REFLECT || c->type > CLOSURE_GGX_GLASS) continue;
+        if (!(c->alpha_x < alpha || c->alpha_y < alpha)) continue;
+        c->alpha_x = fmax(c->alpha_x, alpha);
+        c->alpha_y = fmax(c->alpha_y, alpha);
+        changed = true;
     }
-    shader_sums(sd);
+    if (changed) shader_classify(sd);
+}
+
+/* An upper bound of the mixture's density (shader_eval's over all the closures) over every
+ * direction: 1 / pi for a diffuse closure, Heitz's visible-normal density's peak, G1(wi)
+ * D(N) / (4 cos), for a rough reflection, none for the others (sheen, rough refraction:
+ * INFINITY); a singular or transparent closure has no density in any direction a photon
+ * comes from.  Filter Glossy keeps no photon at a visible point whose bound is below it. */
+inline float shader_pdf_bound(const ShaderData *sd) {
+    float sum = 0.0f, sum_sw = 0.0f;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        sum_sw += c->sample_weight;
+        float b = INFINITY;
+        if (c->type == CLOSURE_DIFFUSE || c->type == CLOSURE_OREN_NAYAR
+            || c->type == CLOSURE_TRANSLUCENT) {
+            b = 1.0f / PPM_PI;
+        } else if (c->type == CLOSURE_TRANSPARENT
+                   || (c->type >= CLOSURE_GGX_REFLECT && c->type <= CLOSURE_GGX_GLASS
+                       && microfacet_singular(c))) {
+            b = 0.0f;
+        } else if (c->type == CLOSURE_GGX_REFLECT) {
+            float cos_i = dot(c->N, sd->wi), a = fmin(c->alpha_x, c->alpha_y);
+            b = cos_i > 0.0f ? 1.0f
+                                   / ((1.0f + ggx_lambda(a * a, cos_i)) * 4.0f * cos_i * PPM_PI
+                                      * c->alpha_x * c->alpha_y)
+                             : 0.0f;
+        }
+        if (c->sample_weight > 0.0f) sum += b * c->sample_weight;
+    }
+    return sum_sw > 0.0f ? sum / sum_sw : 0.0f;
 }
 
 /* the sample weight of the followed closures that are not glossy (MASK_SPECULAR: a caustic's) */

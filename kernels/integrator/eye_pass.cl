@@ -78,6 +78,8 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
     /* the density of the sample that made this ray, and the normal its vertex sampled the world
      * around, for the MIS weight of the emitter it finds */
     float prev_pdf = INFINITY;
+    /* the smallest density of the path's bounces (Filter Glossy, path_state.h) */
+    float min_pdf = INFINITY;
     float3 prev_n = (float3)(0.0f, 0.0f, 1.0f), prev_p = (float3)(0.0f);
     float4 vp = (float4)(0.0f);
     /* alpha: a camera ray (through transparent surfaces, and transparent glass) that reaches
@@ -124,6 +126,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         float foot_r = diff.x + path_len * diff.y;
         shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, -d,
                      footprint_at(scene, s.tri, h.leaf, h.u, h.v, foot_r));
+        shader_blur(&sd, filter_glossy_alpha(min_pdf, lp));
         if (film_clear && max3(sd.holdout) > 0.0f) {
             float3 t = beta * sd.holdout;
             clear += (t.x + t.y + t.z) * (1.0f / 3.0f);
@@ -157,20 +160,33 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
                                   * direct_nee_u(scene, &sd, s.p, MASK_ALL, true,
                                                  eye_nee_u(pass_index, nee_key, depth, &rng)),
                               clamp_limit(depth, lp));
+        /* Filter Glossy: the photons' light at a blurred vertex, or at one where no direction
+         * a photon comes from has the density the setting asks (a diffuse one when it is above
+         * 1 / pi), is the eye paths' (path_state.h): a visible point here gathers none.  Then,
+         * unless the vertex lets light through (transparency, the film's transparent glass),
+         * the path takes no side: it goes on from here through all the closures (one sample
+         * of their mixture, as Cycles'), and all the light it finds is its own
+         * (indirect_paths.h INDIRECT_EVERY). */
+        bool gathers = lp->filter_glossy <= 0.0f
+                       || (!filter_glossy_blurs(min_pdf, lp)
+                           && !filter_glossy_blurs(shader_pdf_bound(&sd), lp));
+        bool whole = !gathers && sd.sw_gather > 0.0f && !(max3(sd.transparent) > 0.0f)
+                     && !(film_clear && (cam->film_transparent & FILM_TRANSPARENT_GLASS));
         /* the choice of the vertex's side and the continuing sample's numbers: the pixel's
          * Sobol set for the vertex (pseudo-random past LD_SETS) */
         float4 uv = ld_set_or_rnd(pass_index, path_key, (uint)vertex++, &rng);
-        if (uv.w * sw < sd.sw_gather) {
-            /* a visible point: the gather's closures, weighted by 1 / their probability */
-            float3 bvp = beta * (sw / sd.sw_gather);
+        if (whole || uv.w * sw < sd.sw_gather) {
+            /* a visible point: the gather's closures, weighted by 1 / their probability (all
+             * the closures, whole) */
+            float3 bvp = whole ? beta : beta * (sw / sd.sw_gather);
             /* direct light: next-event estimation and a sample of the closures (MIS); with
-             * path_indirect the continuing path's (indirect_paths below) */
-            if (!path_indirect && mixed)
+             * path_indirect or whole the continuing path's (indirect_paths below) */
+            if (!path_indirect && !whole && mixed)
                 L += clamp_sample(bvp * direct_bsdf(scene, &sd, s.p, MASK_GATHER, MASK_ALL, &rng),
                                   clamp_limit(depth, lp));
-            else if (!path_indirect)
+            else if (!path_indirect && !whole)
                 L += direct_light(scene, &sd, s.p, MASK_GATHER, bvp, clamp_limit(depth, lp), &rng);
-            vp = (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f);
+            vp = gathers ? (float4)(s.p, sd.gather_transmits ? 2.0f : 1.0f) : (float4)(0.0f);
             /* the surface's own normal: the gather's disc lies in it, as the photons do (the
              * gather shades the point again) */
             vps->nrm[id] = (float4)(sd.Ng, as_float(path));
@@ -181,7 +197,9 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
                 albedo += sd.c[k].weight;
                 lambert &= closure_lambert(&sd, &sd.c[k]);
             }
-            if (lambert) {
+            /* (with Filter Glossy the gather asks every photon's direction the closures'
+             * density: it shades the point) */
+            if (lambert && !(lp->filter_glossy > 0.0f && gathers)) {
                 /* f is one constant: it goes into the path weight, the gather sums flux */
                 vps->beta[id] = (float4)(bvp * albedo * (1.0f / PPM_PI), foot_r);
                 vps->shade[id] = (float4)(0.0f, 0.0f, as_float(-1), 0.0f);
@@ -212,10 +230,16 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
                 }
             }
             /* direct and indirect light by path tracing (indirect_paths.h); the photons bring
-             * caustics */
-            if (path_indirect)
+             * caustics (with indirect light by photons and Filter Glossy, the paths bring what
+             * it blurs); where no photon is gathered, the paths bring it all */
+            IndirectStart start = {min_pdf, whole ? MASK_ALL : MASK_GATHER,
+                                   !gathers        ? INDIRECT_EVERY
+                                   : path_indirect ? INDIRECT_ALL
+                                                   : INDIRECT_BLURRED,
+                                   mixed, path_indirect || whole};
+            if (path_indirect || lp->filter_glossy > 0.0f)
                 L += indirect_paths(scene, &sd, s.p, s.material, bvp, depth, path, pass_index,
-                                    rng_seed(seed, 0u, (uint)id, 5u), mixed,
+                                    rng_seed(seed, 0u, (uint)id, 5u), start,
 #if PPM_ABSORPTION
                                     &media,
 #endif
@@ -254,6 +278,8 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         path = path_bounce(path, b.label);
         term = path_limit(path, depth, lp); /* past it: the emitter this sample finds only */
         prev_pdf = sd.continue_glossy ? pdf_mis : INFINITY;
+        /* (pdf_mis is the mixture's density over all the closures, or INFINITY) */
+        min_pdf = fmin(min_pdf, pdf_mis);
         prev_n = sd.N;
         prev_p = s.p;
         mask = transmit ? VIS_TRANSMISSION : VIS_GLOSSY;

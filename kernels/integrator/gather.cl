@@ -129,6 +129,14 @@ inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l, uint2 p
          * photon_pass.cl) */
         float cs = fabs(dot(wp, gp->sd.N));
         if (!(cs > 1e-6f)) return (float3)(0.0f);
+        if (gp->lp->filter_glossy > 0.0f) {
+            /* Filter Glossy (path_state.h): light from where a camera path goes from here with
+             * a density below the setting is the eye paths' (the eye pass shades every point
+             * that gathers with Filter Glossy on) */
+            float p_all;
+            shader_eval(&gp->sd, wp, MASK_ALL, &p_all);
+            if (!filter_glossy_keeps(p_all, gp->lp)) return (float3)(0.0f);
+        }
         f = fc * (1.0f / cs);
         ratio = pdf > 0.0f ? fc * (1.0f / pdf) : (float3)(0.0f);
     } else

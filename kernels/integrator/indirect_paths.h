@@ -33,6 +33,31 @@
  * both estimators, next-event estimation and the cosine sample, are constant: all of its noise is
  * Russian roulette's, and the roulette's one number stratifies it over the passes. */
 
+/* Filter Glossy (path_state.h): a vertex whose path's smallest density is below the setting
+ * has its lobes blurred, and every light path whose light scatters first there is these
+ * paths' (the photons carry none of them: photon_pass.cl, gather.cl).  At such a vertex the
+ * path estimates the light through all the closures (next-event estimation of all, and a sample
+ * of all), as Cycles does.  mode: which light is these paths' past the visible point:
+ * INDIRECT_ALL, that of the eye paths' split above (RenderOptions.indirect "paths");
+ * INDIRECT_BLURRED, only the light that scatters first at a blurred vertex (indirect light by
+ * photons, "photons": the rest is theirs); INDIRECT_EVERY, all of it (a visible point that
+ * gathers no photon, eye_pass.cl), each vertex sampling all its closures. */
+#define INDIRECT_ALL 0
+#define INDIRECT_BLURRED 1
+#define INDIRECT_EVERY 2
+
+/* How the eye pass hands its visible point to indirect_paths */
+typedef struct {
+    float min_pdf; /* the smallest density of the eye path's bounces before it (Filter Glossy) */
+    int set;       /* the closures it samples: MASK_GATHER, or MASK_ALL */
+    int mode;      /* which light is the paths' past it: INDIRECT_* */
+    /* the eye pass has done next-event estimation there for all the closures (a vertex with
+     * gathered and followed ones): none in the paths, and their first sample is weighted
+     * against that one's density */
+    bool nee_all;
+    bool own; /* its own direct light is the paths' (else the eye pass's) */
+} IndirectStart;
+
 /* Russian roulette spares the hit of the visible point's own sample: measured at equal time
  * (docs/BENCHMARKS.md) the furnace's error fell from 0.023 to 0.013 and the Cornell box's
  * stayed (0.0127, 0.0125); sparing two hits was worse on both */
@@ -52,12 +77,10 @@ inline float4 indirect_set(int vertex, uint which, uint pass, uint key, uint *rn
 
 /* Light reaching the visible point p (material mat, closures sd, weight beta towards the pixel,
  * reached after depth bounces by the ray `path`) by next-event estimation there and paths that
- * continue from it; pass and key: the pixel's low-discrepancy stream.  nee_all: the caller has
- * done next-event estimation at p for all the closures (a vertex with gathered and followed
- * ones, eye_pass.cl): none here, and the first sample is weighted against that one's density.
- * sd is overwritten. */
+ * continue from it; pass and key: the pixel's low-discrepancy stream; start: how the eye pass
+ * hands p over (IndirectStart).  sd is overwritten. */
 inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int mat, float3 beta,
-                             int depth, uint path, uint pass, uint key, bool nee_all,
+                             int depth, uint path, uint pass, uint key, IndirectStart start,
 #if PPM_ABSORPTION
                              Media *media,
 #endif
@@ -65,8 +88,12 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
     float3 L = (float3)(0.0f);
     float beta0 = max3(beta);
     if (!(beta0 > 0.0f)) return L;
-    int set = MASK_GATHER;           /* the closures this vertex samples */
-    bool counts = true;              /* whether emitters the next ray finds are these paths' */
+    int set = start.set;             /* the closures this vertex samples */
+    bool own = start.own; /* whether the light that scatters first at this vertex is these paths' */
+    float min_pdf = start.min_pdf;
+    bool nee_all = start.nee_all;
+    int mode = start.mode;
+    bool counts = own; /* whether emitters the next ray finds are these paths' */
     float prev_pdf = INFINITY;
     float3 prev_n = sd->N, prev_p = p;
     uint mask = VIS_DIFFUSE;
@@ -80,7 +107,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
     __global const LightPaths *lp = scene->light_paths;
     int term = TERM_NONE; /* past a Light Paths limit: how the path ends (path_state.h) */
     for (int vertex = 0, transparent = (int)path_count(path, PATH_TRANSPARENT_DEPTH);; vertex++) {
-        if (set != MASK_SPECULAR && !(vertex == 0 && nee_all)) {
+        if (own && !(vertex == 0 && nee_all)) {
             float3 u = (float3)(ua.z, ua.x, ua.y);
             L += clamp_sample(beta * direct_nee_u(scene, sd, p, set, EMITTERS_HITTABLE, u),
                               clamp_limit(depth, lp));
@@ -102,10 +129,18 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             depth++;
             path = path_bounce(path, b.label);
             term = path_limit(path, depth, lp);
-            counts = set != MASK_SPECULAR;
+            counts = own;
             prev_pdf = b.pdf;
             if (vertex == 0 && nee_all && !isinf(b.pdf))
                 shader_eval(sd, b.wo, MASK_ALL, &prev_pdf); /* the eye pass's NEE's density */
+            if (lp->filter_glossy > 0.0f && !isinf(b.pdf) && !filter_glossy_blurs(min_pdf, lp)) {
+                /* the smallest density, the mixture's over all the closures (once below the
+                 * setting it stays there) */
+                float p_all = b.pdf;
+                if (vertex == 0 && nee_all) p_all = prev_pdf;
+                else if (set != MASK_ALL) shader_eval(sd, b.wo, MASK_ALL, &p_all);
+                min_pdf = fmin(min_pdf, p_all);
+            }
             prev_n = sd->N;
             prev_p = p;
             mask = bounce_visibility(b.label);
@@ -163,12 +198,13 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         shader_setup(scene, sd, &s, h.u, h.v, path, h.t, -d,
                      footprint_at(scene, s.tri, h.leaf, h.u, h.v,
                                   SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p) : 0.0f));
+        shader_blur(sd, filter_glossy_alpha(min_pdf, lp));
         if (path & PATH_DIFFUSE) shader_caustics_off(sd, lp); /* the caustics toggles */
         if (counts && max3(sd->emission) > 0.0f)
             L += clamp_sample(beta * sd->emission
                                   * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n),
                               clamp_limit(depth - 1, lp));
-        if (term != TERM_NONE) break;  /* past a limit: that emission only */
+        if (term != TERM_NONE) break; /* past a limit: that emission only */
         float sw = sd->sw_gather + sd->sw_continue;
         if (!(sw > 0.0f)) break;
         /* Russian roulette after the hit's emission, before its next-event estimation and
@@ -195,12 +231,18 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         p = s.p;
         mat = s.material;
         ua = indirect_set(vertex + 1, 0u, pass, key, rng);
-        /* the vertex's closures: the gather's, the glossy followed ones or the others (the
-         * caustic photons' light), in proportion to their sample weights */
+        /* the vertex's closures: at a blurred vertex all of them, the light theirs (Filter
+         * Glossy); with INDIRECT_BLURRED elsewhere all of them, the light the photons'; else the
+         * gather's, the glossy followed ones or the others (the caustic photons' light), in
+         * proportion to their sample weights */
         float sw_specular = shader_sw_specular(sd);
+        bool blurred = filter_glossy_blurs(min_pdf, lp);
+        own = blurred || mode != INDIRECT_BLURRED;
         sw = sd->sw_gather + sd->sw_glossy + sw_specular;
         float pick = ua.w * sw;
-        if (pick < sd->sw_gather) {
+        if (blurred || mode != INDIRECT_ALL) {
+            set = MASK_ALL;
+        } else if (pick < sd->sw_gather) {
             set = MASK_GATHER;
             beta *= sw / sd->sw_gather;
         } else if (pick < sd->sw_gather + sd->sw_glossy) {
@@ -209,6 +251,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         } else {
             set = MASK_SPECULAR;
             beta *= sw / sw_specular;
+            own = false;
         }
     }
     return L;

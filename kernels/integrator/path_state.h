@@ -127,6 +127,34 @@ inline float3 clamp_sample(float3 L, float limit) {
     return limit > 0.0f && s > limit ? L * (limit / s) : L;
 }
 
+/* --- Filter Glossy (Cycles' blur of glossy lobes, Light Paths > Caustics; docs/SHADING.md).
+ * A camera path keeps the smallest density of its bounces so far (the mixture's, of all the
+ * closures at each vertex; singular and transparent bounces do not lower it: INFINITY), as
+ * Cycles' min_ray_pdf.  Where it is below the setting (filter_glossy = Cycles' blur_glossy; 0:
+ * off) the vertex is blurred: every microfacet lobe there is at least as rough as
+ * filter_glossy_alpha says (shader.h shader_blur), before anything is shaded.  Light paths
+ * split between the eye paths and the photons by it: a light path whose light scatters first at
+ * a blurred vertex is the eye paths' (they meet blurred lobes and estimate the light through
+ * all of them); the photons carry only light paths no vertex of which is blurred, seen from
+ * the camera (photon_pass.cl, gather.cl: filter_glossy_keeps). */
+inline bool filter_glossy_blurs(float min_pdf, __global const LightPaths *lp) {
+    return lp->filter_glossy > 0.0f && min_pdf < lp->filter_glossy;
+}
+
+/* the alpha a blurred vertex's microfacet lobes are raised to (0: not blurred): Cycles'
+ * sqrt(1 - min_pdf / filter_glossy) / 2 */
+inline float filter_glossy_alpha(float min_pdf, __global const LightPaths *lp) {
+    if (!filter_glossy_blurs(min_pdf, lp)) return 0.0f;
+    return 0.5f * sqrt(1.0f - min_pdf / lp->filter_glossy);
+}
+
+/* whether a camera path that bounced with density pdf (the mixture's, INFINITY: singular) leaves
+ * the vertex it reaches unblurred, that is whether a photon's light that came along the reverse
+ * of that bounce is the photons' */
+inline bool filter_glossy_keeps(float pdf, __global const LightPaths *lp) {
+    return !filter_glossy_blurs(pdf, lp);
+}
+
 /* output k of the Light Path node (LIGHT_PATH_*) for state p and the length of the ray's last
  * segment */
 inline float path_output(uint p, float length, int k) {

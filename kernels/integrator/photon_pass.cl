@@ -54,18 +54,14 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
     if (ph->lambert && !(cos_c > 0.0f && dot(wc, ph->N) > 0.0f)) return false;
     uint kinds = path_join(PATH_CAMERA, ph->ppath, scene->light_paths);
     if (kinds == 0u || (ph->lambert && !(kinds & JOIN_DIFFUSE))) return false;
-    float3 org = offset_ray(s->p, cos_c > 0.0f ? ph->Ng : -ph->Ng,
-                            scene->emitter_info->offset_scale);
-    /* the segment as a camera ray sees it: through objects hidden from the camera, as the
-     * eye pass's rays that make the merge's visible points */
-    float3 T = ray_transmittance(scene, org, wc, dist * 0.9999f,
-                                 scene->light_paths->transparent_max_bounces, VIS_CAMERA);
-    if (!(max3(T) > 0.0f)) return false;
     /* the photon's flux times f (the gather's photon_term, gather.cl), ratio: the camera
      * path's sample weight f cos / pdf for the photon's direction (Clamp Indirect) */
     float3 f, ratio;
     bool setup = false;
     if (ph->lambert) {
+        /* Filter Glossy: the camera path's density towards where the photon came from */
+        if (!filter_glossy_keeps(-dot(d, ph->N) * (1.0f / PPM_PI), scene->light_paths))
+            return false;
         f = ph->color * (1.0f / PPM_PI);
         ratio = ph->color;
     } else {
@@ -76,9 +72,21 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
         float pdf, cs = fabs(dot(d, sd->N));
         float3 fc = shader_eval_kinds(sd, -d, MASK_GATHER, kinds, &pdf);
         if (!(cs > 1e-6f) || !(max3(fc) > 0.0f)) return true;
+        if (scene->light_paths->filter_glossy > 0.0f) {
+            float p_all;     /* Filter Glossy: the density of all the camera's closures */
+            shader_eval(sd, -d, MASK_ALL, &p_all);
+            if (!filter_glossy_keeps(p_all, scene->light_paths)) return true;
+        }
         f = fc * (1.0f / cs);
         ratio = pdf > 0.0f ? fc * (1.0f / pdf) : (float3)(0.0f);
     }
+    float3 org = offset_ray(s->p, cos_c > 0.0f ? ph->Ng : -ph->Ng,
+                            scene->emitter_info->offset_scale);
+    /* the segment as a camera ray sees it: through objects hidden from the camera, as the
+     * eye pass's rays that make the merge's visible points */
+    float3 T = ray_transmittance(scene, org, wc, dist * 0.9999f,
+                                 scene->light_paths->transparent_max_bounces, VIS_CAMERA);
+    if (!(max3(T) > 0.0f)) return setup;
     float3 c = ph->flux * ph->shading * f * T * (fabs(cos_c) * we);
     float limit = scene->light_paths->clamp_indirect;
     if (limit > 0.0f && ph->rs > 0.0f) {
@@ -172,6 +180,9 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
          * (gather.cl). */
         float c_ng = fabs(dot(d, Ng)), c_n = -dot(d, N);
         float shading = c_ng > 0.0f ? fmax(c_n, 0.0f) / c_ng : 0.0f;
+        /* Filter Glossy above 1 / pi: no camera path leaves a diffuse surface with the density
+         * it asks, so the light after it is the eye paths' (path_state.h) */
+        if (!direct && lambert && filter_glossy_blurs(1.0f / PPM_PI, lp)) break;
         if (!direct && gather) {
             if (!(isfinite(flux.x) && isfinite(flux.y) && isfinite(flux.z))) {
                 atomic_inc(&counters[CNT_NAN]);
@@ -231,6 +242,21 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
             b.eta = 1.0f;
         } else if (!shader_sample_light(&sd, set, rand, &b, scene->shading_tables)) {
             break;
+        }
+        if (!direct && lp->filter_glossy > 0.0f
+            && !(b.label & (LABEL_SINGULAR | LABEL_TRANSPARENT))) {
+            /* Filter Glossy: a camera path that comes the other way bounces here with the
+             * density of all the closures as it sees them; below the setting the vertices
+             * behind (towards the light) are blurred and the light the eye paths' */
+            float p_cam = fabs(dot(d, N)) * (1.0f / PPM_PI);
+            if (!lambert) {
+                shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, b.wo,
+                             footprint_at(scene, s.tri, h.leaf, h.u, h.v,
+                                          SVM_FOOTPRINT ? camera_footprint_at(scene->camera, s.p)
+                                                        : 0.0f));
+                shader_eval(&sd, -d, MASK_ALL, &p_cam);
+            }
+            if (!filter_glossy_keeps(p_cam, lp)) break;
         }
         if (capacity == 0u && set == MASK_SPECULAR && !(b.label & LABEL_TRANSPARENT)) {
             atomic_inc(&counters[CNT_CAUSTIC]); /* a pilot (Renderer.caustic_fraction_pilot) */

@@ -83,6 +83,12 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarra
         f.add("PPM_SHADER")
     if (not_lambert & ((m["flags"] & MAT_GATHER) != 0)).any():
         f.add("PPM_GATHER_SHADE")          # a visible point's f may need its closures
+    fg = float(scene.light_paths["filter_glossy"][0]) if scene.light_paths is not None else 0.0
+    if 0.0 < fg <= 1.001 / np.pi:
+        # Filter Glossy at most 1 / pi: a diffuse point gathers the photons from the directions
+        # a camera path takes with at least that density, which the gather asks its closures
+        # (kernels/integrator/path_state.h); above it a diffuse point gathers none
+        f.add("PPM_GATHER_SHADE")
     lights = scene.lights
     n_lights = lights.shape[0]
     live = emitters.power[:n_lights] > 0 if int(emitters.info["n_emitters"][0]) else \

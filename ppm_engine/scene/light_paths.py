@@ -12,7 +12,9 @@ in docs/SHADING.md, "Light Paths":
   Cycles' film does per sample (photons: the sample a camera path would make of the same light
   path, kernels/integrator/path_state.h);
 - the caustics toggles remove a glossy or refractive scattering right after a diffuse one;
-- Filter Glossy is read and not applied (a path tracer's blur of caustics photons resolve).
+- Filter Glossy blurs, as Cycles does, the glossy lobes a camera path meets after a bounce of
+  low density, and the light through them is the eye paths', not the photons'
+  (kernels/integrator/path_state.h).
 """
 from __future__ import annotations
 
@@ -34,7 +36,7 @@ LIGHT_PATHS_DTYPE = np.dtype([
     ("clamp_direct", np.float32),         # Cycles' limit on a sample's r + g + b (3 x the
                                           # setting; 0: off): light with no bounce
     ("clamp_indirect", np.float32),       # the same for light with one bounce or more
-    ("filter_glossy", np.float32),        # Filter Glossy: read, not applied
+    ("filter_glossy", np.float32),        # Filter Glossy (Cycles' blur_glossy; 0: off)
     ("flags", np.uint32),                 # LP_CAUSTICS_REFLECTIVE | LP_CAUSTICS_REFRACTIVE
 ])
 

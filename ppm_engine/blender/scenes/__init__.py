@@ -19,6 +19,7 @@ from ppm_engine.blender.scenes import (
     metal,
     outdoor,
     pool,
+    sun_cone,
 )
 
 EXAMPLES = {
@@ -34,6 +35,7 @@ EXAMPLES = {
     "many_lights": many_lights.build,            # the benchmark's many-light scene
     "hdri_sun": outdoor.build,                   # an HDRI with its sun in the image
     "glossy_metal": metal.build,                 # glossy metal under Blender's default light
+    "sun_cone": sun_cone.build,                  # a sun-lit cone on a glossy floor
 }
 
 
