@@ -86,8 +86,9 @@
 #define CNT_DIFFUSE_FIRST 8
 #define CNT_SEEN 9
 #define CNT_CASTER 10
-#define CNT_CASTER_STATS 11
-#define N_COUNTERS 75
+#define CNT_USED 11
+#define CNT_CASTER_STATS 12
+#define N_COUNTERS 76
 
 /* emissive triangles picked among locally at most (ppm_engine/scene/emitters.py LOCAL_PICK_MAX) */
 #define LOCAL_PICK_MAX 8

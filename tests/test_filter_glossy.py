@@ -51,3 +51,36 @@ def test_filter_glossy_as_cycles(bpy, tiny, render_exr, tmp_path, filter_glossy)
     a, b = blocks(ours).mean(-1), blocks(ref).mean(-1)
     bad = np.abs(a - b) > 0.08 * b + 0.004
     assert not bad.any(), f"ours / Cycles per block:\n{np.round(a / np.maximum(b, 1e-6), 3)}"
+
+
+def test_photon_passes_wait_for_a_photon_that_reaches_the_image(bpy):
+    """Renderer.photons_due: the issue's cone on its default Principled floor under Filter
+    Glossy 1 hands every caustic photon's light to the eye paths, so while none has reached the
+    image (Counter.USED) photons are emitted only in passes 0, 1, 2, 4, 8, 16 and every 16th
+    (every pass with the skip off); on the polished metal floor with Filter Glossy 0 photons are
+    used from the first pass on, and every pass emits them."""
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.scenes import sun_cone
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
+    emitted, used = {}, {}
+    for case, skip in (("default", True), ("default", False), ("metal", True)):
+        if case == "metal":
+            scene = _scene(bpy, 0.0)
+        else:
+            scene = sun_cone.build()
+        scene.render.resolution_x = scene.render.resolution_y = 16
+        bpy.context.view_layer.update()
+        r = Renderer(export_scene(bpy.context.evaluated_depsgraph_get()),
+                     RenderOptions(seed=1, specialize=False, skip_unused_photons=skip))
+        try:
+            counts = [r.iterate().photons_emitted for _ in range(20)]
+            assert r.photons_needed
+            emitted[case, skip] = [i for i, (a, b) in enumerate(zip([0, *counts], counts))
+                                   if b > a]
+            used[case, skip] = r.photons_used
+        finally:
+            r.close()
+    assert used["default", True] == used["default", False] == 0 < used["metal", True]
+    assert emitted["default", True] == [0, 1, 2, 4, 8, 16]
+    assert emitted["default", False] == emitted["metal", True] == list(range(20))

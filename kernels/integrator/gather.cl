@@ -175,7 +175,8 @@ inline bool gather_begin(const Scene *scene, const VisiblePoints *vps, const Pho
 }
 
 __kernel void gather(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *radius,
-                     __global const ulong *table, uint table_mask, uint n) {
+                     __global const ulong *table, uint table_mask, uint n,
+                     __global uint *counters) {
     SCENE_LOAD(scene);
     VP_LOAD(vps);
     PHOTON_LOAD(photons);
@@ -190,6 +191,7 @@ __kernel void gather(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *
     float r2 = r * r;
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
+    uint used = 0u; /* photons with light for the point (Counter.USED) */
     for (long cz = lo.z; cz <= hi.z; cz++)
         for (long cy = lo.y; cy <= hi.y; cy++)
             for (long cx = lo.x; cx <= hi.x; cx++) {
@@ -205,15 +207,18 @@ __kernel void gather(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *
                                      photons->flux, pi, c, &g, &pf, &cos_l))
                     continue;
                 M += (float)cnt;
-                phi += (float)cnt * photon_term(&gp, pf, cos_l, photons->path[pi]);
+                float3 term = photon_term(&gp, pf, cos_l, photons->path[pi]);
+                phi += (float)cnt * term;
+                used += max3(term) > 0.0f ? cnt : 0u;
             }
     vps->gathered[id] = (float4)(phi, M);
+    if (used) atomic_add(&counters[CNT_USED], used);
 }
 
 /* Exact gather (reference mode): every photon of every cell the disc overlaps. */
 __kernel void gather_exact(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *radius,
                            __global const uint *ranges, __global const uint *sorted_ids,
-                           uint table_mask, uint n) {
+                           uint table_mask, uint n, __global uint *counters) {
     SCENE_LOAD(scene);
     VP_LOAD(vps);
     PHOTON_LOAD(photons);
@@ -228,6 +233,7 @@ __kernel void gather_exact(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const f
     float r2 = r * r;
     float3 phi = (float3)(0.0f);
     float M = 0.0f;
+    uint used = 0u; /* photons with light for the point (Counter.USED) */
     for (long cz = lo.z; cz <= hi.z; cz++)
         for (long cy = lo.y; cy <= hi.y; cy++)
             for (long cx = lo.x; cx <= hi.x; cx++) {
@@ -242,8 +248,11 @@ __kernel void gather_exact(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const f
                                          photons->flux, pi, (long3)(cx, cy, cz), &g, &pf, &cos_l))
                         continue;
                     M += 1.0f;
-                    phi += photon_term(&gp, pf, cos_l, photons->path[pi]);
+                    float3 term = photon_term(&gp, pf, cos_l, photons->path[pi]);
+                    phi += term;
+                    used += max3(term) > 0.0f ? 1u : 0u;
                 }
             }
     vps->gathered[id] = (float4)(phi, M);
+    if (used) atomic_add(&counters[CNT_USED], used);
 }

@@ -44,7 +44,7 @@ typedef struct {
  * point the camera sees directly (camera_connect.h merge_factor; the eye pass gives the merge
  * the other side).  Returns whether sd was set up again (as the camera sees it). */
 inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s, Hit h, float3 d,
-                           const PhotonHit *ph, const Splat *sp) {
+                           const PhotonHit *ph, const Splat *sp, __global uint *counters) {
     __global const Camera *cam = scene->camera;
     float px, py, dist, we;
     float3 wc;
@@ -94,8 +94,10 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
         float sum = fabs(x.x) + fabs(x.y) + fabs(x.z);
         if (sum > limit) c *= limit / sum;
     }
-    if (isfinite(c.x) && isfinite(c.y) && isfinite(c.z) && max3(c) > 0.0f)
+    if (isfinite(c.x) && isfinite(c.y) && isfinite(c.z) && max3(c) > 0.0f) {
         splat(cam, sp, px, py, c, merge_density(sp->kappa, cos_c, we));
+        atomic_inc(&counters[CNT_USED]);
+    }
     return setup;
 }
 
@@ -203,7 +205,8 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
                 atomic_inc(&counters[CNT_OUTSIDE]);
             }
             PhotonHit ph = {flux, color, N, Ng, shading, rs, ppath, lambert};
-            if (lt_kappa > 0.0f && capacity > 0u && connect_camera(scene, &sd, &s, h, d, &ph, &sp)
+            if (lt_kappa > 0.0f && capacity > 0u
+                && connect_camera(scene, &sd, &s, h, d, &ph, &sp, counters)
                 && !lambert) /* sd was the camera's: the light's again for its scattering */
                 shader_setup(scene, &sd, &s, h.u, h.v, path, h.t, -d,
                              footprint_at(scene, s.tri, h.leaf, h.u, h.v,

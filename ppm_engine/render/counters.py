@@ -21,7 +21,9 @@ class Counter(enum.IntEnum):
                     # photons' light tracing can render (counted only with it on)
     CASTER = 10     # caustic photons this pass whose first scattering was a caster's (its
                     # caustic closures: photon_pass.cl), the rest of those emitted wasted
-    CASTER_STATS = 11   # the first of two per caster (MAX_CASTERS): the photons this pass aimed
+    USED = 11       # photons this pass whose light reached the image: merged at a visible
+                    # point (a non-zero term) or connected to the camera (Renderer.photons_due)
+    CASTER_STATS = 12   # the first of two per caster (MAX_CASTERS): the photons this pass aimed
                         # at it, and the photons they stored (Renderer.learn_caster_weights)
 
 

@@ -130,6 +130,7 @@ class Renderer:
         if self.lt_kappa > 0:
             self.film.enable_light_tracing()
         self.passes_done = 0
+        self.photons_used = 0     # Counter.USED over the render's passes (photons_due)
         self.nan_dropped = 0
         self.active_pixels = self.n_pixels
         self.queue.finish()
@@ -252,14 +253,15 @@ class Renderer:
         # this pass's counters (Counter.NAN counts over the whole render)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
                                4 * len(PER_PASS))
-        it = Iteration(pass_index, o, photons=self.photon_count if self.photons_needed else 0,
+        photons = self.photons_due(pass_index)
+        it = Iteration(pass_index, o, photons=self.photon_count if photons else 0,
                        path_indirect=self.path_indirect, lt_kappa=self.lt_kappa,
                        interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
         events = self.eye.enqueue(q, it)
         if events is None:
             q.finish()
             return None
-        if self.photons_needed:
+        if photons:
             # the grid over the visible points: only photons use it
             events += self.grid_setup.enqueue(q, it)
             photon_events = self.photons.enqueue(q, it)
@@ -277,7 +279,7 @@ class Renderer:
         counters = np.empty(N_COUNTERS, np.uint32)
         grid = np.zeros(1, GRID_DTYPE)     # no grid this pass (no photons): no visible points
         cl.enqueue_copy(q, counters, self.counters, is_blocking=False)    # counted, no radii
-        if self.photons_needed:
+        if photons:
             cl.enqueue_copy(q, grid, self.photon_map.grid, is_blocking=False)
         q.finish()
         if (pass_index == 0 and self.lt_kappa > 0 and counters[Counter.SEEN] == 0
@@ -288,9 +290,28 @@ class Renderer:
             self.lt_kappa = 0.0
             film.disable_light_tracing()
         self.passes_done += 1
-        if self.aimed:
-            self.learn_caster_weights(counters)
-        return self._stats(counters, grid, events, converge, time.perf_counter() - t0)
+        if photons:
+            self.photons_used += int(counters[Counter.USED])
+            if self.aimed:
+                self.learn_caster_weights(counters)
+        return self._stats(counters, grid, events, converge, time.perf_counter() - t0, photons)
+
+    def photons_due(self, pass_index: int) -> bool:
+        """Whether pass ``pass_index`` runs the photon pass (and the grid, the hash and the
+        gather): every pass of a render that needs photons, but while none of them has yet
+        reached the image (Counter.USED: none merged with a non-zero term, none connected to
+        the camera) only passes 0, 1, 2, 4, 8, 16 and every 16th.  Filter Glossy hands most
+        caustic photons' light to the eye paths (kernels/integrator/path_state.h), and in a
+        scene where it hands all of it the photon pass is work for nothing: a sun-lit Principled
+        cone's pass took 1.3 to 1.5 times as long with it (docs/BENCHMARKS.md).  The image's
+        expectation is the same: the film divides the photons' light by the photons emitted
+        (progressive.cl film_resolve), whichever passes emitted them."""
+        if not self.photons_needed:
+            return False
+        if self.photons_used or not self.options.skip_unused_photons:
+            return True
+        n = pass_index
+        return n < 2 or (n & (n - 1)) == 0 or n % 16 == 0
 
     # learn_caster_weights: a caster's yield starts as this many photons' worth of its material's
     # weight (casters.py) at the mean yield; no weight falls below this share of the largest
@@ -317,7 +338,8 @@ class Renderer:
         y = (stored + prior) / (sent + self.LEARN_PRIOR)
         self.scene.set_caster_weights(np.maximum(y / y.max(), self.LEARN_FLOOR))
 
-    def _stats(self, counters, grid, events, converged: bool, seconds: float) -> PassStats:
+    def _stats(self, counters, grid, events, converged: bool, seconds: float,
+               photons: bool) -> PassStats:
         if converged:
             self.active_pixels = int(counters[Counter.ACTIVE])
         self.nan_dropped = int(counters[Counter.NAN])
@@ -337,7 +359,7 @@ class Renderer:
             pixels=self.n_pixels, indirect="paths" if self.path_indirect else "photons",
             caustic_fraction=self.caustic_fraction, light_tracing=self.lt_kappa > 0,
             caster_fraction=(int(counters[Counter.CASTER]) / self.photon_count
-                             if self.photons_needed and self.path_indirect else None))
+                             if photons and self.path_indirect else None))
         if overflow:     # this pass lost photons (counted); the next one has room
             pm.allocate(2 * pm.capacity)
         return stats

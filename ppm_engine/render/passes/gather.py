@@ -67,7 +67,7 @@ class Gather:
         c = self.ctx
         pm, vps = c.photon_map, c.vps
         common = dict(**self.scene_args, **vps.args, **pm.args, radius=c.radius,
-                      table_mask=pm.table_mask, n=np.uint32(vps.n))
+                      table_mask=pm.table_mask, n=np.uint32(vps.n), counters=c.counters)
         if pm.exact:
             ev = self.k_exact(q, vps.n, SHADING_GROUP, **common, ranges=pm.ranges,
                               sorted_ids=pm.sorted[1].data)
