@@ -46,7 +46,7 @@ inline void shader_classify(ShaderData *sd) {
         /* a glossy reflection rough enough that next-event estimation through it serves (as
          * Cycles' does): its light is the eye paths', not a caustic's */
         c->glossy = !c->gather && c->type == CLOSURE_GGX_REFLECT && !microfacet_singular(c)
-                    && microfacet_rough(c) >= PPM_CAUSTIC_ROUGHNESS;
+                    && microfacet_rough(c) >= sd->caustic_rough;
     }
     shader_sums(sd);
 }
@@ -66,6 +66,7 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
     sd->crossings = max(scene->light_paths->transparent_max_bounces
                             - (int)path_count(path, PATH_TRANSPARENT_DEPTH),
                         0);
+    sd->caustic_rough = filter_glossy_caustic_roughness(scene->light_paths);
     sd->backfacing = dot(wi, ng) < 0.0f;
     sd->leaf = s->leaf;
     sd->tri = tri;

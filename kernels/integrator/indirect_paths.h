@@ -131,8 +131,9 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             term = path_limit(path, depth, lp);
             counts = own;
             prev_pdf = b.pdf;
-            if (vertex == 0 && nee_all && !isinf(b.pdf))
-                shader_eval(sd, b.wo, MASK_ALL, &prev_pdf); /* the eye pass's NEE's density */
+            /* the eye pass's NEE's density (a sample of all the closures has it already) */
+            if (vertex == 0 && nee_all && !isinf(b.pdf) && set != MASK_ALL)
+                shader_eval(sd, b.wo, MASK_ALL, &prev_pdf);
             if (lp->filter_glossy > 0.0f && !isinf(b.pdf) && !filter_glossy_blurs(min_pdf, lp)) {
                 /* the smallest density, the mixture's over all the closures (once below the
                  * setting it stays there) */

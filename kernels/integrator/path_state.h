@@ -137,6 +137,8 @@ inline float3 clamp_sample(float3 L, float limit) {
  * a blurred vertex is the eye paths' (they meet blurred lobes and estimate the light through
  * all of them); the photons carry only light paths no vertex of which is blurred, seen from
  * the camera (photon_pass.cl, gather.cl: filter_glossy_keeps). */
+#define FILTER_GLOSSY_DIFFUSE_PDF \
+    0.31830988618f /* 1 / pi: the most a diffuse closure's density is */
 inline bool filter_glossy_blurs(float min_pdf, __global const LightPaths *lp) {
     return lp->filter_glossy > 0.0f && min_pdf < lp->filter_glossy;
 }
@@ -146,6 +148,18 @@ inline bool filter_glossy_blurs(float min_pdf, __global const LightPaths *lp) {
 inline float filter_glossy_alpha(float min_pdf, __global const LightPaths *lp) {
     if (!filter_glossy_blurs(min_pdf, lp)) return 0.0f;
     return 0.5f * sqrt(1.0f - min_pdf / lp->filter_glossy);
+}
+
+/* The roughness from which a followed glossy reflection is the eye paths' light, not the
+ * caustic photons' (shader.h shader_classify; RenderOptions.caustic_roughness, the -D
+ * PPM_CAUSTIC_ROUGHNESS).  With Filter Glossy above 1 / pi every one that is not singular: a
+ * photon scattered first by it would be merged only where a camera path's bounce towards it
+ * has more than that density, which no diffuse point's has, so only near the peaks of glossy
+ * lobes, where a merge is at its noisiest; next-event estimation through the lobe is Cycles'
+ * estimator of that light (the sun-lit cone's noise x sqrt(time) 0.0103 -> 0.0089).  The host
+ * finds the casters by the same rule (ppm_engine/scene/casters.py caustic_roughness). */
+inline float filter_glossy_caustic_roughness(__global const LightPaths *lp) {
+    return filter_glossy_blurs(FILTER_GLOSSY_DIFFUSE_PDF, lp) ? 0.0f : PPM_CAUSTIC_ROUGHNESS;
 }
 
 /* whether a camera path that bounced with density pdf (the mixture's, INFINITY: singular) leaves

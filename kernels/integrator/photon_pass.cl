@@ -184,7 +184,7 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
         float shading = c_ng > 0.0f ? fmax(c_n, 0.0f) / c_ng : 0.0f;
         /* Filter Glossy above 1 / pi: no camera path leaves a diffuse surface with the density
          * it asks, so the light after it is the eye paths' (path_state.h) */
-        if (!direct && lambert && filter_glossy_blurs(1.0f / PPM_PI, lp)) break;
+        if (!direct && lambert && filter_glossy_blurs(FILTER_GLOSSY_DIFFUSE_PDF, lp)) break;
         if (!direct && gather) {
             if (!(isfinite(flux.x) && isfinite(flux.y) && isfinite(flux.z))) {
                 atomic_inc(&counters[CNT_NAN]);

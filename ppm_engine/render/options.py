@@ -119,7 +119,8 @@ class RenderOptions:
     # caustic photons.  The default, gather_roughness's, leaves every followed lobe to caustic
     # photons: measured, eye paths through glossy lobes were no better at equal time on four
     # scenes (docs/BENCHMARKS.md, "Settings chosen by measurement"); a setting to measure with, not
-    # in the UI.
+    # in the UI.  With Filter Glossy above 1 / pi every glossy reflection that is not singular is
+    # the eye paths' whatever this says (casters.caustic_roughness).
     caustic_roughness: float = 0.7
     # Skips of work a scene does not need, each on by default; off only to measure what it saves
     # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.

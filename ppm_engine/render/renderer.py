@@ -39,6 +39,7 @@ from ppm_engine.render.passes import (
 from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
 from ppm_engine.render.stats import PassStats
 from ppm_engine.scene.arrays import SceneArrays
+from ppm_engine.scene.casters import caustic_roughness
 from ppm_engine.scene.light_paths import with_max_bounces
 
 
@@ -111,12 +112,14 @@ class Renderer:
         self.converge = Converge(ctx)
         self.scene.set_light_paths(with_max_bounces(self.scene.scene.light_paths, o.max_bounces))
         useful = self.scene.photons_useful()
-        caustics = self.scene.caustics_possible(o.gather_roughness, o.caustic_roughness)
+        # the lobes that start a caustic (with Filter Glossy, only singular reflections)
+        self.caustic_roughness = caustic_roughness(self.scene.light_paths, o.caustic_roughness)
+        caustics = self.scene.caustics_possible(o.gather_roughness, self.caustic_roughness)
         self.path_indirect, self.caustic_fraction = self._choose_indirect(o, useful, caustics)
         useful = useful and (caustics or not self.path_indirect)
         self.photons_needed = useful or not o.skip_unneeded_photon_pass
         # caustic photons aimed at the casters (a pilot's photons are not)
-        self.casters = (self.scene.set_casters(o.gather_roughness, o.caustic_roughness)
+        self.casters = (self.scene.set_casters(o.gather_roughness, self.caustic_roughness)
                         if self.photons_needed and self.path_indirect else 0)
         self.caster_counts = np.zeros((self.casters, 2))   # learn_caster_weights' sums
         self.aimed = bool(self.casters) and o.skip_unaimed_caustics
@@ -172,7 +175,8 @@ class Renderer:
             return True, 0.0
         if not photons_useful:
             return True, None
-        key = (o.gather_roughness, o.caustic_roughness, self.scene.light_paths.tobytes(), o.seed)
+        key = (o.gather_roughness, self.caustic_roughness, self.scene.light_paths.tobytes(),
+               o.seed)
         if self._pilot is None or self._pilot[0] != key:    # a re-render of the same scene
             self._pilot = (key, self.caustic_fraction_pilot(o))   # keeps its pilot
         f = self._pilot[1]
@@ -296,22 +300,29 @@ class Renderer:
                 self.learn_caster_weights(counters)
         return self._stats(counters, grid, events, converge, time.perf_counter() - t0, photons)
 
+    # photons_due: below this share of the photons emitted reaching the image (Counter.USED,
+    # merges and camera connections over photons emitted), the photon pass runs only now and
+    # then.  Measured (200 passes, 128 x 128, and 30 at 64 x 64): the sun-lit cone under Filter
+    # Glossy 1, 1.2e-5 (4 of 321,200); glossy_metal 6e-3; the caustic scenes, the bulb box and
+    # the pool 0.35-3.7
+    PHOTONS_USED_MIN = 1e-3
+
     def photons_due(self, pass_index: int) -> bool:
         """Whether pass ``pass_index`` runs the photon pass (and the grid, the hash and the
-        gather): every pass of a render that needs photons, but while none of them has yet
-        reached the image (Counter.USED: none merged with a non-zero term, none connected to
-        the camera) only passes 0, 1, 2, 4, 8, 16 and every 16th.  Filter Glossy hands most
-        caustic photons' light to the eye paths (kernels/integrator/path_state.h), and in a
-        scene where it hands all of it the photon pass is work for nothing: a sun-lit Principled
-        cone's pass took 1.3 to 1.5 times as long with it (docs/BENCHMARKS.md).  The image's
-        expectation is the same: the film divides the photons' light by the photons emitted
-        (progressive.cl film_resolve), whichever passes emitted them."""
+        gather): every pass of a render that needs photons, unless almost none of them reach
+        the image (fewer than PHOTONS_USED_MIN of those emitted so far: Counter.USED), when only
+        passes 0, 1, 2, 4, 8, 16 and every 16th do.  Filter Glossy hands most caustic photons'
+        light to the eye paths (kernels/integrator/path_state.h), and where it hands nearly all
+        of it the photon pass is work for nothing: a sun-lit Principled cone's pass took 1.3 to
+        1.5 times as long with it (docs/BENCHMARKS.md).  The image's expectation is the same:
+        the film divides the photons' light by the photons emitted (progressive.cl
+        film_resolve), whichever passes emitted them."""
         if not self.photons_needed:
             return False
-        if self.photons_used or not self.options.skip_unused_photons:
-            return True
         n = pass_index
-        return n < 2 or (n & (n - 1)) == 0 or n % 16 == 0
+        if not self.options.skip_unused_photons or n < 2 or (n & (n - 1)) == 0 or n % 16 == 0:
+            return True
+        return self.photons_used >= self.PHOTONS_USED_MIN * self.film.photons_emitted
 
     # learn_caster_weights: a caster's yield starts as this many photons' worth of its material's
     # weight (casters.py) at the mean yield; no weight falls below this share of the largest

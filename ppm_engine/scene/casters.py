@@ -23,7 +23,7 @@ from ppm_engine.scene.arrays import (
 )
 from ppm_engine.scene.emitters import power_cdf
 from ppm_engine.scene.light_paths import LP_CAUSTICS_REFLECTIVE, LP_CAUSTICS_REFRACTIVE
-from ppm_engine.scene.materials import _principled_parts, follow_capable
+from ppm_engine.scene.materials import SINGULAR_ROUGHNESS, _principled_parts, follow_capable
 
 # the most spheres: every aimed photon loops over them three times (aim.h)
 MAX_CASTERS = 32
@@ -36,6 +36,16 @@ SPLIT_DEPTH = 5             # 2^5 = MAX_CASTERS spheres at most
 # a caster whose only caustic closure is a dielectric's specular layer or a coat sends on a
 # few percent of what reaches it: its weight (glass, metal, a glossy BSDF: 1)
 LAYER_WEIGHT = 0.1
+
+
+def caustic_roughness(lp: np.ndarray, setting: float) -> float:
+    """The roughness from which a glossy reflection a path follows is the eye paths' light and
+    not the caustic photons' (RenderOptions.caustic_roughness, ``setting``), for a scene's Light
+    Paths record ``lp``: with Filter Glossy above 1 / pi every one that is not singular
+    (kernels/integrator/path_state.h filter_glossy_caustic_roughness says why), so only mirrors,
+    glass and refractions start a caustic."""
+    diffuse_pdf = np.float32(1.0 / np.pi)   # the kernels' FILTER_GLOSSY_DIFFUSE_PDF
+    return SINGULAR_ROUGHNESS if lp["filter_glossy"][0] > diffuse_pdf else setting
 
 
 def material_weights(knodes: np.ndarray, n_materials: int, gather_roughness: float,
