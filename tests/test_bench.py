@@ -48,7 +48,7 @@ def test_firefly_check_counts_the_pixels_brighter_than_the_reference_s_range():
 # with a Cycles reference and the exact sphere's (the bulb box renders in test_e2e.py), 100 s
 # less of the tier's longest test than all nine below; the slow tier runs every reference and
 # check (the closed form's, LuxCore's light tracer or its fallback, the photons' curve): the
-# nine, and all twelve
+# nine, and all thirteen
 QUICK_SCENES = ("cornell_box", "point_caustic")
 CHECK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
                 "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights")
@@ -81,7 +81,8 @@ def _quick_bench(cli, tmp_path, scenes):
     assert list(res["scenes"]) == list(scenes)
     assert set(SCENES) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
                            "point_caustic", "rough_caustic", "far_caustic", "mirror_caustic",
-                           "pool_caustic", "many_lights", "hdri_sun", "glossy_metal"}
+                           "pool_caustic", "many_lights", "hdri_sun", "glossy_metal",
+                           "sun_cone"}
     if "many_lights" in scenes:
         tree = res["scenes"]["many_lights"]["light_tree"]
         assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1
@@ -129,7 +130,8 @@ def _quick_bench(cli, tmp_path, scenes):
         # cannot render), or this engine's light tracer where LuxCore's spot differs
         # (glass_caustic) or pyluxcore is not installed (the JSON says so)
         engine = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "many_lights": "CYCLES",
-                  "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "point_caustic": "EXACT",
+                  "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "sun_cone": "CYCLES",
+                  "point_caustic": "EXACT",
                   "rough_caustic": "EXACT", "far_caustic": "EXACT",
                   "pool_caustic": "EXACT_POOL"}.get(name, "LIGHT_TRACE")
         if name in ("bulb_box", "mirror_caustic"):
@@ -146,7 +148,7 @@ def _quick_bench(cli, tmp_path, scenes):
             # the exact reference renders every pixel, the ball's too: none left out
             assert s["excluded_pixels"] == 0
         elif name not in ("cornell_box", "many_lights", "hdri_sun", "glossy_metal",
-                          "pool_caustic"):
+                          "sun_cone", "pool_caustic"):
             # (Cycles' leave none out, nor does the pool's, which sees the floor in every pixel)
             # (the light tracer's leave out what it cannot render: at 16 x 16 the filter's
             # reach is a large share)

@@ -26,10 +26,11 @@ renders and from each other), averaged.  Its own noise is RMSE(half_a, half_b) /
 one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
 
 - the furnace: the closed form (scenes/furnace.py: L = E / (1 - albedo) everywhere);
-- the Cornell box, many_lights, hdri_sun and glossy_metal: Cycles (path tracing converges
-  there; on hdri_sun but for the sun's glint and caustic in the glass ball, where its
+- the Cornell box, many_lights, hdri_sun, glossy_metal and sun_cone: Cycles (path tracing
+  converges there; on hdri_sun but for the sun's glint and caustic in the glass ball, where its
   reference's noise is most of its own error, and on glossy_metal but for the metal's
-  caustics on the floor, which Cycles finds only through the light's 0.1 m);
+  caustics on the floor, which Cycles finds only through the light's 0.1 m; sun_cone with its
+  own Light Paths, scenes.OWN_LIGHT_PATHS);
 - point_caustic (the glass ball under a radius-0 point light), rough_caustic (the same ball of
   rough glass, GGX roughness 0.1) and far_caustic (a 0.5 m ball, the light 3.5 m away): the
   exact-geometry reference (exact_caustic.py, "EXACT"): in NumPy on the true sphere and the two
@@ -99,7 +100,14 @@ from ppm_engine.blender.scenes import build_example, furnace, pool
 from ppm_engine.tools.bench import luxcore
 from ppm_engine.tools.bench.references import References
 from ppm_engine.tools.bench.report import machine_info
-from ppm_engine.tools.bench.scenes import CAUSTIC_MASKS, caustic_mask, excluded_pixels, set_mnee
+from ppm_engine.tools.bench.scenes import (
+    CAUSTIC_MASKS,
+    OWN_LIGHT_PATHS,
+    caustic_mask,
+    excluded_pixels,
+    light_tree_stats,
+    set_mnee,
+)
 from ppm_engine.tools.bench.scoring import (
     FIREFLY_MARGIN,
     brightest,
@@ -113,7 +121,7 @@ DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
 SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
           "rough_caustic", "far_caustic", "mirror_caustic", "pool_caustic", "many_lights",
-          "hdri_sun", "glossy_metal")
+          "hdri_sun", "glossy_metal", "sun_cone")
 CAUSTIC_SCENES = ("glass_caustic", "point_caustic", "rough_caustic", "far_caustic",
                   "mirror_caustic", "pool_caustic")
 # scenes whose light photons carry (caustics, a bulb in glass): the merge alone is measured too
@@ -123,7 +131,8 @@ REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": 
                     "glass_caustic": "LIGHT_TRACE", "point_caustic": "EXACT",
                     "rough_caustic": "EXACT", "far_caustic": "EXACT",
                     "mirror_caustic": "LUXCORE_LIGHT", "pool_caustic": "EXACT_POOL",
-                    "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES"}
+                    "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES",
+                    "sun_cone": "CYCLES"}
 REF_SEEDS = (1001, 2002)
 # reference seconds per half over the run's (2 x its longest budget): LuxCore's light tracer is the
 # noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror caustic,
@@ -185,27 +194,6 @@ def render(scene, path) -> tuple[np.ndarray, float, dict]:
     return img, wall, info
 
 
-def light_tree_stats(scene, device: str) -> dict | None:
-    """The light tree of the scene as the renderer builds it (ppm_engine/scene/light_tree.py): its
-    emitters, nodes, bytes on the device (nodes, each emitter's leaf, the far CDF) and build
-    time; None when the scene has none (LOCAL_PICK_MAX emitters or fewer)."""
-    import bpy
-
-    from ppm_engine.blender.export import export_scene
-    from ppm_engine.render.options import RenderOptions
-    from ppm_engine.render.renderer import Renderer
-    r = Renderer(export_scene(bpy.context.evaluated_depsgraph_get()), RenderOptions(device=device))
-    try:
-        em = r.scene.emitters
-        if em.tree.shape[0] == 0:
-            return None
-        return {"emitters": int((em.emitter_leaf >= 0).sum()), "nodes": int(em.tree.shape[0]),
-                "bytes": int(em.tree.nbytes + em.emitter_leaf.nbytes + em.far_cdf.nbytes),
-                "build_s": float(em.tree_build_s), "share": float(em.info["tree_share"][0])}
-    finally:
-        r.close()
-
-
 class Bench(References):
     def __init__(self, resolution: int, device: str, photons: int | None, folder: Path,
                  progress=print, warm_up: bool = True, quick: bool = False):
@@ -217,6 +205,7 @@ class Bench(References):
         self.folder = folder
         self.progress = progress
         self.count = 0
+        self.own_light_paths = False   # the current scene keeps its Light Paths (_scene)
 
     def _scene(self, name):
         import bpy
@@ -227,6 +216,7 @@ class Bench(References):
             scene = pool.build(grid=pool.grid_for(self.res))
         else:
             scene = build_example(name)
+        self.own_light_paths = name in OWN_LIGHT_PATHS
         scene.render.resolution_x = scene.render.resolution_y = self.res
         scene.render.resolution_percentage = 100
         bpy.context.view_layer.update()
@@ -239,7 +229,8 @@ class Bench(References):
             ppm_settings(scene, seconds, seed, self.device, self.photons, indirect,
                          light_tracing, specialize=not self.quick)
         else:
-            cycles_reference(scene, seconds=seconds, seed=seed)
+            cycles_reference(scene, seconds=seconds, seed=seed,
+                             keep_light_paths=self.own_light_paths)
         return render(scene, self.folder / f"r{self.count:04d}.exr")
 
     def reference_half(self, scene, engine: str, seconds: float, seed: int):
@@ -310,7 +301,8 @@ class Bench(References):
         regions, region_noise, out["regions"] = self.regions(scene, ref_engine, keep, halves)
         out["pixels_counted"] = int(keep.sum())
         np.save(self.folder / f"{name}_reference.npy", ref)
-        if ref_engine in ("CYCLES", "EXACT", "LUXCORE_LIGHT"):
+        if ref_engine in ("CYCLES", "EXACT", "LUXCORE_LIGHT") and not self.own_light_paths:
+            # (not with a scene's own Light Paths: the light tracer applies none of them)
             # the light tracer cross-checked with Cycles where both converge, on
             # point_caustic the mesh ball's light tracing against the exact sphere's, and
             # where LuxCore's light tracer is the reference, against that

@@ -171,7 +171,7 @@ def light_trace_check_table(result: dict) -> str:
 
 
 def light_tree_table(result: dict) -> str:
-    """The light trees of the scenes that have one (curves.light_tree_stats)."""
+    """The light trees of the scenes that have one (scenes.light_tree_stats)."""
     lines = ["| scene | emitters in the tree | nodes | device bytes | build s "
              "| their power share |", "|---|---:|---:|---:|---:|---:|"]
     for name, s in result["scenes"].items():

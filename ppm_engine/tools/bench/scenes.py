@@ -1,8 +1,9 @@
 """The benchmark's data about its scenes (ppm_engine.blender.scenes builds them): per scene, the
 floor region counted as "caustic pixels" (caustic_mask below: a world-space disk on the floor, or
 the set of floor points that see the light's mirror image through the mirror rectangle, exact;
-pixels whose camera ray meets one of the listed spheres first are left out), and the objects
-Cycles' shadow caustics (MNEE) needs flagged."""
+pixels whose camera ray meets one of the listed spheres first are left out), the objects
+Cycles' shadow caustics (MNEE) needs flagged, the scenes that keep their own Light Paths, and the
+light tree the renderer builds for a scene (light_tree_stats)."""
 from __future__ import annotations
 
 import numpy as np
@@ -34,6 +35,8 @@ CAUSTIC_MASKS = {
     "hdri_sun": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the glossy metal: every pixel (the light's highlights, the floor's light in the metal)
     "glossy_metal": {"kind": "all", "occluders": [], "note": "every pixel"},
+    # the sun-lit cone: every pixel (the floor's glossy light on the cone among them)
+    "sun_cone": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the floor beside and under the glass ball, where its caustic falls
     "bulb_box": {"kind": "disk", "center": (BALL_CENTER[0] + 0.07, BALL_CENTER[1] + 0.05, 0.0),
                  "radius": 0.45, "occluders": [(BALL_CENTER, 0.3), (BULB_CENTER, 0.15)],
@@ -68,6 +71,12 @@ CAUSTIC_MASKS["far_caustic"] = {
             "meets the floor, not hidden by the ball"}
 CAUSTIC_MASKS["mirror_caustic"]["corners"] = mirror_corners().tolist()
 CAUSTIC_MASKS["mirror_caustic"]["light_image"] = mirror_image(POINT_POS).tolist()
+
+# scenes every engine renders with their own Light Paths, Cycles' defaults as a user's new file
+# has them (Filter Glossy 1, Clamp Indirect 10, 4 diffuse and 4 glossy bounces; both engines
+# read scene.cycles), where every other scene has 12 bounces, no clamping and no Filter Glossy
+# (harness.cycles_reference): the reference is Cycles with the same settings
+OWN_LIGHT_PATHS = ("sun_cone",)
 
 # objects Cycles' shadow caustics (MNEE) uses, per scene: (casters, receivers, lights)
 MNEE_OBJECTS = {
@@ -168,3 +177,24 @@ def set_mnee(name: str, on: bool) -> None:
         bpy.data.objects[n].cycles.is_caustics_receiver = on
     for n in lights:
         bpy.data.objects[n].data.cycles.is_caustics_light = on
+
+
+def light_tree_stats(scene, device: str) -> dict | None:
+    """The light tree of the scene as the renderer builds it (ppm_engine/scene/light_tree.py): its
+    emitters, nodes, bytes on the device (nodes, each emitter's leaf, the far CDF) and build
+    time; None when the scene has none (LOCAL_PICK_MAX emitters or fewer)."""
+    import bpy
+
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
+    r = Renderer(export_scene(bpy.context.evaluated_depsgraph_get()), RenderOptions(device=device))
+    try:
+        em = r.scene.emitters
+        if em.tree.shape[0] == 0:
+            return None
+        return {"emitters": int((em.emitter_leaf >= 0).sum()), "nodes": int(em.tree.shape[0]),
+                "bytes": int(em.tree.nbytes + em.emitter_leaf.nbytes + em.far_cdf.nbytes),
+                "build_s": float(em.tree_build_s), "share": float(em.info["tree_share"][0])}
+    finally:
+        r.close()
