@@ -137,8 +137,8 @@ class RenderOptions:
     skip_unaimed_caustics: bool = True   # False: caustic photons leave the emitters as all
                                          # photons do, not aimed at the casters (kernels/light/
                                          # aim.h), so most miss them and are dropped
-    skip_unused_photons: bool = True   # False: a photon pass every pass even while none of
-                                       # the photons has reached the image (Renderer.photons_due)
+    skip_unused_photons: bool = True   # False: a photon pass every pass even while almost
+                                       # no photon reaches the image (Renderer.photons_due)
     # the photons' second strategy: each stored photon also connected to the camera (light
     # tracing), combined with the merge by MIS (kernels/integrator/photon_pass.cl connect_camera);
     # for a pinhole camera only
