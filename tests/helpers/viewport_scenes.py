@@ -30,6 +30,9 @@ def sphere_scene(bpy, tiny):
     lamp = bpy.data.objects.new("Lamp", light)
     lamp.location = (1.5, -1.5, 3.0)
     scene.collection.objects.link(lamp)
+    # Filter Glossy off: the ball's specular layer starts caustics, whose photons are aimed at
+    # it (with Cycles' default the eye paths carry its glossy light: casters.caustic_roughness)
+    scene.cycles.blur_glossy = 0.0
     world = bpy.data.worlds.new("World")          # (with its node tree in Blender 5)
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.3, 0.3, 1.0)
     scene.world = world
