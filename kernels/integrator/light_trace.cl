@@ -29,7 +29,8 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
     float rs;
     float2 nee;
     int caster;
-    if (!emit_photon(scene, &rng, false, &o, &d, &flux, &rs, &nee, &caster)) return;
+    int gbin;
+    if (!emit_photon(scene, &rng, false, false, &o, &d, &flux, &rs, &nee, &caster, &gbin)) return;
     uint mask = VIS_SHADOW;
 #if PPM_ABSORPTION
     Media media;
