@@ -323,7 +323,8 @@ def _ceiling_over_lights(bpy, nx, ny, z, visible_camera, view):
 @pytest.mark.parametrize("nx, ny, z, visible_camera, transparent, view", [
     (20, 10, 1.95, False, 8, 0.32),      # the issue's grid, 5 cm under the ceiling
     (20, 10, 1.95, True, 2, 0.32),       # the camera sees them: 2 at most, then the path ends
-], ids=["grid", "grid_seen_limit_2"])
+    (1, 1, 1.995, False, 8, 0.04),       # one light 5 mm under the ceiling, radius 1 cm
+], ids=["grid", "grid_seen_limit_2", "within_radius"])
 def test_overlapping_lights_near_a_ceiling_as_cycles(bpy, nx, ny, z, visible_camera,
                                                      transparent, view, cycles, tiny,
                                                      render_exr, tmp_path):
@@ -332,7 +333,9 @@ def test_overlapping_lights_near_a_ceiling_as_cycles(bpy, nx, ny, z, visible_cam
     a ray that meets one adds its emission and goes on past it, each light a transparent bounce
     (at the Light Paths' limit the path ends there).  Counting only the nearest light a ray met,
     the sample's side of MIS lost the others: the centre blocks were 0.63 of Cycles' (0.62 with
-    the lights seen by the camera, 0.87 at a limit of 2)."""
+    the lights seen by the camera, 0.87 at a limit of 2).  And a surface within a light's
+    radius is lit by the disk facing it (I cos / (d^2 + r^2) on the axis), where the point's
+    I / d^2 lit it 2.6 x."""
     scene = _ceiling_over_lights(bpy, nx, ny, z, visible_camera, view)
     w = 32
     cycles(scene, 64, width=w)
