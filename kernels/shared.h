@@ -64,6 +64,7 @@
 /* BSDF node flags (scene/arrays.py NODE_FLAG_*) */
 #define NODE_FLAG_MULTI_GGX 1u
 #define NODE_FLAG_CONDUCTOR 2u
+#define NODE_FLAG_NO_BUMP_CORRECTION 4u
 
 /* image texture extension modes and flags (scene/arrays.py TEX_*) */
 #define TEX_REPEAT 0u
