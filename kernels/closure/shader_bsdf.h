@@ -10,8 +10,10 @@
 inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alpha, float3 emission,
                              float3 tangent, TABLES_ARG) {
     float w1 = nd->weight;
-    float3 w = (float3)(w1), N = node_normal(sd, F3(nd->normal)),
-           cbase = fmin(base, (float3)(1.0f));
+    /* the diffuse and sheen layers on the driven normal as it is, the glossy ones on it made
+     * valid for reflection (Cycles' valid_reflection_N) */
+    float3 w = (float3)(w1), Nd = node_normal(sd, F3(nd->normal)),
+           N = node_reflection_normal(sd, F3(nd->normal)), cbase = fmin(base, (float3)(1.0f));
     float ior = fmax(nd->ior, 1e-5f), rough = clamp(nd->roughness, 0.0f, 1.0f);
     float metallic = clamp(nd->metallic, 0.0f, 1.0f);
     float3 spec_tint = fmax(F3(nd->edge_tint), (float3)(0.0f));
@@ -26,14 +28,21 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alp
         w *= alpha;
     }
     if (sheen > CLOSURE_WEIGHT_CUTOFF) {
-        float3 tint = fmax(F3(nd->sheen_tint), (float3)(0.0f));
-        int k = shader_sheen(sd, sheen * tint * w, N, clamp(nd->sheen_roughness, 0.0f, 1.0f),
+        /* (Cycles: between the Normal and the Coat Normal by the coat's weight) */
+        float3 Nc = node_normal(sd, F3(nd->coat_normal)), Ns = Nd,
+               tint = fmax(F3(nd->sheen_tint), (float3)(0.0f));
+        if (coat > 0.0f && any(Nc != Nd)) {
+            Ns = mix(Nd, Nc, fmin(coat, 1.0f));
+            float ls = dot(Ns, Ns);
+            Ns = ls > 0.0f ? Ns * rsqrt(ls) : sd->N;
+        }
+        int k = shader_sheen(sd, sheen * tint * w, Ns, clamp(nd->sheen_roughness, 0.0f, 1.0f),
                              shading_tables);
         if (k >= 0) w = layering_weight(sd->c[k].weight, w);
     }
     if (PPM_MICROFACET && coat > CLOSURE_WEIGHT_CUTOFF) {
         float cr = clamp(nd->coat_roughness, 0.0f, 1.0f), cior = fmax(nd->coat_ior, 1.0f);
-        float3 Nc = node_normal(sd, F3(nd->coat_normal));
+        float3 Nc = node_reflection_normal(sd, F3(nd->coat_normal));
         int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, coat * w, Nc, cr * cr, cr * cr, cior);
         if (k >= 0) {
             Closure *c = &sd->c[k];
@@ -89,24 +98,27 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alp
     }
     /* subsurface scattering renders as diffuse with the (clamped) base colour */
     float3 wd = cbase * ss * w + base * (1.0f - ss) * w;
-    shader_diffuse(sd, wd, N, clamp(nd->diffuse_roughness, 0.0f, 1.0f), base);
+    shader_diffuse(sd, wd, Nd, clamp(nd->diffuse_roughness, 0.0f, 1.0f), base);
 }
 
 /* the BSDF nodes other than the Principled */
 inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color, float3 emission,
                             float3 tangent, TABLES_ARG) {
     float w1 = nd->weight, rough = clamp(nd->roughness, 0.0f, 1.0f);
-    float3 N = node_normal(sd, F3(nd->normal)), w = (float3)(w1);
+    /* (the diffuse and sheen closures on the driven normal as it is, the others on it made
+     * valid for reflection, as Cycles' closure nodes) */
+    float3 Nd = node_normal(sd, F3(nd->normal)), N = node_reflection_normal(sd, F3(nd->normal)),
+           w = (float3)(w1);
     bool multi = (nd->flags & NODE_FLAG_MULTI_GGX) != 0, has_t = dot(tangent, tangent) > 0.0f;
     int t = nd->type;
     if (t == NODE_DIFFUSE) {
-        shader_diffuse(sd, color * w1, N, nd->roughness < 1e-5f ? 0.0f : rough, color);
+        shader_diffuse(sd, color * w1, Nd, nd->roughness < 1e-5f ? 0.0f : rough, color);
     } else if (t == NODE_TRANSLUCENT) {
         if (PPM_TRANSLUCENT) shader_alloc(sd, CLOSURE_TRANSLUCENT, color * w1, N);
     } else if (t == NODE_TRANSPARENT) {
         shader_transparent(sd, color * w1);
     } else if (t == NODE_SHEEN) {
-        shader_sheen(sd, color * w1, N, rough, shading_tables);
+        shader_sheen(sd, color * w1, Nd, rough, shading_tables);
     } else if (t == NODE_EMISSION) {
         sd->emission += emission * w1;
     } else if (t == NODE_HOLDOUT) {

@@ -61,9 +61,18 @@ inline float3 valid_reflection_normal(float3 Ng, float3 I, float3 N) {
     return sqrt(fmax(1.0f - nz2, 0.0f)) * X + sqrt(fmax(nz2, 0.0f)) * Ng;
 }
 
-/* A node's Normal or Coat Normal input: the driven normal (made valid for reflection, as
- * Cycles does for a normal other than Ng), or the shading normal where it is unlinked (0) */
+/* A node's Normal or Coat Normal input: the driven normal, normalised, or the shading normal
+ * where it is unlinked (0).  Cycles' diffuse, sheen and velvet closures take it as it is, the
+ * others as node_reflection_normal gives it. */
 inline float3 node_normal(const ShaderData *sd, float3 n) {
+    float l = dot(n, n);
+    if (!(l > 0.0f) || !isfinite(l)) return sd->N;
+    return n * rsqrt(l);
+}
+
+/* node_normal for a glossy closure: a driven normal made valid for reflection, as Cycles does
+ * for a normal other than Ng (maybe_ensure_valid_specular_reflection) */
+inline float3 node_reflection_normal(const ShaderData *sd, float3 n) {
     float l = dot(n, n);
     if (!(l > 0.0f) || !isfinite(l)) return sd->N;
     n *= rsqrt(l);
