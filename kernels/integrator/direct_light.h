@@ -318,7 +318,7 @@ inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, in
                                          scene->emitter_info->offset_scale),
                               b.wo, ray, p, sd->N, sd->crossings, &pdf_l);
     float pdf_b = b.pdf;      /* next-event estimation's density for its closures (mis_mask) */
-    if (mis_mask != mask && !isinf(pdf_b)) shader_eval(sd, b.wo, mis_mask, &pdf_b);
+    if (mis_mask != mask && !isinf(pdf_b)) pdf_b = shader_mis_pdf(sd, b.wo, mask, mis_mask, pdf_b);
     return b.weight * Le * mis_power(pdf_b, pdf_l);
 #else
     return (float3)(0.0f);       /* nothing for the sample to find but what NEE samples */
