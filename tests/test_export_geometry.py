@@ -193,8 +193,10 @@ def test_tangents_of_a_mesh_with_ngons(empty):
     nm = m.node_tree.nodes.new("ShaderNodeNormalMap")
     m.node_tree.links.new(nm.outputs[0], m.node_tree.nodes["Principled BSDF"].inputs["Normal"])
     o.data.materials.append(m)
+    meshes = len(bpy.data.meshes)
     s = export()
     assert not s.warnings, s.warnings
+    assert len(bpy.data.meshes) == meshes        # (no datablock added, even for a while)
     t = s.uv_tangents[..., :3]
     np.testing.assert_allclose(np.linalg.norm(t, axis=-1), 1.0, atol=1e-5)
     np.testing.assert_allclose((t * s.normals).sum(-1), 0.0, atol=1e-5)

@@ -119,16 +119,19 @@ def cycles_tangent_normals(local: LocalMesh) -> np.ndarray:
     return normals
 
 
-def read_uv_tangents(local: LocalMesh, name: str, warn) -> np.ndarray:
+def read_uv_tangents(local: LocalMesh, name: str, warn, scratch) -> np.ndarray:
     """(T, 3, 4) object-space tangents of the rendered UV map at the triangles' corners and
     their bitangent signs, as Cycles computes the tangent attribute its Normal Map reads:
     MikkTSpace (Blender's, ``Mesh.calc_tangents``) on the mesh's triangles (Cycles runs it
     on its triangulated mesh, not on the quads and n-gons ``calc_tangents`` would see on the
     mesh itself: up to ~1 degree apart around a subdivided mesh's irregular vertices), with
-    the normals Cycles gives it (cycles_tangent_normals) as custom normals of a temporary
-    triangle mesh, always removed; the corners keep their vertices (MikkTSpace joins the
-    corners of a vertex that agree in UV and normal).  Zeros (the normal map then leaves the
-    normal alone, as Cycles without tangents) where they cannot be computed."""
+    the normals Cycles gives it (cycles_tangent_normals) as custom normals of a triangle mesh
+    built for it; the corners keep their vertices (MikkTSpace joins the corners of a vertex
+    that agree in UV and normal).  ``scratch()``: a context manager giving a mesh outside
+    the blend data to build it in (MeshCache.uv_tangents: the object's to_mesh(), cleared;
+    never a new datablock of bpy.data, which a render's thread must not add), or None.
+    Zeros (the normal map then leaves the normal alone, as Cycles without tangents) where
+    they cannot be computed."""
     n_tri = local.n_triangles
     out = np.zeros((n_tri, 3, 4), np.float32)
     if n_tri == 0:
@@ -136,33 +139,33 @@ def read_uv_tangents(local: LocalMesh, name: str, warn) -> np.ndarray:
     if local.uv_name is None or local.tri_vert is None:
         warn(f"Mesh '{name}' has no UV map: its tangent-space normal maps are not applied")
         return out
-    import bpy
     n_v = int(local.tri_vert.max()) + 1
     pos = np.zeros((n_v, 3), np.float32)
     pos[local.tri_vert] = local.positions.reshape(-1, 3)
-    tmp = bpy.data.meshes.new("ppm-tangents")
-    try:
-        tmp.vertices.add(n_v)
-        tmp.attributes["position"].data.foreach_set("vector", pos.ravel())
-        tmp.loops.add(3 * n_tri)
-        tmp.attributes[".corner_vert"].data.foreach_set("value", local.tri_vert)
-        tmp.polygons.add(n_tri)
-        tmp.polygons.foreach_set("loop_start", np.arange(0, 3 * n_tri, 3, dtype=np.int32))
-        uv_name = tmp.uv_layers.new(name="UVMap").name
-        tmp.attributes[uv_name].data.foreach_set("vector", local.uvs.ravel())
-        # free custom normals (Blender 4.5+): the corners' normals exactly, in a memcpy
-        tmp.attributes.new("custom_normal", "FLOAT_VECTOR", "CORNER").data.foreach_set(
-            "vector", cycles_tangent_normals(local).ravel())
-        tmp.calc_tangents(uvmap=uv_name)
-        t, sign = np.empty(9 * n_tri, np.float32), np.empty(3 * n_tri, np.float32)
-        tmp.loops.foreach_get("tangent", t)
-        tmp.loops.foreach_get("bitangent_sign", sign)
-    except RuntimeError as e:
-        warn(f"Mesh '{name}': its tangents could not be computed ({e}); its "
-             "tangent-space normal maps are not applied")
-        return out
-    finally:
-        bpy.data.meshes.remove(tmp)
+    with scratch() as tmp:
+        try:
+            if tmp is None:
+                raise RuntimeError("no mesh to compute them in")
+            tmp.clear_geometry()
+            tmp.vertices.add(n_v)
+            tmp.attributes["position"].data.foreach_set("vector", pos.ravel())
+            tmp.loops.add(3 * n_tri)
+            tmp.attributes[".corner_vert"].data.foreach_set("value", local.tri_vert)
+            tmp.polygons.add(n_tri)
+            tmp.polygons.foreach_set("loop_start", np.arange(0, 3 * n_tri, 3, dtype=np.int32))
+            uv_name = tmp.uv_layers.new(name="UVMap").name
+            tmp.attributes[uv_name].data.foreach_set("vector", local.uvs.ravel())
+            # free custom normals (Blender 4.5+): the corners' normals exactly, in a memcpy
+            tmp.attributes.new("custom_normal", "FLOAT_VECTOR", "CORNER").data.foreach_set(
+                "vector", cycles_tangent_normals(local).ravel())
+            tmp.calc_tangents(uvmap=uv_name)
+            t, sign = np.empty(9 * n_tri, np.float32), np.empty(3 * n_tri, np.float32)
+            tmp.loops.foreach_get("tangent", t)
+            tmp.loops.foreach_get("bitangent_sign", sign)
+        except RuntimeError as e:
+            warn(f"Mesh '{name}': its tangents could not be computed ({e}); its "
+                 "tangent-space normal maps are not applied")
+            return out
     out[..., :3] = t.reshape(-1, 3, 3)
     out[..., 3] = sign.reshape(-1, 3)
     return out
@@ -244,11 +247,11 @@ class MeshCache:
         return (obj.as_pointer(), obj.data.as_pointer() if obj.data is not None else 0)
 
     @contextlib.contextmanager
-    def _mesh(self, obj):
+    def _mesh(self, obj, copy: bool = False):
         """The evaluated mesh to read (None where the object gives none): the object's data
-        (_direct), else a temporary mesh from to_mesh() (curves, surfaces, text, metaballs, a
-        mesh in Edit Mode), always cleared."""
-        if self._direct(obj):
+        (_direct, unless ``copy``), else a temporary mesh from to_mesh() (curves, surfaces,
+        text, metaballs, a mesh in Edit Mode), outside the blend data, always cleared."""
+        if self._direct(obj) and not copy:
             yield obj.data
             return
         try:
@@ -265,7 +268,8 @@ class MeshCache:
         key = self._key(obj)
         if key not in self._tangents:
             name = obj.data.name if obj.data is not None else obj.name
-            self._tangents[key] = read_uv_tangents(self.get(obj), name, self.warn)
+            self._tangents[key] = read_uv_tangents(self.get(obj), name, self.warn,
+                                                   lambda: self._mesh(obj, copy=True))
         return self._tangents[key]
 
     def attributes(self, obj, names: list) -> np.ndarray | None:
