@@ -26,8 +26,15 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alp
         w *= alpha;
     }
     if (sheen > CLOSURE_WEIGHT_CUTOFF) {
-        float3 tint = fmax(F3(nd->sheen_tint), (float3)(0.0f));
-        int k = shader_sheen(sd, sheen * tint * w, N, clamp(nd->sheen_roughness, 0.0f, 1.0f),
+        /* (Cycles: between the Normal and the Coat Normal by the coat's weight) */
+        float3 Nc = node_normal(sd, F3(nd->coat_normal)), Ns = N,
+               tint = fmax(F3(nd->sheen_tint), (float3)(0.0f));
+        if (coat > 0.0f && any(Nc != N)) {
+            Ns = mix(N, Nc, fmin(coat, 1.0f));
+            float ls = dot(Ns, Ns);
+            Ns = ls > 0.0f ? Ns * rsqrt(ls) : sd->N;
+        }
+        int k = shader_sheen(sd, sheen * tint * w, Ns, clamp(nd->sheen_roughness, 0.0f, 1.0f),
                              shading_tables);
         if (k >= 0) w = layering_weight(sd->c[k].weight, w);
     }

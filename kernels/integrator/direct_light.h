@@ -396,7 +396,7 @@ inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, in
     bool transmit = (b.label & LABEL_TRANSMIT) != 0;
     uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
     float pdf_b = b.pdf;      /* next-event estimation's density for its closures (mis_mask) */
-    if (mis_mask != mask && !isinf(pdf_b)) shader_eval(sd, b.wo, mis_mask, &pdf_b);
+    if (mis_mask != mask && !isinf(pdf_b)) pdf_b = shader_mis_pdf(sd, b.wo, mask, mis_mask, pdf_b);
     return b.weight
            * emitter_along(scene,
                            offset_ray(p, transmit ? -sd->Ng : sd->Ng,

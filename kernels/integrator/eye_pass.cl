@@ -241,7 +241,8 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         BsdfSample b;
         if (!shader_sample(&sd, MASK_CONTINUE, uv.xyz, &b)) break;
         float pdf_mis = b.pdf; /* the density the emitter it finds is weighed against */
-        if (mixed && !isinf(pdf_mis)) shader_eval(&sd, b.wo, MASK_ALL, &pdf_mis);
+        if (mixed && !isinf(pdf_mis))
+            pdf_mis = shader_mis_pdf(&sd, b.wo, MASK_CONTINUE, MASK_ALL, pdf_mis);
         beta *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
         o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng, scene->emitter_info->offset_scale);

@@ -104,8 +104,8 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             term = path_limit(path, depth, lp);
             counts = set != MASK_SPECULAR;
             prev_pdf = b.pdf;
-            if (vertex == 0 && nee_all && !isinf(b.pdf))
-                shader_eval(sd, b.wo, MASK_ALL, &prev_pdf); /* the eye pass's NEE's density */
+            if (vertex == 0 && nee_all && !isinf(b.pdf)) /* the eye pass's NEE's density */
+                prev_pdf = shader_mis_pdf(sd, b.wo, set, MASK_ALL, b.pdf);
             prev_n = sd->N;
             prev_p = p;
             mask = bounce_visibility(b.label);
