@@ -28,8 +28,9 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
     float3 o, d, flux;
     float rs;
     float2 nee;
+    bool delta;
     int caster;
-    if (!emit_photon(scene, &rng, false, &o, &d, &flux, &rs, &nee, &caster)) return;
+    if (!emit_photon(scene, &rng, false, &o, &d, &flux, &rs, &nee, &delta, &caster)) return;
     uint mask = VIS_SHADOW;
 #if PPM_ABSORPTION
     Media media;

@@ -97,7 +97,7 @@ def camera_rays(scene, w: int, h: int):
     return m[:3, 3].copy(), d
 
 
-def _sphere_t(o, d, center, radius):
+def sphere_hit_t(o, d, center, radius):
     """Nearest positive hit distance of rays o + t d with a sphere (inf where none)."""
     oc = o - np.asarray(center, float)
     b = d @ oc
@@ -120,7 +120,7 @@ def caustic_mask(scene, name: str, w: int, h: int) -> np.ndarray:
     p = o + t_floor[..., None] * d
     mask = np.isfinite(t_floor) & (np.abs(p[..., 0]) <= 2) & (np.abs(p[..., 1]) <= 2)
     for center, radius in spec["occluders"]:
-        mask &= _sphere_t(o, d, center, radius) > t_floor
+        mask &= sphere_hit_t(o, d, center, radius) > t_floor
     if spec["kind"] == "disk":
         c = np.asarray(spec["center"], float)
         mask &= np.hypot(p[..., 0] - c[0], p[..., 1] - c[1]) <= spec["radius"]
@@ -155,7 +155,7 @@ def excluded_pixels(scene, name: str, w: int, h: int) -> np.ndarray:
         return np.zeros((h, w), bool)
     o, d = camera_rays(scene, w, h)
     # the bulb's radius is 0.15; a pixel margin keeps its anti-aliased edge out too
-    return np.isfinite(_sphere_t(o, d, BULB_CENTER, 0.15 + 1.5 * 2.0 / w))
+    return np.isfinite(sphere_hit_t(o, d, BULB_CENTER, 0.15 + 1.5 * 2.0 / w))
 
 
 def set_mnee(name: str, on: bool) -> None:
