@@ -148,7 +148,7 @@ def _quick_bench(cli, tmp_path, scenes):
             # the exact reference renders every pixel, the ball's too: none left out
             assert s["excluded_pixels"] == 0
         elif name not in ("cornell_box", "many_lights", "hdri_sun", "glossy_metal",
-                          "pool_caustic"):
+                          "clamped_caustic", "pool_caustic"):
             # (Cycles' leave none out, nor does the pool's, which sees the floor in every pixel)
             # (the light tracer's leave out what it cannot render: at 16 x 16 the filter's
             # reach is a large share)
@@ -172,6 +172,12 @@ def _quick_bench(cli, tmp_path, scenes):
             assert 0.8 < check["mean_over_reference"] < 1.25
     if "glass_caustic" in scenes:
         assert "light_trace_check" not in res["scenes"]["glass_caustic"]
+    if "clamped_caustic" in scenes:
+        # rendered with its clamp, every curve and its reference; no light-tracing check (light
+        # tracing renders the unclamped image)
+        s = res["scenes"]["clamped_caustic"]
+        assert s["light_paths"] == {"sample_clamp_direct": 100.0, "sample_clamp_indirect": 100.0}
+        assert "light_trace_check" not in s
     if "pool_caustic" in scenes:
         # the pool: no light tracing renders a floor seen through water
         assert "light_trace_check" not in res["scenes"]["pool_caustic"]

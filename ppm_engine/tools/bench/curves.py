@@ -105,6 +105,7 @@ from ppm_engine.tools.bench.references import References
 from ppm_engine.tools.bench.report import machine_info
 from ppm_engine.tools.bench.scenes import (
     CAUSTIC_MASKS,
+    LIGHT_PATHS,
     caustic_mask,
     excluded_pixels,
     set_light_paths,
@@ -281,6 +282,7 @@ class Bench(References):
         out = {"resolution": [w, h], "caustic_mask_pixels": int(cmask.sum()),
                "excluded_pixels": int((~keep).sum())}
         out["caustic_mask"] = CAUSTIC_MASKS[name]["note"]
+        out["light_paths"] = LIGHT_PATHS.get(name, {})      # beyond 12 bounces, no clamping
 
         # reference: two independent halves
         ref_engine = REFERENCE_ENGINE[name]
@@ -328,36 +330,14 @@ class Bench(References):
         regions, region_noise, out["regions"] = self.regions(scene, ref_engine, keep, halves)
         out["pixels_counted"] = int(keep.sum())
         np.save(self.folder / f"{name}_reference.npy", ref)
-        # (not under a clamp: light tracing renders the unclamped image)
+        # the light tracer cross-checked (references.light_trace_check), not under a clamp:
+        # light tracing renders the unclamped image
         clamped = scene.cycles.sample_clamp_direct > 0 or scene.cycles.sample_clamp_indirect > 0
         if ref_engine in ("CYCLES", "EXACT", "LUXCORE_LIGHT") and not clamped:
-            # the light tracer cross-checked with Cycles where both converge, on
-            # point_caustic the mesh ball's light tracing against the exact sphere's, and
-            # where LuxCore's light tracer is the reference, against that
             self.progress(f"[{name}] light-tracing check, {ref_seconds:g} s")
-            lt, _, info, cover = self.light_traced(ref_seconds, REF_SEEDS[0] + 7)
-            both = cover & keep
-            check = {
-                "reference": ref_engine, "seconds": ref_seconds, **info,
-                "pixels": int(both.sum()),
-                "mean_over_reference": float(lt[both].mean() / ref[both].mean()),
-                "rmse": errors(lt, ref, both)["rmse"],
-                "reference_noise_rmse": errors(halves[0], halves[1], both)["rmse"] / 2}
-            if ref_engine in ("EXACT", "LUXCORE_LIGHT") and (cmask & cover).any():
-                # the caustic: where the 48 x 24 mesh's focus differs from the sphere's (on
-                # point_caustic), where the two light tracers differ (LuxCore's)
-                c = cmask & cover
-                focus = np.unravel_index(int(np.argmax(np.where(c, ref[..., 0], -1.0))),
-                                         c.shape)
-                check.update({
-                    "caustic_pixels": int(c.sum()),
-                    "caustic_mean_over_reference": float(lt[c].mean() / ref[c].mean()),
-                    "caustic_rmse": errors(lt, ref, c)["rmse"],
-                    "caustic_reference_noise_rmse": errors(halves[0], halves[1], c)["rmse"] / 2,
-                    "focus_pixel": [int(focus[0]), int(focus[1])],
-                    "focus_reference": float(ref[focus].mean()),
-                    "focus_light_trace": float(lt[focus].mean())})
-            out["light_trace_check"] = check
+            out["light_trace_check"] = self.light_trace_check(ref_engine, ref, halves, keep,
+                                                              cmask, ref_seconds,
+                                                              REF_SEEDS[0] + 7)
 
         # "ours": the default (the estimator of indirect light chosen per scene);
         # "ours_photons": the paper's photons for all indirect light, in the same run;
