@@ -106,7 +106,8 @@ __kernel void clear_table(__global ulong2 *table, uint n) {
  * kept is the same whatever runs beside the render (a viewport, another process) and the same
  * seed gives the same image.  Independent of the photon's flux: the pick stays uniform. */
 inline uint photon_key(uint seed, uint pass, float4 p) {
-    uint id = pcg_hash(as_uint(p.x) ^ pcg_hash(as_uint(p.y) ^ pcg_hash(as_uint(p.z) ^ pcg_hash(as_uint(p.w)))));
+    uint id = pcg_hash(as_uint(p.x)
+                       ^ pcg_hash(as_uint(p.y) ^ pcg_hash(as_uint(p.z) ^ pcg_hash(as_uint(p.w)))));
     return rng_seed(seed, pass, id, 3u) | 1u;
 }
 

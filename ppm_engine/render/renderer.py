@@ -39,6 +39,7 @@ from ppm_engine.render.passes import (
 from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
 from ppm_engine.render.stats import PassStats
 from ppm_engine.scene.arrays import SceneArrays
+from ppm_engine.scene.guide import GUIDE_BINS
 from ppm_engine.scene.light_paths import with_max_bounces
 
 
@@ -97,9 +98,17 @@ class Renderer:
         self.film = Film(dev, w, h)
         self.film.exposure = float(self.scene.scene.camera["exposure"][0])
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
+        # the photon guides (ppm_engine/scene/guide.py): nothing learned at a new render's start
+        guides = self.scene.guides
+        guides.reset()
+        self.scene.upload_guides()
+        size = 4 * max(len(guides), 1) * GUIDE_BINS
+        if getattr(self, "guide_stats", None) is None or self.guide_stats.size != size:
+            self.guide_stats = dev.buffer(size, "photon guides' counts")
+        cl.enqueue_fill_buffer(self.queue, self.guide_stats, np.uint32(0), 0, size)
         self.context = ctx = PassContext(dev, self.scene, self.defines, film=self.film,
                                          vps=self.vps, photon_map=self.photon_map,
-                                         counters=self.counters)
+                                         counters=self.counters, guide_stats=self.guide_stats)
         self.eye = EyePass(ctx)
         # the photon pass and the gather are built when first used: a scene whose indirect
         # light is all eye paths never compiles them (half of a new scene's kernel builds)
@@ -120,6 +129,9 @@ class Renderer:
                         if self.photons_needed and self.path_indirect else 0)
         self.caster_counts = np.zeros((self.casters, 2))   # learn_caster_weights' sums
         self.aimed = bool(self.casters) and o.skip_unaimed_caustics
+        # photons of the point, spot and area lights guided where they are stored
+        self.guided = (self.photons_needed and not self.aimed and len(guides) > 0
+                       and o.skip_unguided_photons)
         # this render's photons per pass: fewer where they are aimed (each costs more)
         self.photon_count = (o.aimed_photons_for(self.n_pixels, self.scene.caster_share)
                              if self.aimed else self.photons_per_pass)
@@ -254,7 +266,7 @@ class Renderer:
                                4 * len(PER_PASS))
         it = Iteration(pass_index, o, photons=self.photon_count if self.photons_needed else 0,
                        path_indirect=self.path_indirect, lt_kappa=self.lt_kappa,
-                       interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
+                       interrupt=interrupt, piece=self.INTERRUPT_PIXELS, guided=self.guided)
         events = self.eye.enqueue(q, it)
         if events is None:
             q.finish()
@@ -290,6 +302,8 @@ class Renderer:
         self.passes_done += 1
         if self.aimed:
             self.learn_caster_weights(counters)
+        if self.guided:
+            self.learn_guides()
         return self._stats(counters, grid, events, converge, time.perf_counter() - t0)
 
     # learn_caster_weights: a caster's yield starts as this many photons' worth of its material's
@@ -316,6 +330,24 @@ class Renderer:
         prior = self.LEARN_PRIOR * static * (stored.sum() / sent.sum())
         y = (stored + prior) / (sent + self.LEARN_PRIOR)
         self.scene.set_caster_weights(np.maximum(y / y.max(), self.LEARN_FLOOR))
+
+    def learn_guides(self) -> None:
+        """The guided lights' bins from the stores counted per bin (ppm_engine/scene/guide.py),
+        after passes 1, 2, 4, 8, 16 and every 16th, as learn_caster_weights: each pass's
+        photons carry the density they were drawn with, so the image stays unbiased."""
+        import pyopencl as cl
+        guides, em = self.scene.guides, self.scene.emitters
+        total = float(em.power.sum())
+        if not total > 0:
+            return
+        guides.count_sent(self.photon_count, em.power / total)
+        n = self.passes_done
+        if n & (n - 1) and n % 16:
+            return
+        stored = np.empty(len(guides) * GUIDE_BINS, np.uint32)
+        cl.enqueue_copy(self.queue, stored, self.guide_stats)
+        if guides.learn(stored):
+            self.scene.upload_guides()
 
     def _stats(self, counters, grid, events, converged: bool, seconds: float) -> PassStats:
         if converged:

@@ -28,7 +28,16 @@ def kernel_dir() -> Path:
 SHADING_GROUP = 64
 
 
-def global_size(n: int, wg: int = 64) -> int:
+# Work-group size of every launch that names none.  Never the driver's choice: PoCL compiles a
+# kernel anew for each work-group size it is launched with (its kernel cache keeps one binary per
+# size), and the size it chooses follows the global size (often the whole launch, up to 4096):
+# every scene with another triangle or pixel count compiled the BVH's, the film's and the hash's
+# kernels again (a cold test run compiled the BVH's nine kernels 320 times).  One size, one
+# compile; 64 keeps GPUs' groups whole.
+WORK_GROUP = 64
+
+
+def global_size(n: int, wg: int = WORK_GROUP) -> int:
     """``n`` work-items rounded up to whole work-groups of ``wg`` (at least one group)."""
     return max(wg, (n + wg - 1) // wg * wg)
 
@@ -67,8 +76,8 @@ class Launch:
 
     def __call__(self, queue, size: int, local: int | None = None, /, *, wait_for=None,
                  offset: int = 0, **args):
-        """Enqueue over ``global_size(size)`` work-items (work-group ``local``, or the driver's
-        choice), their ids from ``offset`` on; returns the event.  (The first three are
+        """Enqueue over ``global_size(size)`` work-items (work-group ``local``, WORK_GROUP
+        unless given), their ids from ``offset`` on; returns the event.  (The first three are
         positional-only: kernels have arguments named ``n``.)"""
         import pyopencl as cl
         if args.keys() != set(self.names):
@@ -77,8 +86,9 @@ class Launch:
             raise TypeError(f"kernel {self.kernel.function_name}: missing {missing}, "
                             f"unknown {unknown}")
         self.kernel.set_args(*(args[k] for k in self.names))
-        return cl.enqueue_nd_range_kernel(queue, self.kernel, (global_size(size, local or 64),),
-                                          (local,) if local else None, wait_for=wait_for,
+        local = local or WORK_GROUP
+        return cl.enqueue_nd_range_kernel(queue, self.kernel, (global_size(size, local),),
+                                          (local,), wait_for=wait_for,
                                           global_work_offset=(offset,) if offset else None)
 
 
