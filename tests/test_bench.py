@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from ppm_engine.tools.bench.curves import MERGE_SCENES, QUICK, SCENES
+from ppm_engine.tools.bench.curves import CAUSTIC_SCENES, MERGE_SCENES, QUICK, SCENES
 from ppm_engine.tools.bench.scoring import FIREFLY_MARGIN, brightest, fireflies
 
 pytest.importorskip("OpenEXR")
@@ -81,14 +81,15 @@ def _quick_bench(cli, tmp_path, scenes):
     assert list(res["scenes"]) == list(scenes)
     assert set(SCENES) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
                            "point_caustic", "rough_caustic", "far_caustic", "mirror_caustic",
-                           "pool_caustic", "many_lights", "hdri_sun", "glossy_metal"}
+                           "pool_caustic", "many_lights", "hdri_sun", "glossy_metal",
+                           "clamped_caustic"}
     if "many_lights" in scenes:
         tree = res["scenes"]["many_lights"]["light_tree"]
         assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1
         assert 0 < tree["share"] <= 1 and tree["bytes"] > 64 * tree["nodes"]
     for name, s in res["scenes"].items():
         curves = {"ours", "ours_photons", "cycles"} | (
-            {"cycles_mnee"} if "caustic" in name else set()) | (
+            {"cycles_mnee"} if name in CAUSTIC_SCENES else set()) | (
             {"ours_merge"} if name in MERGE_SCENES else set())
         if name == "mirror_caustic":          # LuxCore's curve where pyluxcore is installed
             if luxcore_installed:
@@ -129,7 +130,8 @@ def _quick_bench(cli, tmp_path, scenes):
         # cannot render), or this engine's light tracer where LuxCore's spot differs
         # (glass_caustic) or pyluxcore is not installed (the JSON says so)
         engine = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "many_lights": "CYCLES",
-                  "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "point_caustic": "EXACT",
+                  "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "clamped_caustic": "CYCLES",
+                  "point_caustic": "EXACT",
                   "rough_caustic": "EXACT", "far_caustic": "EXACT",
                   "pool_caustic": "EXACT_POOL"}.get(name, "LIGHT_TRACE")
         if name in ("bulb_box", "mirror_caustic"):
@@ -146,7 +148,7 @@ def _quick_bench(cli, tmp_path, scenes):
             # the exact reference renders every pixel, the ball's too: none left out
             assert s["excluded_pixels"] == 0
         elif name not in ("cornell_box", "many_lights", "hdri_sun", "glossy_metal",
-                          "pool_caustic"):
+                          "clamped_caustic", "pool_caustic"):
             # (Cycles' leave none out, nor does the pool's, which sees the floor in every pixel)
             # (the light tracer's leave out what it cannot render: at 16 x 16 the filter's
             # reach is a large share)
@@ -170,6 +172,12 @@ def _quick_bench(cli, tmp_path, scenes):
             assert 0.8 < check["mean_over_reference"] < 1.25
     if "glass_caustic" in scenes:
         assert "light_trace_check" not in res["scenes"]["glass_caustic"]
+    if "clamped_caustic" in scenes:
+        # rendered with its clamp, every curve and its reference; no light-tracing check (light
+        # tracing renders the unclamped image)
+        s = res["scenes"]["clamped_caustic"]
+        assert s["light_paths"] == {"sample_clamp_direct": 100.0, "sample_clamp_indirect": 100.0}
+        assert "light_trace_check" not in s
     if "pool_caustic" in scenes:
         # the pool: no light tracing renders a floor seen through water
         assert "light_trace_check" not in res["scenes"]["pool_caustic"]

@@ -25,6 +25,7 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
               resolution: int = 128, device: str = "", progress=print) -> dict:
     from ppm_engine.blender.harness import cycles_reference, ensure_registered, unbiased_light_paths
     from ppm_engine.tools.bench.curves import Bench, ppm_settings, render
+    from ppm_engine.tools.bench.scenes import set_light_paths
     ensure_registered()
     if seeds < 2:
         raise ValueError("the noise needs at least two seeds")
@@ -44,6 +45,7 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
                     scene.ppm.passes = passes
                     scene.ppm.time_limit = 0
                     unbiased_light_paths(scene, bounces)
+                set_light_paths(scene, scene_name)        # the scene's own clamp
                 img, w, _info = render(scene, Path(tmp) / f"{engine}_{seed}.exr")
                 imgs.append(img)
                 wall.append(w)
