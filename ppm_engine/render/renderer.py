@@ -129,8 +129,9 @@ class Renderer:
                         if self.photons_needed and self.path_indirect else 0)
         self.caster_counts = np.zeros((self.casters, 2))   # learn_caster_weights' sums
         self.aimed = bool(self.casters) and o.skip_unaimed_caustics
-        # photons of the point, spot and area lights guided where they are stored
-        self.guided = (self.photons_needed and not self.aimed and len(guides) > 0
+        # where photons carry the light, those of the point, spot and area lights guided
+        # where they are stored (caustic photons have their aim)
+        self.guided = (self.photons_needed and not self.path_indirect and len(guides) > 0
                        and o.skip_unguided_photons)
         # this render's photons per pass: fewer where they are aimed (each costs more)
         self.photon_count = (o.aimed_photons_for(self.n_pixels, self.scene.caster_share)
