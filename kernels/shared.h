@@ -64,6 +64,7 @@
 /* BSDF node flags (scene/arrays.py NODE_FLAG_*) */
 #define NODE_FLAG_MULTI_GGX 1u
 #define NODE_FLAG_CONDUCTOR 2u
+#define NODE_FLAG_NO_BUMP_CORRECTION 4u
 
 /* image texture extension modes and flags (scene/arrays.py TEX_*) */
 #define TEX_REPEAT 0u
@@ -126,6 +127,13 @@
 
 /* the gather's region and cells (ppm_engine/render/passes/gather.py) */
 #define MAX_CELLS_PER_AXIS 5
+
+/* photon guides' bins, floats per light, lights (ppm_engine/scene/guide.py) */
+#define GUIDE_ROWS 16
+#define GUIDE_COLS 32
+#define GUIDE_BINS 512
+#define GUIDE_STRIDE 516
+#define MAX_GUIDED 16
 
 /* the visible points' bounds reduction's work-group (ppm_engine/render/passes/hash_build.py
  * HashBuild.BOUNDS_GROUP) */
@@ -359,7 +367,9 @@ typedef struct {
     X(float, world_map)          /* world importance map */ \
     X(float4, casters)           /* casters' bounding spheres (ppm_engine/scene/casters.py) */ \
     X(float, caster_weight)      /* casters' weights */ \
-    X(float, caustic_cdf)
+    X(float, caustic_cdf) \
+    X(float, guide) \
+    X(int, guide_slot)           /* each light's photon guide (-1: none) */
 
 /* --- the film's per-pixel buffers (ppm_engine/render/film.py FILM_BUFFERS), in the kernels'
  * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'

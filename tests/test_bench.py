@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from ppm_engine.tools.bench.curves import MERGE_SCENES, QUICK, SCENES
+from ppm_engine.tools.bench.curves import CAUSTIC_SCENES, MERGE_SCENES, QUICK, SCENES
 from ppm_engine.tools.bench.scoring import FIREFLY_MARGIN, brightest, fireflies
 
 pytest.importorskip("OpenEXR")
@@ -48,7 +48,7 @@ def test_firefly_check_counts_the_pixels_brighter_than_the_reference_s_range():
 # with a Cycles reference and the exact sphere's (the bulb box renders in test_e2e.py), 100 s
 # less of the tier's longest test than all nine below; the slow tier runs every reference and
 # check (the closed form's, LuxCore's light tracer or its fallback, the photons' curve): the
-# nine, and all thirteen
+# nine, and all fourteen
 QUICK_SCENES = ("cornell_box", "point_caustic")
 CHECK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
                 "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights")
@@ -82,14 +82,14 @@ def _quick_bench(cli, tmp_path, scenes):
     assert set(SCENES) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
                            "point_caustic", "rough_caustic", "far_caustic", "mirror_caustic",
                            "pool_caustic", "many_lights", "hdri_sun", "glossy_metal",
-                           "sun_cone"}
+                           "clamped_caustic", "sun_cone"}
     if "many_lights" in scenes:
         tree = res["scenes"]["many_lights"]["light_tree"]
         assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1
         assert 0 < tree["share"] <= 1 and tree["bytes"] > 64 * tree["nodes"]
     for name, s in res["scenes"].items():
         curves = {"ours", "ours_photons", "cycles"} | (
-            {"cycles_mnee"} if "caustic" in name else set()) | (
+            {"cycles_mnee"} if name in CAUSTIC_SCENES else set()) | (
             {"ours_merge"} if name in MERGE_SCENES else set())
         if name == "mirror_caustic":          # LuxCore's curve where pyluxcore is installed
             if luxcore_installed:
@@ -130,7 +130,8 @@ def _quick_bench(cli, tmp_path, scenes):
         # cannot render), or this engine's light tracer where LuxCore's spot differs
         # (glass_caustic) or pyluxcore is not installed (the JSON says so)
         engine = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "many_lights": "CYCLES",
-                  "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "sun_cone": "CYCLES",
+                  "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "clamped_caustic": "CYCLES",
+                  "sun_cone": "CYCLES",
                   "point_caustic": "EXACT",
                   "rough_caustic": "EXACT", "far_caustic": "EXACT",
                   "pool_caustic": "EXACT_POOL"}.get(name, "LIGHT_TRACE")
@@ -148,7 +149,7 @@ def _quick_bench(cli, tmp_path, scenes):
             # the exact reference renders every pixel, the ball's too: none left out
             assert s["excluded_pixels"] == 0
         elif name not in ("cornell_box", "many_lights", "hdri_sun", "glossy_metal",
-                          "sun_cone", "pool_caustic"):
+                          "clamped_caustic", "sun_cone", "pool_caustic"):
             # (Cycles' leave none out, nor does the pool's, which sees the floor in every pixel)
             # (the light tracer's leave out what it cannot render: at 16 x 16 the filter's
             # reach is a large share)
@@ -172,6 +173,12 @@ def _quick_bench(cli, tmp_path, scenes):
             assert 0.8 < check["mean_over_reference"] < 1.25
     if "glass_caustic" in scenes:
         assert "light_trace_check" not in res["scenes"]["glass_caustic"]
+    if "clamped_caustic" in scenes:
+        # rendered with its clamp, every curve and its reference; no light-tracing check (light
+        # tracing renders the unclamped image)
+        s = res["scenes"]["clamped_caustic"]
+        assert s["light_paths"] == {"sample_clamp_direct": 100.0, "sample_clamp_indirect": 100.0}
+        assert "light_trace_check" not in s
     if "pool_caustic" in scenes:
         # the pool: no light tracing renders a floor seen through water
         assert "light_trace_check" not in res["scenes"]["pool_caustic"]

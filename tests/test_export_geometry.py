@@ -88,6 +88,45 @@ def test_adaptive_subdivision_renders_the_modifier_levels_with_a_warning(empty):
     assert any("Diced" in w and "adaptive subdivision" in w for w in s.warnings)
 
 
+def test_final_renders_read_the_render_levels_in_object_and_edit_mode(empty, tiny, render_exr,
+                                                                     monkeypatch, tmp_path):
+    """A Subdivision Surface modifier at viewport level 1 and render level 2: a final render
+    (F12, and python -m ppm_engine render, which runs the same operator: the render
+    depsgraph) exports level 2, the viewport's depsgraph level 1.  The same with the object
+    in Edit Mode, whose evaluated data is then the edit mesh's wrapper, without the corner
+    arrays (read through to_mesh(), as Cycles does; the export failed on it), the tangents
+    of its normal map the same."""
+    import ppm_engine.blender.export as export_package
+    seen = []
+    real = export_package.export_scene
+
+    def recorded(depsgraph, *args, **kw):
+        seen.append(real(depsgraph, *args, **kw))
+        return seen[-1]
+    monkeypatch.setattr(export_package, "export_scene", recorded)
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1)       # 20 triangles
+    o = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    mod = o.modifiers.new("Subdivision", "SUBSURF")
+    mod.levels, mod.render_levels = 1, 2                        # 3 quads a triangle, 4 a quad
+    m = bpy.data.materials.new("nm")
+    nm = m.node_tree.nodes.new("ShaderNodeNormalMap")
+    m.node_tree.links.new(nm.outputs[0], m.node_tree.nodes["Principled BSDF"].inputs["Normal"])
+    o.data.materials.append(m)
+    tiny(empty, width=8, height=8, passes=1)                    # (no light: nothing renders)
+    render_exr(tmp_path / "object_mode.exr")
+    final = seen[-1]
+    assert final.n_triangles == 20 * 3 * 4 * 2 and final.uv_tangents.shape[0] == 480
+    assert export().n_triangles == 20 * 3 * 2
+    bpy.ops.object.mode_set(mode="EDIT")
+    render_exr(tmp_path / "edit_mode.exr")
+    edited = seen[-1]
+    np.testing.assert_array_equal(edited.positions, final.positions)
+    np.testing.assert_array_equal(edited.uv_tangents, final.uv_tangents)
+    assert export().n_triangles == 20 * 3 * 2
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
 def test_visibility_flags(empty):
     a = add_plane("Seen")
     b = add_plane("NoShadow", loc=(5, 0, 0))
@@ -141,6 +180,27 @@ def test_uvs_and_tangents_of_the_rendered_uv_map(empty):
     np.testing.assert_allclose(s.uvs.reshape(-1, 2), first[loops], atol=1e-6)
     # the first map's u runs along +x: so does its tangent (the second's along -y)
     assert (s.uv_tangents[..., 0] > 0.99).all(), s.uv_tangents[0]
+
+
+def test_tangents_of_a_mesh_with_ngons(empty):
+    """A cylinder's caps are n-gons: Cycles computes the Normal Map's tangents on the
+    triangles it renders; Blender's calc_tangents on the mesh itself refuses n-gons ("only
+    tris/quads": the map was not applied, with a warning).  Unit tangents at every corner,
+    in the corner's tangent plane."""
+    bpy.ops.mesh.primitive_cylinder_add(vertices=8)
+    o = bpy.context.active_object
+    m = bpy.data.materials.new("nm")
+    nm = m.node_tree.nodes.new("ShaderNodeNormalMap")
+    m.node_tree.links.new(nm.outputs[0], m.node_tree.nodes["Principled BSDF"].inputs["Normal"])
+    o.data.materials.append(m)
+    meshes = len(bpy.data.meshes)
+    s = export()
+    assert not s.warnings, s.warnings
+    assert len(bpy.data.meshes) == meshes        # (no datablock added, even for a while)
+    t = s.uv_tangents[..., :3]
+    np.testing.assert_allclose(np.linalg.norm(t, axis=-1), 1.0, atol=1e-5)
+    np.testing.assert_allclose((t * s.normals).sum(-1), 0.0, atol=1e-5)
+    assert set(np.unique(s.uv_tangents[..., 3])) <= {-1.0, 1.0}
 
 
 def test_the_rendered_uv_map_as_cycles(empty, cycles, render_exr, tiny, tmp_path):

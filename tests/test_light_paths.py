@@ -233,3 +233,55 @@ def test_caustics_toggles_as_cycles(name, bpy, tmp_path, render_exr, tiny):
     glossy reflection or transmission right after a diffuse bounce is not made, by the eye
     paths (shader.h shader_caustics_off) nor by photons (path_state.h path_caustic_off)."""
     _setting_agrees(bpy, tmp_path, render_exr, tiny, *CAUSTICS[name], 0.06)
+
+
+# The bench's clamped_caustic at 24 x 24: a polished metal ball (roughness 0.16) under a
+# radius-0 point light in a lamp shade, the wall and the floor around the lit pool lit only by
+# the ball's glossy reflection.  Cycles finds that light by next-event estimation at the ball
+# after a diffuse bounce, in rare bright samples, so Clamp Indirect 100 takes Cycles' image from
+# a mean of 0.77 to 0.46 (the wall's blocks to 0.45-0.6 of their light); the photons that carry
+# it are clamped as those samples would be (photon_pass.cl, gather.cl), or it stays at 1.3-4 x
+# Cycles' in every block of the wall and the floor beside the pool.  Clamp off, the control:
+# Cycles' samples of that light are fireflies (its blocks move by 40 % at 2048 samples), so a
+# long reference and the mean of what the ball does not cover (its highlight of the point
+# light is one subpixel spot for both engines).
+CLAMPED_CAUSTIC = {100.0: dict(samples=2048, passes=128, rtol=0.12, atol=0.015, mean=0.04,
+                               ball=True),
+                   0.0: dict(samples=16384, passes=512, rtol=0.3, atol=0.02, mean=0.06,
+                             ball=False)}
+
+
+@pytest.mark.parametrize("clamp", [100.0, pytest.param(0.0, marks=pytest.mark.slow)])
+def test_glossy_caustic_clamped_as_cycles(clamp, bpy, tmp_path, render_exr, tiny):
+    """A glossy caustic of a point light under Clamp Direct and Indirect 100 (and, as the
+    control, unclamped) against Cycles with the same clamp: the image's mean and every 8 x 8
+    block's (unclamped, without the ball's pixels)."""
+    from ppm_engine.blender.harness import cycles_reference
+    from ppm_engine.blender.scenes import build_example
+    from ppm_engine.blender.scenes.caustics import CLAMPED_BALL
+    from ppm_engine.tools.bench.scenes import camera_rays, sphere_hit_t
+    from tests.helpers.blender_scenes import square
+    k = CLAMPED_CAUSTIC[clamp]
+    scene = square(build_example("clamped_caustic"), W)
+    o, d = camera_rays(scene, W, W)
+    rest = ~np.isfinite(sphere_hit_t(o, d, *CLAMPED_BALL)) | k["ball"]   # the pixels compared
+
+    def clamped():
+        scene.cycles.sample_clamp_direct = scene.cycles.sample_clamp_indirect = clamp
+
+    cycles_reference(scene, samples=k["samples"], seed=1)
+    clamped()
+    ref = render_exr(tmp_path / "cycles.exr")
+    tiny(scene, width=W, height=W, passes=k["passes"], photons=1 << 12)
+    clamped()
+    ours = render_exr(tmp_path / "ours.exr")
+    a, b = ours[rest].mean(), ref[rest].mean()
+    assert abs(a / b - 1.0) < k["mean"], f"mean ours {a:.4f}, Cycles {b:.4f}"
+    w = rest[..., None].astype(np.float64)
+
+    def blocks(img):
+        s = (img * w).reshape(W // 8, 8, W // 8, 8, 3).sum(axis=(1, 3)).mean(axis=-1)
+        return s / w.reshape(W // 8, 8, W // 8, 8).sum(axis=(1, 3))
+    a, b = blocks(ours), blocks(ref)
+    bad = np.abs(a - b) > k["rtol"] * b + k["atol"]
+    assert not bad.any(), f"blocks ours / Cycles:\n{np.round(a / np.maximum(b, 1e-6), 3)}"

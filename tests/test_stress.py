@@ -382,8 +382,7 @@ def test_light_inside_a_closed_box_does_not_leak(indirect):
     def add(mb):
         w = mb.material("box", (0.8, 0.8, 0.8))
         mb.box((-0.5, -0.5, 0.2), (0.5, 0.5, 1.2), w)
-    # (every pass with photons: none of them reaches the image, so by default only passes 0, 1,
-    # 2 and 4 would run them, Renderer.photons_due)
+    # (photons every pass: none reaches the image, so by default few would, Renderer.photons_due)
     img, stats, _ = render(floor_scene(lights=point_light((0, 0, 0.7), 1000.0), extra=add),
                            passes=8, indirect=indirect, skip_unused_photons=False)
     if indirect == "photons":

@@ -208,6 +208,33 @@ def test_pause_holds_the_image_and_resume_goes_on(bpy, lookdev):
     assert s.frame().passes == PASSES + 3 and s.actions == ["new"]   # went on, no restart
 
 
+def test_a_viewport_opened_paused_shows_its_first_image_and_says_so(bpy, tiny):
+    """Pause Viewport on when Rendered shading opens: the session built its renderer and
+    waited, the status stuck at building.  The first image comes (the reduced levels, then one
+    pass at full resolution), the status says "Rendering Paused" (Cycles' words) and no more
+    passes run; resuming goes on to the pass count."""
+    from ppm_engine.render.viewport_session import ViewportSession
+    scene = sphere_scene(bpy, tiny)
+    options, start = _options(scene)
+    s = ViewportSession(options, start)
+    try:
+        s.pause(True)
+        cam = view(bpy, scene)
+        s.update_view(cam)
+        s.update_scene(_export(bpy, scene, cam))
+        assert s.wait(timeout=300), s.status()
+        f = s.frame()
+        assert f is not None and (f.width, f.height, f.divider, f.passes) == (W, H, 1, 1)
+        assert f.generation == 3 and s.status().startswith("Rendering Paused · ")
+        time.sleep(0.3)
+        assert s.frame().generation == 3 and not s.busy            # held
+        s.pause(False)
+        assert s.wait(timeout=300) and s.frame().passes == PASSES
+        assert s.actions == ["new"]                                 # went on, no restart
+    finally:
+        assert s.close(timeout=30)
+
+
 def test_errors_show_in_the_status_and_close_frees_the_device_memory(bpy, lookdev):
     scene, s = lookdev
     bad = view(bpy, scene)

@@ -100,18 +100,24 @@ def test_engine_flags_for_the_viewport_and_previews(bpy):
     assert callable(PPMRenderEngine.view_update) and callable(PPMRenderEngine.view_draw)
 
 
-def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny):
+def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny, capsys):
     """The engine's view_update hand-off (ViewportDriver) on the real depsgraph updates of
     edits (a depsgraph_update_post handler stands in for Blender's call; without a 3D view the
-    scene camera renders).  Only the header's text is recorded: update_stats is the one engine
-    call view_update makes."""
-    from ppm_engine.blender.viewport import ViewportDriver
+    scene camera renders).  The header's text and the reports are recorded (redraws are
+    test_viewport_draw.py's)."""
+    from ppm_engine.blender.viewport import EXPORT_HINT, ViewportDriver
     scene = sphere_scene(bpy, tiny)
-    header = []
+    header, reports = [], []
 
     class Engine:
         def update_stats(self, _stats, info):
             header.append(info)
+
+        def report(self, kind, message):
+            reports.append((set(kind), message))
+
+        def tag_redraw(self):
+            pass
 
     drv, eng = ViewportDriver(), Engine()
 
@@ -148,6 +154,9 @@ def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny):
         edit(lambda: bpy.data.objects.remove(cam))                     # no camera, no 3D view
         assert drv.message is not None and "camera" in drv.message
         assert header[-1].startswith("Progressive Photon Mapping: ") and "camera" in header[-1]
+        assert header[-1].endswith(EXPORT_HINT)                       # and what to do
+        assert len(reports) == 1 and reports[0][0] == {'ERROR'} and "camera" in reports[0][1]
+        assert drv.message in capsys.readouterr().err                 # in the console
         assert s.frame() is not None                                  # the last image stays
         new_cam = bpy.data.objects.new("Camera2", bpy.data.cameras.new("Camera2"))
         new_cam.location, new_cam.rotation_euler = (0.0, -3.6, 1.4), (np.radians(78), 0, 0)

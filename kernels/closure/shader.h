@@ -277,6 +277,31 @@ inline float3 shader_eval(const ShaderData *sd, float3 wo, int mask, float *pdf)
     return f;
 }
 
+/* The density at wo of a sample of the closures in mis_mask, for a sample of those in mask
+ * (a subset) whose density over them was pdf_mask: the closures of mis_mask outside mask
+ * evaluated at wo, those of mask as pdf_mask has them.  Re-evaluating the sampled closure
+ * instead would lose its own density where its bump shadowing evaluates it to 0 (a driven
+ * normal's lobe below the smooth surface, which sampling keeps): Cycles' one-sample MIS keeps
+ * it (surface_shader_bsdf_sample_closure), and without it the sample's emitter was weighed
+ * to nothing against next-event estimation, which finds nothing there. */
+inline float shader_mis_pdf(const ShaderData *sd, float3 wo, int mask, int mis_mask,
+                            float pdf_mask) {
+    float sw_mask = 0.0f, sw_all = 0.0f, sum_pdf = 0.0f;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = &sd->c[k];
+        if (!closure_in(c, mis_mask)) continue;
+        sw_all += c->sample_weight;
+        if (closure_in(c, mask)) {
+            sw_mask += c->sample_weight;
+            continue;
+        }
+        float p;
+        closure_eval_bumped(sd, c, wo, &p);
+        if (p != 0.0f) sum_pdf += p * c->sample_weight;
+    }
+    return sw_all > 0.0f ? (pdf_mask * sw_mask + sum_pdf) / sw_all : 0.0f;
+}
+
 typedef struct {
     float3 wo;
     float3 weight;       /* f cos / pdf of the mixture: the path's throughput factor */

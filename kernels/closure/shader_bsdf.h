@@ -11,7 +11,7 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alp
                              float3 tangent, TABLES_ARG) {
     float w1 = nd->weight;
     float3 w = (float3)(w1), N = node_normal(sd, F3(nd->normal)),
-           cbase = fmin(base, (float3)(1.0f));
+           Nv = specular_normal(sd, N, nd->flags), cbase = fmin(base, (float3)(1.0f));
     float ior = fmax(nd->ior, 1e-5f), rough = clamp(nd->roughness, 0.0f, 1.0f);
     float metallic = clamp(nd->metallic, 0.0f, 1.0f);
     float3 spec_tint = fmax(F3(nd->edge_tint), (float3)(0.0f));
@@ -26,14 +26,21 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alp
         w *= alpha;
     }
     if (sheen > CLOSURE_WEIGHT_CUTOFF) {
-        float3 tint = fmax(F3(nd->sheen_tint), (float3)(0.0f));
-        int k = shader_sheen(sd, sheen * tint * w, N, clamp(nd->sheen_roughness, 0.0f, 1.0f),
+        /* (Cycles: between the Normal and the Coat Normal by the coat's weight) */
+        float3 Nc = node_normal(sd, F3(nd->coat_normal)), Ns = N,
+               tint = fmax(F3(nd->sheen_tint), (float3)(0.0f));
+        if (coat > 0.0f && any(Nc != N)) {
+            Ns = mix(N, Nc, fmin(coat, 1.0f));
+            float ls = dot(Ns, Ns);
+            Ns = ls > 0.0f ? Ns * rsqrt(ls) : sd->N;
+        }
+        int k = shader_sheen(sd, sheen * tint * w, Ns, clamp(nd->sheen_roughness, 0.0f, 1.0f),
                              shading_tables);
         if (k >= 0) w = layering_weight(sd->c[k].weight, w);
     }
     if (PPM_MICROFACET && coat > CLOSURE_WEIGHT_CUTOFF) {
         float cr = clamp(nd->coat_roughness, 0.0f, 1.0f), cior = fmax(nd->coat_ior, 1.0f);
-        float3 Nc = node_normal(sd, F3(nd->coat_normal));
+        float3 Nc = specular_normal(sd, node_normal(sd, F3(nd->coat_normal)), nd->flags);
         int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, coat * w, Nc, cr * cr, cr * cr, cior);
         if (k >= 0) {
             Closure *c = &sd->c[k];
@@ -54,7 +61,7 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alp
     }
     sd->emission += emission * w;
     if (PPM_MICROFACET && metallic > CLOSURE_WEIGHT_CUTOFF) {
-        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, metallic * w, N, al.x, al.y, 1.0f);
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, metallic * w, Nv, al.x, al.y, 1.0f);
         if (k >= 0) {
             sd->c[k].T = T;
             f82_setup(sd, k, cbase, fmin(spec_tint, (float3)(1.0f)), multi, shading_tables);
@@ -62,7 +69,7 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alp
         w *= 1.0f - metallic;
     }
     if (PPM_MICROFACET && tw > CLOSURE_WEIGHT_CUTOFF) {
-        int k = shader_microfacet(sd, CLOSURE_GGX_GLASS, tw * w, N, rough * rough, rough * rough,
+        int k = shader_microfacet(sd, CLOSURE_GGX_GLASS, tw * w, Nv, rough * rough, rough * rough,
                                   sd->backfacing ? 1.0f / ior : ior);
         if (k >= 0)
             schlick_ior_setup(sd, k, f0_from_ior(ior) * spec_tint, (float3)(1.0f), sqrt(cbase),
@@ -76,7 +83,7 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alp
         if (ior < 1.0f) eta = 1.0f / eta;
     }
     if (PPM_MICROFACET && eta != 1.0f) {
-        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, w, N, al.x, al.y, eta);
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, w, Nv, al.x, al.y, eta);
         if (k >= 0) {
             sd->c[k].T = T;
             schlick_ior_setup(sd, k, f0 * spec_tint, (float3)(1.0f), (float3)(0.0f), multi,
@@ -96,13 +103,14 @@ inline void principled_setup(ShaderData *sd, NODE_PTR nd, float3 base, float alp
 inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color, float3 emission,
                             float3 tangent, TABLES_ARG) {
     float w1 = nd->weight, rough = clamp(nd->roughness, 0.0f, 1.0f);
-    float3 N = node_normal(sd, F3(nd->normal)), w = (float3)(w1);
+    float3 N = node_normal(sd, F3(nd->normal)), Nv = specular_normal(sd, N, nd->flags),
+           w = (float3)(w1);
     bool multi = (nd->flags & NODE_FLAG_MULTI_GGX) != 0, has_t = dot(tangent, tangent) > 0.0f;
     int t = nd->type;
     if (t == NODE_DIFFUSE) {
         shader_diffuse(sd, color * w1, N, nd->roughness < 1e-5f ? 0.0f : rough, color);
     } else if (t == NODE_TRANSLUCENT) {
-        if (PPM_TRANSLUCENT) shader_alloc(sd, CLOSURE_TRANSLUCENT, color * w1, N);
+        if (PPM_TRANSLUCENT) shader_alloc(sd, CLOSURE_TRANSLUCENT, color * w1, Nv);
     } else if (t == NODE_TRANSPARENT) {
         shader_transparent(sd, color * w1);
     } else if (t == NODE_SHEEN) {
@@ -117,16 +125,16 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color, float3 em
             ax = an < 0.0f ? a / (1.0f + an) : a * (1.0f - an);
             ay = an < 0.0f ? a * (1.0f + an) : a / (1.0f - an);
         }
-        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, color * w1, N, ax, ay, 1.0f);
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, color * w1, Nv, ax, ay, 1.0f);
         if (k >= 0) {
-            sd->c[k].T = has_t ? rotate_tangent(tangent, N, nd->anisotropic_rotation)
+            sd->c[k].T = has_t ? rotate_tangent(tangent, Nv, nd->anisotropic_rotation)
                                : (float3)(0.0f);
             if (multi)
                 microfacet_preserve_energy(&sd->c[k], sd->wi, fmax(color, 0.0f), shading_tables);
         }
     } else if (t == NODE_METALLIC) {
         float2 al = aniso_alphas(rough, clamp(nd->anisotropic, 0.0f, 1.0f), has_t);
-        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, w, N, al.x, al.y, 1.0f);
+        int k = shader_microfacet(sd, CLOSURE_GGX_REFLECT, w, Nv, al.x, al.y, 1.0f);
         if (k < 0) return;
         Closure *c = &sd->c[k];
         c->T = has_t ? rotate_tangent(tangent, N, nd->anisotropic_rotation) : (float3)(0.0f);
@@ -149,7 +157,7 @@ inline void bsdf_node_setup(ShaderData *sd, NODE_PTR nd, float3 color, float3 em
         float ior = fmax(nd->ior, 1e-5f);
         bool glass = t == NODE_GLASS;
         int k = shader_microfacet(sd, glass ? CLOSURE_GGX_GLASS : CLOSURE_GGX_REFRACT,
-                                  glass ? w : color * w1, N, rough * rough, rough * rough,
+                                  glass ? w : color * w1, Nv, rough * rough, rough * rough,
                                   sd->backfacing ? 1.0f / ior : ior);
         if (k >= 0 && glass) {
             float3 c3 = fmax(color, 0.0f);

@@ -20,26 +20,65 @@ inline float mis_power(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-/* Radiance of the scene lights seen along o + t d, t < tmax (camera, glossy and transmission
- * rays; Cycles shows area lights from the front, point lights as disks or spheres, suns with
- * an angle as discs to rays that escape, ``escaped``).  Lights do not block rays: only the
- * nearest one in front of the surface hit counts.  ray_type:
- * VIS_CAMERA, VIS_DIFFUSE, VIS_GLOSSY or VIS_TRANSMISSION; lights hidden from it are skipped.
- * *pdf_light: the density next-event estimation gives d from o for that light (pmf
- * included: from the vertex pv of normal nv the ray left, the light tree's), for MIS. */
-/* light i seen along o + t d (lights_seen): the nearest so far in *best, its radiance and
- * density, *seen its index; a sun's radiance summed in *Lsun when the ray escaped */
-inline void light_seen(const Scene *scene, int i, float3 o, float3 d, bool escaped, uint ray_type,
-                       float *best, float3 *L, float *pdf, int *seen, float3 *Lsun) {
+/* The scene lights rays see (camera, glossy, transmission and diffuse rays; Cycles shows area
+ * lights from the front, point lights as disks or spheres, suns with an angle as discs to rays
+ * that escape).  As in Cycles (shade_light), lights do not block rays: a ray that meets one
+ * adds its emission and goes on past it to the lights and the surface behind; each light met is
+ * a transparent bounce, and the path ends at the one that brings its count to the Light Paths'
+ * transparent limit.  Shadow rays meet none.  Counting only the nearest light, a grid of 1 cm
+ * lights overlapping each other 5 cm under a ceiling lost half the ceiling's direct light (the
+ * sample's side of MIS, tests/test_light_tree.py). */
+
+/* A ray looking for lights: o + t d, 0 < t < tmax, of visibility ray_type (VIS_CAMERA,
+ * VIS_DIFFUSE, VIS_GLOSSY or VIS_TRANSMISSION; a light hidden from it is not met), sampled with
+ * density prev_pdf (INFINITY: a camera ray or a singular lobe) at the vertex pv of normal nv;
+ * each light it meets adds beta x its radiance x the MIS weight of that sample against
+ * next-event estimation's density of that light from pv (the light tree's pick included),
+ * clamped to `limit` (clamp_sample). */
+typedef struct {
+    float3 o, d, pv, nv, beta;
+    float tmax, prev_pdf, limit;
+    uint ray_type;
+} LightRay;
+
+inline LightRay light_ray(float3 o, float3 d, float tmax, uint ray_type, float3 pv, float3 nv,
+                          float prev_pdf, float3 beta, float limit) {
+    LightRay r = {o, d, pv, nv, beta, tmax, prev_pdf, limit, ray_type};
+    return r;
+}
+
+/* one light a ray meets: its distance and index (lights are met in the order of (t, i)), and
+ * what it adds */
+typedef struct {
+    float t;
+    int i;
+    float3 c;
+} LightMet;
+
+/* Whether ray r meets light i after (t0, i0); *m the meeting.  Suns are suns_seen's. */
+inline bool light_met(const Scene *scene, int i, const LightRay *r, float t0, int i0, LightMet *m) {
     Light l = scene->lights[i];
-    if (l.flags & (ray_type << LIGHT_HIDDEN_SHIFT)) return;
-    float before = *best;
+    if (l.flags & (r->ray_type << LIGHT_HIDDEN_SHIFT)) return false;
+    float t = 0.0f, pdf = 0.0f;
+    float3 Le = (float3)(0.0f);
+    bool hit = false;
     if (PPM_LIGHT_AREA && (l.type == LIGHT_AREA_RECT || l.type == LIGHT_AREA_ELLIPSE))
-        area_seen(&l, o, d, best, L, pdf);
-    else if (PPM_LIGHT_SUN && l.type == LIGHT_SUN) {
-        if (escaped) *Lsun += sun_seen(&l, d);
-    } else if (PPM_LIGHT_POINT) point_seen(&l, o, d, best, L, pdf);
-    if (*best != before) *seen = i;
+        hit = area_seen(&l, r->o, r->d, r->tmax, &t, &Le, &pdf);
+    else if (PPM_LIGHT_POINT && l.type == LIGHT_POINT)
+        hit = point_seen(&l, r->o, r->d, r->tmax, &t, &Le, &pdf);
+    if (!hit || !(t > t0 || (t == t0 && i > i0))) return false;
+    m->t = t;
+    m->i = i;
+    float w = 1.0f;
+    if (!isinf(r->prev_pdf) && max3(r->beta) > 0.0f) {
+        __global const EmitterInfo *info = scene->emitter_info;
+        float pmf = scene->emitter_leaf[i] >= 0 && info->n_tree > 0
+                        ? info->tree_share * light_tree_pmf(scene, i, r->pv, r->nv)
+                        : emitter_pmf_far(scene, i);
+        w = mis_power(r->prev_pdf, pdf * pmf);
+    }
+    m->c = clamp_sample(r->beta * Le * w, r->limit);
+    return true;
 }
 
 /* whether o + t d meets the box [lo, hi] for some t in [0, tmax] */
@@ -50,53 +89,93 @@ inline bool ray_box(float3 o, float3 inv_d, float3 lo, float3 hi, float tmax) {
     return near <= far;
 }
 
-inline float3 lights_seen(const Scene *scene, float3 o, float3 d, float tmax, bool escaped,
-                          uint ray_type, float3 pv, float3 nv, float *pdf_light) {
-    float3 L = (float3)(0.0f), Lsun = (float3)(0.0f);
-    float best = tmax, pdf = 0.0f;
-    int seen = -1, n_lights = scene->emitter_info->n_lights;
+/* The lights ray r meets after (t0, i0): their number, the sum of what they add (*sum) and the
+ * first of them (*first; t PPM_INF: none).  Many lights: the light tree's boxes (which hold the
+ * lights whole) as a BVH. */
+inline int lights_met(const Scene *scene, const LightRay *r, float t0, int i0, float3 *sum,
+                      LightMet *first) {
+    int n = 0, n_lights = scene->emitter_info->n_lights;
+    *sum = (float3)(0.0f);
+    first->t = PPM_INF;
+    first->i = -1;
+    first->c = (float3)(0.0f);
+    LightMet m;
     if (scene->emitter_info->n_tree > 0) {
-        /* many lights: the light tree's boxes (which hold the lights whole) as a BVH, then the
-         * suns when the ray escaped */
         __global const LightTreeNode *tree = scene->light_tree;
-        float3 inv_d = 1.0f / d;
+        float3 inv_d = 1.0f / r->d;
         int stack[LIGHT_TREE_STACK], top = 0;
         stack[top++] = 0;
         while (top > 0) {
             int k = stack[--top];
-            if (!ray_box(o, inv_d, F3(tree[k].bmin), F3(tree[k].bmax), best)) continue;
+            if (!ray_box(r->o, inv_d, F3(tree[k].bmin), F3(tree[k].bmax), r->tmax)) continue;
             int c = tree[k].child;
             if (c < 0) {
-                if (-1 - c < n_lights)
-                    light_seen(scene, -1 - c, o, d, escaped, ray_type, &best, &L, &pdf, &seen,
-                               &Lsun);
+                if (-1 - c < n_lights && light_met(scene, -1 - c, r, t0, i0, &m)) {
+                    n++;
+                    *sum += m.c;
+                    if (m.t < first->t || (m.t == first->t && m.i < first->i)) *first = m;
+                }
             } else if (top + 2 <= LIGHT_TREE_STACK) {
                 stack[top++] = c + 1;
                 stack[top++] = c;
             }
         }
-        if (escaped && scene->emitter_info->n_suns > 0)
-            for (int i = 0; i < n_lights; i++)
-                if (scene->lights[i].type == LIGHT_SUN)
-                    light_seen(scene, i, o, d, escaped, ray_type, &best, &L, &pdf, &seen, &Lsun);
     } else {
         for (int i = 0; i < n_lights; i++)
-            light_seen(scene, i, o, d, escaped, ray_type, &best, &L, &pdf, &seen, &Lsun);
+            if (light_met(scene, i, r, t0, i0, &m)) {
+                n++;
+                *sum += m.c;
+                if (m.t < first->t) *first = m; /* (met in the order of i) */
+            }
     }
-    __global const EmitterInfo *info = scene->emitter_info;
-    *pdf_light = seen < 0 ? 0.0f
-                 : scene->emitter_leaf[seen] >= 0 && info->n_tree > 0
-                     ? pdf * info->tree_share * light_tree_pmf(scene, seen, pv, nv)
-                     : pdf * emitter_pmf_far(scene, seen);
-    /* suns, behind everything: a ray that escapes the scene and meets no other light.
-     * Next-event estimation samples a sun without MIS (sun_direct: pdf_dir 0), so a sun a
-     * sampled direction finds counts only after a singular bounce or the camera (density
-     * INFINITY: mis_power weighs it 0 after any other). */
-    if (seen < 0 && max3(Lsun) > 0.0f) {
-        L = Lsun;
-        *pdf_light = INFINITY;
+    return n;
+}
+
+/* The radiance of the suns (with an angle) a ray that escapes the scene along d sees, those not
+ * hidden from ray_type.  Next-event estimation samples a sun without MIS (sun_direct: pdf_dir
+ * 0), so a sun a sampled direction finds counts only after a singular bounce or the camera. */
+inline float3 suns_seen(const Scene *scene, float3 d, uint ray_type) {
+    float3 L = (float3)(0.0f);
+    if (!PPM_LIGHT_SUN || scene->emitter_info->n_suns == 0) return L;
+    for (int i = 0; i < scene->emitter_info->n_lights; i++) {
+        Light l = scene->lights[i];
+        if (l.type == LIGHT_SUN && !(l.flags & (ray_type << LIGHT_HIDDEN_SHIFT)))
+            L += sun_seen(&l, d);
     }
     return L;
+}
+
+/* What the lights ray r meets add to its path, and the suns' light when it `escaped` the scene.
+ * `budget`: the transparent bounces the path has left, at least 1 (Cycles ends a path at the
+ * light that brings its count to the limit); *met: the lights met, at most budget; the path
+ * ends when it is budget (then only the nearest budget lights count, and nothing behind
+ * them). */
+inline float3 lights_seen(const Scene *scene, const LightRay *r, bool escaped, int budget,
+                          int *met) {
+    float3 L, s;
+    LightMet m;
+    int n = lights_met(scene, r, -1.0f, -1, &L, &m);
+    if (n >= budget) {
+        /* the path ends at the budget-th light: the lights met one by one, nearest first */
+        L = m.c;
+        for (int k = 1; k < budget; k++) {
+            lights_met(scene, r, m.t, m.i, &s, &m);
+            L += m.c;
+        }
+        *met = budget;
+        return L;
+    }
+    *met = n;
+    if (escaped && isinf(r->prev_pdf))
+        L += clamp_sample(r->beta * suns_seen(scene, r->d, r->ray_type), r->limit);
+    return L;
+}
+
+/* The transparent bounces a path whose count is `transparent` has left for the lights its next
+ * ray meets (lights_seen's budget): at least one, as Cycles counts the light before it ends the
+ * path. */
+inline int lights_budget(int transparent, __global const LightPaths *lp) {
+    return max(lp->transparent_max_bounces - transparent, 1);
 }
 
 /* The emission of emissive BVH leaf `leaf` hit at (u, v) from o along d at distance t, and the
@@ -264,40 +343,44 @@ inline float3 direct_nee(const Scene *scene, const ShaderData *sd, float3 p, int
     return direct_nee_u(scene, sd, p, mask, mis, u);
 }
 
-/* What a ray from o along d finds of the emitters (ray_type: VIS_*): the radiance of the
- * first emitter (through at most `crossings` partly transparent surfaces, attenuated) and the
- * density next-event estimation gives d for it; p and n: the vertex the ray left and the
- * normal next-event estimation was given there (the world is sampled around it). */
+/* What a ray from o along d finds of the emitters (ray_type: VIS_*), weighted against
+ * next-event estimation by the power heuristic (the ray's sample of density pdf_b; p and n: the
+ * vertex the ray left and the normal next-event estimation was given there, around which the
+ * world is sampled): the lights it meets on its way (lights_seen) and the first emitting surface
+ * or the world, through at most `crossings` partly transparent surfaces (attenuated), with the
+ * lights met among the transparent bounces. */
 inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_type, float3 p,
-                            float3 n, int crossings, float *pdf_l) {
-    float3 T = (float3)(1.0f);
-    *pdf_l = 0.0f;
-    for (int i = 0; i <= crossings; i++) {
+                            float3 n, int crossings, float pdf_b) {
+    float3 T = (float3)(1.0f), L = (float3)(0.0f);
+    for (;;) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, ray_type, false);
 #if PPM_LIGHTS_SEEN
-        float3 Le = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, ray_type, p, n,
-                                pdf_l);
-        if (max3(Le) > 0.0f) return T * Le;
+        LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, ray_type, p, n, pdf_b, T, 0.0f);
+        int met, budget = max(crossings, 1);
+        L += lights_seen(scene, &r, h.leaf < 0, budget, &met);
+        if (met == budget) return L; /* the path ends at the last light it may cross */
+        crossings -= met;
 #endif
         if (h.leaf < 0) {
-            if (!(PPM_WORLD && scene->emitter_info->has_world)) return (float3)(0.0f);
-            *pdf_l = world_light_pdf(scene, d, n);
-            return T * world_le(scene, d);
+            if (!(PPM_WORLD && scene->emitter_info->has_world)) return L;
+            return L + T * world_le(scene, d) * mis_power(pdf_b, world_light_pdf(scene, d, n));
         }
         int mat = as_int(scene->tri_e2[h.leaf].w);
-        if (PPM_EMISSIVE && (scene->materials[mat].flags & MAT_EMISSIVE))
-            return T * mesh_seen(scene, h.leaf, o, d, h.t, h.u, h.v, p, n, pdf_l);
+        if (PPM_EMISSIVE && (scene->materials[mat].flags & MAT_EMISSIVE)) {
+            float pdf_l;
+            float3 Le = mesh_seen(scene, h.leaf, o, d, h.t, h.u, h.v, p, n, &pdf_l);
+            return L + T * Le * mis_power(pdf_b, pdf_l);
+        }
 #if !PPM_TRANSPARENT
-        return (float3)(0.0f);          /* an opaque surface: no emitter behind it counts */
+        return L;          /* an opaque surface: no emitter behind it counts */
 #endif
-        if (i == crossings || !(scene->materials[mat].flags & MAT_TRANSPARENT))
-            return (float3)(0.0f);
+        if (crossings <= 0 || !(scene->materials[mat].flags & MAT_TRANSPARENT)) return L;
+        crossings--;
         Surface s = surface_at(scene, h);
         T *= material_transparency(scene, mat, s.tri, h.u, h.v, s.p);
-        if (!(max3(T) > 0.0f)) return (float3)(0.0f);
+        if (!(max3(T) > 0.0f)) return L;
         o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, scene->emitter_info->offset_scale);
     }
-    return (float3)(0.0f);
 }
 
 /* The sample half of direct light at p: one direction from the closures in mask, its emitter
@@ -312,14 +395,13 @@ inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, in
     if (!shader_sample(sd, mask, rand, &b)) return (float3)(0.0f);
     bool transmit = (b.label & LABEL_TRANSMIT) != 0;
     uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
-    float pdf_l;
-    float3 Le = emitter_along(scene,
-                              offset_ray(p, transmit ? -sd->Ng : sd->Ng,
-                                         scene->emitter_info->offset_scale),
-                              b.wo, ray, p, sd->N, sd->crossings, &pdf_l);
     float pdf_b = b.pdf;      /* next-event estimation's density for its closures (mis_mask) */
-    if (mis_mask != mask && !isinf(pdf_b)) shader_eval(sd, b.wo, mis_mask, &pdf_b);
-    return b.weight * Le * mis_power(pdf_b, pdf_l);
+    if (mis_mask != mask && !isinf(pdf_b)) pdf_b = shader_mis_pdf(sd, b.wo, mask, mis_mask, pdf_b);
+    return b.weight
+           * emitter_along(scene,
+                           offset_ray(p, transmit ? -sd->Ng : sd->Ng,
+                                      scene->emitter_info->offset_scale),
+                           b.wo, ray, p, sd->N, sd->crossings, pdf_b);
 #else
     return (float3)(0.0f);       /* nothing for the sample to find but what NEE samples */
 #endif

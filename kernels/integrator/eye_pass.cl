@@ -104,9 +104,17 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
 #endif
         float pdf_l = 0.0f;
 #if PPM_LIGHTS_SEEN
-        float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? tmax : h.t, h.leaf < 0, mask, prev_p,
-                                prev_n, &pdf_l);
-        L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l), clamp_found);
+        {
+            /* the lights the ray meets before the surface, each a transparent bounce; the path
+             * ends at the one that reaches the limit */
+            LightRay r = light_ray(o, d, h.leaf < 0 ? tmax : h.t, mask, prev_p, prev_n, prev_pdf,
+                                   beta, clamp_found);
+            int met, budget = lights_budget(transparent, lp);
+            L += lights_seen(scene, &r, h.leaf < 0, budget, &met);
+            if (met == budget) break;
+            transparent += met;
+            path = path_transparent_n(path, met);
+        }
 #endif
         if (h.leaf < 0) {
             if (film_clear && cam->film_transparent) {
@@ -257,7 +265,8 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         BsdfSample b;
         if (!shader_sample(&sd, MASK_CONTINUE, uv.xyz, &b)) break;
         float pdf_mis = b.pdf; /* the density the emitter it finds is weighed against */
-        if (mixed && !isinf(pdf_mis)) shader_eval(&sd, b.wo, MASK_ALL, &pdf_mis);
+        if (mixed && !isinf(pdf_mis))
+            pdf_mis = shader_mis_pdf(&sd, b.wo, MASK_CONTINUE, MASK_ALL, pdf_mis);
         beta *= b.weight;
         bool transmit = (b.label & LABEL_TRANSMIT) != 0;
         o = offset_ray(s.p, transmit ? -sd.Ng : sd.Ng, scene->emitter_info->offset_scale);

@@ -112,10 +112,13 @@ inline bool photon_accepted(float3 x, float3 nrm, bool transmits, float r2, floa
  * finds the same light: that path's sample is the point's path weight, times the point's
  * sample weight f cos / pdf for the photon's direction, times the radiance the photon's light
  * path carries (its flux times pe.y; photon_emission.h), and a sample over Clamp Indirect's
- * limit is scaled down to it (path_state.h clamp_sample).  For the caustics a camera path
- * finds through mirrors and glass that sample is exactly Cycles'; photons from a point or a
- * sun of no size (which no camera path finds) and every photon without clamping are kept
- * whole. */
+ * limit is scaled down to it (path_state.h clamp_sample).  The factor is a function of the
+ * light path alone, the one Cycles' sample of that path would get, so the clamped photons
+ * estimate Cycles' clamped image, not a clamp of their own flux.  For the caustics a camera
+ * path finds through mirrors and glass that sample is exactly Cycles', and so for the light of
+ * a point, spot or sun of no size a camera path finds by next-event estimation at the light's
+ * first scattering (a metal ball's glossy caustic); such light through a singular first
+ * scattering (which no camera path finds) and every photon without clamping are kept whole. */
 inline float3 photon_term(const GatherPoint *gp, float4 pf, float cos_l, uint2 pe) {
     uint kinds = path_join(gp->path, pe.x, gp->lp);
     if (kinds == 0u) return (float3)(0.0f);

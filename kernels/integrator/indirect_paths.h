@@ -131,15 +131,14 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             term = path_limit(path, depth, lp);
             counts = own;
             prev_pdf = b.pdf;
-            /* the eye pass's NEE's density (a sample of all the closures has it already) */
-            if (vertex == 0 && nee_all && !isinf(b.pdf) && set != MASK_ALL)
-                shader_eval(sd, b.wo, MASK_ALL, &prev_pdf);
+            if (vertex == 0 && nee_all && !isinf(b.pdf)) /* the eye pass's NEE's density */
+                prev_pdf = shader_mis_pdf(sd, b.wo, set, MASK_ALL, b.pdf);
             if (lp->filter_glossy > 0.0f && !isinf(b.pdf) && !filter_glossy_blurs(min_pdf, lp)) {
                 /* the smallest density, the mixture's over all the closures (once below the
-                 * setting it stays there) */
+                 * setting it stays there), evaluated as the gather and the photons evaluate
+                 * it (gather.cl photon_term, photon_pass.cl) */
                 float p_all = b.pdf;
-                if (vertex == 0 && nee_all) p_all = prev_pdf;
-                else if (set != MASK_ALL) shader_eval(sd, b.wo, MASK_ALL, &p_all);
+                if (set != MASK_ALL) shader_eval(sd, b.wo, MASK_ALL, &p_all);
                 min_pdf = fmin(min_pdf, p_all);
             }
             prev_n = sd->N;
@@ -156,10 +155,16 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
 #endif
         float pdf_l = 0.0f;
 #if PPM_LIGHTS_SEEN
-        if (counts) {
-            float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, mask,
-                                    prev_p, prev_n, &pdf_l);
-            L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l), clamp_limit(depth - 1, lp));
+        /* the lights the ray meets (theirs to add when it counts), each a transparent bounce;
+         * the path ends at the one that reaches the limit */
+        {
+            LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, mask, prev_p, prev_n, prev_pdf,
+                                   counts ? beta : (float3)(0.0f), clamp_limit(depth - 1, lp));
+            int met, budget = lights_budget(transparent, lp);
+            L += lights_seen(scene, &r, h.leaf < 0, budget, &met);
+            if (met == budget) break;
+            transparent += met;
+            path = path_transparent_n(path, met);
         }
 #endif
         while (h.leaf >= 0 && term == TERM_AFTER_TRANSPARENT) {
@@ -179,11 +184,15 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);
 #endif
 #if PPM_LIGHTS_SEEN
-            if (counts) {
-                float3 Ls = lights_seen(scene, o, d, h.leaf < 0 ? PPM_INF : h.t, h.leaf < 0, mask,
-                                        prev_p, prev_n, &pdf_l);
-                L += clamp_sample(beta * Ls * mis_power(prev_pdf, pdf_l),
-                                  clamp_limit(depth - 1, lp));
+            {
+                LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, mask, prev_p, prev_n,
+                                       prev_pdf, counts ? beta : (float3)(0.0f),
+                                       clamp_limit(depth - 1, lp));
+                int met, budget = lights_budget(transparent, lp);
+                L += lights_seen(scene, &r, h.leaf < 0, budget, &met);
+                if (met == budget) return L;
+                transparent += met;
+                path = path_transparent_n(path, met);
             }
 #endif
         }

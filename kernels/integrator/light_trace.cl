@@ -28,8 +28,11 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
     float3 o, d, flux;
     float rs;
     float2 nee;
+    bool delta;
     int caster;
-    if (!emit_photon(scene, &rng, false, &o, &d, &flux, &rs, &nee, &caster)) return;
+    int gbin;
+    if (!emit_photon(scene, &rng, false, false, &o, &d, &flux, &rs, &nee, &delta, &caster, &gbin))
+        return;
     uint mask = VIS_SHADOW;
 #if PPM_ABSORPTION
     Media media;

@@ -50,6 +50,12 @@ inline uint path_bounce(uint p, int label) {
 /* the state after a transparent crossing (the type kept) */
 inline uint path_transparent(uint p) { return path_add(p, PATH_TRANSPARENT_DEPTH); }
 
+/* the state after n transparent crossings (the lights a ray met: direct_light.h lights_seen) */
+inline uint path_transparent_n(uint p, int n) {
+    for (int k = 0; k < min(n, 31); k++) p = path_transparent(p);
+    return p;
+}
+
 /* --- Cycles' Light Paths limits (ppm_engine/scene/light_paths.py; docs/SHADING.md, "Light Paths").
  * Cycles counts a path's bounces from the camera: each scattering but the one that reaches the
  * light (next-event estimation's vertex, or the sample that finds an emitter) counts, by kind

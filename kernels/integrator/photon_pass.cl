@@ -9,7 +9,8 @@
  * (CNT_CAUSTIC, CNT_DIFFUSE_FIRST).  ``mode``'s bits (ppm_engine/render/passes/photons.py):
  * PHOTONS_CAUSTIC, caustics only; PHOTONS_AIMED, emitted toward the casters
  * (photon_emission.h); CNT_CASTER counts the caustic photons whose first scattering is a
- * caster's. */
+ * caster's.  PHOTONS_GUIDED: the guided lights' directions from their learned bins
+ * (light/guide.h), guide_stats counting the stores per bin. */
 #include "builtins.h"
 #include "rng.h"
 #include "integrator/photon_emission.h"
@@ -26,6 +27,7 @@
 /* the photon pass's mode bits (ppm_engine/render/passes/photons.py PhotonMode) */
 #define PHOTONS_CAUSTIC 1u
 #define PHOTONS_AIMED 2u
+#define PHOTONS_GUIDED 4u
 
 /* A stored photon as the camera connection needs it: its flux (before shading, its cos_N /
  * cos_Ng factor), path and clamp ratio as stored; a Lambert surface's colour and normals
@@ -103,7 +105,8 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
 
 __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index, uint seed,
                           uint n_photons, uint capacity, __global uint *counters, uint mode,
-                          __global const float *lt_filter, float lt_reach, float lt_kappa) {
+                          __global uint *guide_stats, __global const float *lt_filter,
+                          float lt_reach, float lt_kappa) {
     SCENE_LOAD(scene);
     FILM_LOAD(film);
     PHOTON_LOAD(photons);
@@ -116,10 +119,16 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
     float3 o, d, flux;
     float rs; /* the radiance its light path carries over its flux (the clamp, gather.cl) */
     float2 nee;
+    bool delta; /* from a light of no size (photon_emission.h) */
     bool caustics_only = (mode & PHOTONS_CAUSTIC) != 0u;
     int caster; /* the caster it is aimed at (-1: none) */
-    if (!emit_photon(scene, &rng, (mode & PHOTONS_AIMED) != 0u, &o, &d, &flux, &rs, &nee, &caster))
+    int gbin; /* its guide's bin (-1: none; light/guide.h) */
+    if (!emit_photon(scene, &rng, (mode & PHOTONS_AIMED) != 0u, (mode & PHOTONS_GUIDED) != 0u, &o,
+                     &d, &flux, &rs, &nee, &delta, &caster, &gbin))
         return;
+    /* per guide bin: the photons it stored (Renderer.learn_guides; GUIDE_BINS per light) */
+    __global uint *guide_count = gbin >= 0 && capacity > 0u ? guide_stats + gbin
+                                                            : (__global uint *)0;
     /* per caster: the photons aimed at it and those they store (Renderer.learn_caster_weights) */
     __global uint *aimed = caster >= 0 && capacity > 0u ? counters + CNT_CASTER_STATS + 2 * caster
                                                         : (__global uint *)0;
@@ -193,6 +202,7 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
             if (in_grid(s.p, &g)) {
                 uint k = atomic_inc(&counters[CNT_STORED]);
                 if (aimed) atomic_inc(aimed + 1);
+                if (guide_count) atomic_inc(guide_count);
                 if (k < capacity) {
                     photons->pos[k] = (float4)(s.p, as_float(pack_unit(Ng)));
                     photons->flux[k] = (float4)(flux * shading, as_float(pack_unit(-d)));
@@ -286,13 +296,22 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
             path = path_transparent(path);
             ppath = path_transparent(ppath);
         } else {
-            if (direct && rs > 0.0f && !(b.label & LABEL_SINGULAR)) {
+            if (direct && rs > 0.0f && (b.label & LABEL_SINGULAR)) {
+                if (delta) rs = 0.0f; /* no camera path finds a light of no size so */
+            } else if (direct && rs > 0.0f) {
                 /* A camera path reaches the light from this first scattering by next-event
-                 * estimation as much as by its sample (MIS): its sample is about f cos over the
-                 * larger of the two densities, where the chain above assumed the sample's */
-                float p_b = lambert ? fabs(dot(N, d)) * (1.0f / PPM_PI) : b.pdf;
+                 * estimation as much as by its sample (MIS): its sample is about f cos_l (the
+                 * cosine on the light's side) over the larger of the two densities, p_l and
+                 * p_c, its sample's density of the light's direction, where the chain above
+                 * (the flux) has f cos_o over the photon's density of its direction.  p_c is
+                 * the photon's density times cos_l / cos_o (exact for a Lambert closure, and
+                 * for a microfacet reflection sampled by its visible normals but for the ratio
+                 * of its two G1).  A light of no size only next-event estimation finds: f cos_l
+                 * times its rs / p_l, exactly (emit_photon). */
+                float p_c = lambert ? fabs(dot(N, d)) * (1.0f / PPM_PI)
+                                    : b.pdf * fabs(dot(d, N)) / fabs(dot(b.wo, N));
                 float p_l = nee.x * reach * reach + nee.y;
-                rs *= p_b / fmax(p_l, p_b);
+                rs *= p_c / (delta ? p_l : fmax(p_l, p_c));
             }
             /* a caustic bounce that is off (Reflective / Refractive Caustics) before this diffuse
              * one: light no camera path carries (path_state.h path_caustic_off) */

@@ -80,39 +80,44 @@ inline float spot_sample_cos(const Light *L) {
     return (fabs(sx - 1.0f) < 1e-4f && fabs(sy - 1.0f) < 1e-4f) ? L->spot_cos_half : -1.0f;
 }
 
-/* A point light with a radius seen along o + t d, t < *best: updates *best and *Le when it is
- * nearer.  Soft falloff (Blender's default): Cycles sees the light as a disk of the light's
- * radius facing the ray's origin, not as a sphere (d^2 / (d^2 + r^2) of the sphere's solid
- * angle: -8 % for a light 1 m from a mirror at r = 0.3 m).  Spot lights are never seen. */
-inline void point_seen(const Light *l, float3 o, float3 d, float *best, float3 *Le, float *pdf) {
-    if (l->type != LIGHT_POINT || !(l->radius > 0.0f)) return;
+/* A point light with a radius met along o + t d, 0 < t < tmax: *t, its radiance *Le and the
+ * density point_direct gives the direction (*pdf, the emitter's pick not included); false when
+ * the ray misses it.  Soft falloff (Blender's default): Cycles sees the light as a disk of the
+ * light's radius facing the ray's origin, not as a sphere (d^2 / (d^2 + r^2) of the sphere's
+ * solid angle: -8 % for a light 1 m from a mirror at r = 0.3 m).  Spot lights are never seen.
+ * Lights do not block rays: the caller sums every light the ray meets (lights_seen). */
+inline bool point_seen(const Light *l, float3 o, float3 d, float tmax, float *t, float3 *Le,
+                       float *pdf) {
+    if (l->type != LIGHT_POINT || !(l->radius > 0.0f)) return false;
     float3 c = F3(l->position);
+    float r2 = l->radius * l->radius;
     if (l->flags & LIGHT_FLAG_SOFT_FALLOFF) {
         float3 nl = o - c;
         float dl = length(nl);
-        if (!(dl > l->radius)) return; /* starts inside */
-        nl /= dl;
+        if (!(dl > 0.0f)) return false;
+        nl /= dl; /* (a disk at any distance, from within the radius too, as Cycles') */
         float denom = dot(d, nl);
-        if (denom >= 0.0f) return;
-        float t = dot(c - o, nl) / denom;
-        if (!(t > 0.0f && t < *best)) return;
-        float3 q = o + t * d - c;
-        if (dot(q, q) > l->radius * l->radius) return;
-        *best = t;
-        *Le = F3(l->emit) / (PPM_PI * l->radius * l->radius);
-        *pdf = t * t / (-denom * PPM_PI * l->radius * l->radius); /* point_direct's disk */
+        if (denom >= 0.0f) return false;
+        float th = dot(c - o, nl) / denom;
+        if (!(th > 0.0f && th < tmax)) return false;
+        float3 q = o + th * d - c;
+        if (dot(q, q) > r2) return false;
+        *t = th;
+        *Le = F3(l->emit) / (PPM_PI * r2);
+        *pdf = th * th / (-denom * PPM_PI * r2); /* point_direct's disk */
     } else {
         float3 oc = o - c;
-        float b = dot(oc, d), cc = dot(oc, oc) - l->radius * l->radius;
+        float b = dot(oc, d), cc = dot(oc, oc) - r2;
         float disc = b * b - cc;
-        if (disc < 0.0f || cc < 0.0f) return; /* missed, or starts inside */
-        float t = -b - sqrt(disc);
-        if (!(t > 0.0f && t < *best)) return;
-        *best = t;
-        *Le = F3(l->emit) / (PPM_PI * l->radius * l->radius);
-        float x = l->radius * l->radius / (cc + l->radius * l->radius); /* sin^2 of the cone */
+        if (disc < 0.0f || cc < 0.0f) return false; /* missed, or starts inside */
+        float th = -b - sqrt(disc);
+        if (!(th > 0.0f && th < tmax)) return false;
+        *t = th;
+        *Le = F3(l->emit) / (PPM_PI * r2);
+        float x = r2 / (cc + r2); /* sin^2 of the cone */
         *pdf = (1.0f + sqrt(fmax(0.0f, 1.0f - x))) / (2.0f * PPM_PI * x); /* 1 / (2 pi (1 - cos)) */
     }
+    return true;
 }
 
 inline bool point_direct(const Light *L, float3 o, float u1, float u2, LightSample *s) {
@@ -123,8 +128,10 @@ inline bool point_direct(const Light *L, float3 o, float u1, float u2, LightSamp
     float3 I = F3(L->emit);
     if (L->type == LIGHT_SPOT) I *= spot_attenuation(L, -w0);
     float r = L->radius;
-    if (r > 0.0f && d > r && (L->flags & LIGHT_FLAG_SOFT_FALLOFF)) {
-        /* Cycles' soft falloff: a disk of radius r facing p, radiance I/(pi r^2) */
+    if (r > 0.0f && (L->flags & LIGHT_FLAG_SOFT_FALLOFF)) {
+        /* Cycles' soft falloff: a disk of radius r facing p, radiance I/(pi r^2), at any
+         * distance (a surface within the radius: I cos / (d^2 + r^2) on the axis, where the
+         * point's I / d^2 made a lamp 5 mm under a ceiling at r = 1 cm light it 2.6 x) */
         float3 t, b;
         make_frame(w0, &t, &b);
         float2 q = sample_disk(u1, u2) * r;
@@ -185,23 +192,25 @@ inline float3 area_light_point(const Light *L, float u1, float u2) {
     return F3(L->position) + q.x * F3(L->axis_x) + q.y * F3(L->axis_y);
 }
 
-/* seen from the front only (as Cycles shows area lights) */
-inline void area_seen(const Light *l, float3 o, float3 d, float *best, float3 *Le, float *pdf) {
+/* An area light met along o + t d, 0 < t < tmax (point_seen's terms); seen from the front only
+ * (as Cycles shows area lights) */
+inline bool area_seen(const Light *l, float3 o, float3 d, float tmax, float *t, float3 *Le,
+                      float *pdf) {
     float3 c = F3(l->position), nl = F3(l->direction);
     float denom = dot(d, nl);
-    if (denom >= 0.0f) return; /* emits along its -Z only */
-    float t = dot(c - o, nl) / denom;
-    if (!(t > 0.0f && t < *best)) return;
-    float3 q = o + t * d - c;
+    if (denom >= 0.0f) return false; /* emits along its -Z only */
+    float th = dot(c - o, nl) / denom;
+    if (!(th > 0.0f && th < tmax)) return false;
+    float3 q = o + th * d - c;
     float3 ax = F3(l->axis_x), ay = F3(l->axis_y);
     float u = dot(q, ax) / dot(ax, ax), v = dot(q, ay) / dot(ay, ay);
     bool inside = l->type == LIGHT_AREA_RECT ? (fabs(u) <= 0.5f && fabs(v) <= 0.5f)
                                              : (u * u + v * v <= 0.25f);
-    if (inside) {
-        *best = t;
-        *Le = F3(l->emit);
-        *pdf = t * t / (-denom * area_light_area(l)); /* area_direct's density */
-    }
+    if (!inside) return false;
+    *t = th;
+    *Le = F3(l->emit);
+    *pdf = th * th / (-denom * area_light_area(l)); /* area_direct's density */
+    return true;
 }
 
 inline bool area_direct(const Light *L, float3 o, float u1, float u2, float scale, LightSample *s) {

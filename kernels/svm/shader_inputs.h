@@ -61,13 +61,25 @@ inline float3 valid_reflection_normal(float3 Ng, float3 I, float3 N) {
     return sqrt(fmax(1.0f - nz2, 0.0f)) * X + sqrt(fmax(nz2, 0.0f)) * Ng;
 }
 
-/* A node's Normal or Coat Normal input: the driven normal (made valid for reflection, as
- * Cycles does for a normal other than Ng), or the shading normal where it is unlinked (0) */
+/* A node's Normal or Coat Normal input: the driven normal, or the shading normal where it is
+ * unlinked (0) */
 inline float3 node_normal(const ShaderData *sd, float3 n) {
     float l = dot(n, n);
     if (!(l > 0.0f) || !isfinite(l)) return sd->N;
-    n *= rsqrt(l);
-    return all(isequal(n, sd->Ng)) ? n : valid_reflection_normal(sd->Ng, sd->wi, n);
+    return n * rsqrt(l);
+}
+
+/* The normal of a microfacet or translucent closure (Cycles'
+ * maybe_ensure_valid_specular_reflection, applied to these and not to diffuse or sheen ones): N
+ * raised towards Ng until the mirror reflection of the view lies above the surface, wherever N is
+ * not the face's own (a smooth-shaded mesh's interpolated normal as much as a driven one), unless
+ * the node's material has Cycles' Bump Map Correction off (flags: NODE_FLAG_*).  On a
+ * smooth-shaded low-poly mesh seen at grazing angles the interpolated normal can face away from
+ * the view while the face does not: unlifted, a rough glass closure there sampled nothing (dark
+ * rims along a glass cylinder's silhouettes, 0.77 of Cycles) */
+inline float3 specular_normal(const ShaderData *sd, float3 N, uint flags) {
+    if ((flags & NODE_FLAG_NO_BUMP_CORRECTION) || all(isequal(N, sd->Ng))) return N;
+    return valid_reflection_normal(sd->Ng, sd->wi, N);
 }
 
 /* the weight of the one Lambert closure of a MAT_LAMBERT material's node */

@@ -32,7 +32,12 @@ inline void svm_context_fill(SvmContext *cx, const Scene *scene, int p, uint tri
         cx->window = camera_window(scene->camera, cx->P);
     if (SVM_HAS(SVM_NORMAL_MAP) && p > 0 && (svm[p].w & PROGRAM_TANGENTS)) {
         __global const float4 *t = scene->uv_tangents + 3 * (size_t)tri;
-        cx->tangent = (1.0f - u - v) * t[0] + u * t[1] + v * t[2];
+        __global const float *n = scene->normals + 9 * (size_t)tri;
+        float w = 1.0f - u - v;
+        cx->tangent = w * t[0] + u * t[1] + v * t[2];
+        float l = length(w * (float3)(n[0], n[1], n[2]) + u * (float3)(n[3], n[4], n[5])
+                         + v * (float3)(n[6], n[7], n[8]));
+        cx->normal_len = l > 0.0f && isfinite(l) ? l : 1.0f;
     }
     svm_corner_data(cx, scene, p, tri, u, v, cx->P);
 #if SVM_HAS_BUMP

@@ -52,6 +52,7 @@ typedef struct {
     float3 I;            /* towards the viewer (0 for shadow rays and emitter samples) */
     float backfacing;
     float4 tangent;      /* the UV map's tangent (world) and bitangent sign; 0 when not read */
+    float normal_len;    /* the length of the corners' normals interpolated (1 when not read) */
     float3 generated;    /* Generated coordinates (0..1 over the mesh's texture space) */
     float3 P;            /* the position (world) */
     uint path;           /* the ray that reached the point (path_state.h) */
@@ -84,6 +85,7 @@ inline SvmContext svm_context_base(float2 uv, float3 P, uint path, float path_le
     cx.I = I;
     cx.backfacing = backfacing ? 1.0f : 0.0f;
     cx.tangent = (float4)(0.0f);
+    cx.normal_len = 1.0f;
     cx.generated = (float3)(0.0f);
     cx.P = cx.P_object = P;
     cx.window = (float3)(0.0f);
@@ -145,7 +147,9 @@ inline void svm_corner_data(SvmContext *cx, const Scene *scene, int p, uint tri,
 
 /* Cycles' Normal Map node (learnt from its svm_node_normal_map): the colour's tangent-space
  * normal (NORMAL_MAP_TANGENT) in the frame of the UV tangent, the interpolated normal and their
- * bitangent, the strength applied in tangent space; or a world-space normal (the other spaces:
+ * bitangent, as Cycles unnormalised (the corners' tangents, normals and bitangent signs
+ * interpolated: a low-poly mesh's normal is shorter inside its triangles, the map tilts it
+ * further), the strength applied in tangent space; or a world-space normal (the other spaces:
  * object and world, Blender's object and world with y and z negated; object space through
  * the object's inverse transpose) interpolated from N by the strength.  On the
  * viewer's side; N itself where the result is degenerate or no tangent exists. */
@@ -155,11 +159,11 @@ inline float3 svm_normal_map(const SvmContext *cx, int space, float3 color, floa
     if (space == NORMAL_MAP_TANGENT) {
         float3 T = cx->tangent.xyz;
         if (!(dot(T, T) > 0.0f)) return cx->N;
-        float3 n = back ? -cx->N : cx->N;
+        float3 n = (back ? -cx->N : cx->N) * cx->normal_len;
         c.x *= strength;
         c.y *= strength;
         c.z = mix(1.0f, c.z, clamp(strength, 0.0f, 1.0f));
-        float3 B = (cx->tangent.w < 0.0f ? -1.0f : 1.0f) * cross(n, T);
+        float3 B = cx->tangent.w * cross(n, T);
         N = svm_safe_normalize(c.x * T + c.y * B + c.z * n);
     } else {
         if (space == NORMAL_MAP_BLENDER_OBJECT || space == NORMAL_MAP_BLENDER_WORLD) c.yz = -c.yz;

@@ -61,12 +61,10 @@ def unbiased_light_paths(scene, bounces: int = 12) -> None:
 
 
 def cycles_reference(scene, *, samples: int | None = None, seconds: float = 0.0,
-                     seed: int = 1, bounces: int = 12, keep_light_paths: bool = False) -> None:
+                     seed: int = 1, bounces: int = 12) -> None:
     """Cycles with the same light transport as this engine, for comparisons: CPU, ``bounces``
     of every kind, no clamping, no denoising, no adaptive sampling, caustics on, a fixed seed;
-    ``samples`` per pixel, or with ``seconds`` a time limit and unlimited samples.
-    ``keep_light_paths``: the scene's own Light Paths instead (both engines read them: a
-    scene set up as a user's, with Cycles' defaults)."""
+    ``samples`` per pixel, or with ``seconds`` a time limit and unlimited samples."""
     if scene.render.engine != "CYCLES":
         scene.render.engine = "CYCLES"
     c = scene.cycles
@@ -74,7 +72,6 @@ def cycles_reference(scene, *, samples: int | None = None, seconds: float = 0.0,
     c.samples = samples if samples is not None else 1 << 24
     c.time_limit = seconds
     c.use_adaptive_sampling = c.use_denoising = False
-    if not keep_light_paths:
-        unbiased_light_paths(scene, bounces)
+    unbiased_light_paths(scene, bounces)
     c.seed = seed
     c.use_animated_seed = False

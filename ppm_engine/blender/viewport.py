@@ -2,14 +2,33 @@
 
     view_update(context, depsgraph) -> changes(depsgraph.updates) -> export_scene -> session
     view_draw(context, depsgraph)   -> view_camera(...) compared -> session.update_view
-                                     -> draw_frame(...) (the only gpu calls) -> header stats
+                                     -> session.snapshot() -> draw_frame(...) (the only gpu
+                                        calls) -> the header's text
+    a timer (ViewportDriver._poll)  -> a redraw tagged when the session has something new
 
 The rendering is ppm_engine.render.viewport_session.ViewportSession's worker thread; nothing here
-waits for it.  Everything but ``draw_frame`` runs headless and is tested with real depsgraphs
-(tests/test_viewport_blender.py); ``draw_frame`` cannot be (bpy's gpu module refuses every call in
-background mode), so it is kept to the few calls Blender's documentation shows for a render
-engine's viewport (bpy.types.RenderEngine's example: a GPUTexture of the float image drawn
-with draw_texture_2d between bind_display_space_shader and unbind_display_space_shader).
+waits for it.  Everything but ``draw_frame``'s gpu calls runs headless: the driver with real
+depsgraphs (tests/test_viewport_blender.py), drawing with a stub of the gpu module and fake
+regions (tests/test_viewport_draw.py).  ``draw_frame`` keeps to the few calls Blender's
+documentation shows for a render engine's viewport (bpy.types.RenderEngine's example: a
+GPUTexture of the float image drawn with draw_texture_2d between bind_display_space_shader and
+unbind_display_space_shader).
+
+Redraws: Cycles' session thread tags its engine's redraw at every update (a flag Blender's
+window manager reads on each turn of its loop).  A Python thread cannot hold the engine (bpy
+structs take no weak references, and a strong one would keep Blender from ever freeing the
+engine, so the session would never close), so a timer on Blender's thread looks at the
+session every REDRAW_POLL seconds while it renders and tags a redraw once per new version
+(an image, a status line, an error); it stops when nothing more is coming and the last
+version is drawn or tagged.  view_draw reads the session once (snapshot), so an image or an
+error landing while it draws has a newer version and is drawn next.
+
+Errors: printed in full to the console once (a compiler's log included), reported once with
+RenderEngine.report as Cycles does from its view_draw (Blender keeps no report list for a
+viewport engine: RE_engine_report drops it there; a final render's reports reach the status
+bar), and shown by the header's text (Overlays > Text Info) in Blender's 511 bytes, with
+what to do.  view_draw never raises: Blender's draw loop would print the traceback at every
+redraw and the header would keep its last line.
 """
 from __future__ import annotations
 
@@ -19,6 +38,18 @@ import traceback
 import numpy as np
 
 from ppm_engine.errors import PPMError
+
+# seconds between two looks at the session while it renders (a timer on Blender's thread)
+REDRAW_POLL = 0.02
+# Blender's engine text (RenderEngine.text: the header line Overlays > Text Info shows) holds
+# 511 bytes of UTF-8; a longer line loses its end
+TEXT_BYTES = 511
+# where the whole message is
+CONSOLE = "full message in the system console"
+# what to do, after the first line of an error's message (the message says what is wrong)
+EXPORT_HINT = "the viewport renders again at the next change"
+SESSION_HINT = "change the scene or reopen Rendered shading to try again"
+BUG_HINT = "a bug: please report it with the console's traceback"
 
 # depsgraph update types -> what changed (the session compares the arrays and does the least
 # work: values re-uploaded, the BVH refitted, or rebuilt)
@@ -75,18 +106,45 @@ def settings_key(depsgraph) -> tuple:
             scene.world.name if scene.world is not None else None)
 
 
-def pixel_size(context, scene) -> int:
+def pixel_size(context, scene, engine=None) -> int:
     """The viewport's Pixel Size (Render Properties > Performance > Viewport: 1x, 2x, 4x, 8x;
-    Automatic follows the interface's resolution scale)."""
+    Automatic: 2 where the interface's pixel size is over 1.5, else 1), as Blender computes
+    it (BKE_render_preview_pixel_size); asked of ``engine`` (RenderEngine.get_preview_pixel_size)
+    when given."""
+    if engine is not None and hasattr(engine, "get_preview_pixel_size"):
+        return max(int(engine.get_preview_pixel_size(scene)), 1)
     v = str(getattr(scene.render, "preview_pixel_size", "AUTO"))
     if v.isdigit():
         return max(int(v), 1)
     prefs = getattr(context, "preferences", None)
     scale = getattr(getattr(prefs, "system", None), "pixel_size", 1.0) if prefs else 1.0
-    return max(round(float(scale)), 1)
+    return 2 if float(scale) > 1.5 else 1
 
 
-def view_camera(context, depsgraph):
+def header_text(message: str, hint: str = "") -> str:
+    """The header's line for an error: the message's first line, then ``hint`` (what to do)
+    and, when the message has more lines or its line is cut, where the rest is; at most
+    TEXT_BYTES bytes of UTF-8, the first line cut to keep the rest."""
+    lines = [x.strip() for x in str(message).strip().splitlines() if x.strip()]
+    lines = lines or ["unknown error"]
+
+    def line(first: str, cut: bool) -> str:
+        tail = ([hint] if hint else []) + ([CONSOLE] if cut or len(lines) > 1 else [])
+        return "Progressive Photon Mapping: " + " · ".join([first] + tail)
+    text = line(lines[0], False)
+    if len(text.encode()) <= TEXT_BYTES:
+        return text
+    room = TEXT_BYTES - len(line("…", True).encode())
+    first = lines[0].encode()[:max(room, 0)].decode("utf-8", "ignore")
+    return line(first + "…", True)
+
+
+def viewport_paused(scene) -> bool:
+    """The scene's Pause Viewport (scene.ppm.viewport_pause)."""
+    return bool(getattr(getattr(scene, "ppm", None), "viewport_pause", False))
+
+
+def view_camera(context, depsgraph, engine=None):
     """The camera record of the 3D view in ``context`` (its region's size over the Pixel
     Size, its view and projection matrices, the scene's film; the scene camera's depth of
     field when looking through it), or None without a 3D view (then the scene camera
@@ -97,7 +155,7 @@ def view_camera(context, depsgraph):
     if region is None or rv3d is None or not hasattr(rv3d, "window_matrix"):
         return None
     scene = depsgraph.scene
-    ps = pixel_size(context, scene)
+    ps = pixel_size(context, scene, engine)
     film = film_settings(scene)
     if rv3d.view_perspective == 'CAMERA' and scene.camera is not None \
             and scene.camera.type == 'CAMERA':
@@ -120,15 +178,24 @@ def viewport_options(settings):
 
 
 class ViewportDriver:
-    """One per viewport engine instance: owns its ViewportSession and the drawn texture."""
+    """One per viewport engine instance: owns its ViewportSession and the drawn texture.
+    ``timers``: what registers the redraw timer (bpy.app.timers; tests pass their own)."""
 
-    def __init__(self):
+    def __init__(self, timers=None):
         self.session = None
-        self.message = None          # an export or settings error, shown in the header
+        self.message = None          # an export or settings error (view_update), its hint:
+        self.message_hint = ""       # shown in the header until an export succeeds
         self.draw_cache: dict = {}
         self.exports = 0
         self.key = None              # settings_key of the last export
+        self.drawn = None            # the session version view_draw last drew
+        self._tagged = None          # the version a redraw was last tagged for
+        self._engine = None          # the engine whose redraws the timer tags, while it runs
+        self._announced = None       # the last error printed and reported
+        self._timers = timers
+        self._poller = self._poll    # one bound method: the timer API compares identities
 
+    # -- view_update: edits -> an export for the session -----------------------------------------
     def view_update(self, engine, context, depsgraph) -> None:
         from ppm_engine.blender.export import export_scene
         from ppm_engine.render.viewport_session import ViewportSession
@@ -140,15 +207,17 @@ class ViewportDriver:
             first = self.session is None
             if first:
                 self.session = ViewportSession(options, start)
+                self.drawn = self._tagged = None
             else:
                 self.session.update_options(options, start)
-            self.session.pause(bool(depsgraph.scene.ppm.viewport_pause))
+            self.session.pause(viewport_paused(depsgraph.scene))
             key = settings_key(depsgraph)
             if not first and self.message is None and key == self.key:
                 ups = depsgraph.updates
                 if not changes(ups) or only_scene(ups):
+                    self._watch(engine)
                     return                      # nothing the export reads changed
-            camera = view_camera(context, depsgraph)
+            camera = view_camera(context, depsgraph, engine)
             arrays = export_scene(depsgraph, camera=camera)
             self.key = key
             self.exports += 1
@@ -156,43 +225,152 @@ class ViewportDriver:
             if camera is not None:
                 self.session.update_view(camera)
             self.session.update_scene(arrays)
-        except PPMError as e:
-            self.message = str(e)
-        except Exception as e:      # a bug: say it in the header, the traceback in the console
-            traceback.print_exc(file=sys.stderr)
-            self.message = f"internal error ({type(e).__name__}: {e}); see the console"
+        except PPMError as e:                   # the message says what is wrong, what to do
+            self.message, self.message_hint = str(e), EXPORT_HINT
+            self._announce(engine, self.message)
+        except Exception as e:                  # a bug
+            self.message = f"internal error ({type(e).__name__}: {e})"
+            self.message_hint = BUG_HINT
+            self._announce(engine, self.message, e)
         if self.message is not None:
-            engine.update_stats("", f"Progressive Photon Mapping: {self.message}")
+            self._stats(engine, header_text(self.message, self.message_hint))
+        if self.session is not None:
+            self._watch(engine)
 
+    # -- view_draw: the view's camera, the latest image, the header ------------------------------
     def view_draw(self, engine, context, depsgraph) -> None:
+        """Never raises (Blender's draw loop would print the traceback at every redraw)."""
         s = self.session
         if s is None:
             return
         try:
-            camera = view_camera(context, depsgraph)
+            self._view_draw(engine, context, depsgraph, s)
+        except Exception as e:                  # a bug in what follows
+            message = f"internal error while drawing ({type(e).__name__}: {e})"
+            self._announce(engine, message, e)
+            self._stats(engine, header_text(message, BUG_HINT))
+
+    def _view_draw(self, engine, context, depsgraph, s) -> None:
+        scene = depsgraph.scene
+        problem = None                          # (message, hint, exception) of this draw
+        try:
+            s.pause(viewport_paused(scene))     # as Cycles, read at every redraw too
+            camera = view_camera(context, depsgraph, engine)
             if camera is not None:
                 s.update_view(camera)
-        except PPMError as e:
-            self.message = str(e)
-        frame = s.frame()
-        if frame is not None:
-            draw_frame(engine, depsgraph.scene, frame, context.region.width,
-                       context.region.height, self.draw_cache)
-        text = self.message or s.error
-        engine.update_stats("", f"Progressive Photon Mapping: {text}" if text else s.status())
-        if s.busy:
-            engine.tag_redraw()             # draw again: the next image is coming
+        except PPMError as e:                   # a film setting: says what to do
+            problem = (str(e), EXPORT_HINT, None)
+        except Exception as e:                  # a ValueError of the view's matrices, a bug
+            problem = (f"the 3D view's camera could not be read ({type(e).__name__}: {e})",
+                       BUG_HINT, e)
+        snap = s.snapshot()                     # one read: nothing lands between its parts
+        if snap.frame is not None:
+            try:
+                draw_frame(engine, scene, snap.frame, context.region.width,
+                           context.region.height, self.draw_cache)
+            except Exception as e:              # a gpu error (no GPU context, memory)
+                problem = problem or (
+                    f"the image could not be drawn ({type(e).__name__}: {e})", BUG_HINT, e)
+        self.drawn = snap.version
+        if self.message is not None:
+            text = header_text(self.message, self.message_hint)
+        elif snap.error is not None:            # the session printed it in full
+            self._announce(engine, snap.error, printed=True)
+            text = header_text(snap.error, SESSION_HINT)
+        elif problem is not None:
+            self._announce(engine, problem[0], problem[2])
+            text = header_text(problem[0], problem[1])
+        else:
+            self._announced = None
+            text = snap.status
+        self._stats(engine, text)
+        if snap.busy or s.version != snap.version:
+            self._watch(engine)                 # more is coming, or came while drawing
 
-    def close(self) -> None:
+    # -- redraws: a timer on Blender's thread ----------------------------------------------------
+    def _timer_api(self):
+        if self._timers is None:
+            import bpy
+            self._timers = bpy.app.timers
+        return self._timers
+
+    def _watch(self, engine) -> None:
+        """Look at the session every REDRAW_POLL s until nothing more is coming."""
+        self._engine = engine
+        timers = self._timer_api()
+        if not timers.is_registered(self._poller):
+            timers.register(self._poller, first_interval=REDRAW_POLL)
+
+    def _poll(self):
+        """The timer: tags a redraw once per new session version; the seconds to the next
+        look, or None to stop (nothing more coming, the last version drawn or tagged)."""
+        s, engine = self.session, self._engine
+        if s is None or engine is None:
+            self._engine = None
+            return None
+        try:
+            _ = engine.tag_redraw                # ReferenceError once Blender freed the engine
+        except ReferenceError:
+            self._engine = None
+            self.close(unregister=False)
+            return None
+        try:
+            snap = s.snapshot()
+            if snap.version != self.drawn and snap.version != self._tagged:
+                engine.tag_redraw()
+                self._tagged = snap.version
+        except Exception:                        # a bug: stop looking, say it once
+            traceback.print_exc(file=sys.stderr)
+            self._engine = None
+            return None
+        if not snap.busy:
+            self._engine = None
+            return None
+        return REDRAW_POLL
+
+    # -- errors and the header --------------------------------------------------------------------
+    def _announce(self, engine, message: str, exc: BaseException | None = None,
+                  printed: bool = False) -> None:
+        """An error, once until it changes: printed in full to the console (unless the session
+        did), its traceback when it is a bug; reported (RenderEngine.report)."""
+        if message == self._announced:
+            return
+        self._announced = message
+        if not printed:
+            print(f"PPM viewport: {message}", file=sys.stderr)
+            if exc is not None:
+                traceback.print_exception(type(exc), exc, exc.__traceback__, file=sys.stderr)
+        try:
+            engine.report({'ERROR'}, f"Progressive Photon Mapping: {message}")
+        except Exception:
+            traceback.print_exc(file=sys.stderr)
+
+    @staticmethod
+    def _stats(engine, text: str) -> None:
+        try:
+            engine.update_stats("", text)
+        except Exception:
+            traceback.print_exc(file=sys.stderr)
+
+    def close(self, unregister: bool = True) -> None:
         s, self.session = self.session, None
+        self._engine = None
         self.draw_cache.clear()
+        if unregister:
+            try:
+                timers = self._timer_api()
+                if timers.is_registered(self._poller):
+                    timers.unregister(self._poller)
+            except Exception:                    # Blender exiting: its timers are gone
+                pass
         if s is not None:
             s.close(timeout=2.0)
 
 
 def draw_frame(engine, scene, frame, width: int, height: int, cache: dict) -> None:
     """Draw ``frame`` (viewport_session.Frame) over the region (``width`` x ``height`` pixels) with
-    Blender's view transform.  The texture is made once per image."""
+    Blender's view transform.  The texture is made once per image, a half-float one: the
+    session published the image in its range (viewport_session.display_image)."""
     import gpu
     from gpu_extras.presets import draw_texture_2d
     if cache.get("generation") != frame.generation:

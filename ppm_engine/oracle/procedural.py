@@ -157,3 +157,76 @@ def cornell_box(width=64, height=64, light_radiance=15.0, bulb=False,
     cam = make_camera(type=CAMERA_PERSP, width=width, height=height,
                       to_world=look_at((0, -2.9, 1), (0, 0, 1)), extent=ext[:2], clip=(0.1, 100))
     return mb.build(camera=cam)
+
+
+def gap_room(width=48, height=48, light="point", hole=0.4, power=400.0) -> SceneArrays:
+    """Light through a small gap: a closed room (x, y in [-2, 2], z in [0, 2.5], white walls
+    facing in) whose wall at x = 2 has a square window of side ``hole`` at (2, 0, 1.6), a
+    ground plane outside, and one light 1.5 m outside the window, 0.3 m above it: a ``point``
+    light (``power`` W), a ``spot`` aimed at the window (a 60 degree cone), an ``area`` light
+    (a 0.5 m square facing the window) or a ``sphere`` (a point light of radius 0.1 m).  The
+    camera inside looks at the patch of floor the window lights.  A photon emitted in the
+    light's own distribution reaches the room with the window's solid angle (0.4 m: ~1 % of
+    a point light's sphere): what photon guides are for (ppm_engine/scene/guide.py)."""
+    from ppm_engine.scene.arrays import LIGHT_AREA_RECT, LIGHT_POINT, LIGHT_SPOT
+    mb = MeshBuilder()
+    white = mb.material("white", (0.7, 0.7, 0.7))
+    ground = mb.material("ground", (0.5, 0.5, 0.5))
+    x0, x1, y0, y1, z0, z1 = -2.0, 2.0, -2.0, 2.0, 0.0, 2.5
+    mb.quad((0, 0, z0), (0, y1, 0), (x1, 0, 0), white)               # floor, normal +z (inside)
+    mb.quad((0, 0, z1), (x1, 0, 0), (0, y1, 0), white)               # ceiling, normal -z
+    mb.quad((0, y1, 1.25), (x1, 0, 0), (0, 0, 1.25), white)          # walls, normals inward
+    mb.quad((0, y0, 1.25), (0, 0, 1.25), (x1, 0, 0), white)
+    mb.quad((x0, 0, 1.25), (0, y1, 0), (0, 0, 1.25), white)
+    # the wall at x = 2 (normal -x) around the window (centre (2, 0, wz), side `hole`)
+    wz, h = 1.6, hole / 2
+
+    def wall(ya, yb, za, zb):
+        if yb > ya and zb > za:
+            mb.quad((x1, (ya + yb) / 2, (za + zb) / 2), (0, 0, (zb - za) / 2),
+                    (0, (yb - ya) / 2, 0), white)
+    wall(y0, -h, z0, z1)
+    wall(h, y1, z0, z1)
+    wall(-h, h, z0, wz - h)
+    wall(-h, h, wz + h, z1)
+    # the wall's outside face (normal +x), with the window, and the ground outside: where most
+    # photons go
+
+    def outside(ya, yb, za, zb):
+        if yb > ya and zb > za:
+            mb.quad((x1 + 0.01, (ya + yb) / 2, (za + zb) / 2), (0, (yb - ya) / 2, 0),
+                    (0, 0, (zb - za) / 2), white)
+    outside(y0, -h, z0, z1)
+    outside(h, y1, z0, z1)
+    outside(-h, h, z0, wz - h)
+    outside(-h, h, wz + h, z1)
+    mb.quad((0, 0, -0.01), (8, 0, 0), (0, 8, 0), ground)
+    pos = np.array([x1 + 1.5, 0.0, wz + 0.3])
+    to = np.array([x1, 0.0, wz]) - pos
+    to /= np.linalg.norm(to)
+    L = np.zeros(1, LIGHT_DTYPE)
+    L["position"], L["direction"] = pos, to
+    if light in ("point", "sphere"):
+        L["type"], L["emit"] = LIGHT_POINT, power / (4 * np.pi)
+        L["radius"] = 0.1 if light == "sphere" else 0.0
+    elif light == "spot":
+        L["type"], L["emit"] = LIGHT_SPOT, power / (4 * np.pi)
+        t, b = np.cross(to, (0, 0, 1)), None
+        t /= np.linalg.norm(t)
+        b = np.cross(to, t)
+        L["axis_x"], L["axis_y"], L["spot_scale_z"] = t, b, 1.0
+        L["spot_cos_half"] = np.cos(np.radians(30.0))
+        L["spot_smooth"] = (1 - np.cos(np.radians(30.0))) * 0.2
+    elif light == "area":
+        t = np.cross(to, (0, 0, 1))
+        t /= np.linalg.norm(t)
+        b = np.cross(to, t)
+        L["type"], L["emit"] = LIGHT_AREA_RECT, power / (np.pi * 0.25)
+        L["axis_x"], L["axis_y"] = 0.5 * t, 0.5 * b
+    else:
+        raise ValueError(f"gap_room: light {light!r} is none of point, sphere, spot, area")
+    ext = perspective_extent(width, height, 35.0, 36.0)
+    cam = make_camera(type=CAMERA_PERSP, width=width, height=height,
+                      to_world=look_at((-1.8, 0.3, 2.2), (0.9, -0.1, 0.0)), extent=ext[:2],
+                      clip=(0.05, 100))
+    return mb.build(camera=cam, lights=L)

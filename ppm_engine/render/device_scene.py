@@ -28,6 +28,7 @@ from ppm_engine.scene.arrays import (
 from ppm_engine.scene.camera import CAMERA_DTYPE
 from ppm_engine.scene.casters import caster_reach, caster_spheres, caustic_cdf, material_weights
 from ppm_engine.scene.emitters import EMITTER_INFO_DTYPE, build_emitters
+from ppm_engine.scene.guide import Guides
 from ppm_engine.scene.light_paths import LIGHT_PATHS_DTYPE, engine_defaults
 from ppm_engine.scene.light_tree import LIGHT_TREE_NODE_DTYPE
 from ppm_engine.scene.materials import (
@@ -93,6 +94,10 @@ SCENE_BUFFERS = (
     SceneBuffer("caster_weight", np.dtype(np.float32), "casters' weights"),
     SceneBuffer("caustic_cdf", np.dtype(np.float32),
                 "emitter table's CDF for aimed caustic photons (power toward the casters)"),
+    SceneBuffer("guide", np.dtype(np.float32),
+                "photon guides: each guided light's directions (ppm_engine/scene/guide.py)"),
+    SceneBuffer("guide_slot", np.dtype(np.int32), "each light's photon guide (-1: none)",
+                fill=-1),
 )
 
 
@@ -172,6 +177,9 @@ class DeviceScene:
                        else np.zeros(0, np.float32)),
             casters=np.zeros((0, 4), np.float32), caster_weight=np.zeros(0, np.float32),
             caustic_cdf=np.zeros(0, np.float32)))
+        # the lights whose photons a render may guide (Renderer.learn_guides)
+        self.guides = Guides(prepared.lights, em.power)
+        args.update(self._upload(guide=self.guides.table(), guide_slot=self.guides.slot))
         self._casters_key = None         # set_casters' options: none for a new upload
         self.args = {b.name: args[b.name] for b in SCENE_BUFFERS}
         self.camera = args["camera"]
@@ -222,6 +230,10 @@ class DeviceScene:
                              if total > 0 else 0.0)
         self.args.update(self._upload(caster_weight=w,
                                       caustic_cdf=caustic_cdf(em.power, self.caster_reach)))
+
+    def upload_guides(self) -> None:
+        """The photon guides' table again (Renderer.learn_guides, or a new render's reset)."""
+        self.args.update(self._upload(guide=self.guides.table()))
 
     def set_camera(self, scene: SceneArrays) -> None:
         """``scene`` is the current one with another camera (the viewport's view; its other

@@ -139,6 +139,9 @@ class RenderOptions:
                                          # aim.h), so most miss them and are dropped
     skip_unused_photons: bool = True   # False: a photon pass every pass even while almost
                                        # no photon reaches the image (Renderer.photons_due)
+    skip_unguided_photons: bool = True   # False: photons of point, spot and area lights
+                                         # keep the light's own directions, not guided toward
+                                         # where they were stored (ppm_engine/scene/guide.py)
     # the photons' second strategy: each stored photon also connected to the camera (light
     # tracing), combined with the merge by MIS (kernels/integrator/photon_pass.cl connect_camera);
     # for a pinhole camera only

@@ -40,6 +40,7 @@ from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
 from ppm_engine.render.stats import PassStats
 from ppm_engine.scene.arrays import SceneArrays
 from ppm_engine.scene.casters import caustic_roughness
+from ppm_engine.scene.guide import GUIDE_BINS
 from ppm_engine.scene.light_paths import with_max_bounces
 
 
@@ -98,9 +99,17 @@ class Renderer:
         self.film = Film(dev, w, h)
         self.film.exposure = float(self.scene.scene.camera["exposure"][0])
         cl.enqueue_fill_buffer(self.queue, self.counters, np.uint32(0), 0, 4 * N_COUNTERS)
+        # the photon guides (ppm_engine/scene/guide.py): nothing learned at a new render's start
+        guides = self.scene.guides
+        guides.reset()
+        self.scene.upload_guides()
+        size = 4 * max(len(guides), 1) * GUIDE_BINS
+        if getattr(self, "guide_stats", None) is None or self.guide_stats.size != size:
+            self.guide_stats = dev.buffer(size, "photon guides' counts")
+        cl.enqueue_fill_buffer(self.queue, self.guide_stats, np.uint32(0), 0, size)
         self.context = ctx = PassContext(dev, self.scene, self.defines, film=self.film,
                                          vps=self.vps, photon_map=self.photon_map,
-                                         counters=self.counters)
+                                         counters=self.counters, guide_stats=self.guide_stats)
         self.eye = EyePass(ctx)
         # the photon pass and the gather are built when first used: a scene whose indirect
         # light is all eye paths never compiles them (half of a new scene's kernel builds)
@@ -112,7 +121,6 @@ class Renderer:
         self.converge = Converge(ctx)
         self.scene.set_light_paths(with_max_bounces(self.scene.scene.light_paths, o.max_bounces))
         useful = self.scene.photons_useful()
-        # the lobes that start a caustic (with Filter Glossy, only singular reflections)
         self.caustic_roughness = caustic_roughness(self.scene.light_paths, o.caustic_roughness)
         caustics = self.scene.caustics_possible(o.gather_roughness, self.caustic_roughness)
         self.path_indirect, self.caustic_fraction = self._choose_indirect(o, useful, caustics)
@@ -123,6 +131,10 @@ class Renderer:
                         if self.photons_needed and self.path_indirect else 0)
         self.caster_counts = np.zeros((self.casters, 2))   # learn_caster_weights' sums
         self.aimed = bool(self.casters) and o.skip_unaimed_caustics
+        # where photons carry the light, those of the point, spot and area lights guided
+        # where they are stored (caustic photons have their aim)
+        self.guided = (self.photons_needed and not self.path_indirect and len(guides) > 0
+                       and o.skip_unguided_photons)
         # this render's photons per pass: fewer where they are aimed (each costs more)
         self.photon_count = (o.aimed_photons_for(self.n_pixels, self.scene.caster_share)
                              if self.aimed else self.photons_per_pass)
@@ -260,7 +272,7 @@ class Renderer:
         photons = self.photons_due(pass_index)
         it = Iteration(pass_index, o, photons=self.photon_count if photons else 0,
                        path_indirect=self.path_indirect, lt_kappa=self.lt_kappa,
-                       interrupt=interrupt, piece=self.INTERRUPT_PIXELS)
+                       interrupt=interrupt, piece=self.INTERRUPT_PIXELS, guided=self.guided)
         events = self.eye.enqueue(q, it)
         if events is None:
             q.finish()
@@ -298,29 +310,23 @@ class Renderer:
             self.photons_used += int(counters[Counter.USED])
             if self.aimed:
                 self.learn_caster_weights(counters)
+            if self.guided:
+                self.learn_guides()
         return self._stats(counters, grid, events, converge, time.perf_counter() - t0, photons)
 
-    # photons_due: below this share of the photons emitted reaching the image (Counter.USED,
-    # merges and camera connections over photons emitted), the photon pass runs only now and
-    # then.  Measured (200 passes, 128 x 128, and 30 at 64 x 64): the sun-lit cone under Filter
-    # Glossy 1, 1.2e-5 (4 of 321,200); glossy_metal 6e-3; the caustic scenes, the bulb box and
-    # the pool 0.35-3.7
+    # photons_due: below this share of the photons emitted reaching the image (Counter.USED)
+    # few passes run them (measured: sun_cone 1.2e-5, glossy_metal 6e-3, the caustics 0.35-3.7)
     PHOTONS_USED_MIN = 1e-3
 
     def photons_due(self, pass_index: int) -> bool:
-        """Whether pass ``pass_index`` runs the photon pass (and the grid, the hash and the
-        gather): every pass of a render that needs photons, unless almost none of them reach
-        the image (fewer than PHOTONS_USED_MIN of those emitted so far: Counter.USED), when only
-        passes 0, 1, 2, 4, 8, 16 and every 16th do.  Filter Glossy hands most caustic photons'
-        light to the eye paths (kernels/integrator/path_state.h), and where it hands nearly all
-        of it the photon pass is work for nothing: a sun-lit Principled cone's pass took 1.3 to
-        1.5 times as long with it (docs/BENCHMARKS.md).  The image's expectation is the same:
-        the film divides the photons' light by the photons emitted (progressive.cl
-        film_resolve), whichever passes emitted them."""
+        """Whether pass ``pass_index`` runs the photon pass, grid, hash and gather: every pass,
+        but where fewer than PHOTONS_USED_MIN of the photons reach the image (Filter Glossy hands
+        most to the eye paths) only passes 1, 2, 4, 8, 16 and every 16th, counting from 1 (when
+        casters and guides learn); the film divides by the photons emitted, so no bias."""
         if not self.photons_needed:
             return False
-        n = pass_index
-        if not self.options.skip_unused_photons or n < 2 or (n & (n - 1)) == 0 or n % 16 == 0:
+        n = pass_index + 1
+        if not self.options.skip_unused_photons or (n & (n - 1)) == 0 or n % 16 == 0:
             return True
         return self.photons_used >= self.PHOTONS_USED_MIN * self.film.photons_emitted
 
@@ -348,6 +354,24 @@ class Renderer:
         prior = self.LEARN_PRIOR * static * (stored.sum() / sent.sum())
         y = (stored + prior) / (sent + self.LEARN_PRIOR)
         self.scene.set_caster_weights(np.maximum(y / y.max(), self.LEARN_FLOOR))
+
+    def learn_guides(self) -> None:
+        """The guided lights' bins from the stores counted per bin (ppm_engine/scene/guide.py),
+        after passes 1, 2, 4, 8, 16 and every 16th, as learn_caster_weights: each pass's
+        photons carry the density they were drawn with, so the image stays unbiased."""
+        import pyopencl as cl
+        guides, em = self.scene.guides, self.scene.emitters
+        total = float(em.power.sum())
+        if not total > 0:
+            return
+        guides.count_sent(self.photon_count, em.power / total)
+        n = self.passes_done
+        if n & (n - 1) and n % 16:
+            return
+        stored = np.empty(len(guides) * GUIDE_BINS, np.uint32)
+        cl.enqueue_copy(self.queue, stored, self.guide_stats)
+        if guides.learn(stored):
+            self.scene.upload_guides()
 
     def _stats(self, counters, grid, events, converged: bool, seconds: float,
                photons: bool) -> PassStats:

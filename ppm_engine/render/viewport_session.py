@@ -3,7 +3,7 @@
     s = ViewportSession(options)                  # starts the worker thread
     s.update_scene(export_scene(depsgraph, camera=cam))   # Blender's view_update, on any edit
     s.update_view(cam)                            # view_draw: the view's camera record
-    frame = s.frame()                             # the latest image (Frame) to draw, or None
+    snap = s.snapshot()                           # the latest image (Frame), status, error, busy
     s.close()                                     # the viewport closed: frees the device memory
 
 One worker thread owns the Renderer and every OpenCL call of the session; Blender's thread only
@@ -28,10 +28,19 @@ After every restart the first passes run at reduced resolution, as Cycles' viewp
 is the smallest power of two that brings the region to about ``start_resolution`` squared
 pixels, halved each pass down to 1; then passes accumulate at full resolution until the pass
 count or the time limit (the viewport's own settings).
+
+Paused (the scene's Pause Viewport), the worker still applies what is posted but renders no
+pass, with one exception: until an image at full resolution exists (a new session's first
+image, or a restart's reduced levels when the pause came), so a viewport opened paused shows
+its scene and says "Rendering Paused" (Cycles' word) instead of looking hung.  Cycles itself
+prepares the scene and then waits, its display empty, under the same status.
+
+Every change of what the viewport shows (an image, the status line, an error) increments
+``version``; ``snapshot()`` reads all of it at one instant, so a reader that compares versions
+cannot miss the last image or an error landing while it draws.
 """
 from __future__ import annotations
 
-import dataclasses
 import sys
 import threading
 import time
@@ -41,6 +50,7 @@ import numpy as np
 
 from ppm_engine.errors import PPMError
 from ppm_engine.render.options import RenderOptions
+from ppm_engine.render.viewport_frame import Frame, Snapshot, display_image, divider_for
 from ppm_engine.scene.camera import scaled_camera
 
 # seconds a new region size must stay before it is rendered (dragging a window's edge)
@@ -53,31 +63,6 @@ KERNELS = {"editable": dict(specialize=True, editable=True),
 
 # what the worker did with a scene or view change (ViewportSession.actions, newest last)
 ACTIONS = ("new", "camera", "upload", "refit", "rebuild")
-
-
-@dataclasses.dataclass(frozen=True)
-class Frame:
-    """An image of the viewport: linear RGBA (h, w, 4) float32, row 0 at the bottom, at
-    1/``divider`` of the region's ``width`` x ``height`` (draw it stretched over the region)."""
-    image: np.ndarray
-    width: int
-    height: int
-    divider: int
-    passes: int            # passes accumulated in it (at its resolution)
-    generation: int        # grows with every new image
-    restart: int           # the restart it belongs to (ViewportSession.restarts)
-
-
-def divider_for(width: int, height: int, start_resolution: int) -> int:
-    """Cycles' viewport start: the smallest power of two d with (w / d) (h / d) at most
-    ``start_resolution`` squared (1 when the region is that small already; 0 or less: 1)."""
-    if start_resolution <= 0:
-        return 1
-    d = 1
-    while (width / d) * (height / d) > start_resolution * start_resolution and d < 1 << 12:
-        d *= 2
-    return d
-
 
 class ViewportSession:
     def __init__(self, options: RenderOptions, start_resolution: int = 64,
@@ -99,6 +84,8 @@ class ViewportSession:
         self._posted_camera = None          # the last camera posted (update_view compares)
         self._paused = False
         self._closing = False
+        self._version = 0                   # grows with every change of what the viewport shows
+        self._applying = False              # the worker took posted changes, not yet applied
         # the worker's state (read under the lock by frame(), status(), busy)
         self._frame: Frame | None = None
         self._status = "Waiting for the scene"
@@ -158,8 +145,12 @@ class ViewportSession:
                 self._cond.notify_all()
 
     def pause(self, paused: bool = True) -> None:
+        """Pause (the scene's Pause Viewport) or resume.  Paused, no pass runs once an image at
+        full resolution exists (a new session still renders its first one)."""
         with self._cond:
-            self._paused = bool(paused)
+            if self._paused != bool(paused):
+                self._paused = bool(paused)
+                self._version += 1                    # the status line says it
             self._cond.notify_all()
 
     def frame(self) -> Frame | None:
@@ -170,7 +161,7 @@ class ViewportSession:
     def status(self) -> str:
         """The line for the viewport's header (also the error, when the session failed)."""
         with self._cond:
-            return self._status
+            return self._status_line()
 
     @property
     def error(self) -> str | None:
@@ -179,11 +170,47 @@ class ViewportSession:
 
     @property
     def busy(self) -> bool:
-        """Whether more images are coming (the viewport keeps redrawing while they are)."""
+        """Whether more images (or another status line) are coming: something posted and not
+        yet applied, or a scene whose passes are neither done nor paused."""
         with self._cond:
-            return self._thread.is_alive() and self._error is None and not self._closing and (
-                self._new_scene is not None or self._new_camera is not None
-                or self._new_options is not None or not (self._done or self._paused))
+            return self._busy()
+
+    @property
+    def version(self) -> int:
+        """Grows with every change of the frame, the status line or the error."""
+        with self._cond:
+            return self._version
+
+    def snapshot(self) -> Snapshot:
+        """The frame, status line, error, busy and version at one instant: whoever draws the
+        frame and then asks busy separately can miss the last image or an error landing in
+        between; a snapshot's version tells whether anything changed since."""
+        with self._cond:
+            return Snapshot(self._frame, self._status_line(), self._error, self._busy(),
+                            self._version)
+
+    # (these four under the lock)
+    def _held(self) -> bool:
+        """Paused with an image at full resolution to show: no pass runs."""
+        return self._paused and self._frame is not None and self._frame.divider == 1
+
+    def _idle(self) -> bool:
+        """Nothing to render until something is posted or the pause ends."""
+        return self._done or self._held()
+
+    def _busy(self) -> bool:
+        if not self._thread.is_alive() or self._error is not None or self._closing:
+            return False
+        return (self._new_scene is not None or self._new_camera is not None
+                or self._new_options is not None or self._applying
+                or (self._scene is not None and not self._idle()))
+
+    def _status_line(self) -> str:
+        if self._error is None and self._paused:
+            if self._held():
+                return f"Rendering Paused · {self._status}"
+            return f"Rendering the first image, then pausing · {self._status}"
+        return self._status
 
     def wait(self, predicate=None, timeout: float = 60.0) -> bool:
         """Block until ``predicate(self)`` holds (default: nothing more to render), the session
@@ -214,6 +241,7 @@ class ViewportSession:
     def _set_status(self, text: str) -> None:
         with self._cond:
             self._status = text
+            self._version += 1
             self._cond.notify_all()
 
     def _posted(self) -> bool:
@@ -236,9 +264,10 @@ class ViewportSession:
                 if self._new_camera is not None and settle > 0 and self._frame is not None:
                     self._cond.wait(settle)            # still resizing: keep the last image
                     continue
-                if posted or not (self._done or self._paused or self._renderer is None):
+                if posted or not (self._idle() or self._renderer is None):
                     taken = (self._new_scene, self._new_camera, self._new_options)
                     self._new_scene = self._new_camera = self._new_options = None
+                    self._applying = any(x is not None for x in taken)
                     return taken
                 self._cond.wait()
             return None
@@ -255,11 +284,17 @@ class ViewportSession:
                     break
                 scene, camera, options = taken
                 if scene is not None or camera is not None or options is not None:
-                    self._apply(scene, camera, options)
-                if self._renderer is not None and not (self._done or self._paused
-                                                       or self._closing):
+                    try:
+                        self._apply(scene, camera, options)
+                    finally:
+                        with self._cond:
+                            self._applying = False
+                with self._cond:
+                    idle = self._idle() or self._closing
+                if self._renderer is not None and not idle:
                     self._pass()
-        except PPMError as e:
+        except PPMError as e:     # the full message (a compiler's log) for the console
+            print(f"PPM viewport: {e}", file=sys.stderr)
             self._fail(str(e))
         except Exception as e:   # a bug: the header says so, the console has the traceback
             traceback.print_exc(file=sys.stderr)
@@ -277,6 +312,7 @@ class ViewportSession:
         with self._cond:
             self._error = message
             self._status = f"Progressive Photon Mapping: {message}"
+            self._version += 1
             self._cond.notify_all()
 
     def _on_build(self, label: str, done: bool) -> None:
@@ -377,7 +413,7 @@ class ViewportSession:
             if stats is None:                          # dropped for a newer view or edit:
                 self._dropped = True                   # the next change restarts for sure
                 return
-            image = np.array(r.image(), copy=True)
+            image = display_image(r.image())       # a copy, in the half-float texture's range
         elapsed = time.perf_counter() - self._restart_time
         w, h = int(self._camera["width"][0]), int(self._camera["height"][0])
         with self._cond:
@@ -385,6 +421,7 @@ class ViewportSession:
                          or self._new_options is not None)
             gen = self._frame.generation + 1 if self._frame is not None else 1
             self._frame = Frame(image, w, h, self._divider, r.passes_done, gen, self.restarts)
+            self._version += 1
             if self.first_pass_seconds is None:
                 self.first_pass_seconds = time.perf_counter() - self._t_created
             if self._divider > 1:

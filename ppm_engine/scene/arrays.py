@@ -78,6 +78,9 @@ NODE_TYPES = ("principled", "diffuse", "glossy", "metallic", "glass", "refractio
               "transparent", "sheen", "emission", "holdout")
 NODE_FLAG_MULTI_GGX = 1     # multiple scattering compensated ("Multiscatter GGX")
 NODE_FLAG_CONDUCTOR = 2     # Metallic BSDF, Physical Conductor: color = n, edge_tint = k
+# its material has Cycles' Bump Map Correction off (Material > Settings): its glossy normals are
+# not raised for valid reflections (kernels/svm/shader_inputs.h specular_normal)
+NODE_FLAG_NO_BUMP_CORRECTION = 4
 
 
 # One BSDF node of a material, its inputs constant (textures: 1-based into ``textures``, the

@@ -5,16 +5,13 @@ written once.
     python -m ppm_engine.tools.shared_header           # writes the headers again
     python -m ppm_engine.tools.shared_header --check   # exit 1 when one is stale
 
-shared.h holds, each with the table it comes from: the ``#define`` families of codes and flags
-(visibility bits, light and node types, material flags, counters, the shading tables'
-offsets...), the structs that mirror the NumPy dtypes field for field (the dtypes' field comments
-come along), and the scene's, the film's, the visible points' and the photons' buffers as
-X-macro lists (``SCENE_DATA``, ``FILM_DATA``, ``VP_DATA``, ``PHOTON_DATA`` from SCENE_BUFFERS,
-FILM_BUFFERS, VP_BUFFERS, PHOTON_BUFFERS); it includes shared_features.h, the kernels' feature
-flags and build parameters (``#ifndef`` defaults: a program built without ``-D`` flags has every
-feature), and shared_svm.h, the shader program's op codes and the codes of its nodes' options.
-shared_color.h (which kernels/svm/svm_color.h includes) holds the Blackbody and Wavelength
-nodes' tables (ppm_engine/scene/spectra.py).
+shared.h holds, each with the table it comes from: the ``#define`` families of codes and flags,
+the structs that mirror the NumPy dtypes field for field (with their comments), and the scene's,
+film's, visible points' and photons' buffers as X-macro lists (``SCENE_DATA``, ``FILM_DATA``,
+``VP_DATA``, ``PHOTON_DATA``); it includes shared_features.h, the kernels' feature flags and
+build parameters (``#ifndef`` defaults: a program built without ``-D`` flags has every feature),
+and shared_svm.h, the shader program's op codes and its nodes' options.  shared_color.h holds
+the Blackbody and Wavelength nodes' tables (ppm_engine/scene/spectra.py).
 
 Kernel code uses these names and never repeats a number of theirs; what only the kernels use
 (closure types, sample labels, the Light Path node's bits) stays in the kernel headers."""
@@ -135,7 +132,7 @@ def generate() -> str:
     from ppm_engine.render.passes import gather, hash_build
     from ppm_engine.scene import arrays as sa
     from ppm_engine.scene import camera as camera_model
-    from ppm_engine.scene import emitters, light_paths, light_tree, materials
+    from ppm_engine.scene import emitters, guide, light_paths, light_tree, materials
     from ppm_engine.scene import shading_tables as st
 
     out = BANNER + ["#ifndef PPM_SHARED_H", "#define PPM_SHARED_H", "",
@@ -185,6 +182,9 @@ def generate() -> str:
                     _prefixed("KIND_", st.KINDS)),
             _family("the gather's region and cells (ppm_engine/render/passes/gather.py)",
                     [("MAX_CELLS_PER_AXIS", gather.MAX_CELLS_PER_AXIS)]),
+            _family("photon guides' bins, floats per light, lights (ppm_engine/scene/guide.py)",
+                    [(k, getattr(guide, k)) for k in ("GUIDE_ROWS", "GUIDE_COLS", "GUIDE_BINS",
+                                                      "GUIDE_STRIDE", "MAX_GUIDED")]),
             _family("the visible points' bounds reduction's work-group "
                     "(ppm_engine/render/passes/hash_build.py HashBuild.BOUNDS_GROUP)",
                     [("BOUNDS_WG", hash_build.HashBuild.BOUNDS_GROUP)])]

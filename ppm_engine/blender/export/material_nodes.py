@@ -23,6 +23,7 @@ from ppm_engine.scene.arrays import (
     NODE_EMISSION,
     NODE_FLAG_CONDUCTOR,
     NODE_FLAG_MULTI_GGX,
+    NODE_FLAG_NO_BUMP_CORRECTION,
     NODE_GLASS,
     NODE_GLOSSY,
     NODE_HOLDOUT,
@@ -377,4 +378,14 @@ def read_material(material, warn, textures=None, attributes: list | None = None,
         reader.compiler.constants_only = True
         nodes = []
         reader.walk(surface, reader.compiler.const(1.0, 1), nodes)
+    if not bump_map_correction(material):
+        for n in nodes:                 # (rows from node_row)
+            n["flags"] |= NODE_FLAG_NO_BUMP_CORRECTION
     return row, nodes, reader.compiler.program()
+
+
+def bump_map_correction(material) -> bool:
+    """Cycles' Bump Map Correction of the material (Material > Settings, on by default):
+    whether the normals of its glossy, glass and translucent closures are raised towards the face
+    where the view's mirror reflection about them would go below it."""
+    return bool(getattr(getattr(material, "cycles", None), "use_bump_map_correction", True))

@@ -3,6 +3,7 @@ transformed per instance.  No per-vertex or per-triangle Python loops: attribute
 ``foreach_get`` into buffers of the stored dtype, then NumPy."""
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 
 import numpy as np
@@ -23,6 +24,9 @@ class LocalMesh:
     # the mesh's texture space (location, size): where "Generated" coordinates are 0..1
     texspace: tuple = ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
     tri_loops: np.ndarray | None = None     # (3T,) the corners' loop indexes
+    tri_vert: np.ndarray | None = None      # (3T,) the corners' vertex indexes
+    flat: np.ndarray | None = None          # (T,) bool: the triangle's face is flat-shaded
+    uv_name: str | None = None              # the UV map in ``uvs`` (render_uv_layer), if any
 
     @property
     def n_triangles(self) -> int:
@@ -82,8 +86,15 @@ def read_mesh(mesh) -> LocalMesh:
     slot = mat[tri_poly] if mat is not None else np.zeros(n_tri, np.int32)
     texspace = (tuple(getattr(mesh, "texspace_location", (0.0, 0.0, 0.0))),
                 tuple(getattr(mesh, "texspace_size", (1.0, 1.0, 1.0))))
+    if mesh.normals_domain == 'FACE':
+        flat = np.ones(n_tri, bool)
+    else:
+        sharp = _attr(mesh, "sharp_face", n_polys, 1, bool, "value")
+        flat = sharp[tri_poly] if sharp is not None else np.zeros(n_tri, bool)
     return LocalMesh(positions, normals.astype(np.float32, copy=False), uvs,
-                     slot.astype(np.int32, copy=False), texspace, tri_loops)
+                     slot.astype(np.int32, copy=False), texspace, tri_loops,
+                     tri_vert.astype(np.int32, copy=False), flat,
+                     uv_layer.name if uv_layer is not None else None)
 
 
 def render_uv_layer(mesh):
@@ -94,29 +105,69 @@ def render_uv_layer(mesh):
     return next((uv for uv in layers if uv.active_render), layers.active)
 
 
-def read_uv_tangents(mesh, local: LocalMesh, warn) -> np.ndarray:
-    """(T, 3, 4) object-space tangents of the rendered UV map at the corners and their bitangent
-    signs: Blender's MikkTSpace (``calc_tangents``), the tangent attribute Cycles' Normal Map
-    reads; zeros (the normal map then leaves the normal alone, as Cycles without tangents)
-    where they cannot be computed."""
-    out = np.zeros((local.n_triangles, 3, 4), np.float32)
-    uv = render_uv_layer(mesh)
-    if uv is None or local.tri_loops is None:
-        warn(f"Mesh '{mesh.name}' has no UV map: its tangent-space normal maps are not applied")
+def cycles_tangent_normals(local: LocalMesh) -> np.ndarray:
+    """(T, 3, 3) the normals Cycles gives MikkTSpace at the triangles' corners: the mesh's
+    (vertex or corner) normal on smooth faces, the triangle's own normal on flat ones
+    (Cycles' MikkMeshWrapper::GetNormal; (1, 0, 0) for a degenerate triangle)."""
+    normals = local.normals.copy()
+    if local.flat is not None and local.flat.any():
+        p = local.positions[local.flat].astype(np.float64)
+        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        n = np.where(length > 0, n / np.where(length > 0, length, 1.0), (1.0, 0.0, 0.0))
+        normals[local.flat] = n[:, None, :].astype(np.float32)
+    return normals
+
+
+def read_uv_tangents(local: LocalMesh, name: str, warn, scratch) -> np.ndarray:
+    """(T, 3, 4) object-space tangents of the rendered UV map at the triangles' corners and
+    their bitangent signs, as Cycles computes the tangent attribute its Normal Map reads:
+    MikkTSpace (Blender's, ``Mesh.calc_tangents``) on the mesh's triangles (Cycles runs it
+    on its triangulated mesh, not on the quads and n-gons ``calc_tangents`` would see on the
+    mesh itself: up to ~1 degree apart around a subdivided mesh's irregular vertices), with
+    the normals Cycles gives it (cycles_tangent_normals) as custom normals of a triangle mesh
+    built for it; the corners keep their vertices (MikkTSpace joins the corners of a vertex
+    that agree in UV and normal).  ``scratch()``: a context manager giving a mesh outside
+    the blend data to build it in (MeshCache.uv_tangents: the object's to_mesh(), cleared;
+    never a new datablock of bpy.data, which a render's thread must not add), or None.
+    Zeros (the normal map then leaves the normal alone, as Cycles without tangents) where
+    they cannot be computed."""
+    n_tri = local.n_triangles
+    out = np.zeros((n_tri, 3, 4), np.float32)
+    if n_tri == 0:
         return out
-    try:
-        mesh.calc_tangents(uvmap=uv.name)
-    except RuntimeError as e:
-        warn(f"Mesh '{mesh.name}': its tangents could not be computed ({e}); its "
-             "tangent-space normal maps are not applied")
+    if local.uv_name is None or local.tri_vert is None:
+        warn(f"Mesh '{name}' has no UV map: its tangent-space normal maps are not applied")
         return out
-    n = len(mesh.loops)
-    t, sign = np.empty(3 * n, np.float32), np.empty(n, np.float32)
-    mesh.loops.foreach_get("tangent", t)
-    mesh.loops.foreach_get("bitangent_sign", sign)
-    mesh.free_tangents()
-    out[..., :3] = t.reshape(-1, 3)[local.tri_loops].reshape(-1, 3, 3)
-    out[..., 3] = sign[local.tri_loops].reshape(-1, 3)
+    n_v = int(local.tri_vert.max()) + 1
+    pos = np.zeros((n_v, 3), np.float32)
+    pos[local.tri_vert] = local.positions.reshape(-1, 3)
+    with scratch() as tmp:
+        try:
+            if tmp is None:
+                raise RuntimeError("no mesh to compute them in")
+            tmp.clear_geometry()
+            tmp.vertices.add(n_v)
+            tmp.attributes["position"].data.foreach_set("vector", pos.ravel())
+            tmp.loops.add(3 * n_tri)
+            tmp.attributes[".corner_vert"].data.foreach_set("value", local.tri_vert)
+            tmp.polygons.add(n_tri)
+            tmp.polygons.foreach_set("loop_start", np.arange(0, 3 * n_tri, 3, dtype=np.int32))
+            uv_name = tmp.uv_layers.new(name="UVMap").name
+            tmp.attributes[uv_name].data.foreach_set("vector", local.uvs.ravel())
+            # free custom normals (Blender 4.5+): the corners' normals exactly, in a memcpy
+            tmp.attributes.new("custom_normal", "FLOAT_VECTOR", "CORNER").data.foreach_set(
+                "vector", cycles_tangent_normals(local).ravel())
+            tmp.calc_tangents(uvmap=uv_name)
+            t, sign = np.empty(9 * n_tri, np.float32), np.empty(3 * n_tri, np.float32)
+            tmp.loops.foreach_get("tangent", t)
+            tmp.loops.foreach_get("bitangent_sign", sign)
+        except RuntimeError as e:
+            warn(f"Mesh '{name}': its tangents could not be computed ({e}); its "
+                 "tangent-space normal maps are not applied")
+            return out
+    out[..., :3] = t.reshape(-1, 3, 3)
+    out[..., 3] = sign.reshape(-1, 3)
     return out
 
 
@@ -180,16 +231,45 @@ class MeshCache:
         self._tangents: dict = {}
         self._attributes: dict = {}
 
-    def uv_tangents(self, obj) -> np.ndarray | None:
-        """read_uv_tangents of a mesh object's data (once per datablock); None for other
-        geometry (no tangents: warned)."""
-        if obj.type != 'MESH':
-            self.warn(f"Object '{obj.name}' is not a mesh: its tangent-space normal maps are "
-                      "not applied")
-            return None
-        key = obj.data.as_pointer()
+    @staticmethod
+    def _direct(obj) -> bool:
+        """Whether the object's evaluated data is the mesh to read: a mesh object's, unless it
+        is in Edit Mode (then the data is the edit mesh's wrapper, without the corner arrays:
+        read through to_mesh(), as Cycles does)."""
+        return obj.type == 'MESH' and not obj.data.is_editmode
+
+    def _key(self, obj):
+        """The cache key of an object's geometry: its mesh datablock (1000 instances, one
+        read), or the object and its data where the mesh comes from to_mesh() (the result
+        depends on the evaluated object: its modifiers)."""
+        if self._direct(obj):
+            return obj.data.as_pointer()
+        return (obj.as_pointer(), obj.data.as_pointer() if obj.data is not None else 0)
+
+    @contextlib.contextmanager
+    def _mesh(self, obj, copy: bool = False):
+        """The evaluated mesh to read (None where the object gives none): the object's data
+        (_direct, unless ``copy``), else a temporary mesh from to_mesh() (curves, surfaces,
+        text, metaballs, a mesh in Edit Mode), outside the blend data, always cleared."""
+        if self._direct(obj) and not copy:
+            yield obj.data
+            return
+        try:
+            mesh = obj.to_mesh()
+        except RuntimeError:
+            mesh = None
+        try:
+            yield mesh
+        finally:
+            obj.to_mesh_clear()
+
+    def uv_tangents(self, obj) -> np.ndarray:
+        """read_uv_tangents of an object's geometry (once per datablock)."""
+        key = self._key(obj)
         if key not in self._tangents:
-            self._tangents[key] = read_uv_tangents(obj.data, self.get(obj), self.warn)
+            name = obj.data.name if obj.data is not None else obj.name
+            self._tangents[key] = read_uv_tangents(self.get(obj), name, self.warn,
+                                                   lambda: self._mesh(obj, copy=True))
         return self._tangents[key]
 
     def attributes(self, obj, names: list) -> np.ndarray | None:
@@ -198,34 +278,20 @@ class MeshCache:
         if obj.type != 'MESH':
             self.warn(f"Object '{obj.name}' is not a mesh: its attributes are not read (0)")
             return None
-        key = (obj.data.as_pointer(), tuple(names))
+        key = (self._key(obj), tuple(names))
         if key not in self._attributes:                # once per datablock, not per instance
-            self._attributes[key] = read_attributes(obj.data, self.get(obj), list(names),
-                                                    self.warn)
+            local = self.get(obj)
+            with self._mesh(obj) as mesh:
+                self._attributes[key] = (read_attributes(mesh, local, list(names), self.warn)
+                                         if mesh is not None else None)
         return self._attributes[key]
 
-    def get(self, obj) -> LocalMesh | None:
-        data = obj.data
-        if obj.type == 'MESH':
-            key = data.as_pointer()
-            if key not in self._cache:
-                self._cache[key] = read_mesh(data)
-            return self._cache[key]
-        # curves, surfaces, text, metaballs...: evaluate to a temporary mesh, always cleared.
-        # The result depends on the evaluated object (modifiers), so key on object and data.
-        key = (obj.as_pointer(), data.as_pointer() if data is not None else 0)
-        if key in self._cache:
-            return self._cache[key]
-        try:
-            mesh = obj.to_mesh()
-        except RuntimeError:
-            mesh = None
-        try:
-            local = read_mesh(mesh) if mesh is not None else EMPTY
-        finally:
-            obj.to_mesh_clear()
-        self._cache[key] = local
-        return local
+    def get(self, obj) -> LocalMesh:
+        key = self._key(obj)
+        if key not in self._cache:
+            with self._mesh(obj) as mesh:
+                self._cache[key] = read_mesh(mesh) if mesh is not None else EMPTY
+        return self._cache[key]
 
     def clear(self):
         self._cache.clear()

@@ -30,6 +30,7 @@ EXAMPLES = {
     "rough_caustic": caustics.rough_caustic,     # the same through rough glass
     "far_caustic": caustics.far_caustic,         # a bigger ball, the light 3.5 m away
     "mirror_caustic": caustics.mirror_caustic,
+    "clamped_caustic": caustics.clamped_caustic,  # a metal ball's caustic under a clamp
     "pool_caustic": pool.build,                  # the sun's caustic seen through water
     "furnace": furnace.build,                    # the benchmark's closed-form scene
     "many_lights": many_lights.build,            # the benchmark's many-light scene

@@ -1,4 +1,4 @@
-"""Five caustic scenes (example scenes, and the benchmark's: ``python -m ppm_engine bench``),
+"""Six caustic scenes (example scenes, and the benchmark's: ``python -m ppm_engine bench``),
 built with bpy from nothing.
 
 All stand on the same stage: a 4 x 4 m white Lambertian floor (z = 0, x, y in [-2, 2]) and a
@@ -26,6 +26,14 @@ are small spheres (radius ``LIGHT_RADIUS``) kept out of view and invisible to ca
 - ``mirror_caustic``: a point light and a perfect planar mirror (Principled metallic 1,
   roughness 0, base colour 1), a 0.8 x 0.6 m rectangle tilted towards the floor, which
   reflects the light onto a bright patch of floor in front of it.
+- ``clamped_caustic``: a polished metal ball (Principled metallic 1, roughness
+  ``CLAMPED_ROUGHNESS``) under a point light of radius 0 in a black lamp shade open below: the
+  floor under the shade is lit, the back wall (and the floor around the pool) only by the ball's
+  glossy reflection of the light, a caustic path tracing finds through next-event estimation at
+  the ball after a diffuse bounce, rarely and bright.  Its Light Paths clamp (Clamp Direct and
+  Indirect ``CLAMP``): Cycles' image is the clamped one, a smooth and dim wall (the benchmark
+  renders both engines with the scene's own clamp: ``ppm_engine/tools/bench/scenes.py``
+  LIGHT_PATHS).
 
 The benchmark's data about them (caustic pixels, MNEE flags) is in ppm_engine/tools/bench/scenes.py.
 """
@@ -76,6 +84,17 @@ MIRROR_CENTER = np.array([0.8, 0.3, 0.7])
 MIRROR_NORMAL = np.array([-1.0, 0.0, -0.45]) / np.linalg.norm([-1.0, 0.0, -0.45])
 MIRROR_SIZE = (0.8, 0.6)                         # along y, along the tilted vertical
 
+# clamped_caustic: the ball on the floor, the light 0.6 m above its top inside a shade (an open
+# box, black inside and out) whose sides reach 0.35 m below the light: the cone it leaves open
+# (half-angle 30 degrees) holds the ball (22 degrees) and a square pool of floor, never the
+# back wall
+CLAMPED_BALL = ((0.0, 0.8, 0.35), 0.35)
+CLAMPED_ROUGHNESS = 0.16
+CLAMPED_POS = (0.0, 0.8, 1.3)
+CLAMPED_POWER = 1000.0                           # W
+CLAMPED_SHADE = ((-0.2, 0.6, 0.95), (0.2, 1.0, 1.45))   # its corners (lo, hi)
+CLAMP = 100.0                                    # Clamp Direct and Clamp Indirect
+
 
 def mirror_corners() -> np.ndarray:
     """The mirror's four corners (counter-clockwise seen from the side it faces)."""
@@ -99,12 +118,13 @@ def mirror_image(p) -> np.ndarray:
     return p - 2.0 * np.dot(p - MIRROR_CENTER, MIRROR_NORMAL) * MIRROR_NORMAL
 
 
-def _stage(scene):
+def _stage(scene, target=(0.2, 0.2, 0.25)):
+    """The floor and back wall, the camera at the front looking at ``target``."""
     white = lambert("Floor", FLOOR)
     quad(scene, "Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], white)
     quad(scene, "Back", [(-2, 2, 0), (2, 2, 0), (2, 2, 2.5), (-2, 2, 2.5)], white)
-    eye, target = np.array([0.1, -2.8, 1.7]), np.array([0.2, 0.2, 0.25])
-    d = target - eye
+    eye = np.array([0.1, -2.8, 1.7])
+    d = np.asarray(target, float) - eye
     camera_world_render(scene, tuple(eye),
                         (math.atan2(math.hypot(d[0], d[1]), -d[2]), 0.0,
                          math.atan2(d[0], d[1]) * -1.0), RESOLUTION)
@@ -180,4 +200,29 @@ def mirror_caustic(scene=None):
     m = principled("Mirror", {"Base Color": (1.0, 1.0, 1.0), "Metallic": 1.0, "Roughness": 0.0})
     quad(scene, "Mirror", [tuple(c) for c in mirror_corners()], m)
     _light(scene, "Point", 'POINT', POINT_POS, POINT_POWER)
+    return scene
+
+
+def clamped_caustic(scene=None):
+    """A polished metal ball under a point light of radius 0 in a lamp shade, Clamp Direct and
+    Indirect ``CLAMP`` (see the module docstring)."""
+    scene = new_scene(scene)
+    _stage(scene, target=(0.0, 1.2, 0.6))
+    center, radius = CLAMPED_BALL
+    sphere(scene, "MetalBall", center, radius,
+           principled("Metal", {"Base Color": (0.9, 0.9, 0.9), "Metallic": 1.0,
+                                "Roughness": CLAMPED_ROUGHNESS}), 64, 32)
+    (x0, y0, z0), (x1, y1, z1) = CLAMPED_SHADE
+    black = lambert("Shade", (0.0, 0.0, 0.0))
+    for name, corners in (("ShadeTop", [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)]),
+                          ("ShadeFront", [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)]),
+                          ("ShadeBack", [(x0, y1, z0), (x0, y1, z1), (x1, y1, z1), (x1, y1, z0)]),
+                          ("ShadeLeft", [(x0, y0, z0), (x0, y0, z1), (x0, y1, z1), (x0, y1, z0)]),
+                          ("ShadeRight", [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1),
+                                          (x1, y0, z1)])):
+        quad(scene, name, corners, black)
+    point = _light(scene, "Point", 'POINT', CLAMPED_POS, CLAMPED_POWER)
+    point.data.shadow_soft_size = 0.0
+    c = scene.cycles
+    c.sample_clamp_direct = c.sample_clamp_indirect = CLAMP
     return scene

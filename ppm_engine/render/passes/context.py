@@ -22,6 +22,7 @@ class PassContext:
     photon_map: Any = None         # the PhotonMap
     counters: Any = None           # the counters' buffer (ppm_engine/render/counters.py)
     radius: Any = None             # each visible point's radius: the film's unless given
+    guide_stats: Any = None        # the photon guides' stores per bin (Renderer.learn_guides)
 
     def __post_init__(self):
         if self.radius is None and self.film is not None:
@@ -36,6 +37,7 @@ class Iteration:
     photons: int = 0               # photons emitted this pass (0: no photon pass)
     path_indirect: bool = False    # indirect light by eye paths: photons only for caustics
     lt_kappa: float = 0.0          # > 0: the photons' light tracing is on (its MIS factor)
+    guided: bool = False           # the guided lights' photons from their learned bins
     # asked between launches of about ``piece`` pixels or photons (device.program.in_pieces);
     # True stops the pass there
     interrupt: Callable[[], bool] | None = None

@@ -12,6 +12,7 @@ from ppm_engine.render.passes.context import Iteration, PassContext
 # the photon pass's mode bits (kernels/integrator/photon_pass.cl PHOTONS_*)
 PHOTONS_CAUSTIC = 1     # only photons whose first scattering is a caster's live on
 PHOTONS_AIMED = 2       # emitted toward the casters (kernels/light/aim.h)
+PHOTONS_GUIDED = 4      # guided lights' directions from their learned bins (kernels/light/guide.h)
 
 
 class PhotonPass:
@@ -50,6 +51,8 @@ class PhotonPass:
             n_photons=np.uint32(it.photons), capacity=np.uint32(0 if pilot else pm.capacity),
             counters=c.counters, mode=np.uint32(
                 (PHOTONS_CAUSTIC if caustics_only or pilot else 0)
-                | (PHOTONS_AIMED if caustics_only and o.skip_unaimed_caustics else 0)),
+                | (PHOTONS_AIMED if caustics_only and o.skip_unaimed_caustics else 0)
+                | (PHOTONS_GUIDED if it.guided and not pilot else 0)),
+            guide_stats=c.guide_stats if c.guide_stats is not None else c.counters,
             lt_filter=c.scene.filter_density, lt_reach=np.float32(c.scene.filter_reach),
             lt_kappa=np.float32(it.lt_kappa if lt else 0.0))

@@ -29,8 +29,12 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
 - the Cornell box, many_lights, hdri_sun, glossy_metal and sun_cone: Cycles (path tracing
   converges there; on hdri_sun but for the sun's glint and caustic in the glass ball, where its
   reference's noise is most of its own error, and on glossy_metal but for the metal's
-  caustics on the floor, which Cycles finds only through the light's 0.1 m; sun_cone with its
-  own Light Paths, scenes.OWN_LIGHT_PATHS);
+  caustics on the floor, which Cycles finds only through the light's 0.1 m; sun_cone with
+  Cycles' default Light Paths, Filter Glossy among them: scenes.LIGHT_PATHS);
+- clamped_caustic (a metal ball's glossy caustic under a radius-0 point light, Clamp Direct
+  and Indirect 100): Cycles with the same clamp (scenes.LIGHT_PATHS, every render of the scene
+  and its reference alike): the clamped image is the one both engines converge to, and Cycles'
+  clamped samples are bounded, so its long render converges;
 - point_caustic (the glass ball under a radius-0 point light), rough_caustic (the same ball of
   rough glass, GGX roughness 0.1) and far_caustic (a 0.5 m ball, the light 3.5 m away): the
   exact-geometry reference (exact_caustic.py, "EXACT"): in NumPy on the true sphere and the two
@@ -102,10 +106,11 @@ from ppm_engine.tools.bench.references import References
 from ppm_engine.tools.bench.report import machine_info
 from ppm_engine.tools.bench.scenes import (
     CAUSTIC_MASKS,
-    OWN_LIGHT_PATHS,
+    LIGHT_PATHS,
     caustic_mask,
     excluded_pixels,
     light_tree_stats,
+    set_light_paths,
     set_mnee,
 )
 from ppm_engine.tools.bench.scoring import (
@@ -121,26 +126,30 @@ DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
 SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
           "rough_caustic", "far_caustic", "mirror_caustic", "pool_caustic", "many_lights",
-          "hdri_sun", "glossy_metal", "sun_cone")
+          "hdri_sun", "glossy_metal", "clamped_caustic", "sun_cone")
+# the caustics of mirrors and glass: Cycles + MNEE is measured too
 CAUSTIC_SCENES = ("glass_caustic", "point_caustic", "rough_caustic", "far_caustic",
                   "mirror_caustic", "pool_caustic")
-# scenes whose light photons carry (caustics, a bulb in glass): the merge alone is measured too
-MERGE_SCENES = (*CAUSTIC_SCENES, "bulb_box")
+# scenes whose light photons carry (caustics, a bulb in glass, a metal ball's glossy caustic):
+# the merge alone is measured too
+MERGE_SCENES = (*CAUSTIC_SCENES, "bulb_box", "clamped_caustic")
 # reference engine per scene (see the module docstring)
 REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": "LUXCORE_LIGHT",
                     "glass_caustic": "LIGHT_TRACE", "point_caustic": "EXACT",
                     "rough_caustic": "EXACT", "far_caustic": "EXACT",
                     "mirror_caustic": "LUXCORE_LIGHT", "pool_caustic": "EXACT_POOL",
                     "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES",
-                    "sun_cone": "CYCLES"}
+                    "clamped_caustic": "CYCLES", "sun_cone": "CYCLES"}
 REF_SEEDS = (1001, 2002)
 # reference seconds per half over the run's (2 x its longest budget): LuxCore's light tracer is the
 # noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror caustic,
 # and the ratio to LuxCore's BIDIR the reference's: docs/history/benchmarks-notebook.md); per scene
 # (its entry wins over its engine's) on glossy_metal, whose Cycles reference is slowest where it
 # matters most (the metal's caustics on the floor, the light's highlight; 2 x 240 s: noise 0.024),
-# and far_caustic, whose big ball's camera chains took most of 2 x 32 s (noise 0.027, ours 0.033)
-REF_TIME_FACTOR = {"LUXCORE_LIGHT": 4.0, "EXACT_POOL": 4.0, "glossy_metal": 4.0, "far_caustic": 4.0}
+# and far_caustic, whose big ball's camera chains took most of 2 x 32 s (noise 0.027, ours 0.033),
+# and clamped_caustic, whose wall Cycles' clamped samples reach rarely
+REF_TIME_FACTOR = {"LUXCORE_LIGHT": 4.0, "EXACT_POOL": 4.0, "glossy_metal": 4.0, "far_caustic": 4.0,
+                   "clamped_caustic": 4.0}
 EQUAL_TIME = 16.0
 # scenes with LuxCore's bidirectional path tracer as a curve (issue 15: the point light's caustic
 # in a mirror, which no Cycles estimator samples; its target: scoring.TARGETS_LUXCORE)
@@ -205,10 +214,11 @@ class Bench(References):
         self.folder = folder
         self.progress = progress
         self.count = 0
-        self.own_light_paths = False   # the current scene keeps its Light Paths (_scene)
+        self.name = ""                 # the scene _scene built last
 
     def _scene(self, name):
         import bpy
+        self.name = name
         if name == "glossy":        # the glossy spheres of --glossy (glossy.py), for --noise
             from ppm_engine.tools.bench.glossy import build_scene
             return build_scene(self.res)
@@ -216,7 +226,6 @@ class Bench(References):
             scene = pool.build(grid=pool.grid_for(self.res))
         else:
             scene = build_example(name)
-        self.own_light_paths = name in OWN_LIGHT_PATHS
         scene.render.resolution_x = scene.render.resolution_y = self.res
         scene.render.resolution_percentage = 100
         bpy.context.view_layer.update()
@@ -229,8 +238,8 @@ class Bench(References):
             ppm_settings(scene, seconds, seed, self.device, self.photons, indirect,
                          light_tracing, specialize=not self.quick)
         else:
-            cycles_reference(scene, seconds=seconds, seed=seed,
-                             keep_light_paths=self.own_light_paths)
+            cycles_reference(scene, seconds=seconds, seed=seed)
+        set_light_paths(scene, self.name)
         return render(scene, self.folder / f"r{self.count:04d}.exr")
 
     def reference_half(self, scene, engine: str, seconds: float, seed: int):
@@ -254,6 +263,7 @@ class Bench(References):
         out = {"resolution": [w, h], "caustic_mask_pixels": int(cmask.sum()),
                "excluded_pixels": int((~keep).sum())}
         out["caustic_mask"] = CAUSTIC_MASKS[name]["note"]
+        out["light_paths"] = LIGHT_PATHS.get(name, {})      # beyond 12 bounces, no clamping
 
         # reference: two independent halves
         ref_engine = REFERENCE_ENGINE[name]
@@ -301,35 +311,15 @@ class Bench(References):
         regions, region_noise, out["regions"] = self.regions(scene, ref_engine, keep, halves)
         out["pixels_counted"] = int(keep.sum())
         np.save(self.folder / f"{name}_reference.npy", ref)
-        if ref_engine in ("CYCLES", "EXACT", "LUXCORE_LIGHT") and not self.own_light_paths:
-            # (not with a scene's own Light Paths: the light tracer applies none of them)
-            # the light tracer cross-checked with Cycles where both converge, on
-            # point_caustic the mesh ball's light tracing against the exact sphere's, and
-            # where LuxCore's light tracer is the reference, against that
+        # the light tracer cross-checked (references.light_trace_check), not under a clamp:
+        # light tracing renders the unclamped image, and applies no Filter Glossy
+        c = scene.cycles
+        clamped = c.sample_clamp_direct > 0 or c.sample_clamp_indirect > 0 or c.blur_glossy > 0
+        if ref_engine in ("CYCLES", "EXACT", "LUXCORE_LIGHT") and not clamped:
             self.progress(f"[{name}] light-tracing check, {ref_seconds:g} s")
-            lt, _, info, cover = self.light_traced(ref_seconds, REF_SEEDS[0] + 7)
-            both = cover & keep
-            check = {
-                "reference": ref_engine, "seconds": ref_seconds, **info,
-                "pixels": int(both.sum()),
-                "mean_over_reference": float(lt[both].mean() / ref[both].mean()),
-                "rmse": errors(lt, ref, both)["rmse"],
-                "reference_noise_rmse": errors(halves[0], halves[1], both)["rmse"] / 2}
-            if ref_engine in ("EXACT", "LUXCORE_LIGHT") and (cmask & cover).any():
-                # the caustic: where the 48 x 24 mesh's focus differs from the sphere's (on
-                # point_caustic), where the two light tracers differ (LuxCore's)
-                c = cmask & cover
-                focus = np.unravel_index(int(np.argmax(np.where(c, ref[..., 0], -1.0))),
-                                         c.shape)
-                check.update({
-                    "caustic_pixels": int(c.sum()),
-                    "caustic_mean_over_reference": float(lt[c].mean() / ref[c].mean()),
-                    "caustic_rmse": errors(lt, ref, c)["rmse"],
-                    "caustic_reference_noise_rmse": errors(halves[0], halves[1], c)["rmse"] / 2,
-                    "focus_pixel": [int(focus[0]), int(focus[1])],
-                    "focus_reference": float(ref[focus].mean()),
-                    "focus_light_trace": float(lt[focus].mean())})
-            out["light_trace_check"] = check
+            out["light_trace_check"] = self.light_trace_check(ref_engine, ref, halves, keep,
+                                                              cmask, ref_seconds,
+                                                              REF_SEEDS[0] + 7)
 
         # "ours": the default (the estimator of indirect light chosen per scene);
         # "ours_photons": the paper's photons for all indirect light, in the same run;

@@ -9,9 +9,7 @@ needed: both estimators are unbiased where they are compared), and the figure is
 square over the image, also split into the pixels brighter than 1 (emitters and the edges of
 their images: anti-aliasing there dominates a scene with a visible lamp) and the rest.  With
 ``bounces`` 0 only direct light counts (both engines' bounce limits), which isolates the pixel
-sampling and next-event estimation.  A scene that keeps its own Light Paths
-(curves.OWN_LIGHT_PATHS: sun_cone, Cycles' defaults with Filter Glossy) keeps them for both
-engines, and ``bounces`` is not applied ("bounces": null in the output).
+sampling and next-event estimation.
 """
 from __future__ import annotations
 
@@ -27,6 +25,7 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
               resolution: int = 128, device: str = "", progress=print) -> dict:
     from ppm_engine.blender.harness import cycles_reference, ensure_registered, unbiased_light_paths
     from ppm_engine.tools.bench.curves import Bench, ppm_settings, render
+    from ppm_engine.tools.bench.scenes import set_light_paths
     ensure_registered()
     if seeds < 2:
         raise ValueError("the noise needs at least two seeds")
@@ -35,21 +34,18 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
     with tempfile.TemporaryDirectory(prefix="ppm-noise-") as tmp:
         b = Bench(resolution, device, None, Path(tmp), progress)
         scene = b._scene(scene_name)
-        if b.own_light_paths:
-            out["bounces"] = None
         images, walls = {}, {}
         for engine in ("PPM", "CYCLES"):
             imgs, wall = [], []
             for seed in range(1, seeds + 1):
                 if engine == "CYCLES":
-                    cycles_reference(scene, samples=passes, seed=seed, bounces=bounces,
-                                     keep_light_paths=b.own_light_paths)
+                    cycles_reference(scene, samples=passes, seed=seed, bounces=bounces)
                 else:
                     ppm_settings(scene, 0, seed, device, None)
                     scene.ppm.passes = passes
                     scene.ppm.time_limit = 0
-                    if not b.own_light_paths:
-                        unbiased_light_paths(scene, bounces)
+                    unbiased_light_paths(scene, bounces)
+                set_light_paths(scene, scene_name)        # the scene's own clamp
                 img, w, _info = render(scene, Path(tmp) / f"{engine}_{seed}.exr")
                 imgs.append(img)
                 wall.append(w)
@@ -81,9 +77,8 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
 
 
 def format_noise(d: dict) -> str:
-    bounces = d["bounces"] if d["bounces"] is not None else "the scene's"
     lines = [f"{d['scene']}, {d['resolution']}x{d['resolution']}, {d['passes']} samples per "
-             f"pixel, {bounces} bounces, {d['seeds']} seeds (noise: RMS over pixels of the "
+             f"pixel, {d['bounces']} bounces, {d['seeds']} seeds (noise: RMS over pixels of the "
              f"standard deviation over seeds; bright: the {d['bright_pixels']} pixels above "
              f"{d['bright_above']:g})",
              "", "| engine | noise | bright pixels' share | the rest's | median pixel's | mean "

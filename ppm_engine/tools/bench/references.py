@@ -2,7 +2,8 @@
 scene has which reference and why): this engine's light tracer, LuxCore's (LIGHTCPU) with the
 pixels it covers, and the exact-geometry references of point_caustic, rough_caustic and far_caustic
 (exact_caustic.py: every pixel, the ball's too) and of the pool (exact_pool.py), as the methods of
-``References``, which curves.Bench extends, with the regions scored beside the whole image."""
+``References``, which curves.Bench extends, with the regions scored beside the whole image and
+the cross-check of this engine's light tracer against the reference."""
 from __future__ import annotations
 
 import time
@@ -78,6 +79,37 @@ class References:
         t = time.perf_counter()
         img, cover, info = exact_caustic.render(bpy.context.scene, seed=seed, seconds=seconds)
         return img, time.perf_counter() - t, {"photons": info["photons"]}, cover
+
+    def light_trace_check(self, ref_engine: str, ref, halves, keep, cmask, seconds: float,
+                          seed: int) -> dict:
+        """This engine's light tracer against the reference (``ref``, the mean of ``halves``)
+        over the pixels both render: with Cycles where both converge, on point_caustic the mesh
+        ball's light tracing against the exact sphere's, and where LuxCore's light tracer is the
+        reference, against that; on those two also over the caustic (``cmask``) and at its
+        focus."""
+        from ppm_engine.tools.bench.scoring import errors
+        lt, _, info, cover = self.light_traced(seconds, seed)
+        both = cover & keep
+        check = {
+            "reference": ref_engine, "seconds": seconds, **info,
+            "pixels": int(both.sum()),
+            "mean_over_reference": float(lt[both].mean() / ref[both].mean()),
+            "rmse": errors(lt, ref, both)["rmse"],
+            "reference_noise_rmse": errors(halves[0], halves[1], both)["rmse"] / 2}
+        if ref_engine in ("EXACT", "LUXCORE_LIGHT") and (cmask & cover).any():
+            # the caustic: where the 48 x 24 mesh's focus differs from the sphere's (on
+            # point_caustic), where the two light tracers differ (LuxCore's)
+            c = cmask & cover
+            focus = np.unravel_index(int(np.argmax(np.where(c, ref[..., 0], -1.0))), c.shape)
+            check.update({
+                "caustic_pixels": int(c.sum()),
+                "caustic_mean_over_reference": float(lt[c].mean() / ref[c].mean()),
+                "caustic_rmse": errors(lt, ref, c)["rmse"],
+                "caustic_reference_noise_rmse": errors(halves[0], halves[1], c)["rmse"] / 2,
+                "focus_pixel": [int(focus[0]), int(focus[1])],
+                "focus_reference": float(ref[focus].mean()),
+                "focus_light_trace": float(lt[focus].mean())})
+        return check
 
     def regions(self, scene, engine: str, keep, halves):
         """Regions scored beside the whole image: on the exact sphere's scenes ("EXACT") the

@@ -2,8 +2,9 @@
 floor region counted as "caustic pixels" (caustic_mask below: a world-space disk on the floor, or
 the set of floor points that see the light's mirror image through the mirror rectangle, exact;
 pixels whose camera ray meets one of the listed spheres first are left out), the objects
-Cycles' shadow caustics (MNEE) needs flagged, the scenes that keep their own Light Paths, and the
-light tree the renderer builds for a scene (light_tree_stats)."""
+Cycles' shadow caustics (MNEE) needs flagged, the Light Paths settings a scene renders with in
+every engine (LIGHT_PATHS: its clamp, or Cycles' defaults), and the light tree the renderer
+builds for a scene (light_tree_stats)."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,6 +12,7 @@ import numpy as np
 from ppm_engine.blender.scenes.bulb_box import BALL_CENTER, BULB_CENTER
 from ppm_engine.blender.scenes.caustics import (
     BALL,
+    CLAMP,
     FAR_BALL,
     FAR_POS,
     LIGHT_RADIUS,
@@ -18,6 +20,7 @@ from ppm_engine.blender.scenes.caustics import (
     mirror_corners,
     mirror_image,
 )
+from ppm_engine.scene.light_paths import CYCLES_DEFAULTS
 
 # scene name -> caustic mask description (caustic_mask)
 CAUSTIC_MASKS = {
@@ -37,6 +40,11 @@ CAUSTIC_MASKS = {
     "glossy_metal": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the sun-lit cone: every pixel (the floor's glossy light on the cone among them)
     "sun_cone": {"kind": "all", "occluders": [], "note": "every pixel"},
+    # the metal ball's caustic under a clamp: the wall and the floor beyond the lit pool are
+    # lit by the ball alone; every pixel counts
+    "clamped_caustic": {"kind": "all", "occluders": [],
+                        "note": "every pixel (the wall and the floor beyond the pool: the "
+                                "ball's caustic)"},
     # the floor beside and under the glass ball, where its caustic falls
     "bulb_box": {"kind": "disk", "center": (BALL_CENTER[0] + 0.07, BALL_CENTER[1] + 0.05, 0.0),
                  "radius": 0.45, "occluders": [(BALL_CENTER, 0.3), (BULB_CENTER, 0.15)],
@@ -72,12 +80,6 @@ CAUSTIC_MASKS["far_caustic"] = {
 CAUSTIC_MASKS["mirror_caustic"]["corners"] = mirror_corners().tolist()
 CAUSTIC_MASKS["mirror_caustic"]["light_image"] = mirror_image(POINT_POS).tolist()
 
-# scenes every engine renders with their own Light Paths, Cycles' defaults as a user's new file
-# has them (Filter Glossy 1, Clamp Indirect 10, 4 diffuse and 4 glossy bounces; both engines
-# read scene.cycles), where every other scene has 12 bounces, no clamping and no Filter Glossy
-# (harness.cycles_reference): the reference is Cycles with the same settings
-OWN_LIGHT_PATHS = ("sun_cone",)
-
 # objects Cycles' shadow caustics (MNEE) uses, per scene: (casters, receivers, lights)
 MNEE_OBJECTS = {
     "glass_caustic": (["GlassBall"], ["Floor", "Back"], ["Spot"]),
@@ -87,6 +89,22 @@ MNEE_OBJECTS = {
     "mirror_caustic": (["Mirror"], ["Floor", "Back"], ["Point"]),
     "pool_caustic": (["Water"], ["Floor"], ["Sun"]),
 }
+
+# Light Paths settings (scene.cycles, which both engines read) a scene renders with, in our
+# renders, Cycles' and the Cycles reference's alike, over harness.cycles_reference's (12
+# bounces of every kind, no clamping): clamped_caustic's clamp, as its builder sets it (a
+# clamped image's fair reference is Cycles' long render with the same clamp)
+LIGHT_PATHS = {
+    "clamped_caustic": {"sample_clamp_direct": CLAMP, "sample_clamp_indirect": CLAMP},
+    # a user's new file: 4 diffuse and 4 glossy bounces, Clamp Indirect 10, Filter Glossy 1
+    "sun_cone": dict(CYCLES_DEFAULTS),
+}
+
+
+def set_light_paths(scene, name: str) -> None:
+    """The scene's own Light Paths settings (LIGHT_PATHS), after a render's set-up."""
+    for k, v in LIGHT_PATHS.get(name, {}).items():
+        setattr(scene.cycles, k, v)
 
 
 # --- images and masks -------------------------------------------------------------------------
@@ -106,7 +124,7 @@ def camera_rays(scene, w: int, h: int):
     return m[:3, 3].copy(), d
 
 
-def _sphere_t(o, d, center, radius):
+def sphere_hit_t(o, d, center, radius):
     """Nearest positive hit distance of rays o + t d with a sphere (inf where none)."""
     oc = o - np.asarray(center, float)
     b = d @ oc
@@ -129,7 +147,7 @@ def caustic_mask(scene, name: str, w: int, h: int) -> np.ndarray:
     p = o + t_floor[..., None] * d
     mask = np.isfinite(t_floor) & (np.abs(p[..., 0]) <= 2) & (np.abs(p[..., 1]) <= 2)
     for center, radius in spec["occluders"]:
-        mask &= _sphere_t(o, d, center, radius) > t_floor
+        mask &= sphere_hit_t(o, d, center, radius) > t_floor
     if spec["kind"] == "disk":
         c = np.asarray(spec["center"], float)
         mask &= np.hypot(p[..., 0] - c[0], p[..., 1] - c[1]) <= spec["radius"]
@@ -164,7 +182,7 @@ def excluded_pixels(scene, name: str, w: int, h: int) -> np.ndarray:
         return np.zeros((h, w), bool)
     o, d = camera_rays(scene, w, h)
     # the bulb's radius is 0.15; a pixel margin keeps its anti-aliased edge out too
-    return np.isfinite(_sphere_t(o, d, BULB_CENTER, 0.15 + 1.5 * 2.0 / w))
+    return np.isfinite(sphere_hit_t(o, d, BULB_CENTER, 0.15 + 1.5 * 2.0 / w))
 
 
 def set_mnee(name: str, on: bool) -> None:
