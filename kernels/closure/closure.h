@@ -51,8 +51,9 @@ inline float3 sheen_local(const Closure *c, float3 w) {
     return (float3)(dot(w, c->T), dot(w, y), dot(w, c->N));
 }
 
-/* f cos(N, wo) of closure c (without its weight); *pdf: the density c samples wo with */
-inline float3 closure_eval(const Closure *c, float3 wi, float3 wo, float *pdf) {
+/* f cos(N, wo) of closure c (without its weight); *pdf: the density c samples wo with; light:
+ * for next-event estimation (microfacet_eval) */
+inline float3 closure_eval(const Closure *c, float3 wi, float3 wo, bool light, float *pdf) {
     *pdf = 0.0f;
     int t = c->type;
     if (t == CLOSURE_DIFFUSE) {
@@ -77,7 +78,7 @@ inline float3 closure_eval(const Closure *c, float3 wi, float3 wo, float *pdf) {
         return (float3)(v);
     }
     if (PPM_MICROFACET && t >= CLOSURE_GGX_REFLECT && t <= CLOSURE_GGX_GLASS)
-        return microfacet_eval(c, wi, wo, pdf);
+        return microfacet_eval(c, wi, wo, light, pdf);
     return (float3)(0.0f);        /* transparent and singular lobes: sampled only */
 }
 

@@ -102,7 +102,17 @@ inline void microfacet_terms(const Closure *c, float3 h, float3 wi, float3 wo, b
     }
 }
 
-inline float3 microfacet_eval(const Closure *c, float3 wi, float3 wo, float *pdf) {
+/* f cos(N, wo) of c for the view wi and light from wo; *pdf the density microfacet_sample gives
+ * wo.  Next-event estimation (light) evaluates as Cycles does: a refraction whose half vector
+ * lies on the wrong side of wi or wo, which no microfacet can make and sampling never gives,
+ * still has a value and a density (its terms depend on the half vector's line only).  Cycles'
+ * light sampling finds that light and its BSDF sampling does not, so its image has it (MIS
+ * weighs it by the density that sampling never realises): seen from inside rough glass, light
+ * leaves through the surface where it could not, strongest at grazing views and high
+ * roughness (a glass cube's faces towards a lamp, roughness 1: 2.5 x with it, as Cycles;
+ * docs/SHADING.md "Rough glass").  Every other use (a sampled direction's density, photons,
+ * the gather, light tracing) keeps eval equal to what sampling can produce. */
+inline float3 microfacet_eval(const Closure *c, float3 wi, float3 wo, bool light, float *pdf) {
     *pdf = 0.0f;
     bool has_r = c->type != CLOSURE_GGX_REFRACT, has_t = c->type != CLOSURE_GGX_REFLECT;
     float cos_ni = dot(c->N, wi), cos_no = dot(c->N, wo);
@@ -114,10 +124,9 @@ inline float3 microfacet_eval(const Closure *c, float3 wi, float3 wo, float *pdf
     if (!(len_h > 0.0f)) return (float3)(0.0f);
     float inv_len = 1.0f / len_h;
     h *= inv_len;
-    /* a refraction no microfacet can make (wi and wo on the same side of h, once h faces N) has
-     * no density: Cycles evaluates it anyway (docs/SHADING.md), we keep eval equal to what
-     * sampling can produce */
-    if (refract) {
+    /* a refraction no microfacet can make (wi and wo on the same side of h, once h faces N):
+     * no density, but for light (above) */
+    if (refract && !light) {
         float side = dot(h, c->N) < 0.0f ? -1.0f : 1.0f;
         if (side * dot(h, wi) <= 0.0f || side * dot(h, wo) >= 0.0f) return (float3)(0.0f);
     }

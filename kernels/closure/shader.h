@@ -201,9 +201,11 @@ inline bool closure_lambert(const ShaderData *sd, const Closure *c) {
     return c->type == CLOSURE_DIFFUSE && all(isequal(c->N, sd->N));
 }
 
-/* closure c's f cos at wo with its bump shadowing; *p its density (0 where shadowed) */
-inline float3 closure_eval_bumped(const ShaderData *sd, const Closure *c, float3 wo, float *p) {
-    float3 e = closure_eval(c, sd->wi, wo, p);
+/* closure c's f cos at wo with its bump shadowing; *p its density (0 where shadowed); light: for
+ * next-event estimation (microfacet_eval) */
+inline float3 closure_eval_bumped(const ShaderData *sd, const Closure *c, float3 wo, bool light,
+                                  float *p) {
+    float3 e = closure_eval(c, sd->wi, wo, light, p);
     float b = bump_shadowing(sd, c, wo, true);
     if (b == 0.0f) *p = 0.0f;
     return e * b;
@@ -249,7 +251,7 @@ inline float3 shader_eval_kinds(const ShaderData *sd, float3 wo, int mask, uint 
         sum_sw += c->sample_weight;
         if (kinds != JOIN_ALL && !(closure_join_kind(sd, c, wo) & kinds)) continue;
         float p;
-        float3 e = closure_eval_bumped(sd, c, wo, &p);
+        float3 e = closure_eval_bumped(sd, c, wo, false, &p);
         if (p != 0.0f) {
             f += c->weight * e;
             sum_pdf += p * c->sample_weight;
@@ -259,14 +261,16 @@ inline float3 shader_eval_kinds(const ShaderData *sd, float3 wo, int mask, uint 
     return f;
 }
 
-inline float3 shader_eval(const ShaderData *sd, float3 wo, int mask, float *pdf) {
+/* shader_eval for next-event estimation's light from wo (light: microfacet_eval), or for a
+ * sampled direction */
+inline float3 shader_eval_as(const ShaderData *sd, float3 wo, int mask, bool light, float *pdf) {
     float3 f = (float3)(0.0f);
     float sum_pdf = 0.0f, sum_sw = 0.0f;
     for (int k = 0; k < sd->n; k++) {
         const Closure *c = &sd->c[k];
         if (!closure_in(c, mask)) continue;
         float p;
-        float3 e = closure_eval_bumped(sd, c, wo, &p);
+        float3 e = closure_eval_bumped(sd, c, wo, light, &p);
         if (p != 0.0f) {
             f += c->weight * e;
             sum_pdf += p * c->sample_weight;
@@ -296,10 +300,14 @@ inline float shader_mis_pdf(const ShaderData *sd, float3 wo, int mask, int mis_m
             continue;
         }
         float p;
-        closure_eval_bumped(sd, c, wo, &p);
+        closure_eval_bumped(sd, c, wo, false, &p);
         if (p != 0.0f) sum_pdf += p * c->sample_weight;
     }
     return sw_all > 0.0f ? (pdf_mask * sw_mask + sum_pdf) / sw_all : 0.0f;
+}
+
+inline float3 shader_eval(const ShaderData *sd, float3 wo, int mask, float *pdf) {
+    return shader_eval_as(sd, wo, mask, false, pdf);
 }
 
 typedef struct {
@@ -385,7 +393,7 @@ inline bool shader_sample_with(const ShaderData *sd, int mask, float3 rand, Bsdf
         const Closure *o = &sd->c[k];
         if (k == pick || !closure_in(o, mask)) continue;
         float p;
-        float3 e = closure_eval_bumped(sd, o, s->wo, &p);
+        float3 e = closure_eval_bumped(sd, o, s->wo, false, &p);
         if (p != 0.0f) {
             f += o->weight * e * closure_adjoint(sd, o, s->wo, adjoint);
             sum_pdf += p * o->sample_weight;

@@ -301,7 +301,7 @@ inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, i
     float pmf;
     if (!sample_emitter(scene, p, sd->N, sd->Ng, u, &s, &pmf)) return (float3)(0.0f);
     float pdf_b;
-    float3 f = shader_eval(sd, s.wi, mask, &pdf_b);
+    float3 f = shader_eval_as(sd, s.wi, mask, true, &pdf_b);
     if (!(max3(f) > 0.0f)) return (float3)(0.0f);
     /* the side the light is on as the shading normal sees it (as Cycles decides): a light
      * below the face but above the shading normal's horizon is reflected light, and its
