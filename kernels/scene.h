@@ -29,15 +29,6 @@ inline float emitter_pmf(__global const float *cdf, int e) {
     return cdf[e] - (e > 0 ? cdf[e - 1] : 0.0f);
 }
 
-/* The probability next-event estimation picks emitter e outside the light tree (a sun, the
- * world; with no tree, any emitter): its power's share of the table, or with a tree of the
- * emitters outside it (ppm_engine/scene/emitters.py far_cdf) */
-inline float emitter_pmf_far(const Scene *scene, int e) {
-    __global const EmitterInfo *info = scene->emitter_info;
-    if (info->n_tree > 0) return (1.0f - info->tree_share) * emitter_pmf(scene->far_cdf, e);
-    return emitter_pmf(scene->emitter_cdf, e);
-}
-
 /* Emitter chosen in proportion to its power (cdf built by ppm_engine/scene/emitters.py): the lights
  * first, then the emissive triangles, then the world. */
 inline int pick_emitter(__global const float *cdf, int n, float u, float *pmf) {

@@ -287,9 +287,13 @@ typedef struct {
     float local_center[3];
     float local_radius;
     /* the light tree (light_tree.py) over more than LOCAL_PICK_MAX local emitters: its node
-     * count (0: none, every emitter by the power table) and its members' share of the power */
+     * count (0: none, the local emitters by their power table) */
     int n_tree;
-    float tree_share;
+    /* the far emitters' (suns', the world's) importance at any point, against the local ones'
+     * bound (the scene buffer local_bound; kernels/light/light_mesh.h emitter_local_share), as
+     * Cycles' light tree weighs its distant lights: a sun's irradiance, pi x the world's mean
+     * radiance (0: no far emitter) */
+    float far_energy;
     int n_suns;             /* suns among the lights */
     /* the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
      * aim.h), set for the render's options by DeviceScene.set_casters */
@@ -335,41 +339,43 @@ typedef struct {
  * Scene struct of them */
 #define SCENE_DATA(X) \
     X(float4, nodes) \
-    X(float4, tri_v0)            /* triangles in BVH leaf order: p0, original index */ \
-    X(float4, tri_e1)            /* triangles: p1 - p0, visibility bits */ \
-    X(float4, tri_e2)            /* triangles: p2 - p0, material */ \
-    X(float, normals)            /* shading normals (3 corners per triangle) */ \
-    X(Material, materials)       /* materials */ \
-    X(ShaderNode, shader_nodes)  /* shader nodes */ \
-    X(float, shading_tables)     /* shading tables */ \
-    X(Texture, textures)         /* textures */ \
-    X(half, texels)              /* image textures (RGBA texels) */ \
-    X(float, uvs)                /* UVs (3 corners per triangle) */ \
-    X(float, tangents)           /* tangents (3 corners per triangle) */ \
-    X(int4, svm)                 /* shader programs */ \
-    X(float4, uv_tangents)       /* UV tangents (3 corners per triangle) */ \
-    X(float, generated)          /* Generated coordinates */ \
-    X(float, terminator)         /* triangles' objects' Shadow Terminator Geometry Offset */ \
-    X(float4, attributes)        /* mesh attributes */ \
-    X(int, tri_object)           /* triangles' objects */ \
-    X(float4, objects)           /* objects */ \
-    X(Camera, camera)            /* camera */ \
-    X(LightPaths, light_paths)   /* Light Paths settings */ \
-    X(Light, lights)             /* lights */ \
-    X(float, emitter_cdf)        /* emitter table (power CDF) */ \
-    X(int, emissive)             /* emissive triangles' BVH leaves */ \
-    X(EmitterInfo, emitter_info) /* emitter table header */ \
-    X(LightTreeNode, light_tree) /* light tree (ppm_engine/scene/light_tree.py) */ \
-    X(int, emitter_leaf)         /* each emitter's light tree leaf */ \
-    X(float, far_cdf)            /* power CDF of the emitters outside the tree */ \
-    X(int, tree_emitters)        /* the light tree's emitters in its order */ \
-    X(float, tree_cdf)           /* their power's CDF in that order */ \
-    X(float, world_map)          /* world importance map */ \
-    X(float4, casters)           /* casters' bounding spheres (ppm_engine/scene/casters.py) */ \
-    X(float, caster_weight)      /* casters' weights */ \
+    X(float4, tri_v0)             /* triangles in BVH leaf order: p0, original index */ \
+    X(float4, tri_e1)             /* triangles: p1 - p0, visibility bits */ \
+    X(float4, tri_e2)             /* triangles: p2 - p0, material */ \
+    X(float, normals)             /* shading normals (3 corners per triangle) */ \
+    X(Material, materials)        /* materials */ \
+    X(ShaderNode, shader_nodes)   /* shader nodes */ \
+    X(float, shading_tables)      /* shading tables */ \
+    X(Texture, textures)          /* textures */ \
+    X(half, texels)               /* image textures (RGBA texels) */ \
+    X(float, uvs)                 /* UVs (3 corners per triangle) */ \
+    X(float, tangents)            /* tangents (3 corners per triangle) */ \
+    X(int4, svm)                  /* shader programs */ \
+    X(float4, uv_tangents)        /* UV tangents (3 corners per triangle) */ \
+    X(float, generated)           /* Generated coordinates */ \
+    X(float, terminator)          /* triangles' objects' Shadow Terminator Geometry Offset */ \
+    X(float4, attributes)         /* mesh attributes */ \
+    X(int, tri_object)            /* triangles' objects */ \
+    X(float4, objects)            /* objects */ \
+    X(Camera, camera)             /* camera */ \
+    X(LightPaths, light_paths)    /* Light Paths settings */ \
+    X(Light, lights)              /* lights */ \
+    X(float, emitter_cdf)         /* emitter table (power CDF) */ \
+    X(int, emissive)              /* emissive triangles' BVH leaves */ \
+    X(EmitterInfo, emitter_info)  /* emitter table header */ \
+    X(LightTreeNode, light_tree)  /* light tree (ppm_engine/scene/light_tree.py) */ \
+    X(int, emitter_leaf)          /* each emitter's light tree leaf */ \
+    X(float, local_cdf) \
+    X(float, far_cdf)             /* power CDF of the far emitters (suns, the world) */ \
+    X(LightTreeNode, local_bound) /* a light tree node bounding the local ones */ \
+    X(int, tree_emitters)         /* the light tree's emitters in its order */ \
+    X(float, tree_cdf)            /* their power's CDF in that order */ \
+    X(float, world_map)           /* world importance map */ \
+    X(float4, casters)            /* casters' bounding spheres (ppm_engine/scene/casters.py) */ \
+    X(float, caster_weight)       /* casters' weights */ \
     X(float, caustic_cdf) \
     X(float, guide) \
-    X(int, guide_slot)           /* each light's photon guide (-1: none) */
+    X(int, guide_slot)            /* each light's photon guide (-1: none) */
 
 /* --- the film's per-pixel buffers (ppm_engine/render/film.py FILM_BUFFERS), in the kernels'
  * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'

@@ -10,6 +10,7 @@ import pytest
 from ppm_engine.oracle.procedural import MeshBuilder, look_at
 from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.renderer import Renderer
+from ppm_engine.scene import light_tree as lt
 from ppm_engine.scene.arrays import CAMERA_ORTHO, LIGHT_POINT
 from ppm_engine.scene.camera import make_camera
 from tests.helpers.debug_kernels import emitter_picks
@@ -58,7 +59,9 @@ def test_grazing_emitter_does_not_shadow_itself():
 
 def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
     """Next-event estimation among few emissive triangles (light_mesh.h pick_emitter_at): the
-    group keeps its power share of the table; within it a triangle is picked with probability
+    local emitters (the point light, the triangles) take their share against the world by the
+    importance of their bound at the point (emitter_local_share), the group its power share
+    among them; within it a triangle is picked with probability
     (1 - d) I_j / sum I + d g_j / sum g, I_j its unoccluded irradiance at the point (mean
     radiance times the integral of cos over it, negative below the horizon, clamped at 0), g_j
     its power, d = 1/4 (the power pick alone where no triangle lights the point, and beyond
@@ -91,7 +94,10 @@ def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
     assert (m, first, int(em.info["n_emissive"][0])) == (5, 1, 3)
     got = emitter_picks(r, pts, nrm, n_u)
     r.close()
-    g = np.diff(np.concatenate([[0.0], em.cdf.astype(np.float64)]))
+    g = np.diff(np.concatenate([[0.0], em.local_cdf.astype(np.float64)]))
+    assert g[-1] == 0 and g.sum() == pytest.approx(1.0)      # (the world: a far emitter)
+    far_energy = float(em.info["far_energy"][0])
+    assert far_energy == pytest.approx(np.pi * 0.2)
     # the triangles' bounding ball (corners' box centre, farthest corner), within twice which
     # the pick is local
     c = 0.5 * (tris.reshape(-1, 3).min(0) + tris.reshape(-1, 3).max(0))
@@ -119,10 +125,13 @@ def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
             cos_r = v @ nv / np.sqrt(d2)
             imp.append(les[j] * max((cos_r * cos_l / d2).mean() * area, 0.0))
         imp, gj = np.array(imp), g[first:first + 3]
-        want = g.copy()
+        local = lt.importance(em.local_bound, p, nv)[0]
+        local = local / (local + far_energy)
+        want = local * g
         share = 0.75 * imp / imp.sum() + 0.25 * gj / gj.sum() if imp.sum() > 0 and near[i] \
             else gj / gj.sum()
-        want[first:first + 3] = gj.sum() * share
+        want[first:first + 3] = local * gj.sum() * share
+        want[-1] = 1.0 - local
         freq = got["counts"][i] / n_u
         assert freq.sum() == pytest.approx(1.0)
         assert freq == pytest.approx(want, rel=0.01, abs=2e-5), (i, freq, want)
@@ -133,8 +142,9 @@ def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
     # above all three, facing up: none gives it light, the power pick alone; far from them
     # (beyond twice their bounding ball) the power pick
     assert got["table"][3][1:4].argmax() == list(lamp_of).index(1)
-    assert got["table"][4] == pytest.approx(g, rel=1e-5)
-    assert got["table"][5] == pytest.approx(g, rel=1e-5)
+    for k in (4, 5):                  # among the local emitters, by power alone
+        t = got["table"][k].astype(np.float64)
+        assert t[:-1] / t[:-1].sum() == pytest.approx(g[:-1], rel=1e-5)
 
 
 def test_direct_light_beside_a_lamp_picks_the_near_triangle():

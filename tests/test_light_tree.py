@@ -154,8 +154,9 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
     """At points on the floor, above it, and facing away: the pick's frequencies over
     stratified numbers are its pmf; that pmf is the one the MIS of a ray uses (to float
     rounding: both multiply the same choices, top down and bottom up) and the float64
-    reference's (power share x tree, or the
-    suns' and the world's power share outside it); they sum to one."""
+    reference's (the local emitters' share at the point, from their bound's importance against
+    the suns' and the world's energy, x the tree; the far ones' share x their power's share
+    among them); they sum to one."""
     rng = np.random.default_rng(11)
     scene = _many_lights_scene(rng)
     r = Renderer(scene, every_feature(max_bounces=0))
@@ -172,11 +173,14 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
     n, n_u = len(pts), 1 << 18
     got = emitter_picks(r, pts, nrm, n_u)
     r.close()
-    share = float(em.info["tree_share"][0])
     far = np.diff(np.concatenate([[0.0], em.far_cdf.astype(np.float64)]))
     member = em.emitter_leaf >= 0
     assert member.sum() == 49 and not member[n_lights - 1] and not member[m - 1]  # sun, world
+    far_energy = float(em.info["far_energy"][0])
+    assert far_energy > 0 and far[member].sum() == 0 and far.sum() == pytest.approx(1.0)
     for i in range(n):
+        local = lt.importance(em.local_bound, pts[i, :3], nrm[i, :3])[0]
+        share = local / (local + far_energy)
         ref = np.where(member, 0.0, (1 - share) * far)
         ref[member] = share * lt.pmf(em.tree, em.emitter_leaf[member], pts[i, :3], nrm[i, :3],
                                      em.power[em.tree_emitters])

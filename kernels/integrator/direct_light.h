@@ -71,11 +71,7 @@ inline bool light_met(const Scene *scene, int i, const LightRay *r, float t0, in
     m->i = i;
     float w = 1.0f;
     if (!isinf(r->prev_pdf) && max3(r->beta) > 0.0f) {
-        __global const EmitterInfo *info = scene->emitter_info;
-        float pmf = scene->emitter_leaf[i] >= 0 && info->n_tree > 0
-                        ? info->tree_share * light_tree_pmf(scene, i, r->pv, r->nv)
-                        : emitter_pmf_far(scene, i);
-        w = mis_power(r->prev_pdf, pdf * pmf);
+        w = mis_power(r->prev_pdf, pdf * emitter_pmf_at(scene, i, r->pv, r->nv));
     }
     m->c = clamp_sample(r->beta * Le * w, r->limit);
     return true;
@@ -203,10 +199,11 @@ inline float3 mesh_seen(const Scene *scene, int leaf, float3 o, float3 d, float 
     return material_emission(scene, m, as_uint(v0.w), u, v, q);
 }
 
-/* The density next-event estimation gives the world in direction d from a point whose normal
+/* The density next-event estimation gives the world in direction d from a point p whose normal
  * (the one the world is sampled around) is n, its pick included. */
-inline float world_light_pdf(const Scene *scene, float3 d, float3 n) {
-    return world_pdf(scene, d, n) * emitter_pmf_far(scene, scene->emitter_info->n_emitters - 1);
+inline float world_light_pdf(const Scene *scene, float3 d, float3 p, float3 n) {
+    return world_pdf(scene, d, n)
+           * emitter_pmf_at(scene, scene->emitter_info->n_emitters - 1, p, n);
 }
 
 /* The MIS weight of the emission of the surface hit h, found from o along d by a sample of
@@ -363,7 +360,7 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
 #endif
         if (h.leaf < 0) {
             if (!(PPM_WORLD && scene->emitter_info->has_world)) return L;
-            return L + T * world_le(scene, d) * mis_power(pdf_b, world_light_pdf(scene, d, n));
+            return L + T * world_le(scene, d) * mis_power(pdf_b, world_light_pdf(scene, d, p, n));
         }
         int mat = as_int(scene->tri_e2[h.leaf].w);
         if (PPM_EMISSIVE && (scene->materials[mat].flags & MAT_EMISSIVE)) {

@@ -124,7 +124,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             if (mask == VIS_CAMERA && (scene->emitter_info->world_flags & WORLD_HIDDEN_CAMERA))
                 break;
             pdf_l = PPM_WORLD && scene->emitter_info->has_world && !isinf(prev_pdf)
-                        ? world_light_pdf(scene, d, prev_n)
+                        ? world_light_pdf(scene, d, prev_p, prev_n)
                         : 0.0f;
             L += clamp_sample(beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l), clamp_found);
             break;

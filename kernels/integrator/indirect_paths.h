@@ -198,7 +198,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         }
         if (h.leaf < 0) {
             if (counts && PPM_WORLD && scene->emitter_info->has_world) {
-                pdf_l = !isinf(prev_pdf) ? world_light_pdf(scene, d, prev_n) : 0.0f;
+                pdf_l = !isinf(prev_pdf) ? world_light_pdf(scene, d, prev_p, prev_n) : 0.0f;
                 L += clamp_sample(beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l),
                                   clamp_limit(depth - 1, lp));
             }

@@ -86,7 +86,10 @@ SCENE_BUFFERS = (
     SceneBuffer("emitter_info", EMITTER_INFO_DTYPE, "emitter table header"),
     SceneBuffer("light_tree", LIGHT_TREE_NODE_DTYPE, "light tree (ppm_engine/scene/light_tree.py)"),
     SceneBuffer("emitter_leaf", np.dtype(np.int32), "each emitter's light tree leaf", fill=-1),
-    SceneBuffer("far_cdf", np.dtype(np.float32), "power CDF of the emitters outside the tree"),
+    SceneBuffer("local_cdf", np.dtype(np.float32),
+                "power CDF of the local emitters (lights but suns, emissive triangles)"),
+    SceneBuffer("far_cdf", np.dtype(np.float32), "power CDF of the far emitters (suns, the world)"),
+    SceneBuffer("local_bound", LIGHT_TREE_NODE_DTYPE, "a light tree node bounding the local ones"),
     SceneBuffer("tree_emitters", np.dtype(np.int32), "the light tree's emitters in its order"),
     SceneBuffer("tree_cdf", np.dtype(np.float32), "their power's CDF in that order"),
     SceneBuffer("world_map", np.dtype(np.float32), "world importance map"),
@@ -172,7 +175,8 @@ class DeviceScene:
         args.update(self._upload(
             lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
             emitter_info=em.info, light_tree=em.tree, emitter_leaf=em.emitter_leaf,
-            far_cdf=em.far_cdf, tree_emitters=em.tree_emitters, tree_cdf=em.tree_cdf,
+            local_cdf=em.local_cdf, far_cdf=em.far_cdf, local_bound=em.local_bound,
+            tree_emitters=em.tree_emitters, tree_cdf=em.tree_cdf,
             world_map=(self.world_map.buffer if self.world_map is not None
                        else np.zeros(0, np.float32)),
             casters=np.zeros((0, 4), np.float32), caster_weight=np.zeros(0, np.float32),

@@ -1,9 +1,12 @@
 """The emitter table the kernels sample, for photon emission and next-event estimation:
-scene lights, then emissive triangles, then the world; chosen in proportion to power, so dim
-lights get few photons and lights that cannot contribute are never sampled.  Next-event
-estimation keeps the emissive triangles' share of the table but, where there are at most eight
-of them, picks among them by the light each gives the shading point (kernels/light/light_mesh.h
-pick_emitter_at)."""
+scene lights, then emissive triangles, then the world.  Photons leave them in proportion to
+power, so dim lights get few photons and lights that cannot contribute are never sampled.
+Next-event estimation first chooses the local emitters (lights other than suns, emissive
+triangles) or the far ones (suns, the world) by their importance at the shading point, as
+Cycles' light tree does (a bound of all the local ones against the far ones' energy), then
+picks the far ones by power and the local ones by the light tree, or by power and, where
+there are at most eight emissive triangles, among them by the light each gives the shading
+point (kernels/light/light_mesh.h pick_emitter_at)."""
 from __future__ import annotations
 
 import dataclasses
@@ -18,7 +21,12 @@ from ppm_engine.scene.arrays import (
     LIGHT_SUN,
     SceneArrays,
 )
-from ppm_engine.scene.light_tree import LIGHT_TREE_NODE_DTYPE, build_light_tree, emitter_bounds
+from ppm_engine.scene.light_tree import (
+    LIGHT_TREE_NODE_DTYPE,
+    bound_node,
+    build_light_tree,
+    emitter_bounds,
+)
 from ppm_engine.scene.materials import mean_emission
 
 # the emitter table's header (kernels/shared.h EmitterInfo)
@@ -42,9 +50,13 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("local_center", np.float32, 3),
     ("local_radius", np.float32),
     # the light tree (light_tree.py) over more than LOCAL_PICK_MAX local emitters: its node
-    # count (0: none, every emitter by the power table) and its members' share of the power
+    # count (0: none, the local emitters by their power table)
     ("n_tree", np.int32),
-    ("tree_share", np.float32),
+    # the far emitters' (suns', the world's) importance at any point, against the local ones'
+    # bound (the scene buffer local_bound; kernels/light/light_mesh.h emitter_local_share), as
+    # Cycles' light tree weighs its distant lights: a sun's irradiance, pi x the world's mean
+    # radiance (0: no far emitter)
+    ("far_energy", np.float32),
     ("n_suns", np.int32),          # suns among the lights
     # the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
     # aim.h), set for the render's options by DeviceScene.set_casters
@@ -57,14 +69,15 @@ LOCAL_PICK_MAX = 8
 
 
 def power_cdf(power: np.ndarray) -> np.ndarray:
-    """The CDF (float64, last exactly 1) that picks emitters in proportion to ``power``; all
-    zeros when nothing has power (kernels/scene.h pick_emitter then finds pmf 0)."""
+    """The CDF (float64, exactly 1 from the last entry with power on) that picks emitters in
+    proportion to ``power``; all zeros when nothing has power (kernels/scene.h pick_emitter then
+    finds pmf 0)."""
     p = np.asarray(power, np.float64)
     total = p.sum()
     if not total > 0:
         return np.zeros(p.shape[0])
     cdf = np.cumsum(p) / total
-    cdf[-1] = 1.0
+    cdf[np.nonzero(p > 0)[0][-1]:] = 1.0      # (entries after the last with power: none)
     return cdf
 
 
@@ -75,13 +88,24 @@ class Emitters:
     emissive_leaves: np.ndarray  # (n_emissive,) int32 leaf indices of emissive triangles
     power: np.ndarray         # (n_emitters,) float64 scalar power used for selection
     total_power: float
+    # next-event estimation picks a local emitter (a light other than a sun, an emissive
+    # triangle) or a far one (a sun, the world) by their importance at the point
+    # (kernels/light/light_mesh.h emitter_local_share), then among them: the local ones by the
+    # light tree if there is one, else by the power CDF of them alone (local_cdf), the far ones
+    # by the power CDF of them alone (far_cdf); local_bound bounds every local emitter (one
+    # light tree node, its energy in Cycles' units: a light's intensity, a triangle's radiance
+    # x area)
+    local_cdf: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
+    far_cdf: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
+    local_bound: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(0, LIGHT_TREE_NODE_DTYPE))
     # the light tree (light_tree.py; empty without one): its nodes, each emitter's leaf node
-    # (-1: not a member), and the power CDF of the other emitters (suns, the world)
+    # (-1: not a member), its members' share of the power (the benchmark's statistics)
     tree: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros(0, LIGHT_TREE_NODE_DTYPE))
     emitter_leaf: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros(0, np.int32))
-    far_cdf: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
+    tree_power_share: float = 0.0
     # the tree's emitters in its order and the CDF of their power in that order (a node's
     # emitters are contiguous: light_tree.py)
     tree_emitters: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
@@ -108,6 +132,18 @@ def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray,
     index = np.concatenate([np.nonzero(member)[0], n_lights + np.arange(tri_corners.shape[0])])
     power = em.power[index] if n else np.zeros(0)
     keep = power > 0
+    # their bound for the pick between local and far emitters, in Cycles' units: a point or
+    # spot light's intensity, an area light's power / pi, a two-sided triangle's power / 2 pi
+    L = lights[member]
+    unit = np.where((L["type"] == LIGHT_AREA_RECT) | (L["type"] == LIGHT_AREA_ELLIPSE),
+                    1.0 / np.pi, 0.0)
+    point = (L["type"] == LIGHT_POINT) | (L["type"] == LIGHT_SPOT)
+    energy = np.concatenate([np.where(point, L["emit"].astype(np.float64).mean(axis=1),
+                                      unit * power[:L.shape[0]]),
+                             power[L.shape[0]:] / (2 * np.pi)])
+    energy = np.where(keep & np.isfinite(energy), energy, 0.0)
+    em.local_bound = bound_node(lo[keep], hi[keep], axis[keep], theta_o[keep], theta_e[keep],
+                                energy[keep])
     if n == 0 or int(keep.sum()) <= LOCAL_PICK_MAX:
         return em
     n_members = int(member.sum())           # the lights among them come first
@@ -121,16 +157,10 @@ def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray,
     em.tree_cdf = (cdf / cdf[-1]).astype(np.float32)
     emitter_leaf = np.full(n, -1, np.int32)
     emitter_leaf[index[keep]] = leaf_of
-    far = em.power.copy()
-    far[index[keep]] = 0.0
-    share = float(em.power[index[keep]].sum() / em.total_power)
-    far_cdf = np.cumsum(far) / far.sum() if far.sum() > 0 else np.zeros(n)
-    if far.sum() > 0:
-        far_cdf[-1] = 1.0
+    em.tree_power_share = float(em.power[index[keep]].sum() / em.total_power)
     em.info["n_tree"] = nodes.shape[0]
-    em.info["tree_share"] = share if far.sum() > 0 else 1.0
     em.info["local_radius"] = 0.0        # the tree picks among the emissive triangles too
-    em.tree, em.emitter_leaf, em.far_cdf = nodes, emitter_leaf, far_cdf.astype(np.float32)
+    em.tree, em.emitter_leaf = nodes, emitter_leaf
     em.tree_build_s = time.perf_counter() - t0
     return em
 
@@ -228,6 +258,13 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
     total = float(power.sum())
     n = power.shape[0]
     cdf = power_cdf(power)
+    far = np.concatenate([scene.lights["type"] == LIGHT_SUN, np.zeros(tp.shape[0], bool),
+                          [True] if has_world else []])
+    # the far emitters' importance (EMITTER_INFO_DTYPE far_energy)
+    is_sun = scene.lights["type"] == LIGHT_SUN
+    far_energy = scene.lights["emit"][is_sun & (lp > 0)].astype(np.float64).mean(axis=1).sum()
+    if has_world:
+        far_energy += world_map.integral / 4.0 if world_map is not None else np.pi * world.mean()
     info = np.zeros(1, EMITTER_INFO_DTYPE)
     info["n_lights"] = scene.lights.shape[0]
     info["n_suns"] = int((scene.lights["type"] == LIGHT_SUN).sum())
@@ -247,7 +284,10 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
         info["world_program"] = scene.world_shader[0]
         info["map_w"], info["map_h"] = world_map.width, world_map.height
         info["map_mean"] = world_map.mean
-    em = Emitters(info, cdf.astype(np.float32), emissive_leaves, power, total)
+    info["far_energy"] = far_energy if np.isfinite(far_energy) else 0.0
+    em = Emitters(info, cdf.astype(np.float32), emissive_leaves, power, total,
+                  local_cdf=power_cdf(np.where(far, 0.0, power)).astype(np.float32),
+                  far_cdf=power_cdf(np.where(far, power, 0.0)).astype(np.float32))
     return attach_light_tree(em, scene.lights,
                              scene.positions[leaf_order[emissive_leaves]],
                              mat_of_leaf[emissive_leaves])

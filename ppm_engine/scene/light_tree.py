@@ -5,8 +5,9 @@ their power, over the square of the distance, times the cosines the orientation 
 at the emitters and at the point (Estevez & Conty 2018, "Importance Sampling of Many Lights
 with Adaptive Tree Splitting"; the same idea as Cycles' kernel/light/tree.h).  The MIS of an
 emitter a ray finds walks up from its leaf and multiplies the same choices
-(kernels/light/light_tree.h).  Suns and the world stay in the power table (emitters.py): the tree
-takes its members' share of the table's power, and the rest is picked by power as before.
+(kernels/light/light_tree.h).  Suns and the world are not members: next-event estimation first
+chooses between the local emitters and them by importance (emitters.py, bound_node's node over
+every local emitter), then picks the far ones by their power.
 
 The tree is binary with one emitter per leaf (2 n - 1 nodes for n emitters), built level by
 level over the emitters sorted along a Morton curve of their centres, each node splitting its
@@ -172,6 +173,28 @@ def build_light_tree(lo: np.ndarray, hi: np.ndarray, axis: np.ndarray, theta_o: 
         ids = np.stack([first_child, first_child + 1], axis=1).ravel()
     assert next_id == 2 * n - 1 and depth < LIGHT_TREE_STACK
     return nodes, leaf_of[np.argsort(order)], index, energy
+
+
+def bound_node(lo: np.ndarray, hi: np.ndarray, axis: np.ndarray, theta_o: np.ndarray,
+               theta_e: np.ndarray, energy: np.ndarray) -> np.ndarray:
+    """One LIGHT_TREE_NODE_DTYPE node bounding every emitter given (the root build_light_tree
+    would make of them, without the tree: its box, its orientation cone about the energy-weighted
+    axis, the sum of their energy); no child, no emitters.  An energy of 0 when there are
+    none."""
+    nd = np.zeros(1, LIGHT_TREE_NODE_DTYPE)
+    nd["child"], nd["parent"] = -1, -1
+    e = np.asarray(energy, np.float64)
+    if e.shape[0] == 0 or not e.sum() > 0:
+        return nd
+    nd["bmin"], nd["bmax"] = lo.min(axis=0), hi.max(axis=0)
+    s = (axis * e[:, None]).sum(axis=0)
+    ls = np.linalg.norm(s)
+    ax = s / ls if ls > 1e-9 * e.sum() else np.array([0.0, 0.0, 1.0])
+    spread = np.arccos(np.clip(axis @ ax, -1.0, 1.0))
+    nd["axis"], nd["energy"] = ax, e.sum()
+    nd["theta_o"] = np.minimum(spread + theta_o + ANGLE_MARGIN, np.pi).max()
+    nd["theta_e"] = theta_e.max()
+    return nd
 
 
 def importance(nodes: np.ndarray, p, n) -> np.ndarray:

@@ -213,6 +213,6 @@ def light_tree_stats(scene, device: str) -> dict | None:
             return None
         return {"emitters": int((em.emitter_leaf >= 0).sum()), "nodes": int(em.tree.shape[0]),
                 "bytes": int(em.tree.nbytes + em.emitter_leaf.nbytes + em.far_cdf.nbytes),
-                "build_s": float(em.tree_build_s), "share": float(em.info["tree_share"][0])}
+                "build_s": float(em.tree_build_s), "share": em.tree_power_share}
     finally:
         r.close()
