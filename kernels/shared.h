@@ -287,8 +287,10 @@ typedef struct {
     float local_center[3];
     float local_radius;
     /* the light tree (light_tree.py) over more than LOCAL_PICK_MAX local emitters: its node
-     * count (0: none, the local emitters by their power table) */
+     * count (0: none, the local emitters by their power table) and its members' share of the
+     * power, next-event estimation's share of them against the far emitters */
     int n_tree;
+    float tree_share;
     /* the far emitters' (suns', the world's) importance at any point, against the local ones'
      * bound (the scene buffer local_bound; kernels/light/light_mesh.h emitter_local_share), as
      * Cycles' light tree weighs its distant lights: a sun's irradiance, pi x the world's mean

@@ -10,9 +10,9 @@ import pytest
 from ppm_engine.oracle.procedural import MeshBuilder, look_at
 from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.renderer import Renderer
-from ppm_engine.scene import light_tree as lt
 from ppm_engine.scene.arrays import CAMERA_ORTHO, LIGHT_POINT
 from ppm_engine.scene.camera import make_camera
+from ppm_engine.scene.emitters import local_share
 from tests.helpers.debug_kernels import emitter_picks
 from tests.helpers.procedural_scenes import light
 from tests.helpers.renders import every_feature
@@ -59,8 +59,8 @@ def test_grazing_emitter_does_not_shadow_itself():
 
 def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
     """Next-event estimation among few emissive triangles (light_mesh.h pick_emitter_at): the
-    local emitters (the point light, the triangles) take their share against the world by the
-    importance of their bound at the point (emitter_local_share), the group its power share
+    local emitters (the point light, the triangles) take their share against the world
+    (emitter_local_share: emitters.local_share), the group its power share
     among them; within it a triangle is picked with probability
     (1 - d) I_j / sum I + d g_j / sum g, I_j its unoccluded irradiance at the point (mean
     radiance times the integral of cos over it, negative below the horizon, clamped at 0), g_j
@@ -125,8 +125,7 @@ def test_few_emissive_triangles_are_picked_by_their_light_at_the_point():
             cos_r = v @ nv / np.sqrt(d2)
             imp.append(les[j] * max((cos_r * cos_l / d2).mean() * area, 0.0))
         imp, gj = np.array(imp), g[first:first + 3]
-        local = lt.importance(em.local_bound, p, nv)[0]
-        local = local / (local + far_energy)
+        local = local_share(em, p, nv)
         want = local * g
         share = 0.75 * imp / imp.sum() + 0.25 * gj / gj.sum() if imp.sum() > 0 and near[i] \
             else gj / gj.sum()

@@ -17,6 +17,7 @@ from ppm_engine.scene.arrays import (
     LIGHT_SUN,
 )
 from ppm_engine.scene.camera import make_camera
+from ppm_engine.scene.emitters import local_share
 from tests.helpers.debug_kernels import emitter_picks
 from tests.helpers.procedural_scenes import furnace_scene, light
 from tests.helpers.renders import every_feature, render
@@ -154,9 +155,8 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
     """At points on the floor, above it, and facing away: the pick's frequencies over
     stratified numbers are its pmf; that pmf is the one the MIS of a ray uses (to float
     rounding: both multiply the same choices, top down and bottom up) and the float64
-    reference's (the local emitters' share at the point, from their bound's importance against
-    the suns' and the world's energy, x the tree; the far ones' share x their power's share
-    among them); they sum to one."""
+    reference's (the local emitters' share at the point, emitters.local_share, x the tree; the
+    far ones' share x their power's share among them); they sum to one."""
     rng = np.random.default_rng(11)
     scene = _many_lights_scene(rng)
     r = Renderer(scene, every_feature(max_bounces=0))
@@ -179,8 +179,7 @@ def test_the_devices_pick_through_the_tree_matches_the_reference():
     far_energy = float(em.info["far_energy"][0])
     assert far_energy > 0 and far[member].sum() == 0 and far.sum() == pytest.approx(1.0)
     for i in range(n):
-        local = lt.importance(em.local_bound, pts[i, :3], nrm[i, :3])[0]
-        share = local / (local + far_energy)
+        share = local_share(em, pts[i, :3], nrm[i, :3])
         ref = np.where(member, 0.0, (1 - share) * far)
         ref[member] = share * lt.pmf(em.tree, em.emitter_leaf[member], pts[i, :3], nrm[i, :3],
                                      em.power[em.tree_emitters])

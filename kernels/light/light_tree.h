@@ -37,6 +37,22 @@ inline float light_tree_importance(__global const LightTreeNode *t, float3 p, fl
     return E * cos(theta) * cos(theta_i) / d2;
 }
 
+/* Whether node t surely lights p (normal n): Cycles' lower bound on its importance above zero
+ * (kernel/light/tree.h there): p outside the node's ball, the whole ball above p's horizon
+ * (either side) and within every emitter's reach (the cone's axis within pi/2 - theta_o of
+ * every direction to p, and theta_e - theta_o) */
+inline bool light_tree_surely_lights(__global const LightTreeNode *t, float3 p, float3 n) {
+    float3 lo = F3(t->bmin), hi = F3(t->bmax);
+    float3 v = 0.5f * (lo + hi) - p;
+    float r2 = 0.25f * dot(hi - lo, hi - lo), d2 = dot(v, v);
+    if (!(d2 > r2) || !(t->energy > 0.0f)) return false;
+    float d = sqrt(d2);
+    float theta_u = asin(fmin(sqrt(r2 / d2), 1.0f));
+    if (acos(fmin(fabs(dot(n, v)) / d, 1.0f)) + theta_u >= M_PI_2_F) return false;
+    float theta = acos(clamp(-dot(F3(t->axis), v) / d, -1.0f, 1.0f)) + theta_u + t->theta_o;
+    return theta <= t->theta_e && theta < M_PI_2_F;
+}
+
 /* the probability of the first child of inner node k, from the two children's importances */
 inline float light_tree_left(__global const LightTreeNode *tree, int k, float3 p, float3 n) {
     int c = tree[k].child;

@@ -50,8 +50,10 @@ EMITTER_INFO_DTYPE = np.dtype([
     ("local_center", np.float32, 3),
     ("local_radius", np.float32),
     # the light tree (light_tree.py) over more than LOCAL_PICK_MAX local emitters: its node
-    # count (0: none, the local emitters by their power table)
+    # count (0: none, the local emitters by their power table) and its members' share of the
+    # power, next-event estimation's share of them against the far emitters
     ("n_tree", np.int32),
+    ("tree_share", np.float32),
     # the far emitters' (suns', the world's) importance at any point, against the local ones'
     # bound (the scene buffer local_bound; kernels/light/light_mesh.h emitter_local_share), as
     # Cycles' light tree weighs its distant lights: a sun's irradiance, pi x the world's mean
@@ -89,8 +91,9 @@ class Emitters:
     power: np.ndarray         # (n_emitters,) float64 scalar power used for selection
     total_power: float
     # next-event estimation picks a local emitter (a light other than a sun, an emissive
-    # triangle) or a far one (a sun, the world) by their importance at the point
-    # (kernels/light/light_mesh.h emitter_local_share), then among them: the local ones by the
+    # triangle) or a far one (a sun, the world) by their importance at the point, or with a
+    # light tree by power (kernels/light/light_mesh.h emitter_local_share; local_share below),
+    # then among them: the local ones by the
     # light tree if there is one, else by the power CDF of them alone (local_cdf), the far ones
     # by the power CDF of them alone (far_cdf); local_bound bounds every local emitter (one
     # light tree node, its energy in Cycles' units: a light's intensity, a triangle's radiance
@@ -159,10 +162,29 @@ def attach_light_tree(em: Emitters, lights: np.ndarray, tri_corners: np.ndarray,
     emitter_leaf[index[keep]] = leaf_of
     em.tree_power_share = float(em.power[index[keep]].sum() / em.total_power)
     em.info["n_tree"] = nodes.shape[0]
+    em.info["tree_share"] = em.tree_power_share if em.info["far_energy"][0] > 0 else 1.0
     em.info["local_radius"] = 0.0        # the tree picks among the emissive triangles too
     em.tree, em.emitter_leaf = nodes, emitter_leaf
     em.tree_build_s = time.perf_counter() - t0
     return em
+
+
+def local_share(em: Emitters, p, n) -> float:
+    """Next-event estimation's probability of the local emitters at point p of normal n
+    (kernels/light/light_mesh.h emitter_local_share, in float64: the tests' reference)."""
+    from ppm_engine.scene.light_tree import importance, surely_lights
+    far = float(em.info["far_energy"][0])
+    if not far > 0:
+        return 1.0
+    if em.info["n_tree"][0] > 0:
+        return float(em.info["tree_share"][0])
+    loc = float(importance(em.local_bound, p, n)[0])
+    if not loc > 0:
+        return 0.0
+    s = loc / (loc + far)
+    if not em.info["has_world"][0]:
+        return s
+    return 0.5 * s + (0.5 if surely_lights(em.local_bound, p, n)[0] else 0.25)
 
 
 def scene_bounds(positions: np.ndarray) -> tuple[np.ndarray, float]:

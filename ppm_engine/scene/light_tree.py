@@ -219,6 +219,24 @@ def importance(nodes: np.ndarray, p, n) -> np.ndarray:
     return np.where(E > 0, out, 0.0)
 
 
+def surely_lights(nodes: np.ndarray, p, n) -> np.ndarray:
+    """Whether each node surely lights point p of normal n (kernels/light/light_tree.h
+    light_tree_surely_lights, in float64)."""
+    p, n = np.asarray(p, np.float64), np.asarray(n, np.float64)
+    lo, hi = nodes["bmin"].astype(np.float64), nodes["bmax"].astype(np.float64)
+    v = 0.5 * (lo + hi) - p
+    r2 = 0.25 * ((hi - lo) ** 2).sum(1)
+    d2 = (v * v).sum(1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = np.sqrt(d2)
+        theta_u = np.arcsin(np.minimum(np.sqrt(r2 / d2), 1.0))
+        theta_i = np.arccos(np.minimum(np.abs(v @ n) / d, 1.0))
+        theta = (np.arccos(np.clip(-(nodes["axis"] * v).sum(1) / d, -1, 1)) + theta_u
+                 + nodes["theta_o"])
+    return ((d2 > r2) & (nodes["energy"] > 0) & (theta_i + theta_u < 0.5 * np.pi)
+            & (theta <= nodes["theta_e"]) & (theta < 0.5 * np.pi))
+
+
 def stops(nodes: np.ndarray, p) -> np.ndarray:
     """Whether the descent picks by power at each node (LIGHT_TREE_STOP)."""
     lo, hi = nodes["bmin"].astype(np.float64), nodes["bmax"].astype(np.float64)
