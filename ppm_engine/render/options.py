@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 
 from ppm_engine.errors import PPMError
-from ppm_engine.scene.light_paths import MAX_BOUNCES_LIMIT
+from ppm_engine.scene.light_paths import CAUSTIC_ROUGHNESS, GATHER_ROUGHNESS, MAX_BOUNCES_LIMIT
 
 
 class SettingsError(PPMError, ValueError):
@@ -112,8 +112,10 @@ class RenderOptions:
     exact_gather: bool = False     # reference mode: gather every photon, not the stochastic map
     # microfacet lobes at least this rough hold visible points and photons (the gather evaluates
     # them); smoother ones are followed by the eye path.  Chosen by measurement (docs/BENCHMARKS.md,
-    # "Materials and shader programs"); a setting to measure with, not in the UI.
-    gather_roughness: float = 0.7
+    # "Materials and shader programs"); a setting to measure with, not in the UI.  Both roughness
+    # settings reach the kernels in the Light Paths record (light_paths.with_roughness), not as
+    # -D flags: changing them builds nothing.
+    gather_roughness: float = GATHER_ROUGHNESS
     # followed glossy reflections at least this rough are the eye paths' (next-event estimation
     # through them, as Cycles), smoother ones (and refractions below gather_roughness) make
     # caustic photons.  The default, gather_roughness's, leaves every followed lobe to caustic
@@ -121,7 +123,7 @@ class RenderOptions:
     # scenes (docs/BENCHMARKS.md, "Settings chosen by measurement"); a setting to measure with, not
     # in the UI.  With Filter Glossy above 1 / pi every glossy reflection that is not singular is
     # the eye paths' whatever this says (casters.caustic_roughness).
-    caustic_roughness: float = 0.7
+    caustic_roughness: float = CAUSTIC_ROUGHNESS
     # Skips of work a scene does not need, each on by default; off only to measure what it saves
     # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.
     specialize: bool = True        # kernels built for the scene's features (False: every feature)
