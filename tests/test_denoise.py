@@ -133,3 +133,17 @@ def test_settings_follow_cycles(bpy):
     assert v.start == 8 and (v.input_passes, v.prefilter, v.quality) == (
         str(c.preview_denoising_input_passes).lower(), str(c.preview_denoising_prefilter).lower(),
         str(c.preview_denoising_quality).lower())
+
+
+def test_cli_denoise_in_process(bpy, example_blend, pocl_key, tmp_path, capsys):
+    """``render --denoise`` (tools/cli.py main, in this process: a fresh one is
+    test_cli.py's slow test_render_denoised): the file's Denoise replaced, the progress saying
+    so after the last pass, the image written."""
+    _oidn_or_skip()
+    from ppm_engine.tools.cli import main
+    out = tmp_path / "denoised.exr"
+    assert main(["render", example_blend("cornell_box"), "-o", out, "--passes", "2",
+                 "--photons", "4096", "--resolution", "24x16", "--device", pocl_key,
+                 "--denoise"]) == 0
+    assert "Denoising after pass 2" in capsys.readouterr().err
+    assert bpy.context.scene.ppm.denoise and out.is_file()

@@ -284,7 +284,10 @@ class Session:
             if stats.converged:          # adaptive sampling: every pixel below the threshold
                 break
         if options.denoise is not None and not cancelled:
-            engine.update_stats("", f"Denoising after pass {r.passes_done}")
+            text = f"Denoising after pass {r.passes_done}"
+            engine.update_stats("", text)
+            for listener in tuple(_listeners):
+                listener(text, 1.0)
             self._write(engine, result, options.denoise)
         elif r.passes_done > self.written_passes:
             self._write(engine, result)
