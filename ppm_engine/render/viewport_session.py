@@ -35,6 +35,12 @@ image, or a restart's reduced levels when the pause came), so a viewport opened 
 its scene and says "Rendering Paused" (Cycles' word) instead of looking hung.  Cycles itself
 prepares the scene and then waits, its display empty, under the same status.
 
+With denoising on (RenderOptions.denoise, the scene's Viewport Denoise), each image at full
+resolution from the start pass on (Cycles' Start Sample) is shown through OIDN with the
+render's albedo and normal (denoise.py), and the status line says "Denoised" (before the start
+pass: "Denoising from pass N"); switching the denoising alone shows the image so far again,
+without a restart.
+
 Every change of what the viewport shows (an image, the status line, an error) increments
 ``version``; ``snapshot()`` reads all of it at one instant, so a reader that compares versions
 cannot miss the last image or an error landing while it draws.
@@ -89,6 +95,8 @@ class ViewportSession:
         # the worker's state (read under the lock by frame(), status(), busy)
         self._frame: Frame | None = None
         self._status = "Waiting for the scene"
+        self._status_base = ""             # the last pass's line, before the denoising's note
+        self._denoise_warned = False       # OIDN's load failure printed
         self._error: str | None = None
         self._done = False
         self.restarts = 0
@@ -338,13 +346,18 @@ class ViewportSession:
         if options is not None and scene is None and camera is None \
                 and self._renderer is not None and not dropped \
                 and options.replace(passes=self._options.passes,
-                                    time_limit=self._options.time_limit) == self._options:
-            self._options = options            # only the pass count or time limit: go on
+                                    time_limit=self._options.time_limit,
+                                    denoise=self._options.denoise) == self._options:
+            # only the pass count, the time limit or the denoising: go on
+            denoise_changed = options.denoise != self._options.denoise
+            self._options = options
             elapsed = time.perf_counter() - self._restart_time
             with self._cond:
                 self._done = self._divider == 1 and (
                     self._renderer.passes_done >= options.passes
                     or 0 < options.time_limit <= elapsed)
+            if denoise_changed and self._frame is not None and self._divider == 1:
+                self._publish(None)             # the image so far, denoised or not
             return
         if options is not None:
             self._options = options
@@ -405,6 +418,64 @@ class ViewportSession:
             self._cond.notify_all()
         self._restart_time = time.perf_counter()
 
+    def _denoised(self, image: np.ndarray) -> tuple[np.ndarray, str]:
+        """The image to show and what the status line adds about denoising: from the
+        options' start pass on (Cycles' Start Sample), at full resolution, the image through
+        OIDN with the render's albedo and normal (denoise.py); before, "Denoising from pass
+        N"; where OIDN cannot be loaded, the image as rendered and a short note (the full
+        message once on the console)."""
+        from ppm_engine.render.denoise import DenoiserUnavailable, denoise
+        d, r = self._options.denoise, self._renderer
+        if d is None or self._divider > 1:
+            return image, ""
+        if r.passes_done < d.start:
+            return image, f" · Denoising from pass {d.start}"
+        with self._device.lock:
+            aux = r.passes()
+        try:
+            return denoise(image, aux["Denoising Albedo"], aux["Denoising Normal"], d), \
+                " · Denoised"
+        except DenoiserUnavailable as e:
+            if not self._denoise_warned:
+                self._denoise_warned = True
+                print(f"PPM viewport: {e}", file=sys.stderr)
+            return image, " · Not denoised: Open Image Denoise could not be loaded (console)"
+
+    def _publish(self, stats) -> bool:
+        """The renderer's image so far as the new frame, denoised as the options say, with
+        its status line (``stats`` of the pass just run; None: the last pass's line, the
+        image denoised anew after a change of the denoising alone).  Returns whether the
+        render is done."""
+        r, o = self._renderer, self._options
+        with self._device.lock:
+            image = r.image()
+        image, note = self._denoised(image)
+        image = display_image(image)            # a copy, in the half-float texture's range
+        elapsed = time.perf_counter() - self._restart_time
+        w, h = int(self._camera["width"][0]), int(self._camera["height"][0])
+        with self._cond:
+            gen = self._frame.generation + 1 if self._frame is not None else 1
+            self._frame = Frame(image, w, h, self._divider, r.passes_done, gen, self.restarts)
+            self._version += 1
+            if self.first_pass_seconds is None:
+                self.first_pass_seconds = time.perf_counter() - self._t_created
+            full_done = self._done
+            if stats is not None:
+                if self._divider > 1:
+                    self._status_base = (f"Pass 1 at 1/{self._divider} resolution · "
+                                         f"{r.width} x {r.height}")
+                else:
+                    self._status_base = stats.line(o.passes, elapsed, o.time_limit)
+                limit = o.time_limit > 0 and elapsed >= o.time_limit
+                full_done = self._divider == 1 and (r.passes_done >= o.passes or limit
+                                                    or stats.converged)
+                if full_done:
+                    self._done = True
+                    self._status_base += " · done"
+            self._status = self._status_base + note
+            self._cond.notify_all()
+        return full_done
+
     def _pass(self) -> None:
         """One pass at the current level, its image published; then the next level or done."""
         r, o = self._renderer, self._options
@@ -413,29 +484,10 @@ class ViewportSession:
             if stats is None:                          # dropped for a newer view or edit:
                 self._dropped = True                   # the next change restarts for sure
                 return
-            image = display_image(r.image())       # a copy, in the half-float texture's range
-        elapsed = time.perf_counter() - self._restart_time
-        w, h = int(self._camera["width"][0]), int(self._camera["height"][0])
+        full_done = self._publish(stats)
         with self._cond:
             restarted = (self._new_scene is not None or self._new_camera is not None
                          or self._new_options is not None)
-            gen = self._frame.generation + 1 if self._frame is not None else 1
-            self._frame = Frame(image, w, h, self._divider, r.passes_done, gen, self.restarts)
-            self._version += 1
-            if self.first_pass_seconds is None:
-                self.first_pass_seconds = time.perf_counter() - self._t_created
-            if self._divider > 1:
-                self._status = (f"Pass 1 at 1/{self._divider} resolution · "
-                                f"{r.width} x {r.height}")
-            else:
-                self._status = stats.line(o.passes, elapsed, o.time_limit)
-            limit = o.time_limit > 0 and elapsed >= o.time_limit
-            full_done = self._divider == 1 and (r.passes_done >= o.passes or limit
-                                                or stats.converged)
-            if full_done:
-                self._done = True
-                self._status += " · done"
-            self._cond.notify_all()
         if restarted or full_done or self._divider == 1:
             return
         self._divider //= 2                            # the next, finer level
