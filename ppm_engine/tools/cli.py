@@ -7,7 +7,7 @@
                                 [--frame N | --frames A-B]
     python -m ppm_engine devices
     python -m ppm_engine example NAME OUT.blend
-    python -m ppm_engine package [-o dist] [--platforms linux-x64,...]
+    python -m ppm_engine package [-o dist] [--platforms linux-x64,...] [--no-denoise]
     python -m ppm_engine bench [--quick] [--times S ...] [--out DIR] [--micro]
                                [--phases SCENE] [--skips] [--noise SCENE] ... (its own
                                arguments: ppm_engine/tools/bench/command.py; docs/BENCHMARKS.md)
@@ -104,6 +104,9 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="comma-separated Blender platforms (default: linux-x64,windows-x64,"
                         "macos-arm64,macos-x64)")
     k.add_argument("--wheel-cache", default=None, help="folder to keep downloaded wheels in")
+    k.add_argument("--no-denoise", action="store_true",
+                   help="leave Intel Open Image Denoise's wheels out (50-90 MB a zip): the "
+                        "Denoise options then say that it is missing")
 
     # the benchmark parses its own arguments (ppm_engine/tools/bench/command.py): main() hands them
     # over before this parser sees them; this entry lists the command in --help
@@ -201,7 +204,8 @@ def cmd_package(args) -> int:
     packaging = _tool("packaging", "the extension packager")
     platforms = args.platforms.split(",") if args.platforms else None
     zips = packaging.build(Path(args.output), platforms,
-                           cache=Path(args.wheel_cache) if args.wheel_cache else None, log=_say)
+                           cache=Path(args.wheel_cache) if args.wheel_cache else None, log=_say,
+                           denoise=not args.no_denoise)
     for z in zips:
         print(z)
     return 0
