@@ -56,7 +56,8 @@ import numpy as np
 
 from ppm_engine.errors import PPMError
 from ppm_engine.render.options import RenderOptions
-from ppm_engine.render.viewport_frame import Frame, Snapshot, display_image, divider_for
+from ppm_engine.render.viewport_denoiser import FramePublisher, ViewportDenoiser
+from ppm_engine.render.viewport_frame import Frame, Snapshot, divider_for
 from ppm_engine.scene.camera import scaled_camera
 
 # seconds a new region size must stay before it is rendered (dragging a window's edge)
@@ -70,7 +71,7 @@ KERNELS = {"editable": dict(specialize=True, editable=True),
 # what the worker did with a scene or view change (ViewportSession.actions, newest last)
 ACTIONS = ("new", "camera", "upload", "refit", "rebuild")
 
-class ViewportSession:
+class ViewportSession(FramePublisher):
     def __init__(self, options: RenderOptions, start_resolution: int = 64,
                  kernels: str = "editable"):
         """``kernels``: "editable" (the scene's features and every one a value edit can switch
@@ -96,13 +97,9 @@ class ViewportSession:
         self._frame: Frame | None = None
         self._status = "Waiting for the scene"
         self._status_base = ""             # the last pass's line, before the denoising's note
-        # the viewport's denoising (_publish, _denoise_loop): the latest image waiting, whether
-        # one is being denoised, the thread, the note the last denoised image's line ends with
-        self._denoise_job: dict | None = None
-        self._denoising = False
-        self._denoise_thread: threading.Thread | None = None
+        # the viewport's denoising (_publish), and how the last denoised image's line ends
+        self._denoiser = ViewportDenoiser(self._cond, self._denoised, lambda: self._closing)
         self._denoise_note = " · Denoised"
-        self._denoise_warned = False       # OIDN's load failure printed
         self._error: str | None = None
         self._done = False
         self.restarts = 0
@@ -217,7 +214,7 @@ class ViewportSession:
             return False
         return (self._new_scene is not None or self._new_camera is not None
                 or self._new_options is not None or self._applying
-                or self._denoise_job is not None or self._denoising
+                or self._denoiser.busy
                 or (self._scene is not None and not self._idle()))
 
     def _status_line(self) -> str:
@@ -250,9 +247,7 @@ class ViewportSession:
             self._cond.notify_all()
         if threading.current_thread() is not self._thread:
             self._thread.join(timeout)
-        d = self._denoise_thread
-        if d is not None and threading.current_thread() is not d:
-            d.join(timeout)               # a denoise in progress ends by itself
+        self._denoiser.join(timeout)
         return not self._thread.is_alive()
 
     # -- the worker -----------------------------------------------------------------------------
@@ -427,102 +422,6 @@ class ViewportSession:
             self._done = False
             self._cond.notify_all()
         self._restart_time = time.perf_counter()
-
-    def _publish(self, stats) -> bool:
-        """The renderer's image so far as the new frame, with its status line (``stats`` of
-        the pass just run; None: the last pass's line again, after a change of the denoising
-        alone).  From the denoising's start pass on, at full resolution, the image goes to the
-        denoiser thread instead (_denoise_loop), which shows it when denoised: when that thread
-        is idle, or always for the render's last image (the latest waiting wins), so that
-        denoising never holds the passes up nor a view change.  Returns whether the render is
-        done."""
-        r, o = self._renderer, self._options
-        d = o.denoise
-        denoised = d is not None and self._divider == 1 and r.passes_done >= d.start
-        with self._device.lock:
-            image = r.image()
-            aux = r.passes() if denoised else None
-        elapsed = time.perf_counter() - self._restart_time
-        w, h = int(self._camera["width"][0]), int(self._camera["height"][0])
-        with self._cond:
-            full_done = self._done
-            if stats is not None:
-                if self._divider > 1:
-                    self._status_base = (f"Pass 1 at 1/{self._divider} resolution · "
-                                         f"{r.width} x {r.height}")
-                else:
-                    self._status_base = stats.line(o.passes, elapsed, o.time_limit)
-                limit = o.time_limit > 0 and elapsed >= o.time_limit
-                full_done = self._divider == 1 and (r.passes_done >= o.passes or limit
-                                                    or stats.converged)
-                if full_done:
-                    self._done = True
-                    self._status_base += " · done"
-            post = denoised and (full_done or not (self._denoising
-                                                    or self._denoise_job is not None))
-            note = (f" · Denoising from pass {d.start}" if d is not None and not denoised
-                    and self._divider == 1 else "")
-            if not denoised:
-                if self.first_pass_seconds is None:
-                    self.first_pass_seconds = time.perf_counter() - self._t_created
-                gen = self._frame.generation + 1 if self._frame is not None else 1
-                self._frame = Frame(display_image(image), w, h, self._divider, r.passes_done,
-                                    gen, self.restarts)
-                self._status = self._status_base + note
-            else:
-                self._status = self._status_base + self._denoise_note
-            if post:        # (under the lock: nobody sees the render done and no job waiting)
-                self._denoise_job = dict(
-                    image=image, albedo=aux["Denoising Albedo"], normal=aux["Denoising Normal"],
-                    settings=d, restart=self.restarts, passes=r.passes_done, size=(w, h))
-                if self._denoise_thread is None:
-                    self._denoise_thread = threading.Thread(
-                        target=self._denoise_loop, name="PPM viewport denoiser", daemon=True)
-                    self._denoise_thread.start()
-            self._version += 1
-            self._cond.notify_all()
-        return full_done
-
-    def _denoise_loop(self) -> None:
-        """The denoiser thread: takes the latest image posted (_publish), denoises it (OIDN on
-        the CPU, no device work) and shows it if the render it belongs to is still the one
-        rendering with the same denoising; where OIDN cannot be loaded, the image as rendered
-        and a short note (the full message once on the console)."""
-        from ppm_engine.render.denoise import DenoiserUnavailable, denoise
-        while True:
-            with self._cond:
-                while self._denoise_job is None and not self._closing:
-                    self._cond.wait()
-                if self._closing:
-                    return
-                job, self._denoise_job = self._denoise_job, None
-                self._denoising = True
-            note = " · Denoised"
-            try:
-                image = denoise(job["image"], job["albedo"], job["normal"], job["settings"])
-            except DenoiserUnavailable as e:
-                image = job["image"]
-                note = " · Not denoised: Open Image Denoise could not be loaded (console)"
-                if not self._denoise_warned:
-                    self._denoise_warned = True
-                    print(f"PPM viewport: {e}", file=sys.stderr)
-            except Exception as e:       # a bug or OIDN's own error: the image as rendered
-                image = job["image"]
-                note = f" · Not denoised: {type(e).__name__} (console)"
-                traceback.print_exc(file=sys.stderr)
-            with self._cond:
-                self._denoising = False
-                self._denoise_note = note
-                if job["restart"] == self.restarts and job["settings"] == self._options.denoise:
-                    w, h = job["size"]
-                    gen = self._frame.generation + 1 if self._frame is not None else 1
-                    self._frame = Frame(display_image(image), w, h, 1, job["passes"], gen,
-                                        job["restart"])
-                    self._status = self._status_base + note
-                    self._version += 1
-                    if self.first_pass_seconds is None:
-                        self.first_pass_seconds = time.perf_counter() - self._t_created
-                self._cond.notify_all()
 
     def _pass(self) -> None:
         """One pass at the current level, its image published; then the next level or done."""
