@@ -68,6 +68,14 @@ def _photons_set_by_hand(self, context):
         self.auto_photons = False
 
 
+def _update_render_passes(self, context):
+    """Denoise adds the Noisy Image pass: the compositor's Render Layers node shows it at once
+    (as Cycles' Denoise does)."""
+    view_layer = getattr(context, "view_layer", None)
+    if view_layer is not None:
+        view_layer.update_render_passes()
+
+
 class PPMSettings(bpy.types.PropertyGroup):
     passes: _int("passes", label="Passes", soft_max=4096)
     time_limit: _float("time_limit", label="Time Limit", subtype="TIME_ABSOLUTE",
@@ -129,6 +137,7 @@ class PPMSettings(bpy.types.PropertyGroup):
                     "its albedo and normal; the noisy image stays in the Noisy Image pass. Input "
                     "passes, prefilter and quality are Cycles' denoising settings",
         default=False,
+        update=_update_render_passes,
     )
     viewport_denoise: BoolProperty(
         name="Viewport Denoise",
