@@ -147,3 +147,17 @@ def test_cli_denoise_in_process(bpy, example_blend, pocl_key, tmp_path, capsys):
                  "--denoise"]) == 0
     assert "Denoising after pass 2" in capsys.readouterr().err
     assert bpy.context.scene.ppm.denoise and out.is_file()
+
+
+def test_denoise_panels_sit_where_cycles_has_them(bpy):
+    """Render Properties → Sampling → Denoise and Sampling → Viewport → Denoise, the toggle in
+    each header (ours), Cycles' settings below."""
+    from ppm_engine.blender import ui
+    assert bpy.types.PPM_PT_sampling_denoise.bl_parent_id == "PPM_PT_sampling"
+    assert bpy.types.PPM_PT_sampling_viewport_denoise.bl_parent_id == "PPM_PT_sampling_viewport"
+    assert (ui.PPM_PT_sampling_denoise.OWN, ui.PPM_PT_sampling_viewport_denoise.OWN) == (
+        "denoise", "viewport_denoise")
+    c = bpy.context.scene.cycles
+    for cls in (ui.PPM_PT_sampling_denoise, ui.PPM_PT_sampling_viewport_denoise):
+        for name in ("input_passes", "prefilter", "quality"):
+            assert hasattr(c, cls.PREFIX + name), cls.PREFIX + name
