@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 
 from ppm_engine.errors import PPMError
+from ppm_engine.render.denoise import DenoiseSettings
 from ppm_engine.scene.light_paths import CAUSTIC_ROUGHNESS, GATHER_ROUGHNESS, MAX_BOUNCES_LIMIT
 
 
@@ -151,6 +152,10 @@ class RenderOptions:
     # RADIUS_SCHEDULES; a setting to measure with (docs/BENCHMARKS.md, "Settings chosen by
     # measurement")
     radius_schedule: str = "pixel"
+    # the image denoised through Intel Open Image Denoise (ppm_engine/render/denoise.py): None
+    # off; final renders denoise their last image, the viewport from DenoiseSettings.start on.
+    # Not the renderer's: its passes are the same either way
+    denoise: DenoiseSettings | None = None
 
     def validate(self) -> RenderOptions:
         for name, (lo, hi, _default, _desc) in LIMITS.items():
@@ -180,6 +185,12 @@ class RenderOptions:
         if not (0.0 <= self.gather_roughness <= 2.0):
             raise SettingsError(f"gather_roughness = {self.gather_roughness!r} is outside "
                                 "[0, 2] (above 1: no microfacet lobe is gathered)")
+        if self.denoise is not None:
+            if not isinstance(self.denoise, DenoiseSettings):
+                raise SettingsError(f"denoise = {self.denoise!r} must be None or "
+                                    "DenoiseSettings")
+            if self.denoise.problem() is not None:
+                raise SettingsError(self.denoise.problem())
         return self
 
     def photons_for(self, pixels: int) -> int:
