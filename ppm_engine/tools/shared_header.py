@@ -294,8 +294,9 @@ def generate_svm() -> str:
             _family("Map Range types (shader_program.py MAP_RANGE_TYPES)",
                     _prefixed("MAP_RANGE_", sp.MAP_RANGE_TYPES)),
             _family("Mapping and Vector Transform kinds (shader_program.py MAPPING_TYPES, "
-                    "MAPPING_OBJECT)", _prefixed("MAPPING_", sp.MAPPING_TYPES)
-                    + _prefixed("MAPPING_", sp.MAPPING_OBJECT)),
+                    "MAPPING_OBJECT, MAPPING_CAMERA)", _prefixed("MAPPING_", sp.MAPPING_TYPES)
+                    + _prefixed("MAPPING_", sp.MAPPING_OBJECT)
+                    + _prefixed("MAPPING_", sp.MAPPING_CAMERA)),
             _family("Clamp types (shader_program.py CLAMP_TYPES)",
                     _prefixed("CLAMP_", sp.CLAMP_TYPES)),
             _family("Normal Map spaces (shader_program.py NORMAL_MAP_SPACES)",
