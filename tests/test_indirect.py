@@ -83,7 +83,7 @@ def light_traced(scene):
     """(image, coverage) of ``scene`` by light tracing (unbiased, no photon map, no eye
     paths), 32 bounces: the reference over the pixels it renders."""
     from ppm_engine.render.light_tracer import LightTracer
-    lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32)
+    lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32, specialize=False)
     try:
         lt.trace(20)
         return lt.image().astype(np.float64), lt.coverage()
