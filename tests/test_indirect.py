@@ -81,11 +81,13 @@ def box_with_ball(W=16, radius=0.35, **ball):
 
 def light_traced(scene):
     """(image, coverage) of ``scene`` by light tracing (unbiased, no photon map, no eye
-    paths), 32 bounces: the reference over the pixels it renders."""
+    paths), 32 bounces: the reference over the pixels it renders.  2.6M photons: 20 passes
+    moved the tests' departures by at most 0.06 % of the mean and 0.1 % per quarter against
+    10 (the box with the metal ball: 0.65 % against 0.71 % at caustic_roughness 0.2)."""
     from ppm_engine.render.light_tracer import LightTracer
     lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32, specialize=False)
     try:
-        lt.trace(20)
+        lt.trace(10)
         return lt.image().astype(np.float64), lt.coverage()
     finally:
         lt.close()
