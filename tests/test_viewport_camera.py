@@ -163,3 +163,28 @@ def test_view_camera_reads_the_region_the_pixel_size_and_the_camera_s_depth_of_f
     want = export_camera(scene, dg)
     assert cam["aperture_radius"][0] == want["aperture_radius"][0] > 0
     assert cam["focus_distance"][0] == want["focus_distance"][0] == np.float32(3.0)
+
+
+def test_view_camera_takes_the_depth_of_field_of_the_view_s_local_camera(bpy, empty):
+    """A 3D view with a Local Camera looks through that camera (as Cycles' viewport does): its
+    depth of field, not the scene camera's."""
+    from ppm_engine.blender.export.camera import export_camera
+    from ppm_engine.blender.viewport import view_camera
+    scene = empty
+    scene.camera.data.dof.use_dof = False                # the scene's camera: none
+    local = bpy.data.objects.new("Local", bpy.data.cameras.new("Local"))
+    scene.collection.objects.link(local)
+    local.data.dof.use_dof = True
+    local.data.dof.focus_distance, local.data.dof.aperture_fstop = 2.5, 2.0
+    dg = bpy.context.evaluated_depsgraph_get()
+    rv3d = types.SimpleNamespace(view_matrix=look((3.0, -6.0, 2.5), (0.0, 0.0, 0.0)),
+                                 window_matrix=blender_window_matrix(64, 36),
+                                 view_perspective='CAMERA')
+    ctx = context_stub(rv3d, 64, 36)
+    assert view_camera(ctx, dg)["aperture_radius"][0] == 0.0
+    ctx.space_data = types.SimpleNamespace(use_local_camera=True, camera=local)
+    cam, want = view_camera(ctx, dg), export_camera(scene, dg, local)
+    assert cam["aperture_radius"][0] == want["aperture_radius"][0] > 0
+    assert cam["focus_distance"][0] == np.float32(2.5)
+    ctx.space_data.use_local_camera = False              # the option off: the scene's again
+    assert view_camera(ctx, dg)["aperture_radius"][0] == 0.0

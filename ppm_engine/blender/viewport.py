@@ -146,9 +146,9 @@ def viewport_paused(scene) -> bool:
 
 def view_camera(context, depsgraph, engine=None):
     """The camera record of the 3D view in ``context`` (its region's size over the Pixel
-    Size, its view and projection matrices, the scene's film; the scene camera's depth of
-    field when looking through it), or None without a 3D view (then the scene camera
-    renders)."""
+    Size, its view and projection matrices, the scene's film; the depth of field of the camera
+    it looks through: the view's local camera where it has one, as Cycles' viewport, else the
+    scene's), or None without a 3D view (then the scene camera renders)."""
     from ppm_engine.blender.export.camera import export_camera, film_settings
     from ppm_engine.scene.camera import camera_from_view
     region, rv3d = getattr(context, "region", None), getattr(context, "region_data", None)
@@ -157,9 +157,12 @@ def view_camera(context, depsgraph, engine=None):
     scene = depsgraph.scene
     ps = pixel_size(context, scene, engine)
     film = film_settings(scene)
-    if rv3d.view_perspective == 'CAMERA' and scene.camera is not None \
-            and scene.camera.type == 'CAMERA':
-        cam = export_camera(scene, depsgraph)     # its depth of field
+    space = getattr(context, "space_data", None)
+    through = scene.camera
+    if getattr(space, "use_local_camera", False) and getattr(space, "camera", None) is not None:
+        through = space.camera                    # View > Sidebar > View > Local Camera
+    if rv3d.view_perspective == 'CAMERA' and through is not None and through.type == 'CAMERA':
+        cam = export_camera(scene, depsgraph, through)    # its depth of field
         film.update({k: float(cam[k][0]) for k in ("aperture_radius", "focus_distance",
                                                    "aperture_rotation", "aperture_ratio")})
         film["aperture_blades"] = int(cam["aperture_blades"][0])

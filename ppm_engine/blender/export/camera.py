@@ -23,8 +23,10 @@ def render_size(render) -> tuple[int, int]:
     return max(int(render.resolution_x * pct), 1), max(int(render.resolution_y * pct), 1)
 
 
-def export_camera(scene, depsgraph) -> np.ndarray:
-    cam_obj = scene.camera
+def export_camera(scene, depsgraph, camera_object=None) -> np.ndarray:
+    """The camera record of ``camera_object`` (a 3D view's local camera), by default the
+    scene's active camera; SceneError where there is none or it is not a camera."""
+    cam_obj = camera_object if camera_object is not None else scene.camera
     if cam_obj is None:
         raise SceneError("the scene has no active camera: add a camera and make it active "
                          "(Scene Properties > Camera)")
