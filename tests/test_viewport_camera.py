@@ -188,3 +188,26 @@ def test_view_camera_takes_the_depth_of_field_of_the_view_s_local_camera(bpy, em
     assert cam["focus_distance"][0] == np.float32(2.5)
     ctx.space_data.use_local_camera = False              # the option off: the scene's again
     assert view_camera(ctx, dg)["aperture_radius"][0] == 0.0
+
+
+def test_the_viewport_exports_what_its_3d_view_shows(bpy, empty):
+    """A 3D view's object-type visibility (and its local view and local collections, through
+    the same Object.visible_in_viewport_get) decide what the viewport renders, as in Cycles'
+    viewport; a change of them changes the viewport's export key."""
+    from ppm_engine.blender.export import export_scene, hidden_in_view
+    bpy.ops.mesh.primitive_cube_add()
+    bpy.ops.mesh.primitive_uv_sphere_add(location=(3.0, 0.0, 0.0))
+    bpy.ops.object.light_add(type='POINT', location=(0.0, 0.0, 3.0))
+    view = next(a.spaces[0] for s in bpy.data.screens for a in s.areas if a.type == 'VIEW_3D')
+    dg = bpy.context.evaluated_depsgraph_get()
+    everything = export_scene(dg)
+    shown = export_scene(dg, view=view)
+    assert shown.positions.shape == everything.positions.shape and shown.lights.shape == (1,)
+    assert hidden_in_view(dg, view) == ()
+    view.show_object_viewport_light = False
+    assert export_scene(dg, view=view).lights.shape == (0,)
+    assert hidden_in_view(dg, view) == ("Point",)
+    view.show_object_viewport_light = True
+    view.show_object_viewport_mesh = False
+    assert export_scene(dg, view=view).positions.shape[0] == 0
+    assert export_scene(dg).positions.shape == everything.positions.shape   # a final render

@@ -158,7 +158,7 @@ def view_camera(context, depsgraph, engine=None):
     ps = pixel_size(context, scene, engine)
     film = film_settings(scene)
     space = getattr(context, "space_data", None)
-    through = scene.camera
+    through = getattr(scene, "camera", None)
     if getattr(space, "use_local_camera", False) and getattr(space, "camera", None) is not None:
         through = space.camera                    # View > Sidebar > View > Local Camera
     if rv3d.view_perspective == 'CAMERA' and through is not None and through.type == 'CAMERA':
@@ -215,14 +215,17 @@ class ViewportDriver:
             else:
                 self.session.update_options(options, start)
             self.session.pause(viewport_paused(depsgraph.scene))
-            key = settings_key(depsgraph)
+            from ppm_engine.blender.export import hidden_in_view
+            space = getattr(context, "space_data", None)
+            view = space if hasattr(space, "show_object_viewport_mesh") else None
+            key = (settings_key(depsgraph), hidden_in_view(depsgraph, view))
             if not first and self.message is None and key == self.key:
                 ups = depsgraph.updates
                 if not changes(ups) or only_scene(ups):
                     self._watch(engine)
                     return                      # nothing the export reads changed
             camera = view_camera(context, depsgraph, engine)
-            arrays = export_scene(depsgraph, camera=camera)
+            arrays = export_scene(depsgraph, camera=camera, view=view)
             self.key = key
             self.exports += 1
             self.message = None

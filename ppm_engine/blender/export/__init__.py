@@ -60,11 +60,28 @@ class Warnings(list):
             self.engine.report({'WARNING'}, msg)
 
 
-def export_scene(depsgraph, engine=None, camera=None) -> SceneArrays:
+def in_view(inst, view) -> bool:
+    """Whether the object instance ``inst`` shows in the 3D view ``view`` (SpaceView3D)."""
+    owner = inst.parent if inst.is_instance and inst.parent is not None else inst.object
+    return bool(getattr(owner, "original", owner).visible_in_viewport_get(view))
+
+
+def hidden_in_view(depsgraph, view) -> tuple:
+    """The names of the view layer's objects that ``view`` hides (a viewport's export key)."""
+    if view is None or not hasattr(view, "show_object_viewport_mesh"):
+        return ()
+    return tuple(sorted(o.name for o in depsgraph.view_layer.objects
+                        if not o.visible_in_viewport_get(view)))
+
+
+def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
     """Everything the core needs from one evaluated depsgraph (render or viewport).
 
     ``camera``: a CAMERA_DTYPE record to render with instead of the scene camera's (the
     viewport's view, camera.camera_from_view); the scene then needs no camera.
+    ``view``: a 3D view (SpaceView3D) whose visibility applies, as in Cycles' viewport: only
+    the objects visible in it (its local view, local collections and object-type visibility,
+    Object.visible_in_viewport_get; an instance by its instancer's).
     Raises SceneError when the scene cannot be rendered (no/invalid camera, empty border)."""
     scene = depsgraph.scene
     warn = Warnings(engine)
@@ -86,6 +103,8 @@ def export_scene(depsgraph, engine=None, camera=None) -> SceneArrays:
     objects = []                            # rows of the objects whose programs read them
     for inst in depsgraph.object_instances:
         obj = inst.object
+        if view is not None and not in_view(inst, view):
+            continue
         kind = obj.type
         if kind == 'LIGHT':
             m = np.array(inst.matrix_world, dtype=np.float64)    # copy inside the loop
