@@ -118,9 +118,8 @@ class Renderer:
         self.hash_build = HashBuild(ctx)
         self.radius_update, self.add_sample = RadiusUpdate(ctx), AddSample(ctx)
         self.converge = Converge(ctx)
-        self.scene.set_light_paths(with_roughness(
-            with_max_bounces(self.scene.scene.light_paths, o.max_bounces), o.gather_roughness,
-            o.caustic_roughness))
+        lp = with_max_bounces(self.scene.scene.light_paths, o.max_bounces)
+        self.scene.set_light_paths(with_roughness(lp, o.gather_roughness, o.caustic_roughness))
         useful = self.scene.photons_useful()
         self.caustic_roughness = caustic_roughness(self.scene.light_paths, o.caustic_roughness)
         caustics = self.scene.caustics_possible(o.gather_roughness, self.caustic_roughness)
