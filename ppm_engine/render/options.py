@@ -7,6 +7,7 @@ clamped silently.  ``properties.py`` exposes the same fields (and the same limit
 from __future__ import annotations
 
 import dataclasses
+import math
 
 from ppm_engine.errors import PPMError
 from ppm_engine.scene.light_paths import MAX_BOUNCES_LIMIT
@@ -86,9 +87,26 @@ LIGHT_TRACING_KAPPA = 0.1
 #   "pixel": the paper's (Hachisuka & Jensen 2009), from the photons the pixel gathered;
 #   "global": Knaus & Zwicker 2011 (VCM's), R_k^2 = R_1^2 prod (j + alpha) / (j + 1), the same
 #             sequence for every pixel, independent of the samples (so any sampler may place the
-#             camera rays).
+#             camera rays); R_1 each pass's own visible point's footprint.  Every pass is then
+#             a function of its index alone (Renderer.independent): ranges of passes render
+#             apart, on other devices or machines, and their films add up exactly
+#             (ppm_engine/render/parts.py).
 # Their index is film_update's `schedule` (RADIUS_PIXEL, RADIUS_GLOBAL).
 RADIUS_SCHEDULES = ("pixel", "global")
+
+
+def global_radius_scale(pass_index: int, alpha: float) -> float:
+    """RenderOptions.radius_schedule "global" (Knaus & Zwicker 2011): pass ``pass_index``'s
+    (from 0) radius over the initial one, sqrt(prod_{j<k} (j + alpha) / (j + 1)) for the k-th
+    pass (k = pass_index + 1), = sqrt(Gamma(k + alpha) / (Gamma(1 + alpha) Gamma(k + 1))),
+    ~ k^((alpha - 1) / 2): a function of the pass's index alone, computed in float64 from the
+    same formula wherever the pass runs (passes/eye.py: the eye pass multiplies its visible
+    point's footprint radius by it)."""
+    k = pass_index + 1
+    return math.exp(0.5 * (math.lgamma(k + alpha) - math.lgamma(1.0 + alpha)
+                           - math.lgamma(k + 1.0)))
+
+
 # "auto" chooses "photons" above this fraction of caustic first scatterings (docs/BENCHMARKS.md,
 # "Settings chosen by measurement")
 AUTO_PHOTONS_CAUSTIC_FRACTION = 0.5
