@@ -106,3 +106,37 @@ def test_passes_out_of_order_need_the_global_schedule():
             r.iterate(pass_index=3)
     finally:
         r.close()
+
+
+def test_cli_ranges_merge_into_one_run(bpy, cli, example_blend, pocl_key, exr, tmp_path):
+    """`render --pass-range 1-2 -o a.npz` (a fresh process) and passes 3-4 (batch.render_split
+    here), merged by `merge a.npz b.npz -o m.exr`, are the image of passes 1-4 in one run
+    (to float rounding); merging a part twice names the passes both hold, on stderr, exit 1."""
+    from ppm_engine.blender.batch import render_split
+    blend = example_blend("cornell_box")
+    common = ["--resolution", f"{W}x{W}", "--photons", "4096", "--device", pocl_key]
+    proc = cli("render", blend, "--pass-range", "1-2", "-o", tmp_path / "a.npz", *common)
+    assert proc.returncode == 0, proc.stderr
+    over = {"photons_per_pass": 4096}
+    for name, passes in (("b.npz", (3, 4)), ("full.exr", (1, 4))):
+        render_split(blend, tmp_path / name, over, device=pocl_key, resolution=(W, W),
+                     pass_range=passes)
+    proc = cli("merge", tmp_path / "a.npz", tmp_path / "b.npz", "-o", tmp_path / "m.exr")
+    assert proc.returncode == 0 and "merged passes 1-4" in proc.stderr, proc.stderr
+    merged, full = exr.read(tmp_path / "m.exr"), exr.read(tmp_path / "full.exr")
+    assert full[..., :3].mean() > 0.1
+    np.testing.assert_allclose(merged, full, rtol=1e-5, atol=1e-6)
+    proc = cli("merge", tmp_path / "a.npz", tmp_path / "a.npz", "-o", tmp_path / "x.exr")
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    assert "a.npz and a.npz both hold passes 1-2" in proc.stderr
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--pass-range", "5-2"], "must not end before it starts"),
+    (["--pass-range", "1-4", "--time-limit", "3"], "time limit cannot split"),
+    (["--pass-range", "1-4", "--noise-threshold", "0.1"], "adaptive sampling"),
+    (["--pass-range", "1-4", "--frames", "1-2"], "--frames"),
+])
+def test_cli_refuses_what_cannot_split(cli, example_blend, tmp_path, args, words):
+    proc = cli("render", example_blend("cornell_box"), "-o", tmp_path / "p.npz", *args)
+    assert proc.returncode == 2 and words in proc.stderr and "Traceback" not in proc.stderr

@@ -38,6 +38,27 @@ def set_output(scene, path) -> None:
     scene.render.filepath = str(path)
 
 
+def write_image(rgba: np.ndarray, path) -> None:
+    """Write linear RGBA (h, w, 4), row 0 = bottom (a render result's order), as an image whose
+    format is the extension's (OUTPUT_FORMATS): what the render writes for the same pixels."""
+    import bpy
+    path = Path(path)
+    file_format, depth = OUTPUT_FORMATS[path.suffix.lower()]
+    h, w = rgba.shape[:2]
+    img = bpy.data.images.new("ppm_merged", w, h, alpha=True, float_buffer=True)
+    try:
+        img.pixels.foreach_set(np.ascontiguousarray(rgba, np.float32).ravel())
+        scene = bpy.data.scenes[0] if bpy.data.scenes else bpy.data.scenes.new("ppm")
+        settings = scene.render.image_settings
+        if hasattr(settings, "media_type"):
+            settings.media_type = "IMAGE"
+        settings.file_format, settings.color_mode, settings.color_depth = \
+            file_format, "RGBA", depth
+        img.save_render(str(path), scene=scene)
+    finally:
+        bpy.data.images.remove(img)
+
+
 def read_exr(path) -> np.ndarray:
     """RGBA float32 (h, w, 4) of a single-part EXR, rows top-down (EXR order).  Needs the
     OpenEXR package (the test and bench extras)."""

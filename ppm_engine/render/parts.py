@@ -201,3 +201,34 @@ def merge(parts, names=None) -> Part:
     return Part(sums, np.sort(np.concatenate([p.passes for p in parts])),
                 sum(p.photons_emitted for p in parts), parts[last].radius,
                 {**first.meta, "devices": devices})
+
+
+def check_splittable(options) -> None:
+    """Refuse settings whose passes are not independent: adaptive sampling stops pixels by
+    what the passes before found, and the per-pixel radius statistics (radius_schedule
+    "pixel") depend on every pass before."""
+    from ppm_engine.render.options import SettingsError
+    if options.noise_threshold > 0:
+        raise SettingsError("adaptive sampling (noise threshold > 0) decides which pixels go on "
+                            "from the passes before: passes split across renders need it off")
+    if options.radius_schedule != "global":
+        raise SettingsError("passes split across renders need radius_schedule 'global'")
+
+
+def render_range(scene, options, passes, progress=None, renderer=None) -> Part:
+    """The Part of ``passes`` (pass indices from 0) of ``scene`` with ``options`` (the global
+    schedule; check_splittable), rendered by one Renderer on ``options.device`` (or
+    ``renderer``, kept open); ``progress(done, total, stats)`` after each pass."""
+    from ppm_engine.render.renderer import Renderer
+    check_splittable(options)
+    passes = list(passes)
+    r = renderer if renderer is not None else Renderer(scene, options)
+    try:
+        for k, i in enumerate(passes):
+            stats = r.iterate(pass_index=i)
+            if progress is not None:
+                progress(k + 1, len(passes), stats)
+        return Part.of(r)
+    finally:
+        if renderer is None:
+            r.close()
