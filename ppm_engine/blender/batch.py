@@ -108,12 +108,23 @@ def apply_settings(scene, overrides: dict, device: str | None) -> None:
     RenderOptions(**stored).replace(**overrides).validate()
     for name, value in overrides.items():
         setattr(settings, name, value.upper() if name == "indirect" else value)
-    if device is not None:
+    if device is not None and "," in device:      # several devices render together
+        from ppm_engine.blender.properties import tick_device
+        settings.devices = ""
+        for name in device.split(","):
+            tick_device(settings, resolve_device(name.strip(), refresh_devices(),
+                                                 DEFAULT_DEVICE), True)
+    elif device is not None:
         settings.device = resolve_device(device, refresh_devices(), DEFAULT_DEVICE)
+        settings.devices = ""
 
 
 def resolve_device(name: str, items, default_key: str) -> str:
-    """A device key from a key, a case-insensitive part of a device name, or DEFAULT."""
+    """A device key from a key, a case-insensitive part of a device name, or DEFAULT; a
+    suffix "#N" (another context on the same device: device/context.py get_device) is kept."""
+    base, sep, tail = name.rpartition("#")
+    if sep and tail.isdigit() and base:
+        return f"{resolve_device(base, items, default_key)}#{tail}"
     if name.upper() == default_key:
         return default_key
     keys = [item[0] for item in items if item[0] != default_key]
@@ -195,6 +206,11 @@ def render_split(scene_file: Path, output: Path, overrides: dict, *,
 
     def told(done, total, stats=None):
         say(f"Pass {done}/{total} of {first}-{last}", done / total)
+    if run is None and len(options.devices) > 1:
+        from ppm_engine.render.multi_device import render_devices
+
+        def run(scene, options, passes, progress):
+            return render_devices(scene, options, passes, options.devices, progress)
     part = (run or parts.render_range)(arrays, options, range(first - 1, last), told)
     if output.suffix.lower() == ".npz":
         part.save(output)

@@ -167,6 +167,10 @@ class RenderOptions:
     # RADIUS_SCHEDULES; a setting to measure with (docs/BENCHMARKS.md, "Settings chosen by
     # measurement")
     radius_schedule: str = "pixel"
+    # more than one: these OpenCL devices (names or keys, as ``device``) render the image
+    # together, each its share of the passes (render/multi_device.py MultiRenderer; the global
+    # schedule, whatever radius_schedule says); ``device`` is then not read
+    devices: tuple = ()
 
     def validate(self) -> RenderOptions:
         for name, (lo, hi, _default, _desc) in LIMITS.items():
@@ -188,6 +192,8 @@ class RenderOptions:
         if self.radius_schedule not in RADIUS_SCHEDULES:
             raise SettingsError(f"radius_schedule = {self.radius_schedule!r} must be one of "
                                 f"{', '.join(RADIUS_SCHEDULES)}")
+        if not all(isinstance(d, str) for d in self.devices):
+            raise SettingsError(f"devices = {self.devices!r} must be device names")
         if not (0.0 < self.alpha < 1.0):
             raise SettingsError(f"alpha = {self.alpha!r} must lie strictly between 0 and 1")
         if not (0.0 <= self.caustic_roughness <= 2.0):

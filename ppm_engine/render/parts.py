@@ -32,7 +32,7 @@ from ppm_engine.errors import PPMError
 SUMS4 = ("direct", "photon_sum", "lt_sum", "moments")
 PLAIN = (("aux_albedo", 4), ("aux_normal", 4), ("transparency", 1), ("nstat", 1))
 # RenderOptions fields that do not change what a pass renders: they may differ between parts
-FREE_OPTIONS = ("passes", "time_limit", "device")
+FREE_OPTIONS = ("passes", "time_limit", "device", "devices")
 FORMAT = 1       # the .npz layout's version
 
 
@@ -158,6 +158,23 @@ class Part:
                 s["transparency"] / m[..., 3:], 0.0, 1.0), 1.0)
         rgb = c * float(self.meta.get("exposure", 1.0))
         return np.concatenate([rgb, alpha], axis=-1).astype(np.float32)
+
+
+    def aux_passes(self) -> dict:
+        """The extra render passes as Film.aux_passes makes them: "Denoising Albedo" (mean),
+        "Denoising Normal" (unit mean), "PPM Radius" (the last pass's R), "PPM Photons" (N)."""
+        out = {}
+        for name, key in (("Denoising Albedo", "aux_albedo"), ("Denoising Normal", "aux_normal")):
+            a = self.sums[key]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                v = np.where(a[..., 3:] > 0, a[..., :3] / a[..., 3:], 0.0)
+                if key == "aux_normal":
+                    length = np.linalg.norm(v, axis=-1, keepdims=True)
+                    v = np.where(length > 0, v / length, 0.0)
+            out[name] = v.astype(np.float32)
+        out["PPM Radius"] = self.radius[..., None].astype(np.float32)
+        out["PPM Photons"] = self.sums["nstat"].astype(np.float32)
+        return out
 
 
 def _agree(a: dict, b: dict) -> list[str]:

@@ -83,7 +83,8 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--resolution", type=_parse_resolution, metavar="WxH",
                    help="image size (at 100%%)")
     r.add_argument("--device",
-                   help="OpenCL device: a key from 'devices', part of its name, or DEFAULT")
+                   help="OpenCL device: a key from 'devices', part of its name, or DEFAULT; "
+                        "several separated by commas render the image together")
     r.add_argument("--photons", type=int, help="photons per pass (default: the file's setting, "
                    "normally automatic: one per pixel)")
     r.add_argument("--seed", type=int, help="random seed")
