@@ -4,6 +4,7 @@ films merge into the image of one device's run, to float rounding."""
 import types
 
 import numpy as np
+import pytest
 
 from ppm_engine.oracle.procedural import cornell_box
 from ppm_engine.render.multi_device import MultiRenderer
@@ -106,3 +107,25 @@ def test_device_panel_ticks_devices_and_they_render_together(bpy, example_blend,
     one = exr.read(tmp_path / "one.exr")
     assert one[..., :3].mean() > 0.1
     np.testing.assert_allclose(two, one, rtol=1e-5, atol=1e-6)
+
+
+def test_two_devices_render_the_cornell_box_as_cycles(bpy, example_blend, pocl_key, tiny,
+                                                      cycles, render_exr, tmp_path):
+    """The Cornell box (the example .blend) on two devices with the global radius schedule, 60
+    passes, against Cycles at 256 samples, 32 x 32: the mean within 5 %, every bright 8 x 8
+    block within 15 % (tests/test_e2e.py's bounds for one device and the paper's schedule)."""
+    w = 32
+    bpy.ops.wm.open_mainfile(filepath=str(example_blend("cornell_box")), load_ui=False)
+    scene = bpy.context.scene
+    cycles(scene, 256, w)
+    ref = render_exr(tmp_path / "cycles.exr")
+    tiny(scene, width=w, height=w, passes=60, photons=1 << 13)
+    scene.ppm.devices = f"{pocl_key}\n{pocl_key}#1"
+    ours = render_exr(tmp_path / "two.exr")
+    assert ours.mean() == pytest.approx(ref.mean(), rel=0.05)
+    b_ours = ours.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
+    b_ref = ref.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
+    bright = b_ref > 0.05
+    ratio = b_ours[bright] / b_ref[bright]
+    print(f"blocks against Cycles: {ratio.min():.3f} .. {ratio.max():.3f}")
+    assert np.abs(ratio - 1).max() < 0.15
