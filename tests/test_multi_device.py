@@ -22,8 +22,9 @@ def _options(pocl_key, **kw):
 
 
 def test_two_contexts_of_one_device_render_one_image(pocl_key):
-    """8 passes taken by two devices as each is free (both take some), merged: the image of
-    8 passes on one device, to float rounding; each pass counted once."""
+    """8 passes taken by two devices as each is free (each its own first pass, then as it is
+    free), merged: the image of 8 passes on one device, to float rounding; each pass counted
+    once."""
     scene = cornell_box(W, W)
     r = Renderer(scene, _options(pocl_key))
     for _ in range(8):
@@ -49,11 +50,14 @@ def test_a_slow_device_stops_taking_passes(pocl_key):
     needs for all the passes left takes no more."""
     m = MultiRenderer.__new__(MultiRenderer)
     m.pass_list, m._next, m.pass_seconds = list(range(10)), 7, [0.01, 0.5]
+    m._first_taken = [True, True]
     m._lock, m._stop = __import__("threading").Lock(), __import__("threading").Event()
     assert m._take(1) is None                      # 0.5 s > 3 passes x 0.01 s
     assert m._take(0) == 7
     m.pass_seconds = [0.01, 0.02]
     assert m._take(1) == 8
+    m._first_taken, m._next = [False, False], 2       # a device's first pass is its own
+    assert m._take(0) == 0 and m._take(0) == 2 and m._take(1) == 1
 
 
 class _Layout:

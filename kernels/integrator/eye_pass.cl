@@ -223,7 +223,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             film->aux_normal[id] += (float4)(sd.N, 1.0f);
             /* the gather radius: RADIUS_PIXEL (radius_scale 0) sets it at the pixel's first
              * visible point and film_update shrinks it; RADIUS_GLOBAL (radius_scale > 0, the
-             * pass's factor of Knaus & Zwicker's sequence, passes/update.py global_radius_scale)
+             * pass's factor of Knaus & Zwicker's sequence, options.py global_radius_scale)
              * sets it every pass from this visible point's own footprint, so a pass's radius
              * depends on its own sample alone and passes render apart and merge exactly */
             if (film->radius[id] <= 0.0f || radius_scale > 0.0f) {

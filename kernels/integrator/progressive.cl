@@ -74,7 +74,7 @@ __kernel void progressive_update(__global const float4 *vp_pos, __global const f
  *   where none arrive).  The statistics follow where the pixel's visible points fell.
  * - RADIUS_GLOBAL: the eye pass set this pass's R, its visible point's footprint times the
  *   pass's factor of the sequence R_{k+1}^2 = R_k^2 (k + alpha) / (k + 1) (k the pass's index
- *   from 1; passes/update.py global_radius_scale): the radius of a pass depends on no other
+ *   from 1; options.py global_radius_scale): the radius of a pass depends on no other
  *   pass, so each pass's estimate is the radius' blur of the light wherever the sampler placed
  *   the visible point, the blur vanishes as k^((alpha - 1) / 2), and passes rendered apart
  *   (pass ranges, other devices) sum to the same film.  N counts the photons gathered

@@ -3,10 +3,11 @@ one list, interleaved, and their films merge exactly (ppm_engine/render/parts.py
 renders one image on several devices.  The passes must be independent: the global radius
 schedule, no adaptive sampling (parts.check_splittable).
 
-Load balancing by measured pass time: every device takes the next pass as soon as it finished
-its last one (a GPU takes more of them than a CPU), and near the end a device no longer takes
-one when its own pass time is longer than the fastest device needs for all the passes left, so
-a slow device does not hold the image back by its last pass.
+Load balancing by measured pass time: device k's first pass is the list's k-th (each device's
+time is measured), then every device takes the next pass as soon as it finished its last one
+(a GPU takes more of them than a CPU), and near the end a device no longer takes one when its
+own pass time is longer than the fastest device needs for all the passes left, so a slow
+device does not hold the image back by its last pass.
 
 Each device renders on its own Python thread: pyopencl lets the others run while one waits for
 its queue (the host work between launches is small).  Two contexts on one device ("KEY#1":
@@ -36,6 +37,8 @@ class MultiRenderer:
         check_splittable(self.options)
         if len(devices) < 1:
             raise ValueError("no device to render on")
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
         self.renderers: list[Renderer] = []
         try:
             for d in devices:
@@ -48,11 +51,10 @@ class MultiRenderer:
         self.pass_seconds: list[float | None] = [None] * len(self.renderers)
         self.passes_by_device = [0] * len(self.renderers)
         self.passes_done = 0
-        self._next = 0
+        self._first_taken = [False] * len(self.renderers)
+        self._next = min(len(self.renderers), len(self.pass_list))
         self._lock = threading.Lock()
-        self._stop = threading.Event()
         self._results: queue.Queue = queue.Queue()
-        self._threads: list[threading.Thread] = []
         self._running = 0
 
     @property
@@ -71,8 +73,13 @@ class MultiRenderer:
         """The next pass for device ``k``, or None: none left, stopped, or device k's pass time
         is longer than the fastest device's for all the passes left."""
         with self._lock:
+            if self._stop.is_set():
+                return None
+            if not self._first_taken[k]:        # each device's first pass is its own (its
+                self._first_taken[k] = True     # time is measured), however late it starts
+                return self.pass_list[k] if k < len(self.pass_list) else None
             left = len(self.pass_list) - self._next
-            if left <= 0 or self._stop.is_set():
+            if left <= 0:
                 return None
             mine = self.pass_seconds[k]
             known = [t for t in self.pass_seconds if t is not None]

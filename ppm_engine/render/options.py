@@ -93,6 +93,10 @@ LIGHT_TRACING_KAPPA = 0.1
 #             (ppm_engine/render/parts.py).
 # Their index is film_update's `schedule` (RADIUS_PIXEL, RADIUS_GLOBAL).
 RADIUS_SCHEDULES = ("pixel", "global")
+# the global schedule's default alpha (RenderOptions.global_alpha): at 0.7 (the per-pixel
+# statistics' alpha) its radii shrank too slowly, 1.7-2x the per-pixel schedule's error on
+# glass_caustic; docs/BENCHMARKS.md, "Passes rendered apart"
+GLOBAL_ALPHA = 0.3
 
 
 def global_radius_scale(pass_index: int, alpha: float) -> float:
@@ -165,8 +169,12 @@ class RenderOptions:
     # for a pinhole camera only
     light_tracing: bool = True
     # RADIUS_SCHEDULES; a setting to measure with (docs/BENCHMARKS.md, "Settings chosen by
-    # measurement")
+    # measurement"); the global one wherever passes are split (ranges, devices, Dask)
     radius_schedule: str = "pixel"
+    # the global schedule's alpha (Knaus & Zwicker's: R_k^2 ~ k^(alpha - 1)); ``alpha`` is the
+    # per-pixel statistics' (the share of new photons kept).  Chosen by measurement
+    # (docs/BENCHMARKS.md, "Passes rendered apart"); not in the UI
+    global_alpha: float = GLOBAL_ALPHA
     # more than one: these OpenCL devices (names or keys, as ``device``) render the image
     # together, each its share of the passes (render/multi_device.py MultiRenderer; the global
     # schedule, whatever radius_schedule says); ``device`` is then not read
@@ -196,6 +204,9 @@ class RenderOptions:
             raise SettingsError(f"devices = {self.devices!r} must be device names")
         if not (0.0 < self.alpha < 1.0):
             raise SettingsError(f"alpha = {self.alpha!r} must lie strictly between 0 and 1")
+        if not (0.0 < self.global_alpha < 1.0):
+            raise SettingsError(f"global_alpha = {self.global_alpha!r} must lie strictly "
+                                "between 0 and 1")
         if not (0.0 <= self.caustic_roughness <= 2.0):
             raise SettingsError(f"caustic_roughness = {self.caustic_roughness!r} is outside "
                                 "[0, 2]")
