@@ -102,11 +102,17 @@ def render_on_dask(client, scene, options, passes, task_passes: int | None = Non
     return merged
 
 
-def dask_runner(address: str, task_passes: int | None = None, log=None):
+def dask_runner(address: str, task_passes: int | None = None, log=None,
+                device: str | None = None):
     """A ``run(scene, options, passes, progress)`` for batch.render_split: the passes on the
     Dask cluster at ``address`` (tcp://HOST:PORT, or local:N for a LocalCluster of N workers on
-    the loopback interface)."""
+    the loopback interface), each worker on ``device`` (a name or key as RenderOptions.device),
+    by default its own default device (a GPU if it has one): the scene file's device is this
+    machine's."""
     distributed = _distributed()
+    if device is not None and "," in device:
+        raise UsageError("with --dask each worker renders on one device: start a worker per "
+                         "device (dask worker ... --nthreads 1) and give one --device or none")
     if task_passes is not None and task_passes < 1:
         raise UsageError("--task-passes must be at least 1")
     if address.startswith("local:"):
@@ -121,6 +127,7 @@ def dask_runner(address: str, task_passes: int | None = None, log=None):
         raise UsageError(f"--dask {address}: give the scheduler as tcp://HOST:PORT, or local:N")
 
     def run(scene, options, passes, progress):
+        options = options.replace(device=device or "", devices=())
         if address.startswith("local:"):
             cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1,
                                                processes=True, host="127.0.0.1",

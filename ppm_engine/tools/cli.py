@@ -219,7 +219,7 @@ def _render_split(args, overrides: dict, output: Path, bar, t0: float) -> int:
     run = None
     if args.dask:
         from ppm_engine.render.cluster import dask_runner
-        run = dask_runner(args.dask, task_passes=args.task_passes, log=_say)
+        run = dask_runner(args.dask, task_passes=args.task_passes, log=_say, device=args.device)
     elif args.task_passes is not None:
         raise UsageError("--task-passes goes with --dask")
     try:
