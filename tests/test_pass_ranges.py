@@ -140,6 +140,14 @@ def test_cli_ranges_merge_into_one_run(bpy, cli, example_blend, pocl_key, exr, t
     merged, full = exr.read(tmp_path / "m.exr"), exr.read(tmp_path / "full.exr")
     assert full[..., :3].mean() > 0.1
     np.testing.assert_allclose(merged, full, rtol=1e-5, atol=1e-6)
+    # a PNG through the scene's view transform, kept with the parts: as the whole run's
+    from ppm_engine.blender.batch import merge_files
+    render_split(blend, tmp_path / "full.png", over, device=pocl_key, resolution=(W, W),
+                 pass_range=(1, 4))
+    merge_files([tmp_path / "a.npz", tmp_path / "b.npz"], tmp_path / "m.png")
+    png = [np.array(bpy.data.images.load(str(tmp_path / n)).pixels[:]) for n in ("m.png",
+                                                                             "full.png")]
+    assert png[0].mean() > 0.1 and np.abs(png[0] - png[1]).max() <= 1 / 255
     proc = cli("merge", tmp_path / "a.npz", tmp_path / "a.npz", "-o", tmp_path / "x.exr")
     assert proc.returncode == 1 and "Traceback" not in proc.stderr
     assert "a.npz and a.npz both hold passes 1-2" in proc.stderr

@@ -212,11 +212,12 @@ def render_split(scene_file: Path, output: Path, overrides: dict, *,
         def run(scene, options, passes, progress):
             return render_devices(scene, options, passes, options.devices, progress)
     part = (run or parts.render_range)(arrays, options, range(first - 1, last), told)
+    from ppm_engine.blender.harness import view_settings, write_image
+    part.meta["view"] = view_settings(scene)     # a merged PNG's colour management
     if output.suffix.lower() == ".npz":
         part.save(output)
     else:
-        from ppm_engine.blender.harness import write_image
-        write_image(part.image(), output)
+        write_image(part.image(), output, part.meta["view"])
     return output
 
 
@@ -234,5 +235,5 @@ def merge_files(inputs: list[Path], output: Path) -> tuple[Path, str]:
         merged.save(output)
     else:
         from ppm_engine.blender.harness import write_image
-        write_image(merged.image(), output)
+        write_image(merged.image(), output, merged.meta.get("view"))
     return output, parts.format_ranges(merged.ranges)
