@@ -50,12 +50,15 @@ def test_a_slow_device_stops_taking_passes(pocl_key):
     needs for all the passes left takes no more."""
     m = MultiRenderer.__new__(MultiRenderer)
     m.pass_list, m._next, m.pass_seconds = list(range(10)), 7, [0.01, 0.5]
-    m._first_taken = [True, True]
+    m._first_taken, m._taking = [True, True], {0, 1}
     m._lock, m._stop = __import__("threading").Lock(), __import__("threading").Event()
     assert m._take(1) is None                      # 0.5 s > 3 passes x 0.01 s
     assert m._take(0) == 7
-    m.pass_seconds = [0.01, 0.02]
-    assert m._take(1) == 8
+    assert m._taking == {0}
+    m.pass_seconds = [0.9, 0.1]       # the one still taking passes slowed down: it goes on,
+    assert m._take(0) == 8            # the stopped one's time does not count
+    m._taking, m.pass_seconds, m._next = {0, 1}, [0.01, 0.02], 5
+    assert m._take(1) == 5                         # 0.02 s < 5 passes x 0.01 s
     m._first_taken, m._next = [False, False], 2       # a device's first pass is its own
     assert m._take(0) == 0 and m._take(0) == 2 and m._take(1) == 1
 

@@ -267,6 +267,8 @@ class Session:
                 cancelled = True
                 break
             stats = r.iterate()
+            if stats is None:            # several devices: every pass already done
+                break
             now = time.perf_counter()
             elapsed = now - start
             done = r.passes_done

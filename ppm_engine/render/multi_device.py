@@ -52,6 +52,7 @@ class MultiRenderer:
         self.passes_by_device = [0] * len(self.renderers)
         self.passes_done = 0
         self._first_taken = [False] * len(self.renderers)
+        self._taking = set(range(len(self.renderers)))   # devices still taking passes
         self._next = min(len(self.renderers), len(self.pass_list))
         self._lock = threading.Lock()
         self._results: queue.Queue = queue.Queue()
@@ -71,7 +72,8 @@ class MultiRenderer:
     # -- scheduling -------------------------------------------------------------------------
     def _take(self, k: int) -> int | None:
         """The next pass for device ``k``, or None: none left, stopped, or device k's pass time
-        is longer than the fastest device's for all the passes left."""
+        is longer than the fastest device still taking passes needs for all the passes left
+        (then k takes no more; the fastest one never stops, so every pass is taken)."""
         with self._lock:
             if self._stop.is_set():
                 return None
@@ -82,8 +84,10 @@ class MultiRenderer:
             if left <= 0:
                 return None
             mine = self.pass_seconds[k]
-            known = [t for t in self.pass_seconds if t is not None]
+            known = [t for j, t in enumerate(self.pass_seconds)
+                     if t is not None and j in self._taking]
             if mine is not None and len(known) > 1 and mine > min(known) * left:
+                self._taking.discard(k)
                 return None
             i = self.pass_list[self._next]
             self._next += 1
