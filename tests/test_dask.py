@@ -19,8 +19,13 @@ PASSES = 8
 
 @pytest.fixture(scope="module")
 def client():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  host="127.0.0.1", dashboard_address=None) as cluster, \
+    # connections to the worker killed below give up after this (Dask's default is 30 s: the
+    # killed-worker test once took 30 s on a cold kernel cache, likely a gather from the dead
+    # worker waiting that long before its task was run again)
+    import dask
+    with dask.config.set({"distributed.comm.timeouts.connect": "5s"}), \
+            distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                     host="127.0.0.1", dashboard_address=None) as cluster, \
             distributed.Client(cluster) as c:
         yield c
 
