@@ -214,6 +214,11 @@ typedef struct {
     float clamp_indirect;   /* the same for light with one bounce or more */
     float filter_glossy;    /* Filter Glossy (Cycles' blur_glossy; 0: off) */
     uint flags;             /* LP_CAUSTICS_REFLECTIVE | LP_CAUSTICS_REFRACTIVE */
+    /* the render's split of the closures (RenderOptions.gather_roughness, caustic_roughness;
+     * with_roughness): runtime values, so that a new setting builds no kernel microfacet lobes
+     * this rough (sqrt alpha) are gathered */
+    float gather_roughness;
+    float caustic_roughness; /* followed glossy lobes this rough are the eye paths' */
 } LightPaths;
 
 /* mirrors ppm_engine/scene/materials.py KMATERIAL_DTYPE */

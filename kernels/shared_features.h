@@ -100,16 +100,5 @@
 #ifndef PPM_SVM_STACK
 #define PPM_SVM_STACK 256
 #endif
-/* microfacet lobes at least this rough (sqrt of alpha) hold visible points and photons
- * (ppm_engine/render/options.py RenderOptions.gather_roughness) */
-#ifndef PPM_GATHER_ROUGHNESS
-#define PPM_GATHER_ROUGHNESS 0.7f
-#endif
-/* followed glossy reflections at least this rough (sqrt of alpha) are the eye paths' (next-event
- * estimation through them), smoother ones and refractions make caustic photons
- * (ppm_engine/render/options.py RenderOptions.caustic_roughness) */
-#ifndef PPM_CAUSTIC_ROUGHNESS
-#define PPM_CAUSTIC_ROUGHNESS 0.7f
-#endif
 
 #endif

@@ -215,7 +215,8 @@
 #define MAP_RANGE_SMOOTHSTEP 2
 #define MAP_RANGE_SMOOTHERSTEP 3
 
-/* Mapping and Vector Transform kinds (shader_program.py MAPPING_TYPES, MAPPING_OBJECT) */
+/* Mapping and Vector Transform kinds (shader_program.py MAPPING_TYPES, MAPPING_OBJECT,
+ * MAPPING_CAMERA) */
 #define MAPPING_POINT 0
 #define MAPPING_TEXTURE 1
 #define MAPPING_VECTOR 2
@@ -226,6 +227,12 @@
 #define MAPPING_TO_WORLD_POINT 7
 #define MAPPING_TO_WORLD_VECTOR 8
 #define MAPPING_TO_WORLD_NORMAL 9
+#define MAPPING_TO_CAMERA_POINT 10
+#define MAPPING_TO_CAMERA_VECTOR 11
+#define MAPPING_TO_CAMERA_NORMAL 12
+#define MAPPING_FROM_CAMERA_POINT 13
+#define MAPPING_FROM_CAMERA_VECTOR 14
+#define MAPPING_FROM_CAMERA_NORMAL 15
 
 /* Clamp types (shader_program.py CLAMP_TYPES) */
 #define CLAMP_MINMAX 0

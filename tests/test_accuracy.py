@@ -51,13 +51,18 @@ def test_mirror_caustic_matches_the_image_source():
     assert errs[0] > errs[1] > errs[2] and slope((25, 100, 400), errs) < -0.25, errs
 
 
-def test_glass_slab_matches_snell_and_fresnel():
+@pytest.mark.parametrize("marks", [(25, 50, 100),
+                                   pytest.param((25, 100, 400), marks=pytest.mark.slow)])
+def test_glass_slab_matches_snell_and_fresnel(marks):
     """A point light above a glass slab: the floor is lit only through both faces; the answer
-    is an independent float64 computation (Snell, Fresnel, ray-tube Jacobian)."""
+    is an independent float64 computation (Snell, Fresnel, ray-tube Jacobian).  Measured at
+    100 passes (seed 0): the mean 0.05 % off, the centre 0.6 %, the rim 0.2 %, the error
+    falling as passes^-0.57; at 400 (slow) 0.05 %, 0.14 %, 0.1 %.  A missing Fresnel factor
+    would be 2-4 % off."""
     W = 24
     ref = A.glass_slab_radiance(W)
-    imgs = progressive(A.glass_slab(W), (25, 100, 400), max_bounces=4)
-    img = imgs[400]
+    imgs = progressive(A.glass_slab(W), marks, max_bounces=4)
+    img = imgs[marks[-1]]
     assert img.mean() == pytest.approx(ref.mean(), rel=0.01)
     # the falloff: centre vs rim of the view within 3 %
     c = slice(W // 2 - 3, W // 2 + 3)
@@ -65,8 +70,8 @@ def test_glass_slab_matches_snell_and_fresnel():
     rim = np.ones((W, W), bool)
     rim[3:-3, 3:-3] = False
     assert img[rim].mean() == pytest.approx(ref[rim].mean(), rel=0.03)
-    errs = [rel_rmse(imgs[k], ref) for k in (25, 100, 400)]
-    assert errs[0] > errs[1] > errs[2] and slope((25, 100, 400), errs) < -0.25, errs
+    errs = [rel_rmse(imgs[k], ref) for k in marks]
+    assert errs[0] > errs[1] > errs[2] and slope(marks, errs) < -0.25, errs
 
 
 @pytest.mark.slow

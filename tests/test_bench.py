@@ -288,6 +288,25 @@ def test_bench_strategies_quick(cli, tmp_path):
         "light tracing of the photons' light"] < 0.999
 
 
+@pytest.mark.slow             # tooling: a fresh process with Blender
+def test_bench_denoise_quick(cli, tmp_path):
+    """``bench --denoise``: ours and Cycles, noisy and denoised (the Noisy Image pass of one
+    render each), against the reference, in the JSON and the markdown block."""
+    from ppm_engine.render.denoise import unavailable
+    if unavailable() is not None:
+        pytest.skip(unavailable())
+    md = tmp_path / "B.md"
+    p = cli("bench", "--denoise", "--quick", "--json", tmp_path / "d.json", "--markdown", md)
+    assert p.returncode == 0, p.stderr
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert "<!-- bench:denoise -->" in md.read_text()
+    (e,) = d["scenes"]["cornell_box"]["budgets"]
+    for engine in ("ours", "cycles"):
+        assert 0 < e[engine]["noisy"] < 1 and 0 < e[engine]["denoised"] < 1
+        assert e[engine]["noisy"] != e[engine]["denoised"]
+    assert e["ours"]["denoise_s"] > 0
+
+
 @pytest.mark.slow             # tooling: 15-19 s of the default run (the skips: test_skips.py)
 def test_bench_skips_quick(cli, tmp_path):
     md = tmp_path / "B.md"

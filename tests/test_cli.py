@@ -145,3 +145,33 @@ def test_example_command(cli, tmp_path):
     proc = cli("example", "no_such_scene", tmp_path / "x.blend")
     assert proc.returncode == 2
     _one_clear_line(proc, "no_such_scene", "cornell_box")
+
+
+@pytest.mark.slow
+def test_render_denoised(cli, example_blend, pocl_key, exr, tmp_path):
+    """--denoise: the image through OIDN, the progress saying so after the last pass (8 s: the
+    default run has it in-process, tests/test_denoise.py test_cli_denoise_in_process)."""
+    from ppm_engine.render.denoise import unavailable
+    if unavailable() is not None:
+        pytest.skip(unavailable())
+    out = tmp_path / "denoised.exr"
+    proc = cli("render", example_blend("cornell_box"), "-o", out, *RENDER_TINY,
+               "--device", pocl_key, "--denoise")
+    assert proc.returncode == 0, proc.stderr
+    assert "Denoising after pass 2" in proc.stderr
+    img = exr.read(out)
+    assert img.shape == (16, 24, 4) and np.isfinite(img).all() and img[..., :3].mean() > 1e-3
+
+
+def test_denoise_without_oidn_is_one_line(cli, example_blend, tmp_path, monkeypatch):
+    """--denoise where OIDN cannot be loaded (here a pyoidn whose library is missing): one
+    line that says why and how to install it, before Blender loads the file."""
+    (tmp_path / "pyoidn.py").write_text(
+        "raise OSError('libOpenImageDenoise.so.2: cannot open shared object file')\n")
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path))
+    out = tmp_path / "x.png"
+    proc = cli("render", example_blend("cornell_box"), "-o", out, "--denoise")
+    assert proc.returncode == 1
+    _one_clear_line(proc, "--denoise", "Open Image Denoise could not be loaded",
+                    "libOpenImageDenoise.so.2", "pip install")
+    assert not out.exists()

@@ -27,6 +27,7 @@ from ppm_engine.scene.arrays import (
     NODE_TRANSPARENT,
     shader_node,
 )
+from ppm_engine.scene.light_paths import GATHER_ROUGHNESS, engine_defaults, with_roughness
 from ppm_engine.scene.materials import kernel_materials, kernel_nodes
 from ppm_engine.tools import make_shading_tables
 
@@ -45,7 +46,7 @@ def device(pocl_key):
 class Shading:
     """Materials of BSDF nodes on the device, and the closure_test.cl kernels on them."""
 
-    def __init__(self, device, materials, defines=None):
+    def __init__(self, device, materials, defines=None, light_paths=None):
         self.device = device
         rows = []
         for k, nodes in enumerate(materials):
@@ -58,7 +59,9 @@ class Shading:
         self.args = placeholders(device, materials=up(kmat, "m"), shader_nodes=up(nodes, "n"),
                                  shading_tables=up(st.load(), "t"),
                                  uvs=up(np.zeros(6, np.float32), "uv"),
-                                 tangents=up(tangent, "tangents"))
+                                 tangents=up(tangent, "tangents"),
+                                 **({} if light_paths is None else
+                                    {"light_paths": up(light_paths, "light paths")}))
         self.prog = device.programs.get("test/closure_test.cl", defines)
 
     def sample(self, mat, wi, n, seed=1, mask=MASK_ALL):
@@ -348,10 +351,11 @@ def test_principled_layers_as_cycles_orders_them(device):
 @pytest.mark.parametrize("caustic_roughness", [None, 0.2])
 def test_closures_split_into_gathered_glossy_and_caustic(device, caustic_roughness):
     """Whose each closure's light is (kernels/closure/shader.h): diffuse closures and lobes at least
-    PPM_GATHER_ROUGHNESS (0.7) rough are gathered; the followed glossy reflections at least
-    PPM_CAUSTIC_ROUGHNESS rough (here 0.2; by default the gather's roughness: none) are the eye
-    paths' (next-event estimation through them, kernels/integrator/indirect_paths.h); mirrors,
-    smoother reflections and every refraction below the gather's roughness make caustic photons."""
+    LightPaths.gather_roughness (0.7) rough are gathered; the followed glossy reflections at
+    least LightPaths.caustic_roughness rough (here 0.2; by default the gather's roughness:
+    none) are the eye paths' (next-event estimation through them,
+    kernels/integrator/indirect_paths.h); mirrors, smoother reflections and every refraction
+    below the gather's roughness make caustic photons."""
     mats = [[dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.3)],
             [dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.1)],
             [dict(type=NODE_PRINCIPLED, metallic=1.0, roughness=0.8)],
@@ -359,9 +363,9 @@ def test_closures_split_into_gathered_glossy_and_caustic(device, caustic_roughne
             [dict(type=NODE_PRINCIPLED, color=(0.5, 0.5, 0.5), roughness=0.5, coat_weight=1.0,
                   coat_roughness=0.05)],
             [dict(type=NODE_GLOSSY, roughness=0.2)]]
-    defines = None if caustic_roughness is None else {
-        "PPM_CAUSTIC_ROUGHNESS": float(caustic_roughness).hex() + "f"}
-    s = Shading(device, mats, defines)
+    lp = None if caustic_roughness is None else with_roughness(
+        engine_defaults(), GATHER_ROUGHNESS, caustic_roughness)
+    s = Shading(device, mats, light_paths=lp)
     got = [[(c["type"], c["gather"], c["glossy"]) for c in s.closures(m, view(0.8))]
            for m in range(len(mats))]
     g = caustic_roughness is not None

@@ -83,7 +83,7 @@ def light_traced(scene):
     """(image, coverage) of ``scene`` by light tracing (unbiased, no photon map, no eye
     paths), 32 bounces: the reference over the pixels it renders."""
     from ppm_engine.render.light_tracer import LightTracer
-    lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32)
+    lt = LightTracer(scene, photons=1 << 18, seed=3, max_bounces=32, specialize=False)
     try:
         lt.trace(20)
         return lt.image().astype(np.float64), lt.coverage()
@@ -135,17 +135,15 @@ def test_glossy_light_is_counted_once_by_either_estimator():
     assert cover.mean() > 0.6
     # (at 0.2 the scene makes no caustics; the photon pass runs all the same, so that a photon
     # whose first scattering is the metal's would show if it were stored)
-    # (the scene's own kernels: a roughness is built into the kernels, and the scene's build
-    # for each costs less than one of every feature)
+    # (the run's shared build of every feature for both: the roughness settings are the Light
+    # Paths record's, no kernel flag)
     for cr, tol in ((0.2, 0.01), (1.0, 0.015)):
         paths = renders(scene, 100, range(4), indirect="paths", max_bounces=32,
-                        caustic_roughness=cr, skip_unneeded_photon_pass=False,
-                        specialize=True).mean(axis=0)
+                        caustic_roughness=cr, skip_unneeded_photon_pass=False).mean(axis=0)
         assert_matches_light_tracing(paths, ref, cover, tol, what=f"caustic_roughness {cr}")
     # where the ball's light is the eye paths', it makes no caustics: no photon pass
     for cr, photon_pass in ((0.2, False), (1.0, True)):
-        r = Renderer(scene, every_feature(indirect="paths", caustic_roughness=cr,
-                                          specialize=True))
+        r = Renderer(scene, every_feature(indirect="paths", caustic_roughness=cr))
         try:
             assert ("photon" in r.iterate().phase_ms) == photon_pass
         finally:

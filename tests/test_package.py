@@ -1,7 +1,7 @@
 """The extension zip, built with Blender's own tool: it holds the add-on and its kernels and no
 benchmark, packaging, test or docs code; and (slow: downloads the wheels, starts Blender twice)
 it installs and renders in a fresh Blender (bpy) process with its bundled pyopencl and PoCL,
-not the test environment's."""
+not the test environment's, and denoises with its bundled Intel Open Image Denoise."""
 import os
 import subprocess
 import sys
@@ -97,11 +97,22 @@ def test_linux_zip_installs_enables_and_renders(tmp_path):
         img.pixels.foreach_get(px)
         assert np.isfinite(px).all() and px.reshape(-1, 4)[:, :3].mean() > 0
         print("RENDERED", px.reshape(-1, 4)[:, :3].mean())
+        # denoised by the bundled Intel Open Image Denoise (pyoidn, cffi)
+        sc.ppm.denoise = True
+        assert bpy.ops.render.render(write_still=True) == {{'FINISHED'}}
+        import pyoidn
+        print("PYOIDN", pyoidn.__file__)
+        from bl_ext.user_default.ppm_engine.ppm_engine.render.denoise import unavailable
+        assert unavailable() is None, unavailable()
+        print("DENOISED")
     """
     p2 = run_py(render, env)
     out = p2.stdout + p2.stderr
     assert "RENDERED" in p2.stdout, out
     pyopencl_path = next(line for line in p2.stdout.splitlines() if line.startswith("PYOPENCL"))
     assert str(user) in pyopencl_path and ".local" in pyopencl_path, pyopencl_path
+    assert "DENOISED" in p2.stdout and "Not denoised" not in out, out
+    pyoidn_path = next(line for line in p2.stdout.splitlines() if line.startswith("PYOIDN"))
+    assert str(user) in pyoidn_path and ".local" in pyoidn_path, pyoidn_path
     engine_path = next(line for line in p2.stdout.splitlines() if line.startswith("ENGINE"))
     assert str(repo) in engine_path, engine_path

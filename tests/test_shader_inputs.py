@@ -355,3 +355,55 @@ def test_normal_map_on_the_reported_icosphere_as_cycles(render_level, cycles, re
     assert sphere.sum() > 900                       # the sphere fills most of the frame
     d = np.abs(ours - ref).max(-1)[sphere]
     assert np.percentile(d, 99) <= 2e-3, (np.percentile(d, [50, 90, 99]), (d > 2e-3).mean())
+
+
+def test_camera_space_follows_a_moved_view():
+    """Texture Coordinate's Camera output and Vector Transform to and from camera space read
+    the camera when the program runs: a render whose camera alone is replaced (the viewport's
+    view orbiting: Renderer.reset with scene.replace(camera=...)) shades as a new export with
+    that camera.  They were constants of the exported programs, stale until the next edit."""
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.render.renderer import Renderer
+    from ppm_engine.scene.camera import CAMERA_DTYPE
+    from tests.helpers.renders import every_feature
+    from tests.helpers.shader_grid import case_grid
+
+    def coords(i):
+        return i.node("ShaderNodeTexCoord").outputs["Camera"]
+
+    def normal_to_camera(i):
+        return i.node("ShaderNodeVectorTransform", [(0, i.A)], convert_from="WORLD",
+                      convert_to="CAMERA", vector_type="NORMAL").outputs[0]
+
+    def point_from_camera(i):
+        return i.node("ShaderNodeVectorTransform", [(0, i.A)], convert_from="CAMERA",
+                      convert_to="WORLD", vector_type="POINT").outputs[0]
+    scene, w, h = case_grid([coords, normal_to_camera, point_from_camera])
+    scene.render.resolution_x, scene.render.resolution_y = w, h
+    scene.render.resolution_percentage = 100
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    first = export_scene(depsgraph)
+    moved = np.array(first.camera, CAMERA_DTYPE)
+    a = 0.3                                   # turned about the view axis, and moved sideways
+    turn = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+    m = moved["to_world"][0].astype(np.float64)
+    m[:, :3] = m[:, :3] @ turn
+    m[:, 3] += (0.4, -0.2, 0.1)
+    moved["to_world"][0] = m
+
+    def image(r):
+        for _ in range(2):
+            r.iterate()
+        return r.image()[..., :3].copy()
+
+    opts = every_feature(passes=2, seed=3)
+    r = Renderer(first, opts)
+    before = image(r)
+    r.reset(opts, first.replace(camera=moved))
+    orbited = image(r)
+    r.close()
+    r = Renderer(export_scene(depsgraph, camera=moved), opts)
+    fresh = image(r)
+    r.close()
+    np.testing.assert_allclose(orbited, fresh, atol=1e-5)
+    assert np.abs(orbited - before).max() > 0.1

@@ -45,8 +45,7 @@ def _features(scene):
     o = RenderOptions(indirect="photons", photons_per_pass=256)
     dev = get_device(o.device)
     with dev.lock:
-        return DeviceScene(dev, scene).kernel_defines(o.specialize, o.gather_roughness,
-                                                      o.caustic_roughness, o.editable)[0]
+        return DeviceScene(dev, scene).kernel_defines(o.specialize, o.editable)[0]
 
 
 def test_features_follow_the_scene():
@@ -116,6 +115,27 @@ def test_specialised_kernels_are_separate_programs():
                                         _features(cornell_box(8, 8, bulb=True)))
     assert len({r.eye.kernel.kernel.program.int_ptr for r in (a, b, c)}) == 3
     for r in (a, b, c):
+        r.close()
+
+
+def test_roughness_settings_share_the_kernels():
+    """RenderOptions.gather_roughness and caustic_roughness reach the kernels in the Light Paths
+    record (light_paths.with_roughness), not as -D flags: a render with other values builds
+    no program (each value built its own eye, photon and gather programs before)."""
+    o = dict(indirect="photons", photons_per_pass=256, specialize=False)
+    a = Renderer(cornell_box(8, 8), RenderOptions(**o))
+    a.iterate()
+    programs = a.device.programs
+    builds = programs.builds
+    b = Renderer(cornell_box(8, 8), RenderOptions(**o, gather_roughness=0.35,
+                                                  caustic_roughness=0.2))
+    b.iterate()
+    assert programs.builds == builds
+    assert b.eye.kernel.kernel.program.int_ptr == a.eye.kernel.kernel.program.int_ptr
+    lp = b.scene.light_paths[0]
+    assert (lp["gather_roughness"], lp["caustic_roughness"]) == (np.float32(0.35),
+                                                                 np.float32(0.2))
+    for r in (a, b):
         r.close()
 
 

@@ -208,6 +208,40 @@ def test_pause_holds_the_image_and_resume_goes_on(bpy, lookdev):
     assert s.frame().passes == PASSES + 3 and s.actions == ["new"]   # went on, no restart
 
 
+def test_viewport_denoising_from_its_start_pass(bpy, lookdev):
+    """Viewport Denoise (Cycles' Start Sample): passes before the start show the image as
+    rendered and say "Denoising from pass N"; from it on the image is denoised (albedo and
+    normal, prefiltered) and the status says "Denoised".  Switching the denoising (on, off,
+    its start) re-shows the image so far without a restart."""
+    from ppm_engine.render.denoise import DenoiseSettings, unavailable
+    if unavailable() is not None:
+        pytest.skip(unavailable())
+    scene, s = lookdev
+    o, start = _options(scene)
+    assert o.denoise is None and "Denois" not in s.status()
+
+    def roughness(img):     # the mean absolute Laplacian: the pixel-to-pixel noise
+        x = img[..., :3]
+        return float(np.abs(4 * x[1:-1, 1:-1] - x[:-2, 1:-1] - x[2:, 1:-1] - x[1:-1, :-2]
+                            - x[1:-1, 2:]).mean())
+    s.update_options(o.replace(passes=PASSES + 2, denoise=DenoiseSettings(start=PASSES + 2)),
+                     start)
+    assert s.wait(timeout=300) and s.frame().passes == PASSES + 2
+    assert "· done · Denoised" in s.status(), s.status()
+    denoised, gen = s.frame().image, s.frame().generation
+    s.update_options(o.replace(passes=PASSES + 2), start)                  # off
+    assert s.wait(timeout=300) and s.frame().generation == gen + 1
+    raw = s.frame().image
+    assert s.frame().passes == PASSES + 2 and "Denois" not in s.status(), s.status()
+    assert roughness(denoised) < 0.5 * roughness(raw), (roughness(denoised), roughness(raw))
+    assert denoised[..., :3].mean() == pytest.approx(raw[..., :3].mean(), rel=0.03)
+    s.update_options(o.replace(passes=PASSES + 2, denoise=DenoiseSettings(start=100)), start)
+    assert s.wait(timeout=300) and s.frame().generation == gen + 2
+    assert s.status().endswith("· done · Denoising from pass 100"), s.status()
+    np.testing.assert_array_equal(s.frame().image, raw)
+    assert s.actions == ["new"]                           # never restarted
+
+
 def test_a_viewport_opened_paused_shows_its_first_image_and_says_so(bpy, tiny):
     """Pause Viewport on when Rendered shading opens: the session built its renderer and
     waited, the status stuck at building.  The first image comes (the reduced levels, then one

@@ -60,6 +60,6 @@ typedef struct {
     int fresnel;
     int gather; /* 1: the visible point's gather evaluates it; 0: paths continue */
     int glossy; /* a closure paths continue through whose light eye paths count (next-event
-                   estimation there: PPM_CAUSTIC_ROUGHNESS); 0: gathered, or a caustic's */
+                   estimation there: LightPaths.caustic_roughness); 0: gathered, or a caustic's */
 } Closure;
 #endif

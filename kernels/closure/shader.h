@@ -7,12 +7,12 @@
 /* The shader: a hit's closures from its material's BSDF nodes (arrays.SHADER_NODE_DTYPE,
  * weights already propagated through Mix and Add Shader nodes), each node set up as Cycles sets
  * it up (shader_bsdf.h; kernel/svm/closure.h there; docs/SHADING.md lists what differs), then
- * each closure marked for the gather or for the path (PPM_GATHER_ROUGHNESS).  One set of
+ * each closure marked for the gather or for the path (LightPaths.gather_roughness).  One set of
  * functions samples and evaluates the mixture for every pass. */
 
-/* (PPM_GATHER_ROUGHNESS, shared.h: microfacet lobes at least this rough, sqrt of alpha, hold
- * visible points and photons like diffuse ones; smoother ones are followed by the eye path;
- * -D from RenderOptions.gather_roughness) */
+/* (LightPaths.gather_roughness, ShaderData.gather_rough: microfacet lobes at least this rough,
+ * sqrt of alpha, hold visible points and photons like diffuse ones; smoother ones are followed
+ * by the eye path; RenderOptions.gather_roughness) */
 
 /* The sample weights of the gathered and the followed closures, and what they hold */
 inline void shader_sums(ShaderData *sd) {
@@ -42,7 +42,7 @@ inline void shader_classify(ShaderData *sd) {
                         ? 0
                         : !micro
                               || (!microfacet_singular(c)
-                                  && microfacet_rough(c) >= PPM_GATHER_ROUGHNESS);
+                                  && microfacet_rough(c) >= sd->gather_rough);
         /* a glossy reflection rough enough that next-event estimation through it serves (as
          * Cycles' does): its light is the eye paths', not a caustic's */
         c->glossy = !c->gather && c->type == CLOSURE_GGX_REFLECT && !microfacet_singular(c)
@@ -66,6 +66,7 @@ inline void shader_setup(const Scene *scene, ShaderData *sd, const Surface *s, f
     sd->crossings = max(scene->light_paths->transparent_max_bounces
                             - (int)path_count(path, PATH_TRANSPARENT_DEPTH),
                         0);
+    sd->gather_rough = scene->light_paths->gather_roughness;
     sd->caustic_rough = filter_glossy_caustic_roughness(scene->light_paths);
     sd->backfacing = dot(wi, ng) < 0.0f;
     sd->leaf = s->leaf;

@@ -26,6 +26,7 @@ typedef struct {
                              there); singular ones cannot */
     int crossings;        /* transparent surfaces a ray sampled here may still cross (the Light
                              Paths' transparent limit less the path's crossings) */
+    float gather_rough;   /* microfacet lobes this rough are gathered (LightPaths) */
     float caustic_rough;  /* followed glossy reflections this rough are the eye paths' light
                              (path_state.h filter_glossy_caustic_roughness) */
     int leaf;             /* the point's triangle (bvh.h Surface) and barycentrics: the shadow */

@@ -6,10 +6,14 @@
 #include "geom/camera.h"
 
 /* p seen by the pinhole camera: raster position (full-frame pixels, y up), the unit direction
- * from p to the camera, its distance (orthographic: to the view plane) and the factor from a
- * radiance at p to the film's measure (pixel area), without the pixel filter:
- * 1 / (d^2 cos^3 theta A_pixel) for a perspective camera, 1 / A_pixel for an orthographic one.
- * False when p is behind, outside the clip range or outside the frame's filter reach. */
+ * from p to the camera, the length of the connection (from p to the near clipping plane, where
+ * the camera's rays start: camera_ray, as Cycles'; an occluder between there and p hides p from
+ * the camera, one nearer than the clipping plane, or behind an orthographic view's eye where the
+ * clipping plane is (a viewport's negative clip start), is cut away as the camera rays cut it)
+ * and the factor from a radiance at p to the film's measure (pixel area), without the pixel
+ * filter: 1 / (d^2 cos^3 theta A_pixel) for a perspective camera (d to the eye), 1 / A_pixel for
+ * an orthographic one.  False when p is behind, outside the clip range or outside the frame's
+ * filter reach. */
 inline bool camera_project(__global const Camera *cam, float3 p, float reach, float *px, float *py,
                            float3 *to_cam, float *dist, float *we) {
     __global const float *m = cam->to_world;
@@ -26,14 +30,14 @@ inline bool camera_project(__global const Camera *cam, float3 p, float reach, fl
         xc = pc.x;
         yc = pc.y;
         *to_cam = az;
-        *dist = depth;
+        *dist = depth - cam->clip[0];
         *we = 1.0f / a_pix;
     } else {
         xc = pc.x / depth;
         yc = pc.y / depth;
-        float d2 = dot(v, v), cos_c = depth / sqrt(d2);
-        *dist = sqrt(d2);
-        *to_cam = -v / *dist;
+        float d2 = dot(v, v), d = sqrt(d2), cos_c = depth / d;
+        *to_cam = -v / d;
+        *dist = d * (1.0f - cam->clip[0] / depth);     /* the eye's distance less the clip's */
         *we = 1.0f / (d2 * cos_c * cos_c * cos_c * a_pix);
     }
     *px = ((xc - cam->shift[0]) / cam->extent[0] + 0.5f) * (float)cam->width;

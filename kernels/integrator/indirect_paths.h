@@ -9,7 +9,7 @@
  * path goes on from the visible point through a sample of the gather's closures, with
  * next-event estimation at every vertex, and the photon map keeps only the light paths that
  * path tracing cannot sample well: those whose first scattering from the emitter is by a mirror,
- * glass or a glossy reflection smoother than PPM_CAUSTIC_ROUGHNESS (caustics,
+ * glass or a glossy reflection smoother than LightPaths.caustic_roughness (caustics,
  * kernels/integrator/photon_pass.cl).  Followed glossy reflections at least that rough (by default
  * none: it is the gather's roughness, RenderOptions.caustic_roughness) are the eye path's:
  * next-event estimation through them, as Cycles does.

@@ -157,15 +157,15 @@ inline float filter_glossy_alpha(float min_pdf, __global const LightPaths *lp) {
 }
 
 /* The roughness from which a followed glossy reflection is the eye paths' light, not the
- * caustic photons' (shader.h shader_classify; RenderOptions.caustic_roughness, the -D
- * PPM_CAUSTIC_ROUGHNESS).  With Filter Glossy above 1 / pi every one that is not singular: a
+ * caustic photons' (shader.h shader_classify; RenderOptions.caustic_roughness, in the
+ * Light Paths record).  With Filter Glossy above 1 / pi every one that is not singular: a
  * photon scattered first by it would be merged only where a camera path's bounce towards it
  * has more than that density, which no diffuse point's has, so only near the peaks of glossy
  * lobes, where a merge is at its noisiest; next-event estimation through the lobe is Cycles'
  * estimator of that light (the sun-lit cone's noise x sqrt(time) 0.0103 -> 0.0089).  The host
  * finds the casters by the same rule (ppm_engine/scene/casters.py caustic_roughness). */
 inline float filter_glossy_caustic_roughness(__global const LightPaths *lp) {
-    return filter_glossy_blurs(FILTER_GLOSSY_DIFFUSE_PDF, lp) ? 0.0f : PPM_CAUSTIC_ROUGHNESS;
+    return filter_glossy_blurs(FILTER_GLOSSY_DIFFUSE_PDF, lp) ? 0.0f : lp->caustic_roughness;
 }
 
 /* whether a camera path that bounced with density pdf (the mixture's, INFINITY: singular) leaves

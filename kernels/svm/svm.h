@@ -105,8 +105,27 @@ inline void svm_eval(const Scene *scene, int p, float *stack, const SvmContext *
             float4 r0 = as_float4(svm[i]), r1 = as_float4(svm[i + 1]), r2 = as_float4(svm[i + 2]);
             i += 3;
             int t = w.w;
+            if (t >= MAPPING_TO_CAMERA_POINT) {
+                /* the camera's space, read now (a moved view needs no new program): Cycles'
+                 * camera-to-world is to_world's rows with the z axis flipped (+z ahead), a
+                 * rotation and a move, so normals go as directions */
+                __global const float *m = scene->camera->to_world;
+                float3 X = (float3)(m[0], m[4], m[8]), Y = (float3)(m[1], m[5], m[9]);
+                float3 Z = -(float3)(m[2], m[6], m[10]), T = (float3)(m[3], m[7], m[11]);
+                if (t < MAPPING_FROM_CAMERA_POINT) {       /* world to camera: R^T (p - T) */
+                    r0 = (float4)(X, -dot(X, T));
+                    r1 = (float4)(Y, -dot(Y, T));
+                    r2 = (float4)(Z, -dot(Z, T));
+                } else {                                  /* camera to world: R p + T */
+                    r0 = (float4)(X.x, Y.x, Z.x, T.x);
+                    r1 = (float4)(X.y, Y.y, Z.y, T.y);
+                    r2 = (float4)(X.z, Y.z, Z.z, T.z);
+                }
+                int k = (t - MAPPING_TO_CAMERA_POINT) % 3;
+                t = k == 0 ? MAPPING_POINT : k == 1 ? MAPPING_VECTOR : MAPPING_NORMAL;
+            }
 #if SVM_OBJECT_MATRICES
-            if (t >= MAPPING_TO_OBJECT_POINT) {     /* the object's own matrices */
+            else if (t >= MAPPING_TO_OBJECT_POINT) {     /* the object's own matrices */
                 bool to_object = t < MAPPING_TO_WORLD_POINT;
                 const float4 *m = to_object ? ctx->to_object : ctx->to_world;
                 const float4 *n = to_object ? ctx->to_world : ctx->to_object;

@@ -34,12 +34,13 @@ def check_paths(scene_file: Path, output: Path) -> None:
 
 def render_file(scene_file: Path, output: Path, overrides: dict, *, device: str | None = None,
                 resolution: tuple[int, int] | None = None, frame: int | None = None,
-                frames: tuple[int, int] | None = None, progress=None) -> list[Path]:
+                frames: tuple[int, int] | None = None, progress=None,
+                denoise: bool | None = None) -> list[Path]:
     """Render ``scene_file`` with this engine to ``output`` (one frame, ``frame`` or the
     file's current one; or the range ``frames``, '#' in the name being the frame number, else
     _#### before the extension); ``overrides`` are RenderOptions fields that replace the
-    file's settings.  ``progress(text, fraction)`` is told about every pass.  Returns the files
-    written."""
+    file's settings; ``denoise`` replaces the file's Denoise (scene.ppm.denoise).
+    ``progress(text, fraction)`` is told about every pass.  Returns the files written."""
     check_paths(scene_file, output)
     RenderOptions().replace(**overrides).validate()    # refuse bad values before loading Blender
     import bpy
@@ -55,6 +56,8 @@ def render_file(scene_file: Path, output: Path, overrides: dict, *, device: str 
     if scene.render.engine != "PPM":      # never render with another engine by mistake
         raise PPMError("could not select the PPM render engine in the loaded file")
     apply_settings(scene, overrides, device)
+    if denoise is not None:
+        scene.ppm.denoise = bool(denoise)
     if resolution:
         scene.render.resolution_x, scene.render.resolution_y = resolution
         scene.render.resolution_percentage = 100

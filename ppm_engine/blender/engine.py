@@ -37,7 +37,7 @@ class PPMRenderEngine(bpy.types.RenderEngine):
         self.session.render(self, depsgraph)
 
     def update_render_passes(self, scene=None, renderlayer=None):
-        for name, channels, chan_id, kind in session.RENDER_PASSES:
+        for name, channels, chan_id, kind in session.render_passes(scene):
             self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
 
     # -- the 3D viewport in Rendered shading: blender/viewport.py --------------------------------

@@ -14,6 +14,7 @@ from bpy.props import (
     StringProperty,
 )
 
+from ppm_engine.render.denoise import DenoiseSettings
 from ppm_engine.render.options import (
     AUTO_PHOTONS_MAX,
     AUTO_PHOTONS_MIN,
@@ -79,6 +80,14 @@ def _photons_set_by_hand(self, context):
         self.auto_photons = False
 
 
+def _update_render_passes(self, context):
+    """Denoise adds the Noisy Image pass: the compositor's Render Layers node shows it at once
+    (as Cycles' Denoise does)."""
+    view_layer = getattr(context, "view_layer", None)
+    if view_layer is not None:
+        view_layer.update_render_passes()
+
+
 class PPMSettings(bpy.types.PropertyGroup):
     passes: _int("passes", label="Passes", soft_max=4096)
     time_limit: _float("time_limit", label="Time Limit", subtype="TIME_ABSOLUTE",
@@ -134,6 +143,21 @@ class PPMSettings(bpy.types.PropertyGroup):
         description="Stop refining the viewport's Rendered shading (it keeps its image)",
         default=False,
     )
+    denoise: BoolProperty(
+        name="Denoise",
+        description="Denoise the final render's image with Intel Open Image Denoise, guided by "
+                    "its albedo and normal; the noisy image stays in the Noisy Image pass. Input "
+                    "passes, prefilter and quality are Cycles' denoising settings",
+        default=False,
+        update=_update_render_passes,
+    )
+    viewport_denoise: BoolProperty(
+        name="Viewport Denoise",
+        description="Denoise the viewport's Rendered shading with Intel Open Image Denoise "
+                    "from Cycles' viewport Start Sample on (the pass count), with Cycles' "
+                    "viewport input passes, prefilter and quality",
+        default=False,
+    )
     specialize: BoolProperty(
         name="Kernels for the Scene",
         description="Build the kernels for the features this scene uses (no glass code "
@@ -158,6 +182,28 @@ class PPMSettings(bpy.types.PropertyGroup):
     )
 
 
+def denoise_settings(settings, viewport: bool = False) -> DenoiseSettings | None:
+    """How the render (or the viewport) denoises: None when ``scene.ppm``'s Denoise (Viewport
+    Denoise) is off; else Cycles' denoising settings of the scene where they have a meaning for
+    OIDN (input passes, prefilter, quality; the viewport's Start Sample), the defaults without
+    the Cycles add-on.  Cycles' own Denoise toggles and its choice of denoiser (OptiX) are not
+    read: Cycles' toggle is on in every new scene, and would change what every existing scene
+    renders."""
+    if not getattr(settings, "viewport_denoise" if viewport else "denoise", False):
+        return None
+    cycles = getattr(getattr(settings, "id_data", None), "cycles", None)
+    if cycles is None:
+        return DenoiseSettings()
+    prefix = "preview_denoising_" if viewport else "denoising_"
+    get = lambda name, default: str(getattr(cycles, prefix + name, default)).lower()
+    return DenoiseSettings(
+        input_passes=get("input_passes", "RGB_ALBEDO_NORMAL"),
+        prefilter=get("prefilter", "ACCURATE"),
+        quality=get("quality", "HIGH"),
+        start=max(int(getattr(cycles, "preview_denoising_start_sample", 1)), 1) if viewport
+        else 1)
+
+
 def to_options(settings) -> RenderOptions:
     """RenderOptions from ``scene.ppm``, validated (raises options.SettingsError)."""
     device = settings.device  # '' when the stored device is no longer listed
@@ -174,6 +220,7 @@ def to_options(settings) -> RenderOptions:
         specialize=bool(settings.specialize),
         device="" if device in ("", DEFAULT_DEVICE) else device,
         devices=ticked_devices(settings),
+        denoise=denoise_settings(settings),
     ).validate()
 
 

@@ -42,6 +42,14 @@ RENDER_PASSES = (
     ("PPM Radius", 1, "X", 'VALUE'),
     ("PPM Photons", 1, "X", 'VALUE'),
 )
+# with Denoise on (scene.ppm.denoise), the image before denoising, as Cycles keeps it
+NOISY_PASS = ("Noisy Image", 4, "RGBA", 'COLOR')
+
+
+def render_passes(scene) -> tuple:
+    """The render passes of ``scene``: RENDER_PASSES, and NOISY_PASS when it denoises."""
+    ppm = getattr(scene, "ppm", None) if scene is not None else None
+    return RENDER_PASSES + ((NOISY_PASS,) if getattr(ppm, "denoise", False) else ())
 
 
 # --- what renders tell the code that drives them (the CLI, the benchmark, tests) ---------------
@@ -286,7 +294,13 @@ class Session:
                 listener(text, min(progress, 1.0))
             if stats.converged:          # adaptive sampling: every pixel below the threshold
                 break
-        if r.passes_done > self.written_passes:
+        if options.denoise is not None and not cancelled:
+            text = f"Denoising after pass {r.passes_done}"
+            engine.update_stats("", text)
+            for listener in tuple(_listeners):
+                listener(text, 1.0)
+            self._write(engine, result, options.denoise)
+        elif r.passes_done > self.written_passes:
             self._write(engine, result)
         if renders:
             renders[-1]["passes"] = r.passes_done
@@ -295,7 +309,7 @@ class Session:
 
     def _write_black(self, engine, result, w: int, h: int) -> None:
         """Combined black and opaque; the other passes zero."""
-        for name, channels, *_ in RENDER_PASSES:
+        for name, channels, *_ in (*RENDER_PASSES, NOISY_PASS):
             p = result.layers[0].passes.get(name)
             if p is None:
                 continue
@@ -307,14 +321,27 @@ class Session:
         engine.update_progress(1.0)
         engine.update_stats("", "The scene emits no light: black image")
 
-    def _write(self, engine, result) -> None:
+    def _write(self, engine, result, denoise=None) -> None:
+        """The image so far into the result; with ``denoise`` (DenoiseSettings) the Combined
+        pass denoised (denoise.py) and the image as rendered in Noisy Image.  Where OIDN cannot
+        be loaded, a warning says why and the image stays as rendered."""
         passes = result.layers[0].passes
         img = np.ascontiguousarray(self.renderer.image(), dtype=np.float32)
-        passes["Combined"].rect.foreach_set(img.ravel())
         extra = [name for name, *_ in RENDER_PASSES[1:] if passes.get(name) is not None]
-        if extra:
-            aux = self.renderer.passes()
-            for name in extra:
-                passes[name].rect.foreach_set(np.ascontiguousarray(aux[name], np.float32).ravel())
+        aux = self.renderer.passes() if extra or denoise is not None else {}
+        noisy = passes.get(NOISY_PASS[0])
+        if noisy is not None:
+            noisy.rect.foreach_set(img.ravel())
+        if denoise is not None:
+            from ppm_engine.render.denoise import DenoiserUnavailable
+            from ppm_engine.render.denoise import denoise as run_denoiser
+            try:
+                img = run_denoiser(img, aux["Denoising Albedo"], aux["Denoising Normal"],
+                                   denoise)
+            except DenoiserUnavailable as e:
+                engine.report({'WARNING'}, f"Not denoised: {e}")
+        passes["Combined"].rect.foreach_set(img.ravel())
+        for name in extra:
+            passes[name].rect.foreach_set(np.ascontiguousarray(aux[name], np.float32).ravel())
         engine.update_result(result)
         self.written_passes = self.renderer.passes_done

@@ -71,6 +71,45 @@ class PPM_PT_sampling_viewport(PPMPanel, bpy.types.Panel):
         self.layout.prop(context.scene.render, "preview_pixel_size", text="Pixel Size")
 
 
+class DenoisePanel(PPMPanel):
+    """Denoise, as Cycles' Sampling > Render (Viewport) > Denoise: the toggle in the header
+    (ours: scene.ppm's OWN), below it Cycles' settings that OIDN reads (PREFIX...;
+    properties.denoise_settings) where the Cycles add-on is enabled."""
+    bl_label = "Denoise"
+    bl_options = {'DEFAULT_CLOSED'}   # noqa: RUF012 -- Blender reads it from the class
+    OWN, PREFIX = "denoise", "denoising_"
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.ppm, self.OWN, text="")
+
+    def draw(self, context):
+        cycles = getattr(context.scene, "cycles", None)
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        col.active = getattr(context.scene.ppm, self.OWN)
+        if cycles is None:
+            col.label(text="Intel Open Image Denoise, albedo and normal, prefiltered")
+            return
+        if self.PREFIX == "preview_denoising_":
+            col.prop(cycles, "preview_denoising_start_sample", text="Start Pass")
+        for name, text in (("input_passes", "Passes"), ("prefilter", "Prefilter"),
+                           ("quality", "Quality")):
+            col.prop(cycles, self.PREFIX + name, text=text)
+
+
+class PPM_PT_sampling_denoise(DenoisePanel, bpy.types.Panel):
+    """The final render's Denoise: its last image."""
+    bl_parent_id = "PPM_PT_sampling"
+
+
+class PPM_PT_sampling_viewport_denoise(DenoisePanel, bpy.types.Panel):
+    """The viewport's Denoise: from Start Pass on."""
+    bl_parent_id = "PPM_PT_sampling_viewport"
+    OWN, PREFIX = "viewport_denoise", "preview_denoising_"
+
+
 class PPM_PT_photons(PPMPanel, bpy.types.Panel):
     bl_label = "Photons"
 
@@ -119,8 +158,8 @@ class PPM_OT_tick_device(bpy.types.Operator):
         return {'FINISHED'}
 
 
-CLASSES = (PPM_PT_sampling, PPM_PT_sampling_viewport, PPM_PT_photons, PPM_PT_device,
-           PPM_OT_tick_device)
+CLASSES = (PPM_PT_sampling, PPM_PT_sampling_viewport, PPM_PT_sampling_viewport_denoise,
+           PPM_PT_sampling_denoise, PPM_PT_photons, PPM_PT_device, PPM_OT_tick_device)
 
 
 def _all_subclasses(cls):

@@ -168,12 +168,13 @@ def view_camera(context, depsgraph, engine=None):
 
 
 def viewport_options(settings):
-    """RenderOptions for the viewport from ``scene.ppm``: its viewport pass count and time
-    limit; (options, start resolution)."""
-    from ppm_engine.blender.properties import to_options
+    """RenderOptions for the viewport from ``scene.ppm``: its viewport pass count, time limit
+    and denoising; (options, start resolution)."""
+    from ppm_engine.blender.properties import denoise_settings, to_options
     o = to_options(settings)
     return (o.replace(passes=int(settings.viewport_passes),
-                      time_limit=float(settings.viewport_time_limit)).validate(),
+                      time_limit=float(settings.viewport_time_limit),
+                      denoise=denoise_settings(settings, viewport=True)).validate(),
             int(settings.viewport_start_resolution))
 
 

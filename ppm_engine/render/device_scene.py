@@ -284,11 +284,11 @@ class DeviceScene:
         return build_map(bake(self.device, placeholders(self.device, **args), prepared.svm,
                               int(ws[0]), w, h))
 
-    def kernel_defines(self, specialize: bool, gather_roughness: float = 0.7,
-                       caustic_roughness: float = 0.7,
+    def kernel_defines(self, specialize: bool,
                        editable: bool = False) -> tuple[frozenset | None, dict]:
         """(features, -D flags) of the eye and photon passes: the scene's features, or every
-        feature (None) unspecialised; the roughness from which lobes are gathered either way.
+        feature (None) unspecialised (the roughness from which lobes are gathered is the Light
+        Paths record's, light_paths.with_roughness: no flag).
         ``editable``: the scene's features and every one an edit of values can switch on
         (features.VALUE_FEATURES), the longest closure list, the shader programs' stack
         rounded up to a power of two: what a value edit changes needs no build.
@@ -309,15 +309,14 @@ class DeviceScene:
                    "PPM_SVM_STACK": stack}
         if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact
             svm["PPM_ATTRIBUTES"] = self.prepared.attributes.shape[2]
-        return features, {"PPM_GATHER_ROUGHNESS": float(gather_roughness).hex() + "f",
-                          "PPM_CAUSTIC_ROUGHNESS": float(caustic_roughness).hex() + "f",
-                          **feature_defines(features, None if editable else
+        return features, {**feature_defines(features, None if editable else
                                             max_closures(self.knodes, self.used_materials)),
                           **svm}
 
     def set_light_paths(self, lp: np.ndarray) -> None:
-        """The Light Paths record the kernels read from now on (a render's: the scene's, or
-        with RenderOptions.max_bounces in force; light_paths.with_max_bounces)."""
+        """The Light Paths record the kernels read from now on (a render's: the scene's, with
+        RenderOptions.max_bounces in force, light_paths.with_max_bounces, and its roughness
+        settings, with_roughness)."""
         if lp.tobytes() != self.light_paths.tobytes():
             self.light_paths = lp
             self.args["light_paths"] = self.device.upload(

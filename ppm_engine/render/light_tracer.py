@@ -19,13 +19,15 @@ class LightTracer:
     (h, w, 3) float32, row 0 = bottom, of the render region."""
 
     def __init__(self, scene: SceneArrays, photons: int = 1 << 16, seed: int = 0,
-                 max_bounces: int = 12, device: str = ""):
+                 max_bounces: int = 12, device: str = "", specialize: bool = True):
         import pyopencl as cl
         if float(scene.camera["aperture_radius"][0]) > 0:
             raise ValueError("light tracing renders through a pinhole: turn depth of field off")
         self.device = dev = get_device(device)
         self.scene = DeviceScene(dev, scene)
-        _, defines = self.scene.kernel_defines(True)
+        # the scene's own features (fastest), or every feature (one build that scenes share:
+        # tests, the quick benchmark)
+        _, defines = self.scene.kernel_defines(specialize)
         self.program = dev.programs.get("integrator/light_trace.cl", defines)
         self.kernel = self.program.launch("light_trace", "light trace")
         self.coverage_kernel = self.program.launch("lt_coverage", "coverage")

@@ -10,7 +10,8 @@ import dataclasses
 import math
 
 from ppm_engine.errors import PPMError
-from ppm_engine.scene.light_paths import MAX_BOUNCES_LIMIT
+from ppm_engine.render.denoise import DenoiseSettings
+from ppm_engine.scene.light_paths import CAUSTIC_ROUGHNESS, GATHER_ROUGHNESS, MAX_BOUNCES_LIMIT
 
 
 class SettingsError(PPMError, ValueError):
@@ -134,8 +135,10 @@ class RenderOptions:
     exact_gather: bool = False     # reference mode: gather every photon, not the stochastic map
     # microfacet lobes at least this rough hold visible points and photons (the gather evaluates
     # them); smoother ones are followed by the eye path.  Chosen by measurement (docs/BENCHMARKS.md,
-    # "Materials and shader programs"); a setting to measure with, not in the UI.
-    gather_roughness: float = 0.7
+    # "Materials and shader programs"); a setting to measure with, not in the UI.  Both roughness
+    # settings reach the kernels in the Light Paths record (light_paths.with_roughness), not as
+    # -D flags: changing them builds nothing.
+    gather_roughness: float = GATHER_ROUGHNESS
     # followed glossy reflections at least this rough are the eye paths' (next-event estimation
     # through them, as Cycles), smoother ones (and refractions below gather_roughness) make
     # caustic photons.  The default, gather_roughness's, leaves every followed lobe to caustic
@@ -143,7 +146,7 @@ class RenderOptions:
     # scenes (docs/BENCHMARKS.md, "Settings chosen by measurement"); a setting to measure with, not
     # in the UI.  With Filter Glossy above 1 / pi every glossy reflection that is not singular is
     # the eye paths' whatever this says (casters.caustic_roughness).
-    caustic_roughness: float = 0.7
+    caustic_roughness: float = CAUSTIC_ROUGHNESS
     # Skips of work a scene does not need, each on by default; off only to measure what it saves
     # (python -m ppm_engine bench --skips) and in the tests that check it changes nothing.
     specialize: bool = True        # kernels built for the scene's features (False: every feature)
@@ -179,6 +182,10 @@ class RenderOptions:
     # together, each its share of the passes (render/multi_device.py MultiRenderer; the global
     # schedule, whatever radius_schedule says); ``device`` is then not read
     devices: tuple = ()
+    # the image denoised through Intel Open Image Denoise (ppm_engine/render/denoise.py): None
+    # off; final renders denoise their last image, the viewport from DenoiseSettings.start on.
+    # Not the renderer's: its passes are the same either way
+    denoise: DenoiseSettings | None = None
 
     def validate(self) -> RenderOptions:
         for name, (lo, hi, _default, _desc) in LIMITS.items():
@@ -213,6 +220,12 @@ class RenderOptions:
         if not (0.0 <= self.gather_roughness <= 2.0):
             raise SettingsError(f"gather_roughness = {self.gather_roughness!r} is outside "
                                 "[0, 2] (above 1: no microfacet lobe is gathered)")
+        if self.denoise is not None:
+            if not isinstance(self.denoise, DenoiseSettings):
+                raise SettingsError(f"denoise = {self.denoise!r} must be None or "
+                                    "DenoiseSettings")
+            if self.denoise.problem() is not None:
+                raise SettingsError(self.denoise.problem())
         return self
 
     def photons_for(self, pixels: int) -> int:

@@ -42,7 +42,7 @@ from ppm_engine.render.stats import PassStats
 from ppm_engine.scene.arrays import SceneArrays
 from ppm_engine.scene.casters import caustic_roughness
 from ppm_engine.scene.guide import GUIDE_BINS
-from ppm_engine.scene.light_paths import with_max_bounces
+from ppm_engine.scene.light_paths import with_max_bounces, with_roughness
 
 
 def _locked(method):
@@ -91,8 +91,7 @@ class Renderer:
         # from the passes before: guides, casters' weights, photon skips, light tracing's stop)
         # and runs in any order (iterate's pass_index); render/parts.py adds ranges up
         self.independent = o.radius_schedule == "global"
-        self.features, self.defines = self.scene.kernel_defines(o.specialize, o.gather_roughness,
-                                                                o.caustic_roughness, o.editable)
+        self.features, self.defines = self.scene.kernel_defines(o.specialize, o.editable)
         w, h = self.scene.scene.resolution
         if new_pixels:
             self.width, self.height, self.n_pixels = w, h, w * h
@@ -124,7 +123,9 @@ class Renderer:
         self.hash_build = HashBuild(ctx)
         self.radius_update, self.add_sample = RadiusUpdate(ctx), AddSample(ctx)
         self.converge = Converge(ctx)
-        self.scene.set_light_paths(with_max_bounces(self.scene.scene.light_paths, o.max_bounces))
+        self.scene.set_light_paths(with_roughness(
+            with_max_bounces(self.scene.scene.light_paths, o.max_bounces), o.gather_roughness,
+            o.caustic_roughness))
         useful = self.scene.photons_useful()
         self.caustic_roughness = caustic_roughness(self.scene.light_paths, o.caustic_roughness)
         caustics = self.scene.caustics_possible(o.gather_roughness, self.caustic_roughness)

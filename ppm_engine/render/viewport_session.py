@@ -35,6 +35,12 @@ image, or a restart's reduced levels when the pause came), so a viewport opened 
 its scene and says "Rendering Paused" (Cycles' word) instead of looking hung.  Cycles itself
 prepares the scene and then waits, its display empty, under the same status.
 
+With denoising on (RenderOptions.denoise, the scene's Viewport Denoise), each image at full
+resolution from the start pass on (Cycles' Start Sample) is shown through OIDN with the
+render's albedo and normal (denoise.py), and the status line says "Denoised" (before the start
+pass: "Denoising from pass N"); switching the denoising alone shows the image so far again,
+without a restart.
+
 Every change of what the viewport shows (an image, the status line, an error) increments
 ``version``; ``snapshot()`` reads all of it at one instant, so a reader that compares versions
 cannot miss the last image or an error landing while it draws.
@@ -50,7 +56,8 @@ import numpy as np
 
 from ppm_engine.errors import PPMError
 from ppm_engine.render.options import RenderOptions
-from ppm_engine.render.viewport_frame import Frame, Snapshot, display_image, divider_for
+from ppm_engine.render.viewport_denoiser import FramePublisher, ViewportDenoiser
+from ppm_engine.render.viewport_frame import Frame, Snapshot, divider_for
 from ppm_engine.scene.camera import scaled_camera
 
 # seconds a new region size must stay before it is rendered (dragging a window's edge)
@@ -64,7 +71,7 @@ KERNELS = {"editable": dict(specialize=True, editable=True),
 # what the worker did with a scene or view change (ViewportSession.actions, newest last)
 ACTIONS = ("new", "camera", "upload", "refit", "rebuild")
 
-class ViewportSession:
+class ViewportSession(FramePublisher):
     def __init__(self, options: RenderOptions, start_resolution: int = 64,
                  kernels: str = "editable"):
         """``kernels``: "editable" (the scene's features and every one a value edit can switch
@@ -89,6 +96,10 @@ class ViewportSession:
         # the worker's state (read under the lock by frame(), status(), busy)
         self._frame: Frame | None = None
         self._status = "Waiting for the scene"
+        self._status_base = ""             # the last pass's line, before the denoising's note
+        # the viewport's denoising (_publish), and how the last denoised image's line ends
+        self._denoiser = ViewportDenoiser(self._cond, self._denoised, lambda: self._closing)
+        self._denoise_note = " · Denoised"
         self._error: str | None = None
         self._done = False
         self.restarts = 0
@@ -203,6 +214,7 @@ class ViewportSession:
             return False
         return (self._new_scene is not None or self._new_camera is not None
                 or self._new_options is not None or self._applying
+                or self._denoiser.busy
                 or (self._scene is not None and not self._idle()))
 
     def _status_line(self) -> str:
@@ -235,6 +247,7 @@ class ViewportSession:
             self._cond.notify_all()
         if threading.current_thread() is not self._thread:
             self._thread.join(timeout)
+        self._denoiser.join(timeout)
         return not self._thread.is_alive()
 
     # -- the worker -----------------------------------------------------------------------------
@@ -338,13 +351,18 @@ class ViewportSession:
         if options is not None and scene is None and camera is None \
                 and self._renderer is not None and not dropped \
                 and options.replace(passes=self._options.passes,
-                                    time_limit=self._options.time_limit) == self._options:
-            self._options = options            # only the pass count or time limit: go on
+                                    time_limit=self._options.time_limit,
+                                    denoise=self._options.denoise) == self._options:
+            # only the pass count, the time limit or the denoising: go on
+            denoise_changed = options.denoise != self._options.denoise
+            self._options = options
             elapsed = time.perf_counter() - self._restart_time
             with self._cond:
                 self._done = self._divider == 1 and (
                     self._renderer.passes_done >= options.passes
                     or 0 < options.time_limit <= elapsed)
+            if denoise_changed and self._frame is not None and self._divider == 1:
+                self._publish(None)             # the image so far, denoised or not
             return
         if options is not None:
             self._options = options
@@ -413,29 +431,10 @@ class ViewportSession:
             if stats is None:                          # dropped for a newer view or edit:
                 self._dropped = True                   # the next change restarts for sure
                 return
-            image = display_image(r.image())       # a copy, in the half-float texture's range
-        elapsed = time.perf_counter() - self._restart_time
-        w, h = int(self._camera["width"][0]), int(self._camera["height"][0])
+        full_done = self._publish(stats)
         with self._cond:
             restarted = (self._new_scene is not None or self._new_camera is not None
                          or self._new_options is not None)
-            gen = self._frame.generation + 1 if self._frame is not None else 1
-            self._frame = Frame(image, w, h, self._divider, r.passes_done, gen, self.restarts)
-            self._version += 1
-            if self.first_pass_seconds is None:
-                self.first_pass_seconds = time.perf_counter() - self._t_created
-            if self._divider > 1:
-                self._status = (f"Pass 1 at 1/{self._divider} resolution · "
-                                f"{r.width} x {r.height}")
-            else:
-                self._status = stats.line(o.passes, elapsed, o.time_limit)
-            limit = o.time_limit > 0 and elapsed >= o.time_limit
-            full_done = self._divider == 1 and (r.passes_done >= o.passes or limit
-                                                or stats.converged)
-            if full_done:
-                self._done = True
-                self._status += " · done"
-            self._cond.notify_all()
         if restarted or full_done or self._divider == 1:
             return
         self._divider //= 2                            # the next, finer level

@@ -26,7 +26,13 @@ from ppm_engine.scene.camera import (  # noqa: F401 (re-exported)
     FILTER_BOX,
     FILTER_GAUSSIAN,
 )
-from ppm_engine.scene.light_paths import LIGHT_PATHS_DTYPE, check_light_paths, engine_defaults
+from ppm_engine.scene.light_paths import (
+    CAUSTIC_ROUGHNESS,
+    GATHER_ROUGHNESS,
+    LIGHT_PATHS_DTYPE,
+    check_light_paths,
+    engine_defaults,
+)
 
 # --- triangle visibility bits (Blender's Object.visible_* ray flags) -------------------------
 VIS_CAMERA = 1
@@ -212,7 +218,9 @@ LIGHT_DTYPE = np.dtype([
 ])
 
 # fields whose default is not zero (files written before the field existed)
-_FIELD_DEFAULTS = {"exposure": 1.0}     # the camera's
+_FIELD_DEFAULTS = {"exposure": 1.0,      # the camera's
+                   "gather_roughness": GATHER_ROUGHNESS,     # the Light Paths'
+                   "caustic_roughness": CAUSTIC_ROUGHNESS}
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

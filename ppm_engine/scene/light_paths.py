@@ -38,7 +38,16 @@ LIGHT_PATHS_DTYPE = np.dtype([
     ("clamp_indirect", np.float32),       # the same for light with one bounce or more
     ("filter_glossy", np.float32),        # Filter Glossy (Cycles' blur_glossy; 0: off)
     ("flags", np.uint32),                 # LP_CAUSTICS_REFLECTIVE | LP_CAUSTICS_REFRACTIVE
+    # the render's split of the closures (RenderOptions.gather_roughness, caustic_roughness;
+    # with_roughness): runtime values, so that a new setting builds no kernel
+    ("gather_roughness", np.float32),     # microfacet lobes this rough (sqrt alpha) are gathered
+    ("caustic_roughness", np.float32),    # followed glossy lobes this rough are the eye paths'
 ])
+
+# the engine's defaults of RenderOptions.gather_roughness and caustic_roughness (a record made
+# without a render, and a file written before the fields existed, holds them)
+GATHER_ROUGHNESS = 0.7
+CAUSTIC_ROUGHNESS = 0.7
 
 BOUNCE_FIELDS = ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
                  "volume_bounces", "transparent_max_bounces")
@@ -89,6 +98,7 @@ def make_light_paths(**settings) -> np.ndarray:
         raise LightPathsError(f"Light Paths: Filter Glossy = {s['blur_glossy']!r} must be a "
                               "number of 0 or more")
     lp["filter_glossy"] = v
+    lp["gather_roughness"], lp["caustic_roughness"] = GATHER_ROUGHNESS, CAUSTIC_ROUGHNESS
     lp["flags"] = ((LP_CAUSTICS_REFLECTIVE if s["caustics_reflective"] else 0)
                    | (LP_CAUSTICS_REFRACTIVE if s["caustics_refractive"] else 0))
     return lp
@@ -101,7 +111,8 @@ def check_light_paths(lp: np.ndarray) -> None:
         if not 0 <= int(r[name]) <= MAX_BOUNCES_LIMIT:
             raise LightPathsError(f"Light Paths: {_label(name)} = {int(r[name])} is outside "
                                   f"0 to {MAX_BOUNCES_LIMIT}")
-    for name in ("clamp_direct", "clamp_indirect", "filter_glossy"):
+    for name in ("clamp_direct", "clamp_indirect", "filter_glossy", "gather_roughness",
+                 "caustic_roughness"):
         v = float(r[name])
         if not (np.isfinite(v) and v >= 0.0):
             raise LightPathsError(f"Light Paths: {name.replace('_', ' ')} = {v!r} must be a "
@@ -140,6 +151,15 @@ def with_max_bounces(lp: np.ndarray, bounces: int | None) -> np.ndarray:
     out = lp.copy()
     for name in BOUNCE_FIELDS[:-1]:
         out[name] = bounces
+    return out
+
+
+def with_roughness(lp: np.ndarray, gather_roughness: float,
+                   caustic_roughness: float) -> np.ndarray:
+    """``lp`` with a render's split of the closures (RenderOptions.gather_roughness and
+    caustic_roughness): which lobes are gathered, which followed ones are the eye paths'."""
+    out = lp.copy()
+    out["gather_roughness"], out["caustic_roughness"] = gather_roughness, caustic_roughness
     return out
 
 

@@ -157,6 +157,10 @@ MAPPING_TYPES = {"POINT": 0, "TEXTURE": 1, "VECTOR": 2, "NORMAL": 3}
 # a point, a direction or a normal into the object's space or out of it to the world
 MAPPING_OBJECT = {"TO_OBJECT_POINT": 4, "TO_OBJECT_VECTOR": 5, "TO_OBJECT_NORMAL": 6,
                   "TO_WORLD_POINT": 7, "TO_WORLD_VECTOR": 8, "TO_WORLD_NORMAL": 9}
+# and by the camera's (Cycles' camera space: the render camera's placement, +z ahead), read from
+# the scene's camera when the program runs: a viewport's view that moves needs no new program
+MAPPING_CAMERA = {"TO_CAMERA_POINT": 10, "TO_CAMERA_VECTOR": 11, "TO_CAMERA_NORMAL": 12,
+                  "FROM_CAMERA_POINT": 13, "FROM_CAMERA_VECTOR": 14, "FROM_CAMERA_NORMAL": 15}
 CLAMP_TYPES = {"MINMAX": 0, "RANGE": 1}
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3,
                      "BLENDER_WORLD": 4}

@@ -3,13 +3,14 @@
     python -m ppm_engine render SCENE.blend -o OUT.png|OUT.exr [--passes N] [--time-limit S]
                                 [--resolution WxH] [--device NAME] [--photons N] [--seed N]
                                 [--noise-threshold T] [--indirect auto|photons|paths]
-                                [--light-tracing on|off] [--frame N | --frames A-B]
+                                [--light-tracing on|off] [--denoise]
+                                [--frame N | --frames A-B]
                                 [--pass-range A-B] [--dask tcp://HOST:PORT | local:N]
     python -m ppm_engine render SCENE.blend --pass-range A-B -o PART.npz
     python -m ppm_engine merge PART.npz [PART.npz ...] -o OUT.exr|OUT.png|OUT.npz
     python -m ppm_engine devices
     python -m ppm_engine example NAME OUT.blend
-    python -m ppm_engine package [-o dist] [--platforms linux-x64,...]
+    python -m ppm_engine package [-o dist] [--platforms linux-x64,...] [--no-denoise]
     python -m ppm_engine bench [--quick] [--times S ...] [--out DIR] [--micro]
                                [--phases SCENE] [--skips] [--noise SCENE] ... (its own
                                arguments: ppm_engine/tools/bench/command.py; docs/BENCHMARKS.md)
@@ -95,6 +96,9 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="connect the photons to the camera too, weighed against their gather "
                         "(sharp caustics seen directly; default: the file's setting, normally "
                         "on)")
+    r.add_argument("--denoise", action="store_true",
+                   help="denoise the image with Intel Open Image Denoise (albedo and normal, "
+                        "the file's Cycles denoising settings; default: the file's Denoise)")
     fr = r.add_mutually_exclusive_group()
     fr.add_argument("-f", "--frame", type=int, metavar="N",
                     help="the frame to render (default: the file's current frame)")
@@ -131,6 +135,9 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="comma-separated Blender platforms (default: linux-x64,windows-x64,"
                         "macos-arm64,macos-x64)")
     k.add_argument("--wheel-cache", default=None, help="folder to keep downloaded wheels in")
+    k.add_argument("--no-denoise", action="store_true",
+                   help="leave Intel Open Image Denoise's wheels out (50-90 MB a zip): the "
+                        "Denoise options then say that it is missing")
 
     # the benchmark parses its own arguments (ppm_engine/tools/bench/command.py): main() hands them
     # over before this parser sees them; this entry lists the command in --help
@@ -192,6 +199,11 @@ def cmd_render(args) -> int:
         ("noise_threshold", args.noise_threshold), ("indirect", args.indirect),
         ("light_tracing", None if args.light_tracing is None else args.light_tracing == "on"))
         if value is not None}
+    if args.denoise:                 # say it now, not after the render
+        from ppm_engine.render.denoise import unavailable
+        message = unavailable()
+        if message is not None:
+            raise PPMError(f"--denoise: {message}")
     bar = progress_bar(PROG)
     t0 = time.perf_counter()
     output = Path(args.output).resolve()
@@ -202,7 +214,8 @@ def cmd_render(args) -> int:
     try:
         written = render_file(Path(args.scene), Path(args.output).resolve(), overrides,
                               device=args.device, resolution=args.resolution, frame=args.frame,
-                              frames=args.frames, progress=bar)
+                              frames=args.frames, progress=bar,
+                              denoise=True if args.denoise else None)
     finally:
         if bar.tty:
             print(file=sys.stderr)
@@ -216,6 +229,9 @@ def _render_split(args, overrides: dict, output: Path, bar, t0: float) -> int:
     if args.frames:
         raise UsageError("--frames renders an animation frame by frame; passes split across "
                          "renders are of one frame (--frame N)")
+    if args.denoise:
+        raise UsageError("--denoise denoises a whole frame's image: passes split across renders "
+                         "are merged noisy (python -m ppm_engine merge)")
     run = None
     if args.dask:
         from ppm_engine.render.cluster import dask_runner
@@ -257,7 +273,8 @@ def cmd_package(args) -> int:
     packaging = _tool("packaging", "the extension packager")
     platforms = args.platforms.split(",") if args.platforms else None
     zips = packaging.build(Path(args.output), platforms,
-                           cache=Path(args.wheel_cache) if args.wheel_cache else None, log=_say)
+                           cache=Path(args.wheel_cache) if args.wheel_cache else None, log=_say,
+                           denoise=not args.no_denoise)
     for z in zips:
         print(z)
     return 0

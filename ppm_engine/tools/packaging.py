@@ -1,6 +1,7 @@
 """Build the installable extension zip(s) with Blender's own extension tool.
 
     python -m ppm_engine package [-o dist] [--platforms linux-x64,windows-x64,macos-arm64,macos-x64]
+                                 [--no-denoise]
 
 (Tooling, not part of the add-on: blender_manifest.toml's build excludes leave this module and
 the bench subpackage out of the zip.)
@@ -8,7 +9,8 @@ the bench subpackage out of the zip.)
 Stages the add-on (root __init__.py, blender_manifest.toml, ppm_engine/, kernels/), downloads
 the wheels it needs for each platform with pip (pyopencl and what it imports; the PoCL CPU
 device for Linux, the only platform it has wheels for -- macOS brings its own OpenCL, Windows
-needs a GPU driver's), writes ``platforms`` and ``wheels`` into the staged manifest, then runs
+needs a GPU driver's; Intel Open Image Denoise's pyoidn with cffi and pycparser, unless
+``--no-denoise``), writes ``platforms`` and ``wheels`` into the staged manifest, then runs
 ``blender_ext.py validate`` and ``build --split-platforms``: one zip per platform.
 numpy is not bundled: Blender ships it.
 """
@@ -36,6 +38,15 @@ PIP_PLATFORMS = {
 WHEELS = ["pyopencl", "pytools", "platformdirs", "siphash24", "typing_extensions", "mako",
           "markupsafe"]
 WHEELS_LINUX = ["pocl-binary-distribution"]
+# Intel Open Image Denoise for the Denoise options (ppm_engine/render/denoise.py): pyoidn holds
+# the OIDN library for each platform (Linux x64, Windows x64, macOS x64 and arm64; no Linux
+# arm64), and imports cffi (compiled per platform; Blender does not ship it) and pycparser.
+# pyoidn's macOS wheels are tagged 10.15 (x64) and 12.0 (arm64), newer than the tags above:
+# their tags are added for these wheels alone.  Without them (package --no-denoise) the zips
+# are 50-90 MB smaller and the Denoise options say that OIDN is missing.
+WHEELS_DENOISE = ["pyoidn", "cffi", "pycparser"]
+PIP_PLATFORMS_DENOISE = {"macos-arm64": ["macosx_12_0_arm64"],
+                         "macos-x64": ["macosx_10_15_x86_64"]}
 
 
 class PackageError(PPMError):
@@ -63,20 +74,27 @@ def stage(dest: Path) -> None:
     shutil.copytree(ROOT / "kernels", dest / "kernels", ignore=ignore)
 
 
-def download_wheels(platform: str, dest: Path, cache: Path | None = None) -> list[Path]:
-    """The platform's wheels (cp311), from pip, into dest; returns their paths."""
+def download_wheels(platform: str, dest: Path, cache: Path | None = None,
+                    denoise: bool = True) -> list[Path]:
+    """The platform's wheels (cp311), from pip, into dest; returns their paths.  ``denoise``:
+    with OIDN's (WHEELS_DENOISE)."""
     names = WHEELS + (WHEELS_LINUX if platform.startswith("linux") else [])
     target = cache / platform if cache else dest
     target.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, "-m", "pip", "download", "--quiet", "--no-deps",
            "--only-binary=:all:", "--python-version", "3.11", "--implementation", "cp",
            "--dest", str(target)]
-    for tag in PIP_PLATFORMS[platform]:
-        cmd += ["--platform", tag]
-    proc = subprocess.run(cmd + names, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise PackageError(f"pip could not download the {platform} wheels: "
-                           f"{proc.stderr.strip().splitlines()[-1] if proc.stderr else ''}")
+    tags = PIP_PLATFORMS[platform]
+    runs = [(names, tags)]
+    if denoise:
+        runs.append((WHEELS_DENOISE, tags + PIP_PLATFORMS_DENOISE.get(platform, [])))
+        names = names + WHEELS_DENOISE
+    for run_names, run_tags in runs:
+        platform_args = [arg for tag in run_tags for arg in ("--platform", tag)]
+        proc = subprocess.run(cmd + platform_args + run_names, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise PackageError(f"pip could not download the {platform} wheels: "
+                               f"{proc.stderr.strip().splitlines()[-1] if proc.stderr else ''}")
     wheels = []
     for name in names:
         key = name.replace("-", "_").lower()
@@ -110,10 +128,11 @@ def run_tool(*args) -> str:
 
 
 def build(output: Path, platforms: list[str] | None = None, cache: Path | None = None,
-          log=print, wheels: bool = True) -> list[Path]:
+          log=print, wheels: bool = True, denoise: bool = True) -> list[Path]:
     """The extension zips in ``output``, one per platform (default: all of PIP_PLATFORMS);
     ``cache`` keeps downloaded wheels between builds.  ``wheels=False`` builds one zip of the
-    add-on alone, without downloading anything (what the default tests check)."""
+    add-on alone, without downloading anything (what the default tests check);
+    ``denoise=False`` leaves OIDN's wheels out (WHEELS_DENOISE)."""
     platforms = list(platforms or PIP_PLATFORMS)
     unknown = [p for p in platforms if p not in PIP_PLATFORMS]
     if unknown:
@@ -128,7 +147,7 @@ def build(output: Path, platforms: list[str] | None = None, cache: Path | None =
         if wheels:
             for p in platforms:
                 log(f"downloading the {p} wheels")
-                found += download_wheels(p, stage_dir / "wheels", cache)
+                found += download_wheels(p, stage_dir / "wheels", cache, denoise)
             write_manifest(stage_dir, platforms, sorted(set(found), key=lambda w: w.name))
         run_tool("validate", stage_dir)
         before = set(output.glob("*.zip"))

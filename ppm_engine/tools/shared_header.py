@@ -235,7 +235,6 @@ def generate_features() -> str:
     """The text of kernels/shared_features.h: the kernels' feature flags (features.py FEATURES)
     and build parameters, each an ``#ifndef`` default that a ``-D`` flag overrides."""
     from ppm_engine.render import features
-    from ppm_engine.render.options import RenderOptions
     from ppm_engine.scene import materials
     from ppm_engine.scene import shader_program as sp
 
@@ -257,18 +256,7 @@ def generate_features() -> str:
             "/* floats of a shader program's stack (ppm_engine/scene/shader_program.py "
             "MAX_STACK) */",
             "#ifndef PPM_SVM_STACK", f"#define PPM_SVM_STACK {sp.MAX_STACK}", "#endif",
-            "/* microfacet lobes at least this rough (sqrt of alpha) hold visible points and "
-            "photons",
-            " * (ppm_engine/render/options.py RenderOptions.gather_roughness) */",
-            "#ifndef PPM_GATHER_ROUGHNESS",
-            f"#define PPM_GATHER_ROUGHNESS {c_float(RenderOptions.gather_roughness)}", "#endif",
-            "/* followed glossy reflections at least this rough (sqrt of alpha) are the eye "
-            "paths' (next-event",
-            " * estimation through them), smoother ones and refractions make caustic photons",
-            " * (ppm_engine/render/options.py RenderOptions.caustic_roughness) */",
-            "#ifndef PPM_CAUSTIC_ROUGHNESS",
-            f"#define PPM_CAUSTIC_ROUGHNESS {c_float(RenderOptions.caustic_roughness)}",
-            "#endif", "", "#endif"]
+            "", "#endif"]
     return "\n".join(out) + "\n"
 
 
@@ -306,8 +294,9 @@ def generate_svm() -> str:
             _family("Map Range types (shader_program.py MAP_RANGE_TYPES)",
                     _prefixed("MAP_RANGE_", sp.MAP_RANGE_TYPES)),
             _family("Mapping and Vector Transform kinds (shader_program.py MAPPING_TYPES, "
-                    "MAPPING_OBJECT)", _prefixed("MAPPING_", sp.MAPPING_TYPES)
-                    + _prefixed("MAPPING_", sp.MAPPING_OBJECT)),
+                    "MAPPING_OBJECT, MAPPING_CAMERA)", _prefixed("MAPPING_", sp.MAPPING_TYPES)
+                    + _prefixed("MAPPING_", sp.MAPPING_OBJECT)
+                    + _prefixed("MAPPING_", sp.MAPPING_CAMERA)),
             _family("Clamp types (shader_program.py CLAMP_TYPES)",
                     _prefixed("CLAMP_", sp.CLAMP_TYPES)),
             _family("Normal Map spaces (shader_program.py NORMAL_MAP_SPACES)",

@@ -24,6 +24,7 @@ from ppm_engine.scene.shader_program import (
     GEOM_UV,
     GEOM_WINDOW,
     LIGHT_PATH_OUTPUTS,
+    MAPPING_CAMERA,
     MAPPING_OBJECT,
     MAPPING_TYPES,
     NORMAL_MAP_SPACES,
@@ -58,18 +59,17 @@ def _transform(c, v: Val, m, kind: int) -> Val:
     return Val(3, slot=o)
 
 
-def _camera(c, to_camera: bool, kind: int, node):
-    """The constant matrix of a world <-> camera transform of this kind (Cycles': normals by
-    the other direction's transpose)."""
-    c2w = c.camera if c.camera is not None else np.eye(4)
+def _to_camera(c, v: Val, to_camera: bool, kind: int, node) -> Val:
+    """``v`` (a point, direction or normal: MAPPING_TYPES ``kind``) from world to camera space
+    or back, by the render camera the program reads when it runs (MAPPING_CAMERA), so that a
+    viewport's view that moves leaves the program as it is; without a camera (a material
+    exported alone) camera space is world space, said in a warning."""
     if c.camera is None:
         c.warn(f"'{node.name}': no camera; camera space is world space")
-    w2c = np.linalg.inv(c2w)
-    if kind == 3:
-        m = np.eye(4)
-        m[:3, :3] = (c2w if to_camera else w2c)[:3, :3].T
-        return m
-    return w2c if to_camera else c2w
+        return v
+    obj = {MAPPING_TYPES[k]: i for i, k in enumerate(("POINT", "VECTOR", "NORMAL"))}[kind]
+    first = MAPPING_CAMERA["TO_CAMERA_POINT" if to_camera else "FROM_CAMERA_POINT"]
+    return _transform(c, v, None, first + obj)
 
 
 def _vector_transform(c, node, out, ctx):
@@ -79,17 +79,17 @@ def _vector_transform(c, node, out, ctx):
     frm, to = node.convert_from, node.convert_to
     obj = {MAPPING_TYPES[k]: i for i, k in enumerate(("POINT", "VECTOR", "NORMAL"))}[kind]
     if frm == "WORLD" and to == "CAMERA":
-        v = _transform(c, v, _camera(c, True, kind, node), kind)
+        v = _to_camera(c, v, True, kind, node)
     elif frm == "WORLD" and to == "OBJECT":
         v = _transform(c, v, None, MAPPING_OBJECT["TO_OBJECT_POINT"] + obj)
     elif frm == "CAMERA" and to in ("WORLD", "OBJECT"):
-        v = _transform(c, v, _camera(c, False, kind, node), kind)
+        v = _to_camera(c, v, False, kind, node)
         if to == "OBJECT":
             v = _transform(c, v, None, MAPPING_OBJECT["TO_OBJECT_POINT"] + obj)
     elif frm == "OBJECT" and to in ("WORLD", "CAMERA"):
         v = _transform(c, v, None, MAPPING_OBJECT["TO_WORLD_POINT"] + obj)
         if to == "CAMERA":
-            v = _transform(c, v, _camera(c, True, kind, node), kind)
+            v = _to_camera(c, v, True, kind, node)
     return v
 
 
@@ -100,7 +100,7 @@ def _tex_coord(c, node, out, ctx):
     if world and out.name == "Normal":
         return c.geometry(GEOM_NORMAL)
     if out.name == "Camera":
-        return _transform(c, c.geometry(GEOM_POSITION), _camera(c, True, 0, node), 0)
+        return _to_camera(c, c.geometry(GEOM_POSITION), True, MAPPING_TYPES["POINT"], node)
     if out.name == "Object":
         if getattr(node, "object", None) is None:
             return c.geometry(GEOM_OBJECT)

@@ -22,8 +22,7 @@ MAX_CELLS_PER_AXIS = 5
 # ray offsets, are the eye and photon passes'); fewer programs to build
 _SHADING_DEFINES = {"PPM_SPECIALIZED", "PPM_SHADER", "PPM_GATHER_SHADE", "PPM_MICROFACET",
                     "PPM_SHEEN", "PPM_OREN_NAYAR", "PPM_TRANSLUCENT", "PPM_TRANSPARENT",
-                    "PPM_TEXTURES", "PPM_ANISOTROPY", "PPM_MAX_CLOSURES", "PPM_GATHER_ROUGHNESS",
-                    "PPM_CAUSTIC_ROUGHNESS",
+                    "PPM_TEXTURES", "PPM_ANISOTROPY", "PPM_MAX_CLOSURES",
                     "PPM_SVM", "PPM_SVM_OPS", "PPM_SVM_STACK", "PPM_ATTRIBUTES"}
 
 

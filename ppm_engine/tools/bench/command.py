@@ -48,6 +48,10 @@ def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentP
     b.add_argument("--strategies", action="store_true",
                    help="what each strategy (camera paths, the merge, light tracing) brings to "
                         "the photon scenes' images (--scenes, --times: one budget)")
+    b.add_argument("--denoise", action="store_true",
+                   help="denoised RMSE against the reference: ours through OIDN beside Cycles "
+                        "with its OIDN at equal time (--times, default 4 16; --scenes; "
+                        "bench/denoise.py)")
     b.add_argument("--viewport", action="store_true",
                    help="the viewport's latencies (camera move, material edit, transform, second "
                         "open), kernel builds per edit, cold starts per scene and memory per "
@@ -177,6 +181,17 @@ def run(args, cmdline: str, progress=print) -> int:
             args.device, progress)
         st["machine"] = report.machine_info(args.device)
         return publish("strategies", st, strategies.format_strategies(st))
+    if args.denoise:
+        from ppm_engine.tools.bench import denoise
+        d = denoise.run_denoise(
+            tuple(args.times) if args.times else ((0.25,) if args.quick else denoise.TIMES),
+            args.resolution or (16 if args.quick else 128),
+            tuple(args.scenes) if args.scenes else (("cornell_box",) if args.quick
+                                                    else denoise.SCENES),
+            args.ref_seconds or (0.5 if args.quick else None), args.device, progress,
+            quick=args.quick)
+        d["machine"] = report.machine_info(args.device)
+        return publish("denoise", d, denoise.format_denoise(d))
     if args.viewport:
         from ppm_engine.tools.bench import viewport_latency as viewport
         v = viewport.run_viewport(args.device, quick=args.quick, progress=progress)

@@ -83,27 +83,33 @@ def crossing(o, d, below, waves, on_surface):
         i = np.nonzero(live & ~steep)[0]
         if i.size:                                   # march to the first sign change
             prev = t0[i].copy()
-            todo = np.ones(i.size, bool)
+            todo = np.arange(i.size)                 # the rays still marching
             for step in range(1, MARCH + 1):
                 t = t0[i] + (t1[i] - t0[i]) * (step / MARCH)
-                cross = todo & (g(i, t) <= 0.0)
-                lo[i[cross]], hi[i[cross]], found[i[cross]] = prev[cross], t[cross], True
-                todo &= ~cross
+                c = todo[g(i[todo], t[todo]) <= 0.0]
+                lo[i[c]], hi[i[c]], found[i[c]] = prev[c], t[c], True
+                todo = np.setdiff1d(todo, c, assume_unique=True)
+                if todo.size == 0:
+                    break
                 prev = t
         i = np.nonzero(found)[0]
         a, b = lo[i], hi[i]
         # Newton's method kept inside the bracket g(a) > 0 >= g(b), which every step narrows;
-        # a step that leaves it bisects instead
+        # a step that leaves it bisects instead; a ray stops where |g| <= 1e-12
         t = 0.5 * (a + b)
+        act = np.arange(i.size)                      # the rays not there yet
         for _ in range(NEWTON):
-            val, dg = g(i, t, True)
-            if np.abs(val).max(initial=0.0) <= 1e-12:
+            val, dg = g(i[act], t[act], True)
+            live = np.abs(val) > 1e-12
+            act, val, dg = act[live], val[live], dg[live]
+            if act.size == 0:
                 break
             pos = val > 0.0
-            a, b = np.where(pos, t, a), np.where(pos, b, t)
+            a[act], b[act] = np.where(pos, t[act], a[act]), np.where(pos, b[act], t[act])
             with np.errstate(divide="ignore", invalid="ignore"):
-                step = t - val / dg
-            t = np.where((step >= a) & (step <= b), step, 0.5 * (a + b))
+                step = t[act] - val / dg
+            t[act] = np.where((step >= a[act]) & (step <= b[act]), step,
+                              0.5 * (a[act] + b[act]))
         val = g(i, t)
         bad = np.abs(val) > 1e-10
         if bad.any():                                # the rare slow one: bisection

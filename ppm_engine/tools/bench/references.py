@@ -27,7 +27,8 @@ class References:
         from ppm_engine.render.light_tracer import LightTracer
         t = time.perf_counter()
         lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()),
-                         photons=LIGHT_TRACE_PHOTONS, seed=seed, device=self.device)
+                         photons=LIGHT_TRACE_PHOTONS, seed=seed, device=self.device,
+                         specialize=not self.quick)
         try:
             while True:
                 lt.trace(1)
@@ -50,8 +51,9 @@ class References:
 
         from ppm_engine.blender.export import export_scene
         from ppm_engine.render.light_tracer import LightTracer
+        # (every feature's build, which every scene shares: nothing is traced)
         lt = LightTracer(export_scene(bpy.context.evaluated_depsgraph_get()), photons=1,
-                         device=self.device)
+                         device=self.device, specialize=False)
         try:
             cover, reach = lt.coverage()[::-1].copy(), lt.reach
         finally:

@@ -200,19 +200,18 @@ def set_mnee(name: str, on: bool) -> None:
 def light_tree_stats(scene, device: str) -> dict | None:
     """The light tree of the scene as the renderer builds it (ppm_engine/scene/light_tree.py): its
     emitters, nodes, bytes on the device (nodes, each emitter's leaf, the far CDF) and build
-    time; None when the scene has none (LOCAL_PICK_MAX emitters or fewer)."""
+    time; None when the scene has none (LOCAL_PICK_MAX emitters or fewer).  The scene on the
+    device as a Renderer uploads it (DeviceScene), no kernel built."""
     import bpy
 
     from ppm_engine.blender.export import export_scene
-    from ppm_engine.render.options import RenderOptions
-    from ppm_engine.render.renderer import Renderer
-    r = Renderer(export_scene(bpy.context.evaluated_depsgraph_get()), RenderOptions(device=device))
-    try:
-        em = r.scene.emitters
-        if em.tree.shape[0] == 0:
-            return None
-        return {"emitters": int((em.emitter_leaf >= 0).sum()), "nodes": int(em.tree.shape[0]),
-                "bytes": int(em.tree.nbytes + em.emitter_leaf.nbytes + em.far_cdf.nbytes),
-                "build_s": float(em.tree_build_s), "share": em.tree_power_share}
-    finally:
-        r.close()
+    from ppm_engine.render.device import get_device
+    from ppm_engine.render.device_scene import DeviceScene
+    dev = get_device(device)
+    with dev.lock:
+        em = DeviceScene(dev, export_scene(bpy.context.evaluated_depsgraph_get())).emitters
+    if em.tree.shape[0] == 0:
+        return None
+    return {"emitters": int((em.emitter_leaf >= 0).sum()), "nodes": int(em.tree.shape[0]),
+            "bytes": int(em.tree.nbytes + em.emitter_leaf.nbytes + em.far_cdf.nbytes),
+            "build_s": float(em.tree_build_s), "share": em.tree_power_share}
