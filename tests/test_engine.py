@@ -258,7 +258,7 @@ def fake_render(bpy, pocl_key, monkeypatch):
                                          auto_photons=False, noise_threshold=0.0,
                                          initial_radius=0.0, alpha=0.7, max_bounces=8, seed=0,
                                          indirect="AUTO", light_tracing=True, specialize=True,
-                                         device=pocl_key)
+                                         device=pocl_key, devices="")
         depsgraph = types.SimpleNamespace(
             view_layer=types.SimpleNamespace(name="ViewLayer"),
             scene=types.SimpleNamespace(ppm=settings,

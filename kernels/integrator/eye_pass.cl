@@ -32,7 +32,7 @@ inline float3 eye_nee_u(uint pass, uint key, int depth, uint *rng) {
 }
 
 __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint seed,
-                       float initial_radius, float auto_radius_pixels,
+                       float initial_radius, float auto_radius_pixels, float radius_scale,
                        __global const float *filter_table, __global uint *counters,
                        uint path_indirect, float lt_kappa) {
     SCENE_LOAD(scene);
@@ -46,6 +46,9 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         vps->pos[id] = (float4)(0.0f);
         return;
     }
+    /* RADIUS_GLOBAL: no radius until this pass's visible point sets one (the photons' light
+     * tracing takes all of a pixel that has none: no merge there to weigh it against) */
+    if (radius_scale > 0.0f) film->radius[id] = 0.0f;
     int i = id % rw, j = id / rw;
     uint rng = rng_seed(seed, pass_index, (uint)id, 1u);
     /* the pixel's position and the lens, stratified over the passes: a set of the pixel's
@@ -218,10 +221,17 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             /* denoising passes: albedo through the specular chain, world-space normal */
             film->aux_albedo[id] += (float4)(beta * albedo, 1.0f);
             film->aux_normal[id] += (float4)(sd.N, 1.0f);
-            if (film->radius[id] <= 0.0f) {
+            /* the gather radius: RADIUS_PIXEL (radius_scale 0) sets it at the pixel's first
+             * visible point and film_update shrinks it; RADIUS_GLOBAL (radius_scale > 0, the
+             * pass's factor of Knaus & Zwicker's sequence, options.py global_radius_scale)
+             * sets it every pass from this visible point's own footprint, so a pass's radius
+             * depends on its own sample alone and passes render apart and merge exactly */
+            if (film->radius[id] <= 0.0f || radius_scale > 0.0f) {
                 float foot = camera_pixel_size(cam) * (cam->type == CAMERA_ORTHO ? 1.0f : path_len);
                 float r0 = initial_radius > 0.0f ? initial_radius : auto_radius_pixels * foot;
-                film->radius[id] = film->radius0[id] = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
+                r0 = isfinite(r0) && r0 > 0.0f ? r0 : FLT_MIN;
+                film->radius0[id] = r0;
+                film->radius[id] = radius_scale > 0.0f ? fmax(r0 * radius_scale, FLT_MIN) : r0;
             }
             /* a point the camera sees directly: the photons' light tracing renders the same
              * paths, and the merge takes its side of the balance heuristic (photon_pass.cl

@@ -72,12 +72,13 @@ __kernel void progressive_update(__global const float4 *vp_pos, __global const f
  * radius (the film divides it by the photons emitted); they differ in how R shrinks:
  * - RADIUS_PIXEL: N and R as above, from the photons this pixel gathered (its radius stays
  *   where none arrive).  The statistics follow where the pixel's visible points fell.
- * - RADIUS_GLOBAL: R_{k+1}^2 = R_k^2 (k + alpha) / (k + 1) after every pass k of an active
- *   pixel (k from its sample count, moments.w) once its radius is set (the eye pass sets it at
- *   its first visible point), photons or none, visible point or none: the radius of a pass
- *   depends on no sample, so each pass's estimate is the radius' blur of the light wherever
- *   the sampler placed the visible point, and the blur vanishes as k^((alpha - 1) / 2).  N
- *   counts the photons gathered (adaptive sampling, the "PPM Photons" pass).
+ * - RADIUS_GLOBAL: the eye pass set this pass's R, its visible point's footprint times the
+ *   pass's factor of the sequence R_{k+1}^2 = R_k^2 (k + alpha) / (k + 1) (k the pass's index
+ *   from 1; options.py global_radius_scale): the radius of a pass depends on no other
+ *   pass, so each pass's estimate is the radius' blur of the light wherever the sampler placed
+ *   the visible point, the blur vanishes as k^((alpha - 1) / 2), and passes rendered apart
+ *   (pass ranges, other devices) sum to the same film.  N counts the photons gathered
+ *   (adaptive sampling, the "PPM Photons" pass).
  * A radius whose square underflows (or a contribution that overflows) adds nothing: nothing
  * non-finite ever enters the sums.  gathered[id] is overwritten with this pass's photon term
  * (Phi / R^2, 0 when none) for film_add_sample, which counts the pass in moments after this. */
@@ -89,10 +90,6 @@ __kernel void film_update(FILM_PARAMS VP_PARAMS float alpha, uint schedule, uint
     float4 g = vps->gathered[id];
     vps->gathered[id] = (float4)(0.0f);
     float R = film->radius[id];
-    if (schedule == RADIUS_GLOBAL && film->active[id] && R > 0.0f) {
-        float k = (float)acc_get(film->moments, id).w + 1.0f; /* this pass is the pixel's k-th */
-        film->radius[id] = R * sqrt((k + alpha) / (k + 1.0f));
-    }
     if (vps->pos[id].w <= 0.0f || !(g.w > 0.0f)) return;
     float3 phi = vps->beta[id].xyz * g.xyz;
 #ifdef PPM_FP64

@@ -111,12 +111,23 @@ def apply_settings(scene, overrides: dict, device: str | None) -> None:
     RenderOptions(**stored).replace(**overrides).validate()
     for name, value in overrides.items():
         setattr(settings, name, value.upper() if name == "indirect" else value)
-    if device is not None:
+    if device is not None and "," in device:      # several devices render together
+        from ppm_engine.blender.properties import tick_device
+        settings.devices = ""
+        for name in device.split(","):
+            tick_device(settings, resolve_device(name.strip(), refresh_devices(),
+                                                 DEFAULT_DEVICE), True)
+    elif device is not None:
         settings.device = resolve_device(device, refresh_devices(), DEFAULT_DEVICE)
+        settings.devices = ""
 
 
 def resolve_device(name: str, items, default_key: str) -> str:
-    """A device key from a key, a case-insensitive part of a device name, or DEFAULT."""
+    """A device key from a key, a case-insensitive part of a device name, or DEFAULT; a
+    suffix "#N" (another context on the same device: device/context.py get_device) is kept."""
+    base, sep, tail = name.rpartition("#")
+    if sep and tail.isdigit() and base:
+        return f"{resolve_device(base, items, default_key)}#{tail}"
     if name.upper() == default_key:
         return default_key
     keys = [item[0] for item in items if item[0] != default_key]
@@ -145,3 +156,87 @@ def progress_bar(prog: str, stream=sys.stderr):
     show.tty = tty
     return show
 
+
+
+# outputs of a split render (render_split): a part to merge later, or the merged image
+SPLIT_OUTPUTS = (".npz", ".exr", ".png")
+
+
+def render_split(scene_file: Path, output: Path, overrides: dict, *,
+                 device: str | None = None, resolution: tuple[int, int] | None = None,
+                 frame: int | None = None, pass_range: tuple[int, int] | None = None,
+                 run=None, progress=None) -> Path:
+    """Render passes of ``scene_file`` as independent passes (the global radius schedule;
+    ppm_engine/render/parts.py): ``pass_range`` (first, last), counted from 1, or 1 to the
+    file's pass count; written to ``output``: a .npz part (merge it with the other ranges:
+    ``python -m ppm_engine merge``) or the image of these passes (.exr, .png).  ``run(scene,
+    options, passes, progress)`` renders the pass indices and returns their Part (default one
+    device: parts.render_range; the CLI's --devices and --dask give others).  ``progress(text,
+    fraction)`` after every pass.  Returns the file written."""
+    from ppm_engine.render import parts
+    if not scene_file.is_file():
+        raise PPMError(f"scene file not found: {scene_file}")
+    if output.suffix.lower() not in SPLIT_OUTPUTS:
+        raise UsageError(f"unsupported output '{output.suffix or output.name}' for passes "
+                         "rendered apart: a part (.npz) or an image (.exr, .png)")
+    check_paths(scene_file, output.with_suffix(".exr"))
+    overrides = {**overrides, "radius_schedule": "global"}
+    if overrides.get("time_limit"):
+        raise UsageError("a time limit cannot split passes: give the passes (--passes, "
+                         "--pass-range)")
+    parts.check_splittable(RenderOptions().replace(**overrides).validate())
+    import bpy
+    ensure_registered()
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(scene_file.resolve()), load_ui=False)
+    except RuntimeError as e:
+        raise PPMError(f"cannot open {scene_file}: {blender_message(e)}") from None
+    scene = bpy.context.scene
+    apply_settings(scene, {k: v for k, v in overrides.items() if k != "radius_schedule"},
+                   device)
+    if resolution:
+        scene.render.resolution_x, scene.render.resolution_y = resolution
+        scene.render.resolution_percentage = 100
+    if frame is not None:
+        scene.frame_set(frame)
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.properties import to_options
+    options = to_options(scene.ppm).replace(radius_schedule="global", time_limit=0.0)
+    parts.check_splittable(options)
+    first, last = pass_range or (1, options.passes)
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+    say = progress or (lambda text, fraction: None)
+
+    def told(done, total, stats=None):
+        say(f"Pass {done}/{total} of {first}-{last}", done / total)
+    if run is None and len(options.devices) > 1:
+        from ppm_engine.render.multi_device import render_devices
+
+        def run(scene, options, passes, progress):
+            return render_devices(scene, options, passes, options.devices, progress)
+    part = (run or parts.render_range)(arrays, options, range(first - 1, last), told)
+    from ppm_engine.blender.harness import view_settings, write_image
+    part.meta["view"] = view_settings(scene)     # a merged PNG's colour management
+    if output.suffix.lower() == ".npz":
+        part.save(output)
+    else:
+        write_image(part.image(), output, part.meta["view"])
+    return output
+
+
+def merge_files(inputs: list[Path], output: Path) -> tuple[Path, str]:
+    """Merge the parts ``inputs`` (render_split's .npz) into ``output``: an image (.exr, .png)
+    or a part (.npz).  Returns (the file, the passes merged as text)."""
+    from ppm_engine.render import parts
+    if output.suffix.lower() not in SPLIT_OUTPUTS:
+        raise UsageError(f"unsupported output '{output.suffix or output.name}': an image "
+                         "(.exr, .png) or a part (.npz)")
+    if not output.parent.is_dir():
+        raise PPMError(f"output folder does not exist: {output.parent}")
+    merged = parts.merge([parts.Part.load(p) for p in inputs], names=[p.name for p in inputs])
+    if output.suffix.lower() == ".npz":
+        merged.save(output)
+    else:
+        from ppm_engine.blender.harness import write_image
+        write_image(merged.image(), output, merged.meta.get("view"))
+    return output, parts.format_ranges(merged.ranges)

@@ -38,6 +38,43 @@ def set_output(scene, path) -> None:
     scene.render.filepath = str(path)
 
 
+# the scene's colour management a PNG goes through (view_settings), kept with a part's metadata
+VIEW_SETTINGS = ("view_transform", "look", "exposure", "gamma")
+
+
+def view_settings(scene) -> dict:
+    """The scene's view transform, look, exposure and gamma and its display device."""
+    v = scene.view_settings
+    return {**{k: getattr(v, k) for k in VIEW_SETTINGS},
+            "display_device": scene.display_settings.display_device}
+
+
+def write_image(rgba: np.ndarray, path, view: dict | None = None) -> None:
+    """Write linear RGBA (h, w, 4), row 0 = bottom (a render result's order), as an image whose
+    format is the extension's (OUTPUT_FORMATS): what the render writes for the same pixels; a
+    PNG through ``view`` (view_settings of the scene rendered), an EXR linear."""
+    import bpy
+    path = Path(path)
+    file_format, depth = OUTPUT_FORMATS[path.suffix.lower()]
+    h, w = rgba.shape[:2]
+    img = bpy.data.images.new("ppm_merged", w, h, alpha=True, float_buffer=True)
+    try:
+        img.pixels.foreach_set(np.ascontiguousarray(rgba, np.float32).ravel())
+        scene = bpy.data.scenes[0] if bpy.data.scenes else bpy.data.scenes.new("ppm")
+        settings = scene.render.image_settings
+        if hasattr(settings, "media_type"):
+            settings.media_type = "IMAGE"
+        settings.file_format, settings.color_mode, settings.color_depth = \
+            file_format, "RGBA", depth
+        if view:
+            scene.display_settings.display_device = view["display_device"]
+            for k in VIEW_SETTINGS:
+                setattr(scene.view_settings, k, view[k])
+        img.save_render(str(path), scene=scene)
+    finally:
+        bpy.data.images.remove(img)
+
+
 def read_exr(path) -> np.ndarray:
     """RGBA float32 (h, w, 4) of a single-part EXR, rows top-down (EXR order).  Needs the
     OpenEXR package (the test and bench extras)."""

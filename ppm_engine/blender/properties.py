@@ -5,7 +5,14 @@ import sys
 import zlib
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.props import (
+    BoolProperty,
+    EnumProperty,
+    FloatProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
 
 from ppm_engine.render.denoise import DenoiseSettings
 from ppm_engine.render.options import (
@@ -46,8 +53,13 @@ def refresh_devices() -> list[tuple[str, str, str, int]]:
     return items
 
 
-def _device_items_cb(self, context):
+def device_items() -> list[tuple[str, str, str, int]]:
+    """The device enum's items (listed once: refresh_devices)."""
     return _device_items if _device_items is not None else refresh_devices()
+
+
+def _device_items_cb(self, context):
+    return device_items()
 
 
 def _int(name: str, **kw):
@@ -161,6 +173,13 @@ class PPMSettings(bpy.types.PropertyGroup):
                     "device)",
         items=_device_items_cb,
     )
+    devices: StringProperty(
+        name="Devices",
+        description="The OpenCL devices ticked in the Device panel, one key a line: two or "
+                    "more render the image together (each its share of the passes)",
+        default="",
+        options={'HIDDEN'},
+    )
 
 
 def denoise_settings(settings, viewport: bool = False) -> DenoiseSettings | None:
@@ -200,8 +219,20 @@ def to_options(settings) -> RenderOptions:
         light_tracing=bool(settings.light_tracing),
         specialize=bool(settings.specialize),
         device="" if device in ("", DEFAULT_DEVICE) else device,
+        devices=ticked_devices(settings),
         denoise=denoise_settings(settings),
     ).validate()
+
+
+def ticked_devices(settings) -> tuple[str, ...]:
+    """The device keys ticked in the Device panel (scene.ppm.devices)."""
+    return tuple(k for k in settings.devices.split("\n") if k)
+
+
+def tick_device(settings, key: str, on: bool) -> None:
+    """Tick or untick device ``key`` in the Device panel's list."""
+    keys = [k for k in ticked_devices(settings) if k != key]
+    settings.devices = "\n".join([*keys, key] if on else keys)
 
 
 @bpy.app.handlers.persistent

@@ -175,7 +175,16 @@ class Session:
             dark = self.dark
         else:
             dark = self.dark = emits_nothing(arrays)
-        if dark:
+        if not dark and len(options.devices) > 1:
+            # several devices (the Device panel's ticked list): a MultiRenderer each time,
+            # not kept (persistent data keeps one device's Renderer)
+            from ppm_engine.render.multi_device import MultiRenderer
+            engine.update_stats("", "Building kernels on every device, uploading the scene")
+            self.free()
+            self.renderer = MultiRenderer(arrays, options, options.devices)
+            log["bvh_built"] = True
+            persistent, key = False, None
+        elif dark:
             engine.report({'WARNING'}, "The scene emits no light (no light with power, no "
                                        "emissive material, a black world): the image is black")
             self.free()
@@ -266,6 +275,8 @@ class Session:
                 cancelled = True
                 break
             stats = r.iterate()
+            if stats is None:            # several devices: every pass already done
+                break
             now = time.perf_counter()
             elapsed = now - start
             done = r.passes_done

@@ -1,6 +1,13 @@
 """Render-properties panels for scene.ppm, and the built-in panels the engine reuses."""
 import bpy
 
+from ppm_engine.blender.properties import (
+    DEFAULT_DEVICE,
+    device_items,
+    tick_device,
+    ticked_devices,
+)
+
 ENGINE_ID = "PPM"
 
 # Built-in panels that are EEVEE-only but draw exactly what this engine reads (node-based
@@ -119,11 +126,40 @@ class PPM_PT_device(PPMPanel, bpy.types.Panel):
     bl_label = "Device"
 
     def draw(self, context):
-        _draw_props(self.layout, context.scene.ppm, ("device", "specialize"))
+        settings = context.scene.ppm
+        ticked = set(ticked_devices(settings))
+        col = _draw_props(self.layout, settings, ("device",))
+        col.active = len(ticked) < 2
+        # every OpenCL device with a checkbox, as Cycles' device list: two or more ticked
+        # render the image together (render/multi_device.py), each its share of the passes
+        box = self.layout.column(heading="Render On", align=True)
+        for key, name, _desc, _value in device_items():
+            if key == DEFAULT_DEVICE:
+                continue
+            op = box.operator(PPM_OT_tick_device.bl_idname, text=name, emboss=False,
+                              icon='CHECKBOX_HLT' if key in ticked else 'CHECKBOX_DEHLT')
+            op.key, op.on = key, key not in ticked
+        if len(ticked) >= 2:
+            box.label(text="Passes split across the devices (global radius schedule)")
+        _draw_props(self.layout, settings, ("specialize",))
+
+
+class PPM_OT_tick_device(bpy.types.Operator):
+    """Tick or untick an OpenCL device: two or more ticked render the image together"""
+    bl_idname = "ppm.tick_device"
+    bl_label = "Use Device"
+    bl_options = {'UNDO', 'INTERNAL'}  # noqa: RUF012 -- read by Blender, never mutated
+
+    key: bpy.props.StringProperty()
+    on: bpy.props.BoolProperty(default=True)
+
+    def execute(self, context):
+        tick_device(context.scene.ppm, self.key, self.on)
+        return {'FINISHED'}
 
 
 CLASSES = (PPM_PT_sampling, PPM_PT_sampling_viewport, PPM_PT_sampling_viewport_denoise,
-           PPM_PT_sampling_denoise, PPM_PT_photons, PPM_PT_device)
+           PPM_PT_sampling_denoise, PPM_PT_photons, PPM_PT_device, PPM_OT_tick_device)
 
 
 def _all_subclasses(cls):

@@ -7,6 +7,7 @@ clamped silently.  ``properties.py`` exposes the same fields (and the same limit
 from __future__ import annotations
 
 import dataclasses
+import math
 
 from ppm_engine.errors import PPMError
 from ppm_engine.render.denoise import DenoiseSettings
@@ -87,9 +88,30 @@ LIGHT_TRACING_KAPPA = 0.1
 #   "pixel": the paper's (Hachisuka & Jensen 2009), from the photons the pixel gathered;
 #   "global": Knaus & Zwicker 2011 (VCM's), R_k^2 = R_1^2 prod (j + alpha) / (j + 1), the same
 #             sequence for every pixel, independent of the samples (so any sampler may place the
-#             camera rays).
+#             camera rays); R_1 each pass's own visible point's footprint.  Every pass is then
+#             a function of its index alone (Renderer.independent): ranges of passes render
+#             apart, on other devices or machines, and their films add up exactly
+#             (ppm_engine/render/parts.py).
 # Their index is film_update's `schedule` (RADIUS_PIXEL, RADIUS_GLOBAL).
 RADIUS_SCHEDULES = ("pixel", "global")
+# the global schedule's default alpha (RenderOptions.global_alpha): at 0.7 (the per-pixel
+# statistics' alpha) its radii shrank too slowly, 1.7-2x the per-pixel schedule's error on
+# glass_caustic; docs/BENCHMARKS.md, "Passes rendered apart"
+GLOBAL_ALPHA = 0.3
+
+
+def global_radius_scale(pass_index: int, alpha: float) -> float:
+    """RenderOptions.radius_schedule "global" (Knaus & Zwicker 2011): pass ``pass_index``'s
+    (from 0) radius over the initial one, sqrt(prod_{j<k} (j + alpha) / (j + 1)) for the k-th
+    pass (k = pass_index + 1), = sqrt(Gamma(k + alpha) / (Gamma(1 + alpha) Gamma(k + 1))),
+    ~ k^((alpha - 1) / 2): a function of the pass's index alone, computed in float64 from the
+    same formula wherever the pass runs (passes/eye.py: the eye pass multiplies its visible
+    point's footprint radius by it)."""
+    k = pass_index + 1
+    return math.exp(0.5 * (math.lgamma(k + alpha) - math.lgamma(1.0 + alpha)
+                           - math.lgamma(k + 1.0)))
+
+
 # "auto" chooses "photons" above this fraction of caustic first scatterings (docs/BENCHMARKS.md,
 # "Settings chosen by measurement")
 AUTO_PHOTONS_CAUSTIC_FRACTION = 0.5
@@ -150,8 +172,16 @@ class RenderOptions:
     # for a pinhole camera only
     light_tracing: bool = True
     # RADIUS_SCHEDULES; a setting to measure with (docs/BENCHMARKS.md, "Settings chosen by
-    # measurement")
+    # measurement"); the global one wherever passes are split (ranges, devices, Dask)
     radius_schedule: str = "pixel"
+    # the global schedule's alpha (Knaus & Zwicker's: R_k^2 ~ k^(alpha - 1)); ``alpha`` is the
+    # per-pixel statistics' (the share of new photons kept).  Chosen by measurement
+    # (docs/BENCHMARKS.md, "Passes rendered apart"); not in the UI
+    global_alpha: float = GLOBAL_ALPHA
+    # more than one: these OpenCL devices (names or keys, as ``device``) render the image
+    # together, each its share of the passes (render/multi_device.py MultiRenderer; the global
+    # schedule, whatever radius_schedule says); ``device`` is then not read
+    devices: tuple = ()
     # the image denoised through Intel Open Image Denoise (ppm_engine/render/denoise.py): None
     # off; final renders denoise their last image, the viewport from DenoiseSettings.start on.
     # Not the renderer's: its passes are the same either way
@@ -177,8 +207,13 @@ class RenderOptions:
         if self.radius_schedule not in RADIUS_SCHEDULES:
             raise SettingsError(f"radius_schedule = {self.radius_schedule!r} must be one of "
                                 f"{', '.join(RADIUS_SCHEDULES)}")
+        if not all(isinstance(d, str) for d in self.devices):
+            raise SettingsError(f"devices = {self.devices!r} must be device names")
         if not (0.0 < self.alpha < 1.0):
             raise SettingsError(f"alpha = {self.alpha!r} must lie strictly between 0 and 1")
+        if not (0.0 < self.global_alpha < 1.0):
+            raise SettingsError(f"global_alpha = {self.global_alpha!r} must lie strictly "
+                                "between 0 and 1")
         if not (0.0 <= self.caustic_roughness <= 2.0):
             raise SettingsError(f"caustic_roughness = {self.caustic_roughness!r} is outside "
                                 "[0, 2]")

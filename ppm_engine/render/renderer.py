@@ -36,6 +36,7 @@ from ppm_engine.render.passes import (
     RadiusUpdate,
     VisiblePoints,
 )
+from ppm_engine.render.passes.photons import caustic_fraction
 from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
 from ppm_engine.render.stats import PassStats
 from ppm_engine.scene.arrays import SceneArrays
@@ -86,6 +87,10 @@ class Renderer:
         changed)."""
         import pyopencl as cl
         dev, o = self.device, options
+        # the global radius schedule: a pass is a function of its index alone (nothing learned
+        # from the passes before: guides, casters' weights, photon skips, light tracing's stop)
+        # and runs in any order (iterate's pass_index); render/parts.py adds ranges up
+        self.independent = o.radius_schedule == "global"
         self.features, self.defines = self.scene.kernel_defines(o.specialize, o.editable)
         w, h = self.scene.scene.resolution
         if new_pixels:
@@ -134,7 +139,7 @@ class Renderer:
         # where photons carry the light, those of the point, spot and area lights guided
         # where they are stored (caustic photons have their aim)
         self.guided = (self.photons_needed and not self.path_indirect and len(guides) > 0
-                       and o.skip_unguided_photons)
+                       and o.skip_unguided_photons and not self.independent)
         # this render's photons per pass: fewer where they are aimed (each costs more)
         self.photon_count = (o.aimed_photons_for(self.n_pixels, self.scene.caster_share)
                              if self.aimed else self.photons_per_pass)
@@ -145,6 +150,7 @@ class Renderer:
         if self.lt_kappa > 0:
             self.film.enable_light_tracing()
         self.passes_done = 0
+        self.pass_indices: list[int] = []   # the passes this film holds, in the order run
         self.photons_used = 0     # Counter.USED over the render's passes (photons_due)
         self.nan_dropped = 0
         self.active_pixels = self.n_pixels
@@ -195,24 +201,8 @@ class Renderer:
         return f <= AUTO_PHOTONS_CAUSTIC_FRACTION, f
 
     def caustic_fraction_pilot(self, o: RenderOptions) -> float:
-        """The share of the light's first scatterings that are by a closure eye paths follow (a
-        mirror, glass, a smooth glossy lobe) rather than by the gather's closures, from
-        PILOT_PHOTONS photons classified at their first hit and counted (photon_pass.cl with
-        capacity 0; photons that escape or meet a black surface count for neither)."""
-        import pyopencl as cl
-        q = self.queue
-        first = slice(Counter.CAUSTIC, Counter.DIFFUSE_FIRST + 1)
-        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * first.start,
-                               4 * (first.stop - first.start))
-        PhotonPass(self.context, pilot=True).enqueue(
-            q, Iteration(0x7FFFFFFF, o, photons=self.PILOT_PHOTONS))
-        counters = np.empty(N_COUNTERS, np.uint32)
-        cl.enqueue_copy(q, counters, self.counters)
-        cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * first.start,
-                               4 * (first.stop - first.start))
-        q.finish()
-        caustic, diffuse = int(counters[Counter.CAUSTIC]), int(counters[Counter.DIFFUSE_FIRST])
-        return caustic / (caustic + diffuse) if caustic + diffuse else 0.0
+        """passes/photons.py caustic_fraction of PILOT_PHOTONS photons."""
+        return caustic_fraction(self.context, o, self.PILOT_PHOTONS)
 
     @_locked
     def refit(self, scene: SceneArrays) -> bool:
@@ -256,15 +246,18 @@ class Renderer:
     INTERRUPT_PIXELS = 1 << 15
 
     @_locked
-    def iterate(self, interrupt=None) -> PassStats | None:
+    def iterate(self, interrupt=None, pass_index: int | None = None) -> PassStats | None:
         """Run one SPPM pass.  ``interrupt``: a function asked between pieces of a large eye
         pass or photon pass (INTERRUPT_PIXELS each); when it returns True the pass is dropped
         unfinished and None returned, and the render must be reset before the next pass (the
-        viewport: a new view is waiting)."""
+        viewport: a new view is waiting).  ``pass_index``: which pass this is (default
+        passes_done), where passes are independent only (a pass range, a device's share)."""
         import pyopencl as cl
         t0 = time.perf_counter()
         o, q = self.options, self.queue
-        pass_index = self.passes_done
+        if pass_index is not None and not self.independent:
+            raise ValueError("passes run out of order with radius_schedule 'global' only")
+        pass_index = self.passes_done if pass_index is None else pass_index
         film = self.film
         # this pass's counters (Counter.NAN counts over the whole render)
         cl.enqueue_fill_buffer(q, self.counters, np.uint32(0), 4 * PER_PASS.start,
@@ -299,18 +292,19 @@ class Renderer:
             cl.enqueue_copy(q, grid, self.photon_map.grid, is_blocking=False)
         q.finish()
         if (pass_index == 0 and self.lt_kappa > 0 and counters[Counter.SEEN] == 0
-                and o.skip_blind_light_tracing):
+                and o.skip_blind_light_tracing and not self.independent):
             # no pixel sees a surface the photons' light tracing renders (a pool's floor seen
             # only through its water): every connection to the camera is blocked, so it stops,
             # and the merge keeps the whole weight (as with light tracing off)
             self.lt_kappa = 0.0
             film.disable_light_tracing()
         self.passes_done += 1
+        self.pass_indices.append(pass_index)
         if photons:
             self.photons_used += int(counters[Counter.USED])
-            if self.aimed:
+            if self.aimed and not self.independent:
                 self.learn_caster_weights(counters)
-            if self.guided:
+            if self.guided:        # (never where passes are independent)
                 self.learn_guides()
         return self._stats(counters, grid, events, converge, time.perf_counter() - t0, photons)
 
@@ -322,11 +316,13 @@ class Renderer:
         """Whether pass ``pass_index`` runs the photon pass, grid, hash and gather: every pass,
         but where fewer than PHOTONS_USED_MIN of the photons reach the image (Filter Glossy hands
         most to the eye paths) only passes 1, 2, 4, 8, 16 and every 16th, counting from 1 (when
-        casters and guides learn); the film divides by the photons emitted, so no bias."""
+        casters and guides learn; every pass where passes are independent); the film divides
+        by the photons emitted, so no bias."""
         if not self.photons_needed:
             return False
         n = pass_index + 1
-        if not self.options.skip_unused_photons or (n & (n - 1)) == 0 or n % 16 == 0:
+        if (not self.options.skip_unused_photons or self.independent or (n & (n - 1)) == 0
+                or n % 16 == 0):
             return True
         return self.photons_used >= self.PHOTONS_USED_MIN * self.film.photons_emitted
 

@@ -5,6 +5,9 @@
                                 [--noise-threshold T] [--indirect auto|photons|paths]
                                 [--light-tracing on|off] [--denoise]
                                 [--frame N | --frames A-B]
+                                [--pass-range A-B] [--dask tcp://HOST:PORT | local:N]
+    python -m ppm_engine render SCENE.blend --pass-range A-B -o PART.npz
+    python -m ppm_engine merge PART.npz [PART.npz ...] -o OUT.exr|OUT.png|OUT.npz
     python -m ppm_engine devices
     python -m ppm_engine example NAME OUT.blend
     python -m ppm_engine package [-o dist] [--platforms linux-x64,...] [--no-denoise]
@@ -56,6 +59,18 @@ def _parse_frames(text: str) -> tuple[int, int]:
     return a, b
 
 
+def _parse_pass_range(text: str) -> tuple[int, int]:
+    try:
+        a, b = (int(v) for v in text.split("-", 1))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a pass range such as 1001-2000, got "
+                                         f"'{text}'") from None
+    if a < 1 or b < a:
+        raise argparse.ArgumentTypeError(f"pass range {a}-{b}: passes count from 1 and the "
+                                         "range must not end before it starts")
+    return a, b
+
+
 def _build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=PROG, description="Progressive Photon Mapping for Blender")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -69,7 +84,8 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--resolution", type=_parse_resolution, metavar="WxH",
                    help="image size (at 100%%)")
     r.add_argument("--device",
-                   help="OpenCL device: a key from 'devices', part of its name, or DEFAULT")
+                   help="OpenCL device: a key from 'devices', part of its name, or DEFAULT; "
+                        "several separated by commas render the image together")
     r.add_argument("--photons", type=int, help="photons per pass (default: the file's setting, "
                    "normally automatic: one per pixel)")
     r.add_argument("--seed", type=int, help="random seed")
@@ -91,6 +107,21 @@ def _build_parser() -> argparse.ArgumentParser:
                          "frame number (out_####.png), else _#### goes before the extension")
     r.add_argument("--noise-threshold", type=float, metavar="T",
                    help="adaptive sampling: stop pixels whose noise is below T (0 = off)")
+    r.add_argument("--pass-range", type=_parse_pass_range, metavar="A-B",
+                   help="render passes A to B (from 1) with the global radius schedule, whose "
+                        "passes are independent; -o PART.npz writes a part for 'merge'")
+    r.add_argument("--dask", metavar="ADDRESS",
+                   help="split the passes into tasks on a Dask cluster: tcp://HOST:PORT of its "
+                        "scheduler, or local:N for N workers on this machine (needs the "
+                        "'distributed' package)")
+    r.add_argument("--task-passes", type=int, metavar="N",
+                   help="--dask: passes per task (default: the passes over 4 tasks per "
+                        "worker)")
+
+    m = sub.add_parser("merge", help="merge parts rendered with --pass-range into one image")
+    m.add_argument("parts", nargs="+", help="the parts (.npz) of one render")
+    m.add_argument("-o", "--output", required=True,
+                   help="the image (.exr, .png) or a merged part (.npz)")
 
     sub.add_parser("devices", help="list the OpenCL devices")
 
@@ -123,7 +154,7 @@ def main(argv=None) -> int:
             return cmd_bench(argv[1:])
         args = _build_parser().parse_args(argv)
         return {"render": cmd_render, "devices": cmd_devices, "example": cmd_example,
-                "package": cmd_package}[args.command](args)
+                "package": cmd_package, "merge": cmd_merge}[args.command](args)
     except (UsageError, SettingsError) as e:
         _say(f"error: {e}")
         return EXIT_USAGE
@@ -175,6 +206,11 @@ def cmd_render(args) -> int:
             raise PPMError(f"--denoise: {message}")
     bar = progress_bar(PROG)
     t0 = time.perf_counter()
+    output = Path(args.output).resolve()
+    if args.pass_range or args.dask or output.suffix.lower() == ".npz":
+        return _render_split(args, overrides, output, bar, t0)
+    if args.task_passes is not None:
+        raise UsageError("--task-passes goes with --dask")
     try:
         written = render_file(Path(args.scene), Path(args.output).resolve(), overrides,
                               device=args.device, resolution=args.resolution, frame=args.frame,
@@ -184,6 +220,39 @@ def cmd_render(args) -> int:
         if bar.tty:
             print(file=sys.stderr)
     _say(f"wrote {', '.join(str(p) for p in written)} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def _render_split(args, overrides: dict, output: Path, bar, t0: float) -> int:
+    """render --pass-range / --dask / -o PART.npz: independent passes (batch.render_split)."""
+    from ppm_engine.blender.batch import render_split
+    if args.frames:
+        raise UsageError("--frames renders an animation frame by frame; passes split across "
+                         "renders are of one frame (--frame N)")
+    if args.denoise:
+        raise UsageError("--denoise denoises a whole frame's image: passes split across renders "
+                         "are merged noisy (python -m ppm_engine merge)")
+    run = None
+    if args.dask:
+        from ppm_engine.render.cluster import dask_runner
+        run = dask_runner(args.dask, task_passes=args.task_passes, log=_say, device=args.device)
+    elif args.task_passes is not None:
+        raise UsageError("--task-passes goes with --dask")
+    try:
+        written = render_split(Path(args.scene), output, overrides, device=args.device,
+                               resolution=args.resolution, frame=args.frame,
+                               pass_range=args.pass_range, run=run, progress=bar)
+    finally:
+        if bar.tty:
+            print(file=sys.stderr)
+    _say(f"wrote {written} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def cmd_merge(args) -> int:
+    from ppm_engine.blender.batch import merge_files
+    written, passes = merge_files([Path(p) for p in args.parts], Path(args.output).resolve())
+    _say(f"merged passes {passes} into {written}")
     return 0
 
 

@@ -60,7 +60,14 @@ _lock = threading.Lock()
 
 def get_device(name: str = "") -> Device:
     """The shared Device for ``name`` (a key from list_devices(), or a case-insensitive
-    substring of a device or platform name; "" or "DEFAULT": a GPU if present, else a CPU)."""
+    substring of a device or platform name; "" or "DEFAULT": a GPU if present, else a CPU).
+    A suffix "#N" (N >= 1) is another context and queue on the same device, its own Device
+    (render/multi_device.py: one device as two, for tests and for a CPU shared by two
+    renders)."""
+    instance = 0
+    base, sep, tail = name.rpartition("#")
+    if sep and tail.isdigit():
+        name, instance = base, int(tail)
     found = _enumerate()
     if not found:
         raise DeviceError("no OpenCL device found: install a GPU OpenCL driver or the PoCL CPU "
@@ -77,10 +84,11 @@ def get_device(name: str = "") -> Device:
             names = ", ".join(f"'{f[0].name}'" for f in found)
             raise DeviceError(f"no OpenCL device matches '{name}'; available: {names}")
         info, dev = match[0]
+    key = info.key if instance == 0 else f"{info.key}#{instance}"
     with _lock:
-        if info.key not in _devices:
-            _devices[info.key] = Device(info, dev)
-        return _devices[info.key]
+        if key not in _devices:
+            _devices[key] = Device(info, dev)
+        return _devices[key]
 
 
 class Device:

@@ -13,6 +13,7 @@ import numpy as np
 from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.device.program import in_pieces
 from ppm_engine.render.film import PassBuffer
+from ppm_engine.render.options import global_radius_scale
 from ppm_engine.render.passes.context import Iteration, PassContext
 
 _F4 = np.dtype((np.float32, 4))
@@ -83,5 +84,7 @@ class EyePass:
             **c.vps.args, pass_index=np.uint32(it.pass_index), seed=np.uint32(o.seed),
             initial_radius=np.float32(o.initial_radius),
             auto_radius_pixels=np.float32(self.AUTO_RADIUS_PIXELS),
+            radius_scale=np.float32(global_radius_scale(it.pass_index, o.global_alpha)
+                                    if o.radius_schedule == "global" else 0.0),
             filter_table=c.scene.filter_table, counters=c.counters,
             path_indirect=np.uint32(it.path_indirect), lt_kappa=np.float32(it.lt_kappa))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ppm_engine.render.counters import N_COUNTERS, Counter
 from ppm_engine.render.device import SHADING_GROUP
 from ppm_engine.render.device.program import in_pieces
 from ppm_engine.render.film import FILM_BUFFERS
@@ -56,3 +57,24 @@ class PhotonPass:
             guide_stats=c.guide_stats if c.guide_stats is not None else c.counters,
             lt_filter=c.scene.filter_density, lt_reach=np.float32(c.scene.filter_reach),
             lt_kappa=np.float32(it.lt_kappa if lt else 0.0))
+
+
+def caustic_fraction(ctx: PassContext, options, photons: int) -> float:
+    """The share of the light's first scatterings that are by a closure eye paths follow (a
+    mirror, glass, a smooth glossy lobe) rather than by the gather's closures, from ``photons``
+    photons classified at their first hit and counted in ``ctx.counters`` (photon_pass.cl with
+    capacity 0; photons that escape or meet a black surface count for neither): the pilot of
+    Renderer.caustic_fraction_pilot."""
+    import pyopencl as cl
+    q = ctx.device.queue
+    first = slice(Counter.CAUSTIC, Counter.DIFFUSE_FIRST + 1)
+    cl.enqueue_fill_buffer(q, ctx.counters, np.uint32(0), 4 * first.start,
+                           4 * (first.stop - first.start))
+    PhotonPass(ctx, pilot=True).enqueue(q, Iteration(0x7FFFFFFF, options, photons=photons))
+    counters = np.empty(N_COUNTERS, np.uint32)
+    cl.enqueue_copy(q, counters, ctx.counters)
+    cl.enqueue_fill_buffer(q, ctx.counters, np.uint32(0), 4 * first.start,
+                           4 * (first.stop - first.start))
+    q.finish()
+    caustic, diffuse = int(counters[Counter.CAUSTIC]), int(counters[Counter.DIFFUSE_FIRST])
+    return caustic / (caustic + diffuse) if caustic + diffuse else 0.0
