@@ -211,3 +211,46 @@ def test_the_viewport_exports_what_its_3d_view_shows(bpy, empty):
     view.show_object_viewport_mesh = False
     assert export_scene(dg, view=view).positions.shape[0] == 0
     assert export_scene(dg).positions.shape == everything.positions.shape   # a final render
+
+
+def test_a_render_region_renders_and_draws_only_its_part(bpy, empty, monkeypatch):
+    """The viewport's render region, as Cycles': outside the camera view the view's own
+    (View > Render Region), through the camera the scene's Render Region on the camera's frame;
+    the region's pixels only are rendered (the camera record's region, kept at the reduced
+    first resolutions) and drawn in their place."""
+    from ppm_engine.blender.viewport import draw_frame, view_camera
+    from ppm_engine.render.viewport_frame import Frame
+    from ppm_engine.scene.camera import region_fraction, scaled_camera
+    from tests.helpers.viewport_stubs import Engine, stub_gpu
+    scene = empty
+    scene.render.resolution_x, scene.render.resolution_y = 64, 36     # the region's aspect
+    dg = bpy.context.evaluated_depsgraph_get()
+    rv3d = types.SimpleNamespace(view_matrix=look((3.0, -6.0, 2.5), (0.0, 0.0, 0.0)),
+                                 window_matrix=blender_window_matrix(64, 36),
+                                 view_perspective='PERSP')
+    ctx = context_stub(rv3d, 64, 36)
+    ctx.space_data = types.SimpleNamespace(
+        use_render_border=True, render_border_min_x=0.25, render_border_min_y=0.5,
+        render_border_max_x=0.75, render_border_max_y=1.0)
+    cam = view_camera(ctx, dg)
+    assert tuple(cam["region"][0]) == (16, 18, 32, 18)
+    assert tuple(scaled_camera(cam, 4)["region"][0]) == (4, 4, 8, 5)    # covers it
+    ctx.space_data.use_render_border = False
+    assert tuple(view_camera(ctx, dg)["region"][0]) == (0, 0, 64, 36)
+    # through the camera (zoomed so that its frame is the region, as camera_view_factor 1):
+    # the scene's region on the camera's frame
+    rv3d.view_perspective = 'CAMERA'
+    rv3d.window_matrix = blender_window_matrix(64, 36, zoom=1.0)
+    assert tuple(view_camera(ctx, dg)["region"][0]) == (0, 0, 64, 36)
+    scene.render.use_border = True
+    scene.render.border_min_x, scene.render.border_max_x = 0.5, 1.0
+    scene.render.border_min_y, scene.render.border_max_y = 0.0, 0.5
+    cam = view_camera(ctx, dg)
+    assert tuple(cam["region"][0]) == (32, 0, 32, 18)
+    rv3d.window_matrix = blender_window_matrix(64, 36, zoom=2.0)    # the frame: half the view
+    assert tuple(view_camera(ctx, dg)["region"][0]) == (32, 9, 16, 9)
+    gpu = stub_gpu(monkeypatch)
+    frame = Frame(np.zeros((18, 32, 4), np.float32), 64, 36, 1, 1, generation=1, restart=0,
+                  region=region_fraction(cam))
+    draw_frame(Engine(gpu), object(), frame, 128, 72, {})
+    assert [c[2:] for c in gpu if c[0] == "draw_texture_2d"] == [((64, 0), 64, 36)]

@@ -150,7 +150,7 @@ def view_camera(context, depsgraph, engine=None):
     it looks through: the view's local camera where it has one, as Cycles' viewport, else the
     scene's), or None without a 3D view (then the scene camera renders)."""
     from ppm_engine.blender.export.camera import export_camera, film_settings
-    from ppm_engine.scene.camera import camera_from_view
+    from ppm_engine.scene.camera import camera_from_view, with_border
     region, rv3d = getattr(context, "region", None), getattr(context, "region_data", None)
     if region is None or rv3d is None or not hasattr(rv3d, "window_matrix"):
         return None
@@ -161,13 +161,37 @@ def view_camera(context, depsgraph, engine=None):
     through = getattr(scene, "camera", None)
     if getattr(space, "use_local_camera", False) and getattr(space, "camera", None) is not None:
         through = space.camera                    # View > Sidebar > View > Local Camera
+    cam = None
     if rv3d.view_perspective == 'CAMERA' and through is not None and through.type == 'CAMERA':
         cam = export_camera(scene, depsgraph, through)    # its depth of field
         film.update({k: float(cam[k][0]) for k in ("aperture_radius", "focus_distance",
                                                    "aperture_rotation", "aperture_ratio")})
         film["aperture_blades"] = int(cam["aperture_blades"][0])
-    return camera_from_view(np.array(rv3d.view_matrix), np.array(rv3d.window_matrix),
+    view = camera_from_view(np.array(rv3d.view_matrix), np.array(rv3d.window_matrix),
                             max(region.width // ps, 1), max(region.height // ps, 1), **film)
+    return with_border(view, view_border(space, scene, rv3d, view, cam))
+
+
+def view_border(space, scene, rv3d, view, cam):
+    """The render region of a 3D view as fractions (x0, y0, x1, y1) of its region, or None, as
+    Cycles' viewport takes it: outside the camera view the view's own (View > Render Region,
+    Ctrl B); looking through the camera (``cam``, its record; ``view``, the view's) the
+    scene's Render Region (Output > Format), placed on the camera's frame in the view."""
+    if rv3d.view_perspective == 'CAMERA':
+        r = scene.render
+        if cam is None or not getattr(r, "use_border", False):
+            return None
+        (xl, xh), (yl, yh) = (
+            tuple((float(cam["shift"][0][k]) + s * 0.5 * float(cam["extent"][0][k])
+                   - float(view["shift"][0][k])) / float(view["extent"][0][k]) + 0.5
+                  for s in (-1.0, 1.0))
+            for k in (0, 1))
+        return (xl + r.border_min_x * (xh - xl), yl + r.border_min_y * (yh - yl),
+                xl + r.border_max_x * (xh - xl), yl + r.border_max_y * (yh - yl))
+    if not getattr(space, "use_render_border", False):
+        return None
+    return (space.render_border_min_x, space.render_border_min_y, space.render_border_max_x,
+            space.render_border_max_y)
 
 
 def viewport_options(settings):
@@ -388,6 +412,8 @@ def draw_frame(engine, scene, frame, width: int, height: int, cache: dict) -> No
         cache["generation"] = frame.generation
     gpu.state.blend_set('ALPHA_PREMULT')
     engine.bind_display_space_shader(scene)
-    draw_texture_2d(cache["texture"], (0, 0), width, height)
+    x, y, w, h = frame.region                  # a render region: its place in the region
+    draw_texture_2d(cache["texture"], (round(x * width), round(y * height)),
+                    round(w * width), round(h * height))
     engine.unbind_display_space_shader()
     gpu.state.blend_set('NONE')

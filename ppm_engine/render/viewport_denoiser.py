@@ -15,6 +15,7 @@ import traceback
 import numpy as np
 
 from ppm_engine.render.viewport_frame import Frame, display_image
+from ppm_engine.scene.camera import region_fraction
 
 NOT_LOADED = " · Not denoised: Open Image Denoise could not be loaded (console)"
 
@@ -131,7 +132,7 @@ class FramePublisher:
                     self.first_pass_seconds = time.perf_counter() - self._t_created
                 gen = self._frame.generation + 1 if self._frame is not None else 1
                 self._frame = Frame(display_image(image), w, h, self._divider, r.passes_done,
-                                    gen, self.restarts)
+                                    gen, self.restarts, region_fraction(self._camera))
                 self._status = self._status_base + note
             else:
                 self._status = self._status_base + self._denoise_note
@@ -150,7 +151,7 @@ class FramePublisher:
         if job.restart == self.restarts and job.settings == self._options.denoise:
             gen = self._frame.generation + 1 if self._frame is not None else 1
             self._frame = Frame(display_image(image), *job.size, 1, job.passes, gen,
-                                job.restart)
+                                job.restart, region_fraction(self._camera))
             self._status = self._status_base + note
             self._version += 1
             if self.first_pass_seconds is None:

@@ -31,6 +31,8 @@ class Frame:
     passes: int            # passes accumulated in it (at its resolution)
     generation: int        # grows with every new image
     restart: int           # the restart it belongs to (ViewportSession.restarts)
+    # where it goes: fractions (x0, y0, w, h) of the region (a render region: a part of it)
+    region: tuple = (0.0, 0.0, 1.0, 1.0)
 
 
 @dataclasses.dataclass(frozen=True)

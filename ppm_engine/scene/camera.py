@@ -127,11 +127,38 @@ def camera_from_view(view_matrix, window_matrix, width: int, height: int,
 
 def scaled_camera(camera: np.ndarray, divider: int) -> np.ndarray:
     """The same view at 1/``divider`` of the resolution (the viewport's first passes): the
-    frame and region divided, rounded up; the view plane unchanged."""
+    frame divided, rounded up, and the region (a render region) the pixels that cover it; the
+    view plane unchanged."""
     if divider <= 1:
         return camera
     cam = camera.copy()
     w, h = int(camera["width"][0]), int(camera["height"][0])
     cam["width"], cam["height"] = -(-w // divider), -(-h // divider)
-    cam["region"] = (0, 0, cam["width"][0], cam["height"][0])
+    x0, y0, rw, rh = (int(v) for v in camera["region"][0])
+    x1, y1 = -(-(x0 + rw) // divider), -(-(y0 + rh) // divider)
+    x0, y0 = x0 // divider, y0 // divider
+    cam["region"] = (x0, y0, max(x1 - x0, 1), max(y1 - y0, 1))
+    return cam
+
+
+def region_fraction(camera: np.ndarray) -> tuple:
+    """The rendered region of ``camera`` as fractions (x0, y0, w, h) of its frame: where the
+    viewport draws the image."""
+    w, h = int(camera["width"][0]), int(camera["height"][0])
+    x0, y0, rw, rh = (int(v) for v in camera["region"][0])
+    return (x0 / w, y0 / h, rw / w, rh / h)
+
+
+def with_border(camera: np.ndarray, border) -> np.ndarray:
+    """``camera`` rendering only ``border`` (x0, y0, x1, y1 as fractions of its frame, y up:
+    Blender's render region), at least one pixel; ``camera`` itself for None."""
+    if border is None:
+        return camera
+    w, h = int(camera["width"][0]), int(camera["height"][0])
+    b = np.clip(np.asarray(border, np.float64), 0.0, 1.0)
+    x0, y0 = int(b[0] * w), int(b[1] * h)
+    x1, y1 = max(int(b[2] * w), x0 + 1), max(int(b[3] * h), y0 + 1)
+    x0, y0 = min(x0, w - 1), min(y0, h - 1)
+    cam = camera.copy()
+    cam["region"] = (x0, y0, min(x1, w) - x0, min(y1, h) - y0)
     return cam
