@@ -47,6 +47,7 @@
 #define MAT_GATHER 2u
 #define MAT_TRANSPARENT 4u
 #define MAT_LAMBERT 8u
+#define MAT_VOLUME 16u
 
 /* BSDF node types (scene/arrays.py NODE_*) */
 #define NODE_PRINCIPLED 0
@@ -227,6 +228,10 @@ typedef struct {
     float absorption[3];
     /* first word of its shader program in svm (kernels/svm/svm.h), 0 = none */
     int program;
+    /* scattering coefficient inside (per metre; MAT_VOLUME only: kernels/geom/medium.h) */
+    float scattering[3];
+    float anisotropy;       /* its Henyey-Greenstein g, in (-1, 1) */
+    float volume_emission[3]; /* radiance emitted per metre inside (MAT_VOLUME only) */
 } Material;
 
 /* mirrors ppm_engine/scene/arrays.py SHADER_NODE_DTYPE */

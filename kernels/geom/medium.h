@@ -6,7 +6,8 @@
  * along the path): the media a path is in, innermost last.  A refraction into a mesh enters its
  * material's medium and one out of it leaves that medium, wherever it is in the list, so a
  * liquid inside a glass is two levels and either surface order works.  Paths start outside
- * every medium (a camera inside glass sees it as clear).  Compiled with PPM_ABSORPTION only. */
+ * every medium (a camera inside glass sees it as clear; with PPM_VOLUME the media that hold
+ * the camera or a light are found by a ray: media_at).  Compiled with PPM_ABSORPTION only. */
 #define MEDIUM_DEPTH 4
 
 typedef struct {
@@ -16,10 +17,23 @@ typedef struct {
 
 inline void media_init(Media *m) { m->n = 0; }
 
-/* the fraction of light left after a segment of length t in the innermost medium */
+/* the innermost medium's extinction coefficient (absorption, and with PPM_VOLUME scattering) */
+inline float3 media_extinction(const Media *m, __global const Material *materials) {
+    if (m->n == 0) return (float3)(0.0f);
+    __global const Material *mt = materials + m->mat[m->n - 1];
+#if PPM_VOLUME
+    return F3(mt->absorption) + F3(mt->scattering);
+#else
+    return F3(mt->absorption);
+#endif
+}
+
+/* the fraction of light left after a segment of length t in the innermost medium (what
+ * scatters out of the segment is lost too: photons and the eye paths' rays past their last
+ * scattering carry only what goes straight through) */
 inline float3 media_transmittance(const Media *m, __global const Material *materials, float t) {
     if (m->n == 0) return (float3)(1.0f);
-    return exp(-F3(materials[m->mat[m->n - 1]].absorption) * t);
+    return exp(-media_extinction(m, materials) * t);
 }
 
 /* a refraction through a surface of material mat: entering (the path arrived on the side the
@@ -36,4 +50,81 @@ inline void media_cross(Media *m, int mat, bool entering) {
         return;
     }
 }
+#if PPM_VOLUME
+/* --- homogeneous media (PPM_VOLUME; ppm_engine/scene/materials.py MAT_VOLUME) ----------------
+ * A mesh whose material has only a Volume output is a transparent boundary; crossing it (by the
+ * geometric normal: entering where the ray meets its front, as Cycles' volume stack) enters or
+ * leaves its medium, as a refraction enters or leaves glass's.  A segment is in the innermost
+ * medium (overlapping media do not add up yet). */
+inline void media_cross_transparent(Media *m, __global const Material *materials, int mat,
+                                    bool entering) {
+    if (materials[mat].flags & MAT_VOLUME) media_cross(m, mat, entering);
+}
+
+/* the innermost medium's material, -1 when the path is in none */
+inline int media_top(const Media *m) { return m->n > 0 ? m->mat[m->n - 1] : -1; }
+
+/* the Henyey-Greenstein phase function (per steradian) at cos_theta, the cosine between the
+ * direction the light travelled and the one it goes on in (seen from an eye path going along
+ * d: dot(d, direction to the light)), as Cycles' single-peaked one */
+inline float hg_phase(float cos_theta, float g) {
+    float k = 1.0f + g * g - 2.0f * g * cos_theta;
+    return (1.0f - g * g) / (4.0f * M_PI_F * k * sqrt(k));
+}
+
+/* a direction from the phase function around the ray direction d (numbers u1, u2), *pdf its
+ * density: the inverse of its CDF in the cosine (uniform where |g| is tiny) */
+inline float3 hg_sample(float3 d, float g, float u1, float u2, float *pdf) {
+    float c;
+    if (fabs(g) < 1e-3f) {
+        c = 1.0f - 2.0f * u1;
+    } else {
+        float k = (1.0f - g * g) / (1.0f - g + 2.0f * g * u1);
+        c = clamp((1.0f + g * g - k * k) / (2.0f * g), -1.0f, 1.0f);
+    }
+    float s = sqrt(fmax(0.0f, 1.0f - c * c)), phi = 2.0f * M_PI_F * u2;
+    float3 t = fabs(d.x) > 0.9f ? (float3)(0.0f, 1.0f, 0.0f) : (float3)(1.0f, 0.0f, 0.0f);
+    float3 b1 = normalize(cross(d, t)), b2 = cross(d, b1);
+    *pdf = hg_phase(c, g);
+    return normalize(c * d + s * (cos(phi) * b1 + sin(phi) * b2));
+}
+
+/* the radiance a segment of length t in medium mt (extinction sigma_t) emits towards its start:
+ * the emission integrated with the transmittance from there */
+inline float3 medium_emission(__global const Material *mt, float3 sigma_t, float t) {
+    float3 e = F3(mt->volume_emission);
+    float3 len = select((1.0f - exp(-sigma_t * t)) / sigma_t, (float3)(t),
+                        isequal(sigma_t, (float3)(0.0f)));
+    return e * len;
+}
+
+/* Free-flight distance sampling over a segment of length t in a medium (sigma_t, sigma_s), as
+ * Cycles samples a homogeneous one: a channel picked in proportion to the path weight beta
+ * times the channel's albedo (u_c), an exponential distance in it (u_t), the density the mean
+ * over the channels.  Returns the distance (INFINITY: the segment crossed) and scales *beta by
+ * the transmittance (times sigma_s where it scattered) over that density. */
+inline float medium_sample(float3 sigma_t, float3 sigma_s, float t, float u_c, float u_t,
+                           float3 *beta) {
+    float3 albedo = select(sigma_s / sigma_t, (float3)(0.0f), isequal(sigma_t, (float3)(0.0f)));
+    float3 w = fabs(*beta) * albedo;
+    float sum = w.x + w.y + w.z;
+    if (!(sum > 0.0f) || !isfinite(sum)) {
+        *beta *= exp(-sigma_t * t);
+        return INFINITY;
+    }
+    float3 pc = w / sum;
+    float st = u_c < pc.x ? sigma_t.x : u_c < pc.x + pc.y ? sigma_t.y : sigma_t.z;
+    float s = -log(1.0f - u_t) / st;
+    if (s < t) {
+        float3 tr = exp(-sigma_t * s);
+        float pdf = dot(pc, sigma_t * tr);
+        *beta *= pdf > 0.0f ? sigma_s * tr / pdf : (float3)(0.0f);
+        return s;
+    }
+    float3 tr = exp(-sigma_t * t);
+    float pdf = dot(pc, tr);
+    *beta *= pdf > 0.0f ? tr / pdf : (float3)(0.0f);
+    return INFINITY;
+}
+#endif
 #endif

@@ -39,11 +39,19 @@ typedef struct {
     float3 o, d, pv, nv, beta;
     float tmax, prev_pdf, limit;
     uint ray_type;
+#if PPM_VOLUME
+    float3 sigma_t; /* the extinction of the medium the ray is in: a light at t is seen through
+                       exp(-sigma_t t) */
+#endif
 } LightRay;
 
 inline LightRay light_ray(float3 o, float3 d, float tmax, uint ray_type, float3 pv, float3 nv,
                           float prev_pdf, float3 beta, float limit) {
+#if PPM_VOLUME
+    LightRay r = {o, d, pv, nv, beta, tmax, prev_pdf, limit, ray_type, (float3)(0.0f)};
+#else
     LightRay r = {o, d, pv, nv, beta, tmax, prev_pdf, limit, ray_type};
+#endif
     return r;
 }
 
@@ -73,6 +81,9 @@ inline bool light_met(const Scene *scene, int i, const LightRay *r, float t0, in
     if (!isinf(r->prev_pdf) && max3(r->beta) > 0.0f) {
         w = mis_power(r->prev_pdf, pdf * emitter_pmf_at(scene, i, r->pv, r->nv));
     }
+#if PPM_VOLUME
+    Le *= exp(-r->sigma_t * t);
+#endif
     m->c = clamp_sample(r->beta * Le * w, r->limit);
     return true;
 }
@@ -253,6 +264,61 @@ inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float
     return ray_transmittance(scene, o, d, dist, crossings, VIS_SHADOW);
 }
 
+#if PPM_VOLUME
+/* ray_transmittance through media: m0 the media at o (0: none), entered and left at the
+ * transparent boundaries the ray crosses, each segment's extinction (Beer-Lambert) */
+inline float3 ray_transmittance_media(const Scene *scene, float3 o, float3 d, float dist,
+                                      int crossings, uint mask, const Media *m0) {
+    Media m;
+    if (m0) m = *m0;
+    else media_init(&m);
+    float3 T = (float3)(1.0f);
+    for (int i = 0; i <= crossings; i++) {
+        Hit h = bvh_intersect(scene, o, d, dist, mask, false);
+        T *= media_transmittance(&m, scene->materials, h.leaf < 0 ? dist : h.t);
+        if (h.leaf < 0) return T;
+        Surface s = surface_at(scene, h);
+        if (i == crossings || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
+            return (float3)(0.0f);
+        T *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
+        if (!(max3(T) > 0.0f)) return (float3)(0.0f);
+        media_cross_transparent(&m, scene->materials, s.material, dot(d, s.ng) < 0.0f);
+        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
+                               scene->emitter_info->offset_scale);
+        dist -= dot(o2 - o, d);
+        o = o2;
+        if (!(dist > 0.0f)) return T;
+    }
+    return (float3)(0.0f);
+}
+
+/* The media that hold point p (camera rays' and photons' start, Cycles' volume stack
+ * initialisation): a ray from p through every surface (at most MEDIA_PROBE_HITS); a medium
+ * whose boundary it meets first from inside (leaving along its normal) holds p.  Outermost
+ * first, as paths push them. */
+#define MEDIA_PROBE_HITS 32
+inline void media_at(const Scene *scene, float3 p, Media *m) {
+    media_init(m);
+    float3 d = (float3)(0.26726124f, 0.53452248f, 0.80178373f); /* (1, 2, 3) / sqrt(14) */
+    int seen[2 * MEDIUM_DEPTH], n_seen = 0, inside[MEDIUM_DEPTH], n_in = 0;
+    float3 o = p;
+    for (int k = 0; k < MEDIA_PROBE_HITS && n_seen < 2 * MEDIUM_DEPTH; k++) {
+        Hit h = bvh_intersect(scene, o, d, PPM_INF, 0xffffffffu, false);
+        if (h.leaf < 0) break;
+        Surface s = surface_at(scene, h);
+        bool leaving = dot(d, s.ng) > 0.0f;
+        o = offset_ray(s.p, leaving ? s.ng : -s.ng, scene->emitter_info->offset_scale);
+        if (!(scene->materials[s.material].flags & MAT_VOLUME)) continue;
+        bool known = false;
+        for (int j = 0; j < n_seen; j++) known |= seen[j] == s.material;
+        if (known) continue;
+        seen[n_seen++] = s.material;
+        if (leaving && n_in < MEDIUM_DEPTH) inside[n_in++] = s.material; /* innermost first */
+    }
+    for (int j = n_in - 1; j >= 0; j--) m->mat[m->n++] = inside[j];
+}
+#endif
+
 /* One next-event sample from p (n: the shading normal the world is sampled around, ngf the
  * geometric normal on the side the light must come from); false when there is none. */
 inline bool sample_emitter(const Scene *scene, float3 p, float3 n, float3 ngf, float3 u,
@@ -326,7 +392,18 @@ inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, i
         }
         o += lift;
     }
+#if PPM_VOLUME
+    /* through the media: the point's, or behind the surface those its crossing leads into */
+    Media m;
+    if (sd->media) m = *sd->media;
+    else media_init(&m);
+    if (transmit && sd->leaf >= 0)
+        media_cross_transparent(&m, scene->materials, as_int(scene->tri_e2[sd->leaf].w),
+                                !sd->backfacing);
+    float3 T = ray_transmittance_media(scene, o, wi, dist, sd->crossings, VIS_SHADOW, &m);
+#else
     float3 T = shadow_transmittance(scene, o, wi, dist, sd->crossings);
+#endif
     float w = mis && s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
     return f * T * s.E * (w / pmf);
 }
@@ -347,16 +424,28 @@ inline float3 direct_nee(const Scene *scene, const ShaderData *sd, float3 p, int
  * or the world, through at most `crossings` partly transparent surfaces (attenuated), with the
  * lights met among the transparent bounces. */
 inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_type, float3 p,
-                            float3 n, int crossings, float pdf_b) {
+                            float3 n, int crossings, float pdf_b, const Media *media) {
     float3 T = (float3)(1.0f), L = (float3)(0.0f);
+#if PPM_VOLUME
+    Media m; /* the media the ray is in (0: none), changed at the boundaries it crosses */
+    if (media) m = *media;
+    else media_init(&m);
+#endif
     for (;;) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, ray_type, false);
 #if PPM_LIGHTS_SEEN
         LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, ray_type, p, n, pdf_b, T, 0.0f);
+#if PPM_VOLUME
+        r.sigma_t = media_extinction(&m, scene->materials);
+#endif
         int met, budget = max(crossings, 1);
         L += lights_seen(scene, &r, h.leaf < 0, budget, &met);
         if (met == budget) return L; /* the path ends at the last light it may cross */
         crossings -= met;
+#endif
+#if PPM_VOLUME
+        T *= media_transmittance(&m, scene->materials, h.leaf < 0 ? PPM_INF : h.t);
+        if (!(max3(T) > 0.0f)) return L;
 #endif
         if (h.leaf < 0) {
             if (!(PPM_WORLD && scene->emitter_info->has_world)) return L;
@@ -376,6 +465,9 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
         Surface s = surface_at(scene, h);
         T *= material_transparency(scene, mat, s.tri, h.u, h.v, s.p);
         if (!(max3(T) > 0.0f)) return L;
+#if PPM_VOLUME
+        media_cross_transparent(&m, scene->materials, mat, dot(d, s.ng) < 0.0f);
+#endif
         o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, scene->emitter_info->offset_scale);
     }
 }
@@ -394,11 +486,22 @@ inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, in
     uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
     float pdf_b = b.pdf;      /* next-event estimation's density for its closures (mis_mask) */
     if (mis_mask != mask && !isinf(pdf_b)) pdf_b = shader_mis_pdf(sd, b.wo, mask, mis_mask, pdf_b);
+#if PPM_VOLUME
+    Media m;
+    if (sd->media) m = *sd->media;
+    else media_init(&m);
+    if (transmit && sd->leaf >= 0)
+        media_cross_transparent(&m, scene->materials, as_int(scene->tri_e2[sd->leaf].w),
+                                !sd->backfacing);
+    const Media *mp = &m;
+#else
+    const Media *mp = 0;
+#endif
     return b.weight
            * emitter_along(scene,
                            offset_ray(p, transmit ? -sd->Ng : sd->Ng,
                                       scene->emitter_info->offset_scale),
-                           b.wo, ray, p, sd->N, sd->crossings, pdf_b);
+                           b.wo, ray, p, sd->N, sd->crossings, pdf_b, mp);
 #else
     return (float3)(0.0f);       /* nothing for the sample to find but what NEE samples */
 #endif
@@ -422,4 +525,24 @@ inline float3 direct_light(const Scene *scene, const ShaderData *sd, float3 p, i
     float3 L = clamp_sample(beta * direct_nee(scene, sd, p, mask, sample, rng), limit);
     return sample ? L + clamp_sample(beta * direct_bsdf(scene, sd, p, mask, mask, rng), limit) : L;
 }
+#if PPM_VOLUME
+/* Light scattered at point p inside a medium of phase anisotropy g towards -d (d: the ray's
+ * direction), per unit of the scattering coefficient: next-event estimation (one emitter, its
+ * shadow ray through the media m and the transparent boundaries, at most `crossings`) weighted
+ * against a sample of the phase function (power heuristic: the path's phase sample finds the
+ * emitters with size, eye_pass.cl).  The point has no normal: the pick and the world's sample
+ * are given the zero vector (the light tree then weighs no cosine at p; a constant world is
+ * left to the phase sample, which finds it with full weight). */
+inline float3 volume_nee(const Scene *scene, float3 p, float3 d, float g, const Media *m,
+                         int crossings, float3 u) {
+    LightSample s;
+    float pmf;
+    float3 none = (float3)(0.0f);
+    if (!sample_emitter(scene, p, none, none, u, &s, &pmf)) return none;
+    float ph = hg_phase(dot(d, s.wi), g);
+    float3 T = ray_transmittance_media(scene, p, s.wi, s.dist, crossings, VIS_SHADOW, m);
+    float w = s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, ph) : 1.0f;
+    return ph * T * s.E * (w / pmf);
+}
+#endif
 #endif

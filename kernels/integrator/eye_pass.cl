@@ -92,13 +92,39 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
     Media media;
     media_init(&media);
 #endif
+#if PPM_VOLUME
+    /* the camera inside media (a room of fog): those holding the ray's origin */
+    media_at(scene, o, &media);
+    sd.media = &media;
+    int vbounce = 0; /* the path's scatterings in media (Light Paths > Volume bounces) */
+#endif
     __global const LightPaths *lp = scene->light_paths;
     int term = TERM_NONE; /* past a Light Paths limit: how the path ends (path_state.h) */
     for (int depth = 0, transparent = 0, vertex = 0;;) {
         Hit h = bvh_intersect(scene, o, d, tmax, mask, false);
         /* the clamp of what this ray finds: direct after at most one bounce (path_state.h) */
         float clamp_found = clamp_limit(depth - 1, lp);
-#if PPM_ABSORPTION
+#if PPM_VOLUME
+        /* the segment inside a medium: its emission, and the lights the ray meets along it,
+         * each through the transmittance to it, with the path's weight at the segment's start;
+         * then where the path scatters (free-flight distance sampling, while the path may
+         * still scatter) or the transmittance to the hit */
+        float3 beta_in = beta, sigma_t = media_extinction(&media, scene->materials);
+        float t_s = INFINITY;
+        int vm = media_top(&media);
+        if (vm >= 0) {
+            __global const Material *mt = scene->materials + vm;
+            float seg = h.leaf < 0 ? tmax : h.t;
+            if (max3(F3(mt->volume_emission)) > 0.0f)
+                L += clamp_sample(beta * medium_emission(mt, sigma_t, seg), clamp_found);
+            if (term == TERM_NONE) {
+                float u_c = rnd(&rng), u_t = rnd(&rng);
+                t_s = medium_sample(sigma_t, F3(mt->scattering), seg, u_c, u_t, &beta);
+            } else {
+                beta *= exp(-sigma_t * seg);
+            }
+        }
+#elif PPM_ABSORPTION
         /* the segment inside a medium (lights seen inside one: attenuated as far as the hit) */
         if (h.leaf >= 0) beta *= media_transmittance(&media, scene->materials, h.t);
 #endif
@@ -107,13 +133,52 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         {
             /* the lights the ray meets before the surface, each a transparent bounce; the path
              * ends at the one that reaches the limit */
+#if PPM_VOLUME
+            LightRay r = light_ray(o, d, h.leaf < 0 ? tmax : h.t, mask, prev_p, prev_n, prev_pdf,
+                                   beta_in, clamp_found);
+            r.sigma_t = sigma_t;
+#else
             LightRay r = light_ray(o, d, h.leaf < 0 ? tmax : h.t, mask, prev_p, prev_n, prev_pdf,
                                    beta, clamp_found);
+#endif
             int met, budget = lights_budget(transparent, lp);
             L += lights_seen(scene, &r, h.leaf < 0, budget, &met);
             if (met == budget) break;
             transparent += met;
             path = path_transparent_n(path, met);
+        }
+#endif
+#if PPM_VOLUME
+        if (t_s < INFINITY) {
+            /* scattered in the medium at p: next-event estimation there with the phase function,
+             * then a sample of the phase function, which finds the emitters with size under
+             * MIS and, while Volume bounces allow, goes on as a path (Cycles' volume scatter:
+             * with Volume bounces 0, single scattering) */
+            __global const Material *mt = scene->materials + vm;
+            float3 p = o + t_s * d;
+            float g = mt->anisotropy;
+            film_clear = false;
+            int crossings = max(lp->transparent_max_bounces - transparent, 0);
+            L += clamp_sample(beta
+                                  * volume_nee(scene, p, d, g, &media, crossings,
+                                               eye_nee_u(pass_index, nee_key, depth, &rng)),
+                              clamp_limit(depth, lp));
+            float pdf, u1 = rnd(&rng), u2 = rnd(&rng);
+            float3 wo = hg_sample(d, g, u1, u2, &pdf); /* (its weight: phase / pdf = 1) */
+            depth++;
+            vbounce++;
+            path = path_add(path, PATH_DEPTH) & ~127u;
+            term = vbounce > lp->volume_bounces || depth > lp->max_bounces ? TERM_AFTER_TRANSPARENT
+                                                                           : TERM_NONE;
+            prev_pdf = pdf;
+            prev_n = (float3)(0.0f); /* (as volume_nee gave the pick) */
+            prev_p = p;
+            mask = VIS_DIFFUSE;
+            o = p;
+            d = wo;
+            tmax = PPM_INF;
+            if (!(max3(beta) > 0.0f)) break;
+            continue;
         }
 #endif
         if (h.leaf < 0) {
@@ -149,6 +214,9 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             if (term == TERM_ON_NEXT_SURFACE || !(max3(sd.transparent) > 0.0f)) break;
             beta *= sd.transparent;
             if (!(max3(beta) > 0.0f)) break;
+#if PPM_VOLUME
+            media_cross_transparent(&media, scene->materials, s.material, !sd.backfacing);
+#endif
             o = offset_ray(s.p, -sd.Ng, scene->emitter_info->offset_scale);
             tmax = PPM_INF;
             path = path_transparent(path);
@@ -275,7 +343,10 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         if (!(max3(beta) > 0.0f)) break;
         if (b.label & LABEL_TRANSPARENT) {
             /* straight through: not a bounce (as Cycles' transparent bounces), the ray keeps
-             * its type and its MIS state */
+             * its type and its MIS state; a medium's boundary enters or leaves it */
+#if PPM_VOLUME
+            media_cross_transparent(&media, scene->materials, s.material, !sd.backfacing);
+#endif
             path = path_transparent(path);
             term = path_limit_transparent(++transparent, lp);
             continue;

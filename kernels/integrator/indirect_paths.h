@@ -123,6 +123,9 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         float3 d = b.wo;
         if (b.label & LABEL_TRANSPARENT) {
             /* straight through: no scattering, the ray keeps its type and MIS state */
+#if PPM_VOLUME
+            media_cross_transparent(media, scene->materials, mat, !sd->backfacing);
+#endif
             path = path_transparent(path);
             term = path_limit_transparent(++transparent, lp);
         } else {
@@ -175,6 +178,9 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             if (counts && (scene->materials[s.material].flags & MAT_EMISSIVE)) break;
             beta *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
             if (!(max3(beta) > 0.0f)) return L;
+#if PPM_VOLUME
+            media_cross_transparent(media, scene->materials, s.material, dot(d, s.ng) < 0.0f);
+#endif
             o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
                            scene->emitter_info->offset_scale);
             path = path_transparent(path);

@@ -138,6 +138,9 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
     Media media;
     media_init(&media);
 #endif
+#if PPM_VOLUME
+    media_at(scene, o, &media); /* a light inside fog */
+#endif
     ShaderData sd;
     bool direct = true; /* nothing but transparent surfaces crossed yet */
     uint path = 0u; /* the Light Path node's view: light's rays are no camera rays */
@@ -293,6 +296,11 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
         }
         if (b.label & LABEL_TRANSPARENT) { /* not a bounce (Cycles' transparent bounces) */
             if (++transparent > lp->transparent_max_bounces) break;
+#if PPM_VOLUME
+            /* a medium's boundary: photons go on through it with its transmittance (they
+             * neither scatter nor are stored in media yet: what scatters out is lost) */
+            media_cross_transparent(&media, scene->materials, s.material, dot(d, s.ng) < 0.0f);
+#endif
             path = path_transparent(path);
             ppath = path_transparent(ppath);
         } else {

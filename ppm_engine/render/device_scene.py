@@ -34,6 +34,7 @@ from ppm_engine.scene.light_tree import LIGHT_TREE_NODE_DTYPE
 from ppm_engine.scene.materials import (
     KMATERIAL_DTYPE,
     MAT_GATHER,
+    MAT_VOLUME,
     follow_capable,
     kernel_materials,
     kernel_nodes,
@@ -333,6 +334,10 @@ class DeviceScene:
                                                lp["transmission_bounces"]) > 0
         diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_GATHER).any())
         return bool(self.emitters.info["n_emitters"][0] > 0 and bounce and diffuse)
+
+    def has_media(self) -> bool:
+        """Whether some used material has a medium of the volume stack (materials.MAT_VOLUME)."""
+        return bool((self.kmaterials["flags"][self.used_materials] & MAT_VOLUME).any())
 
     def caustics_possible(self, gather_roughness: float, caustic_roughness: float = 0.7) -> bool:
         """Whether some surface has a closure that makes caustics (materials.follow_capable):

@@ -60,6 +60,13 @@ MATERIAL_DTYPE = np.dtype([
     # density)
     ("absorption", np.float32, 3),
     ("program", np.int32),    # first word of its shader program in SceneArrays.svm, 0 = none
+    # the rest of the Volume output's homogeneous medium (Volume Scatter, Principled Volume,
+    # Emission into the Volume output): scattering coefficient per metre (RGB), the
+    # Henyey-Greenstein anisotropy g, emitted radiance per metre (RGB); rendered inside glass
+    # and inside meshes whose material has only a Volume output (a transparent boundary)
+    ("scattering", np.float32, 3),
+    ("anisotropy", np.float32),
+    ("volume_emission", np.float32, 3),
 ])
 
 # BSDF node types (kernels/shared.h NODE_*)
