@@ -98,33 +98,68 @@ inline float3 medium_emission(__global const Material *mt, float3 sigma_t, float
     return e * len;
 }
 
-/* Free-flight distance sampling over a segment of length t in a medium (sigma_t, sigma_s), as
- * Cycles samples a homogeneous one: a channel picked in proportion to the path weight beta
- * times the channel's albedo (u_c), an exponential distance in it (u_t), the density the mean
- * over the channels.  Returns the distance (INFINITY: the segment crossed) and scales *beta by
- * the transmittance (times sigma_s where it scattered) over that density. */
-inline float medium_sample(float3 sigma_t, float3 sigma_s, float t, float u_c, float u_t,
-                           float3 *beta) {
+/* The channel probabilities of free-flight distance sampling in a medium (sigma_t, sigma_s) for
+ * a path of weight beta, as Cycles picks its channel: in proportion to beta times the channel's
+ * albedo; false when nothing scatters. */
+inline bool medium_channels(float3 sigma_t, float3 sigma_s, float3 beta, float3 *pc) {
     float3 albedo = select(sigma_s / sigma_t, (float3)(0.0f), isequal(sigma_t, (float3)(0.0f)));
-    float3 w = fabs(*beta) * albedo;
+    float3 w = fabs(beta) * albedo;
     float sum = w.x + w.y + w.z;
-    if (!(sum > 0.0f) || !isfinite(sum)) {
+    if (!(sum > 0.0f) || !isfinite(sum)) return false;
+    *pc = w / sum;
+    return true;
+}
+
+/* the density of scattering at distance s (the channels' mean) */
+inline float medium_pdf(float3 sigma_t, float3 pc, float s) {
+    return dot(pc, sigma_t * exp(-sigma_t * s));
+}
+
+/* Free-flight distance sampling over a segment of length t in a medium (sigma_t, sigma_s): a
+ * channel picked by medium_channels (u_c), an exponential distance in it (u_t), the density
+ * the mean over the channels.  Returns the distance (INFINITY: the segment crossed) and scales
+ * *beta by the transmittance (times sigma_s where it scattered) over that density, *pdf the
+ * density of the distance where it scattered. */
+inline float medium_sample(float3 sigma_t, float3 sigma_s, float t, float u_c, float u_t,
+                           float3 *beta, float *pdf) {
+    float3 pc;
+    *pdf = 0.0f;
+    if (!medium_channels(sigma_t, sigma_s, *beta, &pc)) {
         *beta *= exp(-sigma_t * t);
         return INFINITY;
     }
-    float3 pc = w / sum;
     float st = u_c < pc.x ? sigma_t.x : u_c < pc.x + pc.y ? sigma_t.y : sigma_t.z;
     float s = -log(1.0f - u_t) / st;
     if (s < t) {
         float3 tr = exp(-sigma_t * s);
-        float pdf = dot(pc, sigma_t * tr);
-        *beta *= pdf > 0.0f ? sigma_s * tr / pdf : (float3)(0.0f);
+        *pdf = medium_pdf(sigma_t, pc, s);
+        *beta *= *pdf > 0.0f ? sigma_s * tr / *pdf : (float3)(0.0f);
         return s;
     }
     float3 tr = exp(-sigma_t * t);
-    float pdf = dot(pc, tr);
-    *beta *= pdf > 0.0f ? tr / pdf : (float3)(0.0f);
+    float pass = dot(pc, tr);
+    *beta *= pass > 0.0f ? tr / pass : (float3)(0.0f);
     return INFINITY;
+}
+
+/* Equiangular sampling (Kulla & Fajardo 2012) of a distance s in [0, t] along o + s d towards
+ * the point c: uniform in the angle c subtends, density D / ((theta_b - theta_a)(D^2 + h^2)),
+ * D the distance from c to the line and h = s - the foot of that perpendicular */
+inline float equiangular_pdf(float3 o, float3 d, float t, float3 c, float s) {
+    float delta = dot(c - o, d);
+    float D = fmax(length(c - o - delta * d), 1e-7f);
+    float ta = atan2(-delta, D), tb = atan2(t - delta, D), h = s - delta;
+    return tb > ta ? D / ((tb - ta) * (D * D + h * h)) : 0.0f;
+}
+
+inline float equiangular_sample(float3 o, float3 d, float t, float3 c, float u, float *pdf) {
+    float delta = dot(c - o, d);
+    float D = fmax(length(c - o - delta * d), 1e-7f);
+    float ta = atan2(-delta, D), tb = atan2(t - delta, D);
+    float s = delta + D * tan(mix(ta, tb, u));
+    float h = s - delta;
+    *pdf = tb > ta ? D / ((tb - ta) * (D * D + h * h)) : 0.0f;
+    return clamp(s, 0.0f, t);
 }
 #endif
 #endif

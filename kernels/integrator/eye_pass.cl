@@ -110,16 +110,34 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
          * then where the path scatters (free-flight distance sampling, while the path may
          * still scatter) or the transmittance to the hit */
         float3 beta_in = beta, sigma_t = media_extinction(&media, scene->materials);
-        float t_s = INFINITY;
+        float t_s = INFINITY, pdf_s = 0.0f;
         int vm = media_top(&media);
+        Segment sg;
         if (vm >= 0) {
             __global const Material *mt = scene->materials + vm;
             float seg = h.leaf < 0 ? tmax : h.t;
+            float3 sigma_s = F3(mt->scattering), pc;
             if (max3(F3(mt->volume_emission)) > 0.0f)
                 L += clamp_sample(beta * medium_emission(mt, sigma_t, seg), clamp_found);
             if (term == TERM_NONE) {
                 float u_c = rnd(&rng), u_t = rnd(&rng);
-                t_s = medium_sample(sigma_t, F3(mt->scattering), seg, u_c, u_t, &beta);
+                if (PPM_LIGHT_POINT && medium_channels(sigma_t, sigma_s, beta, &pc)) {
+                    /* the light of points and spots along the segment, by equiangular
+                     * distances (MIS with the free-flight sample's, volume_nee) */
+                    sg = segment(o, d, seg, pc);
+                    float3 ue = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
+                    L += clamp_sample(beta
+                                          * volume_equiangular(scene, &sg, sigma_t, sigma_s,
+                                                               mt->anisotropy, &media,
+                                                               max(lp->transparent_max_bounces
+                                                                       - transparent,
+                                                                   0),
+                                                               ue),
+                                      clamp_limit(depth, lp));
+                } else {
+                    sg = segment(o, d, seg, (float3)(0.0f));
+                }
+                t_s = medium_sample(sigma_t, sigma_s, seg, u_c, u_t, &beta, &pdf_s);
             } else {
                 beta *= exp(-sigma_t * seg);
             }
@@ -160,7 +178,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             film_clear = false;
             int crossings = max(lp->transparent_max_bounces - transparent, 0);
             L += clamp_sample(beta
-                                  * volume_nee(scene, p, d, g, &media, crossings,
+                                  * volume_nee(scene, &sg, t_s, pdf_s, g, &media, crossings,
                                                eye_nee_u(pass_index, nee_key, depth, &rng)),
                               clamp_limit(depth, lp));
             float pdf, u1 = rnd(&rng), u2 = rnd(&rng);
