@@ -17,6 +17,19 @@ typedef struct {
 
 inline void media_init(Media *m) { m->n = 0; }
 
+/* a copy of the media *src (none when src is 0) */
+inline Media media_copy(const Media *src) {
+    Media m;
+    if (src) m = *src;
+    else media_init(&m);
+    return m;
+}
+
+/* exp(-sigma_t t), 1 where sigma_t is 0 (a clear medium over an unbounded segment: not NaN) */
+inline float3 medium_tr(float3 sigma_t, float t) {
+    return exp(-select(sigma_t * t, (float3)(0.0f), isequal(sigma_t, (float3)(0.0f))));
+}
+
 /* the innermost medium's extinction coefficient (absorption, and with PPM_VOLUME scattering) */
 inline float3 media_extinction(const Media *m, __global const Material *materials) {
     if (m->n == 0) return (float3)(0.0f);
@@ -33,7 +46,11 @@ inline float3 media_extinction(const Media *m, __global const Material *material
  * scattering carry only what goes straight through) */
 inline float3 media_transmittance(const Media *m, __global const Material *materials, float t) {
     if (m->n == 0) return (float3)(1.0f);
+#if PPM_VOLUME
+    return medium_tr(media_extinction(m, materials), t);
+#else
     return exp(-media_extinction(m, materials) * t);
+#endif
 }
 
 /* a refraction through a surface of material mat: entering (the path arrived on the side the
@@ -95,7 +112,7 @@ inline float3 medium_emission(__global const Material *mt, float3 sigma_t, float
     float3 e = F3(mt->volume_emission);
     float3 len = select((1.0f - exp(-sigma_t * t)) / sigma_t, (float3)(t),
                         isequal(sigma_t, (float3)(0.0f)));
-    return e * len;
+    return select(e * len, (float3)(0.0f), isequal(e, (float3)(0.0f)));
 }
 
 /* The channel probabilities of free-flight distance sampling in a medium (sigma_t, sigma_s) for
@@ -125,7 +142,7 @@ inline float medium_sample(float3 sigma_t, float3 sigma_s, float t, float u_c, f
     float3 pc;
     *pdf = 0.0f;
     if (!medium_channels(sigma_t, sigma_s, *beta, &pc)) {
-        *beta *= exp(-sigma_t * t);
+        *beta *= medium_tr(sigma_t, t);
         return INFINITY;
     }
     float st = u_c < pc.x ? sigma_t.x : u_c < pc.x + pc.y ? sigma_t.y : sigma_t.z;
@@ -136,7 +153,7 @@ inline float medium_sample(float3 sigma_t, float3 sigma_s, float t, float u_c, f
         *beta *= *pdf > 0.0f ? sigma_s * tr / *pdf : (float3)(0.0f);
         return s;
     }
-    float3 tr = exp(-sigma_t * t);
+    float3 tr = medium_tr(sigma_t, t);
     float pass = dot(pc, tr);
     *beta *= pass > 0.0f ? tr / pass : (float3)(0.0f);
     return INFINITY;

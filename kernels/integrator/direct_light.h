@@ -5,6 +5,7 @@
 #include "light/light_mesh.h"
 #include "light/world.h"
 #include "closure/shader.h"
+#include "integrator/shadow_rays.h"
 
 /* Direct light at a shading point: next-event estimation (one emitter picked by power, among
  * few emissive triangles by their light at the point: light_mesh.h pick_emitter_at; a shadow
@@ -40,18 +41,14 @@ typedef struct {
     float tmax, prev_pdf, limit;
     uint ray_type;
 #if PPM_VOLUME
-    float3 sigma_t; /* the extinction of the medium the ray is in: a light at t is seen through
-                       exp(-sigma_t t) */
+    /* the extinction of the medium it is in: a light at t seen through exp(-sigma_t t) */
+    float3 sigma_t;
 #endif
 } LightRay;
 
 inline LightRay light_ray(float3 o, float3 d, float tmax, uint ray_type, float3 pv, float3 nv,
                           float prev_pdf, float3 beta, float limit) {
-#if PPM_VOLUME
-    LightRay r = {o, d, pv, nv, beta, tmax, prev_pdf, limit, ray_type, (float3)(0.0f)};
-#else
-    LightRay r = {o, d, pv, nv, beta, tmax, prev_pdf, limit, ray_type};
-#endif
+    LightRay r = {o, d, pv, nv, beta, tmax, prev_pdf, limit, ray_type}; /* (sigma_t: 0) */
     return r;
 }
 
@@ -228,97 +225,6 @@ inline float mesh_hit_mis(const Scene *scene, const Hit *h, float3 o, float3 d, 
     return mis_power(prev_pdf, pdf_l);
 }
 
-/* The fraction of light a ray from o along d lets through over dist, meeting the objects of
- * visibility `mask`: 0 at an opaque surface; partly transparent surfaces (alpha, Transparent
- * BSDF) attenuate it, at most `crossings` of them (as Blender 5.0's Cycles renders: the Light
- * Paths' transparent limit less the path's crossings, ShaderData.crossings).  A shadow ray's
- * (shadow_transmittance) meets what casts shadows; a camera connection's
- * (photon_pass.cl connect_camera) what the camera sees. */
-inline float3 ray_transmittance(const Scene *scene, float3 o, float3 d, float dist, int crossings,
-                                uint mask) {
-#if PPM_TRANSPARENT
-    float3 T = (float3)(1.0f);
-    for (int i = 0; i <= crossings; i++) {
-        Hit h = bvh_intersect(scene, o, d, dist, mask, false);
-        if (h.leaf < 0) return T;
-        Surface s = surface_at(scene, h);
-        if (i == crossings || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
-            return (float3)(0.0f);
-        T *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
-        if (!(max3(T) > 0.0f)) return (float3)(0.0f);
-        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
-                               scene->emitter_info->offset_scale);
-        dist -= dot(o2 - o, d);
-        o = o2;
-        if (!(dist > 0.0f)) return T;
-    }
-    return (float3)(0.0f);
-#else
-    Hit h = bvh_intersect(scene, o, d, dist, mask, true);
-    return (float3)(h.leaf < 0 ? 1.0f : 0.0f);
-#endif
-}
-
-inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float dist,
-                                   int crossings) {
-    return ray_transmittance(scene, o, d, dist, crossings, VIS_SHADOW);
-}
-
-#if PPM_VOLUME
-/* ray_transmittance through media: m0 the media at o (0: none), entered and left at the
- * transparent boundaries the ray crosses, each segment's extinction (Beer-Lambert) */
-inline float3 ray_transmittance_media(const Scene *scene, float3 o, float3 d, float dist,
-                                      int crossings, uint mask, const Media *m0) {
-    Media m;
-    if (m0) m = *m0;
-    else media_init(&m);
-    float3 T = (float3)(1.0f);
-    for (int i = 0; i <= crossings; i++) {
-        Hit h = bvh_intersect(scene, o, d, dist, mask, false);
-        T *= media_transmittance(&m, scene->materials, h.leaf < 0 ? dist : h.t);
-        if (h.leaf < 0) return T;
-        Surface s = surface_at(scene, h);
-        if (i == crossings || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
-            return (float3)(0.0f);
-        T *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
-        if (!(max3(T) > 0.0f)) return (float3)(0.0f);
-        media_cross_transparent(&m, scene->materials, s.material, dot(d, s.ng) < 0.0f);
-        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
-                               scene->emitter_info->offset_scale);
-        dist -= dot(o2 - o, d);
-        o = o2;
-        if (!(dist > 0.0f)) return T;
-    }
-    return (float3)(0.0f);
-}
-
-/* The media that hold point p (camera rays' and photons' start, Cycles' volume stack
- * initialisation): a ray from p through every surface (at most MEDIA_PROBE_HITS); a medium
- * whose boundary it meets first from inside (leaving along its normal) holds p.  Outermost
- * first, as paths push them. */
-#define MEDIA_PROBE_HITS 32
-inline void media_at(const Scene *scene, float3 p, Media *m) {
-    media_init(m);
-    float3 d = (float3)(0.26726124f, 0.53452248f, 0.80178373f); /* (1, 2, 3) / sqrt(14) */
-    int seen[2 * MEDIUM_DEPTH], n_seen = 0, inside[MEDIUM_DEPTH], n_in = 0;
-    float3 o = p;
-    for (int k = 0; k < MEDIA_PROBE_HITS && n_seen < 2 * MEDIUM_DEPTH; k++) {
-        Hit h = bvh_intersect(scene, o, d, PPM_INF, 0xffffffffu, false);
-        if (h.leaf < 0) break;
-        Surface s = surface_at(scene, h);
-        bool leaving = dot(d, s.ng) > 0.0f;
-        o = offset_ray(s.p, leaving ? s.ng : -s.ng, scene->emitter_info->offset_scale);
-        if (!(scene->materials[s.material].flags & MAT_VOLUME)) continue;
-        bool known = false;
-        for (int j = 0; j < n_seen; j++) known |= seen[j] == s.material;
-        if (known) continue;
-        seen[n_seen++] = s.material;
-        if (leaving && n_in < MEDIUM_DEPTH) inside[n_in++] = s.material; /* innermost first */
-    }
-    for (int j = n_in - 1; j >= 0; j--) m->mat[m->n++] = inside[j];
-}
-#endif
-
 /* One next-event sample from p (n: the shading normal the world is sampled around, ngf the
  * geometric normal on the side the light must come from); false when there is none. */
 inline bool sample_emitter(const Scene *scene, float3 p, float3 n, float3 ngf, float3 u,
@@ -393,13 +299,7 @@ inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, i
         o += lift;
     }
 #if PPM_VOLUME
-    /* through the media: the point's, or behind the surface those its crossing leads into */
-    Media m;
-    if (sd->media) m = *sd->media;
-    else media_init(&m);
-    if (transmit && sd->leaf >= 0)
-        media_cross_transparent(&m, scene->materials, as_int(scene->tri_e2[sd->leaf].w),
-                                !sd->backfacing);
+    Media m = shading_media(scene, sd, transmit); /* the point's, or those behind the surface */
     float3 T = ray_transmittance_media(scene, o, wi, dist, sd->crossings, VIS_SHADOW, &m);
 #else
     float3 T = shadow_transmittance(scene, o, wi, dist, sd->crossings);
@@ -427,9 +327,7 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
                             float3 n, int crossings, float pdf_b, const Media *media) {
     float3 T = (float3)(1.0f), L = (float3)(0.0f);
 #if PPM_VOLUME
-    Media m; /* the media the ray is in (0: none), changed at the boundaries it crosses */
-    if (media) m = *media;
-    else media_init(&m);
+    Media m = media_copy(media); /* the ray's (0: none), changed at the boundaries it crosses */
 #endif
     for (;;) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, ray_type, false);
@@ -487,13 +385,7 @@ inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, in
     float pdf_b = b.pdf;      /* next-event estimation's density for its closures (mis_mask) */
     if (mis_mask != mask && !isinf(pdf_b)) pdf_b = shader_mis_pdf(sd, b.wo, mask, mis_mask, pdf_b);
 #if PPM_VOLUME
-    Media m;
-    if (sd->media) m = *sd->media;
-    else media_init(&m);
-    if (transmit && sd->leaf >= 0)
-        media_cross_transparent(&m, scene->materials, as_int(scene->tri_e2[sd->leaf].w),
-                                !sd->backfacing);
-    const Media *mp = &m;
+    Media m = shading_media(scene, sd, transmit), *mp = &m;
 #else
     const Media *mp = 0;
 #endif
@@ -525,86 +417,4 @@ inline float3 direct_light(const Scene *scene, const ShaderData *sd, float3 p, i
     float3 L = clamp_sample(beta * direct_nee(scene, sd, p, mask, sample, rng), limit);
     return sample ? L + clamp_sample(beta * direct_bsdf(scene, sd, p, mask, mask, rng), limit) : L;
 }
-#if PPM_VOLUME
-/* A medium segment (o + s d, 0 <= s < t) whose light next-event estimation gathers: where its
- * scattering point came from (the free-flight density's channels pc, see medium_channels), and
- * the point from which equiangular sampling picks its light (the segment's middle). */
-typedef struct {
-    float3 o, d, pc, mid;
-    float t;
-} Segment;
-
-inline Segment segment(float3 o, float3 d, float t, float3 pc) {
-    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t};
-    return g;
-}
-
-/* whether emitter e is a light of no size at a point (a point or spot light of radius 0): its
- * light in a medium is also sampled by equiangular distances (volume_equiangular) */
-inline bool equiangular_light(const Scene *scene, int e) {
-    if (!PPM_LIGHT_POINT || e < 0 || e >= scene->emitter_info->n_lights) return false;
-    __global const Light *l = scene->lights + e;
-    return (l->type == LIGHT_POINT || l->type == LIGHT_SPOT) && !(l->radius > 0.0f);
-}
-
-/* Light scattered at point p = g->o + s g->d inside a medium of phase anisotropy g towards -d,
- * per unit of the scattering coefficient: next-event estimation (one emitter, its shadow ray
- * through the media m and the transparent boundaries, at most `crossings`).  A light with size
- * is weighted against the phase function's sample (power heuristic: the path's phase sample
- * finds it, eye_pass.cl), a light of no size against the segment's equiangular sample
- * (volume_equiangular; pdf_d the density of the distance s).  The point has no normal: the pick
- * and the world's sample are given the zero vector (the light tree then weighs no cosine at p;
- * a constant world is left to the phase sample, which finds it with full weight). */
-inline float3 volume_nee(const Scene *scene, const Segment *sg, float s_dist, float pdf_d, float g,
-                         const Media *m, int crossings, float3 u) {
-    LightSample s;
-    float pmf;
-    float3 none = (float3)(0.0f), p = sg->o + s_dist * sg->d;
-    EmitterInfo info = *scene->emitter_info;
-    if (info.n_emitters == 0) return none;
-    int e = pick_emitter_at(scene, p, none, u.x, &pmf);
-    if (!sample_emitter(scene, p, none, none, u, &s, &pmf)) return none;
-    float ph = hg_phase(dot(sg->d, s.wi), g);
-    float3 T = ray_transmittance_media(scene, p, s.wi, s.dist, crossings, VIS_SHADOW, m);
-    float w = 1.0f;
-    if (s.pdf_dir > 0.0f) {
-        w = mis_power(pmf * s.pdf_dir, ph);
-    } else if (equiangular_light(scene, e)) {
-        float pe = emitter_pmf_at(scene, e, sg->mid, none)
-                   * equiangular_pdf(sg->o, sg->d, sg->t, F3(scene->lights[e].position), s_dist);
-        w = mis_power(pmf * pdf_d, pe);
-    }
-    return ph * T * s.E * (w / pmf);
-}
-
-/* The light of no size a medium segment scatters towards its start, by an equiangular distance
- * towards the light next-event estimation picks from the segment's middle (u.x; u.y the
- * distance, u.z the spot's), weighted against the free-flight sample's next-event estimation
- * (volume_nee) by the power heuristic; per the path weight at the segment's start (the
- * scattering coefficient and the transmittance to the point included).  Near a spot light in
- * fog, free-flight distances rarely fall where its light is: this is Kulla and Fajardo's cure,
- * as Cycles'. */
-inline float3 volume_equiangular(const Scene *scene, const Segment *sg, float3 sigma_t,
-                                 float3 sigma_s, float g, const Media *m, int crossings, float3 u) {
-    float3 none = (float3)(0.0f);
-    if (scene->emitter_info->n_emitters == 0) return none;
-    float pmf_e;
-    int e = pick_emitter_at(scene, sg->mid, none, u.x, &pmf_e);
-    if (!(pmf_e > 0.0f) || !equiangular_light(scene, e)) return none;
-    Light l = scene->lights[e];
-    float pdf_e;
-    float s_dist = equiangular_sample(sg->o, sg->d, sg->t, F3(l.position), u.y, &pdf_e);
-    if (!(pdf_e > 0.0f) || !(s_dist < sg->t)) return none;
-    float3 p = sg->o + s_dist * sg->d;
-    LightSample ls;
-    if (!point_direct(&l, p, u.z, 0.5f, &ls)) return none;
-    float ph = hg_phase(dot(sg->d, ls.wi), g);
-    float3 T = ray_transmittance_media(scene, p, ls.wi, ls.dist, crossings, VIS_SHADOW, m);
-    if (!(max3(T) > 0.0f)) return none;
-    float3 tr = exp(-sigma_t * s_dist);
-    float a = pmf_e * pdf_e;
-    float b = emitter_pmf_at(scene, e, p, none) * medium_pdf(sigma_t, sg->pc, s_dist);
-    return sigma_s * tr * (ph * mis_power(a, b) / a) * T * ls.E;
-}
-#endif
 #endif

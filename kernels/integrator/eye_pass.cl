@@ -7,6 +7,7 @@
 #include "builtins.h"
 #include "rng.h"
 #include "integrator/direct_light.h"
+#include "integrator/volume_light.h"
 #include "geom/camera.h"
 #include "integrator/camera_connect.h"
 #include "shared.h"
@@ -139,7 +140,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
                 }
                 t_s = medium_sample(sigma_t, sigma_s, seg, u_c, u_t, &beta, &pdf_s);
             } else {
-                beta *= exp(-sigma_t * seg);
+                beta *= medium_tr(sigma_t, seg);
             }
         }
 #elif PPM_ABSORPTION

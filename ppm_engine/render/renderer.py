@@ -167,8 +167,7 @@ class Renderer:
     def light_tracing_kappa(self, o: RenderOptions) -> float:
         """The photons' light tracing (photon_pass.cl connect_camera): its MIS factor kappa, or
         0 where it is off: when asked not to, with no photon pass, or through a lens (light
-        tracing connects to a pinhole), or in a scene with media (its connections to the
-        camera do not pass through them yet: the eye paths' gather renders that light)."""
+        tracing connects to a pinhole), or with media (its camera rays do not cross them yet)."""
         pinhole = float(self.scene.scene.camera["aperture_radius"][0]) <= 0.0
         return (LIGHT_TRACING_KAPPA if o.light_tracing and self.photons_needed and pinhole
                 and not self.scene.has_media() else 0.0)
