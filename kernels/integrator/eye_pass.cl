@@ -120,24 +120,22 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             float3 sigma_s = F3(mt->scattering), pc;
             if (max3(F3(mt->volume_emission)) > 0.0f)
                 L += clamp_sample(beta * medium_emission(mt, sigma_t, seg), clamp_found);
-            if (term == TERM_NONE) {
+            if (term == TERM_NONE && max3(sigma_s) > 0.0f) {
+                /* (the same numbers with and without point lights: a program of every
+                 * feature renders the image of the scene's own; none in absorbing glass) */
                 float u_c = rnd(&rng), u_t = rnd(&rng);
-                if (PPM_LIGHT_POINT && medium_channels(sigma_t, sigma_s, beta, &pc)) {
-                    /* the light of points and spots along the segment, by equiangular
-                     * distances (MIS with the free-flight sample's, volume_nee) */
-                    sg = segment(o, d, seg, pc);
-                    float3 ue = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
+                float3 ue = (float3)(rnd(&rng), rnd(&rng), rnd(&rng));
+                bool scatters = medium_channels(sigma_t, sigma_s, beta, &pc);
+                sg = segment(o, d, seg, scatters ? pc : (float3)(0.0f));
+                int crossings = max(lp->transparent_max_bounces - transparent, 0);
+                /* the light of points and spots along the segment, by equiangular distances
+                 * (MIS with the free-flight sample's next-event estimation, volume_nee) */
+                if (PPM_LIGHT_POINT && scatters)
                     L += clamp_sample(beta
                                           * volume_equiangular(scene, &sg, sigma_t, sigma_s,
-                                                               mt->anisotropy, &media,
-                                                               max(lp->transparent_max_bounces
-                                                                       - transparent,
-                                                                   0),
+                                                               mt->anisotropy, &media, crossings,
                                                                ue),
                                       clamp_limit(depth, lp));
-                } else {
-                    sg = segment(o, d, seg, (float3)(0.0f));
-                }
                 t_s = medium_sample(sigma_t, sigma_s, seg, u_c, u_t, &beta, &pdf_s);
             } else {
                 beta *= medium_tr(sigma_t, seg);
