@@ -404,3 +404,46 @@ def test_bad_densities_render_without_nan(bpy, tiny, render_exr, tmp_path):
     row = img[W // 2]
     clear, huge = row[int(W * (0.5 - 3 / 8))], row[int(W * (0.5 - 1 / 8))]
     assert clear.mean() > 0.05 and huge.mean() < 0.2 * clear.mean(), (clear, huge)
+
+
+def test_volume_emission_added_to_absorption(bpy, cycles, render_exr, tmp_path, tiny):
+    """Emission and Volume Absorption through an Add Shader, a cube 1 m deep seen end-on over a
+    black world: L = E (1 - exp(-sigma_a)) / sigma_a per channel, as the closed form and Cycles
+    say."""
+    scene = base_scene(camera=((0, 0, 5), (0, 0, 0), 50.0))
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 2.0
+    m = volume_material("Glow", "ShaderNodeVolumeAbsorption", Color=(0.2, 0.5, 0.9, 1),
+                        Density=1.5)
+    nt = m.node_tree
+    em = nt.nodes.new("ShaderNodeEmission")
+    em.inputs["Color"].default_value = (1.0, 0.6, 0.3, 1)
+    em.inputs["Strength"].default_value = 2.0
+    add = nt.nodes.new("ShaderNodeAddShader")
+    nt.links.new(nt.nodes["Volume Absorption"].outputs[0], add.inputs[0])
+    nt.links.new(em.outputs[0], add.inputs[1])
+    nt.links.new(add.outputs[0], nt.nodes["Material Output"].inputs["Volume"])
+    cube("Glow", m, size=1.0)
+    ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=16, passes=2)
+    sigma = (1.0 - np.array([0.2, 0.5, 0.9])) * 1.5
+    exact = 2.0 * np.array([1.0, 0.6, 0.3]) * (1.0 - np.exp(-sigma)) / sigma
+    assert np.allclose(ours[12:20, 12:20].reshape(-1, 3), exact, rtol=1e-3)
+    assert np.allclose(ref[12:20, 12:20].reshape(-1, 3).mean(0), exact, rtol=5e-3)
+    assert np.abs(ours[:3, :3]).max() == 0.0
+
+
+@pytest.mark.parametrize("volume_bounces", [0, 2])
+def test_volume_bounces_and_light_through_fog_onto_the_room(bpy, cycles, render_exr, tmp_path,
+                                                            tiny, volume_bounces):
+    """The fog room with denser fog and every kind of bounce: the floor lit by what the fog
+    scatters onto it (the eye paths' indirect light scatters in media), and with Volume bounces
+    2 the fog lit by the floor and by itself, as Cycles renders it (Volume bounces 0: Cycles'
+    single scattering)."""
+    scene = fog_room(density=0.8)
+    cycles(scene, 512, width=W)
+    c = scene.cycles
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 4
+    c.volume_bounces = volume_bounces
+    ref = render_exr(tmp_path / "cycles.exr")
+    tiny(scene, width=W, height=W, passes=256, photons=4096)
+    ours = render_exr(tmp_path / "ours.exr")
+    assert_blocks(ours, ref, rtol=0.08, atol=0.0012)

@@ -239,6 +239,11 @@ def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
         return True                     # (a world's program: its map may be black)
     if (light_power(scene.lights, 1.0) > 0).any():
         return True
+    glowing = kmaterials["volume_emission"].max(axis=1) > 0     # (media: MAT_VOLUME only)
+    if glowing.any():
+        m = scene.material[(scene.material >= 0) & (scene.material < glowing.shape[0])]
+        if glowing[m].any():
+            return True                 # an emitting medium (seen by eye paths only)
     emission = mean_emission(kmaterials, scene.textures, scene.texels).max(axis=1)
     if not (emission > 0).any():
         return False                    # (no emissive material at all: skip the triangles)
