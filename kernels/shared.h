@@ -208,7 +208,7 @@ typedef struct {
     int diffuse_bounces;
     int glossy_bounces;     /* glossy and singular reflections */
     int transmission_bounces; /* transmissions (glass, translucency) */
-    int volume_bounces;     /* kept; this engine scatters in no volume */
+    int volume_bounces;     /* scatterings in media an eye path may take */
     int transparent_max_bounces; /* transparent surfaces a path crosses */
     /* Cycles' limit on a sample's r + g + b (3 x the setting; 0: off): light with no bounce */
     float clamp_direct;
