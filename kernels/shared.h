@@ -48,6 +48,7 @@
 #define MAT_TRANSPARENT 4u
 #define MAT_LAMBERT 8u
 #define MAT_VOLUME 16u
+#define MAT_BOUNDARY 32u
 
 /* BSDF node types (scene/arrays.py NODE_*) */
 #define NODE_PRINCIPLED 0
@@ -66,6 +67,7 @@
 #define NODE_FLAG_MULTI_GGX 1u
 #define NODE_FLAG_CONDUCTOR 2u
 #define NODE_FLAG_NO_BUMP_CORRECTION 4u
+#define NODE_FLAG_VOLUME_BOUNDARY 8u
 
 /* image texture extension modes and flags (scene/arrays.py TEX_*) */
 #define TEX_REPEAT 0u

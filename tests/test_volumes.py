@@ -1,7 +1,7 @@
 """Homogeneous media (issue 42, first phase): a material's Volume output as a medium inside its
 mesh (kernels/geom/medium.h, PPM_VOLUME), against Cycles per block on small scenes, the
-transmittance against Beer-Lambert, the Henyey-Greenstein phase function against its closed
-form, and bad densities."""
+transmittance and emission against their closed forms, the export of each volume node, and bad
+densities (the sampling functions: test_volume_sampling.py)."""
 import numpy as np
 import pytest
 
@@ -220,83 +220,6 @@ def test_camera_inside_fog(bpy, cycles, render_exr, tmp_path, tiny):
     assert_blocks(ours, ref, rtol=0.1, atol=0.003)
 
 
-# --- the sampling functions against their closed forms --------------------------------------------
-@pytest.fixture(scope="module")
-def volume_kernels(pocl_key):
-    from ppm_engine.render.device import get_device
-    device = get_device(pocl_key)
-    return device, device.programs.get("test/volume_test.cl")
-
-
-def _hg(g, x):
-    return (1 - g * g) / (4 * np.pi * (1 + g * g - 2 * g * x) ** 1.5)
-
-
-@pytest.mark.parametrize("g", [0.0, 0.6, -0.85])
-def test_hg_phase_sampling_matches_its_closed_form(volume_kernels, g):
-    """hg_phase is the Henyey-Greenstein closed form and integrates to 1 over the sphere;
-    hg_sample's directions have the density it reports, and their histogram in the cosine
-    follows it (chi-square), their azimuth uniform."""
-    import pyopencl as cl
-    device, prog = volume_kernels
-    q, n = device.queue, 1 << 18
-    out = cl.Buffer(device.context, cl.mem_flags.WRITE_ONLY, 16 * n)
-    prog.launch("hg_samples", "test")(q, n, 64, g=np.float32(g), seed=np.uint32(3), out=out,
-                                      n=np.uint32(n))
-    a = np.empty((n, 4), np.float32)
-    cl.enqueue_copy(q, a, out)
-    c = a[:, 2].astype(np.float64)
-    assert np.allclose(np.linalg.norm(a[:, :3], axis=1), 1.0, atol=1e-5)
-    assert np.allclose(a[:, 3], _hg(g, c), rtol=1e-3)
-    xs = np.linspace(-1, 1, 200001)
-    vals = cl.Buffer(device.context, cl.mem_flags.WRITE_ONLY, 4 * xs.size)
-    prog.launch("hg_eval", "test")(q, xs.size, 64, g=np.float32(g),
-                                   cosines=device.upload(xs.astype(np.float32), "cos"), out=vals,
-                                   n=np.uint32(xs.size))
-    v = np.empty(xs.size, np.float32)
-    cl.enqueue_copy(q, v, vals)
-    assert np.allclose(v, _hg(g, xs), rtol=1e-4)
-    assert 2 * np.pi * np.trapz(v.astype(np.float64), xs) == pytest.approx(1.0, rel=1e-4)
-    edges = np.linspace(-1, 1, 41)
-    hist = np.histogram(c, edges)[0]
-    f = _hg(g, xs)
-    cdf = np.r_[0, np.cumsum(2 * np.pi * np.diff(xs) * 0.5 * (f[1:] + f[:-1]))]
-    expect = n * np.diff(np.interp(edges, xs, cdf))
-    keep = expect > 20
-    chi2 = ((hist[keep] - expect[keep]) ** 2 / expect[keep]).sum()
-    assert chi2 < 2.0 * keep.sum(), chi2
-    phi = np.arctan2(a[:, 1], a[:, 0])
-    assert np.abs(np.histogram(phi, 8)[0] / (n / 8) - 1).max() < 0.02
-
-
-def test_equiangular_density_matches_its_samples(volume_kernels):
-    """equiangular_sample's distances fall on [0, t] with the density it and equiangular_pdf
-    report, which integrates to 1 there (chi-square of their histogram)."""
-    import pyopencl as cl
-    device, prog = volume_kernels
-    q, n, t = device.queue, 1 << 18, 5.0
-    out = cl.Buffer(device.context, cl.mem_flags.WRITE_ONLY, 16 * n)
-    prog.launch("equiangular_samples", "test")(q, n, 64, c=np.float32([0.7, 0.2, 1.5, 0]),
-                                               t=np.float32(t), seed=np.uint32(5), out=out,
-                                               n=np.uint32(n))
-    a = np.empty((n, 4), np.float32)
-    cl.enqueue_copy(q, a, out)
-    s = a[:, 0]
-    assert (s >= 0).all() and (s <= t).all()
-    assert np.allclose(a[:, 1], a[:, 2], rtol=1e-4)
-    D, delta = np.hypot(0.7, 0.2), 1.5
-    xs = np.linspace(0, t, 100001)
-    pdf = D / ((np.arctan((t - delta) / D) - np.arctan(-delta / D)) * (D * D + (xs - delta) ** 2))
-    assert np.trapz(pdf, xs) == pytest.approx(1.0, rel=1e-5)
-    assert np.allclose(a[:, 1], np.interp(s, xs, pdf), rtol=1e-3)
-    edges = np.linspace(0, t, 26)
-    hist = np.histogram(s, edges)[0]
-    cdf = np.r_[0, np.cumsum(np.diff(xs) * 0.5 * (pdf[1:] + pdf[:-1]))]
-    expect = n * np.diff(np.interp(edges, xs, cdf))
-    chi2 = ((hist - expect) ** 2 / expect).sum()
-    assert chi2 < 2.0 * len(expect), chi2
-
-
 # --- export, features, bad input ------------------------------------------------------------------
 def _features(arrays):
     from ppm_engine.render.features import scene_features, used_materials
@@ -315,7 +238,7 @@ def test_export_reads_the_volume_output(bpy):
     warning; the scene's kernels get PPM_VOLUME."""
     from ppm_engine.blender.export import export_scene
     from ppm_engine.scene.arrays import NODE_TRANSPARENT
-    from ppm_engine.scene.materials import MAT_VOLUME
+    from ppm_engine.scene.materials import MAT_BOUNDARY, MAT_VOLUME
     base_scene()
     m = volume_material("PV", Density=2.0, Color=(0.5, 0.25, 1.0, 1), Anisotropy=0.3,
                         **{"Absorption Color": (0.25, 0.25, 0.25, 1), "Emission Strength": 3.0,
@@ -349,6 +272,7 @@ def test_export_reads_the_volume_output(bpy):
     assert (nodes["type"][np.isin(nodes["material"], [pv, mx])] == NODE_TRANSPARENT).all()
     km, f = _features(arrays)
     assert (km["flags"][[pv, mx]] & MAT_VOLUME).all()
+    assert (km["flags"][[pv, mx]] & MAT_BOUNDARY).all()       # (no transparent bounce)
     assert {"PPM_VOLUME", "PPM_ABSORPTION", "PPM_TRANSPARENT"} <= f
 
 
@@ -447,3 +371,25 @@ def test_volume_bounces_and_light_through_fog_onto_the_room(bpy, cycles, render_
     tiny(scene, width=W, height=W, passes=256, photons=4096)
     ours = render_exr(tmp_path / "ours.exr")
     assert_blocks(ours, ref, rtol=0.08, atol=0.0012)
+
+
+def test_volume_boundaries_are_no_transparent_bounces(bpy, cycles, render_exr, tmp_path, tiny):
+    """Three Volume Absorption slabs before an emissive wall with Transparent Bounces 1: a
+    medium's boundary is no transparent bounce (Cycles' volume bounds), so the wall is seen
+    through all three, exp(-3 sigma_a d), as in Cycles."""
+    scene = absorption_scene((0.5, 0.5, 0.5), 1.0)
+    for k in range(2):
+        ink = bpy.data.objects["Ink"].copy()
+        ink.location = (0, 0, 1.5 + 1.5 * k)
+        scene.collection.objects.link(ink)
+    scene.camera.location = (0, 0, 8)
+    cycles(scene, 16, width=W)
+    c = scene.cycles
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 0
+    c.volume_bounces, c.transparent_max_bounces = 0, 1
+    ref = render_exr(tmp_path / "cycles1.exr")
+    tiny(scene, width=W, height=W, passes=2, photons=1024)
+    ours = render_exr(tmp_path / "ours1.exr")
+    exact = np.exp(-0.5 * 3)
+    assert np.allclose(ours[12:20, 12:20], exact, rtol=2e-3), ours[16, 16]
+    assert np.allclose(ref[12:20, 12:20].mean(), exact, rtol=5e-3), ref[16, 16]

@@ -78,6 +78,14 @@ inline void media_cross_transparent(Media *m, __global const Material *materials
     if (materials[mat].flags & MAT_VOLUME) media_cross(m, mat, entering);
 }
 
+/* Whether a transparent crossing of material mat is a medium's boundary alone (MAT_BOUNDARY): no
+ * transparent bounce, as Cycles' volume bounds; paths count them apart and stop past
+ * VOLUME_BOUNDS_MAX (a ray stuck on a surface) */
+#define VOLUME_BOUNDS_MAX 1024
+inline bool media_boundary(__global const Material *materials, int mat) {
+    return (materials[mat].flags & MAT_BOUNDARY) != 0;
+}
+
 /* the innermost medium's material, -1 when the path is in none */
 inline int media_top(const Media *m) { return m->n > 0 ? m->mat[m->n - 1] : -1; }
 

@@ -98,6 +98,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
     media_at(scene, o, &media);
     sd.media = &media;
     int vbounce = 0; /* the path's scatterings in media (Light Paths > Volume bounces) */
+    int bounds = 0; /* the media's boundaries it crossed (media_boundary) */
 #endif
     __global const LightPaths *lp = scene->light_paths;
     int term = TERM_NONE; /* past a Light Paths limit: how the path ends (path_state.h) */
@@ -236,6 +237,12 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
 #endif
             o = offset_ray(s.p, -sd.Ng, scene->emitter_info->offset_scale);
             tmax = PPM_INF;
+#if PPM_VOLUME
+            if (media_boundary(scene->materials, s.material)) {
+                if (++bounds > VOLUME_BOUNDS_MAX) break;
+                continue;
+            }
+#endif
             path = path_transparent(path);
             term = max(term, path_limit_transparent(++transparent, lp));
             continue;
@@ -363,6 +370,10 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
              * its type and its MIS state; a medium's boundary enters or leaves it */
 #if PPM_VOLUME
             media_cross_transparent(&media, scene->materials, s.material, !sd.backfacing);
+            if (media_boundary(scene->materials, s.material)) {
+                if (++bounds > VOLUME_BOUNDS_MAX) break;
+                continue;
+            }
 #endif
             path = path_transparent(path);
             term = path_limit_transparent(++transparent, lp);

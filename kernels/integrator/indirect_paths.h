@@ -111,6 +111,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
 #if PPM_VOLUME
     bool in_medium = false; /* the vertex is a scattering in a medium: its ray is drawn */
     int vbounce = 0; /* the path's scatterings in media (Light Paths > Volume bounces) */
+    int bounds = 0; /* the media's boundaries it crossed (media_boundary) */
 #endif
     for (int vertex = 0, transparent = (int)path_count(path, PATH_TRANSPARENT_DEPTH);; vertex++) {
 #if PPM_VOLUME
@@ -135,9 +136,14 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
                 /* straight through: no scattering, the ray keeps its type and MIS state */
 #if PPM_VOLUME
                 media_cross_transparent(media, scene->materials, mat, !sd->backfacing);
+                if (media_boundary(scene->materials, mat)) {
+                    if (++bounds > VOLUME_BOUNDS_MAX) break;
+                } else
 #endif
-                path = path_transparent(path);
-                term = path_limit_transparent(++transparent, lp);
+                {
+                    path = path_transparent(path);
+                    term = path_limit_transparent(++transparent, lp);
+                }
             } else {
                 depth++;
                 path = path_bounce(path, b.label);
@@ -267,8 +273,15 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
 #endif
             o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
                            scene->emitter_info->offset_scale);
-            path = path_transparent(path);
-            term = max(term, path_limit_transparent(++transparent, lp));
+#if PPM_VOLUME
+            if (media_boundary(scene->materials, s.material)) {
+                if (++bounds > VOLUME_BOUNDS_MAX) return L;
+            } else
+#endif
+            {
+                path = path_transparent(path);
+                term = max(term, path_limit_transparent(++transparent, lp));
+            }
             h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
 #if PPM_ABSORPTION
             if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);

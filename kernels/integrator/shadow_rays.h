@@ -73,28 +73,33 @@ inline float3 ray_transmittance_media(const Scene *scene, float3 o, float3 d, fl
 
 /* The media that hold point p (camera rays' and photons' start, Cycles' volume stack
  * initialisation): a ray from p through every surface (at most MEDIA_PROBE_HITS); a medium
- * whose boundary it meets first from inside (leaving along its normal) holds p.  Outermost
- * first, as paths push them. */
+ * whose boundaries it leaves more often than it enters (several meshes may share a material)
+ * holds p.  Outermost first, as paths push them: the order in which the ray first leaves them,
+ * reversed. */
 #define MEDIA_PROBE_HITS 32
 inline void media_at(const Scene *scene, float3 p, Media *m) {
     media_init(m);
     float3 d = (float3)(0.26726124f, 0.53452248f, 0.80178373f); /* (1, 2, 3) / sqrt(14) */
-    int seen[2 * MEDIUM_DEPTH], n_seen = 0, inside[MEDIUM_DEPTH], n_in = 0;
+    int seen[2 * MEDIUM_DEPTH], depth[2 * MEDIUM_DEPTH], n_seen = 0;
     float3 o = p;
-    for (int k = 0; k < MEDIA_PROBE_HITS && n_seen < 2 * MEDIUM_DEPTH; k++) {
+    for (int k = 0; k < MEDIA_PROBE_HITS; k++) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, 0xffffffffu, false);
         if (h.leaf < 0) break;
         Surface s = surface_at(scene, h);
         bool leaving = dot(d, s.ng) > 0.0f;
         o = offset_ray(s.p, leaving ? s.ng : -s.ng, scene->emitter_info->offset_scale);
         if (!(scene->materials[s.material].flags & MAT_VOLUME)) continue;
-        bool known = false;
-        for (int j = 0; j < n_seen; j++) known |= seen[j] == s.material;
-        if (known) continue;
-        seen[n_seen++] = s.material;
-        if (leaving && n_in < MEDIUM_DEPTH) inside[n_in++] = s.material; /* innermost first */
+        int j = 0;
+        while (j < n_seen && seen[j] != s.material) j++;
+        if (j == n_seen) {
+            if (n_seen == 2 * MEDIUM_DEPTH) continue; /* (more media than it keeps) */
+            seen[n_seen] = s.material;
+            depth[n_seen++] = 0;
+        }
+        depth[j] += leaving ? 1 : -1;
     }
-    for (int j = n_in - 1; j >= 0; j--) m->mat[m->n++] = inside[j];
+    for (int j = n_seen - 1; j >= 0; j--)
+        if (depth[j] > 0 && m->n < MEDIUM_DEPTH) m->mat[m->n++] = seen[j];
 }
 #endif
 

@@ -88,6 +88,9 @@ NODE_FLAG_CONDUCTOR = 2     # Metallic BSDF, Physical Conductor: color = n, edge
 # its material has Cycles' Bump Map Correction off (Material > Settings): its glossy normals are
 # not raised for valid reflections (kernels/svm/shader_inputs.h specular_normal)
 NODE_FLAG_NO_BUMP_CORRECTION = 4
+# the transparent surface of a material with only a Volume output (its medium's boundary: no
+# transparent bounce, as Cycles; materials.MAT_BOUNDARY)
+NODE_FLAG_VOLUME_BOUNDARY = 8
 
 
 # One BSDF node of a material, its inputs constant (textures: 1-based into ``textures``, the

@@ -12,6 +12,7 @@ import numpy as np
 from ppm_engine.scene.arrays import (
     NODE_DIFFUSE,
     NODE_EMISSION,
+    NODE_FLAG_VOLUME_BOUNDARY,
     NODE_GLASS,
     NODE_GLOSSY,
     NODE_HOLDOUT,
@@ -50,6 +51,9 @@ MAT_LAMBERT = 8           # one node making one Lambert closure: the shader's sh
 # a medium inside that scatters or emits, or one entered through a transparent surface (a mesh
 # whose material has only a Volume output): the volume stack's (kernels/geom/medium.h, PPM_VOLUME)
 MAT_VOLUME = 16
+# a medium's boundary alone (a material with only a Volume output): crossing it is no
+# transparent bounce (Cycles' volume bounds), counted apart up to VOLUME_BOUNDS_MAX
+MAT_BOUNDARY = 32
 # the largest coefficient a medium keeps (a density of 1e30 per metre is opaque at 1e-28 m)
 MAX_COEFFICIENT = 1e30
 
@@ -296,6 +300,9 @@ def kernel_materials(materials: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     k["anisotropy"] = np.where(volume, np.clip(np.nan_to_num(materials["anisotropy"]),
                                                -0.999, 0.999), 0.0)
     flags |= np.where(volume, MAT_VOLUME, 0).astype(np.uint32)
+    plain = np.ones(m, bool)
+    np.logical_and.at(plain, owner, (nodes["flags"] & NODE_FLAG_VOLUME_BOUNDARY) != 0)
+    flags |= np.where(volume & plain & (k["node_count"] > 0), MAT_BOUNDARY, 0).astype(np.uint32)
     k["flags"] = flags
     # a material with a shader program never takes the Lambert short path (it skips programs)
     k["program"] = materials["program"]

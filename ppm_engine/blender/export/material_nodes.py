@@ -26,6 +26,7 @@ from ppm_engine.scene.arrays import (
     NODE_FLAG_CONDUCTOR,
     NODE_FLAG_MULTI_GGX,
     NODE_FLAG_NO_BUMP_CORRECTION,
+    NODE_FLAG_VOLUME_BOUNDARY,
     NODE_GLASS,
     NODE_GLOSSY,
     NODE_HOLDOUT,
@@ -340,7 +341,8 @@ def read_material(material, warn, textures=None, attributes: list | None = None,
         if medium is not None:
             # only a Volume output: the surface is a transparent boundary (as Cycles passes
             # through it), the medium inside
-            nodes.append(dict(type=NODE_TRANSPARENT, color=(1.0, 1.0, 1.0)))
+            nodes.append(dict(type=NODE_TRANSPARENT, color=(1.0, 1.0, 1.0),
+                              flags=NODE_FLAG_VOLUME_BOUNDARY))
             return row, nodes, None
         reader.warn("no shader is connected to the material output; it renders black, as in "
                     "Cycles")
