@@ -54,26 +54,27 @@ def test_hg_phase_sampling_matches_its_closed_form(volume_kernels, g):
 
 
 def test_equiangular_density_matches_its_samples(volume_kernels):
-    """equiangular_sample's distances fall on [0, t] with the density it and equiangular_pdf
+    """equiangular_sample's distances fall on [t0, t] with the density it and equiangular_pdf
     report, which integrates to 1 there (chi-square of their histogram)."""
     import pyopencl as cl
     device, prog = volume_kernels
-    q, n, t = device.queue, 1 << 18, 5.0
+    q, n, t0, t = device.queue, 1 << 18, 0.5, 5.0
     out = cl.Buffer(device.context, cl.mem_flags.WRITE_ONLY, 16 * n)
     prog.launch("equiangular_samples", "test")(q, n, 64, c=np.float32([0.7, 0.2, 1.5, 0]),
-                                               t=np.float32(t), seed=np.uint32(5), out=out,
-                                               n=np.uint32(n))
+                                               t0=np.float32(t0), t=np.float32(t),
+                                               seed=np.uint32(5), out=out, n=np.uint32(n))
     a = np.empty((n, 4), np.float32)
     cl.enqueue_copy(q, a, out)
     s = a[:, 0]
-    assert (s >= 0).all() and (s <= t).all()
+    assert (s >= t0).all() and (s <= t).all()
     assert np.allclose(a[:, 1], a[:, 2], rtol=1e-4)
     D, delta = np.hypot(0.7, 0.2), 1.5
-    xs = np.linspace(0, t, 100001)
-    pdf = D / ((np.arctan((t - delta) / D) - np.arctan(-delta / D)) * (D * D + (xs - delta) ** 2))
+    xs = np.linspace(t0, t, 100001)
+    pdf = D / ((np.arctan((t - delta) / D) - np.arctan((t0 - delta) / D))
+               * (D * D + (xs - delta) ** 2))
     assert np.trapz(pdf, xs) == pytest.approx(1.0, rel=1e-5)
     assert np.allclose(a[:, 1], np.interp(s, xs, pdf), rtol=1e-3)
-    edges = np.linspace(0, t, 26)
+    edges = np.linspace(t0, t, 26)
     hist = np.histogram(s, edges)[0]
     cdf = np.r_[0, np.cumsum(np.diff(xs) * 0.5 * (pdf[1:] + pdf[:-1]))]
     expect = n * np.diff(np.interp(edges, xs, cdf))

@@ -167,24 +167,27 @@ inline float medium_sample(float3 sigma_t, float3 sigma_s, float t, float u_c, f
     return INFINITY;
 }
 
-/* Equiangular sampling (Kulla & Fajardo 2012) of a distance s in [0, t] along o + s d towards
- * the point c: uniform in the angle c subtends, density D / ((theta_b - theta_a)(D^2 + h^2)),
- * D the distance from c to the line and h = s - the foot of that perpendicular */
-inline float equiangular_pdf(float3 o, float3 d, float t, float3 c, float s) {
+/* Equiangular sampling (Kulla & Fajardo 2012) of a distance s in [t0, t1] along o + s d
+ * towards the point c: uniform in the angle c subtends, density
+ * D / ((theta_1 - theta_0)(D^2 + h^2)), D the distance from c to the line and h = s - the foot
+ * of that perpendicular; 0 outside [t0, t1] */
+inline float equiangular_pdf(float3 o, float3 d, float t0, float t1, float3 c, float s) {
+    if (!(s >= t0 && s <= t1)) return 0.0f;
     float delta = dot(c - o, d);
     float D = fmax(length(c - o - delta * d), 1e-7f);
-    float ta = atan2(-delta, D), tb = atan2(t - delta, D), h = s - delta;
+    float ta = atan2(t0 - delta, D), tb = atan2(t1 - delta, D), h = s - delta;
     return tb > ta ? D / ((tb - ta) * (D * D + h * h)) : 0.0f;
 }
 
-inline float equiangular_sample(float3 o, float3 d, float t, float3 c, float u, float *pdf) {
+inline float equiangular_sample(float3 o, float3 d, float t0, float t1, float3 c, float u,
+                                float *pdf) {
     float delta = dot(c - o, d);
     float D = fmax(length(c - o - delta * d), 1e-7f);
-    float ta = atan2(-delta, D), tb = atan2(t - delta, D);
-    float s = delta + D * tan(mix(ta, tb, u));
+    float ta = atan2(t0 - delta, D), tb = atan2(t1 - delta, D);
+    float s = clamp(delta + D * tan(mix(ta, tb, u)), t0, t1);
     float h = s - delta;
     *pdf = tb > ta ? D / ((tb - ta) * (D * D + h * h)) : 0.0f;
-    return clamp(s, 0.0f, t);
+    return s;
 }
 #endif
 #endif

@@ -27,6 +27,62 @@ inline bool equiangular_light(const Scene *scene, int e) {
     return (l->type == LIGHT_POINT || l->type == LIGHT_SPOT) && !(l->radius > 0.0f);
 }
 
+/* The part [*s0, *s1] of the segment o + s d (0 <= s <= t) inside light l's spot cone (a point
+ * light: all of it), where its equiangular samples go, as Cycles clips them to a spot's cone;
+ * false when the segment misses the cone.  The cone in the light's frame (spot_attenuation's,
+ * a linear map of the segment) is convex: one interval, between roots of a quadratic. */
+inline bool light_segment(const Light *l, float3 o, float3 d, float t, float *s0, float *s1) {
+    *s0 = 0.0f;
+    *s1 = t;
+    float3 ax = F3(l->axis_x), ay = F3(l->axis_y), dir = F3(l->direction);
+    float sx = dot(ax, ax), sy = dot(ay, ay), cs = l->spot_cos_half;
+    if (l->type != LIGHT_SPOT || !isfinite(t) || !(sx > 0.0f && sy > 0.0f) || !(cs > 0.0f))
+        return true;
+    float3 w = o - F3(l->position);
+    float3 wl = (float3)(dot(w, ax) / sx, dot(w, ay) / sy, dot(w, dir) * l->spot_scale_z);
+    float3 dl = (float3)(dot(d, ax) / sx, dot(d, ay) / sy, dot(d, dir) * l->spot_scale_z);
+    float c2 = cs * cs;
+    float a = dl.z * dl.z - c2 * dot(dl, dl), b = 2.0f * (wl.z * dl.z - c2 * dot(wl, dl)),
+          c = wl.z * wl.z - c2 * dot(wl, wl);
+    float cand[4] = {0.0f, t, 0.0f, 0.0f};
+    int n = 2;
+    float disc = b * b - 4.0f * a * c;
+    if (fabs(a) > 1e-12f && disc >= 0.0f) {
+        float q = sqrt(disc);
+        cand[n++] = clamp((-b - q) / (2.0f * a), 0.0f, t);
+        cand[n++] = clamp((-b + q) / (2.0f * a), 0.0f, t);
+    } else if (fabs(a) <= 1e-12f && fabs(b) > 0.0f) {
+        cand[n++] = clamp(-c / b, 0.0f, t);
+    }
+    for (int i = 1; i < n; i++) /* (sorted) */
+        for (int j = i; j > 0 && cand[j] < cand[j - 1]; j--) {
+            float x = cand[j];
+            cand[j] = cand[j - 1];
+            cand[j - 1] = x;
+        }
+    float lo = INFINITY, hi = -INFINITY;
+    for (int k = 0; k + 1 < n; k++) {
+        float3 v = wl + (0.5f * (cand[k] + cand[k + 1])) * dl;
+        if (v.z > 0.0f && v.z * v.z >= c2 * dot(v, v)) {
+            lo = fmin(lo, cand[k]);
+            hi = fmax(hi, cand[k + 1]);
+        }
+    }
+    *s0 = lo;
+    *s1 = hi;
+    return hi > lo;
+}
+
+/* the density of equiangular sampling's distance s towards light e on segment sg (its pick from
+ * the segment's middle included) */
+inline float equiangular_density(const Scene *scene, const Segment *sg, int e, float s) {
+    Light l = scene->lights[e];
+    float s0, s1;
+    if (!light_segment(&l, sg->o, sg->d, sg->t, &s0, &s1)) return 0.0f;
+    return emitter_pmf_at(scene, e, sg->mid, (float3)(0.0f))
+           * equiangular_pdf(sg->o, sg->d, s0, s1, F3(l.position), s);
+}
+
 /* Light scattered at point p = g->o + s g->d inside a medium of phase anisotropy g towards -d,
  * per unit of the scattering coefficient: next-event estimation (one emitter, its shadow ray
  * through the media m and the transparent boundaries, at most `crossings`).  A light with size
@@ -50,9 +106,7 @@ inline float3 volume_nee(const Scene *scene, const Segment *sg, float s_dist, fl
     if (s.pdf_dir > 0.0f) {
         w = mis_power(pmf * s.pdf_dir, ph);
     } else if (equiangular_light(scene, e)) {
-        float pe = emitter_pmf_at(scene, e, sg->mid, none)
-                   * equiangular_pdf(sg->o, sg->d, sg->t, F3(scene->lights[e].position), s_dist);
-        w = mis_power(pmf * pdf_d, pe);
+        w = mis_power(pmf * pdf_d, equiangular_density(scene, sg, e, s_dist));
     }
     return ph * T * s.E * (w / pmf);
 }
@@ -72,8 +126,9 @@ inline float3 volume_equiangular(const Scene *scene, const Segment *sg, float3 s
     int e = pick_emitter_at(scene, sg->mid, none, u.x, &pmf_e);
     if (!(pmf_e > 0.0f) || !equiangular_light(scene, e)) return none;
     Light l = scene->lights[e];
-    float pdf_e;
-    float s_dist = equiangular_sample(sg->o, sg->d, sg->t, F3(l.position), u.y, &pdf_e);
+    float pdf_e, s0, s1;
+    if (!light_segment(&l, sg->o, sg->d, sg->t, &s0, &s1)) return none; /* (outside its cone) */
+    float s_dist = equiangular_sample(sg->o, sg->d, s0, s1, F3(l.position), u.y, &pdf_e);
     if (!(pdf_e > 0.0f) || !(s_dist < sg->t)) return none;
     float3 p = sg->o + s_dist * sg->d;
     LightSample ls;

@@ -22,13 +22,14 @@ __kernel void hg_eval(float g, __global const float *cosines, __global float *ou
     out[i] = hg_phase(cosines[i], g);
 }
 
-/* n equiangular distances on [0, t] along the z axis from the origin towards c: x the distance,
- * y its density from equiangular_sample, z from equiangular_pdf */
-__kernel void equiangular_samples(float4 c, float t, uint seed, __global float4 *out, uint n) {
+/* n equiangular distances on [t0, t] along the z axis from the origin towards c: x the
+ * distance, y its density from equiangular_sample, z from equiangular_pdf */
+__kernel void equiangular_samples(float4 c, float t0, float t, uint seed, __global float4 *out,
+                                  uint n) {
     uint i = get_global_id(0);
     if (i >= n) return;
     uint rng = rng_seed(seed, 0u, i, 13u);
     float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);
-    float pdf, s = equiangular_sample(o, d, t, c.xyz, rnd(&rng), &pdf);
-    out[i] = (float4)(s, pdf, equiangular_pdf(o, d, t, c.xyz, s), 0.0f);
+    float pdf, s = equiangular_sample(o, d, t0, t, c.xyz, rnd(&rng), &pdf);
+    out[i] = (float4)(s, pdf, equiangular_pdf(o, d, t0, t, c.xyz, s), 0.0f);
 }
