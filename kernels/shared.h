@@ -307,6 +307,10 @@ typedef struct {
     /* the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
      * aim.h), set for the render's options by DeviceScene.set_casters */
     int n_casters;
+    /* the used materials with a medium of the volume stack (materials.MAT_VOLUME), set by
+     * DeviceScene.upload: with none, no ray looks for the media holding a camera or a light
+     * (kernels/integrator/shadow_rays.h media_at) */
+    int n_media;
 } EmitterInfo;
 
 /* mirrors ppm_engine/scene/light_tree.py LIGHT_TREE_NODE_DTYPE */

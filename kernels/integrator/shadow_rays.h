@@ -79,6 +79,7 @@ inline float3 ray_transmittance_media(const Scene *scene, float3 o, float3 d, fl
 #define MEDIA_PROBE_HITS 32
 inline void media_at(const Scene *scene, float3 p, Media *m) {
     media_init(m);
+    if (scene->emitter_info->n_media == 0) return; /* (a program of every feature, no media) */
     float3 d = (float3)(0.26726124f, 0.53452248f, 0.80178373f); /* (1, 2, 3) / sqrt(14) */
     int seen[2 * MEDIUM_DEPTH], depth[2 * MEDIUM_DEPTH], n_seen = 0;
     float3 o = p;

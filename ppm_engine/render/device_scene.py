@@ -173,6 +173,8 @@ class DeviceScene:
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,
                                             self.world_map)
         em.info["offset_scale"] = self.offset_scale
+        em.info["n_media"] = int(((self.kmaterials["flags"][self.used_materials] & MAT_VOLUME)
+                                  != 0).sum())
         args.update(self._upload(
             lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
             emitter_info=em.info, light_tree=em.tree, emitter_leaf=em.emitter_leaf,
@@ -337,7 +339,7 @@ class DeviceScene:
 
     def has_media(self) -> bool:
         """Whether some used material has a medium of the volume stack (materials.MAT_VOLUME)."""
-        return bool((self.kmaterials["flags"][self.used_materials] & MAT_VOLUME).any())
+        return bool(self.emitters.info["n_media"][0] > 0)
 
     def caustics_possible(self, gather_roughness: float, caustic_roughness: float = 0.7) -> bool:
         """Whether some surface has a closure that makes caustics (materials.follow_capable):

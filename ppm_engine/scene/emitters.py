@@ -63,6 +63,10 @@ EMITTER_INFO_DTYPE = np.dtype([
     # the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
     # aim.h), set for the render's options by DeviceScene.set_casters
     ("n_casters", np.int32),
+    # the used materials with a medium of the volume stack (materials.MAT_VOLUME), set by
+    # DeviceScene.upload: with none, no ray looks for the media holding a camera or a light
+    # (kernels/integrator/shadow_rays.h media_at)
+    ("n_media", np.int32),
 ])
 
 # at most this many emissive triangles are picked among locally (kernels/light/light_mesh.h
