@@ -47,6 +47,8 @@
 #define MAT_GATHER 2u
 #define MAT_TRANSPARENT 4u
 #define MAT_LAMBERT 8u
+#define MAT_VOLUME 16u
+#define MAT_BOUNDARY 32u
 
 /* BSDF node types (scene/arrays.py NODE_*) */
 #define NODE_PRINCIPLED 0
@@ -65,6 +67,7 @@
 #define NODE_FLAG_MULTI_GGX 1u
 #define NODE_FLAG_CONDUCTOR 2u
 #define NODE_FLAG_NO_BUMP_CORRECTION 4u
+#define NODE_FLAG_VOLUME_BOUNDARY 8u
 
 /* image texture extension modes and flags (scene/arrays.py TEX_*) */
 #define TEX_REPEAT 0u
@@ -207,7 +210,7 @@ typedef struct {
     int diffuse_bounces;
     int glossy_bounces;     /* glossy and singular reflections */
     int transmission_bounces; /* transmissions (glass, translucency) */
-    int volume_bounces;     /* kept; this engine scatters in no volume */
+    int volume_bounces;     /* scatterings in media an eye path may take */
     int transparent_max_bounces; /* transparent surfaces a path crosses */
     /* Cycles' limit on a sample's r + g + b (3 x the setting; 0: off): light with no bounce */
     float clamp_direct;
@@ -232,6 +235,10 @@ typedef struct {
     float absorption[3];
     /* first word of its shader program in svm (kernels/svm/svm.h), 0 = none */
     int program;
+    /* scattering coefficient inside (per metre; MAT_VOLUME only: kernels/geom/medium.h) */
+    float scattering[3];
+    float anisotropy;       /* its Henyey-Greenstein g, in (-1, 1) */
+    float volume_emission[3]; /* radiance emitted per metre inside (MAT_VOLUME only) */
 } Material;
 
 /* mirrors ppm_engine/scene/arrays.py SHADER_NODE_DTYPE */
@@ -305,6 +312,10 @@ typedef struct {
     /* the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
      * aim.h), set for the render's options by DeviceScene.set_casters */
     int n_casters;
+    /* the used materials with a medium of the volume stack (materials.MAT_VOLUME), set by
+     * DeviceScene.upload: with none, no ray looks for the media holding a camera or a light
+     * (kernels/integrator/shadow_rays.h media_at) */
+    int n_media;
 } EmitterInfo;
 
 /* mirrors ppm_engine/scene/light_tree.py LIGHT_TREE_NODE_DTYPE */

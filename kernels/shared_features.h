@@ -86,6 +86,11 @@
 #ifndef PPM_ABSORPTION
 #define PPM_ABSORPTION PPM_ALL_FEATURES
 #endif
+/* PPM_VOLUME: homogeneous media: the volume stack, distance sampling, the phase function
+ * (medium.h; with PPM_ABSORPTION) */
+#ifndef PPM_VOLUME
+#define PPM_VOLUME PPM_ALL_FEATURES
+#endif
 /* PPM_SVM: shader programs (svm.h; with PPM_SVM_OPS and PPM_SVM_STACK) */
 #ifndef PPM_SVM
 #define PPM_SVM PPM_ALL_FEATURES

@@ -3,6 +3,7 @@
 #include "closure/closure.h"
 #include "svm/textures.h"
 #include "svm/svm.h"
+#include "geom/medium.h"
 
 /* The closures at one shading point (kernels/closure/shader.h fills it in from the material's BSDF
  * nodes), with the emission, transparency and holdout that are not lobes.  At most
@@ -32,6 +33,10 @@ typedef struct {
     int leaf;             /* the point's triangle (bvh.h Surface) and barycentrics: the shadow */
     uint tri;             /* terminator's lift (bvh.h terminator_lift) */
     float u, v;
+#if PPM_VOLUME
+    const Media *media;   /* the media the point is in (its shadow rays' transmittance); 0: none.
+                             Set by the pass after shader_setup, which leaves it alone */
+#endif
 } ShaderData;
 
 /* the BSDF node the setup functions read: a private copy with the program's inputs written in

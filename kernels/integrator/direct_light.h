@@ -5,6 +5,7 @@
 #include "light/light_mesh.h"
 #include "light/world.h"
 #include "closure/shader.h"
+#include "integrator/shadow_rays.h"
 
 /* Direct light at a shading point: next-event estimation (one emitter picked by power, among
  * few emissive triangles by their light at the point: light_mesh.h pick_emitter_at; a shadow
@@ -39,11 +40,15 @@ typedef struct {
     float3 o, d, pv, nv, beta;
     float tmax, prev_pdf, limit;
     uint ray_type;
+#if PPM_VOLUME
+    /* the extinction of the medium it is in: a light at t seen through exp(-sigma_t t) */
+    float3 sigma_t;
+#endif
 } LightRay;
 
 inline LightRay light_ray(float3 o, float3 d, float tmax, uint ray_type, float3 pv, float3 nv,
                           float prev_pdf, float3 beta, float limit) {
-    LightRay r = {o, d, pv, nv, beta, tmax, prev_pdf, limit, ray_type};
+    LightRay r = {o, d, pv, nv, beta, tmax, prev_pdf, limit, ray_type}; /* (sigma_t: 0) */
     return r;
 }
 
@@ -73,6 +78,9 @@ inline bool light_met(const Scene *scene, int i, const LightRay *r, float t0, in
     if (!isinf(r->prev_pdf) && max3(r->beta) > 0.0f) {
         w = mis_power(r->prev_pdf, pdf * emitter_pmf_at(scene, i, r->pv, r->nv));
     }
+#if PPM_VOLUME
+    Le *= exp(-r->sigma_t * t);
+#endif
     m->c = clamp_sample(r->beta * Le * w, r->limit);
     return true;
 }
@@ -217,42 +225,6 @@ inline float mesh_hit_mis(const Scene *scene, const Hit *h, float3 o, float3 d, 
     return mis_power(prev_pdf, pdf_l);
 }
 
-/* The fraction of light a ray from o along d lets through over dist, meeting the objects of
- * visibility `mask`: 0 at an opaque surface; partly transparent surfaces (alpha, Transparent
- * BSDF) attenuate it, at most `crossings` of them (as Blender 5.0's Cycles renders: the Light
- * Paths' transparent limit less the path's crossings, ShaderData.crossings).  A shadow ray's
- * (shadow_transmittance) meets what casts shadows; a camera connection's
- * (photon_pass.cl connect_camera) what the camera sees. */
-inline float3 ray_transmittance(const Scene *scene, float3 o, float3 d, float dist, int crossings,
-                                uint mask) {
-#if PPM_TRANSPARENT
-    float3 T = (float3)(1.0f);
-    for (int i = 0; i <= crossings; i++) {
-        Hit h = bvh_intersect(scene, o, d, dist, mask, false);
-        if (h.leaf < 0) return T;
-        Surface s = surface_at(scene, h);
-        if (i == crossings || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
-            return (float3)(0.0f);
-        T *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
-        if (!(max3(T) > 0.0f)) return (float3)(0.0f);
-        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
-                               scene->emitter_info->offset_scale);
-        dist -= dot(o2 - o, d);
-        o = o2;
-        if (!(dist > 0.0f)) return T;
-    }
-    return (float3)(0.0f);
-#else
-    Hit h = bvh_intersect(scene, o, d, dist, mask, true);
-    return (float3)(h.leaf < 0 ? 1.0f : 0.0f);
-#endif
-}
-
-inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float dist,
-                                   int crossings) {
-    return ray_transmittance(scene, o, d, dist, crossings, VIS_SHADOW);
-}
-
 /* One next-event sample from p (n: the shading normal the world is sampled around, ngf the
  * geometric normal on the side the light must come from); false when there is none. */
 inline bool sample_emitter(const Scene *scene, float3 p, float3 n, float3 ngf, float3 u,
@@ -326,7 +298,12 @@ inline float3 direct_nee_u(const Scene *scene, const ShaderData *sd, float3 p, i
         }
         o += lift;
     }
+#if PPM_VOLUME
+    Media m = shading_media(scene, sd, transmit); /* the point's, or those behind the surface */
+    float3 T = ray_transmittance_media(scene, o, wi, dist, sd->crossings, VIS_SHADOW, &m);
+#else
     float3 T = shadow_transmittance(scene, o, wi, dist, sd->crossings);
+#endif
     float w = mis && s.pdf_dir > 0.0f ? mis_power(pmf * s.pdf_dir, pdf_b) : 1.0f;
     return f * T * s.E * (w / pmf);
 }
@@ -347,16 +324,26 @@ inline float3 direct_nee(const Scene *scene, const ShaderData *sd, float3 p, int
  * or the world, through at most `crossings` partly transparent surfaces (attenuated), with the
  * lights met among the transparent bounces. */
 inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_type, float3 p,
-                            float3 n, int crossings, float pdf_b) {
+                            float3 n, int crossings, float pdf_b, const Media *media) {
     float3 T = (float3)(1.0f), L = (float3)(0.0f);
+#if PPM_VOLUME
+    Media m = media_copy(media); /* the ray's (0: none), changed at the boundaries it crosses */
+#endif
     for (;;) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, ray_type, false);
 #if PPM_LIGHTS_SEEN
         LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, ray_type, p, n, pdf_b, T, 0.0f);
+#if PPM_VOLUME
+        r.sigma_t = media_extinction(&m, scene->materials);
+#endif
         int met, budget = max(crossings, 1);
         L += lights_seen(scene, &r, h.leaf < 0, budget, &met);
         if (met == budget) return L; /* the path ends at the last light it may cross */
         crossings -= met;
+#endif
+#if PPM_VOLUME
+        T *= media_transmittance(&m, scene->materials, h.leaf < 0 ? PPM_INF : h.t);
+        if (!(max3(T) > 0.0f)) return L;
 #endif
         if (h.leaf < 0) {
             if (!(PPM_WORLD && scene->emitter_info->has_world)) return L;
@@ -376,6 +363,9 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
         Surface s = surface_at(scene, h);
         T *= material_transparency(scene, mat, s.tri, h.u, h.v, s.p);
         if (!(max3(T) > 0.0f)) return L;
+#if PPM_VOLUME
+        media_cross_transparent(&m, scene->materials, mat, dot(d, s.ng) < 0.0f);
+#endif
         o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, scene->emitter_info->offset_scale);
     }
 }
@@ -394,11 +384,16 @@ inline float3 direct_bsdf(const Scene *scene, const ShaderData *sd, float3 p, in
     uint ray = (b.label & LABEL_DIFFUSE) ? VIS_DIFFUSE : transmit ? VIS_TRANSMISSION : VIS_GLOSSY;
     float pdf_b = b.pdf;      /* next-event estimation's density for its closures (mis_mask) */
     if (mis_mask != mask && !isinf(pdf_b)) pdf_b = shader_mis_pdf(sd, b.wo, mask, mis_mask, pdf_b);
+#if PPM_VOLUME
+    Media m = shading_media(scene, sd, transmit), *mp = &m;
+#else
+    const Media *mp = 0;
+#endif
     return b.weight
            * emitter_along(scene,
                            offset_ray(p, transmit ? -sd->Ng : sd->Ng,
                                       scene->emitter_info->offset_scale),
-                           b.wo, ray, p, sd->N, sd->crossings, pdf_b);
+                           b.wo, ray, p, sd->N, sd->crossings, pdf_b, mp);
 #else
     return (float3)(0.0f);       /* nothing for the sample to find but what NEE samples */
 #endif

@@ -2,6 +2,7 @@
 #define PPM_INDIRECT_PATHS_H
 #include "rng.h"
 #include "integrator/direct_light.h"
+#include "integrator/volume_light.h"
 #include "geom/camera.h"
 #include "geom/medium.h"
 
@@ -106,51 +107,108 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
     float4 ua = indirect_set(0, 0u, pass, key, rng);
     __global const LightPaths *lp = scene->light_paths;
     int term = TERM_NONE; /* past a Light Paths limit: how the path ends (path_state.h) */
+    float3 o = p, d = (float3)(0.0f, 0.0f, 1.0f); /* the ray to the next vertex */
+#if PPM_VOLUME
+    bool in_medium = false; /* the vertex is a scattering in a medium: its ray is drawn */
+    int vbounce = 0; /* the path's scatterings in media (Light Paths > Volume bounces) */
+    int bounds = 0; /* the media's boundaries it crossed (media_boundary) */
+#endif
     for (int vertex = 0, transparent = (int)path_count(path, PATH_TRANSPARENT_DEPTH);; vertex++) {
-        if (own && !(vertex == 0 && nee_all)) {
-            float3 u = (float3)(ua.z, ua.x, ua.y);
-            L += clamp_sample(beta * direct_nee_u(scene, sd, p, set, EMITTERS_HITTABLE, u),
-                              clamp_limit(depth, lp));
-        }
-        float4 ub = indirect_set(vertex, 1u, pass, key, rng);
-        if (vertex == 0) u_rr = ub.w;
-        BsdfSample b;
-        float3 rand = ub.xyz;
-        if (!shader_sample(sd, set, rand, &b)) break;
-        beta *= b.weight;
-        bool transmit = (b.label & LABEL_TRANSMIT) != 0;
-        float3 o = offset_ray(p, transmit ? -sd->Ng : sd->Ng, scene->emitter_info->offset_scale);
-        float3 d = b.wo;
-        if (b.label & LABEL_TRANSPARENT) {
-            /* straight through: no scattering, the ray keeps its type and MIS state */
-            path = path_transparent(path);
-            term = path_limit_transparent(++transparent, lp);
-        } else {
-            depth++;
-            path = path_bounce(path, b.label);
-            term = path_limit(path, depth, lp);
-            counts = own;
-            prev_pdf = b.pdf;
-            if (vertex == 0 && nee_all && !isinf(b.pdf)) /* the eye pass's NEE's density */
-                prev_pdf = shader_mis_pdf(sd, b.wo, set, MASK_ALL, b.pdf);
-            if (lp->filter_glossy > 0.0f && !isinf(b.pdf) && !filter_glossy_blurs(min_pdf, lp)) {
-                /* the smallest density, the mixture's over all the closures (once below the
+#if PPM_VOLUME
+        if (!in_medium)
+#endif
+        {
+            if (own && !(vertex == 0 && nee_all)) {
+                float3 u = (float3)(ua.z, ua.x, ua.y);
+                L += clamp_sample(beta * direct_nee_u(scene, sd, p, set, EMITTERS_HITTABLE, u),
+                                  clamp_limit(depth, lp));
+            }
+            float4 ub = indirect_set(vertex, 1u, pass, key, rng);
+            if (vertex == 0) u_rr = ub.w;
+            BsdfSample b;
+            float3 rand = ub.xyz;
+            if (!shader_sample(sd, set, rand, &b)) break;
+            beta *= b.weight;
+            bool transmit = (b.label & LABEL_TRANSMIT) != 0;
+            o = offset_ray(p, transmit ? -sd->Ng : sd->Ng, scene->emitter_info->offset_scale);
+            d = b.wo;
+            if (b.label & LABEL_TRANSPARENT) {
+                /* straight through: no scattering, the ray keeps its type and MIS state */
+#if PPM_VOLUME
+                media_cross_transparent(media, scene->materials, mat, !sd->backfacing);
+                if (media_boundary(scene->materials, mat)) {
+                    if (++bounds > VOLUME_BOUNDS_MAX) break;
+                } else
+#endif
+                {
+                    path = path_transparent(path);
+                    term = path_limit_transparent(++transparent, lp);
+                }
+            } else {
+                depth++;
+                path = path_bounce(path, b.label);
+                term = path_limit(path, depth, lp);
+                counts = own;
+                prev_pdf = b.pdf;
+                if (vertex == 0 && nee_all && !isinf(b.pdf)) /* the eye pass's NEE's density */
+                    prev_pdf = shader_mis_pdf(sd, b.wo, set, MASK_ALL, b.pdf);
+                if (lp->filter_glossy > 0.0f && !isinf(b.pdf)
+                    && !filter_glossy_blurs(min_pdf, lp)) {
+                    /* the smallest density, the mixture's over all the closures (once below the
                  * setting it stays there), evaluated as the gather and the photons evaluate
                  * it (gather.cl photon_term, photon_pass.cl) */
-                float p_all = b.pdf;
-                if (set != MASK_ALL) shader_eval(sd, b.wo, MASK_ALL, &p_all);
-                min_pdf = fmin(min_pdf, p_all);
-            }
-            prev_n = sd->N;
-            prev_p = p;
-            mask = bounce_visibility(b.label);
+                    float p_all = b.pdf;
+                    if (set != MASK_ALL) shader_eval(sd, b.wo, MASK_ALL, &p_all);
+                    min_pdf = fmin(min_pdf, p_all);
+                }
+                prev_n = sd->N;
+                prev_p = p;
+                mask = bounce_visibility(b.label);
 #if PPM_ABSORPTION
-            if (transmit) media_cross(media, mat, !sd->backfacing);
+                if (transmit) media_cross(media, mat, !sd->backfacing);
 #endif
+            }
         }
+#if PPM_VOLUME
+        in_medium = false;
+#endif
         if (!(max3(beta) > 0.0f)) break;
         Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
-#if PPM_ABSORPTION
+#if PPM_VOLUME
+        /* a segment in a medium, as the eye pass's: its emission and the light its scattering
+         * brings (next-event estimation, equiangular sampling) are these paths' whatever the
+         * mode (photons neither scatter in media nor leave emitting ones) */
+        float3 beta_in = beta, sigma_t = media_extinction(media, scene->materials);
+        float t_s = INFINITY, pdf_s = 0.0f;
+        int vm = media_top(media);
+        Segment sg;
+        if (vm >= 0) {
+            __global const Material *mt = scene->materials + vm;
+            float seg = h.leaf < 0 ? PPM_INF : h.t;
+            float3 sigma_s = F3(mt->scattering), pc;
+            if (max3(F3(mt->volume_emission)) > 0.0f)
+                L += clamp_sample(beta * medium_emission(mt, sigma_t, seg),
+                                  clamp_limit(depth - 1, lp));
+            if (term == TERM_NONE && max3(sigma_s) > 0.0f) {
+                float u_c = rnd(rng), u_t = rnd(rng);
+                float3 ue = (float3)(rnd(rng), rnd(rng), rnd(rng));
+                bool scatters = medium_channels(sigma_t, sigma_s, beta, &pc);
+                sg = segment(o, d, seg, scatters ? pc : (float3)(0.0f));
+                if (PPM_LIGHT_POINT && scatters)
+                    L += clamp_sample(beta
+                                          * volume_equiangular(scene, &sg, sigma_t, sigma_s,
+                                                               mt->anisotropy, media,
+                                                               max(lp->transparent_max_bounces
+                                                                       - transparent,
+                                                                   0),
+                                                               ue),
+                                      clamp_limit(depth, lp));
+                t_s = medium_sample(sigma_t, sigma_s, seg, u_c, u_t, &beta, &pdf_s);
+            } else {
+                beta *= medium_tr(sigma_t, seg);
+            }
+        }
+#elif PPM_ABSORPTION
         if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);
 #endif
         float pdf_l = 0.0f;
@@ -158,13 +216,48 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         /* the lights the ray meets (theirs to add when it counts), each a transparent bounce;
          * the path ends at the one that reaches the limit */
         {
+#if PPM_VOLUME
+            LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, mask, prev_p, prev_n, prev_pdf,
+                                   counts ? beta_in : (float3)(0.0f), clamp_limit(depth - 1, lp));
+            r.sigma_t = sigma_t;
+#else
             LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, mask, prev_p, prev_n, prev_pdf,
                                    counts ? beta : (float3)(0.0f), clamp_limit(depth - 1, lp));
+#endif
             int met, budget = lights_budget(transparent, lp);
             L += lights_seen(scene, &r, h.leaf < 0, budget, &met);
             if (met == budget) break;
             transparent += met;
             path = path_transparent_n(path, met);
+        }
+#endif
+#if PPM_VOLUME
+        if (t_s < INFINITY) {
+            /* scattered at q: next-event estimation, then the phase function's sample, which
+             * finds the emitters with size under MIS and goes on while Volume bounces allow */
+            float3 q = o + t_s * d;
+            float g = scene->materials[vm].anisotropy;
+            L += clamp_sample(beta
+                                  * volume_nee(scene, &sg, t_s, pdf_s, g, media,
+                                               max(lp->transparent_max_bounces - transparent, 0),
+                                               (float3)(rnd(rng), rnd(rng), rnd(rng))),
+                              clamp_limit(depth, lp));
+            float u1 = rnd(rng), u2 = rnd(rng);
+            float3 wo = hg_sample(d, g, u1, u2, &prev_pdf); /* (its weight: phase / pdf = 1) */
+            depth++;
+            vbounce++;
+            path = path_add(path, PATH_DEPTH) & ~127u;
+            term = vbounce > lp->volume_bounces || depth > lp->max_bounces ? TERM_AFTER_TRANSPARENT
+                                                                           : TERM_NONE;
+            counts = true;
+            prev_n = (float3)(0.0f);
+            prev_p = q;
+            mask = VIS_DIFFUSE;
+            o = q;
+            d = wo;
+            in_medium = true;
+            if (!(max3(beta) > 0.0f)) break;
+            continue;
         }
 #endif
         while (h.leaf >= 0 && term == TERM_AFTER_TRANSPARENT) {
@@ -175,10 +268,20 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             if (counts && (scene->materials[s.material].flags & MAT_EMISSIVE)) break;
             beta *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
             if (!(max3(beta) > 0.0f)) return L;
+#if PPM_VOLUME
+            media_cross_transparent(media, scene->materials, s.material, dot(d, s.ng) < 0.0f);
+#endif
             o = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
                            scene->emitter_info->offset_scale);
-            path = path_transparent(path);
-            term = max(term, path_limit_transparent(++transparent, lp));
+#if PPM_VOLUME
+            if (media_boundary(scene->materials, s.material)) {
+                if (++bounds > VOLUME_BOUNDS_MAX) return L;
+            } else
+#endif
+            {
+                path = path_transparent(path);
+                term = max(term, path_limit_transparent(++transparent, lp));
+            }
             h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
 #if PPM_ABSORPTION
             if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);

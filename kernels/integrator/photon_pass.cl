@@ -138,6 +138,10 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
     Media media;
     media_init(&media);
 #endif
+#if PPM_VOLUME
+    media_at(scene, o, &media); /* a light inside fog */
+    int bounds = 0;             /* the media's boundaries it crossed (media_boundary) */
+#endif
     ShaderData sd;
     bool direct = true; /* nothing but transparent surfaces crossed yet */
     uint path = 0u; /* the Light Path node's view: light's rays are no camera rays */
@@ -292,9 +296,20 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
             rs /= measure; /* camera paths carry no such factor */
         }
         if (b.label & LABEL_TRANSPARENT) { /* not a bounce (Cycles' transparent bounces) */
-            if (++transparent > lp->transparent_max_bounces) break;
-            path = path_transparent(path);
-            ppath = path_transparent(ppath);
+#if PPM_VOLUME
+            /* a medium's boundary: photons go on through it with its transmittance (they
+             * neither scatter nor are stored in media yet: what scatters out is lost); no
+             * transparent bounce */
+            media_cross_transparent(&media, scene->materials, s.material, dot(d, s.ng) < 0.0f);
+            if (media_boundary(scene->materials, s.material)) {
+                if (++bounds > VOLUME_BOUNDS_MAX) break;
+            } else
+#endif
+            {
+                if (++transparent > lp->transparent_max_bounces) break;
+                path = path_transparent(path);
+                ppath = path_transparent(ppath);
+            }
         } else {
             if (direct && rs > 0.0f && (b.label & LABEL_SINGULAR)) {
                 if (delta) rs = 0.0f; /* no camera path finds a light of no size so */

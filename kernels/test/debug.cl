@@ -36,6 +36,9 @@ __kernel void direct_light_at(SCENE_PARAMS __global const float4 *points,
     if (i >= n) return;
     uint rng = rng_seed(1u, 0u, i, 9u);
     ShaderData sd;
+#if PPM_VOLUME
+    sd.media = 0;
+#endif
     float3 N = nrm[i].xyz;
     sd.n = 0;
     sd.N = sd.Ng = sd.wi = N;

@@ -34,6 +34,7 @@ from ppm_engine.scene.light_tree import LIGHT_TREE_NODE_DTYPE
 from ppm_engine.scene.materials import (
     KMATERIAL_DTYPE,
     MAT_GATHER,
+    MAT_VOLUME,
     follow_capable,
     kernel_materials,
     kernel_nodes,
@@ -172,6 +173,8 @@ class DeviceScene:
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,
                                             self.world_map)
         em.info["offset_scale"] = self.offset_scale
+        em.info["n_media"] = int(((self.kmaterials["flags"][self.used_materials] & MAT_VOLUME)
+                                  != 0).sum())
         args.update(self._upload(
             lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
             emitter_info=em.info, light_tree=em.tree, emitter_leaf=em.emitter_leaf,
@@ -332,6 +335,10 @@ class DeviceScene:
                                                lp["transmission_bounces"]) > 0
         diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_GATHER).any())
         return bool(self.emitters.info["n_emitters"][0] > 0 and bounce and diffuse)
+
+    def has_media(self) -> bool:
+        """Whether some used material has a medium of the volume stack (materials.MAT_VOLUME)."""
+        return bool(self.emitters.info["n_media"][0] > 0)
 
     def caustics_possible(self, gather_roughness: float, caustic_roughness: float = 0.7) -> bool:
         """Whether some surface has a closure that makes caustics (materials.follow_capable):

@@ -22,7 +22,13 @@ from ppm_engine.scene.arrays import (
     VIS_TRANSMISSION,
     SceneArrays,
 )
-from ppm_engine.scene.materials import MAT_GATHER, MAT_LAMBERT, anisotropic_nodes, node_features
+from ppm_engine.scene.materials import (
+    MAT_GATHER,
+    MAT_LAMBERT,
+    MAT_VOLUME,
+    anisotropic_nodes,
+    node_features,
+)
 from ppm_engine.scene.shader_program import SVM_IMAGE, ops_used
 
 # The kernels' feature flags (kernels/shared.h, generated from this table): each compiles the
@@ -47,6 +53,8 @@ FEATURES = {
     "PPM_DOF": "depth of field",
     "PPM_TEXTURES": "image textures",
     "PPM_ABSORPTION": "glass with absorption inside (medium.h)",
+    "PPM_VOLUME": "homogeneous media: the volume stack, distance sampling, the phase function "
+                  "(medium.h; with PPM_ABSORPTION)",
     "PPM_SVM": "shader programs (svm.h; with PPM_SVM_OPS and PPM_SVM_STACK)",
 }
 
@@ -128,6 +136,8 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarra
         f.add("PPM_ANISOTROPY")
     if (m["absorption"] > 0).any():       # (kernel_materials keeps it on glass only)
         f.add("PPM_ABSORPTION")
+    if ((m["flags"] & MAT_VOLUME) != 0).any():
+        f.update(("PPM_VOLUME", "PPM_ABSORPTION"))    # (the media's plumbing is absorption's)
     if (m["program"] > 0).any():
         f.add("PPM_SVM")
         if ops_used(scene.svm, m["program"]) & (1 << SVM_IMAGE):

@@ -173,10 +173,10 @@ class Renderer:
     def light_tracing_kappa(self, o: RenderOptions) -> float:
         """The photons' light tracing (photon_pass.cl connect_camera): its MIS factor kappa, or
         0 where it is off: when asked not to, with no photon pass, or through a lens (light
-        tracing connects to a pinhole)."""
+        tracing connects to a pinhole), or with media (its camera rays do not cross them yet)."""
         pinhole = float(self.scene.scene.camera["aperture_radius"][0]) <= 0.0
         return (LIGHT_TRACING_KAPPA if o.light_tracing and self.photons_needed and pinhole
-                else 0.0)
+                and not self.scene.has_media() else 0.0)
 
     # photons of the pilot that measures the share of caustic first scatterings
     PILOT_PHOTONS = 1 << 16

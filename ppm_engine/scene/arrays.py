@@ -66,6 +66,13 @@ MATERIAL_DTYPE = np.dtype([
     # density)
     ("absorption", np.float32, 3),
     ("program", np.int32),    # first word of its shader program in SceneArrays.svm, 0 = none
+    # the rest of the Volume output's homogeneous medium (Volume Scatter, Principled Volume,
+    # Emission into the Volume output): scattering coefficient per metre (RGB), the
+    # Henyey-Greenstein anisotropy g, emitted radiance per metre (RGB); rendered inside glass
+    # and inside meshes whose material has only a Volume output (a transparent boundary)
+    ("scattering", np.float32, 3),
+    ("anisotropy", np.float32),
+    ("volume_emission", np.float32, 3),
 ])
 
 # BSDF node types (kernels/shared.h NODE_*)
@@ -87,6 +94,9 @@ NODE_FLAG_CONDUCTOR = 2     # Metallic BSDF, Physical Conductor: color = n, edge
 # its material has Cycles' Bump Map Correction off (Material > Settings): its glossy normals are
 # not raised for valid reflections (kernels/svm/shader_inputs.h specular_normal)
 NODE_FLAG_NO_BUMP_CORRECTION = 4
+# the transparent surface of a material with only a Volume output (its medium's boundary: no
+# transparent bounce, as Cycles; materials.MAT_BOUNDARY)
+NODE_FLAG_VOLUME_BOUNDARY = 8
 
 
 # One BSDF node of a material, its inputs constant (textures: 1-based into ``textures``, the

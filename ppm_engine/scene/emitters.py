@@ -63,6 +63,10 @@ EMITTER_INFO_DTYPE = np.dtype([
     # the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
     # aim.h), set for the render's options by DeviceScene.set_casters
     ("n_casters", np.int32),
+    # the used materials with a medium of the volume stack (materials.MAT_VOLUME), set by
+    # DeviceScene.upload: with none, no ray looks for the media holding a camera or a light
+    # (kernels/integrator/shadow_rays.h media_at)
+    ("n_media", np.int32),
 ])
 
 # at most this many emissive triangles are picked among locally (kernels/light/light_mesh.h
@@ -239,6 +243,11 @@ def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
         return True                     # (a world's program: its map may be black)
     if (light_power(scene.lights, 1.0) > 0).any():
         return True
+    glowing = kmaterials["volume_emission"].max(axis=1) > 0     # (media: MAT_VOLUME only)
+    if glowing.any():
+        m = scene.material[(scene.material >= 0) & (scene.material < glowing.shape[0])]
+        if glowing[m].any():
+            return True                 # an emitting medium (seen by eye paths only)
     emission = mean_emission(kmaterials, scene.textures, scene.texels).max(axis=1)
     if not (emission > 0).any():
         return False                    # (no emissive material at all: skip the triangles)

@@ -31,7 +31,7 @@ LIGHT_PATHS_DTYPE = np.dtype([
     ("diffuse_bounces", np.int32),
     ("glossy_bounces", np.int32),         # glossy and singular reflections
     ("transmission_bounces", np.int32),   # transmissions (glass, translucency)
-    ("volume_bounces", np.int32),         # kept; this engine scatters in no volume
+    ("volume_bounces", np.int32),         # scatterings in media an eye path may take
     ("transparent_max_bounces", np.int32),  # transparent surfaces a path crosses
     ("clamp_direct", np.float32),         # Cycles' limit on a sample's r + g + b (3 x the
                                           # setting; 0: off): light with no bounce

@@ -12,6 +12,7 @@ import numpy as np
 from ppm_engine.scene.arrays import (
     NODE_DIFFUSE,
     NODE_EMISSION,
+    NODE_FLAG_VOLUME_BOUNDARY,
     NODE_GLASS,
     NODE_GLOSSY,
     NODE_HOLDOUT,
@@ -38,11 +39,23 @@ KMATERIAL_DTYPE = np.dtype([
                                     # kernels/geom/medium.h)
     ("program", np.int32),         # first word of its shader program in svm (kernels/svm/svm.h),
                                    # 0 = none
+    ("scattering", np.float32, 3),  # scattering coefficient inside (per metre; MAT_VOLUME only:
+                                    # kernels/geom/medium.h)
+    ("anisotropy", np.float32),    # its Henyey-Greenstein g, in (-1, 1)
+    ("volume_emission", np.float32, 3),  # radiance emitted per metre inside (MAT_VOLUME only)
 ])
 MAT_EMISSIVE = 1          # constant emission > 0: an emitter
 MAT_GATHER = 2            # some closure can hold a visible point and photons
 MAT_TRANSPARENT = 4       # partly transparent: shadow rays pass
 MAT_LAMBERT = 8           # one node making one Lambert closure: the shader's short path
+# a medium inside that scatters or emits, or one entered through a transparent surface (a mesh
+# whose material has only a Volume output): the volume stack's (kernels/geom/medium.h, PPM_VOLUME)
+MAT_VOLUME = 16
+# a medium's boundary alone (a material with only a Volume output): crossing it is no
+# transparent bounce (Cycles' volume bounds), counted apart up to VOLUME_BOUNDS_MAX
+MAT_BOUNDARY = 32
+# the largest coefficient a medium keeps (a density of 1e30 per metre is opaque at 1e-28 m)
+MAX_COEFFICIENT = 1e30
 
 # a microfacet lobe with alpha_x alpha_y below this is a perfect mirror or a smooth refraction
 # (Cycles' BSDF_ROUGHNESS_SQ_THRESH: roughness below ~0.0038): it can only be followed, never
@@ -265,7 +278,6 @@ def kernel_materials(materials: np.ndarray, nodes: np.ndarray) -> np.ndarray:
         else None
     if first is not None:
         flags |= np.where(one & lambert_node(first), MAT_LAMBERT, 0).astype(np.uint32)
-    k["flags"] = flags
     # the medium inside: entered and left by refraction, so only materials that refract
     refracts = np.isin(t, (NODE_GLASS, NODE_REFRACTION)) | (
         pr & ((nodes["transmission"] > 0) | bound(nodes, "transmission")))
@@ -273,6 +285,25 @@ def kernel_materials(materials: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     np.logical_or.at(glass, owner, refracts & (nodes["weight"] > 0))
     sigma = np.nan_to_num(materials["absorption"], nan=0.0, posinf=0.0).clip(0.0, 1e30)
     k["absorption"] = np.where(glass[:, None], sigma, 0.0)
+    # media entered through a transparent surface: the volume stack's (MAT_VOLUME), as are
+    # glass's that scatter or emit; absorbing glass alone stays PPM_ABSORPTION's
+    def coeff(name):
+        return np.nan_to_num(materials[name].astype(np.float64), nan=0.0,
+                             posinf=MAX_COEFFICIENT).clip(0.0, MAX_COEFFICIENT)
+    sigma_a, sigma_s, em = coeff("absorption"), coeff("scattering"), coeff("volume_emission")
+    live = (sigma_a.max(axis=1) > 0) | (sigma_s.max(axis=1) > 0) | (em.max(axis=1) > 0)
+    volume = live & ((tr & ~glass) | (glass & ((sigma_s.max(axis=1) > 0)
+                                               | (em.max(axis=1) > 0))))
+    k["absorption"] = np.where(volume[:, None], sigma_a, k["absorption"])
+    k["scattering"] = np.where(volume[:, None], sigma_s, 0.0)
+    k["volume_emission"] = np.where(volume[:, None], em, 0.0)
+    k["anisotropy"] = np.where(volume, np.clip(np.nan_to_num(materials["anisotropy"]),
+                                               -0.999, 0.999), 0.0)
+    flags |= np.where(volume, MAT_VOLUME, 0).astype(np.uint32)
+    plain = np.ones(m, bool)
+    np.logical_and.at(plain, owner, (nodes["flags"] & NODE_FLAG_VOLUME_BOUNDARY) != 0)
+    flags |= np.where(volume & plain & (k["node_count"] > 0), MAT_BOUNDARY, 0).astype(np.uint32)
+    k["flags"] = flags
     # a material with a shader program never takes the Lambert short path (it skips programs)
     k["program"] = materials["program"]
     k["flags"] &= np.where(k["program"] > 0, ~np.uint32(MAT_LAMBERT), ~np.uint32(0)).astype(

@@ -7,15 +7,17 @@ reroutes, muted nodes and node groups.  Each BSDF input is a constant, an Image 
 UV map (a colour input's texture, or its Alpha on Principled's Alpha: the short path of
 textures.py), or whatever the value nodes feeding it compute: the shader program drives it (a
 linked Mix Shader factor drives the weights).  A shader node this engine has no closure for is
-warned about and rendered as the nearest one.  The Volume output's absorption (Volume
-Absorption, the absorbing part of Principled Volume; constant inputs) -> the row's absorption
-coefficient."""
+warned about and rendered as the nearest one.  The Volume output (Volume Absorption, Volume
+Scatter, Principled Volume, Emission, through Add and Mix Shader; constant inputs) -> the row's
+homogeneous medium (absorption, scattering, anisotropy, emission); a material with only a
+Volume output gets a transparent surface (the medium's boundary)."""
 from __future__ import annotations
 
 import sys
 
 import numpy as np
 
+from ppm_engine.blender.export.material_volume import read_volume
 from ppm_engine.blender.export.shader_graph import Compiler, Graph
 from ppm_engine.scene.arrays import (
     MATERIAL_DTYPE,
@@ -24,6 +26,7 @@ from ppm_engine.scene.arrays import (
     NODE_FLAG_CONDUCTOR,
     NODE_FLAG_MULTI_GGX,
     NODE_FLAG_NO_BUMP_CORRECTION,
+    NODE_FLAG_VOLUME_BOUNDARY,
     NODE_GLASS,
     NODE_GLOSSY,
     NODE_HOLDOUT,
@@ -318,33 +321,6 @@ _READERS = {
 }
 
 
-def read_absorption(material, reader: _Reader) -> tuple:
-    """The absorption coefficient (per metre, RGB) of the material's Volume output, as Cycles
-    computes it: Volume Absorption (1 - colour) x density; Principled Volume the absorbing part
-    of its extinction, (1 - colour)(1 - sqrt(absorption colour)) x density.  Scattering is not
-    rendered (a warning says so); the medium applies inside glass (entered by refraction)."""
-    src = reader.graph.source(_output_socket(material, "Volume"))
-    node = src[0] if src is not None else None
-    if node is None:
-        return (0.0, 0.0, 0.0)
-    kind = node.bl_idname
-    if kind == "ShaderNodeVolumeAbsorption":
-        color = np.maximum(reader.value(node, "Color", 3), 0.0)
-        density = max(reader.value(node, "Density"), 0.0)
-        return tuple((1.0 - color) * density)
-    if kind == "ShaderNodeVolumePrincipled":
-        color = np.asarray(reader.value(node, "Color", 3), np.float64)
-        density = max(reader.value(node, "Density"), 0.0)
-        absorbing = np.sqrt(np.maximum(reader.value(node, "Absorption Color", 3), 0.0))
-        if density > 0 and color.max() > 0:
-            reader.warn("the Principled Volume scatters light, which this engine does not "
-                        "render: only its absorption is used")
-        return tuple(np.maximum(1.0 - color, 0.0) * np.maximum(1.0 - absorbing, 0.0) * density)
-    reader.warn(f"the volume shader '{node.name}' is not rendered (this engine renders Volume "
-                "Absorption and Principled Volume's absorption); the inside is clear")
-    return (0.0, 0.0, 0.0)
-
-
 def read_material(material, warn, textures=None, attributes: list | None = None,
                   camera=None) -> tuple[np.ndarray, list, np.ndarray | None]:
     """(MATERIAL_DTYPE row, its BSDF nodes as SHADER_NODE_DTYPE rows or dicts, its shader
@@ -353,10 +329,21 @@ def read_material(material, warn, textures=None, attributes: list | None = None,
     camera space nodes read (Cycles' camera space, +z ahead)."""
     reader = _Reader(material, warn, textures, attributes, camera)
     row = np.zeros(1, MATERIAL_DTYPE)
-    row["absorption"] = read_absorption(material, reader)
+    medium = read_volume(material, reader)
+    if medium is not None:
+        row["absorption"] = medium.absorption
+        row["scattering"] = medium.scattering
+        row["anisotropy"] = medium.anisotropy
+        row["volume_emission"] = medium.emission
     nodes: list = []
     surface = _output_socket(material)
     if reader.graph.source(surface) is None:
+        if medium is not None:
+            # only a Volume output: the surface is a transparent boundary (as Cycles passes
+            # through it), the medium inside
+            nodes.append(dict(type=NODE_TRANSPARENT, color=(1.0, 1.0, 1.0),
+                              flags=NODE_FLAG_VOLUME_BOUNDARY))
+            return row, nodes, None
         reader.warn("no shader is connected to the material output; it renders black, as in "
                     "Cycles")
         return row, nodes, None

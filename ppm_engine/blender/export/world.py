@@ -39,6 +39,10 @@ def export_world(world, warn, textures=None, base: int = 0):
     out = tree.get_output_node('CYCLES') or tree.get_output_node('ALL')
     sock = out.inputs.get("Surface") if out is not None else None
     graph = Graph(warn)
+    vol = out.inputs.get("Volume") if out is not None else None
+    if vol is not None and graph.source(vol) is not None:
+        warn(f"World '{world.name}': its Volume output is not rendered yet (the world's volume "
+             "is a later phase); the scene renders without it")
     src = graph.source(sock) if sock is not None else None
     if src is None:
         return np.zeros(3, np.float32), None, shader       # Cycles: no surface = black

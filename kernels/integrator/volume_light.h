@@ -1,0 +1,145 @@
+#ifndef PPM_VOLUME_LIGHT_H
+#define PPM_VOLUME_LIGHT_H
+#include "integrator/direct_light.h"
+
+/* Direct light in homogeneous media (PPM_VOLUME; geom/medium.h): next-event estimation at a
+ * scattering point, and equiangular sampling of the lights of no size along a segment,
+ * combined by MIS (eye_pass.cl). */
+#if PPM_VOLUME
+/* A medium segment (o + s d, 0 <= s < t) whose light next-event estimation gathers: where its
+ * scattering point came from (the free-flight density's channels pc, see medium_channels), and
+ * the point from which equiangular sampling picks its light (the segment's middle). */
+typedef struct {
+    float3 o, d, pc, mid;
+    float t;
+} Segment;
+
+inline Segment segment(float3 o, float3 d, float t, float3 pc) {
+    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t};
+    return g;
+}
+
+/* whether emitter e is a light of no size at a point (a point or spot light of radius 0): its
+ * light in a medium is also sampled by equiangular distances (volume_equiangular) */
+inline bool equiangular_light(const Scene *scene, int e) {
+    if (!PPM_LIGHT_POINT || e < 0 || e >= scene->emitter_info->n_lights) return false;
+    __global const Light *l = scene->lights + e;
+    return (l->type == LIGHT_POINT || l->type == LIGHT_SPOT) && !(l->radius > 0.0f);
+}
+
+/* The part [*s0, *s1] of the segment o + s d (0 <= s <= t) inside light l's spot cone (a point
+ * light: all of it), where its equiangular samples go, as Cycles clips them to a spot's cone;
+ * false when the segment misses the cone.  The cone in the light's frame (spot_attenuation's,
+ * a linear map of the segment) is convex: one interval, between roots of a quadratic. */
+inline bool light_segment(const Light *l, float3 o, float3 d, float t, float *s0, float *s1) {
+    *s0 = 0.0f;
+    *s1 = t;
+    float3 ax = F3(l->axis_x), ay = F3(l->axis_y), dir = F3(l->direction);
+    float sx = dot(ax, ax), sy = dot(ay, ay), cs = l->spot_cos_half;
+    if (l->type != LIGHT_SPOT || !isfinite(t) || !(sx > 0.0f && sy > 0.0f) || !(cs > 0.0f))
+        return true;
+    float3 w = o - F3(l->position);
+    float3 wl = (float3)(dot(w, ax) / sx, dot(w, ay) / sy, dot(w, dir) * l->spot_scale_z);
+    float3 dl = (float3)(dot(d, ax) / sx, dot(d, ay) / sy, dot(d, dir) * l->spot_scale_z);
+    float c2 = cs * cs;
+    float a = dl.z * dl.z - c2 * dot(dl, dl), b = 2.0f * (wl.z * dl.z - c2 * dot(wl, dl)),
+          c = wl.z * wl.z - c2 * dot(wl, wl);
+    float cand[4] = {0.0f, t, 0.0f, 0.0f};
+    int n = 2;
+    float disc = b * b - 4.0f * a * c;
+    if (fabs(a) > 1e-12f && disc >= 0.0f) {
+        float q = sqrt(disc);
+        cand[n++] = clamp((-b - q) / (2.0f * a), 0.0f, t);
+        cand[n++] = clamp((-b + q) / (2.0f * a), 0.0f, t);
+    } else if (fabs(a) <= 1e-12f && fabs(b) > 0.0f) {
+        cand[n++] = clamp(-c / b, 0.0f, t);
+    }
+    for (int i = 1; i < n; i++) /* (sorted) */
+        for (int j = i; j > 0 && cand[j] < cand[j - 1]; j--) {
+            float x = cand[j];
+            cand[j] = cand[j - 1];
+            cand[j - 1] = x;
+        }
+    float lo = INFINITY, hi = -INFINITY;
+    for (int k = 0; k + 1 < n; k++) {
+        float3 v = wl + (0.5f * (cand[k] + cand[k + 1])) * dl;
+        if (v.z > 0.0f && v.z * v.z >= c2 * dot(v, v)) {
+            lo = fmin(lo, cand[k]);
+            hi = fmax(hi, cand[k + 1]);
+        }
+    }
+    *s0 = lo;
+    *s1 = hi;
+    return hi > lo;
+}
+
+/* the density of equiangular sampling's distance s towards light e on segment sg (its pick from
+ * the segment's middle included) */
+inline float equiangular_density(const Scene *scene, const Segment *sg, int e, float s) {
+    Light l = scene->lights[e];
+    float s0, s1;
+    if (!light_segment(&l, sg->o, sg->d, sg->t, &s0, &s1)) return 0.0f;
+    return emitter_pmf_at(scene, e, sg->mid, (float3)(0.0f))
+           * equiangular_pdf(sg->o, sg->d, s0, s1, F3(l.position), s);
+}
+
+/* Light scattered at point p = g->o + s g->d inside a medium of phase anisotropy g towards -d,
+ * per unit of the scattering coefficient: next-event estimation (one emitter, its shadow ray
+ * through the media m and the transparent boundaries, at most `crossings`).  A light with size
+ * is weighted against the phase function's sample (power heuristic: the path's phase sample
+ * finds it, eye_pass.cl), a light of no size against the segment's equiangular sample
+ * (volume_equiangular; pdf_d the density of the distance s).  The point has no normal: the pick
+ * and the world's sample are given the zero vector (the light tree then weighs no cosine at p;
+ * a constant world is left to the phase sample, which finds it with full weight). */
+inline float3 volume_nee(const Scene *scene, const Segment *sg, float s_dist, float pdf_d, float g,
+                         const Media *m, int crossings, float3 u) {
+    LightSample s;
+    float pmf;
+    float3 none = (float3)(0.0f), p = sg->o + s_dist * sg->d;
+    EmitterInfo info = *scene->emitter_info;
+    if (info.n_emitters == 0) return none;
+    int e = pick_emitter_at(scene, p, none, u.x, &pmf);
+    if (!sample_emitter(scene, p, none, none, u, &s, &pmf)) return none;
+    float ph = hg_phase(dot(sg->d, s.wi), g);
+    float3 T = ray_transmittance_media(scene, p, s.wi, s.dist, crossings, VIS_SHADOW, m);
+    float w = 1.0f;
+    if (s.pdf_dir > 0.0f) {
+        w = mis_power(pmf * s.pdf_dir, ph);
+    } else if (equiangular_light(scene, e)) {
+        w = mis_power(pmf * pdf_d, equiangular_density(scene, sg, e, s_dist));
+    }
+    return ph * T * s.E * (w / pmf);
+}
+
+/* The light of no size a medium segment scatters towards its start, by an equiangular distance
+ * towards the light next-event estimation picks from the segment's middle (u.x; u.y the
+ * distance, u.z the spot's), weighted against the free-flight sample's next-event estimation
+ * (volume_nee) by the power heuristic; per the path weight at the segment's start (the
+ * scattering coefficient and the transmittance to the point included).  Near a spot light in
+ * fog, free-flight distances rarely fall where its light is: this is Kulla and Fajardo's cure,
+ * as Cycles'. */
+inline float3 volume_equiangular(const Scene *scene, const Segment *sg, float3 sigma_t,
+                                 float3 sigma_s, float g, const Media *m, int crossings, float3 u) {
+    float3 none = (float3)(0.0f);
+    if (scene->emitter_info->n_emitters == 0) return none;
+    float pmf_e;
+    int e = pick_emitter_at(scene, sg->mid, none, u.x, &pmf_e);
+    if (!(pmf_e > 0.0f) || !equiangular_light(scene, e)) return none;
+    Light l = scene->lights[e];
+    float pdf_e, s0, s1;
+    if (!light_segment(&l, sg->o, sg->d, sg->t, &s0, &s1)) return none; /* (outside its cone) */
+    float s_dist = equiangular_sample(sg->o, sg->d, s0, s1, F3(l.position), u.y, &pdf_e);
+    if (!(pdf_e > 0.0f) || !(s_dist < sg->t)) return none;
+    float3 p = sg->o + s_dist * sg->d;
+    LightSample ls;
+    if (!point_direct(&l, p, u.z, 0.5f, &ls)) return none;
+    float ph = hg_phase(dot(sg->d, ls.wi), g);
+    float3 T = ray_transmittance_media(scene, p, ls.wi, ls.dist, crossings, VIS_SHADOW, m);
+    if (!(max3(T) > 0.0f)) return none;
+    float3 tr = exp(-sigma_t * s_dist);
+    float a = pmf_e * pdf_e;
+    float b = emitter_pmf_at(scene, e, p, none) * medium_pdf(sigma_t, sg->pc, s_dist);
+    return sigma_s * tr * (ph * mis_power(a, b) / a) * T * ls.E;
+}
+#endif
+#endif

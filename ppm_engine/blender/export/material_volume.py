@@ -1,0 +1,131 @@
+"""A material's Volume output -> its homogeneous medium (materials.MAT_VOLUME): Volume
+Absorption, Volume Scatter, Principled Volume and Emission, through Add and Mix Shader, with
+constant inputs (``reader``: material_nodes' reader of the material, its warnings named after
+it)."""
+from __future__ import annotations
+
+import numpy as np
+
+_MAX_DEPTH = 64
+
+
+def _output_socket(material, socket):
+    tree = material.node_tree
+    if tree is None:
+        return None
+    out = tree.get_output_node('CYCLES') or tree.get_output_node('ALL')
+    return out.inputs.get(socket) if out is not None else None
+
+
+_VOLUME_PHASES = ("HENYEY_GREENSTEIN",)
+
+
+class _Medium:
+    """The homogeneous medium a material's Volume output makes (coefficients per metre, RGB), as
+    Cycles sums its volume closures: each closure's coefficients scale with its mix weight."""
+
+    def __init__(self):
+        self.absorption = np.zeros(3)
+        self.scattering = np.zeros(3)
+        self.emission = np.zeros(3)
+        self.g_sum = 0.0              # sum of g x the scattering's mean (the mean g below)
+        self.g_seen: set = set()
+
+    def scatter(self, sigma_s, g):
+        sigma_s = np.asarray(sigma_s, np.float64)
+        self.scattering += sigma_s
+        g = float(np.clip(np.nan_to_num(g), -1.0, 1.0))
+        self.g_sum += g * float(sigma_s.mean())
+        if sigma_s.max() > 0:
+            self.g_seen.add(round(g, 4))
+
+    @property
+    def anisotropy(self) -> float:
+        m = float(self.scattering.mean())
+        return self.g_sum / m if m > 0 else 0.0
+
+
+def _density(reader, node, name="Density") -> float:
+    """A density input (constant; a linked one warned about, its unlinked value used), clamped
+    to >= 0 with a warning where it is negative or not a number, as Cycles clamps it."""
+    v = reader.value(node, name)
+    if v is None:
+        return 0.0
+    if not np.isfinite(v) or v < 0:
+        fixed = 0.0 if (np.isnan(v) or v < 0) else 1e30
+        reader.warn(f"the {name} of '{node.name}' is {v}; {fixed:g} is used")
+        return fixed
+    return float(v)
+
+
+def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0):
+    """Adds the volume shaders feeding ``socket`` (through Mix and Add Shader) to ``medium``."""
+    src = reader.graph.source(socket, ctx)
+    if src is None or depth > _MAX_DEPTH or not weight > 0:
+        return
+    node, _, ctx = src
+    kind = node.bl_idname
+    if kind == "ShaderNodeAddShader":
+        for sock in node.inputs[:2]:
+            _volume_walk(reader, sock, weight, medium, ctx, depth + 1)
+        return
+    if kind == "ShaderNodeMixShader":
+        fac = float(np.clip(reader.value(node, "Fac"), 0.0, 1.0))
+        _volume_walk(reader, node.inputs[1], weight * (1.0 - fac), medium, ctx, depth + 1)
+        _volume_walk(reader, node.inputs[2], weight * fac, medium, ctx, depth + 1)
+        return
+    if kind == "ShaderNodeVolumeAbsorption":
+        color = np.clip(np.nan_to_num(reader.value(node, "Color", 3)), 0.0, 1.0)
+        medium.absorption += weight * (1.0 - color) * _density(reader, node)
+        return
+    if kind == "ShaderNodeVolumeScatter":
+        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+        if phase not in _VOLUME_PHASES:
+            reader.warn(f"the phase function '{phase}' of '{node.name}' is rendered as "
+                        "Henyey-Greenstein (its Anisotropy)")
+        color = np.maximum(np.nan_to_num(reader.value(node, "Color", 3)), 0.0)
+        aniso = reader.value(node, "Anisotropy")
+        medium.scatter(weight * color * _density(reader, node), aniso or 0.0)
+        return
+    if kind == "ShaderNodeVolumePrincipled":
+        density = _density(reader, node)
+        color = np.maximum(np.nan_to_num(reader.value(node, "Color", 3)), 0.0)
+        absorbing = np.sqrt(np.maximum(np.nan_to_num(reader.value(node, "Absorption Color", 3)),
+                                       0.0))
+        medium.scatter(weight * color * density, reader.value(node, "Anisotropy") or 0.0)
+        medium.absorption += weight * (np.maximum(1.0 - color, 0.0)
+                                       * np.maximum(1.0 - absorbing, 0.0) * density)
+        strength = np.nan_to_num(reader.value(node, "Emission Strength") or 0.0)
+        if strength > 0:
+            medium.emission += weight * strength * np.maximum(
+                np.nan_to_num(reader.value(node, "Emission Color", 3)), 0.0)
+        if (reader.value(node, "Blackbody Intensity") or 0.0) > 0:
+            reader.warn(f"the blackbody emission of '{node.name}' is not rendered yet")
+        return
+    if kind == "ShaderNodeEmission":
+        strength = np.nan_to_num(reader.value(node, "Strength"))
+        if strength > 0:
+            medium.emission += weight * strength * np.maximum(
+                np.nan_to_num(reader.value(node, "Color", 3)), 0.0)
+        return
+    reader.warn(f"the shader '{node.name}' ({node.bl_label}) on the Volume output is not a "
+                "volume shader this engine renders; it is left out of the volume")
+
+
+def read_volume(material, reader) -> _Medium | None:
+    """The homogeneous medium of the material's Volume output (None: nothing connected), as
+    Cycles computes it: Volume Absorption (1 - colour) x density; Volume Scatter colour x
+    density, scattering only; Principled Volume colour x density scattering and
+    (1 - colour)(1 - sqrt(absorption colour)) x density absorption, its emission colour x
+    strength; an Emission node's colour x strength emitted per metre; Add and Mix Shader sum
+    them by their weights.  Inputs driven by node links (a textured density) are warned about
+    and rendered with their unlinked values: heterogeneous media are a later phase."""
+    sock = _output_socket(material, "Volume")
+    if reader.graph.source(sock) is None:
+        return None
+    medium = _Medium()
+    _volume_walk(reader, sock, 1.0, medium)
+    if len(medium.g_seen) > 1:
+        reader.warn("its volume mixes scattering of different anisotropies; their mean, "
+                    "weighted by the scattering, is rendered")
+    return medium
