@@ -97,6 +97,29 @@ def cli():
     return run_cli
 
 
+@pytest.fixture
+def cli_here(bpy):
+    """cli_here(*args) runs ``python -m ppm_engine ARGS`` in this process (tools/cli.py main,
+    its output captured), for the benchmark's long quick runs: the kernels this process built
+    serve them, where a fresh process compiles every program again (PoCL's disk cache keeps
+    the binaries, not the front end's work).  A CompletedProcess as run_cli's; the scene the
+    run leaves is reset after it."""
+    import contextlib
+    import io
+
+    def run(*args, timeout=None):
+        from ppm_engine.tools.cli import main
+        out, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                code = main([str(a) for a in args])
+            except SystemExit as e:
+                code = e.code if isinstance(e.code, int) else 1
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
+    return run
+
+
 def configure_tiny(scene, pocl_key: str, *, width=TINY["width"], height=TINY["height"],
                    passes=TINY["passes"], photons=TINY["photons_per_pass"],
                    specialize=False) -> None:

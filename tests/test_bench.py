@@ -54,8 +54,8 @@ CHECK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_ca
                 "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights")
 
 
-def test_bench_quick_writes_json_plot_and_table(cli, tmp_path):
-    _quick_bench(cli, tmp_path, QUICK_SCENES)
+def test_bench_quick_writes_json_plot_and_table(cli_here, tmp_path):
+    _quick_bench(cli_here, tmp_path, QUICK_SCENES)
 
 
 @pytest.mark.slow
@@ -384,14 +384,14 @@ def test_bench_refuses_bad_arguments(cli):
     assert p.returncode == 2 and "positive" in p.stderr
 
 
-def test_bench_shader_quick(cli, tmp_path):
+def test_bench_shader_quick(cli_here, tmp_path):
     """bench --shader: the same scene with its colours from a shader program renders the same
     image in the mean (its noise differs: the Lambert short path draws other random numbers;
     the means of 2 passes of 32 x 32 pixels agree within 0.2 %, a lost or wrong colour moves
     them by far more than 3 %); the cost per phase and per hit follow from the times."""
     md = tmp_path / "B.md"
-    p = cli("bench", "--shader", "cornell_box", "--quick", "--json", tmp_path / "s.json",
-            "--markdown", md)
+    p = cli_here("bench", "--shader", "cornell_box", "--quick", "--json", tmp_path / "s.json",
+                 "--markdown", md)
     assert p.returncode == 0, p.stderr
     d = json.loads((tmp_path / "s.json").read_text())
     assert d["materials_driven"] >= 3 and abs(d["image_mean_ratio"] - 1.0) < 0.03
