@@ -142,9 +142,11 @@ def resolve_device(name: str, items, default_key: str) -> str:
     return match[0]
 
 
-def progress_bar(prog: str, stream=sys.stderr):
+def progress_bar(prog: str, stream=None):
     """A ``progress(text, fraction)`` that draws "[#####     ]  50 % Pass 32/64 · ..." on
-    ``stream``: one line redrawn on a terminal, a line per pass otherwise."""
+    ``stream`` (sys.stderr as it is when called: a default bound at import would keep a stream
+    redirected then): one line redrawn on a terminal, a line per pass otherwise."""
+    stream = sys.stderr if stream is None else stream
     tty = stream.isatty()
 
     def show(text: str, fraction: float) -> None:
