@@ -15,15 +15,6 @@ REPO = Path(__file__).resolve().parents[1]
 # (set before anything imports bpy; subprocesses inherit it).
 os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="ppm-blender-user-"))
 
-# Several test processes (pytest.ini: -n 2) share the cores: each runs PoCL's kernels on its
-# share of them, so that they do not oversubscribe the machine (on 2 cores, two threads per
-# process took 18 % more CPU for the same tests; test_indirect and test_accuracy: 60 s against
-# 49 s).  One process keeps PoCL's default.  Set before pyopencl makes a context; the CLI's
-# processes inherit it.
-_WORKERS = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
-if _WORKERS > 1:
-    os.environ.setdefault("POCL_MAX_PTHREAD_COUNT", str(max(1, (os.cpu_count() or 1) // _WORKERS)))
-
 # tiny renders: every image test stays well under a second per render on a 2-core CPU
 TINY = dict(width=24, height=24, passes=3, photons_per_pass=4096)
 
