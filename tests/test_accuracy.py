@@ -105,7 +105,7 @@ def test_absorbing_glass_slab_matches_beer_lambert():
     clear.close()
     r = Renderer(A.glass_slab(W, absorption=sigma),
                  every_feature(photons_per_pass=1 << 15, max_bounces=4, seed=1))
-    for _ in range(150):
+    for _ in range(75):     # measured (seed 1): each channel 0.4 % under at 75, 0.1 % at 150
         s = r.iterate()
     img = r.image()[..., :3]
     r.close()

@@ -113,10 +113,12 @@ def test_both_match_light_tracing_in_a_box_with_a_glass_ball():
     scene = box_with_ball()
     ref, cover = light_traced(scene)
     assert cover.mean() > 0.7
-    paths = renders(scene, 100, range(4), indirect="paths", max_bounces=32).mean(axis=0)
+    # two seeds each (measured: paths 0.12 % off in the mean, at most 0.38 % per quarter;
+    # photons 0.56 %; with four: 0.28 %, 0.73 %, 0.66 %)
+    paths = renders(scene, 100, range(2), indirect="paths", max_bounces=32).mean(axis=0)
     # in the mean and per quarter of the image (the caustic is in the lower half)
     assert_matches_light_tracing(paths, ref, cover, 0.01)
-    photons = renders(scene, 100, range(4), indirect="photons", max_bounces=32).mean(axis=0)
+    photons = renders(scene, 100, range(2), indirect="photons", max_bounces=32).mean(axis=0)
     assert abs(photons[cover].mean() / ref[cover].mean() - 1.0) < 0.05
     # the scene has both: the auto mode's pilot sees some caustic first scatterings
     r = Renderer(scene, every_feature())
