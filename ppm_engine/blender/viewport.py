@@ -87,6 +87,38 @@ def changes(updates) -> set:
     return out
 
 
+# data whose geometry update names the datablock a MeshCache entry was read from
+_DATA_TYPES = {'MESH', 'CURVE', 'CURVES', 'META', 'POINTCLOUD', 'VOLUME', 'TEXT', 'SURFACE'}
+
+
+def forget_changed(updates, meshes, images: dict) -> None:
+    """Drop from the kept mesh data (MeshCache) and decoded images what ``updates`` say
+    changed: the geometry of the objects and data updated so; all meshes where objects were
+    added, deleted or hidden (a collection), a geometry node tree or other data changed;
+    every image where one did.  A value or transform edit drops nothing."""
+    objects, data = set(), set()
+    for u in updates:
+        ident = u.id
+        idt = getattr(ident, "id_type", "") if ident is not None else ""
+        name = getattr(getattr(ident, "original", ident), "name", None)
+        geometry = u.is_updated_geometry
+        if idt == 'OBJECT':
+            if geometry:
+                objects.add(name)
+        elif idt == 'IMAGE':
+            images.clear()
+        elif idt == 'COLLECTION' or (idt == 'NODETREE'
+                                     and getattr(ident, "type", "") == 'GEOMETRY'):
+            meshes.clear()
+        elif idt in _DATA_TYPES:
+            if geometry or u.is_updated_transform:
+                data.add(name)
+        elif idt not in _VALUE_TYPES and (geometry or u.is_updated_transform):
+            meshes.clear()                         # other data (a shape key, an armature)
+    if objects or data:
+        meshes.forget(objects, data)
+
+
 def only_scene(updates) -> bool:
     """Whether the updates are the scene's alone: a selection, an active object, or a change
     of the scene's settings (render settings, ours, Cycles'; settings_key tells them apart,
@@ -215,6 +247,8 @@ class ViewportDriver:
         self.message_hint = ""       # shown in the header until an export succeeds
         self.draw_cache: dict = {}
         self.exports = 0
+        self.meshes = None           # export.mesh.MeshCache kept across exports
+        self.images: dict = {}       # decoded images kept across exports
         self.key = None              # settings_key of the last export
         self.drawn = None            # the session version view_draw last drew
         self._tagged = None          # the version a redraw was last tagged for
@@ -243,13 +277,21 @@ class ViewportDriver:
             space = getattr(context, "space_data", None)
             view = space if hasattr(space, "show_object_viewport_mesh") else None
             key = (settings_key(depsgraph), hidden_in_view(depsgraph, view))
+            if self.meshes is None:
+                from ppm_engine.blender.export.mesh import MeshCache
+                self.meshes = MeshCache(None)
             if not first and self.message is None and key == self.key:
                 ups = depsgraph.updates
                 if not changes(ups) or only_scene(ups):
                     self._watch(engine)
                     return                      # nothing the export reads changed
+                forget_changed(ups, self.meshes, self.images)
+            else:                               # a new session, frame, layer, view: afresh
+                self.meshes.clear()
+                self.images.clear()
             camera = view_camera(context, depsgraph, engine)
-            arrays = export_scene(depsgraph, camera=camera, view=view)
+            arrays = export_scene(depsgraph, camera=camera, view=view, meshes=self.meshes,
+                                  images=self.images)
             self.key = key
             self.exports += 1
             self.message = None
@@ -387,6 +429,8 @@ class ViewportDriver:
         s, self.session = self.session, None
         self._engine = None
         self.draw_cache.clear()
+        self.meshes = None
+        self.images = {}
         if unregister:
             try:
                 timers = self._timer_api()

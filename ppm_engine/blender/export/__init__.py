@@ -74,7 +74,8 @@ def hidden_in_view(depsgraph, view) -> tuple:
                         if not o.visible_in_viewport_get(view)))
 
 
-def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
+def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
+                 images=None) -> SceneArrays:
     """Everything the core needs from one evaluated depsgraph (render or viewport).
 
     ``camera``: a CAMERA_DTYPE record to render with instead of the scene camera's (the
@@ -82,10 +83,13 @@ def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
     ``view``: a 3D view (SpaceView3D) whose visibility applies, as in Cycles' viewport: only
     the objects visible in it (its local view, local collections and object-type visibility,
     Object.visible_in_viewport_get; an instance by its instancer's).
+    ``meshes``: a MeshCache kept across exports (the viewport's: the caller forgets what
+    changed), else one for this export; ``images``: a dict of decoded images kept across
+    exports likewise (TextureTable's ``decoded``; the caller clears it when an image changes).
     Raises SceneError when the scene cannot be rendered (no/invalid camera, empty border)."""
     scene = depsgraph.scene
     warn = Warnings(engine)
-    textures = TextureTable(warn)
+    textures = TextureTable(warn, decoded=images)
     materials = MaterialTable(warn, textures)
     if camera is None:
         camera = export_camera(scene, depsgraph)
@@ -97,7 +101,12 @@ def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
     # Cycles' camera space: the camera's placement without its scale (as the camera's rays),
     # its z flipped (+z ahead)
     materials.camera = cm @ np.diag((1.0, 1.0, -1.0, 1.0))
-    meshes = MeshCache(warn)
+    keep = meshes is not None
+    if keep:
+        meshes.warn = warn
+        meshes.begin()
+    else:
+        meshes = MeshCache(warn)
     parts, lights = [], []
     uv_tangents = generated = False
     objects = []                            # rows of the objects whose programs read them
@@ -142,7 +151,10 @@ def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
                 k_obj = len(objects)
                 objects.append(object_row(obj, m, inst))
             parts[-1]["object"] = np.full(parts[-1]["positions"].shape[0], k_obj, np.int32)
-    meshes.clear()
+    if keep:
+        meshes.prune()
+    else:
+        meshes.clear()
     svm = materials.svm()
     world, world_program, world_shader = export_world(scene.world, warn, textures, svm.shape[0])
     if world_program is not None:

@@ -223,13 +223,71 @@ def read_attributes(mesh, local: LocalMesh, names: list, warn) -> np.ndarray:
 
 
 class MeshCache:
-    """One read per evaluated geometry: 1000 instances of a mesh cost one read."""
+    """One read per evaluated geometry: 1000 instances of a mesh cost one read.
+
+    Kept across exports (the viewport's ViewportDriver): an entry stays valid while its
+    geometry does not change; ``forget`` drops the entries of objects or data whose geometry
+    the depsgraph says changed, ``begin``/``prune`` drop the entries an export did not use
+    (deleted objects, old evaluated meshes).  A hit is also checked against the data's name
+    and sizes (an evaluated mesh freed and another allocated at its address)."""
 
     def __init__(self, warn):
         self.warn = warn
+        self.reads = 0                  # meshes read (not served from the cache)
         self._cache: dict = {}
         self._tangents: dict = {}
         self._attributes: dict = {}
+        self._sig: dict = {}            # key -> (data name, sizes) when read
+        self._owners: dict = {}         # key -> {original object names, ("data", name)}
+        self._used: set = set()
+
+    @staticmethod
+    def _signature(obj) -> tuple:
+        data = obj.data
+        if data is None:
+            return (obj.name,)
+        if obj.type == 'MESH':
+            return (data.name, len(data.vertices), len(data.loops), len(data.polygons))
+        return (data.name,)
+
+    @staticmethod
+    def _names(obj) -> set:
+        names = {getattr(obj, "original", obj).name}
+        if obj.data is not None:
+            names.add(("data", getattr(obj.data, "original", obj.data).name))
+        return names
+
+    def _check(self, obj, key) -> None:
+        """Drop the entry of ``key`` when it is not this object's geometry (its signature
+        differs); note the object as one of its owners and the key as used."""
+        sig = self._signature(obj)
+        if key in self._sig and self._sig[key] != sig:
+            self._drop({key})
+        self._sig[key] = sig
+        self._owners.setdefault(key, set()).update(self._names(obj))
+        self._used.add(key)
+
+    def _drop(self, keys: set) -> None:
+        for d in (self._cache, self._sig, self._owners):
+            for k in keys:
+                d.pop(k, None)
+        for k in keys & set(self._tangents):
+            del self._tangents[k]
+        for k in [k for k in self._attributes if k[0] in keys]:
+            del self._attributes[k]
+
+    def forget(self, objects=(), data=()) -> None:
+        """Drop the geometry read for these (original) object names and data names."""
+        names = set(objects) | {("data", n) for n in data}
+        self._drop({k for k, owners in self._owners.items() if owners & names})
+
+    def begin(self) -> None:
+        """An export starts: nothing used yet."""
+        self._used = set()
+
+    def prune(self) -> None:
+        """An export ended: drop what it did not use."""
+        self._drop(set(self._sig) - self._used)
 
     @staticmethod
     def _direct(obj) -> bool:
@@ -288,7 +346,9 @@ class MeshCache:
 
     def get(self, obj) -> LocalMesh:
         key = self._key(obj)
+        self._check(obj, key)
         if key not in self._cache:
+            self.reads += 1
             with self._mesh(obj) as mesh:
                 self._cache[key] = read_mesh(mesh) if mesh is not None else EMPTY
         return self._cache[key]
@@ -297,6 +357,9 @@ class MeshCache:
         self._cache.clear()
         self._tangents.clear()
         self._attributes.clear()
+        self._sig.clear()
+        self._owners.clear()
+        self._used = set()
 
 
 def _texspace_centred(mesh: LocalMesh) -> np.ndarray:
