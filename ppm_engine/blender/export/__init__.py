@@ -110,6 +110,7 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
     parts, lights = [], []
     uv_tangents = generated = False
     objects = []                            # rows of the objects whose programs read them
+    bases = []                              # the parts as made (MeshCache.part)
     for inst in depsgraph.object_instances:
         obj = inst.object
         if view is not None and not in_view(inst, view):
@@ -137,13 +138,24 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
             slots = materials.slot_map(obj)
             mapped = materials.reads(slots, PROGRAM_TANGENTS)
             gen = materials.reads(slots, PROGRAM_GENERATED)
-            attrs = (meshes.attributes(obj, materials.attributes)
-                     if materials.reads(slots, PROGRAM_ATTRIBUTES) else None)
-            parts.append(transform_part(mesh, m, slots, visibility_bits(obj), obj.name, warn,
-                                        tangents=materials.anisotropic(slots),
-                                        uv_tangents=meshes.uv_tangents(obj) if mapped else None,
-                                        generated=gen, attributes=attrs,
-                                        terminator=terminator_offset(obj)))
+            reads_attrs = materials.reads(slots, PROGRAM_ATTRIBUTES)
+            vis, term, aniso = visibility_bits(obj), terminator_offset(obj), \
+                materials.anisotropic(slots)
+
+            def make(obj=obj, mesh=mesh, m=m, slots=slots, vis=vis, term=term, aniso=aniso,
+                     mapped=mapped, gen=gen, reads_attrs=reads_attrs):
+                attrs = (meshes.attributes(obj, materials.attributes) if reads_attrs
+                         else None)
+                return transform_part(mesh, m, slots, vis, obj.name, warn, tangents=aniso,
+                                      uv_tangents=meshes.uv_tangents(obj) if mapped else None,
+                                      generated=gen, attributes=attrs, terminator=term)
+            # the world-space part: kept across exports with the mesh (a value edit moves
+            # nothing), one per placement, slots, flags and attribute names
+            base = meshes.part(obj, (m.tobytes(), slots.tobytes(), vis, obj.name, aniso,
+                                     mapped, gen, tuple(materials.attributes) if reads_attrs
+                                     else None, term), make)
+            bases.append(base)
+            parts.append(dict(base))
             uv_tangents |= mapped
             generated |= gen
             k_obj = -1
@@ -161,7 +173,11 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
         svm = np.concatenate([svm, world_program])
 
     light_arr = np.concatenate(lights) if lights else np.zeros(0, LIGHT_DTYPE)
-    if parts:
+    cat_key = (tuple(bases), len(materials.attributes), uv_tangents, generated,
+               tuple(int(p["object"][0]) if len(p["object"]) else -1 for p in parts))
+    if parts and meshes.concatenated(cat_key) is not None:
+        cat = dict(meshes.concatenated(cat_key))    # nothing moved: the same arrays
+    elif parts:
         k_attr = len(materials.attributes)          # the parts read fewer names: zero-padded
         for part in parts:
             a = part["attributes"]
@@ -180,6 +196,8 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
             cat["generated"] = np.zeros((0, 3, 3), np.float32)
         if (cat["terminator"] == np.float32(TERMINATOR_OFFSET)).all():   # every one the default
             cat["terminator"] = np.zeros(0, np.float32)
+        if keep:
+            meshes.keep_concatenated(cat_key, cat)
     else:
         cat = dict(positions=np.zeros((0, 3, 3), np.float32),
                    normals=np.zeros((0, 3, 3), np.float32),

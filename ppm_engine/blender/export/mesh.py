@@ -240,6 +240,32 @@ class MeshCache:
         self._sig: dict = {}            # key -> (data name, sizes) when read
         self._owners: dict = {}         # key -> {original object names, ("data", name)}
         self._used: set = set()
+        self._parts: dict = {}          # (key, placement...) -> a transform_part's result
+        self._used_parts: set = set()
+        self._cat = None                # (key, arrays) of the last concatenation
+
+    def part(self, obj, placement: tuple, make) -> dict:
+        """The world-space part of ``obj``'s geometry at ``placement`` (its matrix, slots,
+        flags: what transform_part reads besides the mesh), ``make()`` once per placement
+        (as long as the geometry is kept).  Treat it as read-only."""
+        key = (self._key(obj),) + placement
+        self._used_parts.add(key)
+        if key not in self._parts:
+            self._parts[key] = make()
+        return self._parts[key]
+
+    def concatenated(self, key):
+        """The arrays kept by keep_concatenated for ``key`` (the parts, by identity, and
+        what else the concatenation read), or None."""
+        if self._cat is None:
+            return None
+        k, arrays = self._cat
+        same = (len(k[0]) == len(key[0]) and all(a is b for a, b in zip(k[0], key[0]))
+                and k[1:] == key[1:])
+        return arrays if same else None
+
+    def keep_concatenated(self, key, arrays: dict) -> None:
+        self._cat = (key, dict(arrays))
 
     @staticmethod
     def _signature(obj) -> tuple:
@@ -275,6 +301,10 @@ class MeshCache:
             del self._tangents[k]
         for k in [k for k in self._attributes if k[0] in keys]:
             del self._attributes[k]
+        for k in [k for k in self._parts if k[0] in keys]:
+            del self._parts[k]
+        if keys:
+            self._cat = None
 
     def forget(self, objects=(), data=()) -> None:
         """Drop the geometry read for these (original) object names and data names."""
@@ -284,10 +314,13 @@ class MeshCache:
     def begin(self) -> None:
         """An export starts: nothing used yet."""
         self._used = set()
+        self._used_parts = set()
 
     def prune(self) -> None:
         """An export ended: drop what it did not use."""
         self._drop(set(self._sig) - self._used)
+        for k in set(self._parts) - self._used_parts:
+            del self._parts[k]
 
     @staticmethod
     def _direct(obj) -> bool:
@@ -360,6 +393,9 @@ class MeshCache:
         self._sig.clear()
         self._owners.clear()
         self._used = set()
+        self._parts.clear()
+        self._used_parts = set()
+        self._cat = None
 
 
 def _texspace_centred(mesh: LocalMesh) -> np.ndarray:
