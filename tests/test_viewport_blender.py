@@ -252,3 +252,53 @@ def test_value_edits_read_no_mesh_again_and_export_as_afresh(bpy, tiny, monkeypa
         if handler in bpy.app.handlers.depsgraph_update_post:
             bpy.app.handlers.depsgraph_update_post.remove(handler)
         drv.close()
+
+
+def test_decoded_images_are_kept_until_an_image_changes(bpy, tiny, monkeypatch):
+    """Exports with the driver's kept images read an image once; an edit of the image
+    (its colour space) drops it, a material edit does not; the arrays equal a fresh export's."""
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.export.mesh import MeshCache
+    from ppm_engine.blender.export.textures import TextureTable
+    from ppm_engine.blender.viewport import forget_changed
+    sphere_scene(bpy, tiny)
+    img = bpy.data.images.new("Grid", 16, 16)
+    img.generated_type = 'UV_GRID'
+    nt = bpy.data.materials["Ball"].node_tree
+    tex = nt.nodes.new("ShaderNodeTexImage")
+    tex.image = img
+    nt.links.new(tex.outputs["Color"], nt.nodes["Principled BSDF"].inputs["Base Color"])
+    bpy.context.view_layer.update()
+    reads = []
+    read = TextureTable._read
+    monkeypatch.setattr(TextureTable, "_read",
+                        lambda self, image, *a: reads.append(image.name) or read(self, image, *a))
+    meshes, images, seen = MeshCache(None), {}, []
+
+    def handler(_scene, depsgraph):
+        seen.append(depsgraph.updates)
+        forget_changed(depsgraph.updates, meshes, images)
+
+    def export():
+        dg = bpy.context.evaluated_depsgraph_get()
+        got = export_scene(dg, meshes=meshes, images=images)
+        n = len(reads)
+        _same_arrays(got, export_scene(dg))
+        del reads[n:]                                  # the fresh export's read
+        return got
+    bpy.app.handlers.depsgraph_update_post.append(handler)
+    try:
+        export()
+        assert reads == ["Grid"]
+        bsdf = nt.nodes["Principled BSDF"]
+        bsdf.inputs["Roughness"].default_value = 0.2
+        bpy.context.view_layer.update()
+        export()
+        assert reads == ["Grid"]                       # a material edit: not read again
+        img.colorspace_settings.name = "Non-Color"
+        bpy.context.view_layer.update()
+        assert seen
+        export()
+        assert reads == ["Grid", "Grid"]               # the image edited: read again
+    finally:
+        bpy.app.handlers.depsgraph_update_post.remove(handler)
