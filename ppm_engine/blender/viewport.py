@@ -290,8 +290,13 @@ class ViewportDriver:
                 self.meshes.clear()
                 self.images.clear()
             camera = view_camera(context, depsgraph, engine)
-            arrays = export_scene(depsgraph, camera=camera, view=view, meshes=self.meshes,
-                                  images=self.images)
+            self.session.hold()                 # the processor to the export (until posted)
+            try:
+                arrays = export_scene(depsgraph, camera=camera, view=view,
+                                      meshes=self.meshes, images=self.images)
+            except BaseException:
+                self.session.hold(False)
+                raise
             self.key = key
             self.exports += 1
             self.message = None
