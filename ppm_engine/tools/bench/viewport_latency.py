@@ -208,6 +208,9 @@ def run_viewport(device: str = "", quick: bool = False, progress=print) -> dict:
     progress("viewport: previews")
     out["previews"] = previews(bpy, device)
 
+    progress("viewport: edits of a 100K-triangle textured scene")
+    out["textured"] = textured_edits(size, moves, device, rng, progress)
+
     progress("viewport: cold starts (fresh processes, empty kernel cache)")
     out["cold"] = [cold_start(name, device, quick=quick, kernels=k)
                    for name in (COLD_SCENES[:1] if quick else COLD_SCENES)
@@ -534,4 +537,6 @@ def format_viewport(d: dict) -> str:
                      f"{c['first_image_s']:.1f} | {c['first_full_image_s']:.1f} | "
                      f"{c['build_s']:.1f} | {c['bvh_s']:.1f} | "
                      f"{', '.join(f'{k} {v:.1f}' for k, v in slow)} |")
+    if "textured" in d:
+        lines += ["", format_textured(d["textured"])]
     return "\n".join(lines)
