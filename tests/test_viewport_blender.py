@@ -218,6 +218,7 @@ def test_value_edits_read_no_mesh_again_and_export_as_afresh(bpy, tiny, monkeypa
     try:
         drv.view_update(eng, bpy.context, bpy.context.evaluated_depsgraph_get())
         s = drv.session
+        assert s.wait(timeout=300), s.status()            # the first scene applied
         real = s.update_scene
         monkeypatch.setattr(s, "update_scene", lambda a: sent.append(a) or real(a))
         assert sorted(reads) == ["Plane", "Sphere"]
