@@ -259,9 +259,9 @@ def test_decoded_images_are_kept_until_an_image_changes(bpy, tiny, monkeypatch):
     """Exports with the driver's kept images read an image once; an edit of the image
     (its colour space) drops it, a material edit does not; the arrays equal a fresh export's."""
     from ppm_engine.blender.export import export_scene
-    from ppm_engine.blender.export.mesh import MeshCache
+    from ppm_engine.blender.export.mesh_cache import MeshCache, forget_changed
     from ppm_engine.blender.export.textures import TextureTable
-    from ppm_engine.blender.viewport import forget_changed
+    from ppm_engine.blender.viewport import _VALUE_TYPES
     sphere_scene(bpy, tiny)
     img = bpy.data.images.new("Grid", 16, 16)
     img.generated_type = 'UV_GRID'
@@ -278,7 +278,7 @@ def test_decoded_images_are_kept_until_an_image_changes(bpy, tiny, monkeypatch):
 
     def handler(_scene, depsgraph):
         seen.append(depsgraph.updates)
-        forget_changed(depsgraph.updates, meshes, images)
+        forget_changed(depsgraph.updates, meshes, images, _VALUE_TYPES)
 
     def export():
         dg = bpy.context.evaluated_depsgraph_get()

@@ -87,38 +87,6 @@ def changes(updates) -> set:
     return out
 
 
-# data whose geometry update names the datablock a MeshCache entry was read from
-_DATA_TYPES = {'MESH', 'CURVE', 'CURVES', 'META', 'POINTCLOUD', 'VOLUME', 'TEXT', 'SURFACE'}
-
-
-def forget_changed(updates, meshes, images: dict) -> None:
-    """Drop from the kept mesh data (MeshCache) and decoded images what ``updates`` say
-    changed: the geometry of the objects and data updated so; all meshes where objects were
-    added, deleted or hidden (a collection), a geometry node tree or other data changed;
-    every image where one did.  A value or transform edit drops nothing."""
-    objects, data = set(), set()
-    for u in updates:
-        ident = u.id
-        idt = getattr(ident, "id_type", "") if ident is not None else ""
-        name = getattr(getattr(ident, "original", ident), "name", None)
-        geometry = u.is_updated_geometry
-        if idt == 'OBJECT':
-            if geometry:
-                objects.add(name)
-        elif idt == 'IMAGE':
-            images.clear()
-        elif idt == 'COLLECTION' or (idt == 'NODETREE'
-                                     and getattr(ident, "type", "") == 'GEOMETRY'):
-            meshes.clear()
-        elif idt in _DATA_TYPES:
-            if geometry or u.is_updated_transform:
-                data.add(name)
-        elif idt not in _VALUE_TYPES and (geometry or u.is_updated_transform):
-            meshes.clear()                         # other data (a shape key, an armature)
-    if objects or data:
-        meshes.forget(objects, data)
-
-
 def only_scene(updates) -> bool:
     """Whether the updates are the scene's alone: a selection, an active object, or a change
     of the scene's settings (render settings, ours, Cycles'; settings_key tells them apart,
@@ -260,6 +228,7 @@ class ViewportDriver:
     # -- view_update: edits -> an export for the session -----------------------------------------
     def view_update(self, engine, context, depsgraph) -> None:
         from ppm_engine.blender.export import export_scene
+        from ppm_engine.blender.export.mesh_cache import MeshCache, forget_changed
         from ppm_engine.render.viewport_session import ViewportSession
         try:
             options, start = viewport_options(depsgraph.scene.ppm)
@@ -278,14 +247,13 @@ class ViewportDriver:
             view = space if hasattr(space, "show_object_viewport_mesh") else None
             key = (settings_key(depsgraph), hidden_in_view(depsgraph, view))
             if self.meshes is None:
-                from ppm_engine.blender.export.mesh import MeshCache
                 self.meshes = MeshCache(None)
             if not first and self.message is None and key == self.key:
                 ups = depsgraph.updates
                 if not changes(ups) or only_scene(ups):
                     self._watch(engine)
                     return                      # nothing the export reads changed
-                forget_changed(ups, self.meshes, self.images)
+                forget_changed(ups, self.meshes, self.images, _VALUE_TYPES)
             else:                               # a new session, frame, layer, view: afresh
                 self.meshes.clear()
                 self.images.clear()

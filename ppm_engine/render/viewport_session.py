@@ -58,13 +58,11 @@ from ppm_engine.errors import PPMError
 from ppm_engine.render.options import RenderOptions
 from ppm_engine.render.viewport_denoiser import FramePublisher, ViewportDenoiser
 from ppm_engine.render.viewport_frame import Frame, Snapshot, divider_for
+from ppm_engine.render.viewport_hold import ExportHold
 from ppm_engine.scene.camera import scaled_camera
 
 # seconds a new region size must stay before it is rendered (dragging a window's edge)
 RESIZE_DEBOUNCE = 0.15
-# the longest an export holds the worker (hold): on small machines PoCL's threads take every
-# core, and the export on Blender's thread would run many times slower beside a pass
-HOLD_LIMIT = 2.0
 
 # the viewport's kernels (ViewportSession's ``kernels``) as RenderOptions
 KERNELS = {"editable": dict(specialize=True, editable=True),
@@ -74,7 +72,7 @@ KERNELS = {"editable": dict(specialize=True, editable=True),
 # what the worker did with a scene or view change (ViewportSession.actions, newest last)
 ACTIONS = ("new", "camera", "upload", "refit", "rebuild")
 
-class ViewportSession(FramePublisher):
+class ViewportSession(FramePublisher, ExportHold):
     def __init__(self, options: RenderOptions, start_resolution: int = 64,
                  kernels: str = "editable"):
         """``kernels``: "editable" (the scene's features and every one a value edit can switch
@@ -93,7 +91,6 @@ class ViewportSession(FramePublisher):
         self._resized_at = 0.0
         self._posted_camera = None          # the last camera posted (update_view compares)
         self._paused = False
-        self._hold_until = 0.0              # hold: no pass runs until then or a post
         self._closing = False
         self._version = 0                   # grows with every change of what the viewport shows
         self._applying = False              # the worker took posted changes, not yet applied
@@ -123,18 +120,6 @@ class ViewportSession(FramePublisher):
         self._thread.start()
 
     # -- Blender's side: post what changed, read the latest image ---------------------------------
-    def hold(self, hold: bool = True) -> None:
-        """An export is coming (Blender's thread is about to read the scene): the pass in
-        progress is dropped and none runs until update_scene, ``hold(False)`` or HOLD_LIMIT
-        seconds, so that the export has the processor.  A dropped pass and no change after
-        it: the accumulation restarts."""
-        with self._cond:
-            self._hold_until = time.perf_counter() + HOLD_LIMIT if hold else 0.0
-            self._cond.notify_all()
-
-    def _held(self) -> bool:
-        return time.perf_counter() < self._hold_until
-
     def update_scene(self, arrays) -> None:
         """A new export of the scene (any edit).  Its camera is replaced by the view's when
         update_view has posted one."""
@@ -279,7 +264,7 @@ class ViewportSession(FramePublisher):
         is already out of date).  A resize still settling does not count."""
         with self._cond:
             return (self._new_scene is not None or self._new_options is not None
-                    or (self._held() and self._frame is not None)
+                    or (self._export_held() and self._frame is not None)
                     or (self._new_camera is not None
                         and time.perf_counter() >= self._resized_at + RESIZE_DEBOUNCE))
 
@@ -295,12 +280,7 @@ class ViewportSession(FramePublisher):
                 if self._new_camera is not None and settle > 0 and self._frame is not None:
                     self._cond.wait(settle)            # still resizing: keep the last image
                     continue
-                held = self._hold_until - time.perf_counter()
-                if not posted and held > 0 and self._frame is not None:
-                    self._cond.wait(held)              # an export on Blender's thread
-                    continue
-                if not posted and self._dropped and self._renderer is not None:
-                    self._new_options = self._options  # a pass dropped for nothing: restart
+                if not posted and self._hold_wait():
                     continue
                 if posted or not (self._idle() or self._renderer is None):
                     taken = (self._new_scene, self._new_camera, self._new_options)

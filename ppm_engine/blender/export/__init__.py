@@ -14,7 +14,8 @@ import numpy as np
 from ppm_engine.blender.export.camera import export_camera
 from ppm_engine.blender.export.lights import export_light
 from ppm_engine.blender.export.material_table import MaterialTable
-from ppm_engine.blender.export.mesh import GEOMETRY_TYPES, MeshCache, transform_part
+from ppm_engine.blender.export.mesh import GEOMETRY_TYPES, transform_part
+from ppm_engine.blender.export.mesh_cache import MeshCache
 from ppm_engine.blender.export.objects import object_row
 from ppm_engine.blender.export.textures import TextureTable
 from ppm_engine.blender.export.world import export_world
