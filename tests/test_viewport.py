@@ -407,3 +407,28 @@ def test_pieces_of_a_pass_render_the_same_and_an_interrupt_drops_the_pass(pocl_k
     assert pieces.iterate(interrupt=lambda: True) is None and pieces.passes_done == 3
     whole.close()
     pieces.close()
+
+
+def test_an_export_holds_the_passes_until_it_is_posted(bpy, lookdev):
+    """hold (the driver's, before an export on Blender's thread): the pass in progress is
+    dropped and none runs until the export is posted; released with nothing posted, the
+    accumulation restarts (the dropped pass is not in it)."""
+    scene, s = lookdev
+    o, start = _options(scene)
+    s.update_options(o.replace(passes=PASSES + 40), start)
+    assert s.wait(lambda s: s.frame().passes > PASSES, timeout=60)
+    s.hold()
+    time.sleep(0.1)
+    held = s.frame().passes
+    time.sleep(0.4)
+    assert s.frame().passes == held and s.busy               # held: no pass ran
+    s.hold(False)                                             # nothing posted: goes on
+    assert s.wait(lambda s: s.frame().passes > held, timeout=60)   # (restarted if dropped)
+    s.hold()
+    time.sleep(0.1)
+    restarts = s.restarts
+    s.update_scene(_export(bpy, scene, view(bpy, scene)))    # posted: renders at once
+    assert s.wait(lambda s: s.restarts > restarts and s.frame().restart > restarts,
+                  timeout=60)
+    assert s.actions[-1] == "upload"
+    s.update_options(o, start)

@@ -177,3 +177,129 @@ def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny, cap
             bpy.app.handlers.depsgraph_update_post.remove(handler)
         drv.close()
     assert drv.session is None
+
+
+def _same_arrays(a, b) -> None:
+    import dataclasses
+    for f in dataclasses.fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray):
+            assert np.array_equal(x, y), f.name
+        elif f.name != "warnings":
+            assert x == y, f.name
+
+
+def test_value_edits_read_no_mesh_again_and_export_as_afresh(bpy, tiny, monkeypatch):
+    """The driver keeps the mesh data across exports: a material colour, a light, a transform
+    read no mesh again; a mesh's own edit reads that mesh only; an added object reads them
+    all.  Every export equals a fresh one (same arrays: the same image)."""
+    from ppm_engine.blender.export import export_scene, mesh
+    from ppm_engine.blender.viewport import ViewportDriver
+    sphere_scene(bpy, tiny)
+    reads = []
+    read_mesh = mesh.read_mesh
+    monkeypatch.setattr(mesh, "read_mesh", lambda m: reads.append(m.name) or read_mesh(m))
+
+    class Engine:
+        def update_stats(self, _stats, info):
+            pass
+
+        def report(self, kind, message):
+            pass
+
+        def tag_redraw(self):
+            pass
+
+    drv, eng = ViewportDriver(), Engine()
+    sent = []
+
+    def handler(_scene, depsgraph):
+        drv.view_update(eng, bpy.context, depsgraph)
+    try:
+        drv.view_update(eng, bpy.context, bpy.context.evaluated_depsgraph_get())
+        s = drv.session
+        assert s.wait(timeout=300), s.status()            # the first scene applied
+        real = s.update_scene
+        monkeypatch.setattr(s, "update_scene", lambda a: sent.append(a) or real(a))
+        assert sorted(reads) == ["Plane", "Sphere"]
+        bpy.app.handlers.depsgraph_update_post.append(handler)
+
+        def edit(f, action):
+            reads.clear()
+            f()
+            bpy.context.view_layer.update()
+            assert s.wait(timeout=300), s.status()
+            assert s.actions[-1] == action
+            got = list(reads)
+            reads.clear()
+            _same_arrays(sent[-1], export_scene(bpy.context.evaluated_depsgraph_get()))
+            return got
+        bsdf = bpy.data.materials["Ball"].node_tree.nodes["Principled BSDF"]
+        assert edit(lambda: setattr(bsdf.inputs["Base Color"], "default_value",
+                                    (0.9, 0.1, 0.1, 1)), "upload") == []
+        assert edit(lambda: setattr(bpy.data.lights["Lamp"], "energy", 300.0), "upload") == []
+        ball = bpy.data.objects["Ball"]
+        assert edit(lambda: setattr(ball, "location", (0.3, 0.0, 0.6)), "refit") == []
+
+        def deform():
+            ball.data.vertices[0].co.z += 0.05
+            ball.data.update()
+        assert edit(deform, "refit") == ["Sphere"]                  # that mesh only
+        assert sorted(edit(lambda: bpy.ops.mesh.primitive_cube_add(size=0.3,
+                                                                   location=(1, 0, 0.15)),
+                           "rebuild")) == ["Cube", "Plane", "Sphere"]   # added: afresh
+        assert drv.exports == 6
+    finally:
+        if handler in bpy.app.handlers.depsgraph_update_post:
+            bpy.app.handlers.depsgraph_update_post.remove(handler)
+        drv.close()
+
+
+def test_decoded_images_are_kept_until_an_image_changes(bpy, tiny, monkeypatch):
+    """Exports with the driver's kept images read an image once; an edit of the image
+    (its colour space) drops it, a material edit does not; the arrays equal a fresh export's."""
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.export.mesh_cache import MeshCache, forget_changed
+    from ppm_engine.blender.export.textures import TextureTable
+    from ppm_engine.blender.viewport import _VALUE_TYPES
+    sphere_scene(bpy, tiny)
+    img = bpy.data.images.new("Grid", 16, 16)
+    img.generated_type = 'UV_GRID'
+    nt = bpy.data.materials["Ball"].node_tree
+    tex = nt.nodes.new("ShaderNodeTexImage")
+    tex.image = img
+    nt.links.new(tex.outputs["Color"], nt.nodes["Principled BSDF"].inputs["Base Color"])
+    bpy.context.view_layer.update()
+    reads = []
+    read = TextureTable._read
+    monkeypatch.setattr(TextureTable, "_read",
+                        lambda self, image, *a: reads.append(image.name) or read(self, image, *a))
+    meshes, images, seen = MeshCache(None), {}, []
+
+    def handler(_scene, depsgraph):
+        seen.append(depsgraph.updates)
+        forget_changed(depsgraph.updates, meshes, images, _VALUE_TYPES)
+
+    def export():
+        dg = bpy.context.evaluated_depsgraph_get()
+        got = export_scene(dg, meshes=meshes, images=images)
+        n = len(reads)
+        _same_arrays(got, export_scene(dg))
+        del reads[n:]                                  # the fresh export's read
+        return got
+    bpy.app.handlers.depsgraph_update_post.append(handler)
+    try:
+        export()
+        assert reads == ["Grid"]
+        bsdf = nt.nodes["Principled BSDF"]
+        bsdf.inputs["Roughness"].default_value = 0.2
+        bpy.context.view_layer.update()
+        export()
+        assert reads == ["Grid"]                       # a material edit: not read again
+        img.colorspace_settings.name = "Non-Color"
+        bpy.context.view_layer.update()
+        assert seen
+        export()
+        assert reads == ["Grid", "Grid"]               # the image edited: read again
+    finally:
+        bpy.app.handlers.depsgraph_update_post.remove(handler)

@@ -215,6 +215,8 @@ class ViewportDriver:
         self.message_hint = ""       # shown in the header until an export succeeds
         self.draw_cache: dict = {}
         self.exports = 0
+        self.meshes = None           # export.mesh.MeshCache kept across exports
+        self.images: dict = {}       # decoded images kept across exports
         self.key = None              # settings_key of the last export
         self.drawn = None            # the session version view_draw last drew
         self._tagged = None          # the version a redraw was last tagged for
@@ -226,6 +228,7 @@ class ViewportDriver:
     # -- view_update: edits -> an export for the session -----------------------------------------
     def view_update(self, engine, context, depsgraph) -> None:
         from ppm_engine.blender.export import export_scene
+        from ppm_engine.blender.export.mesh_cache import MeshCache, forget_changed
         from ppm_engine.render.viewport_session import ViewportSession
         try:
             options, start = viewport_options(depsgraph.scene.ppm)
@@ -243,13 +246,25 @@ class ViewportDriver:
             space = getattr(context, "space_data", None)
             view = space if hasattr(space, "show_object_viewport_mesh") else None
             key = (settings_key(depsgraph), hidden_in_view(depsgraph, view))
+            if self.meshes is None:
+                self.meshes = MeshCache(None)
             if not first and self.message is None and key == self.key:
                 ups = depsgraph.updates
                 if not changes(ups) or only_scene(ups):
                     self._watch(engine)
                     return                      # nothing the export reads changed
+                forget_changed(ups, self.meshes, self.images, _VALUE_TYPES)
+            else:                               # a new session, frame, layer, view: afresh
+                self.meshes.clear()
+                self.images.clear()
             camera = view_camera(context, depsgraph, engine)
-            arrays = export_scene(depsgraph, camera=camera, view=view)
+            self.session.hold()                 # the processor to the export (until posted)
+            try:
+                arrays = export_scene(depsgraph, camera=camera, view=view,
+                                      meshes=self.meshes, images=self.images)
+            except BaseException:
+                self.session.hold(False)
+                raise
             self.key = key
             self.exports += 1
             self.message = None
@@ -387,6 +402,8 @@ class ViewportDriver:
         s, self.session = self.session, None
         self._engine = None
         self.draw_cache.clear()
+        self.meshes = None
+        self.images = {}
         if unregister:
             try:
                 timers = self._timer_api()

@@ -58,6 +58,7 @@ from ppm_engine.errors import PPMError
 from ppm_engine.render.options import RenderOptions
 from ppm_engine.render.viewport_denoiser import FramePublisher, ViewportDenoiser
 from ppm_engine.render.viewport_frame import Frame, Snapshot, divider_for
+from ppm_engine.render.viewport_hold import ExportHold
 from ppm_engine.scene.camera import scaled_camera
 
 # seconds a new region size must stay before it is rendered (dragging a window's edge)
@@ -71,7 +72,7 @@ KERNELS = {"editable": dict(specialize=True, editable=True),
 # what the worker did with a scene or view change (ViewportSession.actions, newest last)
 ACTIONS = ("new", "camera", "upload", "refit", "rebuild")
 
-class ViewportSession(FramePublisher):
+class ViewportSession(FramePublisher, ExportHold):
     def __init__(self, options: RenderOptions, start_resolution: int = 64,
                  kernels: str = "editable"):
         """``kernels``: "editable" (the scene's features and every one a value edit can switch
@@ -123,6 +124,7 @@ class ViewportSession(FramePublisher):
         """A new export of the scene (any edit).  Its camera is replaced by the view's when
         update_view has posted one."""
         with self._cond:
+            self._hold_until = 0.0
             self._new_scene = arrays
             self._done = False
             self._cond.notify_all()
@@ -262,6 +264,7 @@ class ViewportSession(FramePublisher):
         is already out of date).  A resize still settling does not count."""
         with self._cond:
             return (self._new_scene is not None or self._new_options is not None
+                    or (self._export_held() and self._frame is not None)
                     or (self._new_camera is not None
                         and time.perf_counter() >= self._resized_at + RESIZE_DEBOUNCE))
 
@@ -276,6 +279,8 @@ class ViewportSession(FramePublisher):
                 settle = self._resized_at + RESIZE_DEBOUNCE - time.perf_counter()
                 if self._new_camera is not None and settle > 0 and self._frame is not None:
                     self._cond.wait(settle)            # still resizing: keep the last image
+                    continue
+                if not posted and self._hold_wait():
                     continue
                 if posted or not (self._idle() or self._renderer is None):
                     taken = (self._new_scene, self._new_camera, self._new_options)

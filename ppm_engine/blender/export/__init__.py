@@ -14,7 +14,8 @@ import numpy as np
 from ppm_engine.blender.export.camera import export_camera
 from ppm_engine.blender.export.lights import export_light
 from ppm_engine.blender.export.material_table import MaterialTable
-from ppm_engine.blender.export.mesh import GEOMETRY_TYPES, MeshCache, transform_part
+from ppm_engine.blender.export.mesh import GEOMETRY_TYPES, transform_part
+from ppm_engine.blender.export.mesh_cache import MeshCache
 from ppm_engine.blender.export.objects import object_row
 from ppm_engine.blender.export.textures import TextureTable
 from ppm_engine.blender.export.world import export_world
@@ -74,7 +75,8 @@ def hidden_in_view(depsgraph, view) -> tuple:
                         if not o.visible_in_viewport_get(view)))
 
 
-def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
+def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
+                 images=None) -> SceneArrays:
     """Everything the core needs from one evaluated depsgraph (render or viewport).
 
     ``camera``: a CAMERA_DTYPE record to render with instead of the scene camera's (the
@@ -82,10 +84,13 @@ def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
     ``view``: a 3D view (SpaceView3D) whose visibility applies, as in Cycles' viewport: only
     the objects visible in it (its local view, local collections and object-type visibility,
     Object.visible_in_viewport_get; an instance by its instancer's).
+    ``meshes``: a MeshCache kept across exports (the viewport's: the caller forgets what
+    changed), else one for this export; ``images``: a dict of decoded images kept across
+    exports likewise (TextureTable's ``decoded``; the caller clears it when an image changes).
     Raises SceneError when the scene cannot be rendered (no/invalid camera, empty border)."""
     scene = depsgraph.scene
     warn = Warnings(engine)
-    textures = TextureTable(warn)
+    textures = TextureTable(warn, decoded=images)
     materials = MaterialTable(warn, textures)
     if camera is None:
         camera = export_camera(scene, depsgraph)
@@ -97,10 +102,16 @@ def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
     # Cycles' camera space: the camera's placement without its scale (as the camera's rays),
     # its z flipped (+z ahead)
     materials.camera = cm @ np.diag((1.0, 1.0, -1.0, 1.0))
-    meshes = MeshCache(warn)
+    keep = meshes is not None
+    if keep:
+        meshes.warn = warn
+        meshes.begin()
+    else:
+        meshes = MeshCache(warn)
     parts, lights = [], []
     uv_tangents = generated = False
     objects = []                            # rows of the objects whose programs read them
+    bases = []                              # the parts as made (MeshCache.part)
     for inst in depsgraph.object_instances:
         obj = inst.object
         if view is not None and not in_view(inst, view):
@@ -128,13 +139,24 @@ def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
             slots = materials.slot_map(obj)
             mapped = materials.reads(slots, PROGRAM_TANGENTS)
             gen = materials.reads(slots, PROGRAM_GENERATED)
-            attrs = (meshes.attributes(obj, materials.attributes)
-                     if materials.reads(slots, PROGRAM_ATTRIBUTES) else None)
-            parts.append(transform_part(mesh, m, slots, visibility_bits(obj), obj.name, warn,
-                                        tangents=materials.anisotropic(slots),
-                                        uv_tangents=meshes.uv_tangents(obj) if mapped else None,
-                                        generated=gen, attributes=attrs,
-                                        terminator=terminator_offset(obj)))
+            reads_attrs = materials.reads(slots, PROGRAM_ATTRIBUTES)
+            vis, term, aniso = visibility_bits(obj), terminator_offset(obj), \
+                materials.anisotropic(slots)
+
+            def make(obj=obj, mesh=mesh, m=m, slots=slots, vis=vis, term=term, aniso=aniso,
+                     mapped=mapped, gen=gen, reads_attrs=reads_attrs):
+                attrs = (meshes.attributes(obj, materials.attributes) if reads_attrs
+                         else None)
+                return transform_part(mesh, m, slots, vis, obj.name, warn, tangents=aniso,
+                                      uv_tangents=meshes.uv_tangents(obj) if mapped else None,
+                                      generated=gen, attributes=attrs, terminator=term)
+            # the world-space part: kept across exports with the mesh (a value edit moves
+            # nothing), one per placement, slots, flags and attribute names
+            base = meshes.part(obj, (m.tobytes(), slots.tobytes(), vis, obj.name, aniso,
+                                     mapped, gen, tuple(materials.attributes) if reads_attrs
+                                     else None, term), make)
+            bases.append(base)
+            parts.append(dict(base))
             uv_tangents |= mapped
             generated |= gen
             k_obj = -1
@@ -142,14 +164,21 @@ def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
                 k_obj = len(objects)
                 objects.append(object_row(obj, m, inst))
             parts[-1]["object"] = np.full(parts[-1]["positions"].shape[0], k_obj, np.int32)
-    meshes.clear()
+    if keep:
+        meshes.prune()
+    else:
+        meshes.clear()
     svm = materials.svm()
     world, world_program, world_shader = export_world(scene.world, warn, textures, svm.shape[0])
     if world_program is not None:
         svm = np.concatenate([svm, world_program])
 
     light_arr = np.concatenate(lights) if lights else np.zeros(0, LIGHT_DTYPE)
-    if parts:
+    cat_key = (tuple(bases), len(materials.attributes), uv_tangents, generated,
+               tuple(int(p["object"][0]) if len(p["object"]) else -1 for p in parts))
+    if parts and meshes.concatenated(cat_key) is not None:
+        cat = dict(meshes.concatenated(cat_key))    # nothing moved: the same arrays
+    elif parts:
         k_attr = len(materials.attributes)          # the parts read fewer names: zero-padded
         for part in parts:
             a = part["attributes"]
@@ -168,6 +197,8 @@ def export_scene(depsgraph, engine=None, camera=None, view=None) -> SceneArrays:
             cat["generated"] = np.zeros((0, 3, 3), np.float32)
         if (cat["terminator"] == np.float32(TERMINATOR_OFFSET)).all():   # every one the default
             cat["terminator"] = np.zeros(0, np.float32)
+        if keep:
+            meshes.keep_concatenated(cat_key, cat)
     else:
         cat = dict(positions=np.zeros((0, 3, 3), np.float32),
                    normals=np.zeros((0, 3, 3), np.float32),

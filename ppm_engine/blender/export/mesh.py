@@ -3,7 +3,6 @@ transformed per instance.  No per-vertex or per-triangle Python loops: attribute
 ``foreach_get`` into buffers of the stored dtype, then NumPy."""
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 
 import numpy as np
@@ -220,83 +219,6 @@ def read_attributes(mesh, local: LocalMesh, names: list, warn) -> np.ndarray:
         else:
             out[:, :, k, :comps] = v
     return out
-
-
-class MeshCache:
-    """One read per evaluated geometry: 1000 instances of a mesh cost one read."""
-
-    def __init__(self, warn):
-        self.warn = warn
-        self._cache: dict = {}
-        self._tangents: dict = {}
-        self._attributes: dict = {}
-
-    @staticmethod
-    def _direct(obj) -> bool:
-        """Whether the object's evaluated data is the mesh to read: a mesh object's, unless it
-        is in Edit Mode (then the data is the edit mesh's wrapper, without the corner arrays:
-        read through to_mesh(), as Cycles does)."""
-        return obj.type == 'MESH' and not obj.data.is_editmode
-
-    def _key(self, obj):
-        """The cache key of an object's geometry: its mesh datablock (1000 instances, one
-        read), or the object and its data where the mesh comes from to_mesh() (the result
-        depends on the evaluated object: its modifiers)."""
-        if self._direct(obj):
-            return obj.data.as_pointer()
-        return (obj.as_pointer(), obj.data.as_pointer() if obj.data is not None else 0)
-
-    @contextlib.contextmanager
-    def _mesh(self, obj, copy: bool = False):
-        """The evaluated mesh to read (None where the object gives none): the object's data
-        (_direct, unless ``copy``), else a temporary mesh from to_mesh() (curves, surfaces,
-        text, metaballs, a mesh in Edit Mode), outside the blend data, always cleared."""
-        if self._direct(obj) and not copy:
-            yield obj.data
-            return
-        try:
-            mesh = obj.to_mesh()
-        except RuntimeError:
-            mesh = None
-        try:
-            yield mesh
-        finally:
-            obj.to_mesh_clear()
-
-    def uv_tangents(self, obj) -> np.ndarray:
-        """read_uv_tangents of an object's geometry (once per datablock)."""
-        key = self._key(obj)
-        if key not in self._tangents:
-            name = obj.data.name if obj.data is not None else obj.name
-            self._tangents[key] = read_uv_tangents(self.get(obj), name, self.warn,
-                                                   lambda: self._mesh(obj, copy=True))
-        return self._tangents[key]
-
-    def attributes(self, obj, names: list) -> np.ndarray | None:
-        """read_attributes of a mesh object's data for these names; None for other geometry
-        (warned: its attributes read 0)."""
-        if obj.type != 'MESH':
-            self.warn(f"Object '{obj.name}' is not a mesh: its attributes are not read (0)")
-            return None
-        key = (self._key(obj), tuple(names))
-        if key not in self._attributes:                # once per datablock, not per instance
-            local = self.get(obj)
-            with self._mesh(obj) as mesh:
-                self._attributes[key] = (read_attributes(mesh, local, list(names), self.warn)
-                                         if mesh is not None else None)
-        return self._attributes[key]
-
-    def get(self, obj) -> LocalMesh:
-        key = self._key(obj)
-        if key not in self._cache:
-            with self._mesh(obj) as mesh:
-                self._cache[key] = read_mesh(mesh) if mesh is not None else EMPTY
-        return self._cache[key]
-
-    def clear(self):
-        self._cache.clear()
-        self._tangents.clear()
-        self._attributes.clear()
 
 
 def _texspace_centred(mesh: LocalMesh) -> np.ndarray:

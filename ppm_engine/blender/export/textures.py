@@ -78,8 +78,10 @@ class TextureTable:
     """The textures of one export, 1-based indices (0 = none), one entry per image datablock
     and sampling mode."""
 
-    def __init__(self, warn):
+    def __init__(self, warn, decoded: dict | None = None):
         self.warn = warn
+        self.decoded = decoded      # (image, tile) -> a read's result, kept across exports
+        self.reads = 0              # images read (not from ``decoded``)
         self.rows: list[np.ndarray] = []
         self.texels: list[np.ndarray] = []
         self.count = 0
@@ -127,8 +129,7 @@ class TextureTable:
         tile = (tile or 1001) if image.source == "TILED" else 0
         key = (image.name_full, tile, flags)
         if key not in self._index:
-            texels, srgb, (w, h) = (self._read_tile(image, tile, material) if tile
-                                    else self._read(image, material))
+            texels, srgb, (w, h) = self._decoded(image, tile, material)
             if texels is None:
                 self._index[key] = 0
                 return 0, MISSING
@@ -143,6 +144,18 @@ class TextureTable:
             self._index[key] = len(self.rows)
         tex = self._index[key]
         return (tex, None) if tex else (0, MISSING)
+
+    def _decoded(self, image, tile: int, material: str):
+        """_read or _read_tile, from ``decoded`` where this image was read before (an image
+        that could not be read is read again: its warning is this export's)."""
+        key = (image.name_full, tile)
+        if self.decoded is not None and key in self.decoded:
+            return self.decoded[key]
+        self.reads += 1
+        got = self._read_tile(image, tile, material) if tile else self._read(image, material)
+        if self.decoded is not None and got[0] is not None:
+            self.decoded[key] = got
+        return got
 
     def tiles(self, node, material: str) -> list[tuple[int, int]]:
         """(tile number, texture index or 0 when it cannot be read) of each tile of a UDIM

@@ -194,7 +194,9 @@ def run(args, cmdline: str, progress=print) -> int:
         return publish("denoise", d, denoise.format_denoise(d))
     if args.viewport:
         from ppm_engine.tools.bench import viewport_latency as viewport
-        v = viewport.run_viewport(args.device, quick=args.quick, progress=progress)
+        from ppm_engine.tools.bench import viewport_textured
+        v = viewport.run_viewport(args.device, quick=args.quick, progress=progress,
+                                  textured=viewport_textured.textured_edits)
         v["machine"] = report.machine_info(args.device)
         return publish("viewport", v, viewport.format_viewport(v))
     if args.skips:

@@ -103,7 +103,9 @@ def _at_full_resolution(s, rng, pass_s: float) -> None:
     time.sleep(float(rng.uniform(0.1, 0.9)) * pass_s)
 
 
-def run_viewport(device: str = "", quick: bool = False, progress=print) -> dict:
+def run_viewport(device: str = "", quick: bool = False, progress=print,
+                 textured=None) -> dict:
+    """``textured``: viewport_textured.textured_edits (passed in: it imports this module)."""
     from ppm_engine.blender.viewport import viewport_options
     from ppm_engine.render.viewport_session import ViewportSession
     size = QUICK_SIZE if quick else SIZE
@@ -207,6 +209,10 @@ def run_viewport(device: str = "", quick: bool = False, progress=print) -> dict:
 
     progress("viewport: previews")
     out["previews"] = previews(bpy, device)
+
+    progress("viewport: edits of a 100K-triangle textured scene")
+    if textured is not None:
+        out["textured"] = textured(size, moves, device, rng, progress)
 
     progress("viewport: cold starts (fresh processes, empty kernel cache)")
     out["cold"] = [cold_start(name, device, quick=quick, kernels=k)
@@ -406,4 +412,6 @@ def format_viewport(d: dict) -> str:
                      f"{c['first_image_s']:.1f} | {c['first_full_image_s']:.1f} | "
                      f"{c['build_s']:.1f} | {c['bvh_s']:.1f} | "
                      f"{', '.join(f'{k} {v:.1f}' for k, v in slow)} |")
+    if "textured" in d:
+        lines += ["", d["textured"]["table"]]
     return "\n".join(lines)
