@@ -77,6 +77,10 @@ def test_depsgraph_updates_of_real_edits(bpy, tiny):
         assert "geometry" in edit(lambda: bpy.ops.mesh.primitive_cube_add(size=0.3))
         assert "geometry" in edit(lambda: bpy.data.objects.remove(bpy.data.objects["Cube"]))
         assert edit(lambda: setattr(scene.camera, "location", (0, -6, 2))) == set()  # view_draw
+        # a lens or depth-of-field change: view_draw's camera too (camera space is read when
+        # the programs run), the camera-only path, no export
+        assert edit(lambda: setattr(scene.camera.data, "lens", 35.0)) == set()
+        assert edit(lambda: setattr(scene.camera.data.dof, "aperture_fstop", 2.0)) == set()
     finally:
         bpy.app.handlers.depsgraph_update_post.remove(handler)
 

@@ -53,8 +53,7 @@ BUG_HINT = "a bug: please report it with the console's traceback"
 
 # depsgraph update types -> what changed (the session compares the arrays and does the least
 # work: values re-uploaded, the BVH refitted, or rebuilt)
-_VALUE_TYPES = {'MATERIAL', 'NODETREE', 'IMAGE', 'TEXTURE', 'LIGHT', 'WORLD', 'CAMERA',
-                'SCENE'}
+_VALUE_TYPES = {'MATERIAL', 'NODETREE', 'IMAGE', 'TEXTURE', 'LIGHT', 'WORLD', 'SCENE'}
 
 
 def changes(updates) -> set:
@@ -76,6 +75,8 @@ def changes(updates) -> set:
                 out.add("transform")
             elif u.is_updated_shading:
                 out.add("values")                  # ray visibility, material slots
+        elif idt == 'CAMERA':
+            continue    # lens, depth of field: view_draw's camera (no export reads it)
         elif idt == 'COLLECTION':
             out.add("geometry")                    # objects linked, unlinked, hidden
         elif idt in _VALUE_TYPES:
