@@ -12,21 +12,26 @@
 /* The fraction of light a ray from o along d lets through over dist, meeting the objects of
  * visibility `mask`: 0 at an opaque surface; partly transparent surfaces (alpha, Transparent
  * BSDF) attenuate it, at most `crossings` of them (as Blender 5.0's Cycles renders: the Light
- * Paths' transparent limit less the path's crossings, ShaderData.crossings).  A shadow ray's
- * (shadow_transmittance) meets what casts shadows; a camera connection's
- * (photon_pass.cl connect_camera) what the camera sees. */
-inline float3 ray_transmittance(const Scene *scene, float3 o, float3 d, float dist, int crossings,
-                                uint mask) {
-#if PPM_TRANSPARENT
+ * Paths' transparent limit less the path's crossings, ShaderData.crossings); with PPM_VOLUME and
+ * media m (the ray's: entered and left at the transparent boundaries it crosses; NULL: none
+ * counted), each segment's extinction (Beer-Lambert) too. */
+inline float3 transmittance_through(const Scene *scene, float3 o, float3 d, float dist,
+                                    int crossings, uint mask, Media *m) {
     float3 T = (float3)(1.0f);
     for (int i = 0; i <= crossings; i++) {
         Hit h = bvh_intersect(scene, o, d, dist, mask, false);
+#if PPM_VOLUME
+        if (m) T *= media_transmittance(m, scene->materials, h.leaf < 0 ? dist : h.t);
+#endif
         if (h.leaf < 0) return T;
         Surface s = surface_at(scene, h);
         if (i == crossings || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
             return (float3)(0.0f);
         T *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
         if (!(max3(T) > 0.0f)) return (float3)(0.0f);
+#if PPM_VOLUME
+        if (m) media_cross_transparent(m, scene->materials, s.material, dot(d, s.ng) < 0.0f);
+#endif
         float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
                                scene->emitter_info->offset_scale);
         dist -= dot(o2 - o, d);
@@ -34,6 +39,15 @@ inline float3 ray_transmittance(const Scene *scene, float3 o, float3 d, float di
         if (!(dist > 0.0f)) return T;
     }
     return (float3)(0.0f);
+}
+
+/* transmittance_through without media.  A shadow ray's (shadow_transmittance) meets what casts
+ * shadows; a camera connection's (photon_pass.cl connect_camera) what the camera sees; without
+ * transparent surfaces one ray that stops at any hit. */
+inline float3 ray_transmittance(const Scene *scene, float3 o, float3 d, float dist, int crossings,
+                                uint mask) {
+#if PPM_TRANSPARENT
+    return transmittance_through(scene, o, d, dist, crossings, mask, 0);
 #else
     Hit h = bvh_intersect(scene, o, d, dist, mask, true);
     return (float3)(h.leaf < 0 ? 1.0f : 0.0f);
@@ -46,29 +60,11 @@ inline float3 shadow_transmittance(const Scene *scene, float3 o, float3 d, float
 }
 
 #if PPM_VOLUME
-/* ray_transmittance through media: m0 the media at o (0: none), entered and left at the
- * transparent boundaries the ray crosses, each segment's extinction (Beer-Lambert) */
+/* ray_transmittance through media: m0 the media at o (0: none) */
 inline float3 ray_transmittance_media(const Scene *scene, float3 o, float3 d, float dist,
                                       int crossings, uint mask, const Media *m0) {
     Media m = media_copy(m0);
-    float3 T = (float3)(1.0f);
-    for (int i = 0; i <= crossings; i++) {
-        Hit h = bvh_intersect(scene, o, d, dist, mask, false);
-        T *= media_transmittance(&m, scene->materials, h.leaf < 0 ? dist : h.t);
-        if (h.leaf < 0) return T;
-        Surface s = surface_at(scene, h);
-        if (i == crossings || !(scene->materials[s.material].flags & MAT_TRANSPARENT))
-            return (float3)(0.0f);
-        T *= material_transparency(scene, s.material, s.tri, h.u, h.v, s.p);
-        if (!(max3(T) > 0.0f)) return (float3)(0.0f);
-        media_cross_transparent(&m, scene->materials, s.material, dot(d, s.ng) < 0.0f);
-        float3 o2 = offset_ray(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng,
-                               scene->emitter_info->offset_scale);
-        dist -= dot(o2 - o, d);
-        o = o2;
-        if (!(dist > 0.0f)) return T;
-    }
-    return (float3)(0.0f);
+    return transmittance_through(scene, o, d, dist, crossings, mask, &m);
 }
 
 /* The media that hold point p (camera rays' and photons' start, Cycles' volume stack
