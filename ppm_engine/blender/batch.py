@@ -32,6 +32,19 @@ def check_paths(scene_file: Path, output: Path) -> None:
         raise PPMError(f"output folder does not exist: {output.parent}")
 
 
+def open_scene(scene_file: Path):
+    """The engine registered and ``scene_file`` loaded, its scene returned; PPMError naming the
+    file where Blender cannot open it.  Never with use_scripts=True: the file is untrusted and
+    its scripts stay off."""
+    import bpy
+    ensure_registered()
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(scene_file.resolve()), load_ui=False)
+    except RuntimeError as e:
+        raise PPMError(f"cannot open {scene_file}: {blender_message(e)}") from None
+    return bpy.context.scene
+
+
 def render_file(scene_file: Path, output: Path, overrides: dict, *, device: str | None = None,
                 resolution: tuple[int, int] | None = None, frame: int | None = None,
                 frames: tuple[int, int] | None = None, progress=None,
@@ -44,13 +57,7 @@ def render_file(scene_file: Path, output: Path, overrides: dict, *, device: str 
     check_paths(scene_file, output)
     RenderOptions().replace(**overrides).validate()    # refuse bad values before loading Blender
     import bpy
-    ensure_registered()
-    try:
-        # never use_scripts=True: the file is untrusted and its scripts stay off
-        bpy.ops.wm.open_mainfile(filepath=str(scene_file.resolve()), load_ui=False)
-    except RuntimeError as e:
-        raise PPMError(f"cannot open {scene_file}: {blender_message(e)}") from None
-    scene = bpy.context.scene
+    scene = open_scene(scene_file)
     if scene.render.engine != "PPM":      # setting it again would drop a persistent engine
         scene.render.engine = "PPM"
     if scene.render.engine != "PPM":      # never render with another engine by mistake
@@ -188,12 +195,7 @@ def render_split(scene_file: Path, output: Path, overrides: dict, *,
                          "--pass-range)")
     parts.check_splittable(RenderOptions().replace(**overrides).validate())
     import bpy
-    ensure_registered()
-    try:
-        bpy.ops.wm.open_mainfile(filepath=str(scene_file.resolve()), load_ui=False)
-    except RuntimeError as e:
-        raise PPMError(f"cannot open {scene_file}: {blender_message(e)}") from None
-    scene = bpy.context.scene
+    scene = open_scene(scene_file)
     apply_settings(scene, {k: v for k, v in overrides.items() if k != "radius_schedule"},
                    device)
     if resolution:
