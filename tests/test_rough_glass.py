@@ -76,6 +76,22 @@ N_ROW = 11       # roughness 0.0, 0.1, ..., 1.0
 PX = 16          # pixels per object
 
 
+def _checkered_backdrop(bpy, size, scale):
+    """A square of side ``size`` 1 m behind the origin, facing -y: a diffuse checker (0.9 and
+    0.05, ``scale``) of roughness 1."""
+    bpy.ops.mesh.primitive_plane_add(size=size, location=(0, 1.0, 0), rotation=(math.pi / 2, 0, 0))
+    backdrop = bpy.data.materials.new("Backdrop")
+    bpy.context.active_object.data.materials.append(backdrop)
+    t = backdrop.node_tree
+    p = t.nodes["Principled BSDF"]
+    chk = t.nodes.new("ShaderNodeTexChecker")
+    chk.inputs["Scale"].default_value = scale
+    chk.inputs["Color1"].default_value = (0.9, 0.9, 0.9, 1)
+    chk.inputs["Color2"].default_value = (0.05, 0.05, 0.05, 1)
+    t.links.new(chk.outputs["Color"], p.inputs["Base Color"])
+    p.inputs["Roughness"].default_value = 1.0
+
+
 def _row(bpy):
     """Rough Principled glass (transmission 1, IOR 1.5) at roughness 0.0 to 1.0 in steps of 0.1:
     a row of tilted cubes above a row of spheres, before a checkered diffuse backdrop 1 m
@@ -83,17 +99,7 @@ def _row(bpy):
     camera: one object per PX x PX pixels."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    bpy.ops.mesh.primitive_plane_add(size=10, location=(0, 1.0, 0), rotation=(math.pi / 2, 0, 0))
-    backdrop = bpy.data.materials.new("Backdrop")
-    bpy.context.active_object.data.materials.append(backdrop)
-    t = backdrop.node_tree
-    p = t.nodes["Principled BSDF"]
-    chk = t.nodes.new("ShaderNodeTexChecker")
-    chk.inputs["Scale"].default_value = 60.0
-    chk.inputs["Color1"].default_value = (0.9, 0.9, 0.9, 1)
-    chk.inputs["Color2"].default_value = (0.05, 0.05, 0.05, 1)
-    t.links.new(chk.outputs["Color"], p.inputs["Base Color"])
-    p.inputs["Roughness"].default_value = 1.0
+    _checkered_backdrop(bpy, 10, 60.0)
     for row, z in enumerate((0.2, -0.2)):
         for i in range(N_ROW):
             x = (i - (N_ROW - 1) / 2) * 0.4
@@ -165,17 +171,7 @@ def test_a_lamp_seen_through_rough_glass_as_cycles(bpy, cycles, tiny, render_exr
     0.92 beside it); as Cycles' eval 0.98-1.07 (1024 samples, 256 passes, four seeds)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    bpy.ops.mesh.primitive_plane_add(size=6, location=(0, 1.0, 0), rotation=(math.pi / 2, 0, 0))
-    backdrop = bpy.data.materials.new("Backdrop")
-    bpy.context.active_object.data.materials.append(backdrop)
-    t = backdrop.node_tree
-    p = t.nodes["Principled BSDF"]
-    chk = t.nodes.new("ShaderNodeTexChecker")
-    chk.inputs["Scale"].default_value = 30.0
-    chk.inputs["Color1"].default_value = (0.9, 0.9, 0.9, 1)
-    chk.inputs["Color2"].default_value = (0.05, 0.05, 0.05, 1)
-    t.links.new(chk.outputs["Color"], p.inputs["Base Color"])
-    p.inputs["Roughness"].default_value = 1.0
+    _checkered_backdrop(bpy, 6, 30.0)
     bpy.ops.mesh.primitive_cube_add(size=0.5, rotation=(0.4, 0.5, 0.0))
     glass = bpy.data.materials.new("Glass")
     bpy.context.active_object.data.materials.append(glass)

@@ -7,6 +7,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from tests.helpers.blender_scenes import light_world_camera
+from tests.helpers.cycles_blocks import blocks, compare_blocks
+
 W = 32
 
 
@@ -59,17 +62,7 @@ def base_scene(camera=((0, -6, 1.5), (1.35, 0, 0), 35.0)):
     """Empty factory scene: black world, a camera, a box filter."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    scene.world = bpy.data.worlds.new("W")
-    scene.world.use_nodes = True
-    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
-    (location, rotation, lens) = camera
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    cam.location, cam.rotation_euler, cam.data.lens = location, rotation, lens
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    scene.render.dither_intensity = 0.0
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    scene.render.filter_size = 0.0
+    light_world_camera(scene, light=None, world=0.0, camera=camera)
     return scene
 
 
@@ -109,29 +102,14 @@ def both(scene, cycles, render_exr, tmp_path, tiny, samples, passes, bounces=0):
     return ours, ref
 
 
-def block_means(img):
-    """The means of a W x W RGB image's 8 x 8 blocks."""
-    return img.reshape(W // 8, 8, W // 8, 8, 3).mean(axis=(1, 3))
-
-
-
-def assert_blocks(ours, ref, rtol, atol):
-    """Every 8 x 8 block of ours within rtol (relative) + atol of Cycles' (ref)."""
-    a, b = block_means(ours), block_means(ref)
-    bad = np.abs(a - b) > rtol * np.abs(b) + atol
-    assert not bad.any(), (f"{bad.any(-1).sum()} of {bad.shape[0] * bad.shape[1]} blocks differ:"
-                           f"\nours\n{a.mean(-1)}\nCycles\n{b.mean(-1)}")
-
-
-# --- against Cycles, per block ------------------------------------------------------------------
 def test_fog_cube_under_a_spot_light_shows_the_cone(bpy, cycles, render_exr, tmp_path, tiny):
     """The issue's first scene: a room's floor and wall, a fog cube (Principled Volume, a mesh
     with only a Volume output) under a spot light: the cone of light in the fog, the floor lit
     through it, direct light only (before: an opaque black box)."""
     scene = fog_room()
     ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=256, passes=128)
-    assert_blocks(ours, ref, rtol=0.05, atol=0.001)
-    b = block_means(ours).mean(-1)          # the cone: the middle columns lit, the sides dark
+    compare_blocks(ours, ref, rtol=0.05, atol=0.001)
+    b = blocks(ours).mean(-1)          # the cone: the middle columns lit, the sides dark
     assert b[1, 1:3].min() > 0.03 and b[1, [0, 3]].max() < 0.005
 
 
@@ -163,7 +141,7 @@ def test_absorption_cube_is_beer_lambert_and_cycles(bpy, cycles, render_exr, tmp
     assert np.allclose(middle, exact, rtol=2e-3), (middle.mean(0), exact)
     assert np.allclose(ours[:3, :3], 1.0, rtol=1e-3)
     assert np.allclose(ref[12:20, 12:20].reshape(-1, 3).mean(0), exact, rtol=2e-3)
-    assert_blocks(ours, ref, rtol=0.01, atol=1e-3)
+    compare_blocks(ours, ref, rtol=0.01, atol=1e-3)
 
 
 def test_principled_volume_anisotropy_scatters_forward(bpy, cycles, render_exr, tmp_path, tiny):
@@ -178,8 +156,8 @@ def test_principled_volume_anisotropy_scatters_forward(bpy, cycles, render_exr, 
     lamp.location = (0.6, 3.0, 0.4)
     scene.collection.objects.link(lamp)
     ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=256, passes=64)
-    assert_blocks(ours, ref, rtol=0.05, atol=0.002)
-    b = block_means(ours).mean(-1)
+    compare_blocks(ours, ref, rtol=0.05, atol=0.002)
+    b = blocks(ours).mean(-1)
     assert b[1:3, 2].mean() > 1.5 * b[1:3, 0].mean()     # brighter towards the light
 
 
@@ -200,8 +178,8 @@ def test_glass_box_filled_with_scattering_liquid(bpy, cycles, render_exr, tmp_pa
     scene.collection.objects.link(lamp)
     ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=256, passes=64,
                      bounces=4)
-    assert_blocks(ours, ref, rtol=0.12, atol=0.004)
-    assert block_means(ours)[1:3, 1:3].mean() > 0.02
+    compare_blocks(ours, ref, rtol=0.12, atol=0.004)
+    assert blocks(ours)[1:3, 1:3].mean() > 0.02
 
 
 def test_camera_inside_fog(bpy, cycles, render_exr, tmp_path, tiny):
@@ -217,7 +195,7 @@ def test_camera_inside_fog(bpy, cycles, render_exr, tmp_path, tiny):
     lamp.location = (0, 1.0, 1.5)
     scene.collection.objects.link(lamp)
     ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=256, passes=64)
-    assert_blocks(ours, ref, rtol=0.05, atol=0.002)
+    compare_blocks(ours, ref, rtol=0.05, atol=0.002)
 
 
 # --- export, features, bad input ------------------------------------------------------------------
@@ -370,7 +348,7 @@ def test_volume_bounces_and_light_through_fog_onto_the_room(bpy, cycles, render_
     ref = render_exr(tmp_path / "cycles.exr")
     tiny(scene, width=W, height=W, passes=256, photons=4096)
     ours = render_exr(tmp_path / "ours.exr")
-    assert_blocks(ours, ref, rtol=0.06, atol=0.0012)
+    compare_blocks(ours, ref, rtol=0.06, atol=0.0012)
 
 
 def test_volume_boundaries_are_no_transparent_bounces(bpy, cycles, render_exr, tmp_path, tiny):

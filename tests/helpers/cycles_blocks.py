@@ -20,8 +20,9 @@ def render_both(scene, cycles, render_exr, tmp_path, tiny, *, samples, passes, b
 
 
 def blocks(img):
-    """The means of a W x W RGB image's 8 x 8 blocks."""
-    return img.reshape(W // 8, 8, W // 8, 8, 3).mean(axis=(1, 3))
+    """The means of an RGB image's 8 x 8 blocks (its sides multiples of 8: W x W here)."""
+    h, w = img.shape[:2]
+    return img.reshape(h // 8, 8, w // 8, 8, 3).mean(axis=(1, 3))
 
 
 def compare_blocks(ours, ref, rtol, atol):
