@@ -91,8 +91,9 @@
 #define CNT_SEEN 9
 #define CNT_CASTER 10
 #define CNT_USED 11
-#define CNT_CASTER_STATS 12
-#define N_COUNTERS 76
+#define CNT_VSTORED 12
+#define CNT_CASTER_STATS 13
+#define N_COUNTERS 77
 
 /* emissive triangles picked among locally at most (ppm_engine/scene/emitters.py LOCAL_PICK_MAX) */
 #define LOCAL_PICK_MAX 8
@@ -130,6 +131,10 @@
 
 /* the gather's region and cells (ppm_engine/render/passes/gather.py) */
 #define MAX_CELLS_PER_AXIS 5
+
+/* the camera's segments in media kept per pixel for the volume photons
+ * (ppm_engine/render/passes/volume.py) */
+#define VOLUME_SEGMENTS 4
 
 /* photon guides' bins, floats per light, lights (ppm_engine/scene/guide.py) */
 #define GUIDE_ROWS 16
@@ -423,15 +428,20 @@ typedef struct {
     X(float4, nrm)      /* the surface's normal; w: the path (path_state.h), as bits */ \
     X(float4, beta)     /* the path weight (the photon term's factor); w: the footprint */ \
     X(float4, shade)    /* the hit shaded again: u, v, BVH leaf (-1: Lambert), wi packed */ \
-    X(float4, gathered) /* the gather's result: (sum of flux x f, photons) */
+    X(float4, gathered) /* the gather's result: (sum of flux x f, photons) */ \
+    X(float4, segments) /* the camera's segments in media: (o, t), (d, medium), (weight, path) */
 
 /* --- the photons' buffers (ppm_engine/render/photon_map.py PHOTON_BUFFERS), in the kernels'
  * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'
  * parameters and the Photons struct (ph_NAME) of them */
 #define PHOTON_DATA(X) \
-    X(Grid, grid)   /* the grid over this pass's visible points */ \
-    X(float4, pos)  /* position; w: the normal packed */ \
-    X(float4, flux) /* flux; w: where it came from, packed */ \
-    X(uint2, path)  /* its bounces (path_state.h), the radiance over its flux (the clamp) */
+    X(Grid, grid)    /* the grid over this pass's visible points */ \
+    X(float4, pos)   /* position; w: the normal packed */ \
+    X(float4, flux)  /* flux; w: where it came from, packed */ \
+    X(uint2, path)   /* its bounces (path_state.h), the radiance over its flux (the clamp) */ \
+    X(Grid, vgrid)   /* the volume photons' grid (passes/volume.py) */ \
+    X(float4, vpos)  /* a volume photon's position */ \
+    X(float4, vflux) /* its flux; w: where it came from, packed */ \
+    X(uint, vpath)   /* its bounces (path_state.h) */
 
 #endif

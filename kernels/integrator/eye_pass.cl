@@ -35,7 +35,7 @@ inline float3 eye_nee_u(uint pass, uint key, int depth, uint *rng) {
 __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint seed,
                        float initial_radius, float auto_radius_pixels, float radius_scale,
                        __global const float *filter_table, __global uint *counters,
-                       uint path_indirect, float lt_kappa) {
+                       uint path_indirect, float lt_kappa, uint volume_photons) {
     SCENE_LOAD(scene);
     FILM_LOAD(film);
     VP_LOAD(vps);
@@ -102,51 +102,44 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
     sd.media = &media;
     int vbounce = 0; /* the path's scatterings in media (Light Paths > Volume bounces) */
     int bounds = 0; /* the media's boundaries it crossed (media_boundary) */
+    int nseg = 0; /* the camera's segments kept for the volume photons' gather */
 #endif
     __global const LightPaths *lp = scene->light_paths;
     int term = TERM_NONE; /* past a Light Paths limit: how the path ends (path_state.h) */
+    /* with volume photons and eye paths for the indirect light: 1 after the path's first
+     * scattering in a medium, 2 once only singular bounces followed it (the light such a path
+     * finds is the volume photons' L S+ M, photon_pass.cl: not added here) */
+    int vchain = 0;
     for (int depth = 0, transparent = 0, vertex = 0;;) {
         Hit h = bvh_intersect(scene, o, d, tmax, mask, false);
         /* the clamp of what this ray finds: direct after at most one bounce (path_state.h) */
         float clamp_found = clamp_limit(depth - 1, lp);
 #if PPM_VOLUME
-        /* the segment inside a medium: its emission, and the lights the ray meets along it,
-         * each through the transmittance to it, with the path's weight at the segment's start;
-         * then where the path scatters (free-flight distance sampling, while the path may
-         * still scatter) or the transmittance to the hit */
+        /* the segment inside a medium (volume_light.h medium_segment): its emission, and the
+         * lights the ray meets along it, each through the transmittance to it, with the path's
+         * weight at the segment's start; then where the path scatters (free-flight distance
+         * sampling, while the path may still scatter) or the transmittance to the hit.  The
+         * numbers: the pixel's Sobol set for the segment, as its vertices' (rng.h ld_set), the
+         * equiangular and the free-flight distances stratified over the passes
+         * (pseudo-random numbers had 7.6x Cycles' error in a spot light's cone) */
         float3 beta_in = beta, sigma_t = media_extinction(&media, scene->materials);
-        float t_s = INFINITY, pdf_s = 0.0f;
         int vm = media_top(&media);
-        Segment sg;
+        Segment sg = segment(o, d, 0.0f, (float3)(0.0f));
         if (vm >= 0) {
-            __global const Material *mt = scene->materials + vm;
             float seg = h.leaf < 0 ? tmax : h.t;
-            float3 sigma_s = F3(mt->scattering), pc;
-            if (max3(F3(mt->volume_emission)) > 0.0f)
-                L += clamp_sample(beta * medium_emission(mt, sigma_t, seg), clamp_found);
-            if (term == TERM_NONE && max3(sigma_s) > 0.0f) {
-                /* (the same numbers with and without point lights: a program of every
-                 * feature renders the image of the scene's own; none in absorbing glass) */
-                /* the pixel's Sobol set for the segment, as its vertices' (rng.h ld_set):
-                 * the equiangular and the free-flight distances stratified over the passes
-                 * (pseudo-random numbers had 7.6x Cycles' error in a spot light's cone) */
-                float4 ul = ld_set_or_rnd(pass_index, path_key, (uint)vertex++, &rng);
-                float u_c = ul.z, u_t = ul.y;
-                float3 ue = (float3)(ul.w, ul.x, 0.5f); /* pick, distance, (no size) */
-                bool scatters = medium_channels(sigma_t, sigma_s, beta, &pc);
-                sg = segment(o, d, seg, scatters ? pc : (float3)(0.0f));
-                int crossings = max(lp->transparent_max_bounces - transparent, 0);
-                /* the light of points and spots along the segment, by equiangular distances
-                 * (MIS with the free-flight sample's next-event estimation, volume_nee) */
-                if (PPM_LIGHT_POINT && scatters)
-                    L += clamp_sample(beta
-                                          * volume_equiangular(scene, &sg, sigma_t, sigma_s,
-                                                               mt->anisotropy, &media, crossings,
-                                                               ue),
-                                      clamp_limit(depth, lp));
-                t_s = medium_sample(sigma_t, sigma_s, seg, u_c, u_t, &beta, &pdf_s);
-            } else {
-                beta *= medium_tr(sigma_t, seg);
+            bool scat = term == TERM_NONE && max3(F3(scene->materials[vm].scattering)) > 0.0f;
+            float4 ul = scat ? ld_set_or_rnd(pass_index, path_key, (uint)vertex++, &rng)
+                             : (float4)(0.0f);
+            L += medium_segment(scene, &media, o, d, seg, scat, (float4)(ul.z, ul.y, ul.w, ul.x),
+                                max(lp->transparent_max_bounces - transparent, 0),
+                                (float2)(clamp_found, clamp_limit(depth, lp)), true, &beta, &sg);
+            /* the camera's segments in scattering media, for the volume photons' gather
+             * (volume_gather.cl): its path's state, the weight at its start */
+            if (volume_photons && scat && vbounce == 0 && nseg < VOLUME_SEGMENTS) {
+                __global float4 *v = vps->segments + 3 * (VOLUME_SEGMENTS * id + nseg++);
+                v[0] = (float4)(o, seg);
+                v[1] = (float4)(d, as_float(vm));
+                v[2] = (float4)(beta_in, as_float(path));
             }
         }
 #elif PPM_ABSORPTION
@@ -160,7 +153,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
              * ends at the one that reaches the limit */
 #if PPM_VOLUME
             LightRay r = light_ray(o, d, h.leaf < 0 ? tmax : h.t, mask, prev_p, prev_n, prev_pdf,
-                                   beta_in, clamp_found);
+                                   vchain == 2 ? (float3)(0.0f) : beta_in, clamp_found);
             r.sigma_t = sigma_t;
 #else
             LightRay r = light_ray(o, d, h.leaf < 0 ? tmax : h.t, mask, prev_p, prev_n, prev_pdf,
@@ -174,18 +167,18 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         }
 #endif
 #if PPM_VOLUME
-        if (t_s < INFINITY) {
+        if (sg.s < INFINITY) {
             /* scattered in the medium at p: next-event estimation there with the phase function,
              * then a sample of the phase function, which finds the emitters with size under
              * MIS and, while Volume bounces allow, goes on as a path (Cycles' volume scatter:
              * with Volume bounces 0, single scattering) */
             __global const Material *mt = scene->materials + vm;
-            float3 p = o + t_s * d;
+            float3 p = o + sg.s * d;
             float g = mt->anisotropy;
             film_clear = false;
             int crossings = max(lp->transparent_max_bounces - transparent, 0);
             L += clamp_sample(beta
-                                  * volume_nee(scene, &sg, t_s, pdf_s, g, &media, crossings,
+                                  * volume_nee(scene, &sg, sg.s, sg.pdf, g, &media, crossings,
                                                eye_nee_u(pass_index, nee_key, depth, &rng)),
                               clamp_limit(depth, lp));
             float4 up = ld_set_or_rnd(pass_index, path_key, (uint)vertex++, &rng);
@@ -196,6 +189,11 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             path = path_add(path, PATH_DEPTH) & ~127u;
             term = vbounce > lp->volume_bounces || depth > lp->max_bounces ? TERM_AFTER_TRANSPARENT
                                                                            : TERM_NONE;
+            /* volume photons: with indirect light by photons the light this point scatters
+             * from other than the emitters is theirs (the path only finds emitters); with eye
+             * paths what reaches it through mirrors and glass (vchain) */
+            if (volume_photons && !path_indirect) term = TERM_AFTER_TRANSPARENT;
+            vchain = volume_photons && vbounce == 1 ? 1 : 0;
             prev_pdf = pdf;
             prev_n = (float3)(0.0f); /* (as volume_nee gave the pick) */
             prev_p = p;
@@ -217,7 +215,9 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             pdf_l = PPM_WORLD && scene->emitter_info->has_world && !isinf(prev_pdf)
                         ? world_light_pdf(scene, d, prev_p, prev_n)
                         : 0.0f;
-            L += clamp_sample(beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l), clamp_found);
+            if (vchain != 2)
+                L += clamp_sample(beta * world_le(scene, d) * mis_power(prev_pdf, pdf_l),
+                                  clamp_found);
             break;
         }
         path_len += h.t;
@@ -230,7 +230,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             float3 t = beta * sd.holdout;
             clear += (t.x + t.y + t.z) * (1.0f / 3.0f);
         }
-        if (max3(sd.emission) > 0.0f)
+        if (max3(sd.emission) > 0.0f && vchain != 2)
             L += clamp_sample(beta * sd.emission
                                   * mesh_hit_mis(scene, &h, o, d, prev_pdf, prev_p, prev_n),
                               clamp_found);
@@ -394,6 +394,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             term = path_limit_transparent(++transparent, lp);
             continue;
         }
+        vchain = vchain > 0 && (b.label & LABEL_SINGULAR) ? 2 : 0;
         film_clear = film_clear && (cam->film_transparent & FILM_TRANSPARENT_GLASS)
                      && (b.label & LABEL_TRANSMIT) && !(b.label & LABEL_DIFFUSE)
                      && b.roughness2 <= cam->glass_roughness * cam->glass_roughness;
@@ -411,6 +412,10 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
 #endif
     }
     vps->pos[id] = vp;
+#if PPM_VOLUME
+    if (volume_photons && nseg < VOLUME_SEGMENTS)
+        vps->segments[3 * (VOLUME_SEGMENTS * id + nseg)] = (float4)(0.0f); /* (the last) */
+#endif
     /* this pass's sample (the film adds it to its sums, progressive.cl film_add_sample);
      * NaN/Inf guard: drop the sample, count it (render stats) */
     bool ok = isfinite(L.x) && isfinite(L.y) && isfinite(L.z);

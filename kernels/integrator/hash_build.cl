@@ -120,10 +120,12 @@ inline uint photon_key(uint seed, uint pass, float4 p) {
 #define PPM_BUILD_BATCH 1
 #endif
 
+/* (stored, occupied: the counters of the photons' count and of the entries they occupy:
+ * CNT_STORED and CNT_OCCUPIED, or the volume photons' CNT_VSTORED and none, N_COUNTERS) */
 __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters, uint capacity,
                          __global const Grid *grid, uint table_mask, uint pass_index, uint seed,
-                         __global ulong *table) {
-    uint n = min(counters[CNT_STORED], capacity);
+                         __global ulong *table, uint stored, uint occupied_at) {
+    uint n = min(counters[stored], capacity);
     uint i0 = get_global_id(0) * PPM_BUILD_BATCH;
     if (i0 >= n) return;
     Grid g = *grid;
@@ -152,7 +154,7 @@ __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
         atomic_max(&((__global uint *)table)[4 * h + 2], key);
 #endif
     }
-    if (occupied) atomic_add(&counters[CNT_OCCUPIED], occupied);
+    if (occupied && occupied_at < N_COUNTERS) atomic_add(&counters[occupied_at], occupied);
 #if PPM_BUILD_BATCH > 1
     if (touch == 0xffffffffu) counters[CNT_SINK] = 0u; /* keeps the loads; practically never true */
 #endif
@@ -162,9 +164,9 @@ __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
 /* second pass of the 32-bit fallback: the photon whose key won writes its index */
 __kernel void hash_pick(__global const float4 *ph_pos, __global const uint *counters, uint capacity,
                         __global const Grid *grid, uint table_mask, uint pass_index, uint seed,
-                        __global ulong *table) {
+                        __global ulong *table, uint stored, uint occupied_at) {
     uint i = get_global_id(0);
-    if (i >= min(counters[CNT_STORED], capacity)) return;
+    if (i >= min(counters[stored], capacity)) return;
     Grid g = *grid;
     float4 p = ph_pos[i];
     uint h = cell_hash(cell_of(p.xyz, &g), table_mask);

@@ -175,38 +175,21 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         if (!(max3(beta) > 0.0f)) break;
         Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
 #if PPM_VOLUME
-        /* a segment in a medium, as the eye pass's: its emission and the light its scattering
-         * brings (next-event estimation, equiangular sampling) are these paths' whatever the
-         * mode (photons neither scatter in media nor leave emitting ones) */
+        /* a segment in a medium, as the eye pass's (volume_light.h medium_segment): its
+         * emission is these paths' whatever the mode; the light its scattering brings
+         * (next-event estimation, equiangular sampling, emitters its phase sample finds) is
+         * the photons' with indirect light by photons (they scatter in media,
+         * photon_pass.cl), else these paths' */
         float3 beta_in = beta, sigma_t = media_extinction(media, scene->materials);
-        float t_s = INFINITY, pdf_s = 0.0f;
         int vm = media_top(media);
-        Segment sg;
+        bool vnee = mode != INDIRECT_BLURRED;
+        Segment sg = segment(o, d, 0.0f, (float3)(0.0f));
         if (vm >= 0) {
-            __global const Material *mt = scene->materials + vm;
-            float seg = h.leaf < 0 ? PPM_INF : h.t;
-            float3 sigma_s = F3(mt->scattering), pc;
-            if (max3(F3(mt->volume_emission)) > 0.0f)
-                L += clamp_sample(beta * medium_emission(mt, sigma_t, seg),
-                                  clamp_limit(depth - 1, lp));
-            if (term == TERM_NONE && max3(sigma_s) > 0.0f) {
-                float u_c = rnd(rng), u_t = rnd(rng);
-                float3 ue = (float3)(rnd(rng), rnd(rng), rnd(rng));
-                bool scatters = medium_channels(sigma_t, sigma_s, beta, &pc);
-                sg = segment(o, d, seg, scatters ? pc : (float3)(0.0f));
-                if (PPM_LIGHT_POINT && scatters)
-                    L += clamp_sample(beta
-                                          * volume_equiangular(scene, &sg, sigma_t, sigma_s,
-                                                               mt->anisotropy, media,
-                                                               max(lp->transparent_max_bounces
-                                                                       - transparent,
-                                                                   0),
-                                                               ue),
-                                      clamp_limit(depth, lp));
-                t_s = medium_sample(sigma_t, sigma_s, seg, u_c, u_t, &beta, &pdf_s);
-            } else {
-                beta *= medium_tr(sigma_t, seg);
-            }
+            float4 u = (float4)(rnd(rng), rnd(rng), rnd(rng), rnd(rng));
+            L += medium_segment(scene, media, o, d, h.leaf < 0 ? PPM_INF : h.t, term == TERM_NONE,
+                                u, max(lp->transparent_max_bounces - transparent, 0),
+                                (float2)(clamp_limit(depth - 1, lp), clamp_limit(depth, lp)), vnee,
+                                &beta, &sg);
         }
 #elif PPM_ABSORPTION
         if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);
@@ -232,16 +215,19 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
         }
 #endif
 #if PPM_VOLUME
-        if (t_s < INFINITY) {
+        if (sg.s < INFINITY) {
             /* scattered at q: next-event estimation, then the phase function's sample, which
              * finds the emitters with size under MIS and goes on while Volume bounces allow */
-            float3 q = o + t_s * d;
+            float3 q = o + sg.s * d;
             float g = scene->materials[vm].anisotropy;
-            L += clamp_sample(beta
-                                  * volume_nee(scene, &sg, t_s, pdf_s, g, media,
-                                               max(lp->transparent_max_bounces - transparent, 0),
-                                               (float3)(rnd(rng), rnd(rng), rnd(rng))),
-                              clamp_limit(depth, lp));
+            float3 un = (float3)(rnd(rng), rnd(rng), rnd(rng));
+            if (vnee)
+                L += clamp_sample(beta
+                                      * volume_nee(scene, &sg, sg.s, sg.pdf, g, media,
+                                                   max(lp->transparent_max_bounces - transparent,
+                                                       0),
+                                                   un),
+                                  clamp_limit(depth, lp));
             float u1 = rnd(rng), u2 = rnd(rng);
             float3 wo = hg_sample(d, g, u1, u2, &prev_pdf); /* (its weight: phase / pdf = 1) */
             depth++;
@@ -249,7 +235,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             path = path_add(path, PATH_DEPTH) & ~127u;
             term = vbounce > lp->volume_bounces || depth > lp->max_bounces ? TERM_AFTER_TRANSPARENT
                                                                            : TERM_NONE;
-            counts = true;
+            counts = vnee;
             prev_n = (float3)(0.0f);
             prev_p = q;
             mask = VIS_DIFFUSE;

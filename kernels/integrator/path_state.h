@@ -103,7 +103,26 @@ inline bool path_caustic_off(uint f, __global const LightPaths *lp) {
     return (f & PATH_TRANSMIT) ? !(lp->flags & LP_CAUSTICS_REFRACTIVE)
                                : !(lp->flags & LP_CAUSTICS_REFLECTIVE);
 }
+/* the scatterings in media a state p counts (PPM_VOLUME: a medium's scattering adds to the depth
+ * alone, so they are what the depth holds past the bounces of each kind) */
+inline int path_volume(uint p) {
+    return max((int)path_count(p, PATH_DEPTH) - (int)path_count(p, PATH_DIFFUSE_DEPTH)
+                   - (int)path_count(p, PATH_GLOSSY_DEPTH)
+                   - (int)path_count(p, PATH_TRANSMISSION_DEPTH),
+               0);
+}
+
+/* Volume bounces, as Cycles': a path goes on past a scattering in a medium (other than through
+ * transparent surfaces) only while its scatterings in media so far are at most the setting, so
+ * those of the joined path (the light's first scattering is next-event estimation's and
+ * counts for nothing, as in p) must be; v: the joining vertex's own (1 in a medium, 0 on a
+ * surface).  Scenes without media count none. */
+inline bool path_join_volume(uint e, uint p, int v, __global const LightPaths *lp) {
+    return path_volume(e) + path_volume(p) + v <= lp->volume_bounces;
+}
+
 inline uint path_join(uint e, uint p, __global const LightPaths *lp) {
+    if (!path_join_volume(e, p, 0, lp)) return 0u;
     int total = (int)(path_count(e, PATH_DEPTH) + path_count(p, PATH_DEPTH)) + 1;
     int tr = (int)(path_count(e, PATH_TRANSPARENT_DEPTH) + path_count(p, PATH_TRANSPARENT_DEPTH));
     int d = (int)(path_count(e, PATH_DIFFUSE_DEPTH) + path_count(p, PATH_DIFFUSE_DEPTH));
@@ -118,6 +137,19 @@ inline uint path_join(uint e, uint p, __global const LightPaths *lp) {
     /* the photon's last bounce, a caustic one that is off: not after a diffuse bounce here */
     if (path_caustic_off(p & 127u, lp)) k &= ~(JOIN_DIFFUSE | JOIN_DIFFUSE_TRANSMIT);
     return k;
+}
+
+/* A volume photon's light path (p) joined to a camera path (e) that scatters it in a medium
+ * (volume_gather.cl): whether the whole path keeps the limits, that scattering a volume bounce */
+inline bool path_join_medium(uint e, uint p, __global const LightPaths *lp) {
+    int total = (int)(path_count(e, PATH_DEPTH) + path_count(p, PATH_DEPTH)) + 1;
+    int tr = (int)(path_count(e, PATH_TRANSPARENT_DEPTH) + path_count(p, PATH_TRANSPARENT_DEPTH));
+    int d = (int)(path_count(e, PATH_DIFFUSE_DEPTH) + path_count(p, PATH_DIFFUSE_DEPTH));
+    int g = (int)(path_count(e, PATH_GLOSSY_DEPTH) + path_count(p, PATH_GLOSSY_DEPTH));
+    int t = (int)(path_count(e, PATH_TRANSMISSION_DEPTH) + path_count(p, PATH_TRANSMISSION_DEPTH));
+    return path_join_volume(e, p, 1, lp) && total <= lp->max_bounces
+           && tr <= lp->transparent_max_bounces && d <= lp->diffuse_bounces
+           && g <= lp->glossy_bounces && t <= lp->transmission_bounces;
 }
 
 /* Cycles' Clamp Direct and Clamp Indirect: a sample's contribution (its path weight times what

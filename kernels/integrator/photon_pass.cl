@@ -23,6 +23,7 @@
 
 #include "shared.h"
 #include "geom/medium.h"
+#include "integrator/volume_photons.h"
 
 /* the photon pass's mode bits (ppm_engine/render/passes/photons.py PhotonMode) */
 #define PHOTONS_CAUSTIC 1u
@@ -106,14 +107,14 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
 __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index, uint seed,
                           uint n_photons, uint capacity, __global uint *counters, uint mode,
                           __global uint *guide_stats, __global const float *lt_filter,
-                          float lt_reach, float lt_kappa) {
+                          float lt_reach, float lt_kappa, uint vcapacity) {
     SCENE_LOAD(scene);
     FILM_LOAD(film);
     PHOTON_LOAD(photons);
     uint id = get_global_id(0);
     if (id >= n_photons) return;
     Grid g = *photons->grid;
-    if (g.valid == 0u && capacity > 0u) return;
+    if (g.valid == 0u && capacity > 0u && vcapacity == 0u) return; /* (none to store) */
     uint rng = rng_seed(seed, pass_index, id, 2u);
     Splat sp = {film->lt_pass, lt_filter, film->radius, FILTER_SAMPLES, lt_reach, lt_kappa};
     float3 o, d, flux;
@@ -141,6 +142,7 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
 #if PPM_VOLUME
     media_at(scene, o, &media); /* a light inside fog */
     int bounds = 0;             /* the media's boundaries it crossed (media_boundary) */
+    bool chain = true;          /* every scattering so far singular (a volume photon's L S+ M) */
 #endif
     ShaderData sd;
     bool direct = true; /* nothing but transparent surfaces crossed yet */
@@ -157,7 +159,33 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
         if (h.leaf < 0) break;
         float3 before = flux; /* Russian roulette below: this bounce's albedo */
         if (direct) reach += h.t;
-#if PPM_ABSORPTION
+#if PPM_VOLUME
+        /* a scattering medium: a free-flight distance (volume_photons.h photon_medium) */
+        float3 vp;
+        int vm = photon_medium(scene, &media, o, d, h.t, &rng, &flux, &vp);
+        if (vm >= 0) {
+            if (!direct && (chain || !caustics_only) && lp->volume_bounces > 0)
+                store_volume_photon(photons, vp, d, flux, ppath, vcapacity, counters);
+            /* with eye paths for the indirect light a photon's light past the medium is
+             * theirs (the volume photon has the caustic's, L S+ M); with photons on along
+             * the phase function's sample, where a camera path can still join it */
+            if (caustics_only || bounce == max_bounces) break;
+            ppath = direct ? ppath & ~127u : path_add(ppath, PATH_DEPTH) & ~127u;
+            if (path_volume(ppath) > lp->volume_bounces) break;
+            float pdf;
+            float3 wo = hg_sample(d, scene->materials[vm].anisotropy, rnd(&rng), rnd(&rng), &pdf);
+            bounce++;
+            direct = chain = false;
+            rs = 0.0f; /* (no clamp past a medium) */
+            mask = VIS_DIFFUSE;
+            o = vp;
+            d = wo;
+            float q = fmin(1.0f, max3(flux) / max3(before));
+            if (!(q > 0.0f) || rnd(&rng) >= q) break;
+            flux /= q;
+            continue;
+        }
+#elif PPM_ABSORPTION
         flux *= media_transmittance(&media, scene->materials, h.t); /* the segment's medium */
 #endif
         Surface s = surface_at(scene, h);
@@ -337,6 +365,9 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
             bounce++;
             path = path_bounce(path, b.label);
             direct = false;
+#if PPM_VOLUME
+            chain = chain && (b.label & LABEL_SINGULAR);
+#endif
             mask = bounce_visibility(b.label);
 #if PPM_ABSORPTION
             if (transmit) media_cross(&media, s.material, dot(d, s.ng) < 0.0f);

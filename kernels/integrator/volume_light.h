@@ -12,10 +12,11 @@
 typedef struct {
     float3 o, d, pc, mid;
     float t;
+    float s, pdf; /* where the path scatters on it (INFINITY: it crosses), the density of s */
 } Segment;
 
 inline Segment segment(float3 o, float3 d, float t, float3 pc) {
-    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t};
+    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t, INFINITY, 0.0f};
     return g;
 }
 
@@ -140,6 +141,43 @@ inline float3 volume_equiangular(const Scene *scene, const Segment *sg, float3 s
     float a = pmf_e * pdf_e;
     float b = emitter_pmf_at(scene, e, p, none) * medium_pdf(sigma_t, sg->pc, s_dist);
     return sigma_s * tr * (ph * mis_power(a, b) / a) * T * ls.E;
+}
+
+/* A path's segment o + s d (0 <= s < t) in its innermost medium (media), the same for the eye
+ * pass and indirect_paths.h: the light it adds towards its start per the path weight *beta at
+ * its start (the medium's emission, clamped at limits.x; with `nee` the light of points and
+ * spots along it by equiangular distances, clamped at limits.y), and, where `scatter` (the
+ * path may still scatter) and the medium scatters, a free-flight distance (numbers u: the
+ * channel, the distance, equiangular sampling's pick and distance): *sg the segment with
+ * where it scattered (sg->s, INFINITY: it crossed), *beta times the transmittance (and the
+ * scattering coefficient there) over the density.  crossings: the transparent surfaces its
+ * shadow rays may cross. */
+inline float3 medium_segment(const Scene *scene, const Media *media, float3 o, float3 d, float t,
+                             bool scatter, float4 u, int crossings, float2 limits, bool nee,
+                             float3 *beta, Segment *sg) {
+    float3 L = (float3)(0.0f), pc;
+    *sg = segment(o, d, t, (float3)(0.0f));
+    int vm = media_top(media);
+    if (vm < 0) return L;
+    __global const Material *mt = scene->materials + vm;
+    float3 sigma_t = media_extinction(media, scene->materials), sigma_s = F3(mt->scattering);
+    if (max3(F3(mt->volume_emission)) > 0.0f)
+        L += clamp_sample(*beta * medium_emission(mt, sigma_t, t), limits.x);
+    if (!scatter || !(max3(sigma_s) > 0.0f)) {
+        *beta *= medium_tr(sigma_t, t);
+        return L;
+    }
+    bool scatters = medium_channels(sigma_t, sigma_s, *beta, &pc);
+    *sg = segment(o, d, t, scatters ? pc : (float3)(0.0f));
+    /* (the same numbers with and without point lights: a program of every feature renders the
+     * image of the scene's own) */
+    if (PPM_LIGHT_POINT && scatters && nee)
+        L += clamp_sample(*beta
+                              * volume_equiangular(scene, sg, sigma_t, sigma_s, mt->anisotropy,
+                                                   media, crossings, (float3)(u.z, u.w, 0.5f)),
+                          limits.y);
+    sg->s = medium_sample(sigma_t, sigma_s, t, u.x, u.y, beta, &sg->pdf);
+    return L;
 }
 #endif
 #endif

@@ -23,7 +23,9 @@ class Counter(enum.IntEnum):
                     # caustic closures: photon_pass.cl), the rest of those emitted wasted
     USED = 11       # photons this pass whose light reached the image: merged at a visible
                     # point (a non-zero term) or connected to the camera (Renderer.photons_due)
-    CASTER_STATS = 12   # the first of two per caster (MAX_CASTERS): the photons this pass aimed
+    VSTORED = 12    # volume photons this pass stored (kernels/integrator/volume_photons.h; may
+                    # exceed their buffer: PhotonMap.allocate_volume)
+    CASTER_STATS = 13   # the first of two per caster (MAX_CASTERS): the photons this pass aimed
                         # at it, and the photons they stored (Renderer.learn_caster_weights)
 
 

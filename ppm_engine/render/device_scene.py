@@ -334,7 +334,19 @@ class DeviceScene:
         bounce = lp["max_bounces"] > 0 and max(lp["diffuse_bounces"], lp["glossy_bounces"],
                                                lp["transmission_bounces"]) > 0
         diffuse = bool((self.kmaterials["flags"][self.used_materials] & MAT_GATHER).any())
-        return bool(self.emitters.info["n_emitters"][0] > 0 and bounce and diffuse)
+        # or volume photons (passes/volume.py): a scattering medium and Volume bounces
+        media = lp["volume_bounces"] > 0 and self.media_box() is not None
+        return bool(self.emitters.info["n_emitters"][0] > 0 and bounce and (diffuse or media))
+
+    def media_box(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The box (lo, hi) around the triangles of the used scattering media, or None."""
+        p, km = self.prepared, self.kmaterials
+        scatters = (km["flags"] & MAT_VOLUME != 0) & (km["scattering"].max(axis=1) > 0)
+        tris = p.positions[scatters[p.material]]
+        if not len(tris):
+            return None
+        pts = tris.reshape(-1, 3)
+        return pts.min(axis=0).astype(np.float64), pts.max(axis=0).astype(np.float64)
 
     def has_media(self) -> bool:
         """Whether some used material has a medium of the volume stack (materials.MAT_VOLUME)."""

@@ -33,6 +33,11 @@ PHOTON_BUFFERS = (
     PassBuffer("flux", np.dtype((np.float32, 4)), 0, "flux; w: where it came from, packed"),
     PassBuffer("path", np.dtype((np.uint32, 2)), 0,
                "its bounces (path_state.h), the radiance over its flux (the clamp)"),
+    # the volume photons (kernels/integrator/volume_photons.h), allocated by allocate_volume
+    PassBuffer("vgrid", GRID_DTYPE, 0, "the volume photons' grid (passes/volume.py)"),
+    PassBuffer("vpos", np.dtype((np.float32, 4)), 0, "a volume photon's position"),
+    PassBuffer("vflux", np.dtype((np.float32, 4)), 0, "its flux; w: where it came from, packed"),
+    PassBuffer("vpath", np.dtype(np.uint32), 0, "its bounces (path_state.h)"),
 )
 
 
@@ -50,6 +55,19 @@ class PhotonMap:
         self.grid = device.buffer(GRID_DTYPE.itemsize, "grid")
         self.sorted = None           # exact mode: (keys, ids) of the last build, for the gather
         self.allocate(capacity)
+        self.allocate_volume(0)
+
+    def allocate_volume(self, capacity: int):
+        """Storage for ``capacity`` volume photons (none: placeholders) and their hash table
+        (passes/volume.py VolumeGather)."""
+        dev = self.device
+        self.vcapacity = int(capacity)
+        self.vgrid = dev.buffer(GRID_DTYPE.itemsize, "volume photons' grid")
+        self.ph_vpos = dev.buffer(16 * self.vcapacity, "volume photons")
+        self.ph_vflux = dev.buffer(16 * self.vcapacity, "volume photons")
+        self.ph_vpath = dev.buffer(4 * self.vcapacity, "volume photons")
+        self.vtable_size = next_pow2(self.vcapacity) if capacity else 16
+        self.vtable = dev.buffer(16 * self.vtable_size, "volume photons' hash table")
 
     def allocate(self, capacity: int):
         """Photon storage for ``capacity`` photons and a table of the next power of two."""
@@ -76,7 +94,8 @@ class PhotonMap:
     def args(self) -> dict:
         """The photons' buffers by the kernels' parameter names (ph_NAME; PHOTON_BUFFERS), each
         the attribute ph_NAME (the grid: ``grid``)."""
-        return {f"ph_{b.name}": self.grid if b.name == "grid" else getattr(self, f"ph_{b.name}")
+        grids = {"grid": self.grid, "vgrid": self.vgrid}
+        return {f"ph_{b.name}": grids[b.name] if b.name in grids else getattr(self, f"ph_{b.name}")
                 for b in PHOTON_BUFFERS}
 
     @property

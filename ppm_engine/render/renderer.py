@@ -37,6 +37,7 @@ from ppm_engine.render.passes import (
     VisiblePoints,
 )
 from ppm_engine.render.passes.photons import caustic_fraction
+from ppm_engine.render.passes.volume import VolumeGather
 from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
 from ppm_engine.render.stats import PassStats
 from ppm_engine.scene.arrays import SceneArrays
@@ -146,10 +147,11 @@ class Renderer:
         store = self.STORE_FACTOR * self.photon_count
         if self.photons_needed and self.photon_map.capacity < store:
             self.photon_map.allocate(store)
-        self.lt_kappa = self.light_tracing_kappa(o)
-        if self.lt_kappa > 0:
+        # photons stored in media, gathered along the camera's segments (passes/volume.py)
+        self.volume = VolumeGather.for_render(ctx, o, store) if self.photons_needed else None
+        if (lt_kappa := self.light_tracing_kappa(o)) > 0:
             self.film.enable_light_tracing()
-        self.passes_done = 0
+        self.lt_kappa, self.passes_done = lt_kappa, 0
         self.pass_indices: list[int] = []   # the passes this film holds, in the order run
         self.photons_used = 0     # Counter.USED over the render's passes (photons_due)
         self.nan_dropped = 0
@@ -159,15 +161,13 @@ class Renderer:
     @property
     def photons(self) -> PhotonPass:
         """The photon pass (photon_pass.cl for the scene's features), built on first use."""
-        if self._photon_pass is None:
-            self._photon_pass = PhotonPass(self.context)
+        self._photon_pass = self._photon_pass or PhotonPass(self.context)
         return self._photon_pass
 
     @property
     def gather(self) -> Gather:
         """The gather (gather.cl for the scene's features), built on first use."""
-        if self._gather is None:
-            self._gather = Gather(self.context)
+        self._gather = self._gather or Gather(self.context)
         return self._gather
 
     def light_tracing_kappa(self, o: RenderOptions) -> float:
@@ -265,7 +265,8 @@ class Renderer:
         photons = self.photons_due(pass_index)
         it = Iteration(pass_index, o, photons=self.photon_count if photons else 0,
                        path_indirect=self.path_indirect, lt_kappa=self.lt_kappa,
-                       interrupt=interrupt, piece=self.INTERRUPT_PIXELS, guided=self.guided)
+                       interrupt=interrupt, piece=self.INTERRUPT_PIXELS, guided=self.guided,
+                       volume_photons=self.volume is not None)
         events = self.eye.enqueue(q, it)
         if events is None:
             q.finish()
@@ -280,6 +281,7 @@ class Renderer:
             events += photon_events
             events += self.hash_build.enqueue(q, it)
             events += self.gather.enqueue(q, it)
+            events += self.volume.enqueue(q, it) if self.volume else []
             events += self.radius_update.enqueue(q, it)
         events += self.add_sample.enqueue(q, it)
         converge = self.converge.due(it)
@@ -302,6 +304,8 @@ class Renderer:
         self.pass_indices.append(pass_index)
         if photons:
             self.photons_used += int(counters[Counter.USED])
+            if self.volume:
+                self.volume.grow(counters)
             if self.aimed and not self.independent:
                 self.learn_caster_weights(counters)
             if self.guided:        # (never where passes are independent)

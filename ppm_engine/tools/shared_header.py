@@ -129,7 +129,7 @@ def generate() -> str:
     """The text of kernels/shared.h from the Python tables."""
     from ppm_engine.render import counters, photon_map
     from ppm_engine.render.film import FILTER_SAMPLES, FILTER_TABLE_SIZE
-    from ppm_engine.render.passes import gather, hash_build
+    from ppm_engine.render.passes import gather, hash_build, volume
     from ppm_engine.scene import arrays as sa
     from ppm_engine.scene import camera as camera_model
     from ppm_engine.scene import emitters, guide, light_paths, light_tree, materials
@@ -182,6 +182,9 @@ def generate() -> str:
                     _prefixed("KIND_", st.KINDS)),
             _family("the gather's region and cells (ppm_engine/render/passes/gather.py)",
                     [("MAX_CELLS_PER_AXIS", gather.MAX_CELLS_PER_AXIS)]),
+            _family("the camera's segments in media kept per pixel for the volume photons "
+                    "(ppm_engine/render/passes/volume.py)",
+                    [("VOLUME_SEGMENTS", volume.VOLUME_SEGMENTS)]),
             _family("photon guides' bins, floats per light, lights (ppm_engine/scene/guide.py)",
                     [(k, getattr(guide, k)) for k in ("GUIDE_ROWS", "GUIDE_COLS", "GUIDE_BINS",
                                                       "GUIDE_STRIDE", "MAX_GUIDED")]),

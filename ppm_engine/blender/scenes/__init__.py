@@ -14,6 +14,7 @@ from ppm_engine.blender.scenes import (
     bulb_box,
     caustics,
     cornell_box,
+    fog_lens,
     furnace,
     many_lights,
     metal,
@@ -37,6 +38,7 @@ EXAMPLES = {
     "hdri_sun": outdoor.build,                   # an HDRI with its sun in the image
     "glossy_metal": metal.build,                 # glossy metal under Blender's default light
     "sun_cone": sun_cone.build,                  # a sun-lit cone on a glossy floor
+    "fog_lens": fog_lens.build,                  # a glass ball in fog: a volumetric caustic
 }
 
 

@@ -38,6 +38,8 @@ class Iteration:
     path_indirect: bool = False    # indirect light by eye paths: photons only for caustics
     lt_kappa: float = 0.0          # > 0: the photons' light tracing is on (its MIS factor)
     guided: bool = False           # the guided lights' photons from their learned bins
+    volume_photons: bool = False   # photons stored in media, gathered along the camera's
+                                   # segments (passes/volume.py)
     # asked between launches of about ``piece`` pixels or photons (device.program.in_pieces);
     # True stops the pass there
     interrupt: Callable[[], bool] | None = None

@@ -25,6 +25,9 @@ VP_BUFFERS = (
     PassBuffer("beta", _F4, 16, "the path weight (the photon term's factor); w: the footprint"),
     PassBuffer("shade", _F4, 16, "the hit shaded again: u, v, BVH leaf (-1: Lambert), wi packed"),
     PassBuffer("gathered", _F4, 16, "the gather's result: (sum of flux x f, photons)"),
+    # allocated for volume photons only (allocate_segments; passes/volume.py VOLUME_SEGMENTS)
+    PassBuffer("segments", _F4, 0, "the camera's segments in media: (o, t), (d, medium), "
+               "(weight, path)"),
 )
 
 
@@ -46,6 +49,14 @@ class VisiblePoints:
             setattr(self, b.name, given[b.name] if b.name in given else
                     device.buffer(b.bytes * n, "gather results" if b.name == "gathered"
                                   else "visible points"))
+        self.device = device
+
+    def allocate_segments(self, per_pixel: int) -> None:
+        """The camera's segments in media, ``per_pixel`` of 48 bytes per pixel (the eye pass
+        keeps them for the volume photons' gather, passes/volume.py)."""
+        if getattr(self, "segment_count", 0) != per_pixel:
+            self.segments = self.device.buffer(48 * per_pixel * self.n, "camera's segments")
+            self.segment_count = per_pixel
 
     @property
     def args(self) -> dict:
@@ -87,4 +98,5 @@ class EyePass:
             radius_scale=np.float32(global_radius_scale(it.pass_index, o.global_alpha)
                                     if o.radius_schedule == "global" else 0.0),
             filter_table=c.scene.filter_table, counters=c.counters,
-            path_indirect=np.uint32(it.path_indirect), lt_kappa=np.float32(it.lt_kappa))
+            path_indirect=np.uint32(it.path_indirect), lt_kappa=np.float32(it.lt_kappa),
+            volume_photons=np.uint32(it.volume_photons))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ppm_engine.render.counters import Counter
 from ppm_engine.render.passes.context import Iteration, PassContext
 
 _EMPTY_LO = np.array([np.inf, np.inf, np.inf, 0], np.float32)
@@ -79,7 +80,8 @@ class HashBuild(SpatialHash):
         common = dict(ph_pos=pm.ph_pos, counters=self.ctx.counters,
                       capacity=np.uint32(pm.capacity), grid=pm.grid, table_mask=pm.table_mask,
                       pass_index=np.uint32(it.pass_index), seed=np.uint32(it.options.seed),
-                      table=pm.table)
+                      table=pm.table, stored=np.uint32(Counter.STORED),
+                      occupied_at=np.uint32(Counter.OCCUPIED))
         ev = [(self.k_clear.label, self.k_clear(q, pm.table_size, table=pm.table,
                                                 n=np.uint32(pm.table_size))),
               (self.k_hash.label, self.k_hash(q, -(-pm.capacity // self.batch), **common))]

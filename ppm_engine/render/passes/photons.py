@@ -56,7 +56,8 @@ class PhotonPass:
                 | (PHOTONS_GUIDED if it.guided and not pilot else 0)),
             guide_stats=c.guide_stats if c.guide_stats is not None else c.counters,
             lt_filter=c.scene.filter_density, lt_reach=np.float32(c.scene.filter_reach),
-            lt_kappa=np.float32(it.lt_kappa if lt else 0.0))
+            lt_kappa=np.float32(it.lt_kappa if lt else 0.0),
+            vcapacity=np.uint32(pm.vcapacity if it.volume_photons and not pilot else 0))
 
 
 def caustic_fraction(ctx: PassContext, options, photons: int) -> float:

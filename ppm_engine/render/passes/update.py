@@ -63,7 +63,8 @@ class AddSample(ProgressiveUpdate):
             (f"vp_{b.name}" for b in VP_BUFFERS), f.direct_pass)
         return [("update", self.kernel(q, f.n_pixels, **f.args, **vp_args,
                                        photons=np.uint32(photons),
-                                       lt=np.uint32(it.lt_kappa > 0 and photons > 0),
+                                       lt=np.uint32((it.lt_kappa > 0 or it.volume_photons)
+                                                    and photons > 0),
                                        n=np.uint32(f.n_pixels)))]
 
 

@@ -1,0 +1,60 @@
+#ifndef PPM_VOLUME_PHOTONS_H
+#define PPM_VOLUME_PHOTONS_H
+#include "rng.h"
+#include "scene.h"
+#include "geom/geometry.h"
+#include "geom/medium.h"
+#include "integrator/pass_state.h"
+#include "integrator/path_state.h"
+
+/* Photons in homogeneous media (PPM_VOLUME; docs/VOLUMES.md).  A photon crossing a scattering
+ * medium samples a free-flight distance as the eye paths do (geom/medium.h medium_sample: a
+ * channel picked by its flux times the albedo, its flux times the transmittance, and the
+ * scattering coefficient where it scatters, over the density).  Where it scatters after at least
+ * one scattering (the light's first is next-event estimation's, as on surfaces) it is stored as a
+ * volume photon: a point with its flux and the direction it came from, which the camera's
+ * segments gather by the beam radiance estimate (volume_gather.cl).  Which ones are stored and
+ * whether the photon goes on is photon_pass.cl's: with eye paths for the indirect light those
+ * after a chain of singular scatterings only (L S+ M, the volumetric caustic: a camera path's
+ * next-event estimation in the medium cannot see the light through glass), the photon ending
+ * there; with photons for it every one, the photon going on along the phase function. */
+#if PPM_VOLUME
+/* The segment o + s d (0 <= s < t) in the innermost medium of a photon of flux *flux: where it
+ * scatters (*p, returning the medium's material) or -1 where it crosses (or the medium scatters
+ * nothing); *flux times the transmittance over the density, times the scattering coefficient
+ * where it scattered. */
+inline int photon_medium(const Scene *scene, const Media *media, float3 o, float3 d, float t,
+                         uint *rng, float3 *flux, float3 *p) {
+    int vm = media_top(media);
+    if (vm < 0) return -1;
+    float3 sigma_t = media_extinction(media, scene->materials);
+    float3 sigma_s = F3(scene->materials[vm].scattering);
+    if (!(max3(sigma_s) > 0.0f)) {
+        *flux *= medium_tr(sigma_t, t);
+        return -1;
+    }
+    float pdf, u_c = rnd(rng), u_t = rnd(rng);
+    float s = medium_sample(sigma_t, sigma_s, t, u_c, u_t, flux, &pdf);
+    if (!(s < INFINITY)) return -1;
+    *p = o + s * d;
+    return vm;
+}
+
+/* A volume photon at p that travelled along d with flux `flux` and bounces ppath
+ * (path_state.h: the camera path that gathers it joins them), in the first `capacity` slots
+ * (counted in CNT_VSTORED; none in a pilot, capacity 0) */
+inline void store_volume_photon(const Photons *photons, float3 p, float3 d, float3 flux, uint ppath,
+                                uint capacity, __global uint *counters) {
+    if (capacity == 0u) return;
+    if (!(isfinite(flux.x) && isfinite(flux.y) && isfinite(flux.z))) {
+        atomic_inc(&counters[CNT_NAN]);
+        return;
+    }
+    uint k = atomic_inc(&counters[CNT_VSTORED]);
+    if (k >= capacity) return;
+    photons->vpos[k] = (float4)(p, 0.0f);
+    photons->vflux[k] = (float4)(flux, as_float(pack_unit(-d)));
+    photons->vpath[k] = ppath;
+}
+#endif
+#endif
