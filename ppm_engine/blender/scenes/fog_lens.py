@@ -64,13 +64,15 @@ def fog_box(scene, material, lo=FOG_LO, hi=FOG_HI):
     return obj
 
 
-def build(scene=None, ball=True, segments=BALL_SEGMENTS, resolution=RESOLUTION):
-    """The scene (see the module docstring); ``ball`` False: the fog and the light alone."""
+def build(scene=None, ball=True, segments=BALL_SEGMENTS, resolution=RESOLUTION,
+          fog=(FOG_SCATTER, FOG_ABSORB)):
+    """The scene (see the module docstring); ``ball`` False: the fog and the light alone;
+    ``fog``: its (sigma_s, sigma_a)."""
     scene = new_scene(scene)
     camera_world_render(scene, *CAMERA, resolution)
     scene.camera.data.lens = LENS
     scene.cycles.volume_bounces = 1
-    fog_box(scene, fog_material())
+    fog_box(scene, fog_material(scatter=fog[0], absorb=fog[1]))
     if ball:
         sphere(scene, "GlassBall", *BALL, glass("Glass"), *segments)
     data = bpy.data.lights.new("Point", 'POINT')

@@ -21,7 +21,7 @@ from ppm_engine.render.photon_map import GRID_DTYPE
 VOLUME_SEGMENTS = 4
 # the initial radius where options.initial_radius is 0: this many pixel footprints at the
 # media's box (media_reach)
-VOLUME_RADIUS_PIXELS = 3.0
+VOLUME_RADIUS_PIXELS = 1.5
 
 
 def initial_radius(scene, options) -> float:
