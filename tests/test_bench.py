@@ -46,12 +46,12 @@ def test_firefly_check_counts_the_pixels_brighter_than_the_reference_s_range():
 
 # the default tier's quick run: the JSON, plot and tables, the ratios and the firefly check,
 # with a Cycles reference and the exact sphere's (the bulb box renders in test_e2e.py), 100 s
-# less of the tier's longest test than all nine below; the slow tier runs every reference and
+# less of the tier's longest test than all ten below; the slow tier runs every reference and
 # check (the closed form's, LuxCore's light tracer or its fallback, the photons' curve): the
-# nine, and all fourteen
+# ten, and all fifteen
 QUICK_SCENES = ("cornell_box", "point_caustic")
 CHECK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
-                "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights")
+                "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights", "fog_lens")
 
 
 def test_bench_quick_writes_json_plot_and_table(cli_here, tmp_path):
@@ -82,7 +82,7 @@ def _quick_bench(cli, tmp_path, scenes):
     assert set(SCENES) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
                            "point_caustic", "rough_caustic", "far_caustic", "mirror_caustic",
                            "pool_caustic", "many_lights", "hdri_sun", "glossy_metal",
-                           "clamped_caustic", "sun_cone"}
+                           "clamped_caustic", "sun_cone", "fog_lens"}
     if "many_lights" in scenes:
         tree = res["scenes"]["many_lights"]["light_tree"]
         assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1

@@ -35,13 +35,13 @@ def test_volumetric_caustic_matches_the_exact_reference(bpy, tiny, render_exr, t
     """fog_lens at 32 x 32 (its ball 48 x 24 faces), the default Paths + Caustic Photons: the
     cone the ball focuses into the fog below it, per 4 x 4 block against the exact single and
     double scattering, where the reference holds (the blocks whose pixels' filters see no
-    camera ray through the ball) but the lamp's (before: the cone missing, its blocks at 0.16-
-    0.2 of the reference)."""
+    camera ray through the ball) (before: the cone missing, its 8 x 8 pixels at 0.50 of the
+    reference)."""
     scene = fog_lens.build(ball=True, segments=(48, 24), resolution=W)
     ref, clear = reference(scene)
     img = ours(scene, tiny, render_exr, tmp_path / "ours.exr", passes=64, indirect="PATHS")
     a, b = block_means(img), block_means(ref)
-    ok = (block_means(clear.astype(float)) == 1) & (b < 2.0) & (b > 0.02)
+    ok = (block_means(clear.astype(float)) == 1) & (b > 0.02)
     ratio = np.where(ok, a / b, np.nan)
     shown = np.array2string(ratio, precision=3)
     cone = a[5:7, 3:5].sum() / b[5:7, 3:5].sum()  # 8 x 8 pixels below the ball: the cone
@@ -67,8 +67,8 @@ def test_the_reference_is_cycles_without_the_ball(bpy, cycles, render_exr, tmp_p
 def test_fog_light_on_a_floor_by_photons_is_the_eye_paths(bpy, tiny, render_exr, tmp_path):
     """Denser fog (albedo 0.6) and its lamp over a grey floor, seen from above: with indirect
     light by photons (the fog's light on the floor and its second scattering by photons
-    scattered in it) as with eye paths, per 8 x 8 block (before: the floor 30 % darker by
-    photons, the light the fog scatters onto it missing).  (The floor reaches past the fog
+    scattered in it) as with eye paths, per 8 x 8 block (before: 11-25 % darker by photons,
+    the light the fog scatters onto the floor missing).  (The floor reaches past the fog
     and the image: at a floor's edge the photons' gather is darker by its radius' bias.)"""
     scene = fog_lens.build(ball=False, resolution=W, fog=(0.3, 0.2))
     quad(scene, "Floor", [(-3, -3, 0.05), (3, -3, 0.05), (3, 3, 0.05), (-3, 3, 0.05)],

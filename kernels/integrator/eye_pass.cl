@@ -3,7 +3,8 @@
  * gather evaluates, where it stores a visible point and adds direct light by next-event
  * estimation and a sample of those closures (MIS).  At each vertex one of the two is chosen in
  * proportion to the closures' sample weights.  Emission and background seen along the way go
- * to the pixel's direct sum. */
+ * to the pixel's direct sum.  volume_photons: the camera's segments in scattering media are kept
+ * for the volume photons' gather (volume_gather.cl), and the light they carry is left to them. */
 #include "builtins.h"
 #include "rng.h"
 #include "integrator/direct_light.h"

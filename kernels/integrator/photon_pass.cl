@@ -10,7 +10,9 @@
  * PHOTONS_CAUSTIC, caustics only; PHOTONS_AIMED, emitted toward the casters
  * (photon_emission.h); CNT_CASTER counts the caustic photons whose first scattering is a
  * caster's.  PHOTONS_GUIDED: the guided lights' directions from their learned bins
- * (light/guide.h), guide_stats counting the stores per bin. */
+ * (light/guide.h), guide_stats counting the stores per bin.  In scattering media (PPM_VOLUME)
+ * photons scatter and are stored as volume photons, the first vcapacity of them
+ * (volume_photons.h). */
 #include "builtins.h"
 #include "rng.h"
 #include "integrator/photon_emission.h"

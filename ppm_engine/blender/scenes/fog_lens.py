@@ -1,9 +1,11 @@
 """``fog_lens``: a lens in fog (issue 42), built with bpy from nothing.  A box of fog (Volume
 Scatter plus Volume Absorption, a mesh with only a Volume output, FOG_LO to FOG_HI) in a black
-world, a clear glass ball (IOR 1.5) in it and a point light of radius 0 above the ball: the
-ball focuses the light into a bright cone in the fog below it (a volumetric caustic: the light
-paths L S+ M, which no camera path can sample from a light of no size), around it the fog lit
-straight by the light and the ball's shadow.  The camera looks at the box from the front.
+world, a clear glass ball (IOR 1.5) in it and a point light of radius 0 above the box: the
+ball focuses the light into a bright cone in the fog below it, narrowing to a focus and
+widening again (a volumetric caustic: the light paths L S+ M, which no camera path can sample
+from a light of no size), around it the fog lit straight by the light and the ball's shadow.
+The camera looks at the box from the front; the lamp is above the fog (none of its
+singular glow in view).
 
 The fog mostly absorbs (albedo FOG_SCATTER / (FOG_SCATTER + FOG_ABSORB)), so the light
 scattered more than once is a few percent of the image: its exact reference
@@ -23,7 +25,7 @@ FOG_LO, FOG_HI = (-1.2, -1.2, 0.0), (1.2, 1.2, 2.4)
 FOG_SCATTER, FOG_ABSORB = 0.02, 0.38            # per metre
 BALL = ((0.0, 0.0, 1.45), 0.35)                 # centre, radius
 BALL_SEGMENTS = (128, 64)
-LIGHT_POS = (0.0, 0.0, 2.25)
+LIGHT_POS = (0.0, 0.0, 2.9)
 LIGHT_POWER = 5000.0                            # W (Cycles units)
 CAMERA = ((0.0, -5.0, 1.2), (math.pi / 2, 0.0, 0.0))
 LENS = 50.0                                     # mm, on a 36 mm sensor

@@ -45,6 +45,11 @@ one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
   Cycles with MNEE is no reference there: its focus's brightest pixel is 5.9 where light tracing
   and this engine agree on 32 and 29 (docs/history/benchmarks-notebook.md, "The hard caustic").
   Each half computes the closed form and the chains, then whole batches of photons for the rest;
+- fog_lens (a glass ball in fog under a radius-0 point light: the volumetric caustic): the
+  exact-geometry reference exact_fog.py ("EXACT_FOG"): in NumPy on the true sphere and box,
+  the direct light's single scattering by quadrature, the light through the ball and the
+  second scattering by rays splatted along their legs in the fog; the pixels that see the ball
+  are left out.  No camera path finds the caustic (Cycles renders none);
 - pool_caustic (the sun's caustic on a pool's floor, seen through the waves that make it):
   the exact-geometry reference exact_pool.py ("EXACT_POOL"): in NumPy on the true height field,
   sun photons splatted into every raster position that sees where they land (the camera's
@@ -126,7 +131,7 @@ DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
 SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
           "rough_caustic", "far_caustic", "mirror_caustic", "pool_caustic", "many_lights",
-          "hdri_sun", "glossy_metal", "clamped_caustic", "sun_cone")
+          "hdri_sun", "glossy_metal", "clamped_caustic", "sun_cone", "fog_lens")
 # the caustics of mirrors and glass: Cycles + MNEE is measured too
 CAUSTIC_SCENES = ("glass_caustic", "point_caustic", "rough_caustic", "far_caustic",
                   "mirror_caustic", "pool_caustic")
@@ -139,7 +144,7 @@ REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": 
                     "rough_caustic": "EXACT", "far_caustic": "EXACT",
                     "mirror_caustic": "LUXCORE_LIGHT", "pool_caustic": "EXACT_POOL",
                     "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES",
-                    "clamped_caustic": "CYCLES", "sun_cone": "CYCLES"}
+                    "clamped_caustic": "CYCLES", "sun_cone": "CYCLES", "fog_lens": "EXACT_FOG"}
 REF_SEEDS = (1001, 2002)
 # reference seconds per half over the run's (2 x its longest budget): LuxCore's light tracer is the
 # noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror caustic,
@@ -247,9 +252,10 @@ class Bench(References):
         image top-down, the pixels it covers top-down, or None where it renders them all)."""
         if engine == "ANALYTIC":                # the furnace's closed form: no noise
             return np.full((self.res, self.res, 3), furnace.radiance(), np.float32), None
-        if engine in ("LIGHT_TRACE", "EXACT", "EXACT_POOL", "LUXCORE_LIGHT"):
+        if engine in ("LIGHT_TRACE", "EXACT", "EXACT_POOL", "EXACT_FOG", "LUXCORE_LIGHT"):
             render = {"LIGHT_TRACE": self.light_traced, "EXACT": self.exact,
-                      "EXACT_POOL": self.exact_pool, "LUXCORE_LIGHT": self.luxcore_light}[engine]
+                      "EXACT_POOL": self.exact_pool, "EXACT_FOG": self.exact_fog,
+                      "LUXCORE_LIGHT": self.luxcore_light}[engine]
             img, _wall, _info, cover = render(seconds, seed)
             return img, cover
         return self.shot(scene, engine, seconds, seed)[0], None

@@ -222,9 +222,10 @@ def beams(s: FogSetup, acc, p, w, power, rng, first: bool = True):
         hit = t_ball < t_box
         if not hit.any() or vertex == MAX_VERTICES:
             return
-        power = power * np.where(out, np.exp(-s.sigma_t * np.where(hit, t_ball, 0.0)), 1.0)
         p, w, power, inside, t_ball = p[hit], w[hit], power[hit], inside[hit], t_ball[hit]
-        p = p + t_ball[:, None] * w
+        q = p + t_ball[:, None] * w
+        power = power * np.where(inside, 1.0, np.exp(-s.sigma_t * fog_length(s, p, q)))
+        p = q
         n = (p - s.ball[0]) / s.ball[1]
         w, _, inside = glass_scatter(w, n, inside, rng.random(len(p)))
 
@@ -240,6 +241,7 @@ def caustic(s: FogSetup, acc, rays: int, rng):
         n = min(BATCH, rays - b0)
         w = cone_dirs(axis / dist, cos_max, n, rng)
         p = np.broadcast_to(s.light, w.shape).copy()
+        # (the first leg's transmittance: beams' own, whose first leg here is the lamp's)
         beams(s, acc, p, w, np.full(n, s.intensity * omega / rays), rng, first=False)
 
 
@@ -252,12 +254,34 @@ def double(s: FogSetup, acc, photons: int, rng):
         w = rng.normal(size=(n, 3))
         w /= np.linalg.norm(w, axis=1, keepdims=True)
         o = np.broadcast_to(s.light, w.shape)
-        t_end = np.minimum(box_span(s, o, w)[1], ball_hits(s, o, w, np.zeros(n, bool)))
-        u = rng.exponential(1.0 / s.sigma_t, n)
-        m = u < t_end
+        t0, t1 = box_span(s, o, w)
+        t_end = np.minimum(t1, ball_hits(s, o, w, np.zeros(n, bool)))
+        u = t0 + rng.exponential(1.0 / s.sigma_t, n)       # (the lamp may be outside the fog)
+        m = (t1 > t0) & (u < t_end)
         p = o[m] + u[m, None] * w[m]
         power = np.full(m.sum(), 4.0 * math.pi * s.intensity / photons * s.sigma_s / s.sigma_t)
         beams(s, acc, p, hg_dirs(w[m], s.g, rng), power, rng)
+
+
+def render_for(scene, seconds: float, seed: int = 0):
+    """The bench's reference half (references.py): the bpy ``scene`` for ``seconds`` (whole
+    batches of BATCH rays into the ball's cone and BATCH photons, at least one): (RGB image
+    top-down, the pixels it holds, info)."""
+    import time
+    t = time.perf_counter()
+    s = fog_setup(scene)
+    rng = np.random.default_rng(seed)
+    img, clear = direct(s)
+    n = 0
+    caustics, doubles = np.zeros(s.width * s.height), np.zeros(s.width * s.height)
+    while n == 0 or time.perf_counter() - t < seconds:
+        if s.ball is not None:
+            caustic(s, caustics, BATCH, rng)
+        double(s, doubles, BATCH, rng)
+        n += 1
+    img = (img + (caustics + doubles) / n).reshape(s.height, s.width) * s.film_exposure
+    rgb = np.repeat(img[..., None], 3, axis=-1).astype(np.float32)
+    return rgb, clear, {"photons": 2 * n * BATCH}
 
 
 def render(s: FogSetup, rays: int = 1 << 20, photons: int = 1 << 20, seed: int = 0):

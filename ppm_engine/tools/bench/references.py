@@ -1,7 +1,8 @@
 """The reference renderers of the error-against-time run (curves.py, whose docstring says which
 scene has which reference and why): this engine's light tracer, LuxCore's (LIGHTCPU) with the
 pixels it covers, and the exact-geometry references of point_caustic, rough_caustic and far_caustic
-(exact_caustic.py: every pixel, the ball's too) and of the pool (exact_pool.py), as the methods of
+(exact_caustic.py: every pixel, the ball's too), of the pool (exact_pool.py) and of fog_lens
+(exact_fog.py), as the methods of
 ``References``, which curves.Bench extends, with the regions scored beside the whole image and
 the cross-check of this engine's light tracer against the reference."""
 from __future__ import annotations
@@ -125,6 +126,17 @@ class References:
                  for k, m in masks.items()}
         return masks, noise, {k: {"pixels": int(m.sum()), "noise_rmse": noise[k]}
                               for k, m in masks.items()}
+
+    def exact_fog(self, seconds: float, seed: int):
+        """fog_lens by its exact-geometry reference (exact_fog.py) for ``seconds`` (whole
+        batches): (RGB image top-down, wall seconds, info, coverage top-down: the pixels whose
+        filter reaches no camera ray through the ball)."""
+        import bpy
+
+        from ppm_engine.tools.bench import exact_fog
+        t = time.perf_counter()
+        img, cover, info = exact_fog.render_for(bpy.context.scene, seconds, seed)
+        return img, time.perf_counter() - t, info, cover
 
     def exact_pool(self, seconds: float, seed: int):
         """pool_caustic by its exact-geometry reference (exact_pool.py) for ``seconds`` (whole

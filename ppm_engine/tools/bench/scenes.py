@@ -38,6 +38,10 @@ CAUSTIC_MASKS = {
     "hdri_sun": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the glossy metal: every pixel (the light's highlights, the floor's light in the metal)
     "glossy_metal": {"kind": "all", "occluders": [], "note": "every pixel"},
+    # the lens in fog: every pixel its exact reference renders (not through the ball); the cone
+    # of light below the ball among them
+    "fog_lens": {"kind": "all", "occluders": [], "note": "every pixel past the ball (the "
+                 "volumetric caustic below it among them)"},
     # the sun-lit cone: every pixel (the floor's glossy light on the cone among them)
     "sun_cone": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the metal ball's caustic under a clamp: the wall and the floor beyond the lit pool are
