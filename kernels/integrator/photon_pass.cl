@@ -165,6 +165,10 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
         /* a scattering medium: a free-flight distance (volume_photons.h photon_medium) */
         float3 vp;
         int vm = photon_medium(scene, &media, o, d, h.t, &rng, &flux, &vp);
+        if (vm >= 0 && capacity == 0u) { /* a pilot: a medium's light is the eye paths' */
+            if (direct) atomic_inc(&counters[CNT_DIFFUSE_FIRST]);
+            break;
+        }
         if (vm >= 0) {
             if (!direct && (chain || !caustics_only) && lp->volume_bounces > 0)
                 store_volume_photon(photons, vp, d, flux, ppath, vcapacity, counters);

@@ -11,7 +11,9 @@
  * of its piece of the segment (R and its neighbours).  A photon counts only from its own cell
  * and from the cell R its projection on the segment lies in, so it is counted once: the entry's
  * photon stands for the entry's n photons (flux x n) as in the surfaces' gather (gather.cl),
- * an unbiased estimate of the sum over them. */
+ * an unbiased estimate of the sum over them.  Most cells of a segment hold no photon near it:
+ * a bit per block of VOLUME_BLOCK^3 cells (hashed), set by every photon within r of the block
+ * (volume_mark), lets the walk skip them with one read. */
 #include "builtins.h"
 #include "scene.h"
 #include "integrator/hash.h"
@@ -23,6 +25,34 @@
 
 /* the most cells a segment walks (a longer one is cut there) */
 #define VOLUME_WALK_MAX 4096
+/* a block of the marks: 2^VOLUME_BLOCK_SHIFT cells per axis; the marks' bits (a power of two) */
+#define VOLUME_BLOCK_SHIFT 2
+#define VOLUME_MARK_BITS (1u << 20)
+
+/* whether block bit b of the marks is set */
+inline bool volume_marked(__global const uint *marks, long3 cell) {
+    uint b = cell_hash(cell >> VOLUME_BLOCK_SHIFT, VOLUME_MARK_BITS - 1u);
+    return (marks[b >> 5] & (1u << (b & 31u))) != 0u;
+}
+
+/* Each stored volume photon (ph_pos, the first min(stored, capacity)) sets the bits of the blocks
+ * its box of half side r overlaps (marks: VOLUME_MARK_BITS bits, cleared before). */
+__kernel void volume_mark(__global const float4 *ph_pos, __global const uint *counters,
+                          uint capacity, __global const Grid *grid, float radius,
+                          __global uint *marks) {
+    uint i = get_global_id(0);
+    if (i >= min(counters[CNT_VSTORED], capacity)) return;
+    Grid g = *grid;
+    float3 p = ph_pos[i].xyz;
+    long3 lo = cell_of(p - radius, &g) >> VOLUME_BLOCK_SHIFT;
+    long3 hi = cell_of(p + radius, &g) >> VOLUME_BLOCK_SHIFT;
+    for (long z = lo.z; z <= hi.z; z++)
+        for (long y = lo.y; y <= hi.y; y++)
+            for (long x = lo.x; x <= hi.x; x++) {
+                uint b = cell_hash((long3)(x, y, z), VOLUME_MARK_BITS - 1u);
+                atomic_or(&marks[b >> 5], 1u << (b & 31u));
+            }
+}
 
 /* a segment as its gather reads it */
 typedef struct {
@@ -68,7 +98,7 @@ inline float3 beam_cell(const Photons *photons, const Grid *g, __global const ul
 /* One segment: (o, t), (d, its medium's material), (the camera path's weight, its state) */
 inline float3 beam_segment(const Scene *scene, const Photons *photons, const Grid *g,
                            __global const ulong *table, uint mask, float r,
-                           __global const float4 *v, uint *used) {
+                           __global const float4 *v, __global const uint *marks, uint *used) {
     float4 a = v[0], b = v[1], c = v[2];
     float3 o = a.xyz, d = b.xyz;
     __global const Material *mt = scene->materials + as_int(b.w);
@@ -92,8 +122,9 @@ inline float3 beam_segment(const Scene *scene, const Photons *photons, const Gri
     float sa = s0;
     for (int k = 0; k < VOLUME_WALK_MAX; k++) {
         float sb = fmin(fmin(next.x, fmin(next.y, next.z)), s1);
-        acc += beam_cell(photons, g, table, mask, &bm, (float2)(sa, sb), cell, scene->light_paths,
-                         used);
+        if (volume_marked(marks, cell))
+            acc += beam_cell(photons, g, table, mask, &bm, (float2)(sa, sb), cell,
+                             scene->light_paths, used);
         if (sb >= s1) break;
         if (next.x <= next.y && next.x <= next.z) {
             cell.x += step.x;
@@ -114,7 +145,8 @@ inline float3 beam_segment(const Scene *scene, const Photons *photons, const Gri
  * against the volume photons' table (radius r this pass), added to film.lt_pass. */
 __kernel void
 volume_gather(SCENE_PARAMS FILM_PARAMS VP_PARAMS PHOTON_PARAMS __global const ulong *table,
-              uint table_mask, float radius, uint n, __global uint *counters) {
+              uint table_mask, float radius, __global const uint *marks, uint n,
+              __global uint *counters) {
     SCENE_LOAD(scene);
     FILM_LOAD(film);
     VP_LOAD(vps);
@@ -128,7 +160,7 @@ volume_gather(SCENE_PARAMS FILM_PARAMS VP_PARAMS PHOTON_PARAMS __global const ul
     for (int k = 0; k < VOLUME_SEGMENTS; k++) {
         __global const float4 *v = vps->segments + 3 * (VOLUME_SEGMENTS * id + k);
         if (!(v[0].w > 0.0f)) break;
-        sum += beam_segment(scene, photons, &g, table, table_mask, radius, v, &used);
+        sum += beam_segment(scene, photons, &g, table, table_mask, radius, v, marks, &used);
     }
     sum *= 1.0f / (PPM_PI * radius * radius);
     if (max3(sum) > 0.0f && isfinite(sum.x) && isfinite(sum.y) && isfinite(sum.z))

@@ -43,6 +43,7 @@ def initial_radius(scene, options) -> float:
 
 
 class VolumeGather(SpatialHash):
+    MARK_BITS = 1 << 20           # volume_gather.cl VOLUME_MARK_BITS
     def __init__(self, ctx: PassContext, options):
         """The hash build and volume_gather.cl; the grid over the media's box."""
         super().__init__(ctx)
@@ -52,8 +53,11 @@ class VolumeGather(SpatialHash):
                        else self.program.launch("hash_pick", "volume"))
         defines = {"PPM_VOLUME": True,
                    **({"PPM_INT64_ATOMICS": True} if ctx.device.int64_atomics else {})}
-        self.k_gather = ctx.device.programs.get("integrator/volume_gather.cl", defines).launch(
-            "volume_gather", "volume")
+        p = ctx.device.programs.get("integrator/volume_gather.cl", defines)
+        self.k_gather = p.launch("volume_gather", "volume")
+        self.k_mark = p.launch("volume_mark", "volume")
+        # the blocks of cells near a photon (volume_gather.cl VOLUME_MARK_BITS)
+        self.marks = ctx.device.buffer(self.MARK_BITS // 8, "volume photons' marks")
         self.r0 = initial_radius(ctx.scene, options)
         self.box = ctx.scene.media_box()
         self.grid = np.zeros(1, GRID_DTYPE)
@@ -85,10 +89,15 @@ class VolumeGather(SpatialHash):
               ("volume", self.k_hash(q, -(-pm.vcapacity // self.batch), **common))]
         if self.k_pick is not None:
             ev.append(("volume", self.k_pick(q, pm.vcapacity, **common)))
+        ev.append(("volume", cl.enqueue_fill_buffer(q, self.marks, np.uint32(0), 0,
+                                                    self.MARK_BITS // 8)))
+        ev.append(("volume", self.k_mark(q, pm.vcapacity, ph_pos=pm.ph_vpos, counters=c.counters,
+                                         capacity=np.uint32(pm.vcapacity), grid=pm.vgrid,
+                                         radius=np.float32(r), marks=self.marks)))
         ev.append(("volume", self.k_gather(
             q, c.vps.n, SHADING_GROUP, **c.scene.args, **c.film.args, **c.vps.args, **pm.args,
             table=pm.vtable, table_mask=np.uint32(pm.vtable_size - 1), radius=np.float32(r),
-            n=np.uint32(c.vps.n), counters=c.counters)))
+            marks=self.marks, n=np.uint32(c.vps.n), counters=c.counters)))
         return ev
 
     @classmethod
