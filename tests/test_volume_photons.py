@@ -97,3 +97,31 @@ def test_caustic_of_a_sphere_light_is_counted_once(bpy, tiny, render_exr, tmp_pa
     assert np.all(np.abs(a[lit] / b[lit] - 1) < 0.1), np.round(np.where(lit, a / b, np.nan), 3)
     cone = (slice(5, 7), slice(3, 5))
     assert np.all(np.abs(a[cone] / b[cone] - 1) < 0.1), a[cone] / b[cone]
+
+
+def test_light_tracing_crosses_fog(bpy, pocl_key):
+    """The photons' light tracing on in a scene with media (its connections to the camera through
+    the fog's transmittance, photon_pass.cl connect_camera; before: off with media): the ball's
+    caustic on a floor in denser fog, by photons, with and without it, per 8 x 8 block."""
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.renderer import Renderer
+    scene = fog_lens.build(ball=True, segments=(48, 24), resolution=W, fog=(0.3, 0.2))
+    quad(scene, "Floor", [(-3, -3, 0.05), (3, -3, 0.05), (3, 3, 0.05), (-3, 3, 0.05)],
+         lambert("Grey", (0.6, 0.6, 0.6)))
+    scene.camera.location, scene.camera.rotation_euler = (0.0, -4.5, 3.6), (0.9, 0.0, 0.0)
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+    images = []
+    for lt in (False, True):
+        r = Renderer(arrays, RenderOptions(device=pocl_key, photons_per_pass=1 << 13,
+                                           indirect="photons", light_tracing=lt,
+                                           specialize=False))
+        try:
+            assert (r.lt_kappa > 0) == lt
+            for _ in range(48):
+                r.iterate()
+            images.append(r.image()[..., :3].mean(-1).reshape(4, 8, 4, 8).mean((1, 3)))
+        finally:
+            r.close()
+    ratio = images[1] / images[0]
+    assert np.all(np.abs(ratio - 1) < 0.03), np.round(ratio, 3)

@@ -40,6 +40,9 @@ typedef struct {
     float shading, rs;
     uint ppath;
     bool lambert;
+#if PPM_VOLUME
+    const Media *media; /* those it arrived through */
+#endif
 } PhotonHit;
 
 /* Light tracing, the photons' second strategy (VCM's camera connection, Georgiev et al. 2012):
@@ -88,9 +91,17 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
     float3 org = offset_ray(s->p, cos_c > 0.0f ? ph->Ng : -ph->Ng,
                             scene->emitter_info->offset_scale);
     /* the segment as a camera ray sees it: through objects hidden from the camera, as the
-     * eye pass's rays that make the merge's visible points */
+     * eye pass's rays that make the merge's visible points; through the media the photon
+     * arrived in (a camera on the other side of a medium's surface: not connected) */
+#if PPM_VOLUME
+    if (ph->media->n > 0 && !(cos_c > 0.0f)) return setup;
+    float3 T = ray_transmittance_media(scene, org, wc, dist * 0.9999f,
+                                       scene->light_paths->transparent_max_bounces, VIS_CAMERA,
+                                       ph->media);
+#else
     float3 T = ray_transmittance(scene, org, wc, dist * 0.9999f,
                                  scene->light_paths->transparent_max_bounces, VIS_CAMERA);
+#endif
     if (!(max3(T) > 0.0f)) return setup;
     float3 c = ph->flux * ph->shading * f * T * (fabs(cos_c) * we);
     float limit = scene->light_paths->clamp_indirect;
@@ -253,6 +264,9 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
                 atomic_inc(&counters[CNT_OUTSIDE]);
             }
             PhotonHit ph = {flux, color, N, Ng, shading, rs, ppath, lambert};
+#if PPM_VOLUME
+            ph.media = &media;
+#endif
             if (lt_kappa > 0.0f && capacity > 0u
                 && connect_camera(scene, &sd, &s, h, d, &ph, &sp, counters)
                 && !lambert) /* sd was the camera's: the light's again for its scattering */

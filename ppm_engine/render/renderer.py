@@ -173,10 +173,9 @@ class Renderer:
     def light_tracing_kappa(self, o: RenderOptions) -> float:
         """The photons' light tracing (photon_pass.cl connect_camera): its MIS factor kappa, or
         0 where it is off: when asked not to, with no photon pass, or through a lens (light
-        tracing connects to a pinhole), or with media (its camera rays do not cross them yet)."""
+        tracing connects to a pinhole)."""
         pinhole = float(self.scene.scene.camera["aperture_radius"][0]) <= 0.0
-        return (LIGHT_TRACING_KAPPA if o.light_tracing and self.photons_needed and pinhole
-                and not self.scene.has_media() else 0.0)
+        return LIGHT_TRACING_KAPPA if o.light_tracing and self.photons_needed and pinhole else 0.0
 
     # photons of the pilot that measures the share of caustic first scatterings
     PILOT_PHOTONS = 1 << 16
@@ -299,7 +298,8 @@ class Renderer:
             # only through its water): every connection to the camera is blocked, so it stops,
             # and the merge keeps the whole weight (as with light tracing off)
             self.lt_kappa = 0.0
-            film.disable_light_tracing()
+            if not self.volume:           # (whose gather adds to the same splats)
+                film.disable_light_tracing()
         self.passes_done += 1
         self.pass_indices.append(pass_index)
         if photons:
