@@ -101,8 +101,9 @@ def test_caustic_of_a_sphere_light_is_counted_once(bpy, tiny, render_exr, tmp_pa
 
 def test_light_tracing_crosses_fog(bpy, pocl_key):
     """The photons' light tracing on in a scene with media (its connections to the camera through
-    the fog's transmittance, photon_pass.cl connect_camera; before: off with media): the ball's
-    caustic on a floor in denser fog, by photons, with and without it, per 8 x 8 block."""
+    the fog's transmittance, photon_pass.cl connect_camera; before: off with media): the
+    ball's caustic on a floor in denser fog, by photons, with and without it, per 8 x 8 block
+    (0.99-1.02)."""
     from ppm_engine.blender.export import export_scene
     from ppm_engine.render.options import RenderOptions
     from ppm_engine.render.renderer import Renderer
@@ -118,7 +119,7 @@ def test_light_tracing_crosses_fog(bpy, pocl_key):
                                            specialize=False))
         try:
             assert (r.lt_kappa > 0) == lt
-            for _ in range(48):
+            for _ in range(32):
                 r.iterate()
             images.append(r.image()[..., :3].mean(-1).reshape(4, 8, 4, 8).mean((1, 3)))
         finally:
