@@ -134,7 +134,7 @@
 
 /* the camera's segments in media kept per pixel for the volume photons
  * (ppm_engine/render/passes/volume.py) */
-#define VOLUME_SEGMENTS 4
+#define VOLUME_SEGMENTS 2
 
 /* photon guides' bins, floats per light, lights (ppm_engine/scene/guide.py) */
 #define GUIDE_ROWS 16
