@@ -181,8 +181,11 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
             break;
         }
         if (vm >= 0) {
-            if (!direct && (chain || !caustics_only) && lp->volume_bounces > 0)
-                store_volume_photon(photons, vp, d, flux, ppath, vcapacity, counters);
+            if (!direct && (chain || !caustics_only) && lp->volume_bounces > 0
+                && store_volume_photon(photons, vp, d, flux, ppath, vcapacity, counters)) {
+                if (aimed) atomic_inc(aimed + 1); /* (what casters and guides learn from) */
+                if (guide_count) atomic_inc(guide_count);
+            }
             /* with eye paths for the indirect light a photon's light past the medium is
              * theirs (the volume photon has the caustic's, L S+ M); with photons on along
              * the phase function's sample, where a camera path can still join it */

@@ -42,19 +42,20 @@ inline int photon_medium(const Scene *scene, const Media *media, float3 o, float
 
 /* A volume photon at p that travelled along d with flux `flux` and bounces ppath
  * (path_state.h: the camera path that gathers it joins them), in the first `capacity` slots
- * (counted in CNT_VSTORED; none in a pilot, capacity 0) */
-inline void store_volume_photon(const Photons *photons, float3 p, float3 d, float3 flux, uint ppath,
+ * (counted in CNT_VSTORED; none in a pilot, capacity 0); whether it was counted */
+inline bool store_volume_photon(const Photons *photons, float3 p, float3 d, float3 flux, uint ppath,
                                 uint capacity, __global uint *counters) {
-    if (capacity == 0u) return;
+    if (capacity == 0u) return false;
     if (!(isfinite(flux.x) && isfinite(flux.y) && isfinite(flux.z))) {
         atomic_inc(&counters[CNT_NAN]);
-        return;
+        return false;
     }
     uint k = atomic_inc(&counters[CNT_VSTORED]);
-    if (k >= capacity) return;
+    if (k >= capacity) return true; /* (the next pass has room: VolumeGather.grow) */
     photons->vpos[k] = (float4)(p, 0.0f);
     photons->vflux[k] = (float4)(flux, as_float(pack_unit(-d)));
     photons->vpath[k] = ppath;
+    return true;
 }
 #endif
 #endif
