@@ -126,3 +126,31 @@ def test_light_tracing_crosses_fog(bpy, pocl_key):
             r.close()
     ratio = images[1] / images[0]
     assert np.all(np.abs(ratio - 1) < 0.03), np.round(ratio, 3)
+
+
+def test_volume_photons_merge_across_pass_ranges(bpy, pocl_key):
+    """The global radius schedule makes a pass's volume photons and radius a function of its
+    index alone: passes 1-3 and 4-6 rendered apart and merged (ppm_engine/render/parts.py) give
+    one run's image, the volume photons' splats with it (light tracing off: before, a part
+    without the photons' light tracing left those splats out)."""
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.render.options import RenderOptions
+    from ppm_engine.render.parts import Part, merge
+    from ppm_engine.render.renderer import Renderer
+    fog_lens.build(ball=True, segments=(24, 12), resolution=16)
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+
+    def part(passes):
+        r = Renderer(arrays, RenderOptions(device=pocl_key, photons_per_pass=1 << 12,
+                                           indirect="photons", light_tracing=False,
+                                           radius_schedule="global", specialize=False))
+        try:
+            for i in passes:
+                r.iterate(pass_index=i)
+            return Part.of(r), r.image()
+        finally:
+            r.close()
+    one, image = part(range(6))
+    merged = merge([part(range(3, 6))[0], part(range(3))[0]])
+    np.testing.assert_allclose(one.image(), image, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(merged.image(), image, rtol=1e-5, atol=1e-7)

@@ -57,12 +57,14 @@ def scene_digest(scene) -> str:
 
 def render_meta(scene, options, device, film, lt_kappa: float, **extra) -> dict:
     """What must agree for parts to merge: the scene's digest, the options that change a pass
-    (all but FREE_OPTIONS), the film's size and exposure and whether the photons are traced to
-    the camera; ``device`` is recorded (parts of other devices merge: within their noise)."""
+    (all but FREE_OPTIONS), the film's size and exposure and whether it holds photon splats
+    (the photons traced to the camera, or the volume photons' gather: passes/volume.py);
+    ``device`` is recorded (parts of other devices merge: within their noise)."""
     opts = {k: v for k, v in dataclasses.asdict(options).items() if k not in FREE_OPTIONS}
     return {"scene": scene_digest(scene), "options": opts,
             "resolution": [film.width, film.height], "exposure": float(film.exposure),
-            "light_tracing": bool(lt_kappa > 0), **extra,
+            "light_tracing": bool(lt_kappa > 0 or getattr(film, "light_tracing", False)),
+            **extra,
             "devices": [device.info.name]}
 
 
