@@ -416,7 +416,7 @@ class Renderer:
         """(owner's dict, name, buffer) of every device buffer this render holds."""
         import pyopencl as cl
         for obj in (self.bvh, self.scene, self.scene.args, self.film, self.photon_map, self.vps,
-                    self):
+                    self, self.volume or {}):
             items = obj if isinstance(obj, dict) else vars(obj)
             for name, value in list(items.items()):
                 if isinstance(value, cl.MemoryObjectHolder):
