@@ -26,7 +26,7 @@ def ours(scene, tiny, render_exr, path, passes, photons=1 << 14, indirect="AUTO"
     return render_exr(path).mean(-1)
 
 
-def reference(scene, rays=1 << 16, photons=1 << 15):
+def reference(scene, rays=1 << 15, photons=1 << 14):
     from ppm_engine.tools.bench.exact_fog import fog_setup, render
     return render(fog_setup(scene), rays=rays, photons=photons, seed=1)
 
@@ -74,7 +74,7 @@ def test_fog_light_on_a_floor_by_photons_is_the_eye_paths(bpy, tiny, render_exr,
     quad(scene, "Floor", [(-3, -3, 0.05), (3, -3, 0.05), (3, 3, 0.05), (-3, 3, 0.05)],
          lambert("Grey", (0.6, 0.6, 0.6)))
     scene.camera.location, scene.camera.rotation_euler = (0.0, -4.5, 3.6), (0.9, 0.0, 0.0)
-    paths = ours(scene, tiny, render_exr, tmp_path / "paths.exr", passes=256, indirect="PATHS")
+    paths = ours(scene, tiny, render_exr, tmp_path / "paths.exr", passes=128, indirect="PATHS")
     photons = ours(scene, tiny, render_exr, tmp_path / "photons.exr", passes=64,
                    indirect="PHOTONS")
     a = photons.reshape(4, 8, 4, 8).mean((1, 3))
