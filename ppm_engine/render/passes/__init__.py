@@ -14,6 +14,8 @@ in the paper's order (Hachisuka & Jensen 2010):
     PhotonPass     "photon"    photons from the emitters, stored at diffuse hits
     HashBuild      "hash"      the stochastic spatial hash: one photon and a count per entry
     Gather         "gather"    each visible point reads the cells its disc overlaps
+    VolumeGather   "volume"    the volume photons' hash, gathered along the camera's segments
+                               in media (passes/volume.py; scenes with a scattering medium)
     RadiusUpdate   "update"    N, R and the photon sum per pixel
     AddSample      "update"    the pass's sample into the film
     Converge       "adaptive"  which pixels go on (adaptive sampling; Converge.due says when)
