@@ -126,6 +126,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         float3 beta_in = beta, sigma_t = media_extinction(&media, scene->materials);
         int vm = media_top(&media);
         Segment sg = segment(o, d, 0.0f, (float3)(0.0f));
+        bool kept = false; /* this segment kept for the volume photons */
         if (vm >= 0) {
             float seg = h.leaf < 0 ? tmax : h.t;
             bool scat = term == TERM_NONE && max3(F3(scene->materials[vm].scattering)) > 0.0f;
@@ -136,7 +137,8 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
                                 (float2)(clamp_found, clamp_limit(depth, lp)), true, &beta, &sg);
             /* the camera's segments in scattering media, for the volume photons' gather
              * (volume_gather.cl): its path's state, the weight at its start */
-            if (volume_photons && scat && vbounce == 0 && nseg < VOLUME_SEGMENTS) {
+            kept = volume_photons && scat && vbounce == 0 && nseg < VOLUME_SEGMENTS;
+            if (kept) {
                 __global float4 *v = vps->segments + 3 * (VOLUME_SEGMENTS * id + nseg++);
                 v[0] = (float4)(o, seg);
                 v[1] = (float4)(d, as_float(vm));
@@ -194,7 +196,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
              * from other than the emitters is theirs (the path only finds emitters); with eye
              * paths what reaches it through mirrors and glass (vchain) */
             if (volume_photons && !path_indirect) term = TERM_AFTER_TRANSPARENT;
-            vchain = volume_photons && vbounce == 1 ? 1 : 0;
+            vchain = kept && vbounce == 1 ? 1 : 0; /* (a segment not kept: the path's light) */
             prev_pdf = pdf;
             prev_n = (float3)(0.0f); /* (as volume_nee gave the pick) */
             prev_p = p;
