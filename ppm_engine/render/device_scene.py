@@ -141,8 +141,9 @@ def placeholders(device, **given) -> dict:
 
 
 class DeviceScene:
-    def __init__(self, device, scene: SceneArrays):
+    def __init__(self, device, scene: SceneArrays, specialize: bool = True):
         self.device = device
+        self.specialize = specialize   # the world map's bake built for the world's own nodes
         prepared, self.warnings = prepare_scene(scene)   # NaN/Inf dropped (docs/STABILITY.md)
         self.bvh = BVH(device, prepared)
         self.upload(scene, prepared)
@@ -285,7 +286,7 @@ class DeviceScene:
             return None
         w, h = map_size(int(ws[2]), int(ws[3]), bool(ws[1] & WORLD_MAP_MANUAL))
         return build_map(bake(self.device, placeholders(self.device, **args), prepared.svm,
-                              int(ws[0]), w, h))
+                              int(ws[0]), w, h, self.specialize))
 
     def kernel_defines(self, specialize: bool,
                        editable: bool = False) -> tuple[frozenset | None, dict]:

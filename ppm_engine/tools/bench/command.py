@@ -238,7 +238,7 @@ def run(args, cmdline: str, progress=print) -> int:
         d = shader.run_shader(args.shader, args.resolution or (32 if args.quick else 128),
                               passes=2 if args.quick else args.passes,
                               warmup=1 if args.quick else 2, device=args.device,
-                              progress=progress)
+                              progress=progress, specialize=not args.quick)
         return publish("shader", d, shader.format_shader(d))
     if args.phases:
         res = args.resolution or (32 if args.quick else 256)
