@@ -6,6 +6,7 @@ import pytest
 from ppm_engine.oracle import analytic
 from ppm_engine.oracle.procedural import MeshBuilder, cornell_box, look_at
 from ppm_engine.render.device import get_device
+from ppm_engine.render.device_scene import DeviceScene
 from ppm_engine.render.options import RenderOptions
 from ppm_engine.render.passes import ProgressiveUpdate
 from ppm_engine.render.renderer import Renderer
@@ -331,3 +332,19 @@ def test_skip_switches_of_the_benchmark_change_the_work_not_the_image():
     total = seen.photons_stored + seen.photons_outside
     assert every.photons_stored == pytest.approx(total, rel=0.25)
     assert every.photons_stored > 2 * seen.photons_stored
+
+
+def test_every_feature_build_reads_the_attribute_stride_at_run_time():
+    """Scenes with different numbers of mesh attributes share the kernels of every feature (the
+    stride is EmitterInfo.n_attributes, read when the programs run); only a specialised build
+    sizes its arrays by the scene's stride (before, -D PPM_ATTRIBUTES made a build of every
+    feature per stride: two in a cold test run)."""
+    base = cornell_box(4, 4)
+    for k in (1, 3):
+        scene = base.replace(attributes=np.zeros((base.n_triangles, 3, k, 4), np.float32))
+        dev = get_device()
+        with dev.lock:
+            ds = DeviceScene(dev, scene, specialize=False)
+            assert int(ds.emitters.info["n_attributes"][0]) == k
+            assert "PPM_ATTRIBUTES" not in ds.kernel_defines(False)[1]
+            assert ds.kernel_defines(True)[1]["PPM_ATTRIBUTES"] == k

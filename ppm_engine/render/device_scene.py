@@ -176,6 +176,7 @@ class DeviceScene:
         em.info["offset_scale"] = self.offset_scale
         em.info["n_media"] = int(((self.kmaterials["flags"][self.used_materials] & MAT_VOLUME)
                                   != 0).sum())
+        em.info["n_attributes"] = prepared.attributes.shape[2]
         args.update(self._upload(
             lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
             emitter_info=em.info, light_tree=em.tree, emitter_leaf=em.emitter_leaf,
@@ -311,7 +312,9 @@ class DeviceScene:
                 stack = max(1 << (stack - 1).bit_length(), 16)
             svm = {"PPM_SVM_OPS": ops_define(ops_used(self.prepared.svm, starts)),
                    "PPM_SVM_STACK": stack}
-        if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact
+        # room for the mesh attributes: a specialised build's is the scene's stride of
+        # `attributes`; every feature's has room for any scene's (EmitterInfo.n_attributes)
+        if features is not None and self.prepared.attributes.shape[2]:
             svm["PPM_ATTRIBUTES"] = self.prepared.attributes.shape[2]
         return features, {**feature_defines(features, None if editable else
                                             max_closures(self.knodes, self.used_materials)),
