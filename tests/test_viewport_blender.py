@@ -153,6 +153,12 @@ def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny, cap
         assert drv.exports == 2 and s.actions == ["new", "upload"]
         setting(lambda: setattr(scene.cycles, "film_exposure", 2.0))   # the film: re-export
         assert drv.exports == 3 and s.actions[-1] == "upload"
+        # without a 3D view the scene camera renders: its lens is exported and rendered
+        edit(lambda: setattr(scene.camera.data, "lens", 35.0))
+        assert drv.exports == 4 and s.actions[-1] == "upload"
+        from ppm_engine.blender.export import export_scene
+        fresh = export_scene(bpy.context.evaluated_depsgraph_get()).camera
+        assert s._scene.camera.tobytes() == fresh.tobytes()
         assert not header                                             # no error so far
         cam = scene.camera
         edit(lambda: bpy.data.objects.remove(cam))                     # no camera, no 3D view
@@ -166,14 +172,14 @@ def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny, cap
         new_cam.location, new_cam.rotation_euler = (0.0, -3.6, 1.4), (np.radians(78), 0, 0)
         scene.collection.objects.link(new_cam)
         edit(lambda: setattr(scene, "camera", new_cam))               # fixed: renders again
-        assert drv.message is None and drv.exports == 4 and s.error is None
+        assert drv.message is None and drv.exports == 5 and s.error is None
         bad = view(bpy, scene)
         bad["to_world"][0, 0, 0] = np.nan                             # the worker fails...
         s.update_view(bad)
         s.wait(timeout=60)
         assert s.error is not None and not s.busy
         drv.view_update(eng, bpy.context, bpy.context.evaluated_depsgraph_get())
-        assert drv.session is not s and drv.exports == 5              # ...and starts afresh
+        assert drv.session is not s and drv.exports == 6              # ...and starts afresh
         assert drv.session.wait(timeout=300) and drv.session.error is None
         assert drv.session.frame() is not None
     finally:

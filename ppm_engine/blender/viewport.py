@@ -56,16 +56,20 @@ BUG_HINT = "a bug: please report it with the console's traceback"
 _VALUE_TYPES = {'MATERIAL', 'NODETREE', 'IMAGE', 'TEXTURE', 'LIGHT', 'WORLD', 'SCENE'}
 
 
-def changes(updates) -> set:
+def changes(updates, scene_camera: bool = False) -> set:
     """What a view_update's ``depsgraph.updates`` changed: a subset of {"values" (materials,
     lights, world, the scene's settings), "transform", "geometry" (meshes, objects added or
-    deleted, visibility)}.  Empty: nothing the render depends on (a selection)."""
+    deleted, visibility), "camera"}.  Empty: nothing the render depends on (a selection).
+    A camera's edits count ("camera") only with ``scene_camera``: no 3D view, the export's
+    camera is the scene's; else the view's camera comes from view_draw."""
     out = set()
     for u in updates:
         idt = getattr(u.id, "id_type", "") if u.id is not None else ""
         if idt == 'OBJECT':
             kind = getattr(u.id, "type", "")
             if kind == 'CAMERA':
+                if scene_camera:
+                    out.add("camera")
                 continue                           # the view's camera comes from view_draw
             if kind == 'LIGHT':
                 out.add("values")                  # its data or its placement: re-uploaded
@@ -76,6 +80,8 @@ def changes(updates) -> set:
             elif u.is_updated_shading:
                 out.add("values")                  # ray visibility, material slots
         elif idt == 'CAMERA':
+            if scene_camera:
+                out.add("camera")
             continue    # lens, depth of field: view_draw's camera (no export reads it)
         elif idt == 'COLLECTION':
             out.add("geometry")                    # objects linked, unlinked, hidden
@@ -249,16 +255,16 @@ class ViewportDriver:
             key = (settings_key(depsgraph), hidden_in_view(depsgraph, view))
             if self.meshes is None:
                 self.meshes = MeshCache(None)
+            camera = view_camera(context, depsgraph, engine)
             if not first and self.message is None and key == self.key:
                 ups = depsgraph.updates
-                if not changes(ups) or only_scene(ups):
+                if not changes(ups, scene_camera=camera is None) or only_scene(ups):
                     self._watch(engine)
                     return                      # nothing the export reads changed
-                forget_changed(ups, self.meshes, self.images, _VALUE_TYPES)
+                forget_changed(ups, self.meshes, self.images, _VALUE_TYPES | {'CAMERA'})
             else:                               # a new session, frame, layer, view: afresh
                 self.meshes.clear()
                 self.images.clear()
-            camera = view_camera(context, depsgraph, engine)
             self.session.hold()                 # the processor to the export (until posted)
             try:
                 arrays = export_scene(depsgraph, camera=camera, view=view,

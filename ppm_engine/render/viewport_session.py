@@ -113,6 +113,7 @@ class ViewportSession(FramePublisher, ExportHold):
         self._device_name = None
         self._scene = None             # the scene at full resolution with the view's camera
         self._camera = None
+        self._view_camera = False      # whether _camera is a posted view's (else the scene's)
         self._divider = 1
         self._restart_time = 0.0
         self._dropped = False          # the last pass was dropped unfinished (iterate None)
@@ -372,9 +373,9 @@ class ViewportSession(FramePublisher, ExportHold):
         if options is not None:
             self._options = options
         if camera is not None:
-            self._camera = camera
+            self._camera, self._view_camera = camera, True
         if scene is not None:
-            if self._camera is None:
+            if not self._view_camera:                  # no view posted: the scene's camera
                 self._camera = np.array(scene.camera, copy=True)
             self._scene = scene.replace(camera=self._camera)
         elif camera is not None and self._scene is not None:
