@@ -26,7 +26,7 @@ from ppm_engine.scene.arrays import (
     SceneArrays,
 )
 from ppm_engine.scene.camera import CAMERA_DTYPE
-from ppm_engine.scene.casters import caster_reach, caster_spheres, caustic_cdf, material_weights
+from ppm_engine.scene.casters import caster_reach, caster_tree, caustic_cdf, material_weights
 from ppm_engine.scene.emitters import EMITTER_INFO_DTYPE, build_emitters
 from ppm_engine.scene.guide import Guides
 from ppm_engine.scene.light_paths import LIGHT_PATHS_DTYPE, engine_defaults
@@ -40,7 +40,7 @@ from ppm_engine.scene.materials import (
     kernel_nodes,
     max_closures,
 )
-from ppm_engine.scene.prep import offset_scale, prepare_scene
+from ppm_engine.scene.prep import corner_box, offset_scale, prepare_scene
 from ppm_engine.scene.shader_program import ops_define, ops_used, stack_used
 from ppm_engine.scene.shading_tables import load as shading_tables
 
@@ -145,6 +145,7 @@ class DeviceScene:
         self.device = device
         prepared, self.warnings = prepare_scene(scene)   # NaN/Inf dropped (docs/STABILITY.md)
         self.bvh = BVH(device, prepared)
+        self._caster_tree = None         # set_casters' CasterTree, kept by refits
         self.upload(scene, prepared)
 
     def upload(self, scene: SceneArrays, prepared: SceneArrays | None = None) -> None:
@@ -211,8 +212,13 @@ class DeviceScene:
         ok = (m >= 0) & (m < mw.shape[0])
         tri_w = np.zeros(m.shape[0], np.float32)
         tri_w[ok] = mw[m[ok]]
-        self.caster_spheres, self.caster_static = caster_spheres(p.positions.reshape(-1, 3, 3),
-                                                                 tri_w)
+        corners = p.positions.reshape(-1, 3, 3)
+        # the same triangles moved (refit): the tree of their splits kept, its cut chosen at
+        # the new positions; else (or when that tree got too loose) the tree built
+        tree = (self._caster_tree.refit(corners, tri_w) if self._caster_tree is not None
+                else None)
+        self._caster_tree = tree = tree or caster_tree(corners, tri_w)
+        self.caster_spheres, self.caster_static = (a.copy() for a in tree.result)
         em.info["n_casters"] = self.caster_spheres.shape[0]
         # the emissive triangles' corners in the emitter table's order, for caster_reach at
         # every change of weights
@@ -351,7 +357,7 @@ class DeviceScene:
         pos = self.prepared.positions.reshape(-1, 3)
         lo, hi = np.zeros(4, np.float32), np.zeros(4, np.float32)
         if pos.shape[0]:
-            lo[:3], hi[:3] = pos.min(axis=0), pos.max(axis=0)
+            lo[:3], hi[:3] = corner_box(pos)
         return lo, hi
 
     @staticmethod
