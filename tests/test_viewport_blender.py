@@ -206,7 +206,13 @@ def test_value_edits_read_no_mesh_again_and_export_as_afresh(bpy, tiny, monkeypa
     from ppm_engine.blender.export import export_scene, mesh
     from ppm_engine.blender.viewport import ViewportDriver
     sphere_scene(bpy, tiny)
-    reads = []
+    floor = bpy.data.objects["Floor"].data          # a NaN corner: a warning from the mesh
+    pos = np.zeros(3 * len(floor.vertices), np.float32)
+    floor.attributes["position"].data.foreach_get("vector", pos)
+    pos[0] = np.nan
+    floor.attributes["position"].data.foreach_set("vector", pos)
+    bpy.context.view_layer.update()
+    reads, reports = [], []
     read_mesh = mesh.read_mesh
     monkeypatch.setattr(mesh, "read_mesh", lambda m: reads.append(m.name) or read_mesh(m))
 
@@ -215,7 +221,7 @@ def test_value_edits_read_no_mesh_again_and_export_as_afresh(bpy, tiny, monkeypa
             pass
 
         def report(self, kind, message):
-            pass
+            reports.append(message)
 
         def tag_redraw(self):
             pass
@@ -236,10 +242,14 @@ def test_value_edits_read_no_mesh_again_and_export_as_afresh(bpy, tiny, monkeypa
 
         def edit(f, action):
             reads.clear()
+            reports.clear()
             f()
             bpy.context.view_layer.update()
             assert s.wait(timeout=300), s.status()
             assert s.actions[-1] == action
+            # the floor's warning at every export, once, though its mesh data was kept
+            said = [w for w in sent[-1].warnings if "Floor" in w and "NaN" in w]
+            assert len(said) == 1 and [m for m in reports if "Floor" in m] == said
             got = list(reads)
             reads.clear()
             _same_arrays(sent[-1], export_scene(bpy.context.evaluated_depsgraph_get()))

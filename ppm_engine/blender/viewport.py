@@ -267,11 +267,14 @@ class ViewportDriver:
                 self.images.clear()
             self.session.hold()                 # the processor to the export (until posted)
             try:
-                arrays = export_scene(depsgraph, camera=camera, view=view,
+                # the engine reports each warning once per export (kept mesh data's too)
+                arrays = export_scene(depsgraph, engine, camera=camera, view=view,
                                       meshes=self.meshes, images=self.images)
             except BaseException:
                 self.session.hold(False)
                 raise
+            for w in arrays.warnings:           # (Blender keeps no viewport reports)
+                print(f"PPM viewport: {w}", file=sys.stderr)
             self.key = key
             self.exports += 1
             self.message = None
