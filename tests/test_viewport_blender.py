@@ -1,6 +1,7 @@
 """The viewport's Blender side: the view's camera from Blender's own matrices, the depsgraph
 updates of real edits and what they change, the engine's view_update hand-off (ViewportDriver),
 previews and the engine's flags.  The session itself: test_viewport.py."""
+import types
 
 import numpy as np
 import pytest
@@ -102,6 +103,35 @@ def test_engine_flags_for_the_viewport_and_previews(bpy):
     assert PPMRenderEngine.bl_use_eevee_viewport is True        # Material Preview stays EEVEE
     assert PPMRenderEngine.bl_use_shading_nodes_custom is False
     assert callable(PPMRenderEngine.view_update) and callable(PPMRenderEngine.view_draw)
+
+
+def test_the_render_pass_of_a_3d_view_offers_the_final_render_s_passes(bpy):
+    """The shading popover's Render Pass under this engine (as Cycles' View3DShading.cycles
+    .render_pass): Combined and every pass a final render writes, read from a real 3D view."""
+    from ppm_engine.blender.session import NOISY_PASS, RENDER_PASSES
+    from ppm_engine.blender.ui import PPM_VIEW3D_PT_shading_render_pass as panel
+    from ppm_engine.blender.viewport_draw import display_pass
+    from ppm_engine.render.viewport_frame import DISPLAY_PASSES
+    assert set(DISPLAY_PASSES) == {name for name, *_ in (*RENDER_PASSES, NOISY_PASS)}
+    space = next(sp for screen in bpy.data.screens for area in screen.areas
+                 for sp in area.spaces if sp.type == 'VIEW_3D')
+    items = space.shading.ppm.bl_rna.properties["render_pass"].enum_items
+    assert [i.name for i in items] == list(DISPLAY_PASSES)
+    assert space.shading.ppm.render_pass == 'COMBINED'
+    assert display_pass(types.SimpleNamespace(space_data=space)) == "Combined"
+    for item in items:
+        space.shading.ppm.render_pass = item.identifier
+        assert display_pass(types.SimpleNamespace(space_data=space)) == item.name
+    space.shading.ppm.render_pass = 'COMBINED'
+    assert display_pass(types.SimpleNamespace(space_data=None)) == "Combined"   # no 3D view
+    assert (panel.bl_parent_id, panel.bl_region_type) == ('VIEW3D_PT_shading', 'HEADER')
+    assert hasattr(bpy.types, "PPM_VIEW3D_PT_shading_render_pass")          # registered
+
+    def poll(engine, kind):
+        ctx = types.SimpleNamespace(engine=engine, space_data=types.SimpleNamespace(
+            shading=types.SimpleNamespace(type=kind)))
+        return panel.poll(ctx)
+    assert poll("PPM", 'RENDERED') and not poll("PPM", 'SOLID') and not poll("CYCLES", 'RENDERED')
 
 
 def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny, capsys):

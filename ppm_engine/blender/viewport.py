@@ -2,8 +2,9 @@
 
     view_update(context, depsgraph) -> changes(depsgraph.updates) -> export_scene -> session
     view_draw(context, depsgraph)   -> view_camera(...) compared -> session.update_view
-                                     -> session.snapshot() -> draw_frame(...) (the only gpu
-                                        calls) -> the header's text
+                                     -> session.display_pass (the shading popover's Render
+                                        Pass) -> session.snapshot() -> draw_frame(...)
+                                        (viewport_draw.py: the only gpu calls) -> the header
     a timer (ViewportDriver._poll)  -> a redraw tagged when the session has something new
 
 The rendering is ppm_engine.render.viewport_session.ViewportSession's worker thread; nothing here
@@ -37,6 +38,7 @@ import traceback
 
 import numpy as np
 
+from ppm_engine.blender.viewport_draw import display_pass, draw_frame
 from ppm_engine.errors import PPMError
 
 # seconds between two looks at the session while it renders (a timer on Blender's thread)
@@ -249,6 +251,7 @@ class ViewportDriver:
             else:
                 self.session.update_options(options, start)
             self.session.pause(viewport_paused(depsgraph.scene))
+            self.session.display_pass(display_pass(context))
             from ppm_engine.blender.export import hidden_in_view
             space = getattr(context, "space_data", None)
             view = space if hasattr(space, "show_object_viewport_mesh") else None
@@ -311,6 +314,7 @@ class ViewportDriver:
         problem = None                          # (message, hint, exception) of this draw
         try:
             s.pause(viewport_paused(scene))     # as Cycles, read at every redraw too
+            s.display_pass(display_pass(context))    # the shading popover's Render Pass
             camera = view_camera(context, depsgraph, engine)
             if camera is not None:
                 s.update_view(camera)
@@ -423,24 +427,3 @@ class ViewportDriver:
                 pass
         if s is not None:
             s.close(timeout=2.0)
-
-
-def draw_frame(engine, scene, frame, width: int, height: int, cache: dict) -> None:
-    """Draw ``frame`` (viewport_session.Frame) over the region (``width`` x ``height`` pixels) with
-    Blender's view transform.  The texture is made once per image, a half-float one: the
-    session published the image in its range (viewport_session.display_image)."""
-    import gpu
-    from gpu_extras.presets import draw_texture_2d
-    if cache.get("generation") != frame.generation:
-        h, w = frame.image.shape[:2]
-        pixels = gpu.types.Buffer('FLOAT', w * h * 4,
-                                  np.ascontiguousarray(frame.image, np.float32).ravel())
-        cache["texture"] = gpu.types.GPUTexture((w, h), format='RGBA16F', data=pixels)
-        cache["generation"] = frame.generation
-    gpu.state.blend_set('ALPHA_PREMULT')
-    engine.bind_display_space_shader(scene)
-    x, y, w, h = frame.region                  # a render region: its place in the region
-    draw_texture_2d(cache["texture"], (round(x * width), round(y * height)),
-                    round(w * width), round(h * height))
-    engine.unbind_display_space_shader()
-    gpu.state.blend_set('NONE')
