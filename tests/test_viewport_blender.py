@@ -351,5 +351,13 @@ def test_decoded_images_are_kept_until_an_image_changes(bpy, tiny, monkeypatch):
         assert seen
         export()
         assert reads == ["Grid", "Grid"]               # the image edited: read again
+        # what reading it warned (a colour space read as sRGB) is said by every export
+        img.colorspace_settings.name = "Rec.2020"
+        bpy.context.view_layer.update()
+        for k in range(2):
+            warned = [w for w in export().warnings if "Rec.2020" in w]
+            assert len(warned) == 1 and reads == ["Grid"] * 3, (k, reads)   # read once
+            bsdf.inputs["Roughness"].default_value = 0.3 + 0.1 * k
+            bpy.context.view_layer.update()
     finally:
         bpy.app.handlers.depsgraph_update_post.remove(handler)
