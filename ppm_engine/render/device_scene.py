@@ -159,10 +159,12 @@ class DeviceScene:
         self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
         self.offset_scale = offset_scale(prepared)
         b = self.bvh
-        # each scene buffer's source (SCENE_BUFFERS): the BVH's are on the device already
+        # each scene buffer's source (SCENE_BUFFERS): the BVH's are on the device already;
+        # the scene's own arrays (never written to) again the same: their buffers kept (an
+        # edit's export hands on what did not change: the image's texels, a value edit's mesh)
         args = self._upload(
-            **b.args, normals=prepared.normals, materials=self.kmaterials, shader_nodes=self.knodes,
-            shading_tables=shading_tables(), textures=prepared.textures,
+            reuse=True, **b.args, normals=prepared.normals, materials=self.kmaterials,
+            shader_nodes=self.knodes, shading_tables=shading_tables(), textures=prepared.textures,
             texels=prepared.texels, uvs=prepared.uvs, tangents=prepared.tangents,
             svm=prepared.svm, uv_tangents=prepared.uv_tangents, generated=prepared.generated,
             attributes=prepared.attributes, tri_object=prepared.object, objects=prepared.objects,
@@ -276,12 +278,22 @@ class DeviceScene:
         density, self.filter_reach = filter_density(width, kind)
         self.filter_density = self.device.upload(density, "pixel filter density")
 
-    def _upload(self, **sources) -> dict:
-        """Scene buffers by name (SCENE_BUFFERS) from arrays, or device buffers as they are."""
-        rows = {b.name: b for b in SCENE_BUFFERS}
-        return {name: a if not isinstance(a, np.ndarray) else
-                self.device.upload(_as_elements(a, rows[name]), rows[name].what)
-                for name, a in sources.items()}
+    def _upload(self, reuse: bool = False, **sources) -> dict:
+        """Scene buffers by name (SCENE_BUFFERS) from arrays, or device buffers as they are.
+        ``reuse``: an array that is the very one uploaded under its name by the last such
+        call keeps its buffer (only for arrays nobody writes to)."""
+        rows, out = {b.name: b for b in SCENE_BUFFERS}, {}
+        kept = getattr(self, "_kept", {})
+        for name, a in sources.items():
+            if not isinstance(a, np.ndarray):
+                out[name] = a
+            elif reuse and name in kept and kept[name][0] is a:
+                out[name] = kept[name][1]
+            else:
+                out[name] = self.device.upload(_as_elements(a, rows[name]), rows[name].what)
+        if reuse:
+            self._kept = {n: (a, out[n]) for n, a in sources.items() if isinstance(a, np.ndarray)}
+        return out
 
     def _world_map(self, prepared: SceneArrays, args: dict):
         """The world program's importance map baked on the device, or None (a constant
