@@ -240,6 +240,12 @@ def _quick_bench(cli, tmp_path, scenes):
     assert p.returncode == 0, p.stderr
     block = text[text.index("<!-- bench:curves -->"):text.index("<!-- /bench:curves -->")]
     assert md2.read_text().startswith(block)
+    # without --markdown the full run's tables go to their own page, not into BENCHMARKS.md
+    p = cli("bench", "--report", tmp_path / "b.json", "--out", tmp_path / "o")
+    assert p.returncode == 0, p.stderr
+    full = (tmp_path / "o" / "bench" / "full_run.md").read_text()
+    assert full.startswith("# The benchmark's full run") and block in full
+    assert not (tmp_path / "o" / "BENCHMARKS.md").exists()
     p = cli("bench", "--report", tmp_path / "p.png")
     assert p.returncode == 2 and "cannot read the benchmark JSON" in p.stderr
 
