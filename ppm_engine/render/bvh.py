@@ -10,6 +10,7 @@ import numpy as np
 
 from ppm_engine.render.device.program import WORK_GROUP, global_size
 from ppm_engine.scene.arrays import SceneArrays
+from ppm_engine.scene.prep import corner_box
 
 _WG = (WORK_GROUP,)   # every launch's work-group: one compile per kernel (program.WORK_GROUP)
 
@@ -45,9 +46,9 @@ class BVH:
 
         pos = device.upload(scene.positions, "triangle positions")
         p = scene.positions.reshape(-1, 3, 3).mean(axis=1)
-        p = p[np.isfinite(p).all(axis=1)]
-        lo = p.min(axis=0) if p.size else np.zeros(3, np.float32)
-        hi = p.max(axis=0) if p.size else np.ones(3, np.float32)
+        if not np.isfinite(p).all():
+            p = p[np.isfinite(p).all(axis=1)]
+        lo, hi = corner_box(p) if p.size else (np.zeros(3, np.float32), np.ones(3, np.float32))
         ext = np.maximum(hi - lo, 1e-30)
         cmin = np.array([*lo, 0], np.float32)
         cscale = np.array([*(1023.0 / ext), 0], np.float32)

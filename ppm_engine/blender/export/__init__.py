@@ -147,7 +147,8 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
                      mapped=mapped, gen=gen, reads_attrs=reads_attrs):
                 attrs = (meshes.attributes(obj, materials.attributes) if reads_attrs
                          else None)
-                return transform_part(mesh, m, slots, vis, obj.name, warn, tangents=aniso,
+                # meshes.warn: what it warns is kept with the part (said by every export)
+                return transform_part(mesh, m, slots, vis, obj.name, meshes.warn, tangents=aniso,
                                       uv_tangents=meshes.uv_tangents(obj) if mapped else None,
                                       generated=gen, attributes=attrs, terminator=term)
             # the world-space part: kept across exports with the mesh (a value edit moves
