@@ -80,7 +80,8 @@ def _quick_bench(cli, tmp_path, scenes):
     luxcore_installed = importlib.util.find_spec("pyluxcore") is not None
     assert list(res["scenes"]) == list(scenes)
     assert set(SCENES) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
-                           "point_caustic", "rough_caustic", "far_caustic", "mirror_caustic",
+                           "point_caustic", "rough_caustic", "far_caustic", "lifted_caustic",
+                           "mirror_caustic",
                            "pool_caustic", "many_lights", "hdri_sun", "glossy_metal",
                            "clamped_caustic", "sun_cone"}
     if "many_lights" in scenes:
