@@ -126,6 +126,29 @@ def test_adaptive_subdivision_renders_the_modifier_levels_with_a_warning(empty):
     assert any("Diced" in w and "adaptive subdivision" in w for w in s.warnings)
 
 
+def test_what_is_not_rendered_yet_is_said_per_object(empty, tmp_path):
+    """A Volume object, hair curves, a point cloud, hair particles and motion blur are not
+    rendered yet: each export says so, naming the object (before: silently nothing)."""
+    add_plane()
+    vol = bpy.data.objects.new("Smoke", bpy.data.volumes.new("Smoke"))
+    hair = bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur"))
+    points = bpy.data.objects.new("Dust", bpy.data.pointclouds.new("Dust"))
+    for o in (vol, hair, points):
+        bpy.context.scene.collection.objects.link(o)
+    bpy.ops.mesh.primitive_cube_add()
+    bpy.context.active_object.name = "Shaggy"
+    bpy.ops.object.particle_system_add()
+    bpy.context.active_object.particle_systems[0].settings.type = 'HAIR'
+    s = export()
+    said = "\n".join(s.warnings)
+    for name, words in (("Smoke", "Volume object"), ("Fur", "hair curves"),
+                        ("Dust", "point cloud"), ("Shaggy", "hair particles")):
+        assert any(name in w and words in w for w in s.warnings), said
+    assert s.n_triangles == 2 + 12 and "Motion blur" not in said
+    bpy.context.scene.render.use_motion_blur = True
+    assert any("Motion blur" in w for w in export().warnings)
+
+
 def test_final_renders_read_the_render_levels_in_object_and_edit_mode(empty, tiny, render_exr,
                                                                      monkeypatch, tmp_path):
     """A Subdivision Surface modifier at viewport level 1 and render level 2: a final render
