@@ -4,6 +4,7 @@ preprocessor has expanded its macros (the scene reaches helpers as one `const Sc
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
@@ -158,3 +159,37 @@ def test_every_program_includes_the_inline_builtins_first():
     for f in sorted(KERNELS.rglob("*.cl")):
         first = re.search(r'^#include\s+"([^"]+)"', f.read_text(), re.M)
         assert first and first.group(1) == "builtins.h", f.name
+
+
+def test_kernels_take_their_index_from_work_item():
+    """Every kernel's index is WORK_ITEM() (kernels/builtins.h), which a launch split into rows
+    (program.grid) keeps right; get_global_id(0) alone would read the first row's ids only."""
+    used = [str(f.relative_to(KERNELS)) for f in KERNEL_FILES if "get_global_id" in f.read_text()]
+    assert used == ["builtins.h"], used
+
+
+def test_large_launches_run_as_rows_under_pocl_s_small_grid_limit(device):
+    """program.grid: under SMALL_GRID items one row, else rows of whole groups each under it (a
+    small grid in every dimension: one binary per kernel); a launch of 200,001 items through
+    Launch reaches every index once (a kernel writing f(its index))."""
+    from ppm_engine.render.device.program import SMALL_GRID, grid
+    assert grid(1) == ((64,), (64,)) and grid(SMALL_GRID - 64) == ((SMALL_GRID - 64,), (64,))
+    (w, h), local = grid(SMALL_GRID)
+    assert local == (64, 1) and w % 64 == 0 and w < SMALL_GRID and h == 2
+    (w, h), _ = grid(10 ** 7, 16)
+    assert w % 16 == 0 and w < SMALL_GRID and w * h >= 10 ** 7 > w * (h - 1)
+    import pyopencl as cl
+    n = 200_001
+    u = np.random.default_rng(2).random(n).astype(np.float32)
+    us = cl.Buffer(device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                   hostbuf=u)
+    out = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 8 * (n + 64))
+    cl.enqueue_fill_buffer(device.queue, out, np.float32(7.0), 0, 8 * (n + 64))
+    run = device.programs.get("test/debug.cl").launch("sincos_turns_at", "test")
+    run(device.queue, n, us=us, n=np.uint32(n), out=out).wait()
+    got = np.empty((n + 64, 2), np.float32)
+    cl.enqueue_copy(device.queue, got, out).wait()
+    a = 2 * np.pi * u.astype(np.float64)
+    assert np.abs(got[:n, 0] - np.sin(a)).max() < 2e-7
+    assert np.abs(got[:n, 1] - np.cos(a)).max() < 2e-7
+    assert (got[n:] == 7.0).all()
