@@ -11,6 +11,14 @@
  * every program. */
 #ifndef PPM_BUILTINS_H
 #define PPM_BUILTINS_H
+
+/* The work item's index in a one-dimensional launch of this engine: Launch (ppm_engine/render/
+ * device/program.py) runs a launch of 65,536 items or more as rows of GRID_ROW items (a 2D
+ * grid), so that no dimension reaches PoCL's "small grid" limit and each kernel compiles once
+ * (PoCL builds a binary for grids under the limit and another for larger ones).  Every kernel
+ * takes its index from here, never from get_global_id(0) alone (test_kernel_sources). */
+#define WORK_ITEM() (get_global_id(1) * get_global_size(0) + get_global_id(0))
+
 #ifdef PPM_INLINE_BUILTINS
 
 #define PPM_OVL __attribute__((overloadable, always_inline)) inline

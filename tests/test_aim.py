@@ -128,18 +128,29 @@ def test_an_emitter_with_no_caster_in_reach_emits_no_caustic_photon():
     r.close()
 
 
-def test_a_moved_caster_moves_the_aim_without_a_build():
+def test_a_moved_caster_moves_the_aim_without_a_build(monkeypatch):
+    from ppm_engine.scene import casters
     lamp = EMITTERS["point"]["lights"]
     r = Renderer(ball_scene(lights=lamp), every_feature(indirect="paths", photons_per_pass=4096))
     r.iterate()
     before = r.scene.caster_spheres.copy()
     builds = r.device.programs.builds
     moved = ball_scene(lights=lamp, ball=(0.4, 0.3, 0.5))
+    splits = []
+    split = casters._Corners.split
+    monkeypatch.setattr(casters._Corners, "split", lambda *a: splits.append(1) or split(*a))
     assert r.refit(moved)
     r.reset(r.options, moved)
     st = r.iterate()
     after = r.scene.caster_spheres
     np.testing.assert_allclose(after[0, :3] - before[0, :3], (0.4, 0.3, 0.0), atol=1e-4)
+    # the casters' tree of splits kept (a refit, as the BVH's): no split sorted again, the
+    # spheres those of the moved triangles, as a fresh build's
+    assert splits == []
+    corners = moved.positions.reshape(-1, 3, 3)[moved.material == 1]
+    monkeypatch.setattr(casters, "_SPHERES", {})
+    fresh, _ = caster_spheres(corners, np.ones(corners.shape[0], np.float32))
+    assert splits and np.array_equal(after, fresh)
     assert st.caster_fraction > 0.5
     assert r.device.programs.builds == builds, "moving the caster built a kernel"
     r.close()
@@ -162,6 +173,25 @@ def test_caster_spheres_split_apart_casters_and_keep_a_ball_whole():
     inside = np.linalg.norm(two.reshape(-1, 3)[:, None, :] - s[None, :, :3], axis=2) \
         <= s[None, :, 3]
     assert inside.any(axis=1).all()
+
+
+def test_a_refitted_caster_tree_follows_moves_and_asks_a_build_when_stretched():
+    from ppm_engine.scene.casters import CasterTree
+    scene = ball_scene()
+    ball = scene.positions.reshape(-1, 3, 3)[scene.material == 1]
+    two = np.concatenate([ball, ball + np.array([5.0, 0, 0], np.float32)])
+    w = np.ones(two.shape[0], np.float32)
+    tree = CasterTree(two, w)
+    assert tree.result[0].shape[0] == 2
+    # one ball moved: the same cut, its sphere moved, as a fresh tree's
+    moved = np.concatenate([ball, ball + np.array([5.0, 1.0, 0.5], np.float32)])
+    refit = tree.refit(moved, w)
+    assert refit is not None and np.array_equal(refit.result[0], CasterTree(moved, w).result[0])
+    # the second ball's triangles scattered over both: its clusters stretched, build afresh
+    mixed = moved.copy()
+    mixed[ball.shape[0]::2] -= np.array([5.0, 1.0, 0.5], np.float32)
+    assert tree.refit(mixed, w) is None
+    assert tree.refit(moved, np.r_[w[:-1], 0.0].astype(np.float32)) is None   # other casters
 
 
 def test_learned_weights_leave_a_caster_out_of_view_few_photons_and_the_image_unbiased():

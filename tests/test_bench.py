@@ -48,7 +48,7 @@ def test_firefly_check_counts_the_pixels_brighter_than_the_reference_s_range():
 # with a Cycles reference and the exact sphere's (the bulb box renders in test_e2e.py), 100 s
 # less of the tier's longest test than all ten below; the slow tier runs every reference and
 # check (the closed form's, LuxCore's light tracer or its fallback, the photons' curve): the
-# ten, and all fifteen
+# ten, and all sixteen
 QUICK_SCENES = ("cornell_box", "point_caustic")
 CHECK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
                 "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights", "fog_lens")
@@ -80,7 +80,8 @@ def _quick_bench(cli, tmp_path, scenes):
     luxcore_installed = importlib.util.find_spec("pyluxcore") is not None
     assert list(res["scenes"]) == list(scenes)
     assert set(SCENES) == {"cornell_box", "furnace", "bulb_box", "glass_caustic",
-                           "point_caustic", "rough_caustic", "far_caustic", "mirror_caustic",
+                           "point_caustic", "rough_caustic", "far_caustic", "lifted_caustic",
+                           "mirror_caustic",
                            "pool_caustic", "many_lights", "hdri_sun", "glossy_metal",
                            "clamped_caustic", "sun_cone", "fog_lens"}
     if "many_lights" in scenes:
@@ -240,6 +241,12 @@ def _quick_bench(cli, tmp_path, scenes):
     assert p.returncode == 0, p.stderr
     block = text[text.index("<!-- bench:curves -->"):text.index("<!-- /bench:curves -->")]
     assert md2.read_text().startswith(block)
+    # without --markdown the full run's tables go to their own page, not into BENCHMARKS.md
+    p = cli("bench", "--report", tmp_path / "b.json", "--out", tmp_path / "o")
+    assert p.returncode == 0, p.stderr
+    full = (tmp_path / "o" / "bench" / "full_run.md").read_text()
+    assert full.startswith("# The benchmark's full run") and block in full
+    assert not (tmp_path / "o" / "BENCHMARKS.md").exists()
     p = cli("bench", "--report", tmp_path / "p.png")
     assert p.returncode == 2 and "cannot read the benchmark JSON" in p.stderr
 

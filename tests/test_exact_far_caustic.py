@@ -13,7 +13,9 @@ from ppm_engine.blender.scenes.caustics import (
     FAR_BALL,
     FAR_POS,
     FLOOR,
+    LIFTED_BALL,
     far_caustic,
+    lifted_caustic,
     point_caustic,
 )
 from ppm_engine.tools.bench import exact_caustic as ec
@@ -138,3 +140,21 @@ def test_focus_lands_in_the_image_and_in_the_caustic_pixels():
     assert abs(i + 0.5 - px[0]) <= 2 and abs(j + 0.5 - py[0]) <= 2
     assert y[j, i] > 5 * y.mean()
     assert caustic_mask(scene, "far_caustic", 32, 32)[j, i]
+
+
+def test_lifted_caustic_is_far_caustic_with_the_ball_off_the_floor():
+    """lifted_caustic (the bench's point light through a ball where Cycles' MNEE converges):
+    the reference reads its ball 0.1 m above the floor and the same light; the bench's caustic
+    disk is centred where the ray from the light through the ball's centre meets the floor
+    (x = 1.06), in the frame, beyond the ball's shadow on the camera's side."""
+    scene = _scene(lifted_caustic, 32)
+    s = ecs.setup_of(scene)
+    assert np.array_equal(s.ball_center, LIFTED_BALL[0]) and s.ball_radius == 0.5
+    assert s.ball_center[2] - s.ball_radius == pytest.approx(0.1)
+    np.testing.assert_allclose(s.light, FAR_POS, atol=1e-6)
+    centre = np.asarray(CAUSTIC_MASKS["lifted_caustic"]["center"])
+    assert centre == pytest.approx([3.0 * 0.6 / 1.7, 0.0, 0.0], abs=1e-3)
+    px, py, *_ = ef.project(s, centre[None])
+    assert 4 < px[0] < 28 and 4 < py[0] < 28
+    assert caustic_mask(scene, "lifted_caustic", 32, 32).sum() > 20
+

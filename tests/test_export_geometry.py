@@ -74,6 +74,44 @@ def test_nan_vertices_are_dropped_with_a_warning(empty):
     assert any("Broken" in w and "NaN" in w for w in s.warnings)
 
 
+def test_warnings_of_kept_mesh_data_are_reported_by_every_export_that_uses_it(empty):
+    """The viewport's exports keep the mesh data (MeshCache): what reading it warned (NaN
+    vertices, a normal map without a UV map) is said again by every export from the cache,
+    once each, to the engine's report too."""
+    from ppm_engine.blender.export.mesh_cache import MeshCache
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=4, size=2)
+    o = bpy.context.active_object
+    o.name = "Broken"
+    pos = np.zeros(3 * len(o.data.vertices), np.float32)
+    o.data.attributes["position"].data.foreach_get("vector", pos)
+    pos[0] = np.nan
+    o.data.attributes["position"].data.foreach_set("vector", pos)
+    p = add_plane("Bumpy", loc=(3, 0, 0))
+    p.data.name = "Bumpy"
+    p.data.uv_layers.remove(p.data.uv_layers[0])
+    m = bpy.data.materials.new("nm")
+    nm = m.node_tree.nodes.new("ShaderNodeNormalMap")
+    m.node_tree.links.new(nm.outputs[0], m.node_tree.nodes["Principled BSDF"].inputs["Normal"])
+    p.data.materials.append(m)
+    bpy.context.view_layer.update()
+
+    class Engine:
+        def report(self, kind, message):
+            reports.append(message)
+    meshes, reports = MeshCache(None), []
+    for k in range(3):
+        if k == 2:
+            p.location = (3, 1, 0)                  # a transform: the other part is kept
+            bpy.context.view_layer.update()
+        reports.clear()
+        s = export_scene(bpy.context.evaluated_depsgraph_get(), Engine(), meshes=meshes)
+        said = [w for w in s.warnings if "Broken" in w or "Bumpy" in w]
+        assert sorted(said) == sorted(reports) and len(said) == 2, (k, s.warnings)
+        assert any("Broken" in w and "NaN" in w for w in said)
+        assert any("Bumpy" in w and "UV map" in w for w in said)
+    assert meshes.reads == 2                         # read once
+
+
 def test_adaptive_subdivision_renders_the_modifier_levels_with_a_warning(empty):
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1)
     o = bpy.context.active_object
@@ -86,6 +124,29 @@ def test_adaptive_subdivision_renders_the_modifier_levels_with_a_warning(empty):
     s = export()
     assert s.n_triangles == 120
     assert any("Diced" in w and "adaptive subdivision" in w for w in s.warnings)
+
+
+def test_what_is_not_rendered_yet_is_said_per_object(empty, tmp_path):
+    """A Volume object, hair curves, a point cloud, hair particles and motion blur are not
+    rendered yet: each export says so, naming the object (before: silently nothing)."""
+    add_plane()
+    vol = bpy.data.objects.new("Smoke", bpy.data.volumes.new("Smoke"))
+    hair = bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur"))
+    points = bpy.data.objects.new("Dust", bpy.data.pointclouds.new("Dust"))
+    for o in (vol, hair, points):
+        bpy.context.scene.collection.objects.link(o)
+    bpy.ops.mesh.primitive_cube_add()
+    bpy.context.active_object.name = "Shaggy"
+    bpy.ops.object.particle_system_add()
+    bpy.context.active_object.particle_systems[0].settings.type = 'HAIR'
+    s = export()
+    said = "\n".join(s.warnings)
+    for name, words in (("Smoke", "Volume object"), ("Fur", "hair curves"),
+                        ("Dust", "point cloud"), ("Shaggy", "hair particles")):
+        assert any(name in w and words in w for w in s.warnings), said
+    assert s.n_triangles == 2 + 12 and "Motion blur" not in said
+    bpy.context.scene.render.use_motion_blur = True
+    assert any("Motion blur" in w for w in export().warnings)
 
 
 def test_final_renders_read_the_render_levels_in_object_and_edit_mode(empty, tiny, render_exr,

@@ -4,6 +4,7 @@ preprocessor has expanded its macros (the scene reaches helpers as one `const Sc
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 KERNELS = Path(__file__).resolve().parents[1] / "kernels"
@@ -87,16 +88,47 @@ def device(pocl_key):
     return get_device(pocl_key)
 
 
+def _has_branches_off(text: str) -> bool:
+    """Whether a header has code that only a build without features compiles: an #else or
+    #elif, or a negated #if / #ifndef that is not its include guard (features are tested as
+    ``#if PPM_X``, so a build with every feature compiles everything else)."""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip().startswith("#")]
+    guards = {ln.split()[1] for ln in lines if ln.startswith("#define") and ln.endswith("_H")
+              and len(ln.split()) == 2}
+    for ln in lines:
+        words = ln.replace("#", "# ", 1).split()
+        directive = words[1] if len(words) > 1 else ""
+        if directive in ("else", "elif") or ln.startswith("#if !") or (
+                directive == "ifndef" and len(words) > 2 and words[2] not in guards):
+            return True
+    return False
+
+
+def test_branch_detection_sees_what_only_a_build_without_features_compiles():
+    assert not _has_branches_off("#ifndef A_H\n#define A_H\n#if PPM_X\nx\n#endif\n#endif\n")
+    assert _has_branches_off("#ifndef A_H\n#define A_H\n#if PPM_X\nx\n#else\ny\n#endif\n")
+    assert _has_branches_off("#if !PPM_TRANSPARENT\ny\n#endif\n")
+    assert _has_branches_off("#ifndef PPM_SVM_OPS\n#define PPM_SVM_OPS 0\n#endif\n")
+    assert _has_branches_off((KERNELS / "shared_features.h").read_text())
+
+
 @pytest.mark.parametrize("header", HEADERS)
 def test_every_header_compiles_alone(device, header):
-    """The header first and alone in a program, built with every feature and with none (a
-    specialised build): it includes what it uses, wherever it is included from."""
+    """The header first and alone in a program, built with every feature (every ``#if PPM_X``
+    branch) and, where it has code only a build without features compiles (an ``#else``, a
+    negated test), with none (a specialised build): it includes what it uses, wherever it is
+    included from."""
     cl = pytest.importorskip("pyopencl")
     from ppm_engine.render.device import kernel_dir
     src = f'#include "{header}"\n__kernel void probe(__global int *out) {{ out[0] = 0; }}\n'
-    for defines in ([], ["-DPPM_SPECIALIZED"]):
+    builds = [[], ["-DPPM_SPECIALIZED"]]
+    if not _has_branches_off((KERNELS / header).read_text()):
+        builds = builds[:1]
+    for defines in builds:
         try:
-            cl.Program(device.context, src).build(options=[f"-I{kernel_dir()}", *defines])
+            # (nothing runs: no optimisation, a third of the build's time)
+            cl.Program(device.context, src).build(options=[f"-I{kernel_dir()}",
+                                                           "-cl-opt-disable", *defines])
         except cl.RuntimeError as e:
             pytest.fail(f"{header} alone ({' '.join(defines) or 'every feature'}):\n{e}")
 
@@ -127,3 +159,37 @@ def test_every_program_includes_the_inline_builtins_first():
     for f in sorted(KERNELS.rglob("*.cl")):
         first = re.search(r'^#include\s+"([^"]+)"', f.read_text(), re.M)
         assert first and first.group(1) == "builtins.h", f.name
+
+
+def test_kernels_take_their_index_from_work_item():
+    """Every kernel's index is WORK_ITEM() (kernels/builtins.h), which a launch split into rows
+    (program.grid) keeps right; get_global_id(0) alone would read the first row's ids only."""
+    used = [str(f.relative_to(KERNELS)) for f in KERNEL_FILES if "get_global_id" in f.read_text()]
+    assert used == ["builtins.h"], used
+
+
+def test_large_launches_run_as_rows_under_pocl_s_small_grid_limit(device):
+    """program.grid: under SMALL_GRID items one row, else rows of whole groups each under it (a
+    small grid in every dimension: one binary per kernel); a launch of 200,001 items through
+    Launch reaches every index once (a kernel writing f(its index))."""
+    from ppm_engine.render.device.program import SMALL_GRID, grid
+    assert grid(1) == ((64,), (64,)) and grid(SMALL_GRID - 64) == ((SMALL_GRID - 64,), (64,))
+    (w, h), local = grid(SMALL_GRID)
+    assert local == (64, 1) and w % 64 == 0 and w < SMALL_GRID and h == 2
+    (w, h), _ = grid(10 ** 7, 16)
+    assert w % 16 == 0 and w < SMALL_GRID and w * h >= 10 ** 7 > w * (h - 1)
+    import pyopencl as cl
+    n = 200_001
+    u = np.random.default_rng(2).random(n).astype(np.float32)
+    us = cl.Buffer(device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                   hostbuf=u)
+    out = cl.Buffer(device.context, cl.mem_flags.READ_WRITE, 8 * (n + 64))
+    cl.enqueue_fill_buffer(device.queue, out, np.float32(7.0), 0, 8 * (n + 64))
+    run = device.programs.get("test/debug.cl").launch("sincos_turns_at", "test")
+    run(device.queue, n, us=us, n=np.uint32(n), out=out).wait()
+    got = np.empty((n + 64, 2), np.float32)
+    cl.enqueue_copy(device.queue, got, out).wait()
+    a = 2 * np.pi * u.astype(np.float64)
+    assert np.abs(got[:n, 0] - np.sin(a)).max() < 2e-7
+    assert np.abs(got[:n, 1] - np.cos(a)).max() < 2e-7
+    assert (got[n:] == 7.0).all()

@@ -26,6 +26,7 @@ from ppm_engine.scene.arrays import (
 )
 from ppm_engine.scene.camera import make_camera, perspective_extent
 from tests.helpers.procedural_scenes import room
+from tests.helpers.renders import scene_features
 
 
 def _light(kind, emit, position=(0, 0, 1.5), direction=(0, 0, -1), radius=0.0, size=0.3,
@@ -39,13 +40,7 @@ def _light(kind, emit, position=(0, 0, 1.5), direction=(0, 0, -1), radius=0.0, s
 
 
 def _features(scene):
-    """The features a Renderer of ``scene`` builds its kernels for (Renderer._start's
-    kernel_defines), without building them: each feature set is a kernel build of its own
-    (test_specialised_kernels_are_separate_programs checks that a Renderer's are these)."""
-    o = RenderOptions(indirect="photons", photons_per_pass=256)
-    dev = get_device(o.device)
-    with dev.lock:
-        return DeviceScene(dev, scene).kernel_defines(o.specialize, o.editable)[0]
+    return scene_features(scene, indirect="photons", photons_per_pass=256)
 
 
 def test_features_follow_the_scene():
@@ -153,7 +148,16 @@ SCENES = {
 }
 
 
-@pytest.mark.parametrize("name", SCENES)
+# each scene builds programs of its own (2-4 s each in a cold run): the default run keeps the
+# four whose feature sets cover the others' between them (the Cornell box's emissive mesh
+# light, the bulb's and the mirror's are in the slow tier; the command-line renders of
+# test_e2e.py render the Cornell box and the bulb box with their own kernels, the Cornell box
+# against Cycles)
+SLOW_SCENES = {"cornell", "bulb", "mirror_caustic"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_SCENES
+                                  else n for n in SCENES])
 def test_specialised_kernels_render_the_same_image(name):
     """Specialisation removes code the scene cannot reach and nothing else: with the same seed
     the random streams are the same, so the images agree to float rounding.  (The exact gather:
@@ -207,7 +211,6 @@ def test_no_photon_storage_or_light_tracing_film_where_no_photon_pass_runs():
     longer holds (docs/history/benchmarks-notebook.md, "Memory and time per pass at 1920x1080").
     The same box by eye paths (no caustics: no photon pass) and by the paper's photons: the device's
     byte count differs by those buffers."""
-    from ppm_engine.render.device import get_device
     dev = get_device(RenderOptions().device)
     grown = {}
     for indirect in ("paths", "photons"):
@@ -329,3 +332,19 @@ def test_skip_switches_of_the_benchmark_change_the_work_not_the_image():
     total = seen.photons_stored + seen.photons_outside
     assert every.photons_stored == pytest.approx(total, rel=0.25)
     assert every.photons_stored > 2 * seen.photons_stored
+
+
+def test_every_feature_build_reads_the_attribute_stride_at_run_time():
+    """Scenes with different numbers of mesh attributes share the kernels of every feature (the
+    stride is EmitterInfo.n_attributes, read when the programs run); only a specialised build
+    sizes its arrays by the scene's stride (before, -D PPM_ATTRIBUTES made a build of every
+    feature per stride: two in a cold test run)."""
+    base = cornell_box(4, 4)
+    for k in (1, 3):
+        scene = base.replace(attributes=np.zeros((base.n_triangles, 3, k, 4), np.float32))
+        dev = get_device()
+        with dev.lock:
+            ds = DeviceScene(dev, scene, specialize=False)
+            assert int(ds.emitters.info["n_attributes"][0]) == k
+            assert "PPM_ATTRIBUTES" not in ds.kernel_defines(False)[1]
+            assert ds.kernel_defines(True)[1]["PPM_ATTRIBUTES"] == k

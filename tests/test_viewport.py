@@ -183,6 +183,22 @@ def test_lens_change_and_camera_move_restart_with_the_camera_only(bpy, lookdev):
     assert dev.programs.builds == builds
 
 
+def test_each_render_pass_shows_the_final_render_s_pass_with_no_restart(bpy, lookdev):
+    """The shading popover's Render Pass: the image so far as each pass a final render writes
+    (Renderer.passes, in the display's range), then Combined again; nothing rendered anew."""
+    from ppm_engine.render.viewport_frame import DISPLAY_PASSES, display_image, pass_image
+    _scene, s = lookdev
+    combined, restarts, passes = s.frame().image, s.restarts, s.frame().passes
+    aux = s._renderer.passes()
+    for name in (*DISPLAY_PASSES[1:], "Combined"):
+        s.display_pass(name)
+        assert s.wait(lambda s, n=name: s.frame().display == n and not s.busy, timeout=60)
+        want = display_image(pass_image(name, combined, aux))    # Combined: as it was
+        np.testing.assert_array_equal(s.frame().image, want, err_msg=name)
+        assert (s.frame().passes, s.frame().divider, s.restarts) == (passes, 1, restarts)
+    assert aux["PPM Photons"].max() > 0 and np.ptp(aux["Denoising Normal"]) > 0.5
+
+
 def test_resizes_are_debounced_and_render_at_the_new_size(bpy, lookdev):
     from ppm_engine.render import viewport_session as viewport
     scene, s = lookdev

@@ -1,6 +1,7 @@
 """The viewport's Blender side: the view's camera from Blender's own matrices, the depsgraph
 updates of real edits and what they change, the engine's view_update hand-off (ViewportDriver),
 previews and the engine's flags.  The session itself: test_viewport.py."""
+import types
 
 import numpy as np
 import pytest
@@ -104,6 +105,35 @@ def test_engine_flags_for_the_viewport_and_previews(bpy):
     assert callable(PPMRenderEngine.view_update) and callable(PPMRenderEngine.view_draw)
 
 
+def test_the_render_pass_of_a_3d_view_offers_the_final_render_s_passes(bpy):
+    """The shading popover's Render Pass under this engine (as Cycles' View3DShading.cycles
+    .render_pass): Combined and every pass a final render writes, read from a real 3D view."""
+    from ppm_engine.blender.session import NOISY_PASS, RENDER_PASSES
+    from ppm_engine.blender.ui import PPM_VIEW3D_PT_shading_render_pass as panel
+    from ppm_engine.blender.viewport_draw import display_pass
+    from ppm_engine.render.viewport_frame import DISPLAY_PASSES
+    assert set(DISPLAY_PASSES) == {name for name, *_ in (*RENDER_PASSES, NOISY_PASS)}
+    space = next(sp for screen in bpy.data.screens for area in screen.areas
+                 for sp in area.spaces if sp.type == 'VIEW_3D')
+    items = space.shading.ppm.bl_rna.properties["render_pass"].enum_items
+    assert [i.name for i in items] == list(DISPLAY_PASSES)
+    assert space.shading.ppm.render_pass == 'COMBINED'
+    assert display_pass(types.SimpleNamespace(space_data=space)) == "Combined"
+    for item in items:
+        space.shading.ppm.render_pass = item.identifier
+        assert display_pass(types.SimpleNamespace(space_data=space)) == item.name
+    space.shading.ppm.render_pass = 'COMBINED'
+    assert display_pass(types.SimpleNamespace(space_data=None)) == "Combined"   # no 3D view
+    assert (panel.bl_parent_id, panel.bl_region_type) == ('VIEW3D_PT_shading', 'HEADER')
+    assert hasattr(bpy.types, "PPM_VIEW3D_PT_shading_render_pass")          # registered
+
+    def poll(engine, kind):
+        ctx = types.SimpleNamespace(engine=engine, space_data=types.SimpleNamespace(
+            shading=types.SimpleNamespace(type=kind)))
+        return panel.poll(ctx)
+    assert poll("PPM", 'RENDERED') and not poll("PPM", 'SOLID') and not poll("CYCLES", 'RENDERED')
+
+
 def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny, capsys):
     """The engine's view_update hand-off (ViewportDriver) on the real depsgraph updates of
     edits (a depsgraph_update_post handler stands in for Blender's call; without a 3D view the
@@ -153,6 +183,12 @@ def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny, cap
         assert drv.exports == 2 and s.actions == ["new", "upload"]
         setting(lambda: setattr(scene.cycles, "film_exposure", 2.0))   # the film: re-export
         assert drv.exports == 3 and s.actions[-1] == "upload"
+        # without a 3D view the scene camera renders: its lens is exported and rendered
+        edit(lambda: setattr(scene.camera.data, "lens", 35.0))
+        assert drv.exports == 4 and s.actions[-1] == "upload"
+        from ppm_engine.blender.export import export_scene
+        fresh = export_scene(bpy.context.evaluated_depsgraph_get()).camera
+        assert s._scene.camera.tobytes() == fresh.tobytes()
         assert not header                                             # no error so far
         cam = scene.camera
         edit(lambda: bpy.data.objects.remove(cam))                     # no camera, no 3D view
@@ -166,14 +202,14 @@ def test_view_update_exports_on_edits_only_and_says_what_is_wrong(bpy, tiny, cap
         new_cam.location, new_cam.rotation_euler = (0.0, -3.6, 1.4), (np.radians(78), 0, 0)
         scene.collection.objects.link(new_cam)
         edit(lambda: setattr(scene, "camera", new_cam))               # fixed: renders again
-        assert drv.message is None and drv.exports == 4 and s.error is None
+        assert drv.message is None and drv.exports == 5 and s.error is None
         bad = view(bpy, scene)
         bad["to_world"][0, 0, 0] = np.nan                             # the worker fails...
         s.update_view(bad)
         s.wait(timeout=60)
         assert s.error is not None and not s.busy
         drv.view_update(eng, bpy.context, bpy.context.evaluated_depsgraph_get())
-        assert drv.session is not s and drv.exports == 5              # ...and starts afresh
+        assert drv.session is not s and drv.exports == 6              # ...and starts afresh
         assert drv.session.wait(timeout=300) and drv.session.error is None
         assert drv.session.frame() is not None
     finally:
@@ -200,7 +236,13 @@ def test_value_edits_read_no_mesh_again_and_export_as_afresh(bpy, tiny, monkeypa
     from ppm_engine.blender.export import export_scene, mesh
     from ppm_engine.blender.viewport import ViewportDriver
     sphere_scene(bpy, tiny)
-    reads = []
+    floor = bpy.data.objects["Floor"].data          # a NaN corner: a warning from the mesh
+    pos = np.zeros(3 * len(floor.vertices), np.float32)
+    floor.attributes["position"].data.foreach_get("vector", pos)
+    pos[0] = np.nan
+    floor.attributes["position"].data.foreach_set("vector", pos)
+    bpy.context.view_layer.update()
+    reads, reports = [], []
     read_mesh = mesh.read_mesh
     monkeypatch.setattr(mesh, "read_mesh", lambda m: reads.append(m.name) or read_mesh(m))
 
@@ -209,7 +251,7 @@ def test_value_edits_read_no_mesh_again_and_export_as_afresh(bpy, tiny, monkeypa
             pass
 
         def report(self, kind, message):
-            pass
+            reports.append(message)
 
         def tag_redraw(self):
             pass
@@ -230,10 +272,14 @@ def test_value_edits_read_no_mesh_again_and_export_as_afresh(bpy, tiny, monkeypa
 
         def edit(f, action):
             reads.clear()
+            reports.clear()
             f()
             bpy.context.view_layer.update()
             assert s.wait(timeout=300), s.status()
             assert s.actions[-1] == action
+            # the floor's warning at every export, once, though its mesh data was kept
+            said = [w for w in sent[-1].warnings if "Floor" in w and "NaN" in w]
+            assert len(said) == 1 and [m for m in reports if "Floor" in m] == said
             got = list(reads)
             reads.clear()
             _same_arrays(sent[-1], export_scene(bpy.context.evaluated_depsgraph_get()))
@@ -305,5 +351,13 @@ def test_decoded_images_are_kept_until_an_image_changes(bpy, tiny, monkeypatch):
         assert seen
         export()
         assert reads == ["Grid", "Grid"]               # the image edited: read again
+        # what reading it warned (a colour space read as sRGB) is said by every export
+        img.colorspace_settings.name = "Rec.2020"
+        bpy.context.view_layer.update()
+        for k in range(2):
+            warned = [w for w in export().warnings if "Rec.2020" in w]
+            assert len(warned) == 1 and reads == ["Grid"] * 3, (k, reads)   # read once
+            bsdf.inputs["Roughness"].default_value = 0.3 + 0.1 * k
+            bpy.context.view_layer.update()
     finally:
         bpy.app.handlers.depsgraph_update_post.remove(handler)

@@ -107,6 +107,36 @@ def test_view_draw_draws_the_latest_image_over_the_region_and_says_the_status(se
     assert engine.tags == 0 and not timers.fns and not engine.reports   # nothing more coming
 
 
+def test_the_render_pass_chosen_in_the_shading_popover_is_drawn_with_no_restart(sessions, gpu):
+    """The 3D view's Render Pass (shading.ppm.render_pass), read at every view_draw as Cycles
+    reads its own: the image so far shown again as that pass (a value in R, G and B, alpha 1;
+    the normal's negative part 0 in the display's range), the status line naming it; no pass
+    run, no restart."""
+    from ppm_engine.render.viewport_frame import display_pass_named
+    s, sc = sessions(passes=1)
+    released(s, sc)
+    assert s.wait(timeout=10)
+    drv, timers = driver_for(s)
+    engine, dg = Engine(gpu), types.SimpleNamespace(scene=scene_stub())
+    n, restarts = len(sc.passes), s.restarts
+    shown = {"PPM_RADIUS": (0.125, 0.125, 0.125, 1.0), "PPM_PHOTONS": (7.0, 7.0, 7.0, 1.0),
+             "DENOISING_ALBEDO": (0.25, 0.5, 0.75, 1.0), "DENOISING_NORMAL": (0.0, 0.0, 0.8, 1.0),
+             "NOISY_IMAGE": (0.5, 0.5, 0.5, 0.5), "COMBINED": (0.5, 0.5, 0.5, 0.5)}
+    for render_pass, want in shown.items():
+        ctx = context_stub(render_pass=render_pass)
+        drv.view_draw(engine, ctx, dg)
+        assert s.wait(timeout=10)
+        loop(drv, engine, ctx, dg, timers)
+        data = drv.draw_cache["texture"].data.data.reshape(H, W, 4)
+        np.testing.assert_allclose(data[0, 0], want, rtol=1e-6, err_msg=render_pass)
+        name = display_pass_named(render_pass)
+        assert s.frame().display == name
+        assert engine.stats[-1].endswith(f" · {name}") == (name != "Combined")
+    assert len(sc.passes) == n and s.restarts == restarts          # nothing rendered again
+    with pytest.raises(ValueError):
+        s.display_pass("Depth")
+
+
 def test_the_last_image_landing_while_view_draw_draws_is_drawn(sessions, gpu, monkeypatch):
     """view_draw read the image, then asked whether more were coming: the last pass landing
     in between left the final image undrawn (nothing tagged another redraw).  Forced here:

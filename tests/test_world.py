@@ -186,7 +186,14 @@ def test_baked_map_is_the_image_at_its_texel_centres(bpy):
     scene.world.cycles.sample_map_resolution = 64
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
     assert tuple(arrays.world_shader[2:]) == (64, 32)
-    ds = DeviceScene(get_device(), arrays)
+    # baked by the program of every node (specialize off, as the tests' renders): one build
+    # that every world of a run shares, where the world's own nodes would build one per world
+    dev = get_device()
+    before = {k for k in dev.programs._programs if k[0] == "light/world_map.cl"}
+    ds = DeviceScene(dev, arrays, specialize=False)
+    added = {k for k in dev.programs._programs if k[0] == "light/world_map.cl"} - before
+    assert added <= {("light/world_map.cl", ())}
+    assert ("light/world_map.cl", ()) in dev.programs._programs
     assert (ds.world_map.width, ds.world_map.height) == (64, 32)
     img = np.array(bpy.data.images["sky"].pixels[:], np.float32).reshape(32, 64, 4)[..., :3]
     sin = np.sin(np.pi * (np.arange(32) + 0.5) / 32)[:, None]

@@ -49,7 +49,7 @@ inline float table_sample(int kind, float rough, float mu, float z, float4 u) {
 }
 
 __kernel void ggx_table(int kind, int nx, int ny, int nz, uint samples, __global float *out) {
-    int id = get_global_id(0);
+    int id = WORK_ITEM();
     if (id >= nx * ny * nz) return;
     int x = id % nx, y = (id / nx) % ny, z = id / (nx * ny);
     float rough = nx == 1 ? 0.0f : clamp((float)x / (float)(nx - 1), 1e-4f, 1.0f);

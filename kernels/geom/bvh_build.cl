@@ -16,7 +16,7 @@ inline uint expand_bits(uint v) {
 
 __kernel void morton_codes(__global const float *pos, uint n, float4 cmin, float4 cscale,
                            __global uint *codes, __global uint *ids) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     __global const float *p = pos + 9 * (size_t)i;
     float3 c = ((float3)(p[0], p[1], p[2]) + (float3)(p[3], p[4], p[5])
@@ -41,7 +41,7 @@ inline int prefix(__global const uint *codes, int n, int i, int j) {
 __kernel void build_hierarchy(__global const uint *codes, int n, __global int *left,
                               __global int *right, __global int *parent_int,
                               __global int *parent_leaf) {
-    int i = get_global_id(0);
+    int i = WORK_ITEM();
     if (i >= n - 1) return;
     int d = prefix(codes, n, i, i + 1) - prefix(codes, n, i, i - 1) > 0 ? 1 : -1;
     int dmin = prefix(codes, n, i, i - d);
@@ -77,7 +77,7 @@ bottom_up_boxes(__global const float *pos, __global const uint *sorted_ids, int 
                 __global const int *parent_leaf, __global volatile float4 *leaf_min,
                 __global volatile float4 *leaf_max, __global volatile float4 *node_min,
                 __global volatile float4 *node_max, __global volatile uint *arrivals) {
-    int k = get_global_id(0);
+    int k = WORK_ITEM();
     if (k >= n) return;
     __global const float *p = pos + 9 * (size_t)sorted_ids[k];
     float3 a = (float3)(p[0], p[1], p[2]), b = (float3)(p[3], p[4], p[5]),
@@ -102,7 +102,7 @@ __kernel void pack_nodes(int n, __global const int *left, __global const int *ri
                          __global const float4 *leaf_min, __global const float4 *leaf_max,
                          __global const float4 *node_min, __global const float4 *node_max,
                          __global float4 *nodes) {
-    int i = get_global_id(0);
+    int i = WORK_ITEM();
     if (i >= n - 1) return;
     int l = left[i], r = right[i];
     float4 lmin = l < 0 ? leaf_min[~l] : node_min[l], lmax = l < 0 ? leaf_max[~l] : node_max[l];
@@ -117,7 +117,7 @@ __kernel void reorder_triangles(__global const float *pos, __global const uint *
                                 __global const int *material, __global const uint *visibility,
                                 int n, __global float4 *tri_v0, __global float4 *tri_e1,
                                 __global float4 *tri_e2) {
-    int k = get_global_id(0);
+    int k = WORK_ITEM();
     if (k >= n) return;
     uint t = sorted_ids[k];
     __global const float *p = pos + 9 * (size_t)t;
@@ -149,7 +149,7 @@ inline float box_area(float4 lo, float4 hi) {
 
 __kernel void ploc_init(__global const float *pos, __global const uint *sorted_ids, int n,
                         __global float4 *cl_min, __global float4 *cl_max, __global int *cl_id) {
-    int k = get_global_id(0);
+    int k = WORK_ITEM();
     if (k >= n) return;
     __global const float *p = pos + 9 * (size_t)sorted_ids[k];
     float3 a = (float3)(p[0], p[1], p[2]), b = (float3)(p[3], p[4], p[5]),
@@ -166,7 +166,7 @@ __kernel void ploc_init(__global const float *pos, __global const uint *sorted_i
  * strict order on pairs, so the globally best pair is always mutual and every round merges */
 __kernel void ploc_nearest(__global const float4 *cl_min, __global const float4 *cl_max, int m,
                            __global int *nn) {
-    int i = get_global_id(0);
+    int i = WORK_ITEM();
     if (i >= m) return;
     float4 lo = cl_min[i], hi = cl_max[i];
     float best = INFINITY;
@@ -187,7 +187,7 @@ __kernel void ploc_merge(__global float4 *cl_min, __global float4 *cl_max, __glo
                          __global const int *nn, int m, __global int *node_counter,
                          __global int *left, __global int *right, __global int *parent_int,
                          __global int *parent_leaf, __global uint *valid) {
-    int i = get_global_id(0);
+    int i = WORK_ITEM();
     if (i >= m) return;
     int j = nn[i];
     uint keep = 1u;
@@ -217,7 +217,7 @@ __kernel void ploc_compact(__global const float4 *cl_min, __global const float4 
                            __global const int *cl_id, __global const uint *valid,
                            __global const uint *position, int m, __global float4 *out_min,
                            __global float4 *out_max, __global int *out_id) {
-    int i = get_global_id(0);
+    int i = WORK_ITEM();
     if (i >= m || !valid[i]) return;
     uint k = position[i];
     out_min[k] = cl_min[i];

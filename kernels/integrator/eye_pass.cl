@@ -41,7 +41,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
     FILM_LOAD(film);
     VP_LOAD(vps);
     __global const Camera *cam = scene->camera;
-    int id = get_global_id(0);
+    int id = WORK_ITEM();
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;
     if (!film->active[id]) {               /* converged (adaptive sampling): no visible point */

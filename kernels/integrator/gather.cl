@@ -206,7 +206,7 @@ __kernel void gather(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const float *
     SCENE_LOAD(scene);
     VP_LOAD(vps);
     PHOTON_LOAD(photons);
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n) return;
     GatherPoint gp;
     Grid g;
@@ -248,7 +248,7 @@ __kernel void gather_exact(SCENE_PARAMS VP_PARAMS PHOTON_PARAMS __global const f
     SCENE_LOAD(scene);
     VP_LOAD(vps);
     PHOTON_LOAD(photons);
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n) return;
     GatherPoint gp;
     Grid g;

@@ -35,7 +35,7 @@ vp_bounds(__global const float4 *vp_pos, __global const float *radius, uint n,
           __global uint *bounds) {
     __local uint lmin[3][BOUNDS_WG], lmax[3][BOUNDS_WG], lr[BOUNDS_WG], lrmin[BOUNDS_WG],
         lc[BOUNDS_WG];
-    uint id = get_global_id(0), l = get_local_id(0);
+    uint id = WORK_ITEM(), l = get_local_id(0);
     float4 p = id < n ? vp_pos[id] : (float4)(0.0f);
     bool ok = id < n && p.w > 0.0f;
     float r = ok ? radius[id] : 0.0f;
@@ -96,7 +96,7 @@ __kernel void grid_setup(__global const uint *bounds, float cell_scale, __global
 }
 
 __kernel void clear_table(__global ulong2 *table, uint n) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     table[i] = (ulong2)(0UL);
 }
@@ -126,7 +126,7 @@ __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
                          __global const Grid *grid, uint table_mask, uint pass_index, uint seed,
                          __global ulong *table, uint stored, uint occupied_at) {
     uint n = min(counters[stored], capacity);
-    uint i0 = get_global_id(0) * PPM_BUILD_BATCH;
+    uint i0 = WORK_ITEM() * PPM_BUILD_BATCH;
     if (i0 >= n) return;
     Grid g = *grid;
     uint m = min((uint)PPM_BUILD_BATCH, n - i0);
@@ -165,7 +165,7 @@ __kernel void hash_build(__global const float4 *ph_pos, __global uint *counters,
 __kernel void hash_pick(__global const float4 *ph_pos, __global const uint *counters, uint capacity,
                         __global const Grid *grid, uint table_mask, uint pass_index, uint seed,
                         __global ulong *table, uint stored, uint occupied_at) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= min(counters[stored], capacity)) return;
     Grid g = *grid;
     float4 p = ph_pos[i];
@@ -180,7 +180,7 @@ __kernel void hash_pick(__global const float4 *ph_pos, __global const uint *coun
 __kernel void exact_keys(__global const float4 *ph_pos, __global const uint *counters,
                          uint capacity, __global const Grid *grid, uint table_mask,
                          __global uint *keys, __global uint *ids) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= capacity) return;
     Grid g = *grid;
     keys[i] = i < min(counters[CNT_STORED], capacity)
@@ -192,7 +192,7 @@ __kernel void exact_keys(__global const float4 *ph_pos, __global const uint *cou
 /* ranges[2h], ranges[2h+1] = first and one-past-last sorted position of entry h (cleared to 0) */
 __kernel void exact_ranges(__global const uint *sorted_keys, uint capacity, uint table_mask,
                            __global uint *ranges) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= capacity) return;
     uint k = sorted_keys[i];
     if (k > table_mask) return;

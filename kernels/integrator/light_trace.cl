@@ -20,7 +20,7 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
                           __global const float *filter_density, int n_table, float reach,
                           __global float *image, __global uint *counters) {
     SCENE_LOAD(scene);
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n_photons) return;
     __global const Camera *cam = scene->camera;
     uint rng = rng_seed(seed, pass_index, id, 5u);
@@ -116,7 +116,7 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
  * transparency or smooth glossy lobe the eye pass would follow), else 0. */
 __kernel void lt_coverage(SCENE_PARAMS __global float *covered) {
     SCENE_LOAD(scene);
-    int id = get_global_id(0);
+    int id = WORK_ITEM();
     __global const Camera *cam = scene->camera;
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;

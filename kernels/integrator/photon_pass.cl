@@ -124,7 +124,7 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
     SCENE_LOAD(scene);
     FILM_LOAD(film);
     PHOTON_LOAD(photons);
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n_photons) return;
     Grid g = *photons->grid;
     if (g.valid == 0u && capacity > 0u && vcapacity == 0u) return; /* (none to store) */

@@ -49,7 +49,7 @@ inline void ppm_update(float alpha, float M, float3 phi, float *N, float *R, flo
 __kernel void progressive_update(__global const float4 *vp_pos, __global const float4 *vp_beta,
                                  __global const float4 *gathered, __global float *radius,
                                  __global float *nstat, __global float4 *tau, float alpha, uint n) {
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n) return;
     float4 g = gathered[id];
     if (vp_pos[id].w <= 0.0f || !(g.w > 0.0f)) return;
@@ -85,7 +85,7 @@ __kernel void progressive_update(__global const float4 *vp_pos, __global const f
 __kernel void film_update(FILM_PARAMS VP_PARAMS float alpha, uint schedule, uint n) {
     FILM_LOAD(film);
     VP_LOAD(vps);
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n) return;
     float4 g = vps->gathered[id];
     vps->gathered[id] = (float4)(0.0f);
@@ -123,7 +123,7 @@ __kernel void film_update(FILM_PARAMS VP_PARAMS float alpha, uint schedule, uint
 __kernel void film_add_sample(FILM_PARAMS VP_PARAMS uint photons, uint lt, uint n) {
     FILM_LOAD(film);
     VP_LOAD(vps);
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n) return;
     float3 l = (float3)(0.0f);
     if (lt && photons) {
@@ -148,7 +148,7 @@ __kernel void film_add_sample(FILM_PARAMS VP_PARAMS uint photons, uint lt, uint 
  * film, eye_pass.cl). */
 __kernel void film_resolve(FILM_PARAMS uint lt, float exposure, uint n) {
     FILM_LOAD(film);
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n) return;
     acc4 d = acc_get(film->direct, id);
     acc4 c = d.w > 0 ? d / d.w : (acc4)(0);
@@ -169,7 +169,7 @@ __kernel void film_resolve(FILM_PARAMS uint lt, float exposure, uint n) {
  * ProgressiveUpdate.ADAPTIVE_MAX_RADIUS: the spread does not show the radius' bias). */
 __kernel void film_error(FILM_PARAMS float max_radius, uint min_passes, uint n) {
     FILM_LOAD(film);
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n) return;
     acc4 m = acc_get(film->moments, id);
     float k = (float)m.w;
@@ -188,7 +188,7 @@ __kernel void film_error(FILM_PARAMS float max_radius, uint min_passes, uint n) 
 __kernel void film_converge(FILM_PARAMS int width, int height, float threshold,
                             __global uint *counters) {
     FILM_LOAD(film);
-    int id = get_global_id(0);
+    int id = WORK_ITEM();
     if (id >= width * height) return;
     if (!film->active[id]) return;
     int x = id % width, y = id / width;

@@ -40,7 +40,7 @@ inline bool volume_marked(__global const uint *marks, long3 cell) {
 __kernel void volume_mark(__global const float4 *ph_pos, __global const uint *counters,
                           uint capacity, __global const Grid *grid, float radius,
                           __global uint *marks) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= min(counters[CNT_VSTORED], capacity)) return;
     Grid g = *grid;
     float3 p = ph_pos[i].xyz;
@@ -151,7 +151,7 @@ volume_gather(SCENE_PARAMS FILM_PARAMS VP_PARAMS PHOTON_PARAMS __global const ul
     FILM_LOAD(film);
     VP_LOAD(vps);
     PHOTON_LOAD(photons);
-    uint id = get_global_id(0);
+    uint id = WORK_ITEM();
     if (id >= n || !film->active[id]) return;
     Grid g = *photons->vgrid;
     if (g.valid == 0u || !(radius > 0.0f)) return;

@@ -10,7 +10,7 @@
 __kernel void world_bake(SCENE_PARAMS int program, int w, int h, float4 sun, int sub,
                          __global float4 *out) {
     SCENE_LOAD(scene);
-    int id = get_global_id(0);
+    int id = WORK_ITEM();
     if (id >= w * h) return;
     int i = id / w, j = id % w;
     float3 d = equirect_to_direction(((float)j + 0.5f) / (float)w, ((float)i + 0.5f) / (float)h);
@@ -35,7 +35,7 @@ __kernel void world_bake(SCENE_PARAMS int program, int w, int h, float4 sun, int
  * density world_map_pdf gives each (float4: direction, pdf; and the pdf again) */
 __kernel void world_sample_test(__global const float *map, int w, int h, float mean, uint seed,
                                 int n, __global float4 *dirs, __global float *pdf_again) {
-    int id = get_global_id(0);
+    int id = WORK_ITEM();
     if (id >= n) return;
     uint rng = rng_seed(seed, 0u, (uint)id, 7u);
     float3 wi;

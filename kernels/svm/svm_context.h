@@ -138,9 +138,10 @@ inline void svm_corner_data(SvmContext *cx, const Scene *scene, int p, uint tri,
 #endif
     }
     if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_ATTRIBUTES)) {
-        for (int k = 0; k < PPM_ATTRIBUTES; k++) {
-            __global const float4 *a = scene->attributes + 3 * PPM_ATTRIBUTES * (size_t)tri + k;
-            cx->attr[k] = w * a[0] + u * a[PPM_ATTRIBUTES] + v * a[2 * PPM_ATTRIBUTES];
+        const int stride = scene->emitter_info->n_attributes;   /* per corner */
+        for (int k = 0; k < PPM_ATTRIBUTES && k < stride; k++) {
+            __global const float4 *a = scene->attributes + 3 * stride * (size_t)tri + k;
+            cx->attr[k] = w * a[0] + u * a[stride] + v * a[2 * stride];
         }
     }
 }

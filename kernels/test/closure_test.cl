@@ -19,7 +19,7 @@ inline void test_setup(const Scene *scene, ShaderData *sd, int mat, float4 wi) {
 __kernel void shade_sample(SCENE_PARAMS int mat, float4 wi, int mask, uint seed,
                            __global float4 *out_wo, __global float4 *out_weight, uint n) {
     SCENE_LOAD(scene);
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     ShaderData sd;
     test_setup(scene, &sd, mat, wi);
@@ -39,7 +39,7 @@ __kernel void shade_sample(SCENE_PARAMS int mat, float4 wi, int mask, uint seed,
 __kernel void shade_eval(SCENE_PARAMS int mat, float4 wi, int mask, __global const float4 *wo,
                          __global float4 *out, uint n) {
     SCENE_LOAD(scene);
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     ShaderData sd;
     test_setup(scene, &sd, mat, wi);
@@ -53,7 +53,7 @@ __kernel void shade_eval(SCENE_PARAMS int mat, float4 wi, int mask, __global con
 __kernel void shade_closures(SCENE_PARAMS int mat, float4 wi, __global float4 *out_info,
                              __global float4 *out_weight, int n_max) {
     SCENE_LOAD(scene);
-    if (get_global_id(0) != 0) return;
+    if (WORK_ITEM() != 0) return;
     ShaderData sd;
     test_setup(scene, &sd, mat, wi);
     for (int k = 0; k < n_max; k++) {

@@ -7,7 +7,7 @@
 __kernel void trace_rays(SCENE_PARAMS __global const float4 *origins, __global const float4 *dirs,
                          uint mask, int any_hit, __global float4 *hits, uint n) {
     SCENE_LOAD(scene);
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     float4 o = origins[i], d = dirs[i];
     Hit h = bvh_intersect(scene, o.xyz, d.xyz, d.w, mask, any_hit != 0);
@@ -32,7 +32,7 @@ __kernel void direct_light_at(SCENE_PARAMS __global const float4 *points,
                               __global const float4 *nrm, int n_samples, __global float4 *out,
                               uint n) {
     SCENE_LOAD(scene);
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     uint rng = rng_seed(1u, 0u, i, 9u);
     ShaderData sd;
@@ -66,7 +66,7 @@ __kernel void emitter_pick_at(SCENE_PARAMS __global const float4 *points,
                               __global const float4 *nrm, uint n_u, __global uint *counts,
                               __global float *pmf, __global float *table, uint n) {
     SCENE_LOAD(scene);
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     int m = scene->emitter_info->n_emitters;
     float3 p = points[i].xyz, N = nrm[i].xyz;
@@ -87,7 +87,7 @@ __kernel void emitter_pick_at(SCENE_PARAMS __global const float4 *points,
  * keys[k] (tests/test_indirect.py) */
 __kernel void ld_sets(__global const uint *keys, uint n_keys, uint n_pass, uint first, uint set,
                       __global float4 *out) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n_keys * n_pass) return;
     out[i] = ld_set(first + i % n_pass, keys[i / n_pass], set);
 }
@@ -96,7 +96,7 @@ __kernel void ld_sets(__global const uint *keys, uint n_keys, uint n_pass, uint 
  * (tests/test_kernels.py): per pair of float4 (x, y), eight float4 */
 __kernel void builtins_at(__global const float4 *xs, __global const float4 *ys, uint n,
                           __global float4 *out) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     float4 x4 = xs[i], y4 = ys[i];
     float3 x = x4.xyz, y = y4.xyz;
@@ -114,7 +114,7 @@ __kernel void builtins_at(__global const float4 *xs, __global const float4 *ys, 
 /* isfinite (builtins.h's where PoCL compiles) of each x: the vector's components (-1 or 0) and
  * the scalar w's (1 or 0) (tests/test_kernels.py) */
 __kernel void isfinite_at(__global const float4 *xs, uint n, __global float4 *out) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     float4 x = xs[i];
     int4 v = isfinite(x);
@@ -124,7 +124,7 @@ __kernel void isfinite_at(__global const float4 *xs, uint n, __global float4 *ou
 
 /* geometry.h's sincos_turns at each u: (sin, cos) of 2 pi u (tests/test_kernels.py) */
 __kernel void sincos_turns_at(__global const float *us, uint n, __global float2 *out) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     out[i] = sincos_turns(us[i]);
 }

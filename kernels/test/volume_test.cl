@@ -7,7 +7,7 @@
 /* n directions from the Henyey-Greenstein phase function of anisotropy g around +z: xyz the
  * direction, w the density hg_sample gives it */
 __kernel void hg_samples(float g, uint seed, __global float4 *out, uint n) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     uint rng = rng_seed(seed, 0u, i, 12u);
     float u1 = rnd(&rng), u2 = rnd(&rng), pdf;
@@ -17,7 +17,7 @@ __kernel void hg_samples(float g, uint seed, __global float4 *out, uint n) {
 
 /* the phase function at n cosines */
 __kernel void hg_eval(float g, __global const float *cosines, __global float *out, uint n) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     out[i] = hg_phase(cosines[i], g);
 }
@@ -26,7 +26,7 @@ __kernel void hg_eval(float g, __global const float *cosines, __global float *ou
  * distance, y its density from equiangular_sample, z from equiangular_pdf */
 __kernel void equiangular_samples(float4 c, float t0, float t, uint seed, __global float4 *out,
                                   uint n) {
-    uint i = get_global_id(0);
+    uint i = WORK_ITEM();
     if (i >= n) return;
     uint rng = rng_seed(seed, 0u, i, 13u);
     float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);

@@ -22,6 +22,7 @@ from ppm_engine.render.options import (
     VIEWPORT_LIMITS,
     RenderOptions,
 )
+from ppm_engine.render.viewport_frame import DISPLAY_PASSES, display_pass_id
 
 DEFAULT_DEVICE = "DEFAULT"
 
@@ -246,9 +247,25 @@ def keep_typed_photon_counts(*_args):
             s.auto_photons = False
 
 
+# the viewport's Render Pass items (viewport_frame.DISPLAY_PASSES): kept referenced, as every
+# EnumProperty's items must stay while Blender uses them
+DISPLAY_PASS_ITEMS = tuple((display_pass_id(name), name, f"Show the {name} render pass")
+                           for name in DISPLAY_PASSES)
+
+
+class PPMViewShadingSettings(bpy.types.PropertyGroup):
+    """View3DShading.ppm: what a 3D view in Rendered shading shows under this engine (Cycles
+    keeps its own in View3DShading.cycles)."""
+    render_pass: EnumProperty(name="Render Pass", items=DISPLAY_PASS_ITEMS, default="COMBINED",
+                              description="Render pass to show in the 3D Viewport")
+
+
 def register():
     bpy.utils.register_class(PPMSettings)
     bpy.types.Scene.ppm = PointerProperty(type=PPMSettings, name="Progressive Photon Mapping")
+    bpy.utils.register_class(PPMViewShadingSettings)
+    bpy.types.View3DShading.ppm = PointerProperty(type=PPMViewShadingSettings,
+                                                  name="Progressive Photon Mapping")
     if keep_typed_photon_counts not in bpy.app.handlers.load_post:
         bpy.app.handlers.load_post.append(keep_typed_photon_counts)
 
@@ -256,5 +273,7 @@ def register():
 def unregister():
     if keep_typed_photon_counts in bpy.app.handlers.load_post:
         bpy.app.handlers.load_post.remove(keep_typed_photon_counts)
+    del bpy.types.View3DShading.ppm
+    bpy.utils.unregister_class(PPMViewShadingSettings)
     del bpy.types.Scene.ppm
     bpy.utils.unregister_class(PPMSettings)

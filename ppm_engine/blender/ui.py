@@ -158,8 +158,27 @@ class PPM_OT_tick_device(bpy.types.Operator):
         return {'FINISHED'}
 
 
+class PPM_VIEW3D_PT_shading_render_pass(bpy.types.Panel):
+    """The 3D view's shading popover in Rendered shading: the pass the viewport shows, as
+    Cycles' Render Pass (CYCLES_VIEW3D_PT_shading_render_pass)."""
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'HEADER'
+    bl_parent_id = 'VIEW3D_PT_shading'
+    bl_label = "Render Pass"
+    COMPAT_ENGINES = {ENGINE_ID}   # noqa: RUF012 -- Blender reads it from the class
+
+    @classmethod
+    def poll(cls, context):
+        return (context.engine in cls.COMPAT_ENGINES
+                and context.space_data.shading.type == 'RENDERED')
+
+    def draw(self, context):
+        self.layout.prop(context.space_data.shading.ppm, "render_pass", text="")
+
+
 CLASSES = (PPM_PT_sampling, PPM_PT_sampling_viewport, PPM_PT_sampling_viewport_denoise,
-           PPM_PT_sampling_denoise, PPM_PT_photons, PPM_PT_device, PPM_OT_tick_device)
+           PPM_PT_sampling_denoise, PPM_PT_photons, PPM_PT_device, PPM_OT_tick_device,
+           PPM_VIEW3D_PT_shading_render_pass)
 
 
 def _all_subclasses(cls):

@@ -2,8 +2,9 @@
 
     view_update(context, depsgraph) -> changes(depsgraph.updates) -> export_scene -> session
     view_draw(context, depsgraph)   -> view_camera(...) compared -> session.update_view
-                                     -> session.snapshot() -> draw_frame(...) (the only gpu
-                                        calls) -> the header's text
+                                     -> session.display_pass (the shading popover's Render
+                                        Pass) -> session.snapshot() -> draw_frame(...)
+                                        (viewport_draw.py: the only gpu calls) -> the header
     a timer (ViewportDriver._poll)  -> a redraw tagged when the session has something new
 
 The rendering is ppm_engine.render.viewport_session.ViewportSession's worker thread; nothing here
@@ -37,6 +38,7 @@ import traceback
 
 import numpy as np
 
+from ppm_engine.blender.viewport_draw import display_pass, draw_frame
 from ppm_engine.errors import PPMError
 
 # seconds between two looks at the session while it renders (a timer on Blender's thread)
@@ -56,16 +58,20 @@ BUG_HINT = "a bug: please report it with the console's traceback"
 _VALUE_TYPES = {'MATERIAL', 'NODETREE', 'IMAGE', 'TEXTURE', 'LIGHT', 'WORLD', 'SCENE'}
 
 
-def changes(updates) -> set:
+def changes(updates, scene_camera: bool = False) -> set:
     """What a view_update's ``depsgraph.updates`` changed: a subset of {"values" (materials,
     lights, world, the scene's settings), "transform", "geometry" (meshes, objects added or
-    deleted, visibility)}.  Empty: nothing the render depends on (a selection)."""
+    deleted, visibility), "camera"}.  Empty: nothing the render depends on (a selection).
+    A camera's edits count ("camera") only with ``scene_camera``: no 3D view, the export's
+    camera is the scene's; else the view's camera comes from view_draw."""
     out = set()
     for u in updates:
         idt = getattr(u.id, "id_type", "") if u.id is not None else ""
         if idt == 'OBJECT':
             kind = getattr(u.id, "type", "")
             if kind == 'CAMERA':
+                if scene_camera:
+                    out.add("camera")
                 continue                           # the view's camera comes from view_draw
             if kind == 'LIGHT':
                 out.add("values")                  # its data or its placement: re-uploaded
@@ -76,6 +82,8 @@ def changes(updates) -> set:
             elif u.is_updated_shading:
                 out.add("values")                  # ray visibility, material slots
         elif idt == 'CAMERA':
+            if scene_camera:
+                out.add("camera")
             continue    # lens, depth of field: view_draw's camera (no export reads it)
         elif idt == 'COLLECTION':
             out.add("geometry")                    # objects linked, unlinked, hidden
@@ -243,29 +251,33 @@ class ViewportDriver:
             else:
                 self.session.update_options(options, start)
             self.session.pause(viewport_paused(depsgraph.scene))
+            self.session.display_pass(display_pass(context))
             from ppm_engine.blender.export import hidden_in_view
             space = getattr(context, "space_data", None)
             view = space if hasattr(space, "show_object_viewport_mesh") else None
             key = (settings_key(depsgraph), hidden_in_view(depsgraph, view))
             if self.meshes is None:
                 self.meshes = MeshCache(None)
+            camera = view_camera(context, depsgraph, engine)
             if not first and self.message is None and key == self.key:
                 ups = depsgraph.updates
-                if not changes(ups) or only_scene(ups):
+                if not changes(ups, scene_camera=camera is None) or only_scene(ups):
                     self._watch(engine)
                     return                      # nothing the export reads changed
-                forget_changed(ups, self.meshes, self.images, _VALUE_TYPES)
+                forget_changed(ups, self.meshes, self.images, _VALUE_TYPES | {'CAMERA'})
             else:                               # a new session, frame, layer, view: afresh
                 self.meshes.clear()
                 self.images.clear()
-            camera = view_camera(context, depsgraph, engine)
             self.session.hold()                 # the processor to the export (until posted)
             try:
-                arrays = export_scene(depsgraph, camera=camera, view=view,
+                # the engine reports each warning once per export (kept mesh data's too)
+                arrays = export_scene(depsgraph, engine, camera=camera, view=view,
                                       meshes=self.meshes, images=self.images)
             except BaseException:
                 self.session.hold(False)
                 raise
+            for w in arrays.warnings:           # (Blender keeps no viewport reports)
+                print(f"PPM viewport: {w}", file=sys.stderr)
             self.key = key
             self.exports += 1
             self.message = None
@@ -302,6 +314,7 @@ class ViewportDriver:
         problem = None                          # (message, hint, exception) of this draw
         try:
             s.pause(viewport_paused(scene))     # as Cycles, read at every redraw too
+            s.display_pass(display_pass(context))    # the shading popover's Render Pass
             camera = view_camera(context, depsgraph, engine)
             if camera is not None:
                 s.update_view(camera)
@@ -414,24 +427,3 @@ class ViewportDriver:
                 pass
         if s is not None:
             s.close(timeout=2.0)
-
-
-def draw_frame(engine, scene, frame, width: int, height: int, cache: dict) -> None:
-    """Draw ``frame`` (viewport_session.Frame) over the region (``width`` x ``height`` pixels) with
-    Blender's view transform.  The texture is made once per image, a half-float one: the
-    session published the image in its range (viewport_session.display_image)."""
-    import gpu
-    from gpu_extras.presets import draw_texture_2d
-    if cache.get("generation") != frame.generation:
-        h, w = frame.image.shape[:2]
-        pixels = gpu.types.Buffer('FLOAT', w * h * 4,
-                                  np.ascontiguousarray(frame.image, np.float32).ravel())
-        cache["texture"] = gpu.types.GPUTexture((w, h), format='RGBA16F', data=pixels)
-        cache["generation"] = frame.generation
-    gpu.state.blend_set('ALPHA_PREMULT')
-    engine.bind_display_space_shader(scene)
-    x, y, w, h = frame.region                  # a render region: its place in the region
-    draw_texture_2d(cache["texture"], (round(x * width), round(y * height)),
-                    round(w * width), round(h * height))
-    engine.unbind_display_space_shader()
-    gpu.state.blend_set('NONE')

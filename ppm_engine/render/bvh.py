@@ -8,10 +8,9 @@ import time
 
 import numpy as np
 
-from ppm_engine.render.device.program import WORK_GROUP, global_size
+from ppm_engine.render.device.program import grid
 from ppm_engine.scene.arrays import SceneArrays
-
-_WG = (WORK_GROUP,)   # every launch's work-group: one compile per kernel (program.WORK_GROUP)
+from ppm_engine.scene.prep import corner_box
 
 
 class BVH:
@@ -45,16 +44,16 @@ class BVH:
 
         pos = device.upload(scene.positions, "triangle positions")
         p = scene.positions.reshape(-1, 3, 3).mean(axis=1)
-        p = p[np.isfinite(p).all(axis=1)]
-        lo = p.min(axis=0) if p.size else np.zeros(3, np.float32)
-        hi = p.max(axis=0) if p.size else np.ones(3, np.float32)
+        if not np.isfinite(p).all():
+            p = p[np.isfinite(p).all(axis=1)]
+        lo, hi = corner_box(p) if p.size else (np.zeros(3, np.float32), np.ones(3, np.float32))
         ext = np.maximum(hi - lo, 1e-30)
         cmin = np.array([*lo, 0], np.float32)
         cscale = np.array([*(1023.0 / ext), 0], np.float32)
 
         codes = device.buffer(4 * n, "Morton codes")
         ids = device.buffer(4 * n, "triangle ids")
-        ev = prog.morton_codes(q, (global_size(n),), _WG, pos, np.uint32(n), cmin, cscale, codes,
+        ev = prog.morton_codes(q, *grid(n), pos, np.uint32(n), cmin, cscale, codes,
                                ids)
         ev.wait()
         import pyopencl.array as cla
@@ -78,7 +77,7 @@ class BVH:
         if method == "ploc":
             self._ploc(pos, n)
         else:
-            prog.build_hierarchy(q, (global_size(n - 1),), _WG, skeys.data, np.int32(n), self.left,
+            prog.build_hierarchy(q, *grid(n - 1), skeys.data, np.int32(n), self.left,
                                  self.right, self.parent_int, self.parent_leaf)
         self.cost = self._boxes(scene, pos)
         self.built_cost = self.cost
@@ -116,15 +115,15 @@ class BVH:
         position = device.buffer(4 * n, "BVH build")
         counter = device.buffer(4, "BVH build")
         cl.enqueue_copy(q, counter, np.array([n - 1], np.int32))
-        prog.ploc_init(q, (global_size(n),), _WG, pos, self.sorted_ids.data, np.int32(n), *a)
+        prog.ploc_init(q, *grid(n), pos, self.sorted_ids.data, np.int32(n), *a)
         host = self._on_host(n)
         scan = None if host else device.exclusive_scan_uint()
         import pyopencl.array as cla
         m = n
         total = np.empty(2, np.uint32)
         while m > 1:
-            prog.ploc_nearest(q, (global_size(m),), _WG, a[0], a[1], np.int32(m), nn)
-            prog.ploc_merge(q, (global_size(m),), _WG, *a, nn, np.int32(m), counter, self.left,
+            prog.ploc_nearest(q, *grid(m), a[0], a[1], np.int32(m), nn)
+            prog.ploc_merge(q, *grid(m), *a, nn, np.int32(m), counter, self.left,
                             self.right, self.parent_int, self.parent_leaf, valid)
             if host:
                 flags = np.empty(m, np.uint32)
@@ -136,7 +135,7 @@ class BVH:
                 v = cla.Array(q, (m,), np.uint32, data=valid)
                 p = cla.Array(q, (m,), np.uint32, data=position)
                 scan(v, p)
-            prog.ploc_compact(q, (global_size(m),), _WG, *a, valid, position, np.int32(m), *b)
+            prog.ploc_compact(q, *grid(m), *a, valid, position, np.int32(m), *b)
             cl.enqueue_copy(q, total[:1], position, src_offset=4 * (m - 1))
             cl.enqueue_copy(q, total[1:], valid, src_offset=4 * (m - 1))
             merged_to = int(total[0]) + int(total[1])
@@ -162,12 +161,12 @@ class BVH:
         arrivals = device.buffer(4 * (n - 1), "BVH")
         cl.enqueue_fill_buffer(q, arrivals, np.uint32(0), 0, 4 * (n - 1))
         ids = self.sorted_ids.data
-        prog.bottom_up_boxes(q, (global_size(n),), _WG, pos, ids, np.int32(n), self.left,
+        prog.bottom_up_boxes(q, *grid(n), pos, ids, np.int32(n), self.left,
                              self.right, self.parent_int, self.parent_leaf, leaf_min, leaf_max,
                              node_min, node_max, arrivals)
-        prog.pack_nodes(q, (global_size(n - 1),), _WG, np.int32(n), self.left, self.right,
+        prog.pack_nodes(q, *grid(n - 1), np.int32(n), self.left, self.right,
                         leaf_min, leaf_max, node_min, node_max, self.nodes)
-        prog.reorder_triangles(q, (global_size(n),), _WG, pos, ids, mat, vis, np.int32(n),
+        prog.reorder_triangles(q, *grid(n), pos, ids, mat, vis, np.int32(n),
                                self.tri_v0, self.tri_e1, self.tri_e2)
         import pyopencl.array as cla
         from pyopencl import cltypes

@@ -26,7 +26,7 @@ from ppm_engine.scene.arrays import (
     SceneArrays,
 )
 from ppm_engine.scene.camera import CAMERA_DTYPE
-from ppm_engine.scene.casters import caster_reach, caster_spheres, caustic_cdf, material_weights
+from ppm_engine.scene.casters import caster_reach, caster_tree, caustic_cdf, material_weights
 from ppm_engine.scene.emitters import EMITTER_INFO_DTYPE, build_emitters
 from ppm_engine.scene.guide import Guides
 from ppm_engine.scene.light_paths import LIGHT_PATHS_DTYPE, engine_defaults
@@ -40,7 +40,7 @@ from ppm_engine.scene.materials import (
     kernel_nodes,
     max_closures,
 )
-from ppm_engine.scene.prep import offset_scale, prepare_scene
+from ppm_engine.scene.prep import corner_box, offset_scale, prepare_scene
 from ppm_engine.scene.shader_program import ops_define, ops_used, stack_used
 from ppm_engine.scene.shading_tables import load as shading_tables
 
@@ -141,10 +141,12 @@ def placeholders(device, **given) -> dict:
 
 
 class DeviceScene:
-    def __init__(self, device, scene: SceneArrays):
+    def __init__(self, device, scene: SceneArrays, specialize: bool = True):
         self.device = device
+        self.specialize = specialize   # the world map's bake built for the world's own nodes
         prepared, self.warnings = prepare_scene(scene)   # NaN/Inf dropped (docs/STABILITY.md)
         self.bvh = BVH(device, prepared)
+        self._caster_tree = None         # set_casters' CasterTree, kept by refits
         self.upload(scene, prepared)
 
     def upload(self, scene: SceneArrays, prepared: SceneArrays | None = None) -> None:
@@ -158,10 +160,12 @@ class DeviceScene:
         self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
         self.offset_scale = offset_scale(prepared)
         b = self.bvh
-        # each scene buffer's source (SCENE_BUFFERS): the BVH's are on the device already
+        # each scene buffer's source (SCENE_BUFFERS): the BVH's are on the device already;
+        # the scene's own arrays (never written to) again the same: their buffers kept (an
+        # edit's export hands on what did not change: the image's texels, a value edit's mesh)
         args = self._upload(
-            **b.args, normals=prepared.normals, materials=self.kmaterials, shader_nodes=self.knodes,
-            shading_tables=shading_tables(), textures=prepared.textures,
+            reuse=True, **b.args, normals=prepared.normals, materials=self.kmaterials,
+            shader_nodes=self.knodes, shading_tables=shading_tables(), textures=prepared.textures,
             texels=prepared.texels, uvs=prepared.uvs, tangents=prepared.tangents,
             svm=prepared.svm, uv_tangents=prepared.uv_tangents, generated=prepared.generated,
             attributes=prepared.attributes, tri_object=prepared.object, objects=prepared.objects,
@@ -175,6 +179,7 @@ class DeviceScene:
         em.info["offset_scale"] = self.offset_scale
         em.info["n_media"] = int(((self.kmaterials["flags"][self.used_materials] & MAT_VOLUME)
                                   != 0).sum())
+        em.info["n_attributes"] = prepared.attributes.shape[2]
         args.update(self._upload(
             lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
             emitter_info=em.info, light_tree=em.tree, emitter_leaf=em.emitter_leaf,
@@ -211,8 +216,13 @@ class DeviceScene:
         ok = (m >= 0) & (m < mw.shape[0])
         tri_w = np.zeros(m.shape[0], np.float32)
         tri_w[ok] = mw[m[ok]]
-        self.caster_spheres, self.caster_static = caster_spheres(p.positions.reshape(-1, 3, 3),
-                                                                 tri_w)
+        corners = p.positions.reshape(-1, 3, 3)
+        # the same triangles moved (refit): the tree of their splits kept, its cut chosen at
+        # the new positions; else (or when that tree got too loose) the tree built
+        tree = (self._caster_tree.refit(corners, tri_w) if self._caster_tree is not None
+                else None)
+        self._caster_tree = tree = tree or caster_tree(corners, tri_w)
+        self.caster_spheres, self.caster_static = (a.copy() for a in tree.result)
         em.info["n_casters"] = self.caster_spheres.shape[0]
         # the emissive triangles' corners in the emitter table's order, for caster_reach at
         # every change of weights
@@ -270,12 +280,22 @@ class DeviceScene:
         density, self.filter_reach = filter_density(width, kind)
         self.filter_density = self.device.upload(density, "pixel filter density")
 
-    def _upload(self, **sources) -> dict:
-        """Scene buffers by name (SCENE_BUFFERS) from arrays, or device buffers as they are."""
-        rows = {b.name: b for b in SCENE_BUFFERS}
-        return {name: a if not isinstance(a, np.ndarray) else
-                self.device.upload(_as_elements(a, rows[name]), rows[name].what)
-                for name, a in sources.items()}
+    def _upload(self, reuse: bool = False, **sources) -> dict:
+        """Scene buffers by name (SCENE_BUFFERS) from arrays, or device buffers as they are.
+        ``reuse``: an array that is the very one uploaded under its name by the last such
+        call keeps its buffer (only for arrays nobody writes to)."""
+        rows, out = {b.name: b for b in SCENE_BUFFERS}, {}
+        kept = getattr(self, "_kept", {})
+        for name, a in sources.items():
+            if not isinstance(a, np.ndarray):
+                out[name] = a
+            elif reuse and name in kept and kept[name][0] is a:
+                out[name] = kept[name][1]
+            else:
+                out[name] = self.device.upload(_as_elements(a, rows[name]), rows[name].what)
+        if reuse:
+            self._kept = {n: (a, out[n]) for n, a in sources.items() if isinstance(a, np.ndarray)}
+        return out
 
     def _world_map(self, prepared: SceneArrays, args: dict):
         """The world program's importance map baked on the device, or None (a constant
@@ -285,7 +305,7 @@ class DeviceScene:
             return None
         w, h = map_size(int(ws[2]), int(ws[3]), bool(ws[1] & WORLD_MAP_MANUAL))
         return build_map(bake(self.device, placeholders(self.device, **args), prepared.svm,
-                              int(ws[0]), w, h))
+                              int(ws[0]), w, h, self.specialize))
 
     def kernel_defines(self, specialize: bool,
                        editable: bool = False) -> tuple[frozenset | None, dict]:
@@ -310,7 +330,9 @@ class DeviceScene:
                 stack = max(1 << (stack - 1).bit_length(), 16)
             svm = {"PPM_SVM_OPS": ops_define(ops_used(self.prepared.svm, starts)),
                    "PPM_SVM_STACK": stack}
-        if self.prepared.attributes.shape[2]:     # the stride of `attributes`, always exact
+        # room for the mesh attributes: a specialised build's is the scene's stride of
+        # `attributes`; every feature's has room for any scene's (EmitterInfo.n_attributes)
+        if features is not None and self.prepared.attributes.shape[2]:
             svm["PPM_ATTRIBUTES"] = self.prepared.attributes.shape[2]
         return features, {**feature_defines(features, None if editable else
                                             max_closures(self.knodes, self.used_materials)),
@@ -363,7 +385,7 @@ class DeviceScene:
         pos = self.prepared.positions.reshape(-1, 3)
         lo, hi = np.zeros(4, np.float32), np.zeros(4, np.float32)
         if pos.shape[0]:
-            lo[:3], hi[:3] = pos.min(axis=0), pos.max(axis=0)
+            lo[:3], hi[:3] = corner_box(pos)
         return lo, hi
 
     @staticmethod

@@ -24,7 +24,7 @@ class LightTracer:
         if float(scene.camera["aperture_radius"][0]) > 0:
             raise ValueError("light tracing renders through a pinhole: turn depth of field off")
         self.device = dev = get_device(device)
-        self.scene = DeviceScene(dev, scene)
+        self.scene = DeviceScene(dev, scene, specialize)
         # the scene's own features (fastest), or every feature (one build that scenes share:
         # tests, the quick benchmark)
         _, defines = self.scene.kernel_defines(specialize)

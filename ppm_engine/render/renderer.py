@@ -66,7 +66,7 @@ class Renderer:
         self.queue = dev.queue
         t0 = time.perf_counter()
         with dev.lock:
-            self.scene = DeviceScene(dev, scene)
+            self.scene = DeviceScene(dev, scene, options.specialize)
             self.counters = dev.buffer(4 * N_COUNTERS, "counters")
             self._pilot = None      # (settings it depends on, caustic fraction): kept by reset()
             self._start(options, new_pixels=True)

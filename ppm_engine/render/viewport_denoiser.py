@@ -14,7 +14,13 @@ import traceback
 
 import numpy as np
 
-from ppm_engine.render.viewport_frame import Frame, display_image
+from ppm_engine.render.viewport_frame import (
+    DISPLAY_PASSES,
+    IMAGE_PASSES,
+    Frame,
+    display_image,
+    pass_image,
+)
 from ppm_engine.scene.camera import region_fraction
 
 NOT_LOADED = " · Not denoised: Open Image Denoise could not be loaded (console)"
@@ -93,7 +99,32 @@ class ViewportDenoiser:
 
 class FramePublisher:
     """ViewportSession's publishing of a pass's image (its worker's state: the renderer, the
-    options, the lock, the frame and status line; the denoiser)."""
+    options, the lock, the frame and status line; the denoiser), and of the pass it shows."""
+
+    def display_pass(self, name: str) -> None:
+        """Show the pass ``name`` (viewport_frame.DISPLAY_PASSES; the shading popover's Render
+        Pass): the image so far is shown again as that pass, with no restart."""
+        if name not in DISPLAY_PASSES:
+            raise ValueError(f"no display pass {name!r}: one of {', '.join(DISPLAY_PASSES)}")
+        with self._cond:
+            if name != (self._new_display or self._display):
+                self._new_display = name
+                self._cond.notify_all()
+
+    def _show_display(self) -> None:
+        """(The worker, after a take) the display pass chosen since, shown from now on: the
+        image so far again as that pass (after a restart, the next pass's)."""
+        with self._cond:
+            shown, self._new_display = self._new_display, None
+            if shown is not None:
+                self._display = shown
+        try:
+            if shown is not None and self._renderer is not None and self._frame is not None \
+                    and self._renderer.passes_done > 0:
+                self._publish(None)
+        finally:
+            with self._cond:
+                self._applying = False
 
     def _publish(self, stats) -> bool:
         """The renderer's image so far as the new frame, with its status line (``stats`` of
@@ -104,10 +135,13 @@ class FramePublisher:
         holds the passes up nor a view change.  Returns whether the render is done."""
         r, o = self._renderer, self._options
         d = o.denoise
-        denoised = d is not None and self._divider == 1 and r.passes_done >= d.start
+        with self._cond:
+            show = self._display
+        denoised = (d is not None and show == "Combined" and self._divider == 1
+                    and r.passes_done >= d.start)
         with self._device.lock:
             image = r.image()
-            aux = r.passes() if denoised else None
+            aux = r.passes() if denoised or show not in IMAGE_PASSES else None
         elapsed = time.perf_counter() - self._restart_time
         w, h = int(self._camera["width"][0]), int(self._camera["height"][0])
         with self._cond:
@@ -126,13 +160,19 @@ class FramePublisher:
                     self._status_base += " · done"
             post = denoised and (full_done or not self._denoiser.busy)
             note = (f" · Denoising from pass {d.start}" if d is not None and not denoised
-                    and self._divider == 1 else "")
-            if not denoised:
+                    and show == "Combined" and self._divider == 1 else "")
+            if show != "Combined":
+                note += f" · {show}"
+            # the image as rendered, unless it goes to the denoiser (the last image stays up
+            # meanwhile, when it shows the same pass)
+            if not denoised or self._frame is None or self._frame.display != show:
                 if self.first_pass_seconds is None:
                     self.first_pass_seconds = time.perf_counter() - self._t_created
                 gen = self._frame.generation + 1 if self._frame is not None else 1
-                self._frame = Frame(display_image(image), w, h, self._divider, r.passes_done,
-                                    gen, self.restarts, region_fraction(self._camera))
+                self._frame = Frame(display_image(pass_image(show, image, aux)), w, h,
+                                    self._divider, r.passes_done, gen, self.restarts,
+                                    region_fraction(self._camera), show)
+            if not denoised:
                 self._status = self._status_base + note
             else:
                 self._status = self._status_base + self._denoise_note
@@ -148,7 +188,8 @@ class FramePublisher:
         """The denoiser's image (under the lock), shown if the render it belongs to is still
         the one rendering with the same denoising."""
         self._denoise_note = note
-        if job.restart == self.restarts and job.settings == self._options.denoise:
+        if job.restart == self.restarts and job.settings == self._options.denoise \
+                and self._display == "Combined":
             gen = self._frame.generation + 1 if self._frame is not None else 1
             self._frame = Frame(display_image(image), *job.size, 1, job.passes, gen,
                                 job.restart, region_fraction(self._camera))

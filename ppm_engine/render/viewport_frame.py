@@ -19,6 +19,41 @@ def display_image(image: np.ndarray) -> np.ndarray:
     return out
 
 
+# the passes the viewport can show (its shading popover's Render Pass, as Cycles'): Combined
+# (denoised with Viewport Denoise on) and the final render's other passes, by their names
+# there (blender/session.py RENDER_PASSES and NOISY_PASS; Film.aux_passes)
+DISPLAY_PASSES = ("Combined", "Denoising Albedo", "Denoising Normal", "PPM Radius",
+                  "PPM Photons", "Noisy Image")
+# the passes the renderer's image is (the others come from Renderer.passes)
+IMAGE_PASSES = ("Combined", "Noisy Image")
+
+
+def display_pass_id(name: str) -> str:
+    """A display pass's identifier (the Render Pass enum's): its name in capitals, spaces as
+    underscores (as Cycles' DENOISING_ALBEDO)."""
+    return name.upper().replace(" ", "_")
+
+
+def display_pass_named(identifier: str) -> str:
+    """The DISPLAY_PASSES name of an identifier (display_pass_id); Combined for another."""
+    return next((n for n in DISPLAY_PASSES if display_pass_id(n) == identifier), "Combined")
+
+
+def pass_image(name: str, image: np.ndarray, aux: dict | None) -> np.ndarray:
+    """The RGBA (h, w, 4) image the viewport shows for the display pass ``name``: the
+    renderer's ``image`` for Combined and Noisy Image, else the pass of ``aux``
+    (Renderer.passes) as Cycles' viewport shows one: its channels in R, G, B (a value in all
+    three), alpha 1."""
+    if name in IMAGE_PASSES:
+        return image
+    if name not in DISPLAY_PASSES:
+        raise ValueError(f"no display pass {name!r}: one of {', '.join(DISPLAY_PASSES)}")
+    a = np.asarray(aux[name], np.float32)
+    out = np.ones(a.shape[:2] + (4,), np.float32)
+    out[..., :3] = a if a.shape[-1] == 3 else a[..., :1]
+    return out
+
+
 @dataclasses.dataclass(frozen=True)
 class Frame:
     """An image of the viewport: linear RGBA (h, w, 4) float32, row 0 at the bottom, at
@@ -33,6 +68,7 @@ class Frame:
     restart: int           # the restart it belongs to (ViewportSession.restarts)
     # where it goes: fractions (x0, y0, w, h) of the region (a render region: a part of it)
     region: tuple = (0.0, 0.0, 1.0, 1.0)
+    display: str = "Combined"       # the pass it shows (DISPLAY_PASSES)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -91,6 +91,7 @@ class ViewportSession(FramePublisher, ExportHold):
         self._resized_at = 0.0
         self._posted_camera = None          # the last camera posted (update_view compares)
         self._paused = False
+        self._display, self._new_display = "Combined", None   # the pass shown, one chosen
         self._closing = False
         self._version = 0                   # grows with every change of what the viewport shows
         self._applying = False              # the worker took posted changes, not yet applied
@@ -113,6 +114,7 @@ class ViewportSession(FramePublisher, ExportHold):
         self._device_name = None
         self._scene = None             # the scene at full resolution with the view's camera
         self._camera = None
+        self._view_camera = False      # whether _camera is a posted view's (else the scene's)
         self._divider = 1
         self._restart_time = 0.0
         self._dropped = False          # the last pass was dropped unfinished (iterate None)
@@ -215,7 +217,7 @@ class ViewportSession(FramePublisher, ExportHold):
         if not self._thread.is_alive() or self._error is not None or self._closing:
             return False
         return (self._new_scene is not None or self._new_camera is not None
-                or self._new_options is not None or self._applying
+                or self._new_options is not None or self._applying or self._new_display is not None
                 or self._denoiser.busy
                 or (self._scene is not None and not self._idle()))
 
@@ -275,7 +277,7 @@ class ViewportSession(FramePublisher, ExportHold):
         with self._cond:
             while not self._closing:
                 posted = (self._new_scene is not None or self._new_camera is not None
-                          or self._new_options is not None)
+                          or self._new_options is not None or self._new_display is not None)
                 settle = self._resized_at + RESIZE_DEBOUNCE - time.perf_counter()
                 if self._new_camera is not None and settle > 0 and self._frame is not None:
                     self._cond.wait(settle)            # still resizing: keep the last image
@@ -285,7 +287,7 @@ class ViewportSession(FramePublisher, ExportHold):
                 if posted or not (self._idle() or self._renderer is None):
                     taken = (self._new_scene, self._new_camera, self._new_options)
                     self._new_scene = self._new_camera = self._new_options = None
-                    self._applying = any(x is not None for x in taken)
+                    self._applying = any(x is not None for x in (*taken, self._new_display))
                     return taken
                 self._cond.wait()
             return None
@@ -307,6 +309,7 @@ class ViewportSession(FramePublisher, ExportHold):
                     finally:
                         with self._cond:
                             self._applying = False
+                self._show_display()
                 with self._cond:
                     idle = self._idle() or self._closing
                 if self._renderer is not None and not idle:
@@ -372,9 +375,9 @@ class ViewportSession(FramePublisher, ExportHold):
         if options is not None:
             self._options = options
         if camera is not None:
-            self._camera = camera
+            self._camera, self._view_camera = camera, True
         if scene is not None:
-            if self._camera is None:
+            if not self._view_camera:                  # no view posted: the scene's camera
                 self._camera = np.array(scene.camera, copy=True)
             self._scene = scene.replace(camera=self._camera)
         elif camera is not None and self._scene is not None:

@@ -145,12 +145,16 @@ def sun_hint(svm: np.ndarray, program: int, width: int, height: int) -> np.ndarr
 SUN_SUPERSAMPLING = 8      # points per side of a texel near a sun disc
 
 
-def bake(device, args: dict, svm: np.ndarray, program: int, width: int, height: int) -> np.ndarray:
+def bake(device, args: dict, svm: np.ndarray, program: int, width: int, height: int,
+         specialize: bool = True) -> np.ndarray:
     """The world's radiance (h, w, 3) at the map's texel centres (near a sun disc: the mean
     over the texel, sun_hint), evaluated on ``device``; ``args``: the scene's buffers by name
-    (device_scene.SCENE_BUFFERS; the program reads svm and the textures)."""
+    (device_scene.SCENE_BUFFERS; the program reads svm and the textures).  ``specialize``: the
+    program built for the world's own nodes (bake_defines), else for every node (one build
+    that every world shares, as the passes' kernels of every feature)."""
     import pyopencl as cl
-    prog = device.programs.get("light/world_map.cl", bake_defines(svm, program))
+    prog = device.programs.get("light/world_map.cl",
+                               bake_defines(svm, program) if specialize else {})
     kernel = prog.launch("world_bake", "world map")
     n = width * height
     out = device.buffer(16 * n, "world map")

@@ -72,48 +72,140 @@ def material_weights(knodes: np.ndarray, n_materials: int, gather_roughness: flo
     return out
 
 
-def _sphere(corners: np.ndarray) -> tuple[np.ndarray, float]:
-    """A bounding sphere of triangles (k, 3, 3): its box's centre, the farthest corner."""
-    v = corners.reshape(-1, 3)
-    c = 0.5 * (v.min(axis=0) + v.max(axis=0))
-    return c, float(np.sqrt(((v - c) ** 2).sum(axis=1).max()))
+class CasterTree:
+    """caster_spheres' tree of splits over the triangles of weight > 0 (_Corners.split, SPLIT_DEPTH
+    levels) and its cut at some positions: ``result`` (spheres, weights).  A refit (the same
+    triangles moved: DeviceScene.refit) keeps the tree, so the casters follow a moved object
+    without its splits' sorts: each cluster's sphere at the new positions and the cut chosen
+    again by the same rule; refit() says build afresh when the tree got worse than that
+    (REFIT_MAX_COST), as the BVH's refit does."""
+
+    # a refitted tree serves while its leaves' summed r^2 stays within this factor of the
+    # built one's (an object moved across another's clusters stretches them)
+    REFIT_MAX_COST = 1.5
+
+    def __init__(self, corners: np.ndarray, weight: np.ndarray):
+        sel = np.nonzero(weight > 0)[0]
+        # the nodes, depth first: (first, end) of their triangles in ``order`` (each node's a
+        # range: its leaves' in turn), child a, child b (-1: a leaf)
+        self.nodes: list = []
+        leaves: list = []
+        if sel.size:
+            self._grow(_Corners(corners, sel), np.arange(sel.size), SPLIT_DEPTH, leaves, 0)
+        self.sel, self.n_triangles = sel, weight.shape[0]
+        self.order = sel[np.concatenate(leaves)] if leaves else sel
+        self.result, self.leaf_cost = self._cut(corners, weight)
+        self.built_leaf_cost = self.leaf_cost
+
+    def _grow(self, tri, idx: np.ndarray, depth: int, leaves: list, first: int) -> int:
+        k = len(self.nodes)
+        self.nodes.append([first, first + idx.size, -1, -1])
+        if depth > 0 and idx.size >= 2:
+            a, b = tri.split(idx)
+            self.nodes[k][2] = self._grow(tri, a, depth - 1, leaves, first)
+            self.nodes[k][3] = self._grow(tri, b, depth - 1, leaves, first + a.size)
+        else:
+            leaves.append(idx)
+        return k
+
+    def _cut(self, corners: np.ndarray, weight: np.ndarray):
+        """((spheres, weights) of the best cut at these positions, the leaves' summed r^2)"""
+        if not self.nodes:
+            return (np.zeros((0, 4), np.float32), np.zeros(0, np.float32)), 0.0
+        tri = corners[self.order].astype(np.float64)
+        xyz = [np.ascontiguousarray(tri[..., a]) for a in range(3)]      # (T, 3) each
+        w = weight[self.order]
+
+        def sphere(first, end):
+            """A bounding sphere of the triangles first..end: its box's centre, the farthest
+            corner."""
+            v = [a[first:end] for a in xyz]
+            c = 0.5 * (np.array([a.min() for a in v]) + np.array([a.max() for a in v]))
+            x, y, z = (a - c[k] for k, a in enumerate(v))
+            return c, float(np.sqrt((x * x + y * y + z * z).max()))
+        sph = [sphere(first, end) for first, end, _, _ in self.nodes]
+
+        def best(k):
+            """(summed r^2, [nodes]) of the best cut below node k"""
+            (_, r), (_, _, a, b) = sph[k], self.nodes[k]
+            if a < 0:
+                return r * r, [k]
+            (ca, la), (cb, lb) = best(a), best(b)
+            return (ca + cb, la + lb) if ca + cb < SPLIT_GAIN * r * r else (r * r, [k])
+
+        done = best(0)[1]
+        spheres = np.zeros((len(done), 4), np.float32)
+        weights = np.zeros(len(done), np.float32)
+        for j, k in enumerate(done):
+            c, r = sph[k]
+            # a margin for float32 and the ray offsets: a triangle's edge stays inside
+            spheres[j, :3], spheres[j, 3] = c, r * (1.0 + 1e-4) + 1e-6 * (1.0 + np.abs(c).max())
+            weights[j] = w[self.nodes[k][0]:self.nodes[k][1]].max()
+        leaves = sum(sph[k][1] ** 2 for k, (_, _, a, _) in enumerate(self.nodes) if a < 0)
+        return (spheres, weights), float(leaves)
+
+    def refit(self, corners: np.ndarray, weight: np.ndarray) -> CasterTree | None:
+        """This tree's cut for the same triangles at new positions (and weights): a new
+        CasterTree sharing the splits, or None (build afresh) when other triangles have
+        weight > 0 or the leaves' summed r^2 grew past REFIT_MAX_COST x the built tree's."""
+        sel = np.nonzero(weight > 0)[0]
+        if weight.shape[0] != self.n_triangles or not np.array_equal(sel, self.sel):
+            return None
+        out = object.__new__(CasterTree)
+        out.sel, out.order, out.nodes = self.sel, self.order, self.nodes
+        out.n_triangles = self.n_triangles
+        out.built_leaf_cost = self.built_leaf_cost
+        out.result, out.leaf_cost = out._cut(corners, weight)
+        if not out.leaf_cost <= self.REFIT_MAX_COST * self.built_leaf_cost:
+            return None
+        return out
 
 
-def _split(tri: np.ndarray, centroid: np.ndarray, idx: np.ndarray):
-    """Triangles ``idx`` in two, by their centroids along an axis, where the two parts'
-    boxes' diagonals squared, each times its triangles, sum least (every cut along every
-    axis): at the gap between two objects rather than through one."""
-    best = None
-    for axis in range(3):
-        order = idx[np.argsort(centroid[idx, axis], kind="stable")]
-        lo, hi = tri[order].min(axis=1), tri[order].max(axis=1)
-        lo_a, hi_a = np.minimum.accumulate(lo), np.maximum.accumulate(hi)
-        lo_b = np.minimum.accumulate(lo[::-1])[::-1]
-        hi_b = np.maximum.accumulate(hi[::-1])[::-1]
-        n = np.arange(1, order.size)
-        cost = (n * ((hi_a[:-1] - lo_a[:-1]) ** 2).sum(axis=1)
-                + n[::-1] * ((hi_b[1:] - lo_b[1:]) ** 2).sum(axis=1))
-        k = int(np.argmin(cost))
-        if best is None or cost[k] < best[0]:
-            best = (cost[k], order[:k + 1], order[k + 1:])
-    return best[1], best[2]
+class _Corners:
+    """The boxes and centroids of the triangles ``sel`` of ``corners`` in float64, per axis
+    (contiguous: the splits' sorts and scans run along rows)."""
+
+    def __init__(self, corners: np.ndarray, sel: np.ndarray):
+        tri = corners[sel].astype(np.float64)
+        self.lo = np.ascontiguousarray(tri.min(axis=1).T)                   # (3, T)
+        self.hi = np.ascontiguousarray(tri.max(axis=1).T)
+        self.centroid = np.ascontiguousarray(tri.mean(axis=1).T)
+
+    def split(self, idx: np.ndarray):
+        """Triangles ``idx`` in two, by their centroids along an axis, where the two parts'
+        boxes' diagonals squared, each times its triangles, sum least (every cut along every
+        axis): at the gap between two objects rather than through one."""
+        def diagonal2(lo, hi):
+            d = hi - lo
+            return d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        best = None
+        for axis in range(3):
+            order = idx[np.argsort(self.centroid[axis, idx], kind="stable")]
+            lo, hi = self.lo[:, order], self.hi[:, order]
+            lo_a = np.minimum.accumulate(lo, axis=1)
+            hi_a = np.maximum.accumulate(hi, axis=1)
+            lo_b = np.minimum.accumulate(lo[:, ::-1], axis=1)[:, ::-1]
+            hi_b = np.maximum.accumulate(hi[:, ::-1], axis=1)[:, ::-1]
+            n = np.arange(1, order.size)
+            cost = (n * diagonal2(lo_a[:, :-1], hi_a[:, :-1])
+                    + n[::-1] * diagonal2(lo_b[:, 1:], hi_b[:, 1:]))
+            k = int(np.argmin(cost))
+            if best is None or cost[k] < best[0]:
+                best = (cost[k], order[:k + 1], order[k + 1:])
+        return best[1], best[2]
 
 
-# caster_spheres' last results by their input's digest: a scene rendered again (F12 once more,
-# the viewport's restarts, a benchmark's curves) finds its spheres at once (0.55 s for a glass
-# ball of 32K triangles)
+# caster_tree's last trees by their input's digest: a scene rendered again (F12 once more,
+# the viewport's restarts, a benchmark's curves) finds its spheres at once (a build: 0.3-0.4 s
+# for the 100K-triangle ball of bench --viewport's textured scene, its refit 0.02 s)
 _SPHERES: dict = {}
 _SPHERES_KEPT = 4
 _SPHERES_LOCK = threading.Lock()
 
 
-def caster_spheres(corners: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(spheres (k, 4) float32: centre, radius; weights (k,) float32) over the triangles
-    ``corners`` (T, 3, 3) of weight > 0: the cut through their tree of splits (_split,
-    SPLIT_DEPTH levels, so at most MAX_CASTERS spheres) whose spheres' summed r^2 is least, a
-    cluster kept whole unless its parts' come to less than SPLIT_GAIN of its own; each
-    sphere's weight its triangles' largest.  The last few results are kept by the digest of
-    their input."""
+def caster_tree(corners: np.ndarray, weight: np.ndarray) -> CasterTree:
+    """The CasterTree of the triangles ``corners`` (T, 3, 3) of weight > 0 (treat it as
+    read-only); the last few are kept by the digest of their input."""
     c, w = np.ascontiguousarray(corners), np.ascontiguousarray(weight)
     h = hashlib.blake2b(digest_size=16)
     for a in (c, w):
@@ -123,38 +215,22 @@ def caster_spheres(corners: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray,
     with _SPHERES_LOCK:
         hit = _SPHERES.get(key)
     if hit is None:
-        hit = _caster_spheres(c, w)
+        hit = CasterTree(c, w)
         with _SPHERES_LOCK:
             _SPHERES[key] = hit
             while len(_SPHERES) > _SPHERES_KEPT:
                 del _SPHERES[next(iter(_SPHERES))]
-    return hit[0].copy(), hit[1].copy()
+    return hit
 
 
-def _caster_spheres(corners: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    sel = np.nonzero(weight > 0)[0]
-    if not sel.size:
-        return np.zeros((0, 4), np.float32), np.zeros(0, np.float32)
-    tri = corners[sel].astype(np.float64)
-    centroid = tri.mean(axis=1)
-
-    def best(idx, depth):
-        """(summed r^2, [(triangles, centre, radius)]) of the best cut below this cluster"""
-        c, r = _sphere(tri[idx])
-        if depth == 0 or idx.size < 2:
-            return r * r, [(idx, c, r)]
-        a, b = _split(tri, centroid, idx)
-        (ca, la), (cb, lb) = best(a, depth - 1), best(b, depth - 1)
-        return (ca + cb, la + lb) if ca + cb < SPLIT_GAIN * r * r else (r * r, [(idx, c, r)])
-
-    done = best(np.arange(sel.size), SPLIT_DEPTH)[1]
-    spheres = np.zeros((len(done), 4), np.float32)
-    weights = np.zeros(len(done), np.float32)
-    for k, (idx, c, r) in enumerate(done):
-        # a margin for float32 and the ray offsets: a triangle's edge stays inside
-        spheres[k, :3], spheres[k, 3] = c, r * (1.0 + 1e-4) + 1e-6 * (1.0 + np.abs(c).max())
-        weights[k] = weight[sel[idx]].max()
-    return spheres, weights
+def caster_spheres(corners: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(spheres (k, 4) float32: centre, radius; weights (k,) float32) over the triangles
+    ``corners`` (T, 3, 3) of weight > 0: the cut through their tree of splits (_Corners.split,
+    SPLIT_DEPTH levels, so at most MAX_CASTERS spheres) whose spheres' summed r^2 is least, a
+    cluster kept whole unless its parts' come to less than SPLIT_GAIN of its own; each
+    sphere's weight its triangles' largest (CasterTree)."""
+    spheres, weights = caster_tree(corners, weight).result
+    return spheres.copy(), weights.copy()
 
 
 def _solid_angle(dist: np.ndarray, radius: np.ndarray) -> np.ndarray:

@@ -28,6 +28,7 @@ from ppm_engine.scene.light_tree import (
     emitter_bounds,
 )
 from ppm_engine.scene.materials import mean_emission
+from ppm_engine.scene.prep import corner_box
 
 # the emitter table's header (kernels/shared.h EmitterInfo)
 EMITTER_INFO_DTYPE = np.dtype([
@@ -67,6 +68,9 @@ EMITTER_INFO_DTYPE = np.dtype([
     # DeviceScene.upload: with none, no ray looks for the media holding a camera or a light
     # (kernels/integrator/shadow_rays.h media_at)
     ("n_media", np.int32),
+    # the mesh attributes per triangle corner in the scene buffer `attributes` (its stride, set
+    # by DeviceScene.upload; kernels/svm/svm_context.h reads them up to PPM_ATTRIBUTES)
+    ("n_attributes", np.int32),
 ])
 
 # at most this many emissive triangles are picked among locally (kernels/light/light_mesh.h
@@ -194,10 +198,11 @@ def local_share(em: Emitters, p, n) -> float:
 def scene_bounds(positions: np.ndarray) -> tuple[np.ndarray, float]:
     """Centre and radius of a sphere around every finite triangle corner."""
     p = positions.reshape(-1, 3)
-    p = p[np.isfinite(p).all(axis=1)]
+    if not np.isfinite(p).all():
+        p = p[np.isfinite(p).all(axis=1)]
     if p.shape[0] == 0:
         return np.zeros(3, np.float32), 1.0
-    lo, hi = p.min(axis=0).astype(np.float64), p.max(axis=0).astype(np.float64)
+    lo, hi = (a.astype(np.float64) for a in corner_box(p))
     c = 0.5 * (lo + hi)
     r = 0.5 * float(np.linalg.norm(hi - lo))
     return c.astype(np.float32), max(r * 1.01, 1e-6 * max(1.0, float(np.abs(c).max())), 1e-30)

@@ -40,6 +40,17 @@ def check_finite(scene: SceneArrays) -> None:
         raise SceneError("the world colour has NaN or infinite values: fix its strength or colour")
 
 
+def corner_box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) of the rows of ``points`` (..., 3), in its dtype: the minimum and maximum of
+    each coordinate, reduced column by column (NumPy's min(axis=0) over rows of three is ~10x
+    slower: 8 ms for a 100K-triangle mesh's corners).  Empty: (+inf, -inf)."""
+    p = points.reshape(-1, 3)
+    if not p.shape[0]:
+        return np.full(3, np.inf, p.dtype), np.full(3, -np.inf, p.dtype)
+    return (np.array([p[:, k].min() for k in range(3)], p.dtype),
+            np.array([p[:, k].max() for k in range(3)], p.dtype))
+
+
 def finite_triangles(positions: np.ndarray, owner: str = "") -> tuple[np.ndarray | None, str]:
     """Triangles (n, 3, 3) whose corners are all finite: (mask, warning), or (None, "") when all
     are.  Both the exporter (per object, naming it as ``owner``) and prepare_scene (any scene)
@@ -96,12 +107,13 @@ def prepare_scene(scene: SceneArrays) -> tuple[SceneArrays, list[str]]:
     if not ok.all():
         warnings.append(f"{int((~ok).sum())} lights with NaN or infinite values were skipped")
         changes["lights"] = lights = lights[ok]
-    pos = changes.get("positions", scene.positions).reshape(-1, 3).astype(np.float64)
+    pos = changes.get("positions", scene.positions).reshape(-1, 3)
     if pos.shape[0]:
-        lo, hi = pos.min(axis=0), pos.max(axis=0)
+        lo, hi = (a.astype(np.float64) for a in corner_box(pos))
         centre = np.float32(0.5 * (lo + hi)).astype(np.float64)
         if np.abs(centre).max() > 4 * max(float((hi - lo).max()), 1e-30):
-            changes["positions"] = (pos - centre).astype(np.float32).reshape(-1, 3, 3)
+            changes["positions"] = (pos.astype(np.float64) - centre).astype(
+                np.float32).reshape(-1, 3, 3)
             lights = lights.copy()
             lights["position"] = lights["position"].astype(np.float64) - centre
             cam = scene.camera.copy()
@@ -116,7 +128,8 @@ def offset_scale(scene: SceneArrays) -> float:
     pos = scene.positions.reshape(-1, 3)
     if pos.shape[0] == 0:
         return 1.0
-    extent = float((pos.max(axis=0).astype(np.float64) - pos.min(axis=0)).max())
+    lo, hi = corner_box(pos)
+    extent = float((hi.astype(np.float64) - lo).max())
     if not (extent > 0 and np.isfinite(extent)):
         return 1.0
     return float(2.0 ** int(np.clip(np.round(np.log2(extent / 2)), -60, 60)))

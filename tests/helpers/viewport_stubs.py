@@ -108,10 +108,13 @@ def scene_stub(paused=False):
     return types.SimpleNamespace(ppm=types.SimpleNamespace(viewport_pause=paused), render=render)
 
 
-def context_stub(rv3d=None, width=W, height=H, ui_pixel_size=1.0):
+def context_stub(rv3d=None, width=W, height=H, ui_pixel_size=1.0, render_pass=None):
+    """A context of a fake region; with ``render_pass`` its 3D view's (shading.ppm's)."""
+    shading = types.SimpleNamespace(ppm=types.SimpleNamespace(render_pass=render_pass))
     return types.SimpleNamespace(
         region=types.SimpleNamespace(width=width, height=height), region_data=rv3d,
-        preferences=types.SimpleNamespace(system=types.SimpleNamespace(pixel_size=ui_pixel_size)))
+        preferences=types.SimpleNamespace(system=types.SimpleNamespace(pixel_size=ui_pixel_size)),
+        space_data=types.SimpleNamespace(shading=shading) if render_pass else None)
 
 
 def loop(driver, engine, context, depsgraph, timers, turns=20):
@@ -187,6 +190,13 @@ class FakeRenderer:
         img = np.full((self.height, self.width, 4), 0.5, np.float32)
         img[..., 0] = value
         return img
+
+    def passes(self):
+        """The other passes (Renderer.passes), each one value."""
+        values = {"Denoising Albedo": (0.25, 0.5, 0.75), "Denoising Normal": (0.0, -0.6, 0.8),
+                  "PPM Radius": (0.125,), "PPM Photons": (7.0,)}
+        return {name: np.full((self.height, self.width, len(v)), v, np.float32)
+                for name, v in values.items()}
 
     def close(self):
         pass

@@ -61,6 +61,25 @@ class Warnings(list):
             self.engine.report({'WARNING'}, msg)
 
 
+# geometry that has no surface of triangles, which this engine does not render yet (Cycles
+# renders each): said per object (docs/USAGE.md, "What is not rendered")
+NOT_RENDERED = {
+    'VOLUME': "a Volume object (OpenVDB grids) is not rendered yet; a mesh whose material has a "
+              "Volume output is (docs/VOLUMES.md)",
+    'CURVES': "hair curves are not rendered yet (convert them to a mesh: Curves to Mesh)",
+    'POINTCLOUD': "a point cloud is not rendered yet (instance a mesh on its points)",
+}
+
+
+def warn_particle_hair(obj, warn) -> None:
+    """A warning per hair particle system of ``obj`` shown as strands (not rendered yet)."""
+    for ps in getattr(obj, "particle_systems", ()):
+        st = ps.settings
+        if st.type == 'HAIR' and st.render_type == 'PATH':
+            warn(f"Object '{obj.name}': the hair particles '{ps.name}' are not rendered yet "
+                 "(Render As Object or Collection instances are)")
+
+
 def in_view(inst, view) -> bool:
     """Whether the object instance ``inst`` shows in the 3D view ``view`` (SpaceView3D)."""
     owner = inst.parent if inst.is_instance and inst.parent is not None else inst.object
@@ -90,6 +109,9 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
     Raises SceneError when the scene cannot be rendered (no/invalid camera, empty border)."""
     scene = depsgraph.scene
     warn = Warnings(engine)
+    if scene.render.use_motion_blur and view is None:     # (no viewport has motion blur)
+        warn("Motion blur (Render Properties > Motion Blur) is not rendered yet: each frame "
+             "renders at its own time")
     textures = TextureTable(warn, decoded=images)
     materials = MaterialTable(warn, textures)
     if camera is None:
@@ -134,7 +156,11 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
                 warn(f"Object '{obj.name}': adaptive subdivision renders at the modifier's "
                      "render levels here (Cycles dices it per pixel)")
             mesh = meshes.get(obj)
+            if kind == 'MESH':
+                warn_particle_hair(obj, warn)
             if mesh is None or mesh.n_triangles == 0:
+                if kind in NOT_RENDERED:        # no surface to render: said, not dropped silently
+                    warn(f"Object '{obj.name}': {NOT_RENDERED[kind]}")
                 continue
             slots = materials.slot_map(obj)
             mapped = materials.reads(slots, PROGRAM_TANGENTS)
@@ -147,7 +173,8 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
                      mapped=mapped, gen=gen, reads_attrs=reads_attrs):
                 attrs = (meshes.attributes(obj, materials.attributes) if reads_attrs
                          else None)
-                return transform_part(mesh, m, slots, vis, obj.name, warn, tangents=aniso,
+                # meshes.warn: what it warns is kept with the part (said by every export)
+                return transform_part(mesh, m, slots, vis, obj.name, meshes.warn, tangents=aniso,
                                       uv_tangents=meshes.uv_tangents(obj) if mapped else None,
                                       generated=gen, attributes=attrs, terminator=term)
             # the world-space part: kept across exports with the mesh (a value edit moves

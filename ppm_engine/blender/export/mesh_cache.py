@@ -17,10 +17,15 @@ class MeshCache:
     geometry does not change; ``forget`` drops the entries of objects or data whose geometry
     the depsgraph says changed, ``begin``/``prune`` drop the entries an export did not use
     (deleted objects, old evaluated meshes).  A hit is also checked against the data's name
-    and sizes (an evaluated mesh freed and another allocated at its address)."""
+    and sizes (an evaluated mesh freed and another allocated at its address).
+
+    What reading an entry warned (NaN vertices, a normal map without UVs, an attribute not
+    read) is kept with it and said again, through ``warn`` (the current export's Warnings,
+    which says each once), by every export that uses it."""
 
     def __init__(self, warn):
         self.warn = warn
+        self._warned: dict = {}         # (table, key) -> what making that entry warned
         self.reads = 0                  # meshes read (not served from the cache)
         self._cache: dict = {}
         self._tangents: dict = {}
@@ -38,9 +43,34 @@ class MeshCache:
         (as long as the geometry is kept).  Treat it as read-only."""
         key = (self._key(obj),) + placement
         self._used_parts.add(key)
-        if key not in self._parts:
-            self._parts[key] = make()
-        return self._parts[key]
+        return self._made("parts", self._parts, key, make)
+
+    def _made(self, name: str, table: dict, key, make):
+        """``table[key]``, made by ``make()`` if missing, with what it warned kept (``warn``
+        while it runs records it); on a hit the kept warnings are said again."""
+        if key in table:
+            for msg in self._warned.get((name, key), ()):
+                self._say(msg)
+            return table[key]
+        said, outer = [], self.warn
+
+        def record(msg: str) -> None:
+            if msg not in said:
+                said.append(msg)
+            if outer is not None:
+                outer(msg)
+        self.warn = record
+        try:
+            table[key] = make()
+        finally:
+            self.warn = outer
+        if said:
+            self._warned[(name, key)] = said
+        return table[key]
+
+    def _say(self, msg: str) -> None:
+        if self.warn is not None:
+            self.warn(msg)
 
     def concatenated(self, key):
         """The arrays kept by keep_concatenated for ``key`` (the parts, by identity, and
@@ -91,6 +121,9 @@ class MeshCache:
             del self._attributes[k]
         for k in [k for k in self._parts if k[0] in keys]:
             del self._parts[k]
+        for name, k in list(self._warned):
+            if (k if name in ("mesh", "tangents") else k[0]) in keys:
+                del self._warned[(name, k)]
         if keys:
             self._cat = None
 
@@ -109,6 +142,7 @@ class MeshCache:
         self._drop(set(self._sig) - self._used)
         for k in set(self._parts) - self._used_parts:
             del self._parts[k]
+            self._warned.pop(("parts", k), None)
 
     @staticmethod
     def _direct(obj) -> bool:
@@ -144,12 +178,10 @@ class MeshCache:
 
     def uv_tangents(self, obj) -> np.ndarray:
         """read_uv_tangents of an object's geometry (once per datablock)."""
-        key = self._key(obj)
-        if key not in self._tangents:
-            name = obj.data.name if obj.data is not None else obj.name
-            self._tangents[key] = _mesh.read_uv_tangents(self.get(obj), name, self.warn,
-                                                   lambda: self._mesh(obj, copy=True))
-        return self._tangents[key]
+        name = obj.data.name if obj.data is not None else obj.name
+        return self._made("tangents", self._tangents, self._key(obj),
+                          lambda: _mesh.read_uv_tangents(self.get(obj), name, self.warn,
+                                                         lambda: self._mesh(obj, copy=True)))
 
     def attributes(self, obj, names: list) -> np.ndarray | None:
         """read_attributes of a mesh object's data for these names; None for other geometry
@@ -157,25 +189,27 @@ class MeshCache:
         if obj.type != 'MESH':
             self.warn(f"Object '{obj.name}' is not a mesh: its attributes are not read (0)")
             return None
-        key = (self._key(obj), tuple(names))
-        if key not in self._attributes:                # once per datablock, not per instance
+        def read():
             local = self.get(obj)
             with self._mesh(obj) as mesh:
-                self._attributes[key] = (_mesh.read_attributes(mesh, local, list(names), self.warn)
-                                         if mesh is not None else None)
-        return self._attributes[key]
+                return (_mesh.read_attributes(mesh, local, list(names), self.warn)
+                        if mesh is not None else None)
+        # once per datablock, not per instance
+        return self._made("attributes", self._attributes, (self._key(obj), tuple(names)), read)
 
     def get(self, obj) -> _mesh.LocalMesh:
         key = self._key(obj)
         self._check(obj, key)
-        if key not in self._cache:
+
+        def read():
             self.reads += 1
             with self._mesh(obj) as mesh:
-                self._cache[key] = _mesh.read_mesh(mesh) if mesh is not None else _mesh.EMPTY
-        return self._cache[key]
+                return _mesh.read_mesh(mesh) if mesh is not None else _mesh.EMPTY
+        return self._made("mesh", self._cache, key, read)
 
     def clear(self):
         self._cache.clear()
+        self._warned.clear()
         self._tangents.clear()
         self._attributes.clear()
         self._sig.clear()

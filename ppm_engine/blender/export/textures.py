@@ -129,7 +129,7 @@ class TextureTable:
         tile = (tile or 1001) if image.source == "TILED" else 0
         key = (image.name_full, tile, flags)
         if key not in self._index:
-            texels, srgb, (w, h) = self._decoded(image, tile, material)
+            texels, srgb, (w, h), opaque = self._decoded(image, tile, material)
             if texels is None:
                 self._index[key] = 0
                 return 0, MISSING
@@ -139,22 +139,34 @@ class TextureTable:
             row["offset"], row["width"], row["height"], row["flags"] = self.count, w, h, flags
             self.rows.append(row)
             self.texels.append(texels)
-            self.opaque.append(bool((texels[:, 3] >= 1.0).all()))
+            self.opaque.append(opaque)
             self.count += texels.shape[0]
             self._index[key] = len(self.rows)
         tex = self._index[key]
         return (tex, None) if tex else (0, MISSING)
 
     def _decoded(self, image, tile: int, material: str):
-        """_read or _read_tile, from ``decoded`` where this image was read before (an image
-        that could not be read is read again: its warning is this export's)."""
+        """_read or _read_tile, and whether every alpha is 1: (texels, srgb, (w, h), opaque);
+        from ``decoded`` where this image was read before, with what reading it warned said
+        again (an image that could not be read is read again: its warning is this export's)."""
         key = (image.name_full, tile)
         if self.decoded is not None and key in self.decoded:
-            return self.decoded[key]
+            *got, said = self.decoded[key]
+            for msg in said:
+                self.warn(msg)
+            return tuple(got)
         self.reads += 1
-        got = self._read_tile(image, tile, material) if tile else self._read(image, material)
-        if self.decoded is not None and got[0] is not None:
-            self.decoded[key] = got
+        said, warn = [], self.warn
+        self.warn = lambda msg: said.append(msg) or warn(msg)
+        try:
+            got = self._read_tile(image, tile, material) if tile else self._read(image, material)
+        finally:
+            self.warn = warn
+        if got[0] is None:
+            return (*got, False)
+        got = (*got, bool((got[0][:, 3] >= 1.0).all()))
+        if self.decoded is not None:
+            self.decoded[key] = (*got, tuple(said))
         return got
 
     def tiles(self, node, material: str) -> list[tuple[int, int]]:
@@ -241,4 +253,5 @@ class TextureTable:
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if not self.rows:
             return np.zeros(0, TEXTURE_DTYPE), np.zeros((0, 4), np.float16)
-        return np.concatenate(self.rows), np.concatenate(self.texels)
+        texels = self.texels[0] if len(self.texels) == 1 else np.concatenate(self.texels)
+        return np.concatenate(self.rows), texels          # (one image: its decoded array)

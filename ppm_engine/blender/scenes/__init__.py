@@ -30,6 +30,7 @@ EXAMPLES = {
     "point_caustic": caustics.point_caustic,     # the hard one: a radius-0 point light
     "rough_caustic": caustics.rough_caustic,     # the same through rough glass
     "far_caustic": caustics.far_caustic,         # a bigger ball, the light 3.5 m away
+    "lifted_caustic": caustics.lifted_caustic,   # far_caustic's ball off the floor
     "mirror_caustic": caustics.mirror_caustic,
     "clamped_caustic": caustics.clamped_caustic,  # a metal ball's caustic under a clamp
     "pool_caustic": pool.build,                  # the sun's caustic seen through water

@@ -42,6 +42,25 @@ def global_size(n: int, wg: int = WORK_GROUP) -> int:
     return max(wg, (n + wg - 1) // wg * wg)
 
 
+# PoCL compiles a kernel twice more: for grids whose every dimension is under 65,536 items (its
+# "small grid" specialisation) and for larger ones; a scene's small launches (a preview, the
+# viewport's first reduced images, a test's tiny image) and large ones (the full image, 65,536
+# photons) compiled each kernel twice.  So a launch of that many items or more runs as rows of
+# at most GRID_ROW items (a 2D grid, kernels/builtins.h WORK_ITEM): every launch is a small
+# grid, one binary per kernel.  (Any OpenCL device takes 2D grids; GPUs' rows stay whole.)
+SMALL_GRID = 1 << 16
+
+
+def grid(n: int, wg: int = WORK_GROUP) -> tuple[tuple, tuple]:
+    """(global size, local size) of a launch of ``n`` work-items in groups of ``wg``: one row
+    under SMALL_GRID items, else rows of the most whole groups under it."""
+    g = global_size(n, wg)
+    if g < SMALL_GRID:
+        return (g,), (wg,)
+    row = (SMALL_GRID - 1) // wg * wg
+    return (row, -(-g // row)), (wg, 1)
+
+
 def in_pieces(launch, n: int, piece: int, interrupt, label: str) -> list | None:
     """``launch(count, start)`` (an event) over ``n`` work items: in one launch, not waited
     for, without ``interrupt`` or below two pieces of ``piece`` items; else over ``n //
@@ -87,9 +106,15 @@ class Launch:
                             f"unknown {unknown}")
         self.kernel.set_args(*(args[k] for k in self.names))
         local = local or WORK_GROUP
-        return cl.enqueue_nd_range_kernel(queue, self.kernel, (global_size(size, local),),
-                                          (local,), wait_for=wait_for,
-                                          global_work_offset=(offset,) if offset else None)
+        if offset:       # (pieces, kernels/builtins.h WORK_ITEM: one row from the offset)
+            if global_size(size, local) >= SMALL_GRID:
+                raise ValueError(f"kernel {self.kernel.function_name}: a launch from an "
+                                 f"offset takes under {SMALL_GRID} items")
+            return cl.enqueue_nd_range_kernel(queue, self.kernel, (global_size(size, local),),
+                                              (local,), wait_for=wait_for,
+                                              global_work_offset=(offset,))
+        glob, loc = grid(size, local)
+        return cl.enqueue_nd_range_kernel(queue, self.kernel, glob, loc, wait_for=wait_for)
 
 
 class Program:

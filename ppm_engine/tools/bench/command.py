@@ -100,7 +100,8 @@ def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentP
                    "micro.json, phases.json ...)")
     b.add_argument("--plot", metavar="PATH", help="plot (default OUT/bench/error_vs_time.png)")
     b.add_argument("--markdown", metavar="PATH", help="markdown file whose <!-- bench:NAME --> "
-                   "block gets the tables (default OUT/BENCHMARKS.md)")
+                   "block gets the tables (default OUT/BENCHMARKS.md; the "
+                   "error-against-time run's: OUT/bench/full_run.md)")
     return b
 
 
@@ -237,7 +238,7 @@ def run(args, cmdline: str, progress=print) -> int:
         d = shader.run_shader(args.shader, args.resolution or (32 if args.quick else 128),
                               passes=2 if args.quick else args.passes,
                               warmup=1 if args.quick else 2, device=args.device,
-                              progress=progress)
+                              progress=progress, specialize=not args.quick)
         return publish("shader", d, shader.format_shader(d))
     if args.phases:
         res = args.resolution or (32 if args.quick else 256)
@@ -276,6 +277,11 @@ def run(args, cmdline: str, progress=print) -> int:
     return _write_curves(result, cmdline, args, out, md_path, progress)
 
 
+FULL_RUN_HEAD = ("# The benchmark's full run\n\nEvery table of the last error-against-time run, "
+                 "written by `python -m ppm_engine bench` (the summary: "
+                 "[BENCHMARKS.md](../BENCHMARKS.md)).\n\n")
+
+
 def _write_curves(result: dict, cmdline: str, args, out: Path, md_path: Path, progress,
                   json_out: bool = True) -> int:
     """The run's JSON, plot and markdown tables (the block starts with the command that
@@ -296,6 +302,13 @@ def _write_curves(result: dict, cmdline: str, args, out: Path, md_path: Path, pr
             f"Light trees (next-event estimation among many emitters):\n\n"
             f"{report.light_tree_table(result)}")
     print(text)
+    # the full run's tables go to their own page (bench/full_run.md) unless --markdown names a
+    # file: BENCHMARKS.md keeps the summary and links there
+    if not args.markdown:
+        md_path = out / "bench" / "full_run.md"
+        if not md_path.is_file():
+            md_path.parent.mkdir(parents=True, exist_ok=True)
+            md_path.write_text(FULL_RUN_HEAD)
     report.replace_block(md_path, "curves", text)
     written = f"{json_path}, " if json_out else ""
     progress(f"wrote {written}{plot_path}, {md_path} (the run took {result['total_s']:.0f} s)")

@@ -130,18 +130,18 @@ from ppm_engine.tools.bench.scoring import (
 DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
 SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
-          "rough_caustic", "far_caustic", "mirror_caustic", "pool_caustic", "many_lights",
-          "hdri_sun", "glossy_metal", "clamped_caustic", "sun_cone", "fog_lens")
+          "rough_caustic", "far_caustic", "lifted_caustic", "mirror_caustic", "pool_caustic",
+          "many_lights", "hdri_sun", "glossy_metal", "clamped_caustic", "sun_cone", "fog_lens")
 # the caustics of mirrors and glass: Cycles + MNEE is measured too
 CAUSTIC_SCENES = ("glass_caustic", "point_caustic", "rough_caustic", "far_caustic",
-                  "mirror_caustic", "pool_caustic")
+                  "lifted_caustic", "mirror_caustic", "pool_caustic")
 # scenes whose light photons carry (caustics, a bulb in glass, a metal ball's glossy caustic):
 # the merge alone is measured too
 MERGE_SCENES = (*CAUSTIC_SCENES, "bulb_box", "clamped_caustic")
 # reference engine per scene (see the module docstring)
 REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": "LUXCORE_LIGHT",
                     "glass_caustic": "LIGHT_TRACE", "point_caustic": "EXACT",
-                    "rough_caustic": "EXACT", "far_caustic": "EXACT",
+                    "rough_caustic": "EXACT", "far_caustic": "EXACT", "lifted_caustic": "EXACT",
                     "mirror_caustic": "LUXCORE_LIGHT", "pool_caustic": "EXACT_POOL",
                     "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES",
                     "clamped_caustic": "CYCLES", "sun_cone": "CYCLES", "fog_lens": "EXACT_FOG"}
@@ -154,7 +154,7 @@ REF_SEEDS = (1001, 2002)
 # and far_caustic, whose big ball's camera chains took most of 2 x 32 s (noise 0.027, ours 0.033),
 # and clamped_caustic, whose wall Cycles' clamped samples reach rarely
 REF_TIME_FACTOR = {"LUXCORE_LIGHT": 4.0, "EXACT_POOL": 4.0, "glossy_metal": 4.0, "far_caustic": 4.0,
-                   "clamped_caustic": 4.0}
+                   "lifted_caustic": 4.0, "clamped_caustic": 4.0}
 EQUAL_TIME = 16.0
 # scenes with LuxCore's bidirectional path tracer as a curve (issue 15: the point light's caustic
 # in a mirror, which no Cycles estimator samples; its target: scoring.TARGETS_LUXCORE)

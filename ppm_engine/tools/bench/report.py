@@ -179,7 +179,7 @@ def light_tree_table(result: dict) -> str:
         if t:
             lines.append(f"| {name} | {t['emitters']} | {t['nodes']} | {t['bytes']} | "
                          f"{t['build_s']:.4f} | {t['share']:.3f} |")
-    return "\n".join(lines)
+    return "\n".join(lines) if len(lines) > 2 else "(no scene of this run has a light tree)"
 
 
 def ratio_table(result: dict) -> str:

@@ -15,6 +15,7 @@ from ppm_engine.blender.scenes.caustics import (
     CLAMP,
     FAR_BALL,
     FAR_POS,
+    LIFTED_BALL,
     LIGHT_RADIUS,
     POINT_POS,
     mirror_corners,
@@ -81,6 +82,15 @@ CAUSTIC_MASKS["far_caustic"] = {
     "radius": 0.5, "occluders": [FAR_BALL],
     "note": "floor within 0.5 m of where the ray from the point light through the ball centre "
             "meets the floor, not hidden by the ball"}
+# lifted_caustic: the floor within 0.7 m of where the ray from the light through the lifted
+# ball's centre meets it (x = 1.06; the disc past the focus is wider than far_caustic's)
+_lifted_axis = np.subtract(LIFTED_BALL[0], FAR_POS)
+CAUSTIC_MASKS["lifted_caustic"] = {
+    "kind": "disk",
+    "center": tuple(np.add(FAR_POS, -FAR_POS[2] / _lifted_axis[2] * _lifted_axis)),
+    "radius": 0.7, "occluders": [LIFTED_BALL],
+    "note": "floor within 0.7 m of where the ray from the point light through the ball centre "
+            "meets the floor, not hidden by the ball"}
 CAUSTIC_MASKS["mirror_caustic"]["corners"] = mirror_corners().tolist()
 CAUSTIC_MASKS["mirror_caustic"]["light_image"] = mirror_image(POINT_POS).tolist()
 
@@ -90,6 +100,7 @@ MNEE_OBJECTS = {
     "point_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
     "rough_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
     "far_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
+    "lifted_caustic": (["GlassBall"], ["Floor", "Back"], ["Point"]),
     "mirror_caustic": (["Mirror"], ["Floor", "Back"], ["Point"]),
     "pool_caustic": (["Water"], ["Floor"], ["Sun"]),
 }

@@ -41,7 +41,11 @@ def drive_base_colors(bpy) -> int:
 
 
 def run_shader(scene_name: str, resolution: int = 128, passes: int = 8, warmup: int = 2,
-               device: str = "", progress=print) -> dict:
+               device: str = "", progress=print, specialize: bool = True) -> dict:
+    """The scene with constant Base Colors against the same colours from shader programs,
+    passes interleaved.  ``specialize``: each with its own kernels (what the figures are
+    about: a plain material builds no interpreter); off for --quick, which checks the tooling
+    and the image with the kernels of every feature that other renders share."""
     import bpy
 
     from ppm_engine.blender.export import export_scene
@@ -55,7 +59,7 @@ def run_shader(scene_name: str, resolution: int = 128, passes: int = 8, warmup: 
     changed = drive_base_colors(bpy)
     driven = export_scene(bpy.context.evaluated_depsgraph_get())
     # the paper's passes (every phase has hits to shade: eye, photons, gather)
-    opts = RenderOptions(device=device, seed=7, indirect="photons")
+    opts = RenderOptions(device=device, seed=7, indirect="photons", specialize=specialize)
     renderers = {"constant": Renderer(plain, opts), "program": Renderer(driven, opts)}
     progress(f"shader: {scene_name} {resolution}x{resolution}, {changed} materials driven, "
              f"{renderers['program'].photons_per_pass} photons per pass, {warmup} warm-up + "

@@ -88,7 +88,9 @@ def textured_edits(size, moves: int, device: str, rng, progress=print) -> dict:
                                        0.2 if k % 2 else 0.6),
         "light": lambda k: setattr(light.data, "energy", light.data.energy * (1.1 if k % 2
                                                                               else 1 / 1.1)),
-        "transform": lambda k: setattr(ball, "location", (0.05 * (k % 2), 0.0, 0.3)),
+        # a new place at every move, as a drag (a place seen before may find its casters'
+        # spheres kept: casters.caster_tree)
+        "transform": lambda k: setattr(ball, "location", (ball.location.x + 0.02, 0.0, 0.3)),
         "lens": lambda k: setattr(scene.camera.data, "lens",
                                   scene.camera.data.lens * (1.02 if k % 2 else 1 / 1.02)),
     }
