@@ -132,9 +132,10 @@
 /* the gather's region and cells (ppm_engine/render/passes/gather.py) */
 #define MAX_CELLS_PER_AXIS 5
 
-/* the camera's segments in media kept per pixel for the volume photons
- * (ppm_engine/render/passes/volume.py) */
+/* the camera's segments in media kept per pixel for the volume photons, the bits of their
+ * gather's marks (ppm_engine/render/passes/volume.py) */
 #define VOLUME_SEGMENTS 2
+#define VOLUME_MARK_BITS 1048576
 
 /* photon guides' bins, floats per light, lights (ppm_engine/scene/guide.py) */
 #define GUIDE_ROWS 16

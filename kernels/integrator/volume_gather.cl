@@ -12,8 +12,8 @@
  * and from the cell R its projection on the segment lies in, so it is counted once: the entry's
  * photon stands for the entry's n photons (flux x n) as in the surfaces' gather (gather.cl),
  * an unbiased estimate of the sum over them.  Most cells of a segment hold no photon near it:
- * a bit per block of VOLUME_BLOCK^3 cells (hashed), set by every photon within r of the block
- * (volume_mark), lets the walk skip them with one read. */
+ * a bit per block of 4^3 cells (VOLUME_BLOCK_SHIFT; hashed into VOLUME_MARK_BITS bits), set
+ * by every photon within r of the block (volume_mark), lets the walk skip them with one read. */
 #include "builtins.h"
 #include "scene.h"
 #include "integrator/hash.h"
@@ -25,13 +25,13 @@
 
 /* the most cells a segment walks (a longer one is cut there) */
 #define VOLUME_WALK_MAX 4096
-/* a block of the marks: 2^VOLUME_BLOCK_SHIFT cells per axis; the marks' bits (a power of two) */
+/* a block of the marks: 2^VOLUME_BLOCK_SHIFT cells per axis (the marks' bits: VOLUME_MARK_BITS,
+ * passes/volume.py) */
 #define VOLUME_BLOCK_SHIFT 2
-#define VOLUME_MARK_BITS (1u << 20)
 
-/* whether block bit b of the marks is set */
+/* whether the block of cell `cell` is marked */
 inline bool volume_marked(__global const uint *marks, long3 cell) {
-    uint b = cell_hash(cell >> VOLUME_BLOCK_SHIFT, VOLUME_MARK_BITS - 1u);
+    uint b = cell_hash(cell >> VOLUME_BLOCK_SHIFT, (uint)(VOLUME_MARK_BITS - 1));
     return (marks[b >> 5] & (1u << (b & 31u))) != 0u;
 }
 
@@ -49,7 +49,7 @@ __kernel void volume_mark(__global const float4 *ph_pos, __global const uint *co
     for (long z = lo.z; z <= hi.z; z++)
         for (long y = lo.y; y <= hi.y; y++)
             for (long x = lo.x; x <= hi.x; x++) {
-                uint b = cell_hash((long3)(x, y, z), VOLUME_MARK_BITS - 1u);
+                uint b = cell_hash((long3)(x, y, z), (uint)(VOLUME_MARK_BITS - 1));
                 atomic_or(&marks[b >> 5], 1u << (b & 31u));
             }
 }

@@ -182,9 +182,10 @@ def generate() -> str:
                     _prefixed("KIND_", st.KINDS)),
             _family("the gather's region and cells (ppm_engine/render/passes/gather.py)",
                     [("MAX_CELLS_PER_AXIS", gather.MAX_CELLS_PER_AXIS)]),
-            _family("the camera's segments in media kept per pixel for the volume photons "
-                    "(ppm_engine/render/passes/volume.py)",
-                    [("VOLUME_SEGMENTS", volume.VOLUME_SEGMENTS)]),
+            _family("the camera's segments in media kept per pixel for the volume photons, the "
+                    "bits of their gather's marks (ppm_engine/render/passes/volume.py)",
+                    [("VOLUME_SEGMENTS", volume.VOLUME_SEGMENTS),
+                     ("VOLUME_MARK_BITS", volume.VOLUME_MARK_BITS)]),
             _family("photon guides' bins, floats per light, lights (ppm_engine/scene/guide.py)",
                     [(k, getattr(guide, k)) for k in ("GUIDE_ROWS", "GUIDE_COLS", "GUIDE_BINS",
                                                       "GUIDE_STRIDE", "MAX_GUIDED")]),

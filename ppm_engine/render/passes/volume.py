@@ -43,8 +43,13 @@ def initial_radius(scene, options) -> float:
     return VOLUME_RADIUS_PIXELS * pixel * dist
 
 
+# the bits marking the blocks of cells near a volume photon (volume_gather.cl volume_mark; a
+# power of two, hashed): 128 KiB
+VOLUME_MARK_BITS = 1 << 20
+
+
 class VolumeGather(SpatialHash):
-    MARK_BITS = 1 << 20           # volume_gather.cl VOLUME_MARK_BITS
+    MARK_BITS = VOLUME_MARK_BITS
     def __init__(self, ctx: PassContext, options):
         """The hash build and volume_gather.cl; the grid over the media's box."""
         super().__init__(ctx)
