@@ -322,9 +322,7 @@ typedef struct {
      * DeviceScene.upload: with none, no ray looks for the media holding a camera or a light
      * (kernels/integrator/shadow_rays.h media_at) */
     int n_media;
-    /* the mesh attributes per triangle corner in the scene buffer `attributes` (its stride, set
-     * by DeviceScene.upload; kernels/svm/svm_context.h reads them up to PPM_ATTRIBUTES) */
-    int n_attributes;
+    int n_attributes;       /* the stride of `attributes` (DeviceScene.upload sets it) */
 } EmitterInfo;
 
 /* mirrors ppm_engine/scene/light_tree.py LIGHT_TREE_NODE_DTYPE */

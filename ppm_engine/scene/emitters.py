@@ -68,9 +68,7 @@ EMITTER_INFO_DTYPE = np.dtype([
     # DeviceScene.upload: with none, no ray looks for the media holding a camera or a light
     # (kernels/integrator/shadow_rays.h media_at)
     ("n_media", np.int32),
-    # the mesh attributes per triangle corner in the scene buffer `attributes` (its stride, set
-    # by DeviceScene.upload; kernels/svm/svm_context.h reads them up to PPM_ATTRIBUTES)
-    ("n_attributes", np.int32),
+    ("n_attributes", np.int32),    # the stride of `attributes` (DeviceScene.upload sets it)
 ])
 
 # at most this many emissive triangles are picked among locally (kernels/light/light_mesh.h
