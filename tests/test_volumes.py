@@ -333,6 +333,25 @@ def test_volume_emission_added_to_absorption(bpy, cycles, render_exr, tmp_path, 
     assert np.abs(ours[:3, :3]).max() == 0.0
 
 
+def test_principled_volume_blackbody_emission(bpy, cycles, render_exr, tmp_path, tiny):
+    """A Principled Volume of density 0 with Blackbody Intensity 0.8 at 2,500 K and a tint, a
+    cube 1 m deep seen end-on over a black world: L = tint x sigma mix(1, T^4, 0.8) / pi x the
+    black body's colour, per metre, as the closed form and Cycles say (before: not rendered,
+    with a warning)."""
+    from ppm_engine.scene.spectra import blackbody_rgb
+    scene = base_scene(camera=((0, 0, 5), (0, 0, 0), 50.0))
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 2.0
+    m = volume_material("Fire", Density=0.0, Temperature=2500.0,
+                        **{"Blackbody Intensity": 0.8, "Blackbody Tint": (1.0, 0.8, 0.6, 1)})
+    cube("Fire", m, size=1.0)
+    ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=16, passes=2)
+    power = 5.670373e-8 * 1e-6 / np.pi * (1.0 + 0.8 * (2500.0 ** 4 - 1.0))
+    exact = np.array([1.0, 0.8, 0.6]) * power * np.array(blackbody_rgb(2500.0))
+    assert exact.min() > 0.01
+    assert np.allclose(ours[12:20, 12:20].reshape(-1, 3), exact, rtol=1e-3)
+    assert np.allclose(ref[12:20, 12:20].reshape(-1, 3).mean(0), exact, rtol=5e-3)
+
+
 @pytest.mark.parametrize("volume_bounces", [0, 2])
 def test_volume_bounces_and_light_through_fog_onto_the_room(bpy, cycles, render_exr, tmp_path,
                                                             tiny, volume_bounces):

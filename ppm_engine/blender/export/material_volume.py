@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ppm_engine.scene.spectra import blackbody_rgb
+
 _MAX_DEPTH = 64
 
 
@@ -58,6 +60,28 @@ def _density(reader, node, name="Density") -> float:
     return float(v)
 
 
+# Cycles' Principled Volume's blackbody emission: the Stefan-Boltzmann law, sigma T^4 / pi
+# (its sigma in W m^-2 K^-4 and the 1e-6 of Cycles' scale), Blackbody Intensity mixing from 1
+_STEFAN_BOLTZMANN = 5.670373e-8 * 1e-6 / np.pi
+
+
+def _blackbody(reader, node) -> np.ndarray:
+    """The Principled Volume's blackbody emission per metre, as Cycles' svm_node_principled_volume
+    adds it: Blackbody Tint x sigma mix(1, T^4, Blackbody Intensity) x the black body's colour at
+    Temperature T (linear Rec.709, luminance 1: the Blackbody node's, spectra.blackbody_rgb).
+    (Cycles multiplies T by a volume's "temperature" attribute where it has one: a Volume
+    object's grid, not rendered yet.)"""
+    intensity = float(np.nan_to_num(reader.value(node, "Blackbody Intensity") or 0.0))
+    if not intensity > 0:
+        return np.zeros(3)
+    t = max(float(np.nan_to_num(reader.value(node, "Temperature") or 0.0)), 0.0)
+    power = _STEFAN_BOLTZMANN * (1.0 + intensity * (min(t, 1e9) ** 4 - 1.0))
+    if not power > 0:
+        return np.zeros(3)
+    tint = np.maximum(np.nan_to_num(reader.value(node, "Blackbody Tint", 3)), 0.0)
+    return tint * power * np.asarray(blackbody_rgb(t))
+
+
 def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0):
     """Adds the volume shaders feeding ``socket`` (through Mix and Add Shader) to ``medium``."""
     src = reader.graph.source(socket, ctx)
@@ -99,8 +123,7 @@ def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0
         if strength > 0:
             medium.emission += weight * strength * np.maximum(
                 np.nan_to_num(reader.value(node, "Emission Color", 3)), 0.0)
-        if (reader.value(node, "Blackbody Intensity") or 0.0) > 0:
-            reader.warn(f"the blackbody emission of '{node.name}' is not rendered yet")
+        medium.emission += weight * _blackbody(reader, node)
         return
     if kind == "ShaderNodeEmission":
         strength = np.nan_to_num(reader.value(node, "Strength"))
