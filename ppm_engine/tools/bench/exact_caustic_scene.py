@@ -14,7 +14,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ppm_engine.blender.scenes.caustics import FLOOR
-from ppm_engine.tools.bench.exact_film import camera_fields, camera_rays, window_clear
+from ppm_engine.tools.bench.exact_film import (
+    CameraSetup,
+    camera_fields,
+    camera_rays,
+    window_clear,
+)
 from ppm_engine.tools.bench.exact_optics import IOR
 
 FLOOR_HALF = 2.0                 # the floor: z = 0, |x|, |y| <= 2
@@ -28,16 +33,8 @@ FLOOR_ID, WALL_ID, BALL_ID = 0, 1, 2
 
 # --- the scene -------------------------------------------------------------------------------
 @dataclass
-class Setup:
+class Setup(CameraSetup):
     """What the tracer needs of the bpy scene."""
-    eye: np.ndarray              # camera position (3,)
-    axes: np.ndarray             # (3, 3), columns: the camera's x, y, z in world space
-    frame: tuple                 # (x_left, x_right, y_bottom, y_top) on the plane at depth 1
-    width: int
-    height: int
-    clip: tuple                  # (start, end) depth
-    filter_width: float          # the scene's, in pixels: the filter reaches this far
-    film_exposure: float
     light: np.ndarray            # position (3,)
     power: np.ndarray            # RGB watts (colour x energy x 2^exposure)
     max_bounces: int
@@ -52,12 +49,6 @@ class Setup:
     def ball(self) -> tuple:
         """(centre, radius): what the geometry's functions take."""
         return self.ball_center, self.ball_radius
-
-    @property
-    def pixel_area(self) -> float:
-        """A pixel's area on the image plane at depth 1."""
-        x0, x1, y0, y1 = self.frame
-        return (x1 - x0) * (y1 - y0) / (self.width * self.height)
 
 
 def setup_of(scene, max_bounces: int | None = None) -> Setup:

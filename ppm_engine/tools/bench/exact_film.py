@@ -7,6 +7,7 @@ filter_width)."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -15,9 +16,29 @@ import numpy as np
 BH = (0.35875, -0.48829, 0.14128, -0.01168)
 
 
+@dataclass
+class CameraSetup:
+    """The camera and film every exact reference traces (camera_fields reads them from bpy);
+    each reference's setup adds its scene's light and geometry."""
+    eye: np.ndarray              # camera position (3,)
+    axes: np.ndarray             # (3, 3), columns: the camera's x, y, z in world space
+    frame: tuple                 # (x_left, x_right, y_bottom, y_top) on the plane at depth 1
+    width: int
+    height: int
+    clip: tuple                  # (start, end) depth
+    filter_width: float          # the scene's, in pixels: the filter reaches this far
+    film_exposure: float
+
+    @property
+    def pixel_area(self) -> float:
+        """A pixel's area on the image plane at depth 1."""
+        x0, x1, y0, y1 = self.frame
+        return (x1 - x0) * (y1 - y0) / (self.width * self.height)
+
+
 def camera_fields(scene) -> dict:
-    """The camera, frame and film of a bpy scene as the exact references trace them (Setup's
-    eye, axes, frame, width, height, clip, filter_width, film_exposure); refuses what they do
+    """The camera, frame and film of a bpy scene as the exact references trace them
+    (CameraSetup's fields); refuses what they do
     not model: a lens, a border, another pixel filter."""
     cam = scene.camera
     if cam is None or cam.data.type != 'PERSP':

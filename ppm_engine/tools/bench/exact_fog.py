@@ -37,6 +37,7 @@ import numpy as np
 
 from ppm_engine.tools.bench.exact_caustic_scene import _ball_hits, ball_blocks
 from ppm_engine.tools.bench.exact_film import (
+    CameraSetup,
     camera_fields,
     camera_rays,
     filtered,
@@ -52,16 +53,8 @@ MAX_VERTICES = 8                 # glass vertices a ray follows at most (then it
 
 
 @dataclass
-class FogSetup:
+class FogSetup(CameraSetup):
     """What the tracer needs of the scene (fog_setup reads it from bpy)."""
-    eye: np.ndarray
-    axes: np.ndarray
-    frame: tuple
-    width: int
-    height: int
-    clip: tuple
-    filter_width: float
-    film_exposure: float
     light: np.ndarray            # the point light's position
     intensity: float             # its W/sr (power / (4 pi))
     box: tuple                   # the fog's (lo, hi)
@@ -73,11 +66,6 @@ class FogSetup:
     @property
     def sigma_t(self) -> float:
         return self.sigma_s + self.sigma_a
-
-    @property
-    def pixel_area(self) -> float:
-        x0, x1, y0, y1 = self.frame
-        return (x1 - x0) * (y1 - y0) / (self.width * self.height)
 
 
 def fog_setup(scene) -> FogSetup:

@@ -62,7 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ppm_engine.blender.scenes import pool
-from ppm_engine.tools.bench.exact_film import camera_fields, splat
+from ppm_engine.tools.bench.exact_film import CameraSetup, camera_fields, splat
 from ppm_engine.tools.bench.exact_optics import cone_dirs, cosine_dirs, fresnel
 from ppm_engine.tools.bench.exact_pool_camera import SUPERSAMPLE, CameraMap
 from ppm_engine.tools.bench.exact_pool_water import bounds, crossing, normal, refract_in
@@ -73,16 +73,8 @@ NEAR_MARGIN = 0.3               # m, around that rectangle
 
 
 @dataclass
-class Setup:
+class Setup(CameraSetup):
     """What the tracer needs of the bpy scene (exact_film's camera and filter fields)."""
-    eye: np.ndarray
-    axes: np.ndarray
-    frame: tuple
-    width: int
-    height: int
-    clip: tuple
-    filter_width: float
-    film_exposure: float
     sun: np.ndarray                # unit direction towards the sun
     cos_half: float                # cosine of half the sun's angle
     irradiance: np.ndarray         # RGB W/m^2 (colour x strength x 2^exposure)
