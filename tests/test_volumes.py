@@ -7,7 +7,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from tests.helpers.blender_scenes import light_world_camera
+from tests.helpers.blender_scenes import add_light, light_world_camera
 from tests.helpers.cycles_blocks import blocks, compare_blocks
 
 W = 32
@@ -67,12 +67,7 @@ def base_scene(camera=((0, -6, 1.5), (1.35, 0, 0), 35.0)):
 
 
 def spot(loc=(0, 0, 3.5), energy=800.0, angle=0.6):
-    data = bpy.data.lights.new("Spot", "SPOT")
-    data.energy, data.spot_size, data.shadow_soft_size = energy, angle, 0.0
-    obj = bpy.data.objects.new("Spot", data)
-    obj.location = loc
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
+    return add_light("SPOT", "Spot", loc, energy=energy, spot_size=angle, shadow_soft_size=0.0)
 
 
 def fog_room(density=0.3, anisotropy=0.0):
@@ -150,11 +145,7 @@ def test_principled_volume_anisotropy_scatters_forward(bpy, cycles, render_exr, 
     scene = base_scene(camera=((0, -6, 0), (1.5708, 0, 0), 35.0))
     fog = volume_material("Haze", Density=0.4, Anisotropy=0.7, Color=(0.8, 0.7, 0.6, 1))
     cube("Haze", fog, size=3.0)
-    data = bpy.data.lights.new("Back", "POINT")
-    data.energy, data.shadow_soft_size = 300.0, 0.0
-    lamp = bpy.data.objects.new("Back", data)
-    lamp.location = (0.6, 3.0, 0.4)
-    scene.collection.objects.link(lamp)
+    add_light("POINT", "Back", (0.6, 3.0, 0.4), energy=300.0, shadow_soft_size=0.0)
     ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=256, passes=64)
     compare_blocks(ours, ref, rtol=0.05, atol=0.002)
     b = blocks(ours).mean(-1)
@@ -172,10 +163,7 @@ def test_glass_box_filled_with_scattering_liquid(bpy, cycles, render_exr, tmp_pa
     liquid.node_tree.nodes["Glass BSDF"].inputs["Roughness"].default_value = 0.0
     liquid.node_tree.nodes["Glass BSDF"].inputs["IOR"].default_value = 1.33
     cube("Box", liquid, size=2.0)
-    data = bpy.data.lights.new("Inside", "POINT")
-    data.energy, data.shadow_soft_size = 60.0, 0.0
-    lamp = bpy.data.objects.new("Inside", data)
-    scene.collection.objects.link(lamp)
+    add_light("POINT", "Inside", (0, 0, 0), energy=60.0, shadow_soft_size=0.0)
     ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=256, passes=64,
                      bounces=4)
     compare_blocks(ours, ref, rtol=0.12, atol=0.004)
@@ -189,11 +177,7 @@ def test_camera_inside_fog(bpy, cycles, render_exr, tmp_path, tiny):
     plane("Floor", diffuse("Grey", (0.6, 0.6, 0.6)), (0, 0, -1), size=12.0)
     fog = volume_material("Room fog", "ShaderNodeVolumeScatter", Density=0.15)
     cube("Room fog", fog, loc=(0, 0, 2), size=10.0)
-    data = bpy.data.lights.new("Lamp", "POINT")
-    data.energy, data.shadow_soft_size = 400.0, 0.0
-    lamp = bpy.data.objects.new("Lamp", data)
-    lamp.location = (0, 1.0, 1.5)
-    scene.collection.objects.link(lamp)
+    add_light("POINT", "Lamp", (0, 1.0, 1.5), energy=400.0, shadow_soft_size=0.0)
     ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=256, passes=64)
     compare_blocks(ours, ref, rtol=0.05, atol=0.002)
 
@@ -294,9 +278,7 @@ def test_bad_densities_render_without_nan(bpy, tiny, render_exr, tmp_path):
                                       ("NotANumber", float("nan")))):
         cube(name, volume_material(name, "ShaderNodeVolumeScatter", Density=dens),
              loc=(-3 + 2 * k, 0, 0), size=1.5)
-    data = bpy.data.lights.new("Sun", "SUN")
-    data.energy = 3.0
-    scene.collection.objects.link(bpy.data.objects.new("Sun", data))
+    add_light("SUN", "Sun", (0, 0, 0), energy=3.0)
     said = export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     assert any("Negative" in w and "Density" in w for w in said), said
     assert any("NotANumber" in w and "Density" in w for w in said), said
