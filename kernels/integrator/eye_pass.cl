@@ -187,11 +187,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             float4 up = ld_set_or_rnd(pass_index, path_key, (uint)vertex++, &rng);
             float pdf, u1 = up.x, u2 = up.y;
             float3 wo = hg_sample(d, g, u1, u2, &pdf); /* (its weight: phase / pdf = 1) */
-            depth++;
-            vbounce++;
-            path = path_add(path, PATH_DEPTH) & ~127u;
-            term = vbounce > lp->volume_bounces || depth > lp->max_bounces ? TERM_AFTER_TRANSPARENT
-                                                                           : TERM_NONE;
+            term = path_volume_bounce(&path, &depth, &vbounce, lp);
             /* volume photons: with indirect light by photons the light this point scatters
              * from other than the emitters is theirs (the path only finds emitters); with eye
              * paths what reaches it through mirrors and glass (vchain) */

@@ -230,11 +230,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
                                   clamp_limit(depth, lp));
             float u1 = rnd(rng), u2 = rnd(rng);
             float3 wo = hg_sample(d, g, u1, u2, &prev_pdf); /* (its weight: phase / pdf = 1) */
-            depth++;
-            vbounce++;
-            path = path_add(path, PATH_DEPTH) & ~127u;
-            term = vbounce > lp->volume_bounces || depth > lp->max_bounces ? TERM_AFTER_TRANSPARENT
-                                                                           : TERM_NONE;
+            term = path_volume_bounce(&path, &depth, &vbounce, lp);
             counts = vnee;
             prev_n = (float3)(0.0f);
             prev_p = q;

@@ -78,6 +78,17 @@ inline int path_limit(uint p, int depth, __global const LightPaths *lp) {
                : TERM_NONE;
 }
 
+/* A scattering in a medium (eye paths: eye_pass.cl, indirect_paths.h): the path's state after
+ * it (a bounce of no surface kind, its type cleared), its bounce and volume-bounce counts one
+ * up, and how it ends: past Volume bounces or max bounces, as Cycles' volume scattering. */
+inline int path_volume_bounce(uint *p, int *depth, int *vbounce, __global const LightPaths *lp) {
+    *p = path_add(*p, PATH_DEPTH) & ~127u;
+    *depth += 1;
+    *vbounce += 1;
+    return *vbounce > lp->volume_bounces || *depth > lp->max_bounces ? TERM_AFTER_TRANSPARENT
+                                                                     : TERM_NONE;
+}
+
 /* How a path ends after a transparent crossing that brought its count to n */
 inline int path_limit_transparent(int n, __global const LightPaths *lp) {
     return n >= lp->transparent_max_bounces ? TERM_ON_NEXT_SURFACE : TERM_NONE;
