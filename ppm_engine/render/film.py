@@ -143,18 +143,9 @@ class Film:
     def aux_passes(self) -> dict:
         """The extra render passes, (h, w, channels) float32, row 0 = bottom: "Denoising
         Albedo" (mean), "Denoising Normal" (unit mean), "PPM Radius" (R), "PPM Photons" (N)."""
-        out = {}
-        for name, buf in (("Denoising Albedo", "aux_albedo"), ("Denoising Normal", "aux_normal")):
-            a = self.read(buf, np.float32, 4)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                v = np.where(a[..., 3:] > 0, a[..., :3] / a[..., 3:], 0.0)
-                if name == "Denoising Normal":
-                    length = np.linalg.norm(v, axis=-1, keepdims=True)
-                    v = np.where(length > 0, v / length, 0.0)
-            out[name] = v.astype(np.float32)
-        out["PPM Radius"] = self.read("radius")[..., None]
-        out["PPM Photons"] = self.read("nstat")[..., None]
-        return out
+        return aux_passes(self.read("aux_albedo", np.float32, 4),
+                          self.read("aux_normal", np.float32, 4), self.read("radius"),
+                          self.read("nstat"))
 
     def read(self, name: str, dtype=np.float32, channels: int = 1) -> np.ndarray:
         import pyopencl as cl
@@ -178,6 +169,24 @@ FILTER_TABLE_SIZE = 256
 
 # the splat's filter table (filter_density): samples over [-reach, reach]
 FILTER_SAMPLES = 257
+
+
+def aux_passes(albedo, normal, radius, photons) -> dict:
+    """The extra render passes, (h, w, channels) float32, from the film's sums (a Film's, or
+    merged parts', parts.Part): "Denoising Albedo" the mean albedo (its sum over its weight,
+    channel 3), "Denoising Normal" the mean normal made unit, "PPM Radius" and "PPM Photons"
+    as they are ((h, w) or (h, w, 1))."""
+    out = {}
+    for name, a in (("Denoising Albedo", albedo), ("Denoising Normal", normal)):
+        with np.errstate(invalid="ignore", divide="ignore"):
+            v = np.where(a[..., 3:] > 0, a[..., :3] / a[..., 3:], 0.0)
+            if name == "Denoising Normal":
+                length = np.linalg.norm(v, axis=-1, keepdims=True)
+                v = np.where(length > 0, v / length, 0.0)
+        out[name] = v.astype(np.float32)
+    for name, a in (("PPM Radius", radius), ("PPM Photons", photons)):
+        out[name] = (a if a.ndim == 3 else a[..., None]).astype(np.float32)
+    return out
 
 
 def filter_density(width: float, kind: int) -> tuple[np.ndarray, float]:

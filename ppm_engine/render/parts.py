@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ppm_engine.errors import PPMError
+from ppm_engine.render.film import aux_passes
 
 # the film's sums a part carries (film.py FILM_BUFFERS names): float4 sums read with read_sum,
 # plain float32 sums (the kernels add to them each pass) read as they are
@@ -169,18 +170,8 @@ class Part:
     def aux_passes(self) -> dict:
         """The extra render passes as Film.aux_passes makes them: "Denoising Albedo" (mean),
         "Denoising Normal" (unit mean), "PPM Radius" (the last pass's R), "PPM Photons" (N)."""
-        out = {}
-        for name, key in (("Denoising Albedo", "aux_albedo"), ("Denoising Normal", "aux_normal")):
-            a = self.sums[key]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                v = np.where(a[..., 3:] > 0, a[..., :3] / a[..., 3:], 0.0)
-                if key == "aux_normal":
-                    length = np.linalg.norm(v, axis=-1, keepdims=True)
-                    v = np.where(length > 0, v / length, 0.0)
-            out[name] = v.astype(np.float32)
-        out["PPM Radius"] = self.radius[..., None].astype(np.float32)
-        out["PPM Photons"] = self.sums["nstat"].astype(np.float32)
-        return out
+        return aux_passes(self.sums["aux_albedo"], self.sums["aux_normal"], self.radius,
+                          self.sums["nstat"])
 
 
 def _agree(a: dict, b: dict) -> list[str]:
