@@ -176,13 +176,12 @@ typedef struct {
     float emit[3];
     float position[3];      /* world position (sun: unused) */
     float direction[3];     /* unit vector the light points along (object -Z) */
-    /* AREA: full edge vector along X (size x scale); SPOT: scaled X column */
-    float axis_x[3];
+    float axis_x[3];        /* AREA: edge vector along X (size x scale); SPOT: X column */
     float axis_y[3];        /* AREA: full edge vector along Y; SPOT: scaled Y column */
-    float radius;           /* POINT/SPOT: sphere radius; SUN: half of the angular diameter (rad) */
+    float radius;           /* POINT/SPOT: sphere radius; SUN: half its angle (rad) */
     float spot_cos_half;    /* SPOT: cos(spot_size / 2) */
     float spot_smooth;      /* SPOT: (1 - cos(spot_size / 2)) * spot_blend */
-    float spot_scale_z;     /* SPOT: 1 / |scaled Z column| (cone measured in the scaled frame) */
+    float spot_scale_z;     /* SPOT: 1 / |scaled Z column| (the cone's scaled frame) */
 } Light;
 
 /* mirrors ppm_engine/scene/camera.py CAMERA_DTYPE */
@@ -237,14 +236,15 @@ typedef struct {
     int emission_tex;       /* 1-based texture of the emission (kernels/svm/textures.h), 0 = none */
     int node_first;         /* its BSDF nodes: shader_nodes[node_first, + node_count) */
     int node_count;
-    /* absorption coefficient inside (per metre; glass only: kernels/geom/medium.h) */
-    float absorption[3];
+    float absorption[3];    /* absorption inside per metre (kernels/geom/medium.h) */
     /* first word of its shader program in svm (kernels/svm/svm.h), 0 = none */
     int program;
-    /* scattering coefficient inside (per metre; MAT_VOLUME only: kernels/geom/medium.h) */
-    float scattering[3];
+    float scattering[3];    /* scattering inside per metre (MAT_VOLUME only) */
     float anisotropy;       /* its Henyey-Greenstein g, in (-1, 1) */
     float volume_emission[3]; /* radiance emitted per metre inside (MAT_VOLUME only) */
+    int density_program;    /* its medium's density program (geom/medium_field.h), 0 = none */
+    float majorant;         /* the density's bound over its object (DeviceScene) */
+    int volume_object;      /* the objects row its density reads, -1 = none */
 } Material;
 
 /* mirrors ppm_engine/scene/arrays.py SHADER_NODE_DTYPE */

@@ -7,94 +7,20 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from tests.helpers.blender_scenes import add_light, light_world_camera
+from tests.helpers.blender_scenes import add_light
 from tests.helpers.cycles_blocks import blocks, compare_blocks
-
-W = 32
-
-
-def volume_material(name, kind="ShaderNodeVolumePrincipled", surface=None, **inputs):
-    """A material whose Volume output is a ``kind`` node with ``inputs``; ``surface``: a BSDF
-    node type on its Surface output (none: a volume only)."""
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes):
-        if n.bl_idname != "ShaderNodeOutputMaterial":
-            nt.nodes.remove(n)
-    out = nt.nodes["Material Output"]
-    v = nt.nodes.new(kind)
-    for k, val in inputs.items():
-        v.inputs[k].default_value = val
-    nt.links.new(v.outputs[0], out.inputs["Volume"])
-    if surface is not None:
-        s = nt.nodes.new(surface)
-        nt.links.new(s.outputs[0], out.inputs["Surface"])
-    return m
-
-
-def diffuse(name, color):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    m.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (*color, 1)
-    m.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 1.0
-    m.node_tree.nodes["Principled BSDF"].inputs["Specular IOR Level"].default_value = 0.0
-    return m
-
-
-def cube(name, material, loc=(0, 0, 0), size=2.0):
-    bpy.ops.mesh.primitive_cube_add(size=size, location=loc)
-    obj = bpy.context.active_object
-    obj.name = name
-    obj.data.materials.append(material)
-    return obj
-
-
-def plane(name, material, loc, rot=(0, 0, 0), size=8.0):
-    bpy.ops.mesh.primitive_plane_add(size=size, location=loc, rotation=rot)
-    obj = bpy.context.active_object
-    obj.name = name
-    obj.data.materials.append(material)
-    return obj
-
-
-def base_scene(camera=((0, -6, 1.5), (1.35, 0, 0), 35.0)):
-    """Empty factory scene: black world, a camera, a box filter."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    light_world_camera(scene, light=None, world=0.0, camera=camera)
-    return scene
-
-
-def spot(loc=(0, 0, 3.5), energy=800.0, angle=0.6):
-    return add_light("SPOT", "Spot", loc, energy=energy, spot_size=angle, shadow_soft_size=0.0)
-
-
-def fog_room(density=0.3, anisotropy=0.0):
-    """A floor and a back wall, a fog cube (Principled Volume) under a spot light."""
-    scene = base_scene()
-    grey = diffuse("Grey", (0.6, 0.6, 0.6))
-    plane("Floor", grey, (0, 0, -1.2))
-    plane("Wall", grey, (0, 3, 2), rot=(1.5708, 0, 0))
-    fog = volume_material("Fog", Density=density, Anisotropy=anisotropy,
-                          Color=(0.9, 0.9, 0.9, 1))
-    cube("Fog", fog, loc=(0, 0, 0.6), size=3.0)
-    spot()
-    return scene
-
-
-def both(scene, cycles, render_exr, tmp_path, tiny, samples, passes, bounces=0):
-    """(ours, Cycles') W x W RGB: Cycles at ``samples``, this engine in ``passes`` passes, both
-    with ``bounces`` bounces of every surface kind and Volume bounces 0 (single scattering)."""
-    cycles(scene, samples, width=W)
-    c = scene.cycles
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
-    c.volume_bounces = 0
-    c.transparent_max_bounces = 8
-    ref = render_exr(tmp_path / "cycles.exr")
-    tiny(scene, width=W, height=W, passes=passes, photons=4096)
-    ours = render_exr(tmp_path / "ours.exr")
-    return ours, ref
+from tests.helpers.volume_scenes import (
+    W,
+    absorption_scene,
+    base_scene,
+    both,
+    cube,
+    diffuse,
+    fog_room,
+    plane,
+    spot,
+    volume_material,
+)
 
 
 def test_fog_cube_under_a_spot_light_shows_the_cone(bpy, cycles, render_exr, tmp_path, tiny):
@@ -106,23 +32,6 @@ def test_fog_cube_under_a_spot_light_shows_the_cone(bpy, cycles, render_exr, tmp
     compare_blocks(ours, ref, rtol=0.05, atol=0.001)
     b = blocks(ours).mean(-1)          # the cone: the middle columns lit, the sides dark
     assert b[1, 1:3].min() > 0.03 and b[1, [0, 3]].max() < 0.005
-
-
-def absorption_scene(color, density):
-    """An orthographic view through a Volume Absorption cube 1 m deep onto an emissive wall of
-    radiance 1 behind it (the cube covers the middle of the image)."""
-    scene = base_scene(camera=((0, 0, 5), (0, 0, 0), 50.0))
-    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 2.0
-    wall = bpy.data.materials.new("Glow")
-    wall.use_nodes = True
-    nt = wall.node_tree
-    nt.nodes.remove(nt.nodes["Principled BSDF"])
-    em = nt.nodes.new("ShaderNodeEmission")
-    nt.links.new(em.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
-    plane("Wall", wall, (0, 0, -2), size=4.0)
-    ink = volume_material("Ink", "ShaderNodeVolumeAbsorption", Color=(*color, 1), Density=density)
-    cube("Ink", ink, size=1.0)
-    return scene
 
 
 def test_absorption_cube_is_beer_lambert_and_cycles(bpy, cycles, render_exr, tmp_path, tiny):
@@ -248,8 +157,8 @@ def test_a_scene_without_volumes_builds_no_volume_code(bpy):
 
 
 def test_textured_density_and_world_volume_are_warned_about(bpy):
-    """A Noise Texture on the density: a warning naming the material, its unlinked value
-    rendered (heterogeneous media are a later phase); the world's Volume output: a warning."""
+    """A Noise Texture on the density: no warning, the medium's field (its coefficients per
+    unit density; test_volume_fields.py renders it); the world's Volume output: a warning."""
     from ppm_engine.blender.export import export_scene
     scene = base_scene()
     m = volume_material("Smoke", Density=0.7)
@@ -262,9 +171,10 @@ def test_textured_density_and_world_volume_are_warned_about(bpy):
     wt.links.new(wv.outputs[0], wt.nodes["World Output"].inputs["Volume"])
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
     said = arrays.warnings
-    assert any("Smoke" in w and "Density" in w for w in said), said
+    assert not any("Smoke" in w and "Density" in w for w in said), said
     assert any("World" in w and "Volume" in w for w in said), said
-    assert arrays.materials["scattering"].max() == pytest.approx(0.5 * 0.7)
+    assert arrays.materials["scattering"].max() == pytest.approx(0.5)
+    assert arrays.materials["density_program"].max() > 0
 
 
 def test_bad_densities_render_without_nan(bpy, tiny, render_exr, tmp_path):

@@ -41,8 +41,10 @@ typedef struct {
     float tmax, prev_pdf, limit;
     uint ray_type;
 #if PPM_VOLUME
-    /* the extinction of the medium it is in: a light at t seen through exp(-sigma_t t) */
+    /* the extinction of the medium it is in: a light at t seen through exp(-sigma_t t); or
+     * that medium + 1 where its density is a field (geom/medium_field.h; 0: none) */
     float3 sigma_t;
+    int field;
 #endif
 } LightRay;
 
@@ -51,6 +53,13 @@ inline LightRay light_ray(float3 o, float3 d, float tmax, uint ray_type, float3 
     LightRay r = {o, d, pv, nv, beta, tmax, prev_pdf, limit, ray_type}; /* (sigma_t: 0) */
     return r;
 }
+#if PPM_VOLUME
+/* ray r in the innermost of media m: the lights it meets are seen through that medium */
+inline void light_ray_in(LightRay *r, const Scene *scene, const Media *m) {
+    r->sigma_t = media_extinction(m, scene->materials);
+    r->field = medium_field(scene, media_top(m)) ? media_top(m) + 1 : 0;
+}
+#endif
 
 /* one light a ray meets: its distance and index (lights are met in the order of (t, i)), and
  * what it adds */
@@ -79,7 +88,14 @@ inline bool light_met(const Scene *scene, int i, const LightRay *r, float t0, in
         w = mis_power(r->prev_pdf, pdf * emitter_pmf_at(scene, i, r->pv, r->nv));
     }
 #if PPM_VOLUME
-    Le *= exp(-r->sigma_t * t);
+    if (r->field > 0) { /* (ratio tracking to the light) */
+        uint rng = ray_hash(r->o, r->d);
+        float3 T = (float3)(1.0f);
+        medium_track(scene, r->field - 1, r->o, r->d, t, false, 0.0f, &rng, &T, 0);
+        Le *= T;
+    } else {
+        Le *= exp(-r->sigma_t * t);
+    }
 #endif
     m->c = clamp_sample(r->beta * Le * w, r->limit);
     return true;
@@ -334,7 +350,7 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
 #if PPM_LIGHTS_SEEN
         LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, ray_type, p, n, pdf_b, T, 0.0f);
 #if PPM_VOLUME
-        r.sigma_t = media_extinction(&m, scene->materials);
+        light_ray_in(&r, scene, &m);
 #endif
         int met, budget = max(crossings, 1);
         L += lights_seen(scene, &r, h.leaf < 0, budget, &met);
@@ -342,7 +358,7 @@ inline float3 emitter_along(const Scene *scene, float3 o, float3 d, uint ray_typ
         crossings -= met;
 #endif
 #if PPM_VOLUME
-        T *= media_transmittance(&m, scene->materials, h.leaf < 0 ? PPM_INF : h.t);
+        T *= media_transmittance_ray(scene, &m, o, d, h.leaf < 0 ? PPM_INF : h.t);
         if (!(max3(T) > 0.0f)) return L;
 #endif
         if (h.leaf < 0) {

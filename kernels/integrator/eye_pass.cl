@@ -123,7 +123,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
          * numbers: the pixel's Sobol set for the segment, as its vertices' (rng.h ld_set), the
          * equiangular and the free-flight distances stratified over the passes
          * (pseudo-random numbers had 7.6x Cycles' error in a spot light's cone) */
-        float3 beta_in = beta, sigma_t = media_extinction(&media, scene->materials);
+        float3 beta_in = beta;
         int vm = media_top(&media);
         Segment sg = segment(o, d, 0.0f, (float3)(0.0f));
         bool kept = false; /* this segment kept for the volume photons */
@@ -137,7 +137,8 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
                                 (float2)(clamp_found, clamp_limit(depth, lp)), true, &beta, &sg);
             /* the camera's segments in scattering media, for the volume photons' gather
              * (volume_gather.cl): its path's state, the weight at its start */
-            kept = volume_photons && scat && vbounce == 0 && nseg < VOLUME_SEGMENTS;
+            kept = volume_photons && scat && vbounce == 0 && nseg < VOLUME_SEGMENTS
+                   && !medium_field(scene, vm); /* (a field's: not gathered yet) */
             if (kept) {
                 __global float4 *v = vps->segments + 3 * (VOLUME_SEGMENTS * id + nseg++);
                 v[0] = (float4)(o, seg);
@@ -157,7 +158,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
 #if PPM_VOLUME
             LightRay r = light_ray(o, d, h.leaf < 0 ? tmax : h.t, mask, prev_p, prev_n, prev_pdf,
                                    vchain == 2 ? (float3)(0.0f) : beta_in, clamp_found);
-            r.sigma_t = sigma_t;
+            light_ray_in(&r, scene, &media);
 #else
             LightRay r = light_ray(o, d, h.leaf < 0 ? tmax : h.t, mask, prev_p, prev_n, prev_pdf,
                                    beta, clamp_found);

@@ -180,7 +180,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
          * (next-event estimation, equiangular sampling, emitters its phase sample finds) is
          * the photons' with indirect light by photons (they scatter in media,
          * photon_pass.cl), else these paths' */
-        float3 beta_in = beta, sigma_t = media_extinction(media, scene->materials);
+        float3 beta_in = beta;
         int vm = media_top(media);
         bool vnee = mode != INDIRECT_BLURRED;
         Segment sg = segment(o, d, 0.0f, (float3)(0.0f));
@@ -202,7 +202,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
 #if PPM_VOLUME
             LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, mask, prev_p, prev_n, prev_pdf,
                                    counts ? beta_in : (float3)(0.0f), clamp_limit(depth - 1, lp));
-            r.sigma_t = sigma_t;
+            light_ray_in(&r, scene, media);
 #else
             LightRay r = light_ray(o, d, h.leaf < 0 ? PPM_INF : h.t, mask, prev_p, prev_n, prev_pdf,
                                    counts ? beta : (float3)(0.0f), clamp_limit(depth - 1, lp));
@@ -265,7 +265,9 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
                 term = max(term, path_limit_transparent(++transparent, lp));
             }
             h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
-#if PPM_ABSORPTION
+#if PPM_VOLUME
+            if (h.leaf >= 0) beta *= media_transmittance_ray(scene, media, o, d, h.t);
+#elif PPM_ABSORPTION
             if (h.leaf >= 0) beta *= media_transmittance(media, scene->materials, h.t);
 #endif
 #if PPM_LIGHTS_SEEN

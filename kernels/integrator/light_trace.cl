@@ -44,7 +44,9 @@ __kernel void light_trace(SCENE_PARAMS uint pass_index, uint seed, int max_bounc
         Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
         if (h.leaf < 0) break;
         float3 before = flux;
-#if PPM_ABSORPTION
+#if PPM_VOLUME
+        flux *= media_transmittance_ray(scene, &media, o, d, h.t);
+#elif PPM_ABSORPTION
         flux *= media_transmittance(&media, scene->materials, h.t);
 #endif
         Surface s = surface_at(scene, h);

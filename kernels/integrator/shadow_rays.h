@@ -2,6 +2,7 @@
 #define PPM_SHADOW_RAYS_H
 #include "geom/bvh.h"
 #include "geom/medium.h"
+#include "geom/medium_field.h"
 #include "closure/shader.h"
 
 /* What shadow rays (and the photons' connections to the camera) let through: partly
@@ -21,7 +22,7 @@ inline float3 transmittance_through(const Scene *scene, float3 o, float3 d, floa
     for (int i = 0; i <= crossings; i++) {
         Hit h = bvh_intersect(scene, o, d, dist, mask, false);
 #if PPM_VOLUME
-        if (m) T *= media_transmittance(m, scene->materials, h.leaf < 0 ? dist : h.t);
+        if (m) T *= media_transmittance_ray(scene, m, o, d, h.leaf < 0 ? dist : h.t);
 #endif
         if (h.leaf < 0) return T;
         Surface s = surface_at(scene, h);

@@ -13,10 +13,11 @@ typedef struct {
     float3 o, d, pc, mid;
     float t;
     float s, pdf; /* where the path scatters on it (INFINITY: it crosses), the density of s */
+    bool equi;    /* its lights of no size also sampled by equiangular distances (not a field) */
 } Segment;
 
 inline Segment segment(float3 o, float3 d, float t, float3 pc) {
-    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t, INFINITY, 0.0f};
+    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t, INFINITY, 0.0f, true};
     return g;
 }
 
@@ -106,7 +107,7 @@ inline float3 volume_nee(const Scene *scene, const Segment *sg, float s_dist, fl
     float w = 1.0f;
     if (s.pdf_dir > 0.0f) {
         w = mis_power(pmf * s.pdf_dir, ph);
-    } else if (equiangular_light(scene, e)) {
+    } else if (sg->equi && equiangular_light(scene, e)) {
         w = mis_power(pmf * pdf_d, equiangular_density(scene, sg, e, s_dist));
     }
     return ph * T * s.E * (w / pmf);
@@ -160,6 +161,16 @@ inline float3 medium_segment(const Scene *scene, const Media *media, float3 o, f
     int vm = media_top(media);
     if (vm < 0) return L;
     __global const Material *mt = scene->materials + vm;
+    if (medium_field(scene, vm)) {
+        /* a heterogeneous medium (geom/medium_field.h): tracked, its emission by collisions,
+         * next-event estimation at the scattering alone (no equiangular sampling) */
+        /* (the numbers u are 0 where the path does not scatter: the ray's own too) */
+        uint rng = ray_hash(o, d) ^ pcg_hash(as_uint(u.x) ^ pcg_hash(as_uint(u.y)));
+        sg->equi = false;
+        sg->s = medium_track(scene, vm, o, d, t, scatter && max3(F3(mt->scattering)) > 0.0f,
+                             limits.x, &rng, beta, &L);
+        return L;
+    }
     float3 sigma_t = media_extinction(media, scene->materials), sigma_s = F3(mt->scattering);
     if (max3(F3(mt->volume_emission)) > 0.0f)
         L += clamp_sample(*beta * medium_emission(mt, sigma_t, t), limits.x);

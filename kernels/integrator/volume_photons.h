@@ -4,6 +4,7 @@
 #include "scene.h"
 #include "geom/geometry.h"
 #include "geom/medium.h"
+#include "geom/medium_field.h"
 #include "integrator/pass_state.h"
 #include "integrator/path_state.h"
 
@@ -27,6 +28,13 @@ inline int photon_medium(const Scene *scene, const Media *media, float3 o, float
                          uint *rng, float3 *flux, float3 *p) {
     int vm = media_top(media);
     if (vm < 0) return -1;
+    if (medium_field(scene, vm)) { /* a heterogeneous medium: tracked (geom/medium_field.h) */
+        bool scatters = max3(F3(scene->materials[vm].scattering)) > 0.0f;
+        float s = medium_track(scene, vm, o, d, t, scatters, 0.0f, rng, flux, 0);
+        if (!(s < INFINITY)) return -1;
+        *p = o + s * d;
+        return vm;
+    }
     float3 sigma_t = media_extinction(media, scene->materials);
     float3 sigma_s = F3(scene->materials[vm].scattering);
     if (!(max3(sigma_s) > 0.0f)) {

@@ -44,6 +44,11 @@ inline Footprint footprint_at(const Scene *scene, uint tri, int leaf, float u, f
     return f;
 }
 
+/* the float4 rows of an object in scene->objects (ppm_engine/scene/arrays.py OBJECT_ROWS,
+ * export/objects.py object_row): its inverse matrix, (location, pass index), colour, random
+ * number, world matrix, and the scale and offset of its Generated coordinates (a volume's) */
+#define OBJECT_ROWS 11
+
 /* what a program may read of the shading point */
 typedef struct {
     float2 uv;
@@ -124,7 +129,7 @@ inline void svm_corner_data(SvmContext *cx, const Scene *scene, int p, uint tri,
     }
     if (SVM_HAS(SVM_GEOMETRY) && p > 0 && (svm[p].w & PROGRAM_OBJECT)
         && scene->tri_object[tri] >= 0) {
-        __global const float4 *o = scene->objects + 9 * (size_t)scene->tri_object[tri];
+        __global const float4 *o = scene->objects + OBJECT_ROWS * (size_t)scene->tri_object[tri];
         float4 h = (float4)(P, 1.0f);
         cx->P_object = (float3)(dot(o[0], h), dot(o[1], h), dot(o[2], h));
         cx->object[0] = o[3];

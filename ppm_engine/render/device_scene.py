@@ -16,6 +16,7 @@ from ppm_engine.render.bvh import BVH
 from ppm_engine.render.features import VALUE_FEATURES, scene_features, used_materials
 from ppm_engine.render.features import defines as feature_defines
 from ppm_engine.render.film import filter_density, filter_table
+from ppm_engine.render.medium_bound import bound_media, media_boxes
 from ppm_engine.render.world_map import bake, build_map, map_size
 from ppm_engine.scene.arrays import (
     LIGHT_DTYPE,
@@ -172,6 +173,12 @@ class DeviceScene:
             terminator=(prepared.terminator if prepared.terminator.size else
                         np.full(prepared.n_triangles, TERMINATOR_OFFSET, np.float32)),
             camera=prepared.camera, light_paths=prepared.light_paths)
+        # heterogeneous media: their majorants bounded with the shading buffers
+        boxes = media_boxes(prepared.positions, prepared.material, self.kmaterials)
+        if boxes:
+            bound_media(self.device, placeholders(self.device, **args), prepared.svm,
+                        self.kmaterials, boxes, self.specialize)
+            args.update(self._upload(materials=self.kmaterials))
         # the world's map is baked with the shading buffers; the emitter table needs its power
         self.world_map = self._world_map(prepared, args)
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,
@@ -324,6 +331,7 @@ class DeviceScene:
         svm = {}
         if features is not None and "PPM_SVM" in features:
             starts = [*self.kmaterials["program"][self.used_materials],
+                      *self.kmaterials["density_program"][self.used_materials],
                       int(self.emitters.info["world_program"][0])]
             stack = max(stack_used(self.prepared.svm, starts), 1)
             if editable:

@@ -138,9 +138,10 @@ def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarra
         f.add("PPM_ABSORPTION")
     if ((m["flags"] & MAT_VOLUME) != 0).any():
         f.update(("PPM_VOLUME", "PPM_ABSORPTION"))    # (the media's plumbing is absorption's)
-    if (m["program"] > 0).any():
+    programs = np.concatenate([m["program"], m["density_program"]])  # (media's density)
+    if (programs > 0).any():
         f.add("PPM_SVM")
-        if ops_used(scene.svm, m["program"]) & (1 << SVM_IMAGE):
+        if ops_used(scene.svm, programs) & (1 << SVM_IMAGE):
             f.add("PPM_TEXTURES")
     return frozenset(f)
 

@@ -50,29 +50,31 @@ LIGHT_AREA_RECT = 3      # SQUARE and RECTANGLE
 LIGHT_AREA_ELLIPSE = 4   # DISK and ELLIPSE
 
 LIGHT_FLAG_SOFT_FALLOFF = 1   # point/spot with radius > 0: Cycles' "soft falloff" disk model
-# flags bit (VIS_x << LIGHT_HIDDEN_SHIFT): the light is not seen by rays of type VIS_x
 WORLD_HIDDEN_CAMERA = 1       # world_shader[1]: the world's Ray Visibility > Camera off
-WORLD_MAP_MANUAL = 2          # world_shader[1]: world_shader[2:4] is the importance map's size
-                              # (Cycles' World > Settings > Sampling: Manual, Map Resolution)
-# (the light object's visible_camera / visible_glossy / visible_transmission off)
+WORLD_MAP_MANUAL = 2   # world_shader[1]: world_shader[2:4] is the map's size (Sampling: Manual)
+# flags bit (VIS_x << LIGHT_HIDDEN_SHIFT): the light is not seen by rays of type VIS_x (the
+# light object's visible_camera / visible_glossy / visible_transmission off)
 LIGHT_HIDDEN_SHIFT = 8
 
+
+OBJECT_ROWS = 11    # float4 rows of one object as programs read it (export/objects.py)
 
 # A material: its BSDF nodes are rows of ``SceneArrays.shader_nodes`` (material = its index);
 # what belongs to the material as a whole is here.
 MATERIAL_DTYPE = np.dtype([
-    # the material's Volume: homogeneous absorption inside the closed mesh, per metre (world
-    # units), RGB; entered and left by refraction (Cycles' Volume Absorption: (1 - colour) x
-    # density)
+    # the material's Volume output, its medium (export/material_volume.py): absorption per metre
+    # (RGB; entered and left by refraction or at a volume's transparent boundary)
     ("absorption", np.float32, 3),
     ("program", np.int32),    # first word of its shader program in SceneArrays.svm, 0 = none
-    # the rest of the Volume output's homogeneous medium (Volume Scatter, Principled Volume,
-    # Emission into the Volume output): scattering coefficient per metre (RGB), the
-    # Henyey-Greenstein anisotropy g, emitted radiance per metre (RGB); rendered inside glass
-    # and inside meshes whose material has only a Volume output (a transparent boundary)
+    # scattering per metre (RGB), the Henyey-Greenstein anisotropy g, radiance emitted per metre
     ("scattering", np.float32, 3),
     ("anisotropy", np.float32),
     ("volume_emission", np.float32, 3),
+    # a heterogeneous medium: the first word of its density's program (a Density driven by
+    # nodes), scaling absorption and scattering (0: none); the 1-based row of ``objects`` whose
+    # space it reads (0: none)
+    ("density_program", np.int32),
+    ("volume_object", np.int32),
 ])
 
 # BSDF node types (kernels/shared.h NODE_*)
@@ -100,8 +102,8 @@ NODE_FLAG_VOLUME_BOUNDARY = 8
 
 
 # One BSDF node of a material, its inputs constant (textures: 1-based into ``textures``, the
-# texture's value multiplies the input).  The Mix and Add Shader nodes on its way to the output
-# are folded into ``weight``.  Fields a node type has no input for are ignored.
+# texture's value multiplies the input), the Mix and Add Shaders to the output folded into
+# ``weight``.  Fields a node type has no input for are ignored.
 SHADER_NODE_DTYPE = np.dtype([
     ("material", np.int32),
     ("type", np.int32),                 # NODE_*
@@ -194,8 +196,7 @@ def legacy_nodes(materials: np.ndarray) -> np.ndarray:
 TEX_REPEAT, TEX_EXTEND, TEX_CLIP, TEX_MIRROR = 0, 1, 2, 3     # Image Texture node "extension"
 TEX_FLAG_CLOSEST = 16                                          # interpolation 'Closest'
 # texels hold sRGB-encoded values, decoded after interpolation (8-bit sRGB images, as Cycles'
-# byte textures: interpolating the encoded values is what makes our image match Cycles' at
-# texel edges)
+# byte textures: so our image matches Cycles' at texel edges)
 TEX_FLAG_SRGB = 32
 TEX_FLAG_CUBIC = 64                 # interpolation 'Cubic' or 'Smart' (Cycles' cubic B-spline)
 TEXTURE_DTYPE = np.dtype([
@@ -205,8 +206,7 @@ TEXTURE_DTYPE = np.dtype([
     ("flags", np.uint32),             # TEX_REPEAT.. | TEX_FLAG_CLOSEST, _CUBIC, _SRGB
 ])
 
-# Cycles' default Shadow Terminator > Geometry Offset of an object (SceneArrays.terminator)
-TERMINATOR_OFFSET = 0.1
+TERMINATOR_OFFSET = 0.1   # Cycles' default Shadow Terminator > Geometry Offset (SceneArrays)
 
 # ``emit`` depends on the type: POINT/SPOT radiant intensity in W/sr (Cycles: P/(4 pi)),
 # SUN irradiance in W/m^2 on a surface facing it, AREA radiance in W/(m^2 sr).
@@ -216,15 +216,12 @@ LIGHT_DTYPE = np.dtype([
     ("emit", np.float32, 3),
     ("position", np.float32, 3),      # world position (sun: unused)
     ("direction", np.float32, 3),     # unit vector the light points along (object -Z)
-    ("axis_x", np.float32, 3),        # AREA: full edge vector along X (size x scale); SPOT: scaled
-                                      # X column
+    ("axis_x", np.float32, 3),        # AREA: edge vector along X (size x scale); SPOT: X column
     ("axis_y", np.float32, 3),        # AREA: full edge vector along Y; SPOT: scaled Y column
-    ("radius", np.float32),           # POINT/SPOT: sphere radius; SUN: half of the angular
-                                      # diameter (rad)
+    ("radius", np.float32),           # POINT/SPOT: sphere radius; SUN: half its angle (rad)
     ("spot_cos_half", np.float32),    # SPOT: cos(spot_size / 2)
     ("spot_smooth", np.float32),      # SPOT: (1 - cos(spot_size / 2)) * spot_blend
-    ("spot_scale_z", np.float32),     # SPOT: 1 / |scaled Z column| (cone measured in the scaled
-                                      # frame)
+    ("spot_scale_z", np.float32),     # SPOT: 1 / |scaled Z column| (the cone's scaled frame)
 ])
 
 # fields whose default is not zero (files written before the field existed)
@@ -275,10 +272,10 @@ class SceneArrays:
     attributes: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros((0, 3, 0, 4), np.float32))
     # (T,) int32 the object of each triangle (a row of ``objects``, -1: none), (0,) when no
-    # program reads object data; (O, 9, 4) float32 the objects (export/objects.py)
+    # program reads object data; (O, OBJECT_ROWS, 4) float32 the objects (export/objects.py)
     object: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
     objects: np.ndarray = dataclasses.field(
-        default_factory=lambda: np.zeros((0, 9, 4), np.float32))
+        default_factory=lambda: np.zeros((0, OBJECT_ROWS, 4), np.float32))
     # (T,) float32 each triangle's object's Shadow Terminator > Geometry Offset (Cycles' object
     # setting; kernels/geom/bvh.h terminator_lift), or (0,) when every object has the default
     terminator: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
@@ -343,10 +340,11 @@ class SceneArrays:
             raise ValueError("SceneArrays.materials must hold at least one material")
         ob, obs = self.object, self.objects
         if ob.dtype != np.int32 or ob.shape not in ((0,), (t,)) or obs.dtype != np.float32 \
-                or obs.ndim != 3 or obs.shape[1:] != (9, 4) \
-                or (ob.size and (ob.min() < -1 or ob.max() >= obs.shape[0])):
+                or obs.ndim != 3 or obs.shape[1:] != (OBJECT_ROWS, 4) \
+                or (ob.size and (ob.min() < -1 or ob.max() >= obs.shape[0])) \
+                or not np.isin(self.materials["volume_object"], range(obs.shape[0] + 1)).all():
             raise ValueError("SceneArrays.object/objects: expected int32 (T,) rows of a float32 "
-                             "(O, 9, 4) table")
+                             f"(O, {OBJECT_ROWS}, 4) table (and materials' volume_object)")
         at = self.attributes
         if at.dtype != np.float32 or at.ndim != 4 or at.shape[1] != 3 or at.shape[3] != 4 \
                 or at.shape[0] not in (0, t) or (at.shape[0] == 0) != (at.shape[2] == 0):
@@ -362,8 +360,8 @@ class SceneArrays:
                 raise ValueError(f"SceneArrays.{name}: expected float32 (0, 3, {k}) or "
                                  f"({t}, 3, {k}), got {a.dtype}{a.shape}")
         if self.svm.dtype != np.int32 or self.svm.ndim != 2 or self.svm.shape[1] != 4 \
-                or not (self.materials["program"] >= 0).all() \
-                or (self.materials["program"] >= self.svm.shape[0]).any():
+                or not ((m_p := np.stack([self.materials["program"], self.materials[
+                    "density_program"]])) >= 0).all() or (m_p >= self.svm.shape[0]).any():
             raise ValueError("SceneArrays.svm: expected int32 (W, 4) holding every program")
         ws = self.world_shader
         if ws.dtype != np.int32 or ws.shape != (4,) or not 0 <= ws[0] < self.svm.shape[0]:
@@ -419,6 +417,8 @@ class SceneArrays:
             if a is not None and a.dtype.names and a.dtype != dt \
                     and set(a.dtype.names) < set(dt.names):
                 kw[name] = _with_fields(a, dt)
+        if kw.get("objects", np.zeros((0, OBJECT_ROWS, 4))).shape[1:2] < (OBJECT_ROWS,):
+            kw["objects"] = np.pad(kw["objects"], ((0, 0), (0, 2), (0, 0)))   # (9 rows before)
         kw["material_names"] = tuple(str(s) for s in kw.get("material_names", ()))
         kw["warnings"] = tuple(str(s) for s in kw.get("warnings", ()))
         return cls(**kw)

@@ -35,14 +35,15 @@ KMATERIAL_DTYPE = np.dtype([
                                    # none
     ("node_first", np.int32),      # its BSDF nodes: shader_nodes[node_first, + node_count)
     ("node_count", np.int32),
-    ("absorption", np.float32, 3),  # absorption coefficient inside (per metre; glass only:
-                                    # kernels/geom/medium.h)
+    ("absorption", np.float32, 3),  # absorption inside per metre (kernels/geom/medium.h)
     ("program", np.int32),         # first word of its shader program in svm (kernels/svm/svm.h),
                                    # 0 = none
-    ("scattering", np.float32, 3),  # scattering coefficient inside (per metre; MAT_VOLUME only:
-                                    # kernels/geom/medium.h)
+    ("scattering", np.float32, 3),  # scattering inside per metre (MAT_VOLUME only)
     ("anisotropy", np.float32),    # its Henyey-Greenstein g, in (-1, 1)
     ("volume_emission", np.float32, 3),  # radiance emitted per metre inside (MAT_VOLUME only)
+    ("density_program", np.int32),  # its medium's density program (geom/medium_field.h), 0 = none
+    ("majorant", np.float32),      # the density's bound over its object (DeviceScene)
+    ("volume_object", np.int32),   # the objects row its density reads, -1 = none
 ])
 MAT_EMISSIVE = 1          # constant emission > 0: an emitter
 MAT_GATHER = 2            # some closure can hold a visible point and photons
@@ -292,8 +293,11 @@ def kernel_materials(materials: np.ndarray, nodes: np.ndarray) -> np.ndarray:
                              posinf=MAX_COEFFICIENT).clip(0.0, MAX_COEFFICIENT)
     sigma_a, sigma_s, em = coeff("absorption"), coeff("scattering"), coeff("volume_emission")
     live = (sigma_a.max(axis=1) > 0) | (sigma_s.max(axis=1) > 0) | (em.max(axis=1) > 0)
+    field = materials["density_program"] > 0          # a heterogeneous medium: the stack's
     volume = live & ((tr & ~glass) | (glass & ((sigma_s.max(axis=1) > 0)
-                                               | (em.max(axis=1) > 0))))
+                                               | (em.max(axis=1) > 0) | field)))
+    k["density_program"] = np.where(volume, materials["density_program"], 0)
+    k["volume_object"] = np.where(volume & field, materials["volume_object"] - 1, -1)
     k["absorption"] = np.where(volume[:, None], sigma_a, k["absorption"])
     k["scattering"] = np.where(volume[:, None], sigma_s, 0.0)
     k["volume_emission"] = np.where(volume[:, None], em, 0.0)

@@ -23,6 +23,7 @@ from ppm_engine.errors import SceneError
 from ppm_engine.scene.arrays import (
     LIGHT_DTYPE,
     LIGHT_HIDDEN_SHIFT,
+    OBJECT_ROWS,
     TERMINATOR_OFFSET,
     VIS_CAMERA,
     VIS_DIFFUSE,
@@ -163,6 +164,10 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
                     warn(f"Object '{obj.name}': {NOT_RENDERED[kind]}")
                 continue
             slots = materials.slot_map(obj)
+            # the object's row of ``objects`` where its programs read object data (a
+            # heterogeneous medium's field reads its space: bound to it)
+            k_obj = len(objects) if materials.reads(slots, PROGRAM_OBJECT) else -1
+            slots = materials.bind_volumes(slots, k_obj)
             mapped = materials.reads(slots, PROGRAM_TANGENTS)
             gen = materials.reads(slots, PROGRAM_GENERATED)
             reads_attrs = materials.reads(slots, PROGRAM_ATTRIBUTES)
@@ -186,10 +191,8 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
             parts.append(dict(base))
             uv_tangents |= mapped
             generated |= gen
-            k_obj = -1
-            if materials.reads(slots, PROGRAM_OBJECT):
-                k_obj = len(objects)
-                objects.append(object_row(obj, m, inst))
+            if k_obj >= 0:
+                objects.append(object_row(obj, m, inst, mesh.texspace))
             parts[-1]["object"] = np.full(parts[-1]["positions"].shape[0], k_obj, np.int32)
     if keep:
         meshes.prune()
@@ -239,7 +242,7 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
                            world=world, material_names=tuple(materials.names),
                            warnings=tuple(warn), textures=tex_table, texels=texels,
                            objects=(np.stack(objects) if objects
-                                    else np.zeros((0, 9, 4), np.float32)),
+                                    else np.zeros((0, OBJECT_ROWS, 4), np.float32)),
                            svm=svm, world_shader=world_shader, light_paths=light_paths)
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e

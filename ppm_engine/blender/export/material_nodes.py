@@ -322,11 +322,13 @@ _READERS = {
 
 
 def read_material(material, warn, textures=None, attributes: list | None = None,
-                  camera=None) -> tuple[np.ndarray, list, np.ndarray | None]:
+                  camera=None, volume: list | None = None) -> tuple[np.ndarray, list,
+                                                                     np.ndarray | None]:
     """(MATERIAL_DTYPE row, its BSDF nodes as SHADER_NODE_DTYPE rows or dicts, its shader
     program's words or None); ``attributes``: the scene's list of mesh attribute names read by
     programs, extended with this material's; ``camera``: the camera-to-world matrix of the
-    camera space nodes read (Cycles' camera space, +z ahead)."""
+    camera space nodes read (Cycles' camera space, +z ahead); ``volume``: the program of its
+    medium's density field is appended to it (a heterogeneous medium), if any."""
     reader = _Reader(material, warn, textures, attributes, camera)
     row = np.zeros(1, MATERIAL_DTYPE)
     medium = read_volume(material, reader)
@@ -335,6 +337,8 @@ def read_material(material, warn, textures=None, attributes: list | None = None,
         row["scattering"] = medium.scattering
         row["anisotropy"] = medium.anisotropy
         row["volume_emission"] = medium.emission
+        if medium.program is not None and volume is not None:
+            volume.append(medium.program)
     nodes: list = []
     surface = _output_socket(material)
     if reader.graph.source(surface) is None:

@@ -33,17 +33,48 @@ class MaterialTable:
         key = material.name_full
         if key not in self._index:
             self._index[key] = len(self.rows)
+            field: list = []
             row, nodes, program = read_material(material, self.warn, self.textures,
-                                                self.attributes, self.camera)
-            if program is not None:
-                row["program"] = self.words
-                self.programs.append(program)
-                self.words += program.shape[0]
-                self.program_flags[len(self.rows)] = int(program[0, 3])
+                                                self.attributes, self.camera, field)
+            k = len(self.rows)
+            for words, name in ((program, "program"), (field[0] if field else None,
+                                                       "density_program")):
+                if words is not None:
+                    row[name] = self.words
+                    self.programs.append(words)
+                    self.words += words.shape[0]
+                    self.program_flags[k] = self.program_flags.get(k, 0) | int(words[0, 3])
             self.rows.append(row)
             self.nodes.append(nodes)
             self.names.append(material.name)
         return self._index[key]
+
+    def bind_volumes(self, slots: np.ndarray, k_obj: int) -> np.ndarray:
+        """The slots with each heterogeneous medium's material bound to the object whose row of
+        SceneArrays.objects is ``k_obj`` (its density field reads the object's space and
+        Generated coordinates): a material whose field another object reads already is copied
+        for this one (the copy shares its nodes and programs)."""
+        out = slots.copy()
+        for i, k in enumerate(slots):
+            k = int(k)
+            row = self.rows[k]
+            if k_obj < 0 or row["density_program"][0] <= 0 \
+                    or row["volume_object"][0] in (0, k_obj + 1):
+                if k_obj >= 0 and row["density_program"][0] > 0:
+                    row["volume_object"] = k_obj + 1
+                continue
+            key = (k, "volume object", k_obj)
+            if key not in self._index:
+                self._index[key] = len(self.rows)
+                copy = row.copy()
+                copy["volume_object"] = k_obj + 1
+                self.rows.append(copy)
+                self.nodes.append(self.nodes[k])
+                self.names.append(self.names[k])
+                if k in self.program_flags:
+                    self.program_flags[len(self.rows) - 1] = self.program_flags[k]
+            out[i] = self._index[key]
+        return out
 
     def slot_map(self, obj) -> np.ndarray:
         """Global material index for each of the object's slots (at least one entry)."""

@@ -1,11 +1,14 @@
-"""A material's Volume output -> its homogeneous medium (materials.MAT_VOLUME): Volume
-Absorption, Volume Scatter, Principled Volume and Emission, through Add and Mix Shader, with
-constant inputs (``reader``: material_nodes' reader of the material, its warnings named after
-it)."""
+"""A material's Volume output -> its medium (materials.MAT_VOLUME): Volume Absorption, Volume
+Scatter, Principled Volume and Emission, through Add and Mix Shader, with constant inputs but
+for a Density driven by nodes (a heterogeneous medium: the density's own shader program, which
+scales the absorption and scattering at each point, kernels/geom/medium_field.h) (``reader``:
+material_nodes' reader of the material, its warnings named after it)."""
 from __future__ import annotations
 
 import numpy as np
 
+from ppm_engine.blender.export.shader_graph import Compiler
+from ppm_engine.scene.shader_program import PROGRAM_OBJECT
 from ppm_engine.scene.spectra import blackbody_rgb
 
 _MAX_DEPTH = 64
@@ -32,6 +35,12 @@ class _Medium:
         self.emission = np.zeros(3)
         self.g_sum = 0.0              # sum of g x the scattering's mean (the mean g below)
         self.g_seen: set = set()
+        # a Density driven by nodes: (node, socket, ctx) of the first, which scales the
+        # coefficients it multiplies (``fielded``); the others' constant (``plain``)
+        self.field = None
+        self.fielded = False
+        self.plain = False
+        self.program = None           # the field's program words (read_volume)
 
     def scatter(self, sigma_s, g):
         sigma_s = np.asarray(sigma_s, np.float64)
@@ -47,9 +56,22 @@ class _Medium:
         return self.g_sum / m if m > 0 else 0.0
 
 
-def _density(reader, node, name="Density") -> float:
-    """A density input (constant; a linked one warned about, its unlinked value used), clamped
-    to >= 0 with a warning where it is negative or not a number, as Cycles clamps it."""
+def _density(reader, node, name="Density", medium=None, ctx=()) -> float:
+    """A density input, clamped to >= 0 with a warning where it is negative or not a number, as
+    Cycles clamps it; one driven by nodes is the medium's field (1 here: the field scales the
+    coefficients at each point) where it is the first or the same as the first, else warned
+    about and its unlinked value used."""
+    sock = node.inputs.get(name)
+    src = reader.graph.source(sock, ctx) if sock is not None else None
+    if medium is not None and src is not None:
+        key = (src[0].name, src[1].identifier, tuple(n.name for n in src[2]))
+        if medium.field is None:
+            medium.field = (node, sock, ctx, key)
+        if medium.field[3] == key:
+            medium.fielded = True
+            return 1.0
+    elif medium is not None:
+        medium.plain = True
     v = reader.value(node, name)
     if v is None:
         return 0.0
@@ -100,7 +122,8 @@ def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0
         return
     if kind == "ShaderNodeVolumeAbsorption":
         color = np.clip(np.nan_to_num(reader.value(node, "Color", 3)), 0.0, 1.0)
-        medium.absorption += weight * (1.0 - color) * _density(reader, node)
+        medium.absorption += weight * (1.0 - color) * _density(reader, node, medium=medium,
+                                                               ctx=ctx)
         return
     if kind == "ShaderNodeVolumeScatter":
         phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
@@ -109,10 +132,11 @@ def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0
                         "Henyey-Greenstein (its Anisotropy)")
         color = np.maximum(np.nan_to_num(reader.value(node, "Color", 3)), 0.0)
         aniso = reader.value(node, "Anisotropy")
-        medium.scatter(weight * color * _density(reader, node), aniso or 0.0)
+        medium.scatter(weight * color * _density(reader, node, medium=medium, ctx=ctx),
+                       aniso or 0.0)
         return
     if kind == "ShaderNodeVolumePrincipled":
-        density = _density(reader, node)
+        density = _density(reader, node, medium=medium, ctx=ctx)
         color = np.maximum(np.nan_to_num(reader.value(node, "Color", 3)), 0.0)
         absorbing = np.sqrt(np.maximum(np.nan_to_num(reader.value(node, "Absorption Color", 3)),
                                        0.0))
@@ -135,19 +159,63 @@ def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0
                 "volume shader this engine renders; it is left out of the volume")
 
 
+def _field_program(reader, medium, material) -> bool:
+    """The program of the medium's density field (medium.program: a program of one bind, its
+    value at the stack slot of bind 0, as the world's; kernels/geom/medium_field.h), read in a
+    volume's context: the point, its object's space and Generated coordinates; none where the
+    field folds to a constant (its value then scales the coefficients).  False: no program (a
+    graph too large; warned)."""
+    node, sock, ctx, _key = medium.field
+    c = Compiler(material.name, reader.warn_fn, reader.textures, reader.graph, material,
+                 reader.compiler.attributes, reader.compiler.camera)
+    v = c.convert(c.input(node, sock, ctx, 1), 1)
+    if v.is_const:
+        d = float(v.const[0])
+        d = 0.0 if not np.isfinite(d) or d < 0 else d
+        medium.absorption *= d
+        medium.scattering *= d
+        medium.g_sum *= d
+        return True
+    c.binds.append((0, 0, 1, c.slot(v)))
+    c.flags |= PROGRAM_OBJECT          # the object's space: its row exists (export/__init__.py)
+    medium.program = c.program()
+    if medium.program is None:         # (a graph too large)
+        reader.warn("the node graph of its volume's Density is too large to evaluate; the "
+                    "Density's unlinked value is used")
+    return medium.program is not None
+
+
+def _constant_medium(reader, sock) -> _Medium:
+    """The medium with every Density read as its unlinked value."""
+    medium = _Medium()
+    medium.field = (None, None, None, ())         # (no link matches it)
+    _volume_walk(reader, sock, 1.0, medium)
+    medium.field = None
+    return medium
+
+
 def read_volume(material, reader) -> _Medium | None:
     """The homogeneous medium of the material's Volume output (None: nothing connected), as
     Cycles computes it: Volume Absorption (1 - colour) x density; Volume Scatter colour x
     density, scattering only; Principled Volume colour x density scattering and
     (1 - colour)(1 - sqrt(absorption colour)) x density absorption, its emission colour x
     strength; an Emission node's colour x strength emitted per metre; Add and Mix Shader sum
-    them by their weights.  Inputs driven by node links (a textured density) are warned about
-    and rendered with their unlinked values: heterogeneous media are a later phase."""
+    them by their weights.  A Density driven by nodes (a Noise Texture) is the medium's field
+    (medium.program); other inputs driven by links are warned about and rendered with their
+    unlinked values."""
     sock = _output_socket(material, "Volume")
     if reader.graph.source(sock) is None:
         return None
     medium = _Medium()
     _volume_walk(reader, sock, 1.0, medium)
+    if medium.fielded and medium.plain:
+        # one field scales every density-scaled coefficient: with constant densities beside
+        # it, the field is not used (warned) and the constants are read again
+        reader.warn(f"its volume mixes a Density driven by nodes ('{medium.field[0].name}') "
+                    "with constant ones; the driven one is rendered with its unlinked value")
+        medium = _constant_medium(reader, sock)
+    elif medium.fielded and not _field_program(reader, medium, material):
+        medium = _constant_medium(reader, sock)
     if len(medium.g_seen) > 1:
         reader.warn("its volume mixes scattering of different anisotropies; their mean, "
                     "weighted by the scattering, is rendered")

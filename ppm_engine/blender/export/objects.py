@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ppm_engine.scene.arrays import OBJECT_ROWS
+
 
 def _rot(x: int, k: int) -> int:
     return ((x << k) | (x >> (32 - k))) & 0xFFFFFFFF
@@ -31,13 +33,19 @@ def random_id(obj, inst) -> int:
     return _hash_uint2(h, 0)
 
 
-def object_row(obj, m: np.ndarray, inst) -> np.ndarray:
-    """(9, 4) float32 of one object instance as shader programs read it (kernels/svm/svm.h
-    svm_context): its inverse world matrix (3 rows), (location, pass index), its colour and
-    alpha, (random, 0, 0, 0) with Cycles' random number (random_id / (2^32 - 1)), its world
-    matrix (3 rows)."""
-    row = np.zeros((9, 4), np.float64)
-    row[6:] = m[:3]
+def object_row(obj, m: np.ndarray, inst, texspace=None) -> np.ndarray:
+    """(OBJECT_ROWS, 4) float32 of one object instance as shader programs read it
+    (kernels/svm/svm_context.h): its inverse world matrix (3 rows), (location, pass index), its
+    colour and alpha, (random, 0, 0, 0) with Cycles' random number (random_id / (2^32 - 1)), its
+    world matrix (3 rows), and the Generated coordinates of a point inside it as (scale, 0) and
+    (offset, 0) of its object-space position (a volume's, as Cycles' generated transform: the
+    mesh's texture space ``texspace`` (location, size) mapped to 0..1, mesh.generated_coords)."""
+    row = np.zeros((OBJECT_ROWS, 4), np.float64)
+    loc, size = (np.asarray(v, np.float64) for v in (texspace or ((0, 0, 0), (1, 1, 1))))
+    size = np.where(np.abs(size) > 1e-30, size, 1.0)
+    row[9, :3] = 1.0 / (2.0 * size)
+    row[10, :3] = 0.5 - loc / (2.0 * size)
+    row[6:9] = m[:3]
     try:
         row[:3] = np.linalg.inv(m)[:3]
     except np.linalg.LinAlgError:

@@ -1,0 +1,58 @@
+"""The majorants of heterogeneous media (kernels/geom/medium_field.h): each medium's density
+program bounded over its object's box on the device (kernels/geom/medium_bound.cl), padded."""
+from __future__ import annotations
+
+import numpy as np
+
+from ppm_engine.scene.shader_program import SVM_IMAGE, ops_define, ops_used, stack_used
+
+BOUND_CELLS = 32          # the box's cells per axis: one density sample each
+BOUND_PADDING = 1.25      # the bound over the largest sample (a peak between samples)
+
+
+def bound_defines(svm: np.ndarray, programs) -> dict:
+    """-D flags of medium_bound.cl for these density programs."""
+    ops = ops_used(svm, programs)
+    return {"PPM_SPECIALIZED": True, "PPM_SVM": True, "PPM_VOLUME": True,
+            "PPM_ABSORPTION": True, "PPM_SVM_OPS": ops_define(ops),
+            "PPM_SVM_STACK": max(stack_used(svm, programs), 1),
+            **({"PPM_TEXTURES": True} if ops & (1 << SVM_IMAGE) else {})}
+
+
+def media_boxes(positions: np.ndarray, material: np.ndarray, kmaterials: np.ndarray) -> dict:
+    """{material: (lo, hi)} of the world-space box of the triangles of each material whose
+    medium has a density program."""
+    out = {}
+    for k in np.nonzero(kmaterials["density_program"] > 0)[0]:
+        tri = positions[material == k]
+        if tri.size:
+            p = tri.reshape(-1, 3)
+            out[int(k)] = (p.min(axis=0), p.max(axis=0))
+    return out
+
+
+def bound_media(device, args: dict, svm: np.ndarray, kmaterials: np.ndarray,
+                boxes: dict, specialize: bool = True, seed: int = 0) -> None:
+    """Sets kmaterials["majorant"] of every medium in ``boxes`` (material -> its box): the
+    largest density of BOUND_CELLS^3 samples over the box times BOUND_PADDING (0: a clear
+    medium); ``args``: the scene's buffers (device_scene.SCENE_BUFFERS)."""
+    import pyopencl as cl
+    if not boxes:
+        return
+    programs = [int(kmaterials["density_program"][k]) for k in boxes]
+    prog = device.programs.get("geom/medium_bound.cl",
+                               bound_defines(svm, programs) if specialize else {})
+    kernel = prog.launch("medium_bound", "medium bound")
+    out = device.buffer(4, "medium bound")
+    q = device.queue
+    n = BOUND_CELLS
+    for k, (lo, hi) in boxes.items():
+        zero = np.zeros(1, np.uint32)
+        cl.enqueue_copy(q, out, zero)
+        kernel(q, n ** 3, **args, mat=np.int32(k), lo=np.array([*lo, 0], np.float32),
+               hi=np.array([*hi, 0], np.float32), n=np.int32(n), seed=np.uint32(seed + k),
+               out=out)
+        cl.enqueue_copy(q, zero, out).wait()
+        top = float(zero.view(np.float32)[0])
+        kmaterials["majorant"][k] = top * BOUND_PADDING if np.isfinite(top) else 1e30
+    out.release()
