@@ -112,3 +112,44 @@ def test_object_rows_are_the_kernels():
     from ppm_engine.scene.arrays import OBJECT_ROWS
     src = (Path(__file__).parents[1] / "kernels/svm/svm_context.h").read_text()
     assert int(re.search(r"#define OBJECT_ROWS (\d+)", src).group(1)) == OBJECT_ROWS
+
+
+def test_bad_density_fields_render_without_nan(bpy, tiny, render_exr, tmp_path):
+    """Density fields of 0, 1e6, negative and infinite values (a Gradient through Math nodes,
+    as a node graph can make them; Cycles clamps a negative density to 0): the image finite and
+    in time, the zero and negative cubes show the lit floor, the huge and infinite ones are dark
+    (their majorants 1e6 x 1.25 and the largest coefficient)."""
+    from tests.helpers.blender_scenes import add_light
+    from tests.helpers.volume_scenes import W, base_scene, diffuse, plane, volume_material
+    scene = base_scene(camera=((0, 0, 8), (0, 0, 0), 50.0))
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 8.0
+    plane("Floor", diffuse("Grey", (0.6, 0.6, 0.6)), (0, 0, -1.5), size=10.0)
+    for k, (name, op, value) in enumerate((("Zero", "MULTIPLY", 0.0),
+                                           ("Huge", "MULTIPLY", 1e6),
+                                           ("Negative", "SUBTRACT", 3.0),
+                                           ("Infinite", "POWER", 1e30))):
+        m = volume_material(name, "ShaderNodeVolumeScatter")
+        grad = _drive_density(m, "Volume Scatter", "ShaderNodeTexGradient")
+        math = m.node_tree.nodes.new("ShaderNodeMath")
+        math.operation = op
+        if op == "POWER":         # (1e30 ^ (1 + x): inf in float32)
+            math.inputs[0].default_value = value
+            add = m.node_tree.nodes.new("ShaderNodeMath")
+            add.operation, add.inputs[1].default_value = "ADD", 1.0
+            m.node_tree.links.new(grad.outputs["Fac"], add.inputs[0])
+            m.node_tree.links.new(add.outputs[0], math.inputs[1])
+        else:
+            m.node_tree.links.new(grad.outputs["Fac"], math.inputs[0])
+            math.inputs[1].default_value = value
+        m.node_tree.links.new(math.outputs[0], m.node_tree.nodes["Volume Scatter"]
+                              .inputs["Density"])
+        cube(name, m, loc=(-3 + 2 * k, 0, 0), size=1.5)
+    add_light("SUN", "Sun", (0, 0, 0), energy=3.0)
+    tiny(scene, width=W, height=W, passes=4, photons=1024)
+    img = render_exr(tmp_path / "ours.exr")
+    assert np.isfinite(img).all()
+    row = img[W // 2]
+    zero, huge, negative, infinite = (row[int(W * (0.5 + (-3 + 2 * k) / 8))].mean()
+                                      for k in range(4))
+    assert zero > 0.05 and negative > 0.9 * zero, (zero, negative)
+    assert huge < 0.2 * zero and infinite < 0.2 * zero, (zero, huge, infinite)
