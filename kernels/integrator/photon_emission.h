@@ -177,11 +177,11 @@ inline bool emit_photon(const Scene *scene, uint *rng, bool aim, bool guided, fl
         }
     } else if (PPM_WORLD && info.has_world) {
         if (!world_emit(scene, pmf, u1, u2, u3, u4, o, d, flux)) return false;
-        *flux *= far_transmittance(scene);
         if (clamped) {
             *rs = avg3(world_le(scene, -*d)) / avg3(*flux);
             nee->y = *rs * PPM_PI * R * R * (pn / pmf); /* the direction's density times the pick */
         }
+        *flux *= far_transmittance(scene); /* (and so the radiance: rs the same) */
         float pa;
         if (aim && !aim_origin(scene, *d, c, R, a0, a1, a2, o, &pa, caster)) return false;
         if (aim) ratio = 1.0f / (PPM_PI * R * R * pa);
