@@ -318,10 +318,10 @@ typedef struct {
     /* the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
      * aim.h), set for the render's options by DeviceScene.set_casters */
     int n_casters;
-    /* the used materials with a medium of the volume stack (materials.MAT_VOLUME), set by
-     * DeviceScene.upload: with none, no ray looks for the media holding a camera or a light
-     * (kernels/integrator/shadow_rays.h media_at) */
+    /* (DeviceScene.upload) the used materials with a medium of the volume stack (MAT_VOLUME;
+     * none: no ray looks for the media at a camera or a light, shadow_rays.h media_at) */
     int n_media;
+    int world_medium;       /* the world's medium's material (-1: none; the stack's bottom) */
     int n_attributes;       /* the stride of `attributes` (DeviceScene.upload sets it) */
 } EmitterInfo;
 

@@ -156,23 +156,19 @@ def test_a_scene_without_volumes_builds_no_volume_code(bpy):
     assert "PPM_VOLUME" not in f and "PPM_ABSORPTION" not in f
 
 
-def test_textured_density_and_world_volume_are_warned_about(bpy):
+def test_textured_density_is_the_media_field(bpy):
     """A Noise Texture on the density: no warning, the medium's field (its coefficients per
-    unit density; test_volume_fields.py renders it); the world's Volume output: a warning."""
+    unit density; test_volume_fields.py renders it)."""
     from ppm_engine.blender.export import export_scene
-    scene = base_scene()
+    base_scene()
     m = volume_material("Smoke", Density=0.7)
     noise = m.node_tree.nodes.new("ShaderNodeTexNoise")
     m.node_tree.links.new(noise.outputs["Fac"],
                           m.node_tree.nodes["Principled Volume"].inputs["Density"])
     cube("Smoke", m)
-    wt = scene.world.node_tree
-    wv = wt.nodes.new("ShaderNodeVolumePrincipled")
-    wt.links.new(wv.outputs[0], wt.nodes["World Output"].inputs["Volume"])
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
     said = arrays.warnings
     assert not any("Smoke" in w and "Density" in w for w in said), said
-    assert any("World" in w and "Volume" in w for w in said), said
     assert arrays.materials["scattering"].max() == pytest.approx(0.5)
     assert arrays.materials["density_program"].max() > 0
 

@@ -115,10 +115,11 @@ inline float3 hg_sample(float3 d, float g, float u1, float u2, float *pdf) {
 }
 
 /* the radiance a segment of length t in medium mt (extinction sigma_t) emits towards its start:
- * the emission integrated with the transmittance from there */
+ * the emission integrated with the transmittance from there (an unbounded one, in the world's
+ * medium: none where nothing dims it, as Cycles renders it, not infinite) */
 inline float3 medium_emission(__global const Material *mt, float3 sigma_t, float t) {
     float3 e = F3(mt->volume_emission);
-    float3 len = select((1.0f - exp(-sigma_t * t)) / sigma_t, (float3)(t),
+    float3 len = select((1.0f - exp(-sigma_t * t)) / sigma_t, (float3)(isfinite(t) ? t : 0.0f),
                         isequal(sigma_t, (float3)(0.0f)));
     return select(e * len, (float3)(0.0f), isequal(e, (float3)(0.0f)));
 }

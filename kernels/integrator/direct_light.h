@@ -186,8 +186,16 @@ inline float3 lights_seen(const Scene *scene, const LightRay *r, bool escaped, i
         return L;
     }
     *met = n;
+#if PPM_VOLUME
+    /* (through the world's medium, from infinitely far: none where it has extinction) */
+    if (escaped && isinf(r->prev_pdf))
+        L += clamp_sample(r->beta * suns_seen(scene, r->d, r->ray_type)
+                              * medium_tr(r->sigma_t, PPM_INF),
+                          r->limit);
+#else
     if (escaped && isinf(r->prev_pdf))
         L += clamp_sample(r->beta * suns_seen(scene, r->d, r->ray_type), r->limit);
+#endif
     return L;
 }
 

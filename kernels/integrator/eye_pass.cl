@@ -128,7 +128,9 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
         Segment sg = segment(o, d, 0.0f, (float3)(0.0f));
         bool kept = false; /* this segment kept for the volume photons */
         if (vm >= 0) {
-            float seg = h.leaf < 0 ? tmax : h.t;
+            /* (a camera ray past the clip end in the world's medium goes on forever, as
+             * Cycles': the fog beyond it scatters, the background is lost in it) */
+            float seg = h.leaf >= 0 ? h.t : vm == world_medium(scene) ? PPM_INF : tmax;
             bool scat = term == TERM_NONE && max3(F3(scene->materials[vm].scattering)) > 0.0f;
             float4 ul = scat ? ld_set_or_rnd(pass_index, path_key, (uint)vertex++, &rng)
                              : (float4)(0.0f);

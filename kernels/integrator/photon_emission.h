@@ -7,6 +7,17 @@
 #include "light/aim.h"
 #include "light/guide.h"
 
+/* The share of a sun's or the world's light that reaches the scene through the world's
+ * medium (EmitterInfo.world_medium) from infinitely far: none in a channel where it has
+ * extinction (Cycles'; shadow_rays.h world_medium) */
+inline float3 far_transmittance(const Scene *scene) {
+    EmitterInfo info = *scene->emitter_info;
+    if (!PPM_VOLUME || info.n_media == 0 || info.world_medium < 0) return (float3)(1.0f);
+    __global const Material *m = scene->materials + info.world_medium;
+    return select((float3)(0.0f), (float3)(1.0f),
+                  isequal(F3(m->absorption) + F3(m->scattering), (float3)(0.0f)));
+}
+
 /* Emit one photon: an emitter picked in proportion to its power, then its origin, direction
  * and flux (already divided by all sampling pdfs).  ``aim`` (caustic photons: only those whose
  * first scattering is by a caster live on): the emitter picked by its power toward the casters
@@ -54,6 +65,7 @@ inline bool emit_photon(const Scene *scene, uint *rng, bool aim, bool guided, fl
         float r = L.radius;
         if (PPM_LIGHT_SUN && L.type == LIGHT_SUN) {
             sun_emit(&L, c, R, pmf, u1, u2, u3, u4, o, d, flux);
+            *flux *= far_transmittance(scene);
             float pa;
             if (aim && !aim_origin(scene, *d, c, R, a0, a1, a2, o, &pa, caster)) return false;
             if (aim) ratio = 1.0f / (PPM_PI * R * R * pa);
@@ -169,6 +181,7 @@ inline bool emit_photon(const Scene *scene, uint *rng, bool aim, bool guided, fl
             *rs = avg3(world_le(scene, -*d)) / avg3(*flux);
             nee->y = *rs * PPM_PI * R * R * (pn / pmf); /* the direction's density times the pick */
         }
+        *flux *= far_transmittance(scene); /* (and so the radiance: rs the same) */
         float pa;
         if (aim && !aim_origin(scene, *d, c, R, a0, a1, a2, o, &pa, caster)) return false;
         if (aim) ratio = 1.0f / (PPM_PI * R * R * pa);

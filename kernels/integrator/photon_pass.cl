@@ -94,7 +94,7 @@ inline bool connect_camera(const Scene *scene, ShaderData *sd, const Surface *s,
      * eye pass's rays that make the merge's visible points; through the media the photon
      * arrived in (a camera on the other side of a medium's surface: not connected) */
 #if PPM_VOLUME
-    if (ph->media->n > 0 && !(cos_c > 0.0f)) return setup;
+    if (media_top(ph->media) != world_medium(scene) && !(cos_c > 0.0f)) return setup;
     float3 T = ray_transmittance_media(scene, org, wc, dist * 0.9999f,
                                        scene->light_paths->transparent_max_bounces, VIS_CAMERA,
                                        ph->media);
@@ -169,13 +169,21 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
     float reach = 0.0f; /* from the emitter to the light's first scattering */
     for (int bounce = 0, transparent = 0; bounce <= max_bounces;) {
         Hit h = bvh_intersect(scene, o, d, PPM_INF, mask, false);
+#if PPM_VOLUME
+        /* in the world's medium a photon that meets nothing still scatters on its way out */
+        bool open = h.leaf < 0 && media_top(&media) >= 0
+                    && media_top(&media) == world_medium(scene);
+        if (h.leaf < 0 && !open) break;
+#else
         if (h.leaf < 0) break;
+#endif
         float3 before = flux; /* Russian roulette below: this bounce's albedo */
-        if (direct) reach += h.t;
+        if (direct && h.leaf >= 0) reach += h.t;
 #if PPM_VOLUME
         /* a scattering medium: a free-flight distance (volume_photons.h photon_medium) */
         float3 vp;
-        int vm = photon_medium(scene, &media, o, d, h.t, &rng, &flux, &vp);
+        int vm = photon_medium(scene, &media, o, d, open ? PPM_INF : h.t, &rng, &flux, &vp);
+        if (vm < 0 && open) break;
         if (vm >= 0 && capacity == 0u) { /* a pilot: a medium's light is the eye paths' */
             if (direct) atomic_inc(&counters[CNT_DIFFUSE_FIRST]);
             break;

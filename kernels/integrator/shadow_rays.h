@@ -68,15 +68,27 @@ inline float3 ray_transmittance_media(const Scene *scene, float3 o, float3 d, fl
     return transmittance_through(scene, o, d, dist, crossings, mask, &m);
 }
 
+/* The world's medium (its Volume output, EmitterInfo.world_medium), -1 where there is none:
+ * it fills the space outside every object, the bottom of every volume stack (Cycles'), and a
+ * ray that leaves the scene in it goes on forever (no background, no sun through it). */
+inline int world_medium(const Scene *scene) {
+    return scene->emitter_info->n_media > 0 ? scene->emitter_info->world_medium : -1;
+}
+
 /* The media that hold point p (camera rays' and photons' start, Cycles' volume stack
- * initialisation): a ray from p through every surface (at most MEDIA_PROBE_HITS); a medium
- * whose boundaries it leaves more often than it enters (several meshes may share a material)
- * holds p.  Outermost first, as paths push them: the order in which the ray first leaves them,
- * reversed. */
+ * initialisation): the world's, then a ray from p through every surface (at most
+ * MEDIA_PROBE_HITS); a medium whose boundaries it leaves more often than it enters (several
+ * meshes may share a material) holds p.  Outermost first, as paths push them: the order in
+ * which the ray first leaves them, reversed. */
 #define MEDIA_PROBE_HITS 32
 inline void media_at(const Scene *scene, float3 p, Media *m) {
     media_init(m);
     if (scene->emitter_info->n_media == 0) return; /* (a program of every feature, no media) */
+    int w = world_medium(scene);
+    if (w >= 0) {
+        media_cross(m, w, true);
+        if (scene->emitter_info->n_media == 1) return; /* (no mesh has a medium) */
+    }
     float3 d = (float3)(0.26726124f, 0.53452248f, 0.80178373f); /* (1, 2, 3) / sqrt(14) */
     int seen[2 * MEDIUM_DEPTH], depth[2 * MEDIUM_DEPTH], n_seen = 0;
     float3 o = p;

@@ -130,11 +130,12 @@ def emits_nothing(arrays) -> bool:
     """No light with power, no emissive triangle, a black world: the image is black.  (NaN in
     the camera, the world or a material is refused first, as the renderer would.)"""
     from ppm_engine.scene.emitters import emits_light
-    from ppm_engine.scene.materials import kernel_materials, kernel_nodes
+    from ppm_engine.scene.materials import kernel_materials, kernel_nodes, world_medium
     from ppm_engine.scene.prep import check_finite
     check_finite(arrays)
     return not emits_light(arrays, kernel_materials(arrays.materials,
-                                                    kernel_nodes(arrays.shader_nodes)))
+                                                    kernel_nodes(arrays.shader_nodes),
+                                                    world_medium(arrays)))
 
 
 class Session:

@@ -20,6 +20,7 @@ from ppm_engine.render.medium_bound import bound_media, media_boxes
 from ppm_engine.render.world_map import bake, build_map, map_size
 from ppm_engine.scene.arrays import (
     LIGHT_DTYPE,
+    LIGHT_SUN,
     SHADER_NODE_DTYPE,
     TERMINATOR_OFFSET,
     TEXTURE_DTYPE,
@@ -40,6 +41,7 @@ from ppm_engine.scene.materials import (
     kernel_materials,
     kernel_nodes,
     max_closures,
+    world_medium,
 )
 from ppm_engine.scene.prep import corner_box, offset_scale, prepare_scene
 from ppm_engine.scene.shader_program import ops_define, ops_used, stack_used
@@ -157,7 +159,8 @@ class DeviceScene:
             prepared, self.warnings = prepare_scene(scene)
         self.prepared = prepared = prepared    # the BVH's triangles, moved as the BVH's
         self.knodes = kernel_nodes(prepared.shader_nodes)
-        self.kmaterials = kernel_materials(prepared.materials, self.knodes)
+        self.kmaterials = kernel_materials(prepared.materials, self.knodes,
+                                           world_medium(prepared))
         self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
         self.offset_scale = offset_scale(prepared)
         b = self.bvh
@@ -186,6 +189,7 @@ class DeviceScene:
         em.info["offset_scale"] = self.offset_scale
         em.info["n_media"] = int(((self.kmaterials["flags"][self.used_materials] & MAT_VOLUME)
                                   != 0).sum())
+        em.info["world_medium"] = self.world_medium()
         em.info["n_attributes"] = prepared.attributes.shape[2]
         args.update(self._upload(
             lights=prepared.lights, emitter_cdf=em.cdf, emissive=em.emissive_leaves,
@@ -369,14 +373,33 @@ class DeviceScene:
         return bool(self.emitters.info["n_emitters"][0] > 0 and bounce and (diffuse or media))
 
     def media_box(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """The box (lo, hi) around the triangles of the used scattering media, or None."""
+        """The box (lo, hi) around the triangles of the used scattering media, or None; with a
+        scattering world medium, around every triangle, light and the camera, grown by the
+        medium's mean free path (at most the box's size): the world's medium fills all space,
+        its photons are gathered in there (volume_gather.cl clips the camera's segments to
+        it)."""
         p, km = self.prepared, self.kmaterials
         scatters = (km["flags"] & MAT_VOLUME != 0) & (km["scattering"].max(axis=1) > 0)
+        w = self.world_medium()
+        if w >= 0 and scatters[w]:
+            lamps = p.lights["position"][p.lights["type"] != LIGHT_SUN]
+            pts = np.concatenate([p.positions.reshape(-1, 3), lamps,
+                                  p.camera["to_world"][:, :, 3]]).astype(np.float64)
+            lo, hi = pts.min(axis=0), pts.max(axis=0)
+            sigma_t = float((km["absorption"][w] + km["scattering"][w]).min())
+            grow = min(1.0 / sigma_t if sigma_t > 0 else np.inf, float((hi - lo).max()))
+            return lo - grow, hi + grow
         tris = p.positions[scatters[p.material]]
         if not len(tris):
             return None
         pts = tris.reshape(-1, 3)
         return pts.min(axis=0).astype(np.float64), pts.max(axis=0).astype(np.float64)
+
+    def world_medium(self) -> int:
+        """The material row of the world's medium where it has one (materials.world_medium and
+        MAT_VOLUME: a density above 0), else -1 (kernels/integrator/shadow_rays.h media_at)."""
+        w = world_medium(self.prepared)
+        return w if w >= 0 and self.kmaterials["flags"][w] & MAT_VOLUME else -1
 
     def has_media(self) -> bool:
         """Whether some used material has a medium of the volume stack (materials.MAT_VOLUME)."""

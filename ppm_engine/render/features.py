@@ -28,6 +28,7 @@ from ppm_engine.scene.materials import (
     MAT_VOLUME,
     anisotropic_nodes,
     node_features,
+    world_medium,
 )
 from ppm_engine.scene.shader_program import SVM_IMAGE, ops_used
 
@@ -68,11 +69,14 @@ VALUE_FEATURES = frozenset(FEATURES) - {"PPM_TEXTURES", "PPM_SVM", "PPM_WORLD_MA
 
 
 def used_materials(scene: SceneArrays, n_materials: int) -> np.ndarray:
-    """Indices of the materials some triangle uses (a bincount: no sort of the triangles)."""
+    """Indices of the materials some triangle uses (a bincount: no sort of the triangles), and
+    the world's medium (materials.world_medium), which fills the space outside them."""
     m = scene.material
     m = m[(m >= 0) & (m < n_materials)] if m.size else m
-    return np.nonzero(np.bincount(m, minlength=n_materials))[0] if m.size else \
+    used = np.nonzero(np.bincount(m, minlength=n_materials))[0] if m.size else \
         np.zeros(0, np.int64)
+    w = world_medium(scene)
+    return np.append(used, w) if 0 <= w < n_materials else used
 
 
 def scene_features(scene: SceneArrays, kmaterials: np.ndarray, knodes: np.ndarray, emitters,

@@ -50,12 +50,12 @@ LIGHT_AREA_RECT = 3      # SQUARE and RECTANGLE
 LIGHT_AREA_ELLIPSE = 4   # DISK and ELLIPSE
 
 LIGHT_FLAG_SOFT_FALLOFF = 1   # point/spot with radius > 0: Cycles' "soft falloff" disk model
-WORLD_HIDDEN_CAMERA = 1       # world_shader[1]: the world's Ray Visibility > Camera off
-WORLD_MAP_MANUAL = 2   # world_shader[1]: world_shader[2:4] is the map's size (Sampling: Manual)
 # flags bit (VIS_x << LIGHT_HIDDEN_SHIFT): the light is not seen by rays of type VIS_x (the
 # light object's visible_camera / visible_glossy / visible_transmission off)
 LIGHT_HIDDEN_SHIFT = 8
-
+WORLD_HIDDEN_CAMERA = 1       # world_shader[1]: the world's Ray Visibility > Camera off
+WORLD_MAP_MANUAL = 2          # world_shader[1]: [2:4] the map's size (Cycles' Sampling: Manual)
+WORLD_MEDIUM = 4              # world_shader[1]: the last material is the world's Volume medium
 
 OBJECT_ROWS = 11    # float4 rows of one object as programs read it (export/objects.py)
 
@@ -282,9 +282,9 @@ class SceneArrays:
     # (W, 4) int32 shader programs (ppm_engine/scene/shader_program.py); word 0 is never one
     svm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((1, 4), np.int32))
     # (4,) int32 the world's node graph: its program's first word in ``svm`` (0: the constant
-    # ``world``), flags (WORLD_HIDDEN_CAMERA, WORLD_MAP_MANUAL), and the largest Environment
-    # Texture's width and height (0: none; the importance map's automatic resolution,
-    # world_map.map_size), or with WORLD_MAP_MANUAL the map's own size
+    # ``world``), flags (WORLD_*), the largest Environment Texture's width and height (0: none;
+    # the importance map's automatic resolution, world_map.map_size), or with WORLD_MAP_MANUAL
+    # the map's own size (Cycles' World > Settings > Sampling: Manual, Map Resolution)
     world_shader: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4, np.int32))
     # (1,) LIGHT_PATHS_DTYPE: the scene's Light Paths settings (bounces, clamping, caustics;
     # light_paths.py), from its Cycles settings; the engine's defaults for a scene without

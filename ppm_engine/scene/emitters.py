@@ -27,7 +27,7 @@ from ppm_engine.scene.light_tree import (
     build_light_tree,
     emitter_bounds,
 )
-from ppm_engine.scene.materials import mean_emission
+from ppm_engine.scene.materials import MAT_VOLUME, mean_emission, world_medium
 from ppm_engine.scene.prep import corner_box
 
 # the emitter table's header (kernels/shared.h EmitterInfo)
@@ -64,10 +64,10 @@ EMITTER_INFO_DTYPE = np.dtype([
     # the casters' bounding spheres caustic photons are aimed at (casters.py; kernels/light/
     # aim.h), set for the render's options by DeviceScene.set_casters
     ("n_casters", np.int32),
-    # the used materials with a medium of the volume stack (materials.MAT_VOLUME), set by
-    # DeviceScene.upload: with none, no ray looks for the media holding a camera or a light
-    # (kernels/integrator/shadow_rays.h media_at)
+    # (DeviceScene.upload) the used materials with a medium of the volume stack (MAT_VOLUME;
+    # none: no ray looks for the media at a camera or a light, shadow_rays.h media_at)
     ("n_media", np.int32),
+    ("world_medium", np.int32),    # the world's medium's material (-1: none; the stack's bottom)
     ("n_attributes", np.int32),    # the stride of `attributes` (DeviceScene.upload sets it)
 ])
 
@@ -236,6 +236,17 @@ def light_power(lights: np.ndarray, scene_radius: float) -> np.ndarray:
     return np.where(np.isfinite(p) & (p > 0), p, 0.0)
 
 
+def far_reach(scene: SceneArrays, kmaterials: np.ndarray) -> float:
+    """The share of the colour channels in which a sun's or the world's light reaches the
+    scene through the world's medium (materials.world_medium): none where it has extinction,
+    as Cycles renders light from infinitely far through it (the kernels' transmittance of an
+    unbounded segment, per channel); 1 without one."""
+    w = world_medium(scene)
+    if w < 0 or not kmaterials["flags"][w] & MAT_VOLUME:
+        return 1.0
+    return float(((kmaterials["absorption"][w] + kmaterials["scattering"][w]) <= 0).mean())
+
+
 def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
     """Whether anything in the scene emits: a light with power, an emissive triangle with area,
     an emitting world (build_emitters' table is not empty).  Needs no BVH, and no scene
@@ -247,6 +258,8 @@ def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
     if (light_power(scene.lights, 1.0) > 0).any():
         return True
     glowing = kmaterials["volume_emission"].max(axis=1) > 0     # (media: MAT_VOLUME only)
+    if world_medium(scene) >= 0 and glowing[world_medium(scene)]:
+        return True                     # an emitting world medium
     if glowing.any():
         m = scene.material[(scene.material >= 0) & (scene.material < glowing.shape[0])]
         if glowing[m].any():
@@ -270,6 +283,8 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
     importance map of the world's program (world_map.WorldMap), whose power it gives."""
     center, radius = scene_bounds(scene.positions)
     lp = light_power(scene.lights, radius)
+    reach = far_reach(scene, kmaterials)
+    lp = np.where(scene.lights["type"] == LIGHT_SUN, lp * reach, lp)
 
     # emissive triangles, in leaf order
     mat_of_leaf = scene.material[leaf_order]
@@ -286,6 +301,7 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
     wp = 4 * np.pi ** 2 * radius ** 2 * world.mean()
     if world_map is not None:
         wp = np.pi * radius ** 2 * world_map.integral
+    wp *= reach
     has_world = bool(wp > 0 and np.isfinite(wp))
 
     power = np.concatenate([lp, tp, [wp] if has_world else []])
@@ -309,6 +325,7 @@ def build_emitters(scene: SceneArrays, kmaterials: np.ndarray, leaf_order: np.nd
     info["scene_center"] = center
     info["scene_radius"] = radius
     info["world_flags"] = scene.world_shader[1]
+    info["world_medium"] = -1
     if 2 <= emissive_leaves.shape[0] <= LOCAL_PICK_MAX:
         v = scene.positions[leaf_order[emissive_leaves]].reshape(-1, 3).astype(np.float64)
         c = 0.5 * (v.min(axis=0) + v.max(axis=0))

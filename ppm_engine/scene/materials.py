@@ -24,6 +24,7 @@ from ppm_engine.scene.arrays import (
     NODE_TRANSPARENT,
     SHADER_NODE_DTYPE,
     TEX_FLAG_SRGB,
+    WORLD_MEDIUM,
 )
 from ppm_engine.scene.shader_program import BOUND
 
@@ -245,9 +246,16 @@ def node_emission(nodes: np.ndarray) -> np.ndarray:
     return np.where(keep[:, None], em * alpha[:, None], 0.0)
 
 
-def kernel_materials(materials: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+def world_medium(scene) -> int:
+    """The row of the world's medium in ``scene.materials`` (SceneArrays: its last, with
+    WORLD_MEDIUM), -1 where the world has no Volume output."""
+    return scene.materials.shape[0] - 1 if int(scene.world_shader[1]) & WORLD_MEDIUM else -1
+
+
+def kernel_materials(materials: np.ndarray, nodes: np.ndarray, world: int = -1) -> np.ndarray:
     """KMATERIAL_DTYPE rows for the scene's materials; ``nodes`` as kernel_nodes returns
-    them (ordered by material)."""
+    them (ordered by material); ``world``: the row of the world's medium (world_medium), -1
+    none."""
     m = materials.shape[0]
     k = np.zeros(m, KMATERIAL_DTYPE)
     owner = nodes["material"]
@@ -308,11 +316,37 @@ def kernel_materials(materials: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     np.logical_and.at(plain, owner, (nodes["flags"] & NODE_FLAG_VOLUME_BOUNDARY) != 0)
     flags |= np.where(volume & plain & (k["node_count"] > 0), MAT_BOUNDARY, 0).astype(np.uint32)
     k["flags"] = flags
+    if world >= 0:
+        _add_world_medium(k, world, sigma_a[world], sigma_s[world], em[world],
+                          float(np.clip(np.nan_to_num(materials["anisotropy"][world]), -0.999,
+                                        0.999)))
     # a material with a shader program never takes the Lambert short path (it skips programs)
     k["program"] = materials["program"]
     k["flags"] &= np.where(k["program"] > 0, ~np.uint32(MAT_LAMBERT), ~np.uint32(0)).astype(
         np.uint32)
     return k
+
+
+def _add_world_medium(k: np.ndarray, world: int, sigma_a, sigma_s, em, g: float) -> None:
+    """The world's medium (row ``world``) in every material's medium record, as Cycles' volume
+    stack sums the world's volume under every object's: inside a mesh's medium (or glass, or
+    any mesh a path enters by refraction or translucency) the world's medium goes on, added to
+    the mesh's (their anisotropies: the mean weighted by the scattering, as a Mix Shader's).
+    Its own row: a medium of the volume stack (MAT_VOLUME) with nothing but the world's."""
+    k[world]["absorption"], k[world]["scattering"] = 0.0, 0.0
+    k[world]["volume_emission"], k[world]["anisotropy"] = 0.0, 0.0
+    # (a heterogeneous medium's coefficients are per unit of its density: the world's is not
+    # added inside one, docs/VOLUMES.md)
+    add = (k["density_program"] <= 0)[:, None]
+    s_own, s_w = k["scattering"].astype(np.float64).mean(axis=1), float(sigma_s.mean())
+    mean = s_own + s_w
+    k["anisotropy"] = np.where(add[:, 0] & (mean > 0), (k["anisotropy"] * s_own + g * s_w)
+                               / np.where(mean > 0, mean, 1.0), k["anisotropy"])
+    k["absorption"] = np.minimum(k["absorption"] + add * sigma_a, MAX_COEFFICIENT)
+    k["scattering"] = np.minimum(k["scattering"] + add * sigma_s, MAX_COEFFICIENT)
+    k["volume_emission"] = np.minimum(k["volume_emission"] + add * em, MAX_COEFFICIENT)
+    if max(sigma_a.max(), sigma_s.max(), em.max()) > 0:
+        k["flags"][world] |= MAT_VOLUME
 
 
 def mean_emission(kmaterials: np.ndarray, textures: np.ndarray, texels: np.ndarray) -> np.ndarray:

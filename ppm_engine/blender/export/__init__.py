@@ -18,7 +18,7 @@ from ppm_engine.blender.export.mesh import GEOMETRY_TYPES, transform_part
 from ppm_engine.blender.export.mesh_cache import MeshCache
 from ppm_engine.blender.export.objects import object_row
 from ppm_engine.blender.export.textures import TextureTable
-from ppm_engine.blender.export.world import export_world
+from ppm_engine.blender.export.world import export_world, world_medium
 from ppm_engine.errors import SceneError
 from ppm_engine.scene.arrays import (
     LIGHT_DTYPE,
@@ -30,6 +30,7 @@ from ppm_engine.scene.arrays import (
     VIS_GLOSSY,
     VIS_SHADOW,
     VIS_TRANSMISSION,
+    WORLD_MEDIUM,
     SceneArrays,
 )
 from ppm_engine.scene.light_paths import from_cycles
@@ -202,6 +203,11 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
     world, world_program, world_shader = export_world(scene.world, warn, textures, svm.shape[0])
     if world_program is not None:
         svm = np.concatenate([svm, world_program])
+    mats, names = materials.array(), tuple(materials.names)
+    fog = world_medium(scene.world, warn)      # the world's Volume: the materials' last row
+    if fog is not None:
+        mats, names = np.concatenate([mats, fog]), names + (f"World '{scene.world.name}'",)
+        world_shader[1] |= WORLD_MEDIUM
 
     light_arr = np.concatenate(lights) if lights else np.zeros(0, LIGHT_DTYPE)
     cat_key = (tuple(bases), len(materials.attributes), uv_tangents, generated,
@@ -237,9 +243,9 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
     tex_table, texels = textures.arrays()
     light_paths = from_cycles(getattr(scene, "cycles", None))    # Light Paths (SceneError)
     try:
-        return SceneArrays(**cat, materials=materials.array(),
+        return SceneArrays(**cat, materials=mats,
                            shader_nodes=materials.node_array(), lights=light_arr, camera=camera,
-                           world=world, material_names=tuple(materials.names),
+                           world=world, material_names=names,
                            warnings=tuple(warn), textures=tex_table, texels=texels,
                            objects=(np.stack(objects) if objects
                                     else np.zeros((0, OBJECT_ROWS, 4), np.float32)),

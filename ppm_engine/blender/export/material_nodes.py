@@ -17,7 +17,7 @@ import sys
 
 import numpy as np
 
-from ppm_engine.blender.export.material_volume import read_volume
+from ppm_engine.blender.export.material_volume import ConstantInputs, read_volume
 from ppm_engine.blender.export.shader_graph import Compiler, Graph
 from ppm_engine.scene.arrays import (
     MATERIAL_DTYPE,
@@ -73,9 +73,10 @@ def _output_socket(material, socket="Surface"):
     return out.inputs.get(socket) if out is not None else None
 
 
-class _Reader:
+class _Reader(ConstantInputs):
     """Reads one material's BSDF nodes, warning once per problem; inputs driven by value nodes
-    are compiled into the material's shader program (shader_graph.Compiler)."""
+    are compiled into the material's shader program (shader_graph.Compiler); the Volume
+    output's constant inputs (ConstantInputs.value)."""
 
     def __init__(self, material, warn, textures, attributes=None, camera=None):
         self.name = material.name
@@ -90,17 +91,6 @@ class _Reader:
 
     def warn(self, text):
         self.compiler.warn(text)
-
-    def value(self, node, name, n=None, default=None):
-        """A constant input (the Volume output's nodes): linked ones warned about."""
-        sock = node.inputs.get(name)
-        if sock is None or not getattr(sock, "enabled", True):
-            return default
-        if self.graph.source(sock) is not None:
-            self.warn(f"'{name}' of '{node.name}' is driven by a node link this engine does not "
-                      "evaluate there; its unlinked value is used")
-        v = sock.default_value
-        return tuple(v)[:n] if n else float(v)
 
     def val(self, node, name, n=1):
         """The input's value in the program (constant or stack slots), None when absent."""

@@ -25,6 +25,22 @@ def _output_socket(material, socket):
 _VOLUME_PHASES = ("HENYEY_GREENSTEIN",)
 
 
+class ConstantInputs:
+    """A reader's constant inputs of the Volume output's nodes (material_nodes' reader of a
+    material, world.py's of the world): its ``graph`` (shader_graph.Graph) and ``warn``."""
+
+    def value(self, node, name, n=None, default=None):
+        """A constant input: a linked one warned about, its unlinked value used."""
+        sock = node.inputs.get(name)
+        if sock is None or not getattr(sock, "enabled", True):
+            return default
+        if self.graph.source(sock) is not None:
+            self.warn(f"'{name}' of '{node.name}' is driven by a node link this engine does not "
+                      "evaluate there; its unlinked value is used")
+        v = sock.default_value
+        return tuple(v)[:n] if n else float(v)
+
+
 class _Medium:
     """The homogeneous medium a material's Volume output makes (coefficients per metre, RGB), as
     Cycles sums its volume closures: each closure's coefficients scale with its mix weight."""

@@ -1,13 +1,16 @@
 """The world: a constant background radiance = colour x strength (Cycles units), or, when the
 Background's Color or Strength comes from a node graph (an HDRI through an Environment
 Texture, Mapping, Math, ...), that graph compiled into a shader program (shader_graph.Compiler)
-whose one bound value is colour x strength (kernels/svm/svm.h svm_world)."""
+whose one bound value is colour x strength (kernels/svm/svm.h svm_world).  Its Volume output:
+a homogeneous medium filling the space outside every object (world_medium), read as a
+material's (material_volume.py)."""
 from __future__ import annotations
 
 import numpy as np
 
+from ppm_engine.blender.export.material_volume import ConstantInputs, read_volume
 from ppm_engine.blender.export.shader_graph import Compiler, Graph
-from ppm_engine.scene.arrays import WORLD_HIDDEN_CAMERA, WORLD_MAP_MANUAL
+from ppm_engine.scene.arrays import MATERIAL_DTYPE, WORLD_HIDDEN_CAMERA, WORLD_MAP_MANUAL
 
 _SHADERS = ("ShaderNodeBackground", "ShaderNodeEmission")   # identical for a world in Cycles
 
@@ -39,10 +42,6 @@ def export_world(world, warn, textures=None, base: int = 0):
     out = tree.get_output_node('CYCLES') or tree.get_output_node('ALL')
     sock = out.inputs.get("Surface") if out is not None else None
     graph = Graph(warn)
-    vol = out.inputs.get("Volume") if out is not None else None
-    if vol is not None and graph.source(vol) is not None:
-        warn(f"World '{world.name}': its Volume output is not rendered yet (the world's volume "
-             "is a later phase); the scene renders without it")
     src = graph.source(sock) if sock is not None else None
     if src is None:
         return np.zeros(3, np.float32), None, shader       # Cycles: no surface = black
@@ -82,3 +81,30 @@ def export_world(world, warn, textures=None, base: int = 0):
         shader[2] = max(s[0] for s in c.env_sizes)
         shader[3] = max(s[1] for s in c.env_sizes)
     return const, words, shader
+
+
+class _VolumeReader(ConstantInputs):
+    """material_volume's reader of the world's Volume output, its warnings named by the world."""
+
+    def __init__(self, world, warn):
+        self.graph = Graph(warn)
+        self.warn = WorldCompiler(world.name, warn, None, self.graph).warn
+
+
+def world_medium(world, warn) -> np.ndarray | None:
+    """The world's Volume output as a MATERIAL_DTYPE row (1,) (its homogeneous medium, summed
+    as a material's: material_volume.read_volume), or None where nothing is connected.  Cycles
+    fills the space outside every object with it: the bottom of every volume stack, a mesh's
+    medium inside it added to it (materials.kernel_materials), and a ray that leaves the scene
+    through it goes on forever (no background, no sun where it has extinction)."""
+    if world is None or world.node_tree is None:
+        return None
+    medium = read_volume(world, _VolumeReader(world, warn))
+    if medium is None:
+        return None
+    row = np.zeros(1, MATERIAL_DTYPE)
+    row["absorption"] = medium.absorption
+    row["scattering"] = medium.scattering
+    row["anisotropy"] = medium.anisotropy
+    row["volume_emission"] = medium.emission
+    return row
