@@ -120,6 +120,29 @@ inline float medium_track(const Scene *scene, int mat, float3 o, float3 d, float
     return INFINITY;
 }
 
+/* Ratio tracking alone over the segment o + s d (0 <= s < t) of medium mat, a field: *T times
+ * the transmittance (in expectation), tentative collisions at the majorant's rate or at least
+ * `rate`; Russian roulette below a hundredth of *T at the start. */
+inline void medium_ratio(const Scene *scene, int mat, float3 o, float3 d, float t, float rate,
+                         uint *rng, float3 *T) {
+    __global const Material *mt = scene->materials + mat;
+    float3 ut = F3(mt->absorption) + F3(mt->scattering);
+    float mu = fmax(max3(ut) * mt->majorant, rate), b0 = 0.01f * max3(fabs(*T)), s = 0.0f;
+    if (!(mu > 0.0f) || !(max3(ut) * mt->majorant > 0.0f)) return;
+    for (int k = 0; k < MEDIUM_TRACK_MAX; k++) {
+        s -= log(1.0f - rnd(rng)) / mu;
+        if (!(s < t)) return;
+        *T *= 1.0f - ut * (medium_density(scene, mat, o + s * d) / mu);
+        float b = max3(fabs(*T));
+        if (!(b > 0.0f)) break;
+        if (b < b0) {
+            if (rnd(rng) * b0 >= b) break;
+            *T *= b0 / b;
+        }
+    }
+    *T = (float3)(0.0f);
+}
+
 /* the fraction of light left after the segment o + s d (0 <= s < t) in the innermost of media m
  * (geom/medium.h media_transmittance; a field's by ratio tracking, numbers hashed from the
  * ray) */
@@ -129,7 +152,7 @@ inline float3 media_transmittance_ray(const Scene *scene, const Media *m, float3
     if (!medium_field(scene, vm)) return media_transmittance(m, scene->materials, t);
     uint rng = ray_hash(o, d);
     float3 T = (float3)(1.0f);
-    medium_track(scene, vm, o, d, t, false, 0.0f, &rng, &T, 0);
+    medium_ratio(scene, vm, o, d, t, isfinite(t) ? MEDIUM_RATIO_STEPS / t : 0.0f, &rng, &T);
     return T;
 }
 #endif

@@ -91,7 +91,7 @@ inline bool light_met(const Scene *scene, int i, const LightRay *r, float t0, in
     if (r->field > 0) { /* (ratio tracking to the light) */
         uint rng = ray_hash(r->o, r->d);
         float3 T = (float3)(1.0f);
-        medium_track(scene, r->field - 1, r->o, r->d, t, false, 0.0f, &rng, &T, 0);
+        medium_ratio(scene, r->field - 1, r->o, r->d, t, MEDIUM_RATIO_STEPS / t, &rng, &T);
         Le *= T;
     } else {
         Le *= exp(-r->sigma_t * t);

@@ -139,8 +139,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
                                 (float2)(clamp_found, clamp_limit(depth, lp)), true, &beta, &sg);
             /* the camera's segments in scattering media, for the volume photons' gather
              * (volume_gather.cl): its path's state, the weight at its start */
-            kept = volume_photons && scat && vbounce == 0 && nseg < VOLUME_SEGMENTS
-                   && !medium_field(scene, vm); /* (a field's: not gathered yet) */
+            kept = volume_photons && scat && vbounce == 0 && nseg < VOLUME_SEGMENTS;
             if (kept) {
                 __global float4 *v = vps->segments + 3 * (VOLUME_SEGMENTS * id + nseg++);
                 v[0] = (float4)(o, seg);

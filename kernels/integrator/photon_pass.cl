@@ -190,7 +190,6 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
         }
         if (vm >= 0) {
             if (!direct && (chain || !caustics_only) && lp->volume_bounces > 0
-                && !medium_field(scene, vm) /* (a field's: not gathered yet) */
                 && store_volume_photon(photons, vp, d, flux, ppath, vcapacity, counters)) {
                 if (aimed) atomic_inc(aimed + 1); /* (what casters and guides learn from) */
                 if (guide_count) atomic_inc(guide_count);

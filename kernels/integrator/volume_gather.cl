@@ -19,6 +19,10 @@
 #include "integrator/hash.h"
 #include "geom/geometry.h"
 #include "geom/medium.h"
+#include "shared.h"
+#if PPM_SVM /* (heterogeneous media; passes/volume.py builds without it where there are none) */
+#include "geom/medium_field.h"
+#endif
 #include "integrator/path_state.h"
 #include "integrator/pass_state.h"
 #include "shared.h"
@@ -54,19 +58,45 @@ __kernel void volume_mark(__global const float4 *ph_pos, __global const uint *co
             }
 }
 
+/* the checkpoints of a heterogeneous segment's transmittance (beam_tr) */
+#define BEAM_TABLE 16
+
 /* a segment as its gather reads it */
 typedef struct {
     float3 o, d;
     float4 medium; /* its extinction coefficient, its phase function's anisotropy */
     uint e;        /* the camera path's state (path_state.h) */
     float r;       /* the photons' radius */
+    int field;     /* its medium where that is a field (geom/medium_field.h), else -1 */
+    float step;    /* the field's checkpoints: every step from the start, their transmittance */
+    float3 tab[BEAM_TABLE + 1];
+    uint seed;
 } Beam;
+
+/* The transmittance from the segment's start to s: a homogeneous medium's closed form; in a
+ * field, one ratio-tracking estimate over the segment read at the checkpoint below s (the
+ * segment's, beam_segment) times another from there to s (numbers from the photon's index k):
+ * unbiased, about one density evaluation per photon. */
+inline float3 beam_tr(const Scene *scene, const Beam *bm, float s, uint k) {
+#if PPM_SVM
+    if (bm->field < 0) return medium_tr(bm->medium.xyz, s);
+    int j = clamp((int)(s / bm->step), 0, BEAM_TABLE);
+    float sj = (float)j * bm->step;
+    float3 T = bm->tab[j];
+    uint rng = pcg_hash(k ^ bm->seed);
+    medium_ratio(scene, bm->field, bm->o + sj * bm->d, bm->d, s - sj,
+                 MEDIUM_RATIO_STEPS / (BEAM_TABLE * bm->step), &rng, &T);
+    return T;
+#else
+    return medium_tr(bm->medium.xyz, s);
+#endif
+}
 
 /* The photons of the cells around cell c (within r of the piece s.x <= s < s.y of the segment
  * o + s d) whose projection lies in that piece: the sum of n x flux x phase x transmittance */
-inline float3 beam_cell(const Photons *photons, const Grid *g, __global const ulong *table,
-                        uint mask, const Beam *bm, float2 s, long3 c, __global const LightPaths *lp,
-                        uint *used) {
+inline float3 beam_cell(const Scene *scene, const Photons *photons, const Grid *g,
+                        __global const ulong *table, uint mask, const Beam *bm, float2 s, long3 c,
+                        __global const LightPaths *lp, uint *used) {
     float3 o = bm->o, d = bm->d, pa = o + s.x * d, pb = o + s.y * d, acc = (float3)(0.0f);
     float r = bm->r;
     long3 lo = max(cell_of(fmin(pa, pb) - r, g), c - (long)1);
@@ -89,7 +119,7 @@ inline float3 beam_cell(const Photons *photons, const Grid *g, __global const ul
                 if (!path_join_medium(bm->e, photons->vpath[pi], lp)) continue;
                 float4 pf = photons->vflux[pi];
                 float ph = hg_phase(dot(d, unpack_unit(as_uint(pf.w))), bm->medium.w);
-                acc += (float)cnt * ph * pf.xyz * medium_tr(bm->medium.xyz, sp);
+                acc += (float)cnt * ph * pf.xyz * beam_tr(scene, bm, sp, pi);
                 *used += cnt;
             }
     return acc;
@@ -102,8 +132,17 @@ inline float3 beam_segment(const Scene *scene, const Photons *photons, const Gri
     float4 a = v[0], b = v[1], c = v[2];
     float3 o = a.xyz, d = b.xyz;
     __global const Material *mt = scene->materials + as_int(b.w);
-    Beam bm = {o, d, (float4)(F3(mt->absorption) + F3(mt->scattering), mt->anisotropy),
-               as_uint(c.w), r};
+    Beam bm;
+    bm.o = o;
+    bm.d = d;
+    bm.medium = (float4)(F3(mt->absorption) + F3(mt->scattering), mt->anisotropy);
+    bm.e = as_uint(c.w);
+    bm.r = r;
+#if PPM_SVM
+    bm.field = medium_field(scene, as_int(b.w)) ? as_int(b.w) : -1;
+#else
+    bm.field = -1;
+#endif
     /* the segment inside the grid's box */
     float3 inv = 1.0f / select(d, (float3)(1e-30f), isequal(d, (float3)(0.0f)));
     float3 t0 = (F3(g->bmin) - o) * inv, t1 = (F3(g->bmax) - o) * inv;
@@ -111,6 +150,19 @@ inline float3 beam_segment(const Scene *scene, const Photons *photons, const Gri
     float s0 = fmax(0.0f, fmax(tn.x, fmax(tn.y, tn.z)));
     float s1 = fmin(a.w, fmin(tf.x, fmin(tf.y, tf.z)));
     if (!(s1 > s0)) return (float3)(0.0f);
+#if PPM_SVM
+    if (bm.field >= 0) { /* a field: its transmittance at the checkpoints, one ratio tracking */
+        bm.step = s1 / BEAM_TABLE;
+        bm.seed = ray_hash(o, d);
+        uint rng = pcg_hash(bm.seed);
+        bm.tab[0] = (float3)(1.0f);
+        for (int j = 1; j <= BEAM_TABLE; j++) {
+            bm.tab[j] = bm.tab[j - 1];
+            medium_ratio(scene, bm.field, o + (float)(j - 1) * bm.step * d, d, bm.step,
+                         MEDIUM_RATIO_STEPS / s1, &rng, &bm.tab[j]);
+        }
+    }
+#endif
     /* the walk (Amanatides & Woo): the cell, the distances to its next boundary per axis */
     long3 cell = cell_of(o + s0 * d, g);
     long3 step = (long3)(d.x > 0.0f ? 1 : -1, d.y > 0.0f ? 1 : -1, d.z > 0.0f ? 1 : -1);
@@ -123,7 +175,7 @@ inline float3 beam_segment(const Scene *scene, const Photons *photons, const Gri
     for (int k = 0; k < VOLUME_WALK_MAX; k++) {
         float sb = fmin(fmin(next.x, fmin(next.y, next.z)), s1);
         if (volume_marked(marks, cell))
-            acc += beam_cell(photons, g, table, mask, &bm, (float2)(sa, sb), cell,
+            acc += beam_cell(scene, photons, g, table, mask, &bm, (float2)(sa, sb), cell,
                              scene->light_paths, used);
         if (sb >= s1) break;
         if (next.x <= next.y && next.x <= next.z) {

@@ -57,7 +57,11 @@ class VolumeGather(SpatialHash):
         self.k_hash = self.program.launch("hash_build", "volume")
         self.k_pick = (None if ctx.device.int64_atomics
                        else self.program.launch("hash_pick", "volume"))
+        # (without a heterogeneous medium the gather reads no shader program: a small build;
+        # with one, every feature's, as the passes' programs of every feature)
+        fields = (ctx.scene.kmaterials["density_program"] > 0).any()
         defines = {"PPM_VOLUME": True,
+                   **({} if fields else {"PPM_SPECIALIZED": True, "PPM_ABSORPTION": True}),
                    **({"PPM_INT64_ATOMICS": True} if ctx.device.int64_atomics else {})}
         p = ctx.device.programs.get("integrator/volume_gather.cl", defines)
         self.k_gather = p.launch("volume_gather", "volume")
