@@ -10,7 +10,7 @@
  * the space of the object it is bound to (its Object and Generated coordinates), that scales
  * its absorption and scattering there (its emission is not scaled, as Cycles' Principled
  * Volume's).  Its majorant (Material.majorant, a bound of the density over the object's box
- * found by device_scene's medium_bound.cl) sets the rate of tentative collisions: null
+ * found by render/medium_bound.py on the device) sets the rate of tentative collisions: null
  * scattering (Woodcock tracking), with weights (Kutz et al. 2017, "Spectral and Decomposition
  * Tracking") so that chromatic coefficients and a density above the majorant stay unbiased.
  * A homogeneous medium takes none of this (geom/medium.h's closed forms). */

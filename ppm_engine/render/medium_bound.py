@@ -1,5 +1,6 @@
 """The majorants of heterogeneous media (kernels/geom/medium_field.h): each medium's density
-program bounded over its object's box on the device (kernels/geom/medium_bound.cl), padded."""
+program bounded over its object's box on the device (kernels/light/world_map.cl medium_bound:
+the program the world's map is baked with, one build of every node for every scene), padded."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,7 +12,7 @@ BOUND_PADDING = 1.25      # the bound over the largest sample (a peak between sa
 
 
 def bound_defines(svm: np.ndarray, programs) -> dict:
-    """-D flags of medium_bound.cl for these density programs."""
+    """-D flags of world_map.cl's medium_bound for these density programs."""
     ops = ops_used(svm, programs)
     return {"PPM_SPECIALIZED": True, "PPM_SVM": True, "PPM_VOLUME": True,
             "PPM_ABSORPTION": True, "PPM_SVM_OPS": ops_define(ops),
@@ -40,7 +41,7 @@ def bound_media(device, args: dict, svm: np.ndarray, kmaterials: np.ndarray,
     if not boxes:
         return
     programs = [int(kmaterials["density_program"][k]) for k in boxes]
-    prog = device.programs.get("geom/medium_bound.cl",
+    prog = device.programs.get("light/world_map.cl",
                                bound_defines(svm, programs) if specialize else {})
     kernel = prog.launch("medium_bound", "medium bound")
     out = device.buffer(4, "medium bound")
