@@ -49,7 +49,7 @@ def test_firefly_check_counts_the_pixels_brighter_than_the_reference_s_range():
 # less of the tier's longest test than all ten below; the slow tier runs every reference and
 # check (the closed form's, LuxCore's light tracer or its fallback, the photons' curve): the
 # ten, and all sixteen
-QUICK_SCENES = ("cornell_box", "point_caustic")
+QUICK_SCENES = ("point_caustic",)
 CHECK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
                 "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights", "fog_lens")
 
