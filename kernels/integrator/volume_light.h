@@ -13,11 +13,17 @@ typedef struct {
     float3 o, d, pc, mid;
     float t;
     float s, pdf; /* where the path scatters on it (INFINITY: it crosses), the density of s */
-    bool equi;    /* its lights of no size also sampled by equiangular distances (not a field) */
+    /* how its lights of no size are sampled: EQUI_MIS by equiangular distances and free-flight
+     * ones under MIS (a homogeneous medium), EQUI_ONLY by equiangular distances alone (a field,
+     * whose free-flight density is not known), EQUI_NONE by free-flight distances alone */
+    int equi;
 } Segment;
+#define EQUI_NONE 0
+#define EQUI_MIS 1
+#define EQUI_ONLY 2
 
 inline Segment segment(float3 o, float3 d, float t, float3 pc) {
-    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t, INFINITY, 0.0f, true};
+    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t, INFINITY, 0.0f, EQUI_MIS};
     return g;
 }
 
@@ -107,8 +113,10 @@ inline float3 volume_nee(const Scene *scene, const Segment *sg, float s_dist, fl
     float w = 1.0f;
     if (s.pdf_dir > 0.0f) {
         w = mis_power(pmf * s.pdf_dir, ph);
-    } else if (sg->equi && equiangular_light(scene, e)) {
-        w = mis_power(pmf * pdf_d, equiangular_density(scene, sg, e, s_dist));
+    } else if (sg->equi != EQUI_NONE && equiangular_light(scene, e)) {
+        w = sg->equi == EQUI_ONLY
+                ? 0.0f
+                : mis_power(pmf * pdf_d, equiangular_density(scene, sg, e, s_dist));
     }
     return ph * T * s.E * (w / pmf);
 }
@@ -138,6 +146,17 @@ inline float3 volume_equiangular(const Scene *scene, const Segment *sg, float3 s
     float ph = hg_phase(dot(sg->d, ls.wi), g);
     float3 T = ray_transmittance_media(scene, p, ls.wi, ls.dist, crossings, VIS_SHADOW, m);
     if (!(max3(T) > 0.0f)) return none;
+    if (sg->equi == EQUI_ONLY) {
+        /* a field (geom/medium_field.h): its scattering at p, the transmittance to p by ratio
+         * tracking (numbers hashed from the sample), no MIS (free-flight distances leave
+         * these lights to this) */
+        int vm = media_top(m);
+        float3 tr = (float3)(1.0f);
+        uint rng = ray_hash(p, sg->d) ^ as_uint(u.y);
+        medium_ratio(scene, vm, sg->o, sg->d, s_dist, MEDIUM_RATIO_STEPS / s_dist, &rng, &tr);
+        float3 ss = sigma_s * medium_density(scene, vm, p);
+        return ss * tr * (ph / (pmf_e * pdf_e)) * T * ls.E;
+    }
     float3 tr = exp(-sigma_t * s_dist);
     float a = pmf_e * pdf_e;
     float b = emitter_pmf_at(scene, e, p, none) * medium_pdf(sigma_t, sg->pc, s_dist);
@@ -162,13 +181,22 @@ inline float3 medium_segment(const Scene *scene, const Media *media, float3 o, f
     if (vm < 0) return L;
     __global const Material *mt = scene->materials + vm;
     if (medium_field(scene, vm)) {
-        /* a heterogeneous medium (geom/medium_field.h): tracked, its emission by collisions,
-         * next-event estimation at the scattering alone (no equiangular sampling) */
-        /* (the numbers u are 0 where the path does not scatter: the ray's own too) */
+        /* a heterogeneous medium (geom/medium_field.h): tracked, its emission by collisions;
+         * its lights of no size by an equiangular distance alone (EQUI_ONLY), the others by
+         * next-event estimation where it scatters (the numbers u are 0 where the path does
+         * not scatter: the ray's own too) */
         uint rng = ray_hash(o, d) ^ pcg_hash(as_uint(u.x) ^ pcg_hash(as_uint(u.y)));
-        sg->equi = false;
-        sg->s = medium_track(scene, vm, o, d, t, scatter && max3(F3(mt->scattering)) > 0.0f,
-                             limits.x, &rng, beta, &L);
+        bool scat = scatter && max3(F3(mt->scattering)) > 0.0f;
+        sg->equi = EQUI_NONE;
+        if (PPM_LIGHT_POINT && scat && nee) { /* (with the weight at the segment's start) */
+            sg->equi = EQUI_ONLY;
+            L += clamp_sample(*beta
+                                  * volume_equiangular(scene, sg, (float3)(0.0f),
+                                                       F3(mt->scattering), mt->anisotropy, media,
+                                                       crossings, (float3)(u.z, u.w, 0.5f)),
+                              limits.y);
+        }
+        sg->s = medium_track(scene, vm, o, d, t, scat, limits.x, &rng, beta, &L);
         return L;
     }
     float3 sigma_t = media_extinction(media, scene->materials), sigma_s = F3(mt->scattering);
