@@ -431,7 +431,7 @@ typedef struct {
     X(float4, beta)     /* the path weight (the photon term's factor); w: the footprint */ \
     X(float4, shade)    /* the hit shaded again: u, v, BVH leaf (-1: Lambert), wi packed */ \
     X(float4, gathered) /* the gather's result: (sum of flux x f, photons) */ \
-    X(float4, segments) /* the camera's segments in media: (o, t), (d, medium), (weight, path) */
+    X(float4, segments) /* media segments: (o, t), (d, field), (weight, path), (sigma_t, g) */
 
 /* --- the photons' buffers (ppm_engine/render/photon_map.py PHOTON_BUFFERS), in the kernels'
  * parameter order: X(element type, name); kernels/integrator/pass_state.h makes the kernels'

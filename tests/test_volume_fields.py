@@ -222,3 +222,26 @@ def test_volume_photons_in_a_density_field(bpy, tiny, render_exr, tmp_path):
         images[mode] = render_exr(tmp_path / f"{mode}.exr").mean(-1)
     a, b = (images[k].reshape(4, 8, 4, 8).mean((1, 3)) for k in ("PHOTONS", "PATHS"))
     assert np.all(np.abs(a / b - 1) < 0.05), np.round(a / b, 3)
+
+
+def test_overlapping_media_add_up_as_cycles(bpy, cycles, render_exr, tmp_path, tiny):
+    """Two Volume Absorption boxes that overlap, seen straight through onto an emissive wall:
+    where both are, their absorption adds up, as Cycles' volume stack sums its volumes
+    (geom/medium.h media_mix): the wall seen through both (1 m of each, 0.75 m of it in both)
+    is exp(-(s1 + s2)), Cycles' too (before: the innermost medium's alone, exp(-(s1 + s2 / 4))
+    there)."""
+    from tests.helpers.volume_scenes import both, volume_material
+    color1, color2 = np.array([0.8, 0.5, 0.2]), np.array([0.3, 0.6, 0.9])
+    scene = absorption_scene(tuple(color1), 1.0)           # "Ink": x in [-0.5, 0.5]
+    bpy.data.objects["Ink"].location.x = -0.25               # [-0.75, 0.25]
+    cube("Ink 2", volume_material("Ink 2", "ShaderNodeVolumeAbsorption",
+                                  Color=(*color2, 1), Density=1.0), loc=(0.25, 0, 0.25),
+         size=1.0)                                          # (its faces apart from Ink's)
+    ours, ref = both(scene, cycles, render_exr, tmp_path, tiny, samples=16, passes=4)
+    # 16 pixels per metre over x in [-1, 1]: the overlap x in [-0.25, 0.25] is columns 12..19
+    s1, s2 = 1.0 - color1, 1.0 - color2
+    for img in (ours, ref):
+        assert np.allclose(img[12:20, 13:19].reshape(-1, 3).mean(0), np.exp(-(s1 + s2)),
+                           rtol=3e-3)
+        assert np.allclose(img[12:20, 6:10].reshape(-1, 3).mean(0), np.exp(-s1), rtol=3e-3)
+        assert np.allclose(img[12:20, 22:26].reshape(-1, 3).mean(0), np.exp(-s2), rtol=3e-3)

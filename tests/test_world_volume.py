@@ -122,9 +122,10 @@ def _kernel_view(arrays):
 
 
 def test_world_volume_export_and_features(bpy):
-    """The world's Volume output: the materials' last row, flagged in world_shader; every
-    material's medium record gets it added (the volume stack's sum), the world's row is a
-    medium of its own, and the scene's kernels get PPM_VOLUME; a density of 0: none."""
+    """The world's Volume output: the materials' last row, flagged in world_shader, a medium of
+    its own (the kernels sum it with every medium above it on the stack, as Cycles: geom/
+    medium.h media_mix), every other material's medium record its own, and the scene's
+    kernels get PPM_VOLUME; a density of 0: none."""
     from ppm_engine.scene.arrays import WORLD_MEDIUM
     from ppm_engine.scene.materials import MAT_VOLUME, world_medium
     scene = fog_field(world_density=0.2)
@@ -137,7 +138,8 @@ def test_world_volume_export_and_features(bpy):
     km, f = _kernel_view(arrays)
     assert km["flags"][w] & MAT_VOLUME and "PPM_VOLUME" in f
     mist = arrays.material_names.index("Mist")
-    assert np.allclose(km["scattering"][mist], 0.8 * 0.5 + 0.9 * 0.2)    # (its own + the world's)
+    assert np.allclose(km["scattering"][mist], 0.8 * 0.5)       # (its own: the stack sums)
+    assert np.allclose(km["scattering"][w], 0.9 * 0.2)
     scene.world.node_tree.nodes["Principled Volume"].inputs["Density"].default_value = 0.0
     bpy.data.objects.remove(bpy.data.objects["Cube.001"])                # (the Mist cube)
     km, f = _kernel_view(export())

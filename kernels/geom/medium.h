@@ -1,6 +1,7 @@
 #ifndef PPM_MEDIUM_H
 #define PPM_MEDIUM_H
 #include "types.h"
+#include "geom/geometry.h"
 
 /* Homogeneous absorption inside closed glass meshes (a material's Volume Absorption, Beer-Lambert
  * along the path): the media a path is in, innermost last.  A refraction into a mesh enters its
@@ -30,20 +31,35 @@ inline float3 medium_tr(float3 sigma_t, float t) {
     return exp(-select(sigma_t * t, (float3)(0.0f), isequal(sigma_t, (float3)(0.0f))));
 }
 
-/* the innermost medium's extinction coefficient (absorption, and with PPM_VOLUME scattering) */
-inline float3 media_extinction(const Media *m, __global const Material *materials) {
-    if (m->n == 0) return (float3)(0.0f);
-    __global const Material *mt = materials + m->mat[m->n - 1];
-#if PPM_VOLUME
-    return F3(mt->absorption) + F3(mt->scattering);
+/* whether material mt's medium has a density field (geom/medium_field.h) */
+inline bool material_field(__global const Material *mt) {
+#if PPM_VOLUME && PPM_SVM
+    return mt->density_program > 0;
 #else
-    return F3(mt->absorption);
+    return false;
 #endif
 }
 
-/* the fraction of light left after a segment of length t in the innermost medium (what
- * scatters out of the segment is lost too: photons and the eye paths' rays past their last
- * scattering carry only what goes straight through) */
+/* The media's extinction coefficient: every medium on the stack summed, as Cycles sums the
+ * volumes of its stack (absorption, and with PPM_VOLUME scattering), but for a density field's
+ * (geom/medium_field.h: tracked, its coefficients per unit of density). */
+inline float3 media_extinction(const Media *m, __global const Material *materials) {
+    float3 s = (float3)(0.0f);
+    for (int k = 0; k < m->n; k++) {
+        __global const Material *mt = materials + m->mat[k];
+        if (material_field(mt)) continue;
+#if PPM_VOLUME
+        s += F3(mt->absorption) + F3(mt->scattering);
+#else
+        s += F3(mt->absorption);
+#endif
+    }
+    return s;
+}
+
+/* the fraction of light left after a segment of length t in the media (what scatters out of
+ * the segment is lost too: photons and the eye paths' rays past their last scattering carry
+ * only what goes straight through; a field's: media_transmittance_ray) */
 inline float3 media_transmittance(const Media *m, __global const Material *materials, float t) {
     if (m->n == 0) return (float3)(1.0f);
 #if PPM_VOLUME
@@ -89,6 +105,49 @@ inline bool media_boundary(__global const Material *materials, int mat) {
 /* the innermost medium's material, -1 when the path is in none */
 inline int media_top(const Media *m) { return m->n > 0 ? m->mat[m->n - 1] : -1; }
 
+/* The media of a stack as one, as Cycles sums the volumes on its stack: the homogeneous ones'
+ * coefficients and emission summed, the innermost density field's coefficients per unit of its
+ * density apart (its material `field`; a second field counts as clear), the Henyey-Greenstein
+ * anisotropy the mean of theirs weighted by their scattering (a mixture of lobes of one g: the
+ * same phase function; of different ones, its mean cosine). */
+typedef struct {
+    float3 sigma_a, sigma_s, emission; /* the homogeneous media's, summed; every one's emission */
+    float3 unit_a, unit_s;             /* the field's, per unit of density */
+    float g;
+    int field, top;                    /* the field's material (-1: none), the innermost's */
+} Mix;
+
+inline Mix media_mix(const Media *m, __global const Material *materials) {
+    Mix x;
+    x.sigma_a = x.sigma_s = x.emission = x.unit_a = x.unit_s = (float3)(0.0f);
+    x.field = -1;
+    x.top = media_top(m);
+    float gs = 0.0f, ws = 0.0f;
+    for (int k = m->n - 1; k >= 0; k--) {
+        __global const Material *mt = materials + m->mat[k];
+        float3 a = F3(mt->absorption), s = F3(mt->scattering);
+        x.emission += F3(mt->volume_emission);
+        float w = s.x + s.y + s.z;
+        if (material_field(mt)) {
+            if (x.field >= 0) continue;
+            x.field = m->mat[k];
+            x.unit_a = a;
+            x.unit_s = s;
+            w *= mt->majorant;
+        } else {
+            x.sigma_a += a;
+            x.sigma_s += s;
+        }
+        gs += w * mt->anisotropy;
+        ws += w;
+    }
+    x.g = ws > 0.0f ? clamp(gs / ws, -0.999f, 0.999f) : 0.0f;
+    return x;
+}
+
+/* whether the mix scatters anywhere */
+inline bool mix_scatters(const Mix *x) { return max3(x->sigma_s + x->unit_s) > 0.0f; }
+
 /* the Henyey-Greenstein phase function (per steradian) at cos_theta, the cosine between the
  * direction the light travelled and the one it goes on in (seen from an eye path going along
  * d: dot(d, direction to the light)), as Cycles' single-peaked one */
@@ -114,11 +173,10 @@ inline float3 hg_sample(float3 d, float g, float u1, float u2, float *pdf) {
     return normalize(c * d + s * (cos(phi) * b1 + sin(phi) * b2));
 }
 
-/* the radiance a segment of length t in medium mt (extinction sigma_t) emits towards its start:
+/* the radiance a segment of length t of emission e per metre (extinction sigma_t) emits towards its start:
  * the emission integrated with the transmittance from there (an unbounded one, in the world's
  * medium: none where nothing dims it, as Cycles renders it, not infinite) */
-inline float3 medium_emission(__global const Material *mt, float3 sigma_t, float t) {
-    float3 e = F3(mt->volume_emission);
+inline float3 medium_emission(float3 e, float3 sigma_t, float t) {
     float3 len = select((1.0f - exp(-sigma_t * t)) / sigma_t, (float3)(isfinite(t) ? t : 0.0f),
                         isequal(sigma_t, (float3)(0.0f)));
     return select(e * len, (float3)(0.0f), isequal(e, (float3)(0.0f)));

@@ -32,9 +32,11 @@ inline bool medium_field(const Scene *scene, int mat) {
 #endif
 }
 
-/* the density of medium mat's field at P (>= 0; NaN and negative ones 0, as Cycles clamps) */
+/* the density of medium mat's field at P (>= 0; NaN and negative ones 0, as Cycles clamps; 0
+ * where mat is none) */
 __attribute__((noinline)) float medium_density(const Scene *scene, int mat, float3 P) {
 #if PPM_SVM
+    if (mat < 0) return 0.0f;
     __global const Material *mt = scene->materials + mat;
     int p = mt->density_program;
     if (p <= 0) return 1.0f;
@@ -69,20 +71,26 @@ inline uint ray_hash(float3 o, float3 d) {
         ^ pcg_hash(as_uint(o.y) ^ pcg_hash(as_uint(o.z) ^ pcg_hash(as_uint(d.x) ^ as_uint(d.y)))));
 }
 
-/* Tracks the segment o + s d (0 <= s < t) through medium mat, a field: tentative collisions at
- * exponential distances of the majorant's rate; at each the medium's emission per metre over
- * the majorant times the weight there is added to *L (where L is given: the collision
- * estimator, clamped at `limit`); where `scatter` it is a scattering with a probability in
- * proportion to |beta sigma_s| against |beta sigma_n| (sigma_n = majorant - sigma_t, negative
- * where the density exceeds its bound), else a null collision, *beta times the coefficient
- * over the majorant and that probability; without `scatter` every one is null (ratio tracking:
- * *beta times the transmittance, in expectation).  Russian roulette below a hundredth of the
- * weight at the start.  Returns where it scattered (INFINITY: it crossed). */
-inline float medium_track(const Scene *scene, int mat, float3 o, float3 d, float t, bool scatter,
-                          float limit, uint *rng, float3 *beta, float3 *L) {
-    __global const Material *mt = scene->materials + mat;
-    float3 us = F3(mt->scattering), ut = F3(mt->absorption) + us, ue = F3(mt->volume_emission);
-    float mu = max3(ut) * mt->majorant;
+/* the mix's majorant: a bound of its extinction's largest channel (its field at its bound) */
+inline float mix_majorant(const Scene *scene, const Mix *x) {
+    float3 c = x->sigma_a + x->sigma_s;
+    if (x->field < 0) return max3(c);
+    return max3(c + (x->unit_a + x->unit_s) * scene->materials[x->field].majorant);
+}
+
+/* Tracks the segment o + s d (0 <= s < t) through the media x, with a field: tentative
+ * collisions at exponential distances of the majorant's rate; at each the media's emission per
+ * metre over the majorant times the weight there is added to *L (where L is given: the
+ * collision estimator, clamped at `limit`); where `scatter` it is a scattering with a
+ * probability in proportion to |beta sigma_s| against |beta sigma_n| (sigma_n = majorant -
+ * sigma_t, negative where the density exceeds its bound), else a null collision, *beta times
+ * the coefficient over the majorant and that probability; without `scatter` every one is null
+ * (ratio tracking: *beta times the transmittance, in expectation).  Russian roulette below a
+ * hundredth of the weight at the start.  Returns where it scattered (INFINITY: it crossed). */
+inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, float t,
+                          bool scatter, float limit, uint *rng, float3 *beta, float3 *L) {
+    float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s, ue = x->emission;
+    float mu = mix_majorant(scene, x);
     bool glow = L && max3(ue) > 0.0f;
     if (!scatter && mu > 0.0f && isfinite(t)) mu = fmax(mu, MEDIUM_RATIO_STEPS / t);
     if (!(mu > 0.0f)) { /* nothing attenuates: the emission along it in closed form */
@@ -93,8 +101,8 @@ inline float medium_track(const Scene *scene, int mat, float3 o, float3 d, float
     for (int k = 0; k < MEDIUM_TRACK_MAX; k++) {
         s -= log(1.0f - rnd(rng)) / mu;
         if (!(s < t)) return INFINITY;
-        float dens = medium_density(scene, mat, o + s * d);
-        float3 ss = us * dens, sn = mu - ut * dens;
+        float dens = medium_density(scene, x->field, o + s * d);
+        float3 ss = x->sigma_s + x->unit_s * dens, sn = mu - (ct + ut * dens);
         if (glow) *L += clamp_sample(*beta * ue / mu, limit);
         if (scatter) {
             float ps = dot(fabs(*beta * ss), (float3)(1.0f)),
@@ -120,19 +128,19 @@ inline float medium_track(const Scene *scene, int mat, float3 o, float3 d, float
     return INFINITY;
 }
 
-/* Ratio tracking alone over the segment o + s d (0 <= s < t) of medium mat, a field: *T times
- * the transmittance (in expectation), tentative collisions at the majorant's rate or at least
- * `rate`; Russian roulette below a hundredth of *T at the start. */
-inline void medium_ratio(const Scene *scene, int mat, float3 o, float3 d, float t, float rate,
+/* Ratio tracking alone over the segment o + s d (0 <= s < t) of the media x, with a field: *T
+ * times the transmittance (in expectation), tentative collisions at the majorant's rate or at
+ * least `rate`; Russian roulette below a hundredth of *T at the start. */
+inline void medium_ratio(const Scene *scene, const Mix *x, float3 o, float3 d, float t, float rate,
                          uint *rng, float3 *T) {
-    __global const Material *mt = scene->materials + mat;
-    float3 ut = F3(mt->absorption) + F3(mt->scattering);
-    float mu = fmax(max3(ut) * mt->majorant, rate), b0 = 0.01f * max3(fabs(*T)), s = 0.0f;
-    if (!(mu > 0.0f) || !(max3(ut) * mt->majorant > 0.0f)) return;
+    float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s;
+    float bound = mix_majorant(scene, x);
+    float mu = fmax(bound, rate), b0 = 0.01f * max3(fabs(*T)), s = 0.0f;
+    if (!(mu > 0.0f) || !(bound > 0.0f)) return;
     for (int k = 0; k < MEDIUM_TRACK_MAX; k++) {
         s -= log(1.0f - rnd(rng)) / mu;
         if (!(s < t)) return;
-        *T *= 1.0f - ut * (medium_density(scene, mat, o + s * d) / mu);
+        *T *= 1.0f - (ct + ut * medium_density(scene, x->field, o + s * d)) / mu;
         float b = max3(fabs(*T));
         if (!(b > 0.0f)) break;
         if (b < b0) {
@@ -143,16 +151,30 @@ inline void medium_ratio(const Scene *scene, int mat, float3 o, float3 d, float 
     *T = (float3)(0.0f);
 }
 
-/* the fraction of light left after the segment o + s d (0 <= s < t) in the innermost of media m
- * (geom/medium.h media_transmittance; a field's by ratio tracking, numbers hashed from the
- * ray) */
+/* the media x of a field with constant extinction c (the others') where only the extinction
+ * matters (ratio tracking: shadow rays, the lights a ray meets, the volume photons' gather) */
+inline Mix mix_extinction(const Scene *scene, int field, float3 c) {
+    Mix x;
+    __global const Material *mt = scene->materials + field;
+    x.sigma_a = c;
+    x.sigma_s = x.emission = (float3)(0.0f);
+    x.unit_a = F3(mt->absorption);
+    x.unit_s = F3(mt->scattering);
+    x.g = 0.0f;
+    x.field = field;
+    x.top = field;
+    return x;
+}
+
+/* the fraction of light left after the segment o + s d (0 <= s < t) in the media m (geom/
+ * medium.h media_transmittance; with a field by ratio tracking, numbers hashed from the ray) */
 inline float3 media_transmittance_ray(const Scene *scene, const Media *m, float3 o, float3 d,
                                       float t) {
-    int vm = media_top(m);
-    if (!medium_field(scene, vm)) return media_transmittance(m, scene->materials, t);
+    Mix x = media_mix(m, scene->materials);
+    if (x.field < 0) return media_transmittance(m, scene->materials, t);
     uint rng = ray_hash(o, d);
     float3 T = (float3)(1.0f);
-    medium_ratio(scene, vm, o, d, t, isfinite(t) ? MEDIUM_RATIO_STEPS / t : 0.0f, &rng, &T);
+    medium_ratio(scene, &x, o, d, t, isfinite(t) ? MEDIUM_RATIO_STEPS / t : 0.0f, &rng, &T);
     return T;
 }
 #endif

@@ -41,8 +41,8 @@ typedef struct {
     float tmax, prev_pdf, limit;
     uint ray_type;
 #if PPM_VOLUME
-    /* the extinction of the medium it is in: a light at t seen through exp(-sigma_t t); or
-     * that medium + 1 where its density is a field (geom/medium_field.h; 0: none) */
+    /* the extinction of the media it is in: a light at t seen through exp(-sigma_t t), and
+     * through the field's among them + 1 (geom/medium_field.h; 0: none) */
     float3 sigma_t;
     int field;
 #endif
@@ -54,10 +54,11 @@ inline LightRay light_ray(float3 o, float3 d, float tmax, uint ray_type, float3 
     return r;
 }
 #if PPM_VOLUME
-/* ray r in the innermost of media m: the lights it meets are seen through that medium */
+/* ray r in the media m: the lights it meets are seen through them (media_mix) */
 inline void light_ray_in(LightRay *r, const Scene *scene, const Media *m) {
-    r->sigma_t = media_extinction(m, scene->materials);
-    r->field = medium_field(scene, media_top(m)) ? media_top(m) + 1 : 0;
+    Mix x = media_mix(m, scene->materials);
+    r->sigma_t = x.sigma_a + x.sigma_s;
+    r->field = x.field + 1;
 }
 #endif
 
@@ -91,7 +92,8 @@ inline bool light_met(const Scene *scene, int i, const LightRay *r, float t0, in
     if (r->field > 0) { /* (ratio tracking to the light) */
         uint rng = ray_hash(r->o, r->d);
         float3 T = (float3)(1.0f);
-        medium_ratio(scene, r->field - 1, r->o, r->d, t, MEDIUM_RATIO_STEPS / t, &rng, &T);
+        Mix x = mix_extinction(scene, r->field - 1, r->sigma_t);
+        medium_ratio(scene, &x, r->o, r->d, t, MEDIUM_RATIO_STEPS / t, &rng, &T);
         Le *= T;
     } else {
         Le *= exp(-r->sigma_t * t);

@@ -131,7 +131,8 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             /* (a camera ray past the clip end in the world's medium goes on forever, as
              * Cycles': the fog beyond it scatters, the background is lost in it) */
             float seg = h.leaf >= 0 ? h.t : vm == world_medium(scene) ? PPM_INF : tmax;
-            bool scat = term == TERM_NONE && max3(F3(scene->materials[vm].scattering)) > 0.0f;
+            Mix mx = media_mix(&media, scene->materials);
+            bool scat = term == TERM_NONE && mix_scatters(&mx);
             float4 ul = scat ? ld_set_or_rnd(pass_index, path_key, (uint)vertex++, &rng)
                              : (float4)(0.0f);
             L += medium_segment(scene, &media, o, d, seg, scat, (float4)(ul.z, ul.y, ul.w, ul.x),
@@ -141,10 +142,11 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
              * (volume_gather.cl): its path's state, the weight at its start */
             kept = volume_photons && scat && vbounce == 0 && nseg < VOLUME_SEGMENTS;
             if (kept) {
-                __global float4 *v = vps->segments + 3 * (VOLUME_SEGMENTS * id + nseg++);
+                __global float4 *v = vps->segments + 4 * (VOLUME_SEGMENTS * id + nseg++);
                 v[0] = (float4)(o, seg);
-                v[1] = (float4)(d, as_float(vm));
+                v[1] = (float4)(d, as_float(mx.field));
                 v[2] = (float4)(beta_in, as_float(path));
+                v[3] = (float4)(mx.sigma_a + mx.sigma_s, mx.g);
             }
         }
 #elif PPM_ABSORPTION
@@ -177,9 +179,8 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
              * then a sample of the phase function, which finds the emitters with size under
              * MIS and, while Volume bounces allow, goes on as a path (Cycles' volume scatter:
              * with Volume bounces 0, single scattering) */
-            __global const Material *mt = scene->materials + vm;
             float3 p = o + sg.s * d;
-            float g = mt->anisotropy;
+            float g = sg.g;
             film_clear = false;
             int crossings = max(lp->transparent_max_bounces - transparent, 0);
             L += clamp_sample(beta
@@ -415,7 +416,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
     vps->pos[id] = vp;
 #if PPM_VOLUME
     if (volume_photons && nseg < VOLUME_SEGMENTS)
-        vps->segments[3 * (VOLUME_SEGMENTS * id + nseg)] = (float4)(0.0f); /* (the last) */
+        vps->segments[4 * (VOLUME_SEGMENTS * id + nseg)] = (float4)(0.0f); /* (the last) */
 #endif
     /* this pass's sample (the film adds it to its sums, progressive.cl film_add_sample);
      * NaN/Inf guard: drop the sample, count it (render stats) */

@@ -219,7 +219,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
             /* scattered at q: next-event estimation, then the phase function's sample, which
              * finds the emitters with size under MIS and goes on while Volume bounces allow */
             float3 q = o + sg.s * d;
-            float g = scene->materials[vm].anisotropy;
+            float g = sg.g;
             float3 un = (float3)(rnd(rng), rnd(rng), rnd(rng));
             if (vnee)
                 L += clamp_sample(beta

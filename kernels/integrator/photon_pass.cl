@@ -182,7 +182,8 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
 #if PPM_VOLUME
         /* a scattering medium: a free-flight distance (volume_photons.h photon_medium) */
         float3 vp;
-        int vm = photon_medium(scene, &media, o, d, open ? PPM_INF : h.t, &rng, &flux, &vp);
+        float vg;
+        int vm = photon_medium(scene, &media, o, d, open ? PPM_INF : h.t, &rng, &flux, &vp, &vg);
         if (vm < 0 && open) break;
         if (vm >= 0 && capacity == 0u) { /* a pilot: a medium's light is the eye paths' */
             if (direct) atomic_inc(&counters[CNT_DIFFUSE_FIRST]);
@@ -201,7 +202,7 @@ __kernel void photon_pass(SCENE_PARAMS FILM_PARAMS PHOTON_PARAMS uint pass_index
             ppath = direct ? ppath & ~127u : path_add(ppath, PATH_DEPTH) & ~127u;
             if (path_volume(ppath) > lp->volume_bounces) break;
             float pdf;
-            float3 wo = hg_sample(d, scene->materials[vm].anisotropy, rnd(&rng), rnd(&rng), &pdf);
+            float3 wo = hg_sample(d, vg, rnd(&rng), rnd(&rng), &pdf);
             bounce++;
             direct = chain = false;
             rs = 0.0f; /* (no clamp past a medium) */

@@ -84,7 +84,8 @@ inline float3 beam_tr(const Scene *scene, const Beam *bm, float s, uint k) {
     float sj = (float)j * bm->step;
     float3 T = bm->tab[j];
     uint rng = pcg_hash(k ^ bm->seed);
-    medium_ratio(scene, bm->field, bm->o + sj * bm->d, bm->d, s - sj,
+    Mix x = mix_extinction(scene, bm->field, bm->medium.xyz);
+    medium_ratio(scene, &x, bm->o + sj * bm->d, bm->d, s - sj,
                  MEDIUM_RATIO_STEPS / (BEAM_TABLE * bm->step), &rng, &T);
     return T;
 #else
@@ -125,21 +126,21 @@ inline float3 beam_cell(const Scene *scene, const Photons *photons, const Grid *
     return acc;
 }
 
-/* One segment: (o, t), (d, its medium's material), (the camera path's weight, its state) */
+/* One segment: (o, t), (d, its media's field or -1), (the camera path's weight, its state), (the
+ * media's extinction but the field's, their anisotropy) (eye_pass.cl) */
 inline float3 beam_segment(const Scene *scene, const Photons *photons, const Grid *g,
                            __global const ulong *table, uint mask, float r,
                            __global const float4 *v, __global const uint *marks, uint *used) {
     float4 a = v[0], b = v[1], c = v[2];
     float3 o = a.xyz, d = b.xyz;
-    __global const Material *mt = scene->materials + as_int(b.w);
     Beam bm;
     bm.o = o;
     bm.d = d;
-    bm.medium = (float4)(F3(mt->absorption) + F3(mt->scattering), mt->anisotropy);
+    bm.medium = v[3];
     bm.e = as_uint(c.w);
     bm.r = r;
 #if PPM_SVM
-    bm.field = medium_field(scene, as_int(b.w)) ? as_int(b.w) : -1;
+    bm.field = as_int(b.w);
 #else
     bm.field = -1;
 #endif
@@ -156,9 +157,10 @@ inline float3 beam_segment(const Scene *scene, const Photons *photons, const Gri
         bm.seed = ray_hash(o, d);
         uint rng = pcg_hash(bm.seed);
         bm.tab[0] = (float3)(1.0f);
+        Mix x = mix_extinction(scene, bm.field, bm.medium.xyz);
         for (int j = 1; j <= BEAM_TABLE; j++) {
             bm.tab[j] = bm.tab[j - 1];
-            medium_ratio(scene, bm.field, o + (float)(j - 1) * bm.step * d, d, bm.step,
+            medium_ratio(scene, &x, o + (float)(j - 1) * bm.step * d, d, bm.step,
                          MEDIUM_RATIO_STEPS / s1, &rng, &bm.tab[j]);
         }
     }
@@ -210,7 +212,7 @@ volume_gather(SCENE_PARAMS FILM_PARAMS VP_PARAMS PHOTON_PARAMS __global const ul
     float3 sum = (float3)(0.0f);
     uint used = 0u;
     for (int k = 0; k < VOLUME_SEGMENTS; k++) {
-        __global const float4 *v = vps->segments + 3 * (VOLUME_SEGMENTS * id + k);
+        __global const float4 *v = vps->segments + 4 * (VOLUME_SEGMENTS * id + k);
         if (!(v[0].w > 0.0f)) break;
         sum += beam_segment(scene, photons, &g, table, table_mask, radius, v, marks, &used);
     }

@@ -17,13 +17,14 @@ typedef struct {
      * ones under MIS (a homogeneous medium), EQUI_ONLY by equiangular distances alone (a field,
      * whose free-flight density is not known), EQUI_NONE by free-flight distances alone */
     int equi;
+    float g; /* the media's Henyey-Greenstein anisotropy (media_mix) */
 } Segment;
 #define EQUI_NONE 0
 #define EQUI_MIS 1
 #define EQUI_ONLY 2
 
 inline Segment segment(float3 o, float3 d, float t, float3 pc) {
-    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t, INFINITY, 0.0f, EQUI_MIS};
+    Segment g = {o, d, pc, isfinite(t) ? o + (0.5f * t) * d : o, t, INFINITY, 0.0f, EQUI_MIS, 0.0f};
     return g;
 }
 
@@ -128,8 +129,10 @@ inline float3 volume_nee(const Scene *scene, const Segment *sg, float s_dist, fl
  * scattering coefficient and the transmittance to the point included).  Near a spot light in
  * fog, free-flight distances rarely fall where its light is: this is Kulla and Fajardo's cure,
  * as Cycles'. */
-inline float3 volume_equiangular(const Scene *scene, const Segment *sg, float3 sigma_t,
-                                 float3 sigma_s, float g, const Media *m, int crossings, float3 u) {
+inline float3 volume_equiangular(const Scene *scene, const Segment *sg, const Mix *x,
+                                 const Media *m, int crossings, float3 u) {
+    float3 sigma_t = x->sigma_a + x->sigma_s, sigma_s = x->sigma_s;
+    float g = x->g;
     float3 none = (float3)(0.0f);
     if (scene->emitter_info->n_emitters == 0) return none;
     float pmf_e;
@@ -150,11 +153,10 @@ inline float3 volume_equiangular(const Scene *scene, const Segment *sg, float3 s
         /* a field (geom/medium_field.h): its scattering at p, the transmittance to p by ratio
          * tracking (numbers hashed from the sample), no MIS (free-flight distances leave
          * these lights to this) */
-        int vm = media_top(m);
         float3 tr = (float3)(1.0f);
         uint rng = ray_hash(p, sg->d) ^ as_uint(u.y);
-        medium_ratio(scene, vm, sg->o, sg->d, s_dist, MEDIUM_RATIO_STEPS / s_dist, &rng, &tr);
-        float3 ss = sigma_s * medium_density(scene, vm, p);
+        medium_ratio(scene, x, sg->o, sg->d, s_dist, MEDIUM_RATIO_STEPS / s_dist, &rng, &tr);
+        float3 ss = sigma_s + x->unit_s * medium_density(scene, x->field, p);
         return ss * tr * (ph / (pmf_e * pdf_e)) * T * ls.E;
     }
     float3 tr = exp(-sigma_t * s_dist);
@@ -163,9 +165,10 @@ inline float3 volume_equiangular(const Scene *scene, const Segment *sg, float3 s
     return sigma_s * tr * (ph * mis_power(a, b) / a) * T * ls.E;
 }
 
-/* A path's segment o + s d (0 <= s < t) in its innermost medium (media), the same for the eye
- * pass and indirect_paths.h: the light it adds towards its start per the path weight *beta at
- * its start (the medium's emission, clamped at limits.x; with `nee` the light of points and
+/* A path's segment o + s d (0 <= s < t) in its media (every one on the stack, summed: geom/
+ * medium.h media_mix), the same for the eye pass and indirect_paths.h: the light it adds
+ * towards its start per the path weight *beta at its start (the media's emission, clamped at
+ * limits.x; with `nee` the light of points and
  * spots along it by equiangular distances, clamped at limits.y), and, where `scatter` (the
  * path may still scatter) and the medium scatters, a free-flight distance (numbers u: the
  * channel, the distance, equiangular sampling's pick and distance): *sg the segment with
@@ -177,43 +180,43 @@ inline float3 medium_segment(const Scene *scene, const Media *media, float3 o, f
                              float3 *beta, Segment *sg) {
     float3 L = (float3)(0.0f), pc;
     *sg = segment(o, d, t, (float3)(0.0f));
-    int vm = media_top(media);
-    if (vm < 0) return L;
-    __global const Material *mt = scene->materials + vm;
-    if (medium_field(scene, vm)) {
+    if (media_top(media) < 0) return L;
+    Mix x = media_mix(media, scene->materials);
+    sg->g = x.g;
+    if (x.field >= 0) {
         /* a heterogeneous medium (geom/medium_field.h): tracked, its emission by collisions;
          * its lights of no size by an equiangular distance alone (EQUI_ONLY), the others by
          * next-event estimation where it scatters (the numbers u are 0 where the path does
          * not scatter: the ray's own too) */
         uint rng = ray_hash(o, d) ^ pcg_hash(as_uint(u.x) ^ pcg_hash(as_uint(u.y)));
-        bool scat = scatter && max3(F3(mt->scattering)) > 0.0f;
+        bool scat = scatter && mix_scatters(&x);
         sg->equi = EQUI_NONE;
         if (PPM_LIGHT_POINT && scat && nee) { /* (with the weight at the segment's start) */
             sg->equi = EQUI_ONLY;
             L += clamp_sample(*beta
-                                  * volume_equiangular(scene, sg, (float3)(0.0f),
-                                                       F3(mt->scattering), mt->anisotropy, media,
-                                                       crossings, (float3)(u.z, u.w, 0.5f)),
+                                  * volume_equiangular(scene, sg, &x, media, crossings,
+                                                       (float3)(u.z, u.w, 0.5f)),
                               limits.y);
         }
-        sg->s = medium_track(scene, vm, o, d, t, scat, limits.x, &rng, beta, &L);
+        sg->s = medium_track(scene, &x, o, d, t, scat, limits.x, &rng, beta, &L);
         return L;
     }
-    float3 sigma_t = media_extinction(media, scene->materials), sigma_s = F3(mt->scattering);
-    if (max3(F3(mt->volume_emission)) > 0.0f)
-        L += clamp_sample(*beta * medium_emission(mt, sigma_t, t), limits.x);
+    float3 sigma_t = x.sigma_a + x.sigma_s, sigma_s = x.sigma_s;
+    if (max3(x.emission) > 0.0f)
+        L += clamp_sample(*beta * medium_emission(x.emission, sigma_t, t), limits.x);
     if (!scatter || !(max3(sigma_s) > 0.0f)) {
         *beta *= medium_tr(sigma_t, t);
         return L;
     }
     bool scatters = medium_channels(sigma_t, sigma_s, *beta, &pc);
     *sg = segment(o, d, t, scatters ? pc : (float3)(0.0f));
+    sg->g = x.g;
     /* (the same numbers with and without point lights: a program of every feature renders the
      * image of the scene's own) */
     if (PPM_LIGHT_POINT && scatters && nee)
         L += clamp_sample(*beta
-                              * volume_equiangular(scene, sg, sigma_t, sigma_s, mt->anisotropy,
-                                                   media, crossings, (float3)(u.z, u.w, 0.5f)),
+                              * volume_equiangular(scene, sg, &x, media, crossings,
+                                                   (float3)(u.z, u.w, 0.5f)),
                           limits.y);
     sg->s = medium_sample(sigma_t, sigma_s, t, u.x, u.y, beta, &sg->pdf);
     return L;

@@ -20,23 +20,24 @@
  * next-event estimation in the medium cannot see the light through glass), the photon ending
  * there; with photons for it every one, the photon going on along the phase function. */
 #if PPM_VOLUME
-/* The segment o + s d (0 <= s < t) in the innermost medium of a photon of flux *flux: where it
- * scatters (*p, returning the medium's material) or -1 where it crosses (or the medium scatters
+/* The segment o + s d (0 <= s < t) in the media of a photon of flux *flux (every one on the
+ * stack, summed: geom/medium.h media_mix): where it scatters (*p, returning the innermost
+ * medium's material, *g the media's anisotropy) or -1 where it crosses (or the media scatter
  * nothing); *flux times the transmittance over the density, times the scattering coefficient
  * where it scattered. */
 inline int photon_medium(const Scene *scene, const Media *media, float3 o, float3 d, float t,
-                         uint *rng, float3 *flux, float3 *p) {
+                         uint *rng, float3 *flux, float3 *p, float *g) {
     int vm = media_top(media);
     if (vm < 0) return -1;
-    if (medium_field(scene, vm)) { /* a heterogeneous medium: tracked (geom/medium_field.h) */
-        bool scatters = max3(F3(scene->materials[vm].scattering)) > 0.0f;
-        float s = medium_track(scene, vm, o, d, t, scatters, 0.0f, rng, flux, 0);
+    Mix x = media_mix(media, scene->materials);
+    *g = x.g;
+    if (x.field >= 0) { /* a heterogeneous medium: tracked (geom/medium_field.h) */
+        float s = medium_track(scene, &x, o, d, t, mix_scatters(&x), 0.0f, rng, flux, 0);
         if (!(s < INFINITY)) return -1;
         *p = o + s * d;
         return vm;
     }
-    float3 sigma_t = media_extinction(media, scene->materials);
-    float3 sigma_s = F3(scene->materials[vm].scattering);
+    float3 sigma_t = x.sigma_a + x.sigma_s, sigma_s = x.sigma_s;
     if (!(max3(sigma_s) > 0.0f)) {
         *flux *= medium_tr(sigma_t, t);
         return -1;

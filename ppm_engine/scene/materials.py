@@ -328,23 +328,13 @@ def kernel_materials(materials: np.ndarray, nodes: np.ndarray, world: int = -1) 
 
 
 def _add_world_medium(k: np.ndarray, world: int, sigma_a, sigma_s, em, g: float) -> None:
-    """The world's medium (row ``world``) in every material's medium record, as Cycles' volume
-    stack sums the world's volume under every object's: inside a mesh's medium (or glass, or
-    any mesh a path enters by refraction or translucency) the world's medium goes on, added to
-    the mesh's (their anisotropies: the mean weighted by the scattering, as a Mix Shader's).
-    Its own row: a medium of the volume stack (MAT_VOLUME) with nothing but the world's."""
-    k[world]["absorption"], k[world]["scattering"] = 0.0, 0.0
-    k[world]["volume_emission"], k[world]["anisotropy"] = 0.0, 0.0
-    # (a heterogeneous medium's coefficients are per unit of its density: the world's is not
-    # added inside one, docs/VOLUMES.md)
-    add = (k["density_program"] <= 0)[:, None]
-    s_own, s_w = k["scattering"].astype(np.float64).mean(axis=1), float(sigma_s.mean())
-    mean = s_own + s_w
-    k["anisotropy"] = np.where(add[:, 0] & (mean > 0), (k["anisotropy"] * s_own + g * s_w)
-                               / np.where(mean > 0, mean, 1.0), k["anisotropy"])
-    k["absorption"] = np.minimum(k["absorption"] + add * sigma_a, MAX_COEFFICIENT)
-    k["scattering"] = np.minimum(k["scattering"] + add * sigma_s, MAX_COEFFICIENT)
-    k["volume_emission"] = np.minimum(k["volume_emission"] + add * em, MAX_COEFFICIENT)
+    """The world's medium's own row (``world``): a medium of the volume stack (MAT_VOLUME), at
+    the stack's bottom, which the kernels sum with every medium above it as Cycles' volume stack
+    sums the world's volume under every object's (kernels/geom/medium.h media_mix)."""
+    k[world]["absorption"] = np.minimum(sigma_a, MAX_COEFFICIENT)
+    k[world]["scattering"] = np.minimum(sigma_s, MAX_COEFFICIENT)
+    k[world]["volume_emission"] = np.minimum(em, MAX_COEFFICIENT)
+    k[world]["anisotropy"] = g
     if max(sigma_a.max(), sigma_s.max(), em.max()) > 0:
         k["flags"][world] |= MAT_VOLUME
 

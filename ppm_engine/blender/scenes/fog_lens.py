@@ -1,6 +1,7 @@
 """``fog_lens``: a lens in fog (issue 42), built with bpy from nothing.  A box of fog (Volume
 Scatter plus Volume Absorption, a mesh with only a Volume output, FOG_LO to FOG_HI) in a black
-world, a clear glass ball (IOR 1.5) in it and a point light of radius 0 above the box: the
+world, a clear glass ball (IOR 1.5) in a hollow of it (fog_box: Cycles' volume stack would fill
+a glass ball in fog with fog) and a point light of radius 0 above the box: the
 ball focuses the light into a bright cone in the fog below it, narrowing to a focus and
 widening again (a volumetric caustic: the light paths L S+ M, which no camera path can sample
 from a light of no size), around it the fog lit straight by the light and the ball's shadow.
@@ -50,14 +51,28 @@ def fog_material(name="Fog", scatter=FOG_SCATTER, absorb=FOG_ABSORB):
     return m
 
 
-def fog_box(scene, material, lo=FOG_LO, hi=FOG_HI):
-    """A closed box mesh (outward faces) from lo to hi."""
+def fog_box(scene, material, lo=FOG_LO, hi=FOG_HI, cavity=None):
+    """A closed box mesh (outward faces) from lo to hi; ``cavity`` (centre, radius, (segments,
+    rings)): with a spherical hollow there (inward faces) just around a ball of that radius
+    meshed so, its faces a little outside the ball's.  A glass ball in a fog box without one
+    is full of fog in Cycles, whose volume stack keeps the box's volume inside a surface (and
+    so in this engine: kernels/geom/medium.h media_mix); the hollow leaves the ball clear."""
     import bmesh
     mesh = bpy.data.meshes.new("FogBox")
     bm = bmesh.new()
     bmesh.ops.create_cube(bm, size=1.0)
     for v in bm.verts:
         v.co = [lo[k] + (v.co[k] + 0.5) * (hi[k] - lo[k]) for k in range(3)]
+    if cavity is not None:
+        (cx, cy, cz), r, (seg, rings) = cavity
+        # the faces of a UV sphere of radius R come within R cos(pi / n) of its centre
+        r_out = r * 1.002 / min(math.cos(math.pi / seg), math.cos(math.pi / rings))
+        hollow = bmesh.ops.create_uvsphere(bm, u_segments=seg, v_segments=rings,
+                                           radius=r_out)["verts"]
+        for v in hollow:
+            v.co = (v.co[0] + cx, v.co[1] + cy, v.co[2] + cz)
+        faces = list({f for v in hollow for f in v.link_faces})
+        bmesh.ops.reverse_faces(bm, faces=faces)
     bm.to_mesh(mesh)
     bm.free()
     mesh.materials.append(material)
@@ -74,7 +89,8 @@ def build(scene=None, ball=True, segments=BALL_SEGMENTS, resolution=RESOLUTION,
     camera_world_render(scene, *CAMERA, resolution)
     scene.camera.data.lens = LENS
     scene.cycles.volume_bounces = 1
-    fog_box(scene, fog_material(scatter=fog[0], absorb=fog[1]))
+    fog_box(scene, fog_material(scatter=fog[0], absorb=fog[1]),
+            cavity=(BALL[0], BALL[1], segments) if ball else None)
     if ball:
         sphere(scene, "GlassBall", *BALL, glass("Glass"), *segments)
     data = bpy.data.lights.new("Point", 'POINT')

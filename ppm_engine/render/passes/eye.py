@@ -26,8 +26,8 @@ VP_BUFFERS = (
     PassBuffer("shade", _F4, 16, "the hit shaded again: u, v, BVH leaf (-1: Lambert), wi packed"),
     PassBuffer("gathered", _F4, 16, "the gather's result: (sum of flux x f, photons)"),
     # allocated for volume photons only (allocate_segments; passes/volume.py VOLUME_SEGMENTS)
-    PassBuffer("segments", _F4, 0, "the camera's segments in media: (o, t), (d, medium), "
-               "(weight, path)"),
+    PassBuffer("segments", _F4, 0, "media segments: (o, t), (d, field), (weight, path), "
+               "(sigma_t, g)"),
 )
 
 
@@ -52,10 +52,10 @@ class VisiblePoints:
         self.device = device
 
     def allocate_segments(self, per_pixel: int) -> None:
-        """The camera's segments in media, ``per_pixel`` of 48 bytes per pixel (the eye pass
+        """The camera's segments in media, ``per_pixel`` of 64 bytes per pixel (the eye pass
         keeps them for the volume photons' gather, passes/volume.py)."""
         if getattr(self, "segment_count", 0) != per_pixel:
-            self.segments = self.device.buffer(48 * per_pixel * self.n, "camera's segments")
+            self.segments = self.device.buffer(64 * per_pixel * self.n, "camera's segments")
             self.segment_count = per_pixel
 
     @property

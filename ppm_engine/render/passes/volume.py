@@ -17,8 +17,8 @@ from ppm_engine.render.passes.context import Iteration, PassContext
 from ppm_engine.render.passes.hash_build import SpatialHash
 from ppm_engine.render.photon_map import GRID_DTYPE
 
-# the camera's segments in media an eye path keeps for the gather (eye_pass.cl), per pixel: 48
-# bytes each (190 MiB at 1920 x 1080); two serve a camera ray through fog and a glass in it
+# the camera's segments in media an eye path keeps for the gather (eye_pass.cl), per pixel: 64
+# bytes each (253 MiB at 1920 x 1080); two serve a camera ray through fog and a glass in it
 VOLUME_SEGMENTS = 2
 # the initial radius where options.initial_radius is 0: this many pixel footprints at the
 # media's box (initial_radius)
