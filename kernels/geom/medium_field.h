@@ -3,6 +3,7 @@
 #include "rng.h"
 #include "svm/svm.h"
 #include "geom/medium.h"
+#include "geom/volume_grid.h"
 #include "integrator/path_state.h"
 
 /* Heterogeneous media (PPM_VOLUME with PPM_SVM; docs/VOLUMES.md): a medium whose Density is
@@ -45,6 +46,8 @@ __attribute__((noinline)) float medium_density(const Scene *scene, int mat, floa
         float4 h = (float4)(P, 1.0f);
         cx.P_object = (float3)(dot(o[0], h), dot(o[1], h), dot(o[2], h));
         cx.generated = cx.P_object * o[9].xyz + o[10].xyz;
+        /* a Volume object's grids: the attributes its program reads (geom/volume_grid.h) */
+        if (o[5].z > 0.0f) grid_attributes(scene, o, cx.P_object, cx.attr);
         for (int r = 0; r < 3; r++) {
             cx.object[r] = o[3 + r];
 #if SVM_OBJECT_MATRICES

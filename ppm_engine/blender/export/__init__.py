@@ -18,6 +18,7 @@ from ppm_engine.blender.export.mesh import GEOMETRY_TYPES, transform_part
 from ppm_engine.blender.export.mesh_cache import MeshCache
 from ppm_engine.blender.export.objects import object_row
 from ppm_engine.blender.export.textures import TextureTable
+from ppm_engine.blender.export.volume_object import export_volume
 from ppm_engine.blender.export.world import export_world
 from ppm_engine.errors import SceneError
 from ppm_engine.scene.arrays import (
@@ -39,6 +40,7 @@ from ppm_engine.scene.shader_program import (
     PROGRAM_OBJECT,
     PROGRAM_TANGENTS,
 )
+from ppm_engine.scene.voxels import GRID_ROW, VoxelTable
 
 __all__ = ["Warnings", "export_scene"]
 
@@ -65,8 +67,6 @@ class Warnings(list):
 # geometry that has no surface of triangles, which this engine does not render yet (Cycles
 # renders each): said per object (docs/USAGE.md, "What is not rendered")
 NOT_RENDERED = {
-    'VOLUME': "a Volume object (OpenVDB grids) is not rendered yet; a mesh whose material has a "
-              "Volume output is (docs/VOLUMES.md)",
     'CURVES': "hair curves are not rendered yet (convert them to a mesh: Curves to Mesh)",
     'POINTCLOUD': "a point cloud is not rendered yet (instance a mesh on its points)",
 }
@@ -134,6 +134,7 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
     parts, lights = [], []
     uv_tangents = generated = False
     objects = []                            # rows of the objects whose programs read them
+    voxels = VoxelTable()                   # the Volume objects' grids
     bases = []                              # the parts as made (MeshCache.part)
     for inst in depsgraph.object_instances:
         obj = inst.object
@@ -148,6 +149,12 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
                 if not getattr(obj, attr, True):      # the light seen directly or in a mirror
                     row["flags"] |= np.uint32(bit << LIGHT_HIDDEN_SHIFT)
             lights.append(row)
+        elif kind == 'VOLUME':
+            if inst.show_self:
+                part = _volume(obj, inst, materials, warn, len(objects), objects, voxels)
+                if part is not None:
+                    parts.append(part)
+                    bases.append(part)
         elif kind in GEOMETRY_TYPES:
             if not inst.show_self:          # e.g. particle instancer hidden for render
                 continue
@@ -243,9 +250,28 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
                            warnings=tuple(warn), textures=tex_table, texels=texels,
                            objects=(np.stack(objects) if objects
                                     else np.zeros((0, OBJECT_ROWS, 4), np.float32)),
-                           svm=svm, world_shader=world_shader, light_paths=light_paths)
+                           svm=svm, world_shader=world_shader, light_paths=light_paths,
+                           voxels=voxels.array())
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
+
+
+def _volume(obj, inst, materials, warn, k_obj: int, objects: list, voxels) -> dict | None:
+    """The part of a Volume object (export/volume_object.py: the box around the grids its
+    material's density reads, that material's medium inside, bound to the object's new row
+    of ``objects`` with its grids added to ``voxels``), or None (nothing rendered)."""
+    m = np.array(inst.matrix_world, dtype=np.float64)
+    made = export_volume(obj, m, materials, warn)
+    if made is None:
+        return None
+    k_mat, box, grids, texspace = made
+    slots = materials.bind_volumes(np.array([k_mat], np.int32), k_obj)
+    part = transform_part(box, m, slots, visibility_bits(obj), obj.name, warn)
+    row = object_row(obj, m, inst, texspace)
+    row[GRID_ROW, 1:3] = voxels.add(grids)
+    objects.append(row)
+    part["object"] = np.full(part["positions"].shape[0], k_obj, np.int32)
+    return part
 
 
 def terminator_offset(obj) -> float:
