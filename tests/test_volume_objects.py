@@ -127,7 +127,7 @@ def test_export_of_volume_objects(bpy, monkeypatch):
     a surface-only one render nothing, as in Cycles; a volume without grids, and one whose
     grids cannot be read (no openvdb module), are said, naming the object; a grid beyond the
     voxel budget is averaged, said; a box of 12 triangles padded one voxel around the active
-    voxels."""
+    voxels; an instance reads the grids once."""
     from ppm_engine.blender.export import volume_object
     from ppm_engine.render.device import get_device
     from ppm_engine.render.device_scene import DeviceScene
@@ -145,9 +145,20 @@ def test_export_of_volume_objects(bpy, monkeypatch):
     assert np.allclose(box.min(axis=0), (-1, -1 - 2 / 7, -1 - 2 / 7), atol=1e-5)
     assert np.allclose(box.max(axis=0), (1 + 2 / 7,) * 3, atol=1e-5)
     (g,) = object_grids(s.voxels, s.objects[0])
+    size = s.voxels.size
     assert g["dims"] == (7, 8, 8) and g["channels"] == 1
     ds = DeviceScene(get_device(), s)
     assert ds.kmaterials["majorant"][k] == pytest.approx(2.0, rel=1e-5)
+    # an instance of it (a collection's): its own object row and material, the same grids
+    group = bpy.data.collections.new("Group")
+    group.objects.link(bpy.data.objects["Smoke"])
+    inst = bpy.data.objects.new("Instance", None)
+    inst.instance_type, inst.instance_collection = "COLLECTION", group
+    inst.location = (3, 0, 0)
+    bpy.context.scene.collection.objects.link(inst)
+    s = export()
+    assert s.objects.shape[0] == 2 and s.n_triangles == 24
+    assert (s.objects[:, 5, 1:3] == s.objects[0, 5, 1:3]).all() and s.voxels.size == size
 
     for make in (lambda: volume_material("Mist", "ShaderNodeVolumeScatter"),
                  lambda: diffuse("Paint", (1, 1, 1))):

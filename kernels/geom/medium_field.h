@@ -8,10 +8,11 @@
 
 /* Heterogeneous media (PPM_VOLUME with PPM_SVM; docs/VOLUMES.md): a medium whose Density is
  * driven by nodes (export/material_volume.py) has a density program, evaluated at a point in
- * the space of the object it is bound to (its Object and Generated coordinates), that scales
- * its absorption and scattering there (its emission is not scaled, as Cycles' Principled
- * Volume's).  Its majorant (Material.majorant, a bound of the density over the object's box
- * found by device_scene's medium_bound.cl) sets the rate of tentative collisions: null
+ * the space of the object it is bound to (its Object and Generated coordinates, a Volume
+ * object's grids as its attributes: geom/volume_grid.h), that scales its absorption and
+ * scattering there (its emission is not scaled, as Cycles' Principled Volume's).  Its majorant
+ * (Material.majorant, a bound of the density over the object's box found by device_scene's
+ * medium_bound.cl, or a grid's largest voxel) sets the rate of tentative collisions: null
  * scattering (Woodcock tracking), with weights (Kutz et al. 2017, "Spectral and Decomposition
  * Tracking") so that chromatic coefficients and a density above the majorant stay unbiased.
  * A homogeneous medium takes none of this (geom/medium.h's closed forms). */

@@ -135,6 +135,7 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
     uv_tangents = generated = False
     objects = []                            # rows of the objects whose programs read them
     voxels = VoxelTable()                   # the Volume objects' grids
+    volumes: dict = {}                      # ... by volume: read, and where they lie in voxels
     bases = []                              # the parts as made (MeshCache.part)
     for inst in depsgraph.object_instances:
         obj = inst.object
@@ -151,7 +152,7 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
             lights.append(row)
         elif kind == 'VOLUME':
             if inst.show_self:
-                part = _volume(obj, inst, materials, warn, len(objects), objects, voxels)
+                part = _volume(obj, inst, materials, warn, objects, voxels, volumes)
                 if part is not None:
                     parts.append(part)
                     bases.append(part)
@@ -256,19 +257,23 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
 
 
-def _volume(obj, inst, materials, warn, k_obj: int, objects: list, voxels) -> dict | None:
+def _volume(obj, inst, materials, warn, objects: list, voxels, volumes: dict) -> dict | None:
     """The part of a Volume object (export/volume_object.py: the box around the grids its
     material's density reads, that material's medium inside, bound to the object's new row
-    of ``objects`` with its grids added to ``voxels``), or None (nothing rendered)."""
+    of ``objects``), or None (nothing rendered).  Its grids are added to ``voxels`` once per
+    volume (``volumes``: what this export read and placed; instances share them)."""
     m = np.array(inst.matrix_world, dtype=np.float64)
-    made = export_volume(obj, m, materials, warn)
+    made = export_volume(obj, m, materials, warn, volumes)
     if made is None:
         return None
-    k_mat, box, grids, texspace = made
+    k_mat, key, box, grids, texspace = made
+    if ("placed",) + key not in volumes:
+        volumes[("placed",) + key] = voxels.add(grids)
+    k_obj = len(objects)
     slots = materials.bind_volumes(np.array([k_mat], np.int32), k_obj)
     part = transform_part(box, m, slots, visibility_bits(obj), obj.name, warn)
     row = object_row(obj, m, inst, texspace)
-    row[GRID_ROW, 1:3] = voxels.add(grids)
+    row[GRID_ROW, 1:3] = volumes[("placed",) + key]
     objects.append(row)
     part["object"] = np.full(part["positions"].shape[0], k_obj, np.int32)
     return part

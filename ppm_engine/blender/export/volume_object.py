@@ -198,11 +198,13 @@ def density_scale(obj, m: np.ndarray) -> float:
     return float(1.0 / d) if d > 1e-30 and np.isfinite(d) else 1.0
 
 
-def export_volume(obj, m: np.ndarray, materials, warn):
-    """(material row, box LocalMesh (object space), [VoxelGrid], texture space (location, size))
-    of an evaluated Volume object placed by ``m``, or None where nothing is rendered (as in
-    Cycles: no grids, or none its material's density reads; warned where the grids could not
-    be read).  ``materials``: the export's MaterialTable."""
+def export_volume(obj, m: np.ndarray, materials, warn, read: dict):
+    """(material row, key, box LocalMesh (object space), [VoxelGrid], texture space (location,
+    size)) of an evaluated Volume object placed by ``m``, or None where nothing is rendered (as
+    in Cycles: no grids, or none its material's density reads; warned where the grids could
+    not be read).  ``materials``: the export's MaterialTable; ``read``: the grids read so far
+    in this export, by ``key`` (the volume's data and the grids' names: its instances read
+    them once)."""
     names = grid_names(obj)
     if not names:
         msg = getattr(obj.data.grids, "error_message", "")
@@ -216,9 +218,18 @@ def export_volume(obj, m: np.ndarray, materials, warn):
                  if v is not None), None)
     if made is None:
         return None
-    k_mat, read = made
+    k_mat, wanted = made
+    key = (obj.data.as_pointer(), obj.data.name, wanted)
+    if key not in read:
+        read[key] = _grids(obj, wanted, materials.attributes, warn)
+    return (k_mat, key, *read[key]) if read[key] is not None else None
+
+
+def _grids(obj, names: tuple, attributes: list, warn) -> tuple | None:
+    """(box LocalMesh, [VoxelGrid], texture space) of the grids ``names`` of a Volume object,
+    filling the program attributes of those names (``attributes``: the scene's), or None."""
     clipping = float(getattr(getattr(obj.data, "render", None), "clipping", 0.0) or 0.0)
-    grids = read_grids(obj, read, warn, max(clipping, 0.0))
+    grids = read_grids(obj, names, warn, max(clipping, 0.0))
     if not grids:
         return None
     corners = []
@@ -227,9 +238,9 @@ def export_volume(obj, m: np.ndarray, materials, warn):
                       for k in range(8)])
         corners.append((c @ to_obj.T)[:, :3])
     pts = np.concatenate(corners)
-    packed = [VoxelGrid(a, np.linalg.inv(to_obj)[:3], materials.attributes.index(name))
+    packed = [VoxelGrid(a, np.linalg.inv(to_obj)[:3], attributes.index(name))
               for name, a, to_obj, _box in grids]
+    # Generated coordinates: 0..1 over the volume's bounds (Cycles' generated transform)
     bb = np.array([tuple(v) for v in obj.bound_box], np.float64)
     lo, hi = bb.min(axis=0), bb.max(axis=0)
-    return k_mat, box_mesh(pts.min(axis=0), pts.max(axis=0)), packed, \
-        (0.5 * (lo + hi), 0.5 * (hi - lo))
+    return box_mesh(pts.min(axis=0), pts.max(axis=0)), packed, (0.5 * (lo + hi), 0.5 * (hi - lo))
