@@ -127,7 +127,8 @@ def test_export_of_volume_objects(bpy, monkeypatch):
     a surface-only one render nothing, as in Cycles; a volume without grids, and one whose
     grids cannot be read (no openvdb module), are said, naming the object; a grid beyond the
     voxel budget is averaged, said; a box of 12 triangles padded one voxel around the active
-    voxels; an instance reads the grids once."""
+    voxels; an instance reads the grids once; a smoke simulation's domain (a mesh) is said not
+    to be read."""
     from ppm_engine.blender.export import volume_object
     from ppm_engine.render.device import get_device
     from ppm_engine.render.device_scene import DeviceScene
@@ -180,3 +181,12 @@ def test_export_of_volume_objects(bpy, monkeypatch):
     monkeypatch.setattr(volume_object, "openvdb_module", lambda: None)
     s = export()
     assert any("'Smoke'" in w and "openvdb" in w for w in s.warnings) and s.n_triangles == 0
+    # a smoke simulation's domain (a mesh): its grids are not read, said (a stand-in for the
+    # object: a Fluid domain evaluated in the test makes Mantaflow abort the process at exit)
+    from types import SimpleNamespace as NS
+
+    from ppm_engine.blender.export import warn_smoke_domain
+    said = []
+    fluid = NS(type="FLUID", fluid_type="DOMAIN", domain_settings=NS(domain_type="GAS"))
+    warn_smoke_domain(NS(name="Domain", modifiers=[fluid]), said.append)
+    assert len(said) == 1 and "'Domain'" in said[0] and "Fluid domain" in said[0]

@@ -72,6 +72,17 @@ NOT_RENDERED = {
 }
 
 
+def warn_smoke_domain(obj, warn) -> None:
+    """A warning where the mesh is a smoke or fire simulation's domain (a Fluid modifier's gas
+    domain), whose grids Cycles renders as a volume and this engine does not read."""
+    for md in getattr(obj, "modifiers", ()):
+        if md.type == 'FLUID' and getattr(md, "fluid_type", "") == 'DOMAIN' and getattr(
+                getattr(md, "domain_settings", None), "domain_type", "") == 'GAS':
+            warn(f"Object '{obj.name}': the smoke simulation of its Fluid domain is not read "
+                 "(its material fills the domain's mesh); its grids baked to OpenVDB and "
+                 "loaded as a Volume object are")
+
+
 def warn_particle_hair(obj, warn) -> None:
     """A warning per hair particle system of ``obj`` shown as strands (not rendered yet)."""
     for ps in getattr(obj, "particle_systems", ()):
@@ -167,6 +178,7 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
             mesh = meshes.get(obj)
             if kind == 'MESH':
                 warn_particle_hair(obj, warn)
+                warn_smoke_domain(obj, warn)
             if mesh is None or mesh.n_triangles == 0:
                 if kind in NOT_RENDERED:        # no surface to render: said, not dropped silently
                     warn(f"Object '{obj.name}': {NOT_RENDERED[kind]}")
