@@ -280,7 +280,11 @@ def _volume(obj, inst, materials, warn, objects: list, voxels, volumes: dict) ->
         return None
     k_mat, key, box, grids, texspace = made
     if ("placed",) + key not in volumes:
-        volumes[("placed",) + key] = voxels.add(grids)
+        try:
+            volumes[("placed",) + key] = voxels.add(grids)
+        except ValueError as e:             # (beyond what the kernels can address)
+            warn(f"Object '{obj.name}': its grids are not rendered ({e})")
+            return None
     k_obj = len(objects)
     slots = materials.bind_volumes(np.array([k_mat], np.int32), k_obj)
     part = transform_part(box, m, slots, visibility_bits(obj), obj.name, warn)
