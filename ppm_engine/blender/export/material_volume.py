@@ -208,17 +208,20 @@ def _field_program(reader, medium, material) -> bool:
         g = c.convert(g, 1, "vector")
     if key[0] is not None:
         v = c.convert(c.input(node, sock, ctx, 1), 1)
-        v = v if g is None else c.math("MULTIPLY", v, g)
-    if v is None:
-        v = g
-        c.flags |= PROGRAM_GRID          # its majorant: the grid's largest voxel
-    if v.is_const:
+    if v is not None and v.is_const:       # a linked Density folded to a constant: it scales
         d = float(v.const[0])
         d = 0.0 if not np.isfinite(d) or d < 0 else d
         medium.absorption *= d
         medium.scattering *= d
         medium.g_sum *= d
-        return True
+        if g is None:
+            return True
+        v = None
+    if v is None:
+        v = g
+        c.flags |= PROGRAM_GRID          # its majorant: the grid's largest voxel
+    elif g is not None:
+        v = c.math("MULTIPLY", v, g)
     c.binds.append((0, 0, 1, c.slot(v)))
     c.flags |= PROGRAM_OBJECT          # the object's space: its row exists (export/__init__.py)
     medium.program = c.program()
