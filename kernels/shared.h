@@ -382,6 +382,7 @@ typedef struct {
     X(float4, attributes)         /* mesh attributes */ \
     X(int, tri_object)            /* triangles' objects */ \
     X(float4, objects)            /* objects */ \
+    X(float, voxels)              /* Volume objects' grids (scene/voxels.py) */ \
     X(Camera, camera)             /* camera */ \
     X(LightPaths, light_paths)    /* Light Paths settings */ \
     X(Light, lights)              /* lights */ \

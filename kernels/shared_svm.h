@@ -53,6 +53,7 @@
 #define PROGRAM_OBJECT 16
 #define PROGRAM_WINDOW 32
 #define PROGRAM_BUMP 64
+#define PROGRAM_GRID 128
 
 /* what SVM_GEOMETRY reads (shader_program.py GEOM_*; GEOM_ATTRIBUTE + k, GEOM_ATTRIBUTE_ALPHA +
  * k for attribute k) */

@@ -127,8 +127,9 @@ def test_adaptive_subdivision_renders_the_modifier_levels_with_a_warning(empty):
 
 
 def test_what_is_not_rendered_yet_is_said_per_object(empty, tmp_path):
-    """A Volume object, hair curves, a point cloud, hair particles and motion blur are not
-    rendered yet: each export says so, naming the object (before: silently nothing)."""
+    """Hair curves, a point cloud, hair particles and motion blur are not rendered yet, and a
+    Volume object without grids renders nothing: each export says so, naming the object
+    (before: silently nothing)."""
     add_plane()
     vol = bpy.data.objects.new("Smoke", bpy.data.volumes.new("Smoke"))
     hair = bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur"))
@@ -141,7 +142,7 @@ def test_what_is_not_rendered_yet_is_said_per_object(empty, tmp_path):
     bpy.context.active_object.particle_systems[0].settings.type = 'HAIR'
     s = export()
     said = "\n".join(s.warnings)
-    for name, words in (("Smoke", "Volume object"), ("Fur", "hair curves"),
+    for name, words in (("Smoke", "no grids"), ("Fur", "hair curves"),
                         ("Dust", "point cloud"), ("Shaggy", "hair particles")):
         assert any(name in w and words in w for w in s.warnings), said
     assert s.n_triangles == 2 + 12 and "Motion blur" not in said

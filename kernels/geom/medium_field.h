@@ -3,14 +3,16 @@
 #include "rng.h"
 #include "svm/svm.h"
 #include "geom/medium.h"
+#include "geom/volume_grid.h"
 #include "integrator/path_state.h"
 
 /* Heterogeneous media (PPM_VOLUME with PPM_SVM; docs/VOLUMES.md): a medium whose Density is
  * driven by nodes (export/material_volume.py) has a density program, evaluated at a point in
- * the space of the object it is bound to (its Object and Generated coordinates), that scales
- * its absorption and scattering there (its emission is not scaled, as Cycles' Principled
- * Volume's).  Its majorant (Material.majorant, a bound of the density over the object's box
- * found by render/medium_bound.py on the device) sets the rate of tentative collisions: null
+ * the space of the object it is bound to (its Object and Generated coordinates, a Volume
+ * object's grids as its attributes: geom/volume_grid.h), that scales its absorption and
+ * scattering there (its emission is not scaled, as Cycles' Principled Volume's).  Its majorant
+ * (Material.majorant, a bound of the density over the object's box found on the device by
+ * render/medium_bound.py, or a grid's largest voxel) sets the rate of tentative collisions: null
  * scattering (Woodcock tracking), with weights (Kutz et al. 2017, "Spectral and Decomposition
  * Tracking") so that chromatic coefficients and a density above the majorant stay unbiased.
  * A homogeneous medium takes none of this (geom/medium.h's closed forms). */
@@ -47,6 +49,8 @@ __attribute__((noinline)) float medium_density(const Scene *scene, int mat, floa
         float4 h = (float4)(P, 1.0f);
         cx.P_object = (float3)(dot(o[0], h), dot(o[1], h), dot(o[2], h));
         cx.generated = cx.P_object * o[9].xyz + o[10].xyz;
+        /* a Volume object's grids: the attributes its program reads (geom/volume_grid.h) */
+        if (o[5].z > 0.0f) grid_attributes(scene, o, cx.P_object, cx.attr);
         for (int r = 0; r < 3; r++) {
             cx.object[r] = o[3 + r];
 #if SVM_OBJECT_MATRICES

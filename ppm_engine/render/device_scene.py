@@ -16,7 +16,7 @@ from ppm_engine.render.bvh import BVH
 from ppm_engine.render.features import VALUE_FEATURES, scene_features, used_materials
 from ppm_engine.render.features import defines as feature_defines
 from ppm_engine.render.film import filter_density, filter_table
-from ppm_engine.render.medium_bound import bound_media, media_boxes
+from ppm_engine.render.medium_bound import bound_media, grid_majorants, media_boxes
 from ppm_engine.render.world_map import bake, build_map, map_size
 from ppm_engine.scene.arrays import (
     LIGHT_DTYPE,
@@ -81,6 +81,7 @@ SCENE_BUFFERS = (
     SceneBuffer("attributes", _F4, "mesh attributes"),
     SceneBuffer("tri_object", np.dtype(np.int32), "triangles' objects", fill=-1),
     SceneBuffer("objects", _F4, "objects"),
+    SceneBuffer("voxels", np.dtype(np.float32), "Volume objects' grids (scene/voxels.py)"),
     SceneBuffer("camera", CAMERA_DTYPE, "camera"),
     SceneBuffer("light_paths", LIGHT_PATHS_DTYPE, "Light Paths settings",
                 default=engine_defaults),
@@ -173,12 +174,16 @@ class DeviceScene:
             texels=prepared.texels, uvs=prepared.uvs, tangents=prepared.tangents,
             svm=prepared.svm, uv_tangents=prepared.uv_tangents, generated=prepared.generated,
             attributes=prepared.attributes, tri_object=prepared.object, objects=prepared.objects,
+            voxels=prepared.voxels,
             terminator=(prepared.terminator if prepared.terminator.size else
                         np.full(prepared.n_triangles, TERMINATOR_OFFSET, np.float32)),
             camera=prepared.camera, light_paths=prepared.light_paths)
-        # heterogeneous media: their majorants bounded with the shading buffers
+        # heterogeneous media: their majorants bounded with the shading buffers (a density
+        # that is a Volume object's grid by its voxels, on the host)
         boxes = media_boxes(prepared.positions, prepared.material, self.kmaterials)
         if boxes:
+            grid_majorants(prepared.svm, self.kmaterials, prepared.objects, prepared.voxels,
+                           boxes)
             bound_media(self.device, placeholders(self.device, **args), prepared.svm,
                         self.kmaterials, boxes, self.specialize)
             args.update(self._upload(materials=self.kmaterials))

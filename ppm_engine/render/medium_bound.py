@@ -1,11 +1,19 @@
 """The majorants of heterogeneous media (kernels/geom/medium_field.h): each medium's density
 program bounded over its object's box on the device (kernels/light/world_map.cl medium_bound:
-the program the world's map is baked with, one build of every node for every scene), padded."""
+the program the world's map is baked with, one build of every node for every scene), padded; a
+density that is a Volume object's grid itself by the grid's largest voxel, on the host."""
 from __future__ import annotations
 
 import numpy as np
 
-from ppm_engine.scene.shader_program import SVM_IMAGE, ops_define, ops_used, stack_used
+from ppm_engine.scene.shader_program import (
+    SVM_IMAGE,
+    grid_density,
+    ops_define,
+    ops_used,
+    stack_used,
+)
+from ppm_engine.scene.voxels import grid_maximum
 
 BOUND_CELLS = 32          # the box's cells per axis: one density sample each
 BOUND_PADDING = 1.25      # the bound over the largest sample (a peak between samples)
@@ -57,3 +65,18 @@ def bound_media(device, args: dict, svm: np.ndarray, kmaterials: np.ndarray,
         top = float(zero.view(np.float32)[0])
         kmaterials["majorant"][k] = top * BOUND_PADDING if np.isfinite(top) else 1e30
     out.release()
+
+
+def grid_majorants(svm: np.ndarray, kmaterials: np.ndarray, objects: np.ndarray,
+                   voxels: np.ndarray, boxes: dict) -> None:
+    """Sets kmaterials["majorant"] of every medium in ``boxes`` whose density is its Volume
+    object's grid itself (shader_program.PROGRAM_GRID) to that grid's largest voxel (trilinear
+    interpolation never exceeds it: exact, where samples of the box could miss a thin peak),
+    and takes it out of ``boxes``."""
+    for k in list(boxes):
+        a = grid_density(svm, int(kmaterials["density_program"][k]))
+        o = int(kmaterials["volume_object"][k])
+        top = grid_maximum(voxels, objects, o, a) if a is not None and o >= 0 else None
+        if top is not None:
+            kmaterials["majorant"][k] = top
+            del boxes[k]

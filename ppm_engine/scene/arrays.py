@@ -33,6 +33,7 @@ from ppm_engine.scene.light_paths import (
     check_light_paths,
     engine_defaults,
 )
+from ppm_engine.scene.voxels import check_objects
 
 # --- triangle visibility bits (Blender's Object.visible_* ray flags) -------------------------
 VIS_CAMERA = 1
@@ -276,6 +277,8 @@ class SceneArrays:
     object: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
     objects: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros((0, OBJECT_ROWS, 4), np.float32))
+    # (16 N,) float32 the Volume objects' grids, headers and voxels (scene/voxels.py)
+    voxels: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
     # (T,) float32 each triangle's object's Shadow Terminator > Geometry Offset (Cycles' object
     # setting; kernels/geom/bvh.h terminator_lift), or (0,) when every object has the default
     terminator: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
@@ -338,13 +341,8 @@ class SceneArrays:
         check_light_paths(self.light_paths)
         if self.materials.shape[0] < 1:
             raise ValueError("SceneArrays.materials must hold at least one material")
-        ob, obs = self.object, self.objects
-        if ob.dtype != np.int32 or ob.shape not in ((0,), (t,)) or obs.dtype != np.float32 \
-                or obs.ndim != 3 or obs.shape[1:] != (OBJECT_ROWS, 4) \
-                or (ob.size and (ob.min() < -1 or ob.max() >= obs.shape[0])) \
-                or not np.isin(self.materials["volume_object"], range(obs.shape[0] + 1)).all():
-            raise ValueError("SceneArrays.object/objects: expected int32 (T,) rows of a float32 "
-                             f"(O, {OBJECT_ROWS}, 4) table (and materials' volume_object)")
+        check_objects(self.object, self.objects, self.materials["volume_object"], t,
+                      OBJECT_ROWS, self.voxels)
         at = self.attributes
         if at.dtype != np.float32 or at.ndim != 4 or at.shape[1] != 3 or at.shape[3] != 4 \
                 or at.shape[0] not in (0, t) or (at.shape[0] == 0) != (at.shape[2] == 0):

@@ -193,6 +193,9 @@ PROGRAM_ATTRIBUTES = 8  # mesh attributes are read (SceneArrays.attributes)
 PROGRAM_OBJECT = 16    # the object's data are read (SceneArrays.object, objects)
 PROGRAM_WINDOW = 32    # the Window coordinates are read (the camera's projection)
 PROGRAM_BUMP = 64      # a Bump node reads the footprint's offsets (kernels/svm/svm_bump.h)
+# a medium's density program that is its Volume object's grid of attribute k itself: its first
+# op reads GEOM_ATTRIBUTE + k (its majorant is that grid's largest voxel: render/medium_bound.py)
+PROGRAM_GRID = 128
 MAX_STACK = 256        # floats of stack a program may use (kernels: PPM_SVM_STACK, the most a
                        # scene's programs use)
 
@@ -234,6 +237,32 @@ def op_words(svm: np.ndarray, i: int) -> int:
 def ops_define(mask: int) -> str:
     """The -D PPM_SVM_OPS value of an ops_used mask: a ulong literal (op codes up to 63)."""
     return f"{mask:#x}UL"
+
+
+def attributes_read(svm: np.ndarray, p: int) -> list[int]:
+    """The attributes k (GEOM_ATTRIBUTE + k, GEOM_ATTRIBUTE_ALPHA + k) the program at word p
+    reads, in the order it reads them."""
+    out: list[int] = []
+    n_binds, n_words = int(svm[p, 0]), int(svm[p, 1])
+    i, end = p + 1 + n_binds, p + n_words
+    while i < end and int(svm[i, 0]) != SVM_END:
+        what = int(svm[i, 2]) % GEOM_BUMP_OFFSET
+        if int(svm[i, 0]) == SVM_GEOMETRY and what >= GEOM_ATTRIBUTE:
+            k = (what - GEOM_ATTRIBUTE) % MAX_ATTRIBUTES
+            if k not in out:
+                out.append(k)
+        i += op_words(svm, i)
+    return out
+
+
+def grid_density(svm: np.ndarray, p: int) -> int | None:
+    """The attribute k whose grid the density program at word p is (PROGRAM_GRID), else None."""
+    if p <= 0 or not int(svm[p, 3]) & PROGRAM_GRID:
+        return None
+    first = svm[p + 1 + int(svm[p, 0])]
+    if int(first[0]) != SVM_GEOMETRY or not 0 <= int(first[2]) - GEOM_ATTRIBUTE < MAX_ATTRIBUTES:
+        return None
+    return int(first[2]) - GEOM_ATTRIBUTE
 
 
 def stack_used(svm: np.ndarray, starts) -> int:

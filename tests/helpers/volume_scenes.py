@@ -108,3 +108,57 @@ def absorption_scene(color, density):
     ink = volume_material("Ink", "ShaderNodeVolumeAbsorption", Color=(*color, 1), Density=density)
     cube("Ink", ink, size=1.0)
     return scene
+
+
+def volume_cube(name, material=None, res=8, loc=(0, 0, 0), ramp=1.0):
+    """A Volume object whose "density" grid a geometry-nodes Volume Cube writes: ``res``^3
+    voxels with centres from -1 to 1 (object space), the density x + ``ramp`` there (0 on the
+    x = -1 face: those voxels are inactive); ``material`` set on the grid by the nodes (a
+    volume made by nodes keeps only the materials they set), none: Cycles' default volume."""
+    bpy.ops.object.volume_add(location=loc)
+    obj = bpy.context.active_object
+    obj.name = name
+    tree = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = tree.nodes, tree.links
+    cube = nodes.new("GeometryNodeVolumeCube")
+    for axis in "XYZ":
+        cube.inputs[f"Resolution {axis}"].default_value = res
+    sep = nodes.new("ShaderNodeSeparateXYZ")
+    links.new(nodes.new("GeometryNodeInputPosition").outputs[0], sep.inputs[0])
+    add = nodes.new("ShaderNodeMath")
+    add.inputs[1].default_value = ramp
+    links.new(sep.outputs["X"], add.inputs[0])
+    links.new(add.outputs[0], cube.inputs["Density"])
+    out = cube.outputs[0]
+    if material is not None:
+        setm = nodes.new("GeometryNodeSetMaterial")
+        setm.inputs["Material"].default_value = material
+        links.new(out, setm.inputs["Geometry"])
+        out = setm.outputs[0]
+    links.new(out, nodes.new("NodeGroupOutput").inputs[0])
+    obj.modifiers.new("Cube", "NODES").node_group = tree
+    return obj
+
+
+def vdb_volume(name, path, grids):
+    """A Volume object reading the .vdb file ``path`` that this writes with Blender's openvdb
+    module: ``grids`` {name: (values (nx, ny, nz) float32, voxel size, index (i, j, k) of
+    values[0, 0, 0], translation)}."""
+    from ppm_engine.blender.export.volume_object import openvdb_module
+    ovdb = openvdb_module()
+    made = []
+    for grid_name, (values, size, ijk, shift) in grids.items():
+        g = ovdb.FloatGrid()
+        g.name = grid_name
+        g.copyFromArray(values, ijk=ijk)
+        t = ovdb.createLinearTransform(voxelSize=size)
+        t.postTranslate(shift)
+        g.transform = t
+        made.append(g)
+    ovdb.write(str(path), grids=made)
+    vol = bpy.data.volumes.new(name)
+    vol.filepath = str(path)
+    obj = bpy.data.objects.new(name, vol)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj

@@ -18,6 +18,7 @@ from ppm_engine.blender.export.mesh import GEOMETRY_TYPES, transform_part
 from ppm_engine.blender.export.mesh_cache import MeshCache
 from ppm_engine.blender.export.objects import object_row
 from ppm_engine.blender.export.textures import TextureTable
+from ppm_engine.blender.export.volume_object import export_volume
 from ppm_engine.blender.export.world import export_world, world_medium
 from ppm_engine.errors import SceneError
 from ppm_engine.scene.arrays import (
@@ -40,6 +41,7 @@ from ppm_engine.scene.shader_program import (
     PROGRAM_OBJECT,
     PROGRAM_TANGENTS,
 )
+from ppm_engine.scene.voxels import GRID_ROW, VoxelTable
 
 __all__ = ["Warnings", "export_scene"]
 
@@ -66,11 +68,20 @@ class Warnings(list):
 # geometry that has no surface of triangles, which this engine does not render yet (Cycles
 # renders each): said per object (docs/USAGE.md, "What is not rendered")
 NOT_RENDERED = {
-    'VOLUME': "a Volume object (OpenVDB grids) is not rendered yet; a mesh whose material has a "
-              "Volume output is (docs/VOLUMES.md)",
     'CURVES': "hair curves are not rendered yet (convert them to a mesh: Curves to Mesh)",
     'POINTCLOUD': "a point cloud is not rendered yet (instance a mesh on its points)",
 }
+
+
+def warn_smoke_domain(obj, warn) -> None:
+    """A warning where the mesh is a smoke or fire simulation's domain (a Fluid modifier's gas
+    domain), whose grids Cycles renders as a volume and this engine does not read."""
+    for md in getattr(obj, "modifiers", ()):
+        if md.type == 'FLUID' and getattr(md, "fluid_type", "") == 'DOMAIN' and getattr(
+                getattr(md, "domain_settings", None), "domain_type", "") == 'GAS':
+            warn(f"Object '{obj.name}': the smoke simulation of its Fluid domain is not read "
+                 "(its material fills the domain's mesh); its grids baked to OpenVDB and "
+                 "loaded as a Volume object are")
 
 
 def warn_particle_hair(obj, warn) -> None:
@@ -135,6 +146,8 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
     parts, lights = [], []
     uv_tangents = generated = False
     objects = []                            # rows of the objects whose programs read them
+    voxels = VoxelTable()                   # the Volume objects' grids
+    volumes: dict = {}                      # ... by volume: read, and where they lie in voxels
     bases = []                              # the parts as made (MeshCache.part)
     for inst in depsgraph.object_instances:
         obj = inst.object
@@ -149,6 +162,12 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
                 if not getattr(obj, attr, True):      # the light seen directly or in a mirror
                     row["flags"] |= np.uint32(bit << LIGHT_HIDDEN_SHIFT)
             lights.append(row)
+        elif kind == 'VOLUME':
+            if inst.show_self:
+                part = _volume(obj, inst, materials, warn, objects, voxels, volumes)
+                if part is not None:
+                    parts.append(part)
+                    bases.append(part)
         elif kind in GEOMETRY_TYPES:
             if not inst.show_self:          # e.g. particle instancer hidden for render
                 continue
@@ -160,6 +179,7 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
             mesh = meshes.get(obj)
             if kind == 'MESH':
                 warn_particle_hair(obj, warn)
+                warn_smoke_domain(obj, warn)
             if mesh is None or mesh.n_triangles == 0:
                 if kind in NOT_RENDERED:        # no surface to render: said, not dropped silently
                     warn(f"Object '{obj.name}': {NOT_RENDERED[kind]}")
@@ -249,9 +269,36 @@ def export_scene(depsgraph, engine=None, camera=None, view=None, meshes=None,
                            warnings=tuple(warn), textures=tex_table, texels=texels,
                            objects=(np.stack(objects) if objects
                                     else np.zeros((0, OBJECT_ROWS, 4), np.float32)),
-                           svm=svm, world_shader=world_shader, light_paths=light_paths)
+                           svm=svm, world_shader=world_shader, light_paths=light_paths,
+                           voxels=voxels.array())
     except ValueError as e:
         raise SceneError(f"the exported scene is inconsistent: {e}") from e
+
+
+def _volume(obj, inst, materials, warn, objects: list, voxels, volumes: dict) -> dict | None:
+    """The part of a Volume object (export/volume_object.py: the box around the grids its
+    material's density reads, that material's medium inside, bound to the object's new row
+    of ``objects``), or None (nothing rendered).  Its grids are added to ``voxels`` once per
+    volume (``volumes``: what this export read and placed; instances share them)."""
+    m = np.array(inst.matrix_world, dtype=np.float64)
+    made = export_volume(obj, m, materials, warn, volumes)
+    if made is None:
+        return None
+    k_mat, key, box, grids, texspace = made
+    if ("placed",) + key not in volumes:
+        try:
+            volumes[("placed",) + key] = voxels.add(grids)
+        except ValueError as e:             # (beyond what the kernels can address)
+            warn(f"Object '{obj.name}': its grids are not rendered ({e})")
+            return None
+    k_obj = len(objects)
+    slots = materials.bind_volumes(np.array([k_mat], np.int32), k_obj)
+    part = transform_part(box, m, slots, visibility_bits(obj), obj.name, warn)
+    row = object_row(obj, m, inst, texspace)
+    row[GRID_ROW, 1:3] = volumes[("placed",) + key]
+    objects.append(row)
+    part["object"] = np.full(part["positions"].shape[0], k_obj, np.int32)
+    return part
 
 
 def terminator_offset(obj) -> float:

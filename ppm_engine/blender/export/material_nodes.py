@@ -17,7 +17,12 @@ import sys
 
 import numpy as np
 
-from ppm_engine.blender.export.material_volume import ConstantInputs, read_volume
+from ppm_engine.blender.export.material_volume import (
+    DEFAULT_VOLUME,
+    ConstantInputs,
+    default_volume,
+    read_volume,
+)
 from ppm_engine.blender.export.shader_graph import Compiler, Graph
 from ppm_engine.scene.arrays import (
     MATERIAL_DTYPE,
@@ -79,12 +84,13 @@ class _Reader(ConstantInputs):
     output's constant inputs (ConstantInputs.value)."""
 
     def __init__(self, material, warn, textures, attributes=None, camera=None):
-        self.name = material.name
+        self.name = material.name if material is not None else DEFAULT_VOLUME
         self.warn_fn = warn
         self.textures = textures
         self.graph = Graph(warn)
-        self.compiler = Compiler(material.name, warn, textures, self.graph, material, attributes,
+        self.compiler = Compiler(self.name, warn, textures, self.graph, material, attributes,
                                  camera)
+        self.grids = None                 # a Volume object's grid names (material_volume.py)
         self.said = self.compiler.said
         self.ctx = ()                     # group nodes around the node being read
         self.index = 0                    # the node's index among the material's BSDF nodes
@@ -320,15 +326,10 @@ def read_material(material, warn, textures=None, attributes: list | None = None,
     camera space nodes read (Cycles' camera space, +z ahead); ``volume``: the program of its
     medium's density field is appended to it (a heterogeneous medium), if any."""
     reader = _Reader(material, warn, textures, attributes, camera)
-    row = np.zeros(1, MATERIAL_DTYPE)
     medium = read_volume(material, reader)
-    if medium is not None:
-        row["absorption"] = medium.absorption
-        row["scattering"] = medium.scattering
-        row["anisotropy"] = medium.anisotropy
-        row["volume_emission"] = medium.emission
-        if medium.program is not None and volume is not None:
-            volume.append(medium.program)
+    row = _medium_row(medium)
+    if medium is not None and medium.program is not None and volume is not None:
+        volume.append(medium.program)
     nodes: list = []
     surface = _output_socket(material)
     if reader.graph.source(surface) is None:
@@ -363,6 +364,38 @@ def read_material(material, warn, textures=None, attributes: list | None = None,
         for n in nodes:                 # (rows from node_row)
             n["flags"] |= NODE_FLAG_NO_BUMP_CORRECTION
     return row, nodes, reader.compiler.program()
+
+
+def read_volume_object(material, warn, textures=None, attributes: list | None = None,
+                       camera=None, grids: tuple = (), scale: float = 1.0) -> tuple | None:
+    """(MATERIAL_DTYPE row, its BSDF nodes, its density program or None) of ``material`` on a
+    Volume object whose grids are named ``grids``, or None where its volume renders nothing (no
+    Volume output; a default volume without a "density" grid): its Volume output alone, as
+    Cycles renders a volume's material (its surface the medium's transparent boundary, a
+    Principled Volume's Density times its Density Attribute's grid), Cycles' default volume
+    where ``material`` is None (material_volume.default_volume); the coefficients times
+    ``scale`` (Cycles' object-space density: 1 / the object's scale)."""
+    reader = _Reader(material, warn, textures, attributes, camera)
+    reader.grids = frozenset(grids)
+    medium = read_volume(material, reader) if material is not None else default_volume(reader)
+    if medium is None:
+        return None
+    row = _medium_row(medium)
+    for what in ("absorption", "scattering", "volume_emission"):
+        row[what] *= scale
+    return (row, [dict(type=NODE_TRANSPARENT, color=(1.0, 1.0, 1.0),
+                                       flags=NODE_FLAG_VOLUME_BOUNDARY)], medium.program)
+
+
+def _medium_row(medium) -> np.ndarray:
+    """A MATERIAL_DTYPE row of a material's medium (read_volume; None: no volume)."""
+    row = np.zeros(1, MATERIAL_DTYPE)
+    if medium is not None:
+        row["absorption"] = medium.absorption
+        row["scattering"] = medium.scattering
+        row["anisotropy"] = medium.anisotropy
+        row["volume_emission"] = medium.emission
+    return row
 
 
 def bump_map_correction(material) -> bool:

@@ -5,9 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ppm_engine.blender.export.material_nodes import DEFAULT_NAME, default_row, read_material
+from ppm_engine.blender.export.material_nodes import (
+    DEFAULT_NAME,
+    default_row,
+    read_material,
+    read_volume_object,
+)
+from ppm_engine.blender.export.material_volume import DEFAULT_VOLUME
 from ppm_engine.scene.arrays import SHADER_NODE_DTYPE, shader_node
 from ppm_engine.scene.materials import anisotropic_nodes
+from ppm_engine.scene.shader_program import attributes_read
 
 
 class MaterialTable:
@@ -32,22 +39,46 @@ class MaterialTable:
             return 0
         key = material.name_full
         if key not in self._index:
-            self._index[key] = len(self.rows)
             field: list = []
             row, nodes, program = read_material(material, self.warn, self.textures,
                                                 self.attributes, self.camera, field)
-            k = len(self.rows)
-            for words, name in ((program, "program"), (field[0] if field else None,
-                                                       "density_program")):
-                if words is not None:
-                    row[name] = self.words
-                    self.programs.append(words)
-                    self.words += words.shape[0]
-                    self.program_flags[k] = self.program_flags.get(k, 0) | int(words[0, 3])
-            self.rows.append(row)
-            self.nodes.append(nodes)
-            self.names.append(material.name)
+            self._index[key] = self._append(row, nodes, program, field[0] if field else None,
+                                            material.name)
         return self._index[key]
+
+    def volume_index(self, material, grids: tuple, scale: float) -> tuple | None:
+        """(row, names of the grids its density reads) of ``material`` (None: Cycles' default
+        volume) on a Volume object whose grids are named ``grids``: its Volume output alone, the
+        coefficients times ``scale`` (material_nodes.read_volume_object); None where its density
+        reads none of those grids (Cycles then has no voxels to build the volume's bounds from:
+        nothing is rendered)."""
+        key = ("volume object", material.name_full if material is not None else None, grids,
+               float(scale))
+        if key not in self._index:
+            made = read_volume_object(material, self.warn, self.textures, self.attributes,
+                                      self.camera, grids, scale)
+            names = [] if made is None or made[2] is None else [
+                self.attributes[k] for k in attributes_read(made[2], 0)]
+            names = [n for n in names if n in grids]
+            self._index[key] = (self._append(made[0], made[1], None, made[2],
+                                             material.name if material is not None
+                                             else DEFAULT_VOLUME), tuple(names)) \
+                if names else None
+        return self._index[key]
+
+    def _append(self, row, nodes, program, field, name: str) -> int:
+        """A new material row with its BSDF nodes, shader program and density program."""
+        k = len(self.rows)
+        for words, what in ((program, "program"), (field, "density_program")):
+            if words is not None:
+                row[what] = self.words
+                self.programs.append(words)
+                self.words += words.shape[0]
+                self.program_flags[k] = self.program_flags.get(k, 0) | int(words[0, 3])
+        self.rows.append(row)
+        self.nodes.append(nodes)
+        self.names.append(name)
+        return k
 
     def bind_volumes(self, slots: np.ndarray, k_obj: int) -> np.ndarray:
         """The slots with each heterogeneous medium's material bound to the object whose row of

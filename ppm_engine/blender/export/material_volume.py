@@ -8,10 +8,11 @@ from __future__ import annotations
 import numpy as np
 
 from ppm_engine.blender.export.shader_graph import Compiler
-from ppm_engine.scene.shader_program import PROGRAM_OBJECT
+from ppm_engine.scene.shader_program import PROGRAM_GRID, PROGRAM_OBJECT
 from ppm_engine.scene.spectra import blackbody_rgb
 
 _MAX_DEPTH = 64
+DEFAULT_VOLUME = "default volume"     # a Volume object's without a material (Cycles')
 
 
 def _output_socket(material, socket):
@@ -72,20 +73,26 @@ class _Medium:
         return self.g_sum / m if m > 0 else 0.0
 
 
-def _density(reader, node, name="Density", medium=None, ctx=()) -> float:
+def _density(reader, node, name="Density", medium=None, ctx=(), grid=None) -> float:
     """A density input, clamped to >= 0 with a warning where it is negative or not a number, as
-    Cycles clamps it; one driven by nodes is the medium's field (1 here: the field scales the
-    coefficients at each point) where it is the first or the same as the first, else warned
-    about and its unlinked value used."""
+    Cycles clamps it; one driven by nodes, or times the Volume object's grid ``grid`` (a
+    Principled Volume's Density Attribute), is the medium's field where it is the first or the
+    same as the first: 1 here where driven (the field scales the coefficients at each point),
+    its value where only the grid varies (the field is the grid); else warned about and its
+    unlinked value used."""
     sock = node.inputs.get(name)
     src = reader.graph.source(sock, ctx) if sock is not None else None
-    if medium is not None and src is not None:
-        key = (src[0].name, src[1].identifier, tuple(n.name for n in src[2]))
+    if medium is not None and (src is not None or grid) and getattr(reader, "fields", True):
+        key = ((src[0].name, src[1].identifier, tuple(n.name for n in src[2]))
+               if src is not None else None, grid)
         if medium.field is None:
             medium.field = (node, sock, ctx, key)
         if medium.field[3] == key:
             medium.fielded = True
-            return 1.0
+            if src is not None:
+                return 1.0
+        elif src is None:
+            medium.plain = True         # another grid: not the field
     elif medium is not None:
         medium.plain = True
     v = reader.value(node, name)
@@ -98,6 +105,15 @@ def _density(reader, node, name="Density", medium=None, ctx=()) -> float:
     return float(v)
 
 
+def _grid(reader, node, name: str) -> str | None:
+    """The grid that the node's attribute input ``name`` (Density, Color or Temperature
+    Attribute) names, where the Volume object being read has one of that name (reader.grids;
+    None for a mesh: Cycles finds no such attribute there and leaves the input as it is)."""
+    sock = node.inputs.get(name)
+    attr = getattr(sock, "default_value", "") if sock is not None else ""
+    return attr if reader.grids is not None and attr and attr in reader.grids else None
+
+
 # Cycles' Principled Volume's blackbody emission: the Stefan-Boltzmann law, sigma T^4 / pi
 # (its sigma in W m^-2 K^-4 and the 1e-6 of Cycles' scale), Blackbody Intensity mixing from 1
 _STEFAN_BOLTZMANN = 5.670373e-8 * 1e-6 / np.pi
@@ -107,10 +123,15 @@ def _blackbody(reader, node) -> np.ndarray:
     """The Principled Volume's blackbody emission per metre, as Cycles' svm_node_principled_volume
     adds it: Blackbody Tint x sigma mix(1, T^4, Blackbody Intensity) x the black body's colour at
     Temperature T (linear Rec.709, luminance 1: the Blackbody node's, spectra.blackbody_rgb).
-    (Cycles multiplies T by a volume's "temperature" attribute where it has one: a Volume
-    object's grid, not rendered yet.)"""
+    (Cycles multiplies T by a Volume object's grid its Temperature Attribute names: not
+    rendered yet, warned about.)"""
     intensity = float(np.nan_to_num(reader.value(node, "Blackbody Intensity") or 0.0))
     if not intensity > 0:
+        return np.zeros(3)
+    grid = _grid(reader, node, "Temperature Attribute")
+    if grid is not None:
+        reader.warn(f"the blackbody emission of '{node.name}' through the grid '{grid}' (its "
+                    "Temperature Attribute) is not rendered yet; it is left out")
         return np.zeros(3)
     t = max(float(np.nan_to_num(reader.value(node, "Temperature") or 0.0)), 0.0)
     power = _STEFAN_BOLTZMANN * (1.0 + intensity * (min(t, 1e9) ** 4 - 1.0))
@@ -152,7 +173,14 @@ def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0
                        aniso or 0.0)
         return
     if kind == "ShaderNodeVolumePrincipled":
-        density = _density(reader, node, medium=medium, ctx=ctx)
+        # (Cycles reads the grid where the Density is linked or above 0)
+        dens = node.inputs.get("Density")
+        grid = (_grid(reader, node, "Density Attribute") if dens is not None and (
+            reader.graph.source(dens, ctx) is not None or dens.default_value > 0) else None)
+        density = _density(reader, node, medium=medium, ctx=ctx, grid=grid)
+        if _grid(reader, node, "Color Attribute") is not None:
+            reader.warn(f"the grid its Color Attribute names ('{node.name}') is not rendered "
+                        "yet; its Color is used")
         color = np.maximum(np.nan_to_num(reader.value(node, "Color", 3)), 0.0)
         absorbing = np.sqrt(np.maximum(np.nan_to_num(reader.value(node, "Absorption Color", 3)),
                                        0.0))
@@ -178,20 +206,38 @@ def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0
 def _field_program(reader, medium, material) -> bool:
     """The program of the medium's density field (medium.program: a program of one bind, its
     value at the stack slot of bind 0, as the world's; kernels/geom/medium_field.h), read in a
-    volume's context: the point, its object's space and Generated coordinates; none where the
-    field folds to a constant (its value then scales the coefficients).  False: no program (a
-    graph too large; warned)."""
-    node, sock, ctx, _key = medium.field
-    c = Compiler(material.name, reader.warn_fn, reader.textures, reader.graph, material,
-                 reader.compiler.attributes, reader.compiler.camera)
-    v = c.convert(c.input(node, sock, ctx, 1), 1)
-    if v.is_const:
+    volume's context: the point, its object's space and Generated coordinates, and a Volume
+    object's grids (the Principled Volume's Density times its Density Attribute's grid, the
+    grid's float as Cycles reads it: its components' mean); none where the field folds to a
+    constant (its value then scales the coefficients).  False: no program (a graph too large,
+    too many attributes; warned)."""
+    node, sock, ctx, key = medium.field
+    c = Compiler(material.name if material is not None else DEFAULT_VOLUME, reader.warn_fn,
+                 reader.textures, reader.graph, material, reader.compiler.attributes,
+                 reader.compiler.camera)
+    grid = key[1]
+    v = g = None
+    if grid is not None:                 # first: a grid alone is the program's first op
+        g = c.attribute(grid)
+        if g is None:
+            return False
+        g = c.convert(g, 1, "vector")
+    if key[0] is not None:
+        v = c.convert(c.input(node, sock, ctx, 1), 1)
+    if v is not None and v.is_const:       # a linked Density folded to a constant: it scales
         d = float(v.const[0])
         d = 0.0 if not np.isfinite(d) or d < 0 else d
         medium.absorption *= d
         medium.scattering *= d
         medium.g_sum *= d
-        return True
+        if g is None:
+            return True
+        v = None
+    if v is None:
+        v = g
+        c.flags |= PROGRAM_GRID          # its majorant: the grid's largest voxel
+    elif g is not None:
+        v = c.math("MULTIPLY", v, g)
     c.binds.append((0, 0, 1, c.slot(v)))
     c.flags |= PROGRAM_OBJECT          # the object's space: its row exists (export/__init__.py)
     medium.program = c.program()
@@ -208,6 +254,20 @@ def _constant_medium(reader, sock) -> _Medium:
     _volume_walk(reader, sock, 1.0, medium)
     medium.field = None
     return medium
+
+
+def default_volume(reader) -> _Medium | None:
+    """Cycles' default volume shader, a Volume object's without a material: a Principled
+    Volume of its defaults (colour 0.5, Density 1 times the "density" grid: scattering 0.5 and
+    absorption 0.5 per unit density); None where the object has no "density" grid
+    (reader.grids: Cycles then renders nothing)."""
+    if reader.grids is None or "density" not in reader.grids:
+        return None
+    medium = _Medium()
+    medium.scatter(np.full(3, 0.5), 0.0)
+    medium.absorption += 0.5
+    medium.field, medium.fielded = (None, None, (), (None, "density")), True
+    return medium if _field_program(reader, medium, None) else None
 
 
 def read_volume(material, reader) -> _Medium | None:

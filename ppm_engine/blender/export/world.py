@@ -84,7 +84,11 @@ def export_world(world, warn, textures=None, base: int = 0):
 
 
 class _VolumeReader(ConstantInputs):
-    """material_volume's reader of the world's Volume output, its warnings named by the world."""
+    """material_volume's reader of the world's Volume output, its warnings named by the world:
+    no grids, and no density field (a Density driven by nodes is warned about and read as its
+    unlinked value: the world's medium is homogeneous)."""
+    grids = None
+    fields = False
 
     def __init__(self, world, warn):
         self.graph = Graph(warn)
