@@ -48,10 +48,48 @@ def test_firefly_check_counts_the_pixels_brighter_than_the_reference_s_range():
 # with a Cycles reference and the exact sphere's (the bulb box renders in test_e2e.py), 100 s
 # less of the tier's longest test than all ten below; the slow tier runs every reference and
 # check (the closed form's, LuxCore's light tracer or its fallback, the photons' curve): the
-# ten, and all sixteen
+# ten, and all eighteen
 QUICK_SCENES = ("cornell_box", "point_caustic")
 CHECK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
                 "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights", "fog_lens")
+
+
+def test_volume_bench_scenes_build_and_are_registered(bpy):
+    """The volume scenes of issue 42 (no render): each an example and a bench scene whose
+    reference is Cycles' long render with Cycles' default Light Paths, which its builder sets
+    (Volume bounces 0); the fog room's fog a homogeneous medium, the smoke's density a Noise
+    Texture at its default vector (Generated) through a clamped Map Range."""
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.scenes import EXAMPLES, build_example, fog_room
+    from ppm_engine.scene.light_paths import CYCLES_DEFAULTS
+    from ppm_engine.tools.bench.curves import REFERENCE_ENGINE
+    from ppm_engine.tools.bench.scenes import CAUSTIC_MASKS, LIGHT_PATHS
+    from ppm_engine.tools.bench.scoring import TARGETS
+    for name in ("fog_room", "smoke"):
+        assert name in EXAMPLES and name in SCENES and REFERENCE_ENGINE[name] == "CYCLES"
+        assert LIGHT_PATHS[name] == CYCLES_DEFAULTS and TARGETS[name] == 1.0
+        assert CAUSTIC_MASKS[name]["kind"] == "all"
+        scene = build_example(name)
+        assert {k: getattr(scene.cycles, k) for k in CYCLES_DEFAULTS} == pytest.approx(
+            CYCLES_DEFAULTS)
+        volumes = [o for o in scene.objects if o.type == "MESH" and o.active_material.node_tree
+                   .nodes["Material Output"].inputs["Volume"].is_linked]
+        assert len(volumes) == 1
+    nodes = volumes[0].active_material.node_tree.nodes
+    density = nodes["Principled Volume"].inputs["Density"].links[0].from_node
+    assert density.bl_idname == "ShaderNodeMapRange" and density.clamp
+    noise = density.inputs["Value"].links[0].from_node
+    assert noise.bl_idname == "ShaderNodeTexNoise" and not noise.inputs["Vector"].is_linked
+    assert {o.type for o in scene.objects} == {"MESH", "LIGHT", "CAMERA"}
+    assert scene.world.node_tree.nodes["Background"].inputs["Color"].links[0].from_node \
+        .bl_idname == "ShaderNodeTexSky"
+    # the fog room's fog: sigma_s = colour x density, one medium (the smoke's export, its
+    # Sky Texture's tables, takes seconds: the slow tier's quick run of every bench scene)
+    build_example("fog_room")
+    arrays = export_scene(bpy.context.evaluated_depsgraph_get())
+    assert not arrays.warnings
+    sigma_s = arrays.materials["scattering"]
+    assert sigma_s.max() == pytest.approx(fog_room.FOG_DENSITY * fog_room.FOG_COLOR[0])
 
 
 def test_bench_quick_writes_json_plot_and_table(cli_here, tmp_path):
@@ -83,7 +121,7 @@ def _quick_bench(cli, tmp_path, scenes):
                            "point_caustic", "rough_caustic", "far_caustic", "lifted_caustic",
                            "mirror_caustic",
                            "pool_caustic", "many_lights", "hdri_sun", "glossy_metal",
-                           "clamped_caustic", "sun_cone", "fog_lens"}
+                           "clamped_caustic", "sun_cone", "fog_lens", "fog_room", "smoke"}
     if "many_lights" in scenes:
         tree = res["scenes"]["many_lights"]["light_tree"]
         assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1
@@ -132,7 +170,7 @@ def _quick_bench(cli, tmp_path, scenes):
         # (glass_caustic) or pyluxcore is not installed (the JSON says so)
         engine = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "many_lights": "CYCLES",
                   "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "clamped_caustic": "CYCLES",
-                  "sun_cone": "CYCLES",
+                  "sun_cone": "CYCLES", "fog_room": "CYCLES", "smoke": "CYCLES",
                   "point_caustic": "EXACT",
                   "rough_caustic": "EXACT", "far_caustic": "EXACT",
                   "pool_caustic": "EXACT_POOL"}.get(name, "LIGHT_TRACE")
@@ -150,7 +188,8 @@ def _quick_bench(cli, tmp_path, scenes):
             # the exact reference renders every pixel, the ball's too: none left out
             assert s["excluded_pixels"] == 0
         elif name not in ("cornell_box", "many_lights", "hdri_sun", "glossy_metal",
-                          "clamped_caustic", "sun_cone", "pool_caustic"):
+                          "clamped_caustic", "sun_cone", "fog_room", "smoke",
+                          "pool_caustic"):
             # (Cycles' leave none out, nor does the pool's, which sees the floor in every pixel)
             # (the light tracer's leave out what it cannot render: at 16 x 16 the filter's
             # reach is a large share)

@@ -45,6 +45,9 @@ CAUSTIC_MASKS = {
                  "volumetric caustic below it among them)"},
     # the sun-lit cone: every pixel (the floor's glossy light on the cone among them)
     "sun_cone": {"kind": "all", "occluders": [], "note": "every pixel"},
+    # the fog room and the smoke: every pixel (the cone of light in the fog, the smoke's puffs)
+    "fog_room": {"kind": "all", "occluders": [], "note": "every pixel"},
+    "smoke": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the metal ball's caustic under a clamp: the wall and the floor beyond the lit pool are
     # lit by the ball alone; every pixel counts
     "clamped_caustic": {"kind": "all", "occluders": [],
@@ -113,6 +116,9 @@ LIGHT_PATHS = {
     "clamped_caustic": {"sample_clamp_direct": CLAMP, "sample_clamp_indirect": CLAMP},
     # a user's new file: 4 diffuse and 4 glossy bounces, Clamp Indirect 10, Filter Glossy 1
     "sun_cone": dict(CYCLES_DEFAULTS),
+    # the same (Volume bounces 0: single scattering), as the volume scenes' builders set them
+    "fog_room": dict(CYCLES_DEFAULTS),
+    "smoke": dict(CYCLES_DEFAULTS),
 }
 
 
