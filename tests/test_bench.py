@@ -239,6 +239,8 @@ def _quick_bench(cli, tmp_path, scenes):
         assert o["seeds"] == cy["seeds"] == [1, 2, 3]
         assert len(set(o["image_rmse_seeds"])) == 3
         assert o["image_rmse_seeds"][0] == o["image"]["rmse"]
+        assert o["passes_seeds"][0] == o["passes"] and min(o["passes_seeds"]) >= 1
+        assert "passes_seeds" not in cy
         assert r["image_rmse_seeds"] == pytest.approx(
             np.mean(o["image_rmse_seeds"]) / np.mean(cy["image_rmse_seeds"]), rel=1e-6)
         assert "seeds" not in c["ours"][0] and "seeds" not in c["ours_photons"][at]

@@ -377,13 +377,17 @@ class Bench(References):
                     # few percent from seed to seed)
                     per_seed = [row["image"]["rmse"]]
                     flies = [fireflies(img, keep, ceiling)]
+                    passes = [info.get("passes")]       # (ours: on a loaded machine they vary)
                     for seed in EQUAL_TIME_SEEDS[1:]:
-                        img2, _, _ = self.shot(scene, engine, budget, seed, indirect or "AUTO",
-                                               lt)
+                        img2, _, info2 = self.shot(scene, engine, budget, seed,
+                                                   indirect or "AUTO", lt)
                         per_seed.append(errors(img2, ref, keep, noise_all)["rmse"])
+                        passes.append(info2.get("passes"))
                         flies.append(fireflies(img2, keep, ceiling))
                     row["seeds"] = list(EQUAL_TIME_SEEDS)
                     row["image_rmse_seeds"] = per_seed
+                    if engine == "PPM":
+                        row["passes_seeds"] = passes
                     row["brightest_seeds"] = [f["brightest"] for f in flies]
                     row["over_reference_range_seeds"] = [f["over_reference_range"] for f in flies]
                     row["image_rmse_mean"] = float(np.mean(per_seed))
@@ -396,7 +400,9 @@ class Bench(References):
                               f"{row['caustic']['rmse']:.4g}, wall {wall:.1f} s"
                               + (f", {info['passes']} passes" if "passes" in info else "")
                               + (f", mean RMSE of seeds {row['seeds']}: "
-                                 f"{row['image_rmse_mean']:.4g}" if "seeds" in row else ""))
+                                 f"{row['image_rmse_mean']:.4g}" if "seeds" in row else "")
+                              + (f" (passes {row['passes_seeds']})" if "passes_seeds" in row
+                                 else ""))
             out["curves"][curve] = rows
         if name in CAUSTIC_SCENES:
             set_mnee(name, False)
