@@ -48,8 +48,8 @@ def test_firefly_check_counts_the_pixels_brighter_than_the_reference_s_range():
 # with a Cycles reference and the exact sphere's (the bulb box renders in test_e2e.py), 100 s
 # less of the tier's longest test than all ten below; the slow tier runs every reference and
 # check (the closed form's, LuxCore's light tracer or its fallback, the photons' curve): the
-# ten, and all sixteen
-QUICK_SCENES = ("point_caustic",)
+# ten, and all eighteen
+QUICK_SCENES = ("cornell_box", "point_caustic")
 CHECK_SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
                 "rough_caustic", "mirror_caustic", "pool_caustic", "many_lights", "fog_lens")
 
@@ -83,7 +83,7 @@ def _quick_bench(cli, tmp_path, scenes):
                            "point_caustic", "rough_caustic", "far_caustic", "lifted_caustic",
                            "mirror_caustic",
                            "pool_caustic", "many_lights", "hdri_sun", "glossy_metal",
-                           "clamped_caustic", "sun_cone", "fog_lens"}
+                           "clamped_caustic", "sun_cone", "fog_lens", "fog_room", "smoke"}
     if "many_lights" in scenes:
         tree = res["scenes"]["many_lights"]["light_tree"]
         assert tree["emitters"] == 308 + 2 * 1500 and tree["nodes"] == 2 * tree["emitters"] - 1
@@ -132,7 +132,7 @@ def _quick_bench(cli, tmp_path, scenes):
         # (glass_caustic) or pyluxcore is not installed (the JSON says so)
         engine = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "many_lights": "CYCLES",
                   "hdri_sun": "CYCLES", "glossy_metal": "CYCLES", "clamped_caustic": "CYCLES",
-                  "sun_cone": "CYCLES",
+                  "sun_cone": "CYCLES", "fog_room": "CYCLES", "smoke": "CYCLES",
                   "point_caustic": "EXACT",
                   "rough_caustic": "EXACT", "far_caustic": "EXACT",
                   "pool_caustic": "EXACT_POOL"}.get(name, "LIGHT_TRACE")
@@ -150,7 +150,8 @@ def _quick_bench(cli, tmp_path, scenes):
             # the exact reference renders every pixel, the ball's too: none left out
             assert s["excluded_pixels"] == 0
         elif name not in ("cornell_box", "many_lights", "hdri_sun", "glossy_metal",
-                          "clamped_caustic", "sun_cone", "pool_caustic"):
+                          "clamped_caustic", "sun_cone", "fog_room", "smoke",
+                          "pool_caustic"):
             # (Cycles' leave none out, nor does the pool's, which sees the floor in every pixel)
             # (the light tracer's leave out what it cannot render: at 16 x 16 the filter's
             # reach is a large share)
@@ -200,6 +201,8 @@ def _quick_bench(cli, tmp_path, scenes):
         assert o["seeds"] == cy["seeds"] == [1, 2, 3]
         assert len(set(o["image_rmse_seeds"])) == 3
         assert o["image_rmse_seeds"][0] == o["image"]["rmse"]
+        assert o["passes_seeds"][0] == o["passes"] and min(o["passes_seeds"]) >= 1
+        assert "passes_seeds" not in cy
         assert r["image_rmse_seeds"] == pytest.approx(
             np.mean(o["image_rmse_seeds"]) / np.mean(cy["image_rmse_seeds"]), rel=1e-6)
         assert "seeds" not in c["ours"][0] and "seeds" not in c["ours_photons"][at]

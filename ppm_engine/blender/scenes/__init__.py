@@ -15,11 +15,13 @@ from ppm_engine.blender.scenes import (
     caustics,
     cornell_box,
     fog_lens,
+    fog_room,
     furnace,
     many_lights,
     metal,
     outdoor,
     pool,
+    smoke,
     sun_cone,
 )
 
@@ -40,6 +42,8 @@ EXAMPLES = {
     "glossy_metal": metal.build,                 # glossy metal under Blender's default light
     "sun_cone": sun_cone.build,                  # a sun-lit cone on a glossy floor
     "fog_lens": fog_lens.build,                  # a glass ball in fog: a volumetric caustic
+    "fog_room": fog_room.build,                  # homogeneous fog under a spot light
+    "smoke": smoke.build,                        # noise-textured smoke under a sun and a sky
 }
 
 

@@ -26,11 +26,12 @@ renders and from each other), averaged.  Its own noise is RMSE(half_a, half_b) /
 one measured, and independent of it but on glass_caustic (``REFERENCE_ENGINE``):
 
 - the furnace: the closed form (scenes/furnace.py: L = E / (1 - albedo) everywhere);
-- the Cornell box, many_lights, hdri_sun, glossy_metal and sun_cone: Cycles (path tracing
-  converges there; on hdri_sun but for the sun's glint and caustic in the glass ball, where its
-  reference's noise is most of its own error, and on glossy_metal but for the metal's
-  caustics on the floor, which Cycles finds only through the light's 0.1 m; sun_cone with
-  Cycles' default Light Paths, Filter Glossy among them: scenes.LIGHT_PATHS);
+- the Cornell box, many_lights, hdri_sun, glossy_metal, sun_cone, fog_room and smoke: Cycles
+  (path tracing converges there; on hdri_sun but for the sun's glint and caustic in the glass
+  ball, where its reference's noise is most of its own error, and on glossy_metal but for the
+  metal's caustics on the floor, which Cycles finds only through the light's 0.1 m; sun_cone
+  and the two volume scenes with Cycles' default Light Paths, Filter Glossy and Volume bounces
+  0 among them: scenes.LIGHT_PATHS);
 - clamped_caustic (a metal ball's glossy caustic under a radius-0 point light, Clamp Direct
   and Indirect 100): Cycles with the same clamp (scenes.LIGHT_PATHS, every render of the scene
   and its reference alike): the clamped image is the one both engines converge to, and Cycles'
@@ -131,7 +132,8 @@ DEFAULT_TIMES = (2.0, 4.0, 8.0, 16.0, 32.0)
 DEFAULT_RESOLUTION = 128
 SCENES = ("cornell_box", "furnace", "bulb_box", "glass_caustic", "point_caustic",
           "rough_caustic", "far_caustic", "lifted_caustic", "mirror_caustic", "pool_caustic",
-          "many_lights", "hdri_sun", "glossy_metal", "clamped_caustic", "sun_cone", "fog_lens")
+          "many_lights", "hdri_sun", "glossy_metal", "clamped_caustic", "sun_cone", "fog_lens",
+          "fog_room", "smoke")
 # the caustics of mirrors and glass: Cycles + MNEE is measured too
 CAUSTIC_SCENES = ("glass_caustic", "point_caustic", "rough_caustic", "far_caustic",
                   "lifted_caustic", "mirror_caustic", "pool_caustic")
@@ -144,7 +146,8 @@ REFERENCE_ENGINE = {"cornell_box": "CYCLES", "furnace": "ANALYTIC", "bulb_box": 
                     "rough_caustic": "EXACT", "far_caustic": "EXACT", "lifted_caustic": "EXACT",
                     "mirror_caustic": "LUXCORE_LIGHT", "pool_caustic": "EXACT_POOL",
                     "many_lights": "CYCLES", "hdri_sun": "CYCLES", "glossy_metal": "CYCLES",
-                    "clamped_caustic": "CYCLES", "sun_cone": "CYCLES", "fog_lens": "EXACT_FOG"}
+                    "clamped_caustic": "CYCLES", "sun_cone": "CYCLES", "fog_lens": "EXACT_FOG",
+                    "fog_room": "CYCLES", "smoke": "CYCLES"}
 REF_SEEDS = (1001, 2002)
 # reference seconds per half over the run's (2 x its longest budget): LuxCore's light tracer is the
 # noisiest per second (at 2 x 32 s its noise, 0.0098, was most of our 0.0105 on the mirror caustic,
@@ -152,9 +155,10 @@ REF_SEEDS = (1001, 2002)
 # (its entry wins over its engine's) on glossy_metal, whose Cycles reference is slowest where it
 # matters most (the metal's caustics on the floor, the light's highlight; 2 x 240 s: noise 0.024),
 # and far_caustic, whose big ball's camera chains took most of 2 x 32 s (noise 0.027, ours 0.033),
-# and clamped_caustic, whose wall Cycles' clamped samples reach rarely
+# and clamped_caustic, whose wall Cycles' clamped samples reach rarely, and the volume scenes
+# (Cycles the reference: at 2 x 32 s its noise is half Cycles' at 16 s, pulling ratios to 1)
 REF_TIME_FACTOR = {"LUXCORE_LIGHT": 4.0, "EXACT_POOL": 4.0, "glossy_metal": 4.0, "far_caustic": 4.0,
-                   "lifted_caustic": 4.0, "clamped_caustic": 4.0}
+                   "lifted_caustic": 4.0, "clamped_caustic": 4.0, "fog_room": 4.0, "smoke": 4.0}
 EQUAL_TIME = 16.0
 # scenes with LuxCore's bidirectional path tracer as a curve (issue 15: the point light's caustic
 # in a mirror, which no Cycles estimator samples; its target: scoring.TARGETS_LUXCORE)
@@ -373,13 +377,17 @@ class Bench(References):
                     # few percent from seed to seed)
                     per_seed = [row["image"]["rmse"]]
                     flies = [fireflies(img, keep, ceiling)]
+                    passes = [info.get("passes")]       # (ours: on a loaded machine they vary)
                     for seed in EQUAL_TIME_SEEDS[1:]:
-                        img2, _, _ = self.shot(scene, engine, budget, seed, indirect or "AUTO",
-                                               lt)
+                        img2, _, info2 = self.shot(scene, engine, budget, seed,
+                                                   indirect or "AUTO", lt)
                         per_seed.append(errors(img2, ref, keep, noise_all)["rmse"])
+                        passes.append(info2.get("passes"))
                         flies.append(fireflies(img2, keep, ceiling))
                     row["seeds"] = list(EQUAL_TIME_SEEDS)
                     row["image_rmse_seeds"] = per_seed
+                    if engine == "PPM":
+                        row["passes_seeds"] = passes
                     row["brightest_seeds"] = [f["brightest"] for f in flies]
                     row["over_reference_range_seeds"] = [f["over_reference_range"] for f in flies]
                     row["image_rmse_mean"] = float(np.mean(per_seed))
@@ -392,7 +400,9 @@ class Bench(References):
                               f"{row['caustic']['rmse']:.4g}, wall {wall:.1f} s"
                               + (f", {info['passes']} passes" if "passes" in info else "")
                               + (f", mean RMSE of seeds {row['seeds']}: "
-                                 f"{row['image_rmse_mean']:.4g}" if "seeds" in row else ""))
+                                 f"{row['image_rmse_mean']:.4g}" if "seeds" in row else "")
+                              + (f" (passes {row['passes_seeds']})" if "passes_seeds" in row
+                                 else ""))
             out["curves"][curve] = rows
         if name in CAUSTIC_SCENES:
             set_mnee(name, False)

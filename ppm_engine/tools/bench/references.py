@@ -117,11 +117,16 @@ class References:
     def regions(self, scene, engine: str, keep, halves):
         """Regions scored beside the whole image: on the exact sphere's scenes ("EXACT") the
         pixels that see the glass ball (through it or in it), which only that reference
-        renders.  (masks, their reference noise (RMSE of the halves / 2), what the JSON
+        renders; on the scenes of scenes.REGIONS theirs (the fog room's: where its error
+        lies).  (masks, their reference noise (RMSE of the halves / 2), what the JSON
         records)."""
         from ppm_engine.tools.bench.exact_caustic_scene import coverage, setup_of
+        from ppm_engine.tools.bench.scenes import REGIONS
         from ppm_engine.tools.bench.scoring import errors
         masks = {"ball": ~coverage(setup_of(scene)) & keep} if engine == "EXACT" else {}
+        if self.name in REGIONS:
+            h, w = keep.shape
+            masks.update({k: m & keep for k, m in REGIONS[self.name](scene, w, h).items()})
         noise = {k: errors(halves[0], halves[1], m)["rmse"] / 2 if m.any() else 0.0
                  for k, m in masks.items()}
         return masks, noise, {k: {"pixels": int(m.sum()), "noise_rmse": noise[k]}

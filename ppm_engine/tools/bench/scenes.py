@@ -45,6 +45,9 @@ CAUSTIC_MASKS = {
                  "volumetric caustic below it among them)"},
     # the sun-lit cone: every pixel (the floor's glossy light on the cone among them)
     "sun_cone": {"kind": "all", "occluders": [], "note": "every pixel"},
+    # the fog room and the smoke: every pixel (the cone of light in the fog, the smoke's puffs)
+    "fog_room": {"kind": "all", "occluders": [], "note": "every pixel"},
+    "smoke": {"kind": "all", "occluders": [], "note": "every pixel"},
     # the metal ball's caustic under a clamp: the wall and the floor beyond the lit pool are
     # lit by the ball alone; every pixel counts
     "clamped_caustic": {"kind": "all", "occluders": [],
@@ -113,6 +116,9 @@ LIGHT_PATHS = {
     "clamped_caustic": {"sample_clamp_direct": CLAMP, "sample_clamp_indirect": CLAMP},
     # a user's new file: 4 diffuse and 4 glossy bounces, Clamp Indirect 10, Filter Glossy 1
     "sun_cone": dict(CYCLES_DEFAULTS),
+    # the same (Volume bounces 0: single scattering), as the volume scenes' builders set them
+    "fog_room": dict(CYCLES_DEFAULTS),
+    "smoke": dict(CYCLES_DEFAULTS),
 }
 
 
@@ -189,6 +195,42 @@ def caustic_mask(scene, name: str, w: int, h: int) -> np.ndarray:
             hidden &= (np.cross(b - a, qm - a) @ n) >= 0
         mask &= inside & ~hidden
     return mask
+
+
+def fog_room_regions(scene, w: int, h: int) -> dict:
+    """fog_room's pixels by what they see, top-down (references.regions): "pool" the floor's
+    pool of light under the spot's cone (seen through the cone's foot), "cone" the cone of lit
+    fog elsewhere, "fog" the fog outside the cone (lit by no light of its own: single
+    scattering), "room" the floor and wall seen past no fog (lit by what the fog and the pool
+    send them).  A partition of the image, from the geometry (fog_room.py's constants)."""
+    from ppm_engine.blender.scenes import fog_room as fr
+    o, d = camera_rays(scene, w, h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_floor = np.where(d[..., 2] < 0, (fr.FLOOR_Z - o[2]) / d[..., 2], np.inf)
+        t_wall = np.where(d[..., 1] > 0, (fr.WALL_Y - o[1]) / d[..., 1], np.inf)
+        t0, t1 = (np.asarray(fr.FOG_LO) - o) / d, (np.asarray(fr.FOG_HI) - o) / d
+    t_in = np.maximum(np.minimum(t0, t1).max(-1), 0.0)
+    t_out = np.maximum(t0, t1).min(-1)
+    fog = t_out > t_in
+    floor = t_floor < t_wall
+    p = o + np.where(floor, t_floor, t_wall)[..., None] * d
+    half = 0.5 * fr.SPOT_SIZE
+    # the pool: the cone's foot on the floor, a pixel's margin for the filter
+    pool = floor & (np.hypot(p[..., 0], p[..., 1])
+                    < (fr.SPOT_POS[2] - fr.FLOOR_Z) * np.tan(half) + 0.05)
+    # the cone: a point of the ray's way through the fog within the spot's half angle
+    s = np.linspace(0.0, 1.0, 64, dtype=np.float32)[:, None]
+    cone = np.zeros((h, w), bool)
+    for y in range(h):
+        pts = o + (t_in[y] + s * (t_out[y] - t_in[y]))[..., None] * d[y]     # (64, w, 3)
+        v = pts - np.asarray(fr.SPOT_POS)
+        cone[y] = (-v[..., 2] > np.cos(half) * np.linalg.norm(v, axis=-1)).any(0)
+    cone &= fog & ~pool
+    return {"pool": pool, "cone": cone, "fog": fog & ~cone & ~pool, "room": ~fog & ~pool}
+
+
+# scene name -> its regions scored beside the whole image (references.regions)
+REGIONS = {"fog_room": fog_room_regions}
 
 
 def excluded_pixels(scene, name: str, w: int, h: int) -> np.ndarray:

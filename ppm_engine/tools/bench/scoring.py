@@ -34,7 +34,9 @@ import numpy as np
 
 # ours / Cycles, EQUAL_TIME (issue 25's targets: the furnace at half Cycles' error)
 TARGETS = {"bulb_box": 0.25, "cornell_box": 1.0, "furnace": 0.5, "many_lights": 1.0,
-           "hdri_sun": 1.0, "glossy_metal": 1.0, "clamped_caustic": 1.0, "sun_cone": 1.0}
+           "hdri_sun": 1.0, "glossy_metal": 1.0, "clamped_caustic": 1.0, "sun_cone": 1.0,
+           # issue 42's volume scenes
+           "fog_room": 1.0, "smoke": 1.0}
 # ours / (Cycles with MNEE), EQUAL_TIME: the issue's point light's caustic through a glass ball
 # (a spot light here: a point light whose power goes towards the ball)
 TARGETS_MNEE = {"glass_caustic": 1.0, "point_caustic": 1.0,
