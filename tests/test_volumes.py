@@ -240,13 +240,14 @@ def test_principled_volume_blackbody_emission(bpy, cycles, render_exr, tmp_path,
     assert np.allclose(ref[12:20, 12:20].reshape(-1, 3).mean(0), exact, rtol=5e-3)
 
 
-@pytest.mark.parametrize("volume_bounces", [0, 2])
+@pytest.mark.parametrize("volume_bounces", [0, pytest.param(2, marks=pytest.mark.slow)])
 def test_volume_bounces_and_light_through_fog_onto_the_room(bpy, cycles, render_exr, tmp_path,
                                                             tiny, volume_bounces):
     """The fog room with denser fog and every kind of bounce: the floor lit by what the fog
     scatters onto it (the eye paths' indirect light scatters in media), and with Volume bounces
     2 the fog lit by the floor and by itself, as Cycles renders it (Volume bounces 0: Cycles'
-    single scattering)."""
+    single scattering).  (Volume bounces 2 in the slow tier: the default run's time; fog_lens's
+    caustic, test_volume_photons.py, takes a volume bounce there.)"""
     scene = fog_room(density=0.8)
     cycles(scene, 512, width=W)
     c = scene.cycles
