@@ -245,3 +245,48 @@ def test_overlapping_media_add_up_as_cycles(bpy, cycles, render_exr, tmp_path, t
                            rtol=3e-3)
         assert np.allclose(img[12:20, 6:10].reshape(-1, 3).mean(0), np.exp(-s1), rtol=3e-3)
         assert np.allclose(img[12:20, 22:26].reshape(-1, 3).mean(0), np.exp(-s2), rtol=3e-3)
+
+
+@pytest.mark.slow
+def test_viewport_edits_of_a_field_build_no_kernel(bpy, tiny):
+    """The viewport's scene (a ball on a floor) in a fog box whose density is a Noise Texture:
+    an edit of the Noise's Scale (a value of the density's program) and one of the fog's
+    colour upload data and build no kernel (the density program's ops, stack and the bound's
+    program are unchanged), and the image changes."""
+    from ppm_engine.blender.export import export_scene
+    from ppm_engine.blender.viewport import viewport_options
+    from ppm_engine.render.viewport_session import ViewportSession
+    from tests.helpers.viewport_scenes import sphere_scene, view
+    from tests.helpers.volume_scenes import volume_material
+    scene = sphere_scene(bpy, tiny)
+    fog = volume_material("Smoke", Density=1.0, Color=(0.9, 0.9, 0.9, 1))
+    noise = _drive_density(fog, "Principled Volume", "ShaderNodeTexNoise", Scale=2.0)
+    cube("Smoke", fog, loc=(0, 0, 1.0), size=2.5)
+
+    def export():
+        bpy.context.view_layer.update()
+        cam = view(bpy, scene)
+        return cam, export_scene(bpy.context.evaluated_depsgraph_get(), camera=cam)
+    options, start = viewport_options(scene.ppm)
+    s = ViewportSession(options, start)
+    try:
+        cam, arrays = export()
+        assert arrays.materials["density_program"].max() > 0
+        s.update_view(cam)
+        s.update_scene(arrays)
+        assert s.wait(timeout=300), s.status()
+        dev = s._device
+        for edit in (lambda: setattr(noise.inputs["Scale"], "default_value", 6.0),
+                     lambda: setattr(fog.node_tree.nodes["Principled Volume"].inputs["Color"],
+                                     "default_value", (0.9, 0.3, 0.1, 1.0))):
+            before, builds = s.frame().image.copy(), dev.programs.builds
+            edit()
+            cam, arrays = export()
+            s.update_view(cam)
+            s.update_scene(arrays)
+            assert s.wait(timeout=300), s.status()
+            assert dev.programs.builds == builds, "an edit of the field built a kernel"
+            after = s.frame().image
+            assert np.abs(after[..., :3] - before[..., :3]).mean() > 0.01 * before[..., :3].mean()
+    finally:
+        assert s.close(timeout=30)
