@@ -29,6 +29,30 @@ def render_png(bpy, scene, path: Path) -> float:
     return time.perf_counter() - t0
 
 
+def render_example(bpy, name: str, engine: str, seconds: float, size: int, path: Path,
+                   bench_light_paths: bool = False) -> float:
+    """The example ``name`` built afresh and rendered by ``engine`` ("PPM": the scene's
+    settings, the passes that fit; "CYCLES": harness.cycles_reference) with a time limit of
+    ``seconds``, ``size`` pixels square, to the PNG ``path``; the wall seconds.
+    ``bench_light_paths``: the benchmark's Light Paths for the scene after the set-up, as the
+    bench renders it."""
+    from ppm_engine.blender.harness import cycles_reference
+    from ppm_engine.blender.scenes import build_example
+    scene = build_example(name)
+    scene.render.resolution_x = scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    if engine == "PPM":
+        scene.render.engine = "PPM"
+        scene.ppm.passes = 1 << 20
+        scene.ppm.time_limit = seconds
+    else:
+        cycles_reference(scene, seconds=seconds)
+    if bench_light_paths:
+        from ppm_engine.tools.bench.scenes import set_light_paths
+        set_light_paths(scene, name)
+    return render_png(bpy, scene, path)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=45.0)
@@ -41,23 +65,14 @@ def main(argv=None) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ppm_engine.blender.harness import cycles_reference, ensure_registered
-    from ppm_engine.blender.scenes import build_example
+    from ppm_engine.blender.harness import ensure_registered
 
     ensure_registered()
     tmp = Path(tempfile.mkdtemp(prefix="ppm-readme-"))
     walls = {}
     for engine in ("PPM", "CYCLES"):
-        scene = build_example("bulb_box")
-        scene.render.resolution_x = scene.render.resolution_y = args.size
-        scene.render.resolution_percentage = 100
-        if engine == "PPM":
-            scene.render.engine = "PPM"
-            scene.ppm.passes = 1 << 20
-            scene.ppm.time_limit = args.seconds
-        else:
-            cycles_reference(scene, seconds=args.seconds)
-        walls[engine] = render_png(bpy, scene, tmp / f"{engine}.png")
+        walls[engine] = render_example(bpy, "bulb_box", engine, args.seconds, args.size,
+                                       tmp / f"{engine}.png")
         print(f"{engine}: {walls[engine]:.1f} s", file=sys.stderr)
 
     fig, axes = plt.subplots(1, 2, figsize=(2 * args.size / 100, args.size / 100 + 0.45),

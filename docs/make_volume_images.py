@@ -18,7 +18,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from make_readme_image import render_png
+from make_readme_image import render_example
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "images" / "volumes_vs_cycles.png"
@@ -37,25 +37,14 @@ def main(argv=None) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ppm_engine.blender.harness import cycles_reference, ensure_registered
-    from ppm_engine.blender.scenes import build_example
-    from ppm_engine.tools.bench.scenes import set_light_paths
+    from ppm_engine.blender.harness import ensure_registered
 
     ensure_registered()
     tmp = Path(tempfile.mkdtemp(prefix="ppm-volumes-"))
     for name in SCENES:
         for engine in ("PPM", "CYCLES"):
-            scene = build_example(name)
-            scene.render.resolution_x = scene.render.resolution_y = args.size
-            scene.render.resolution_percentage = 100
-            if engine == "PPM":
-                scene.render.engine = "PPM"
-                scene.ppm.passes = 1 << 20
-                scene.ppm.time_limit = args.seconds
-            else:
-                cycles_reference(scene, seconds=args.seconds)
-            set_light_paths(scene, name)
-            wall = render_png(bpy, scene, tmp / f"{name}_{engine}.png")
+            wall = render_example(bpy, name, engine, args.seconds, args.size,
+                                  tmp / f"{name}_{engine}.png", bench_light_paths=True)
             print(f"{name} {engine}: {wall:.1f} s", file=sys.stderr)
 
     s = args.size / 100
