@@ -89,14 +89,16 @@ inline float mix_majorant(const Scene *scene, const Mix *x) {
  * probability in proportion to |beta sigma_s| against |beta sigma_n| (sigma_n = majorant -
  * sigma_t, negative where the density exceeds its bound), else a null collision, *beta times
  * the coefficient over the majorant and that probability; without `scatter` every one is null
- * (ratio tracking: *beta times the transmittance, in expectation).  Russian roulette below a
- * hundredth of the weight at the start.  Returns where it scattered (INFINITY: it crossed). */
+ * (ratio tracking: *beta times the transmittance, in expectation), the collisions' rate at
+ * least `rate` where the media attenuate at all.  Russian roulette below a hundredth of the
+ * weight at the start.  Returns where it scattered (INFINITY: it crossed). */
 inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, float t,
-                          bool scatter, float limit, uint *rng, float3 *beta, float3 *L) {
+                          bool scatter, float rate, float limit, uint *rng, float3 *beta,
+                          float3 *L) {
     float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s, ue = x->emission;
     float mu = mix_majorant(scene, x);
     bool glow = L && max3(ue) > 0.0f;
-    if (!scatter && mu > 0.0f && isfinite(t)) mu = fmax(mu, MEDIUM_RATIO_STEPS / t);
+    if (!scatter && mu > 0.0f) mu = fmax(mu, rate);
     if (!(mu > 0.0f)) { /* nothing attenuates: the emission along it in closed form */
         if (glow && isfinite(t)) *L += clamp_sample(*beta * ue * t, limit);
         return INFINITY;
@@ -132,27 +134,15 @@ inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, 
     return INFINITY;
 }
 
+/* the least rate of ratio tracking's collisions over a segment of length t (0: unbounded) */
+inline float ratio_rate(float t) { return isfinite(t) && t > 0.0f ? MEDIUM_RATIO_STEPS / t : 0.0f; }
+
 /* Ratio tracking alone over the segment o + s d (0 <= s < t) of the media x, with a field: *T
  * times the transmittance (in expectation), tentative collisions at the majorant's rate or at
- * least `rate`; Russian roulette below a hundredth of *T at the start. */
+ * least `rate` (medium_track without scattering or emission). */
 inline void medium_ratio(const Scene *scene, const Mix *x, float3 o, float3 d, float t, float rate,
                          uint *rng, float3 *T) {
-    float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s;
-    float bound = mix_majorant(scene, x);
-    float mu = fmax(bound, rate), b0 = 0.01f * max3(fabs(*T)), s = 0.0f;
-    if (!(mu > 0.0f) || !(bound > 0.0f)) return;
-    for (int k = 0; k < MEDIUM_TRACK_MAX; k++) {
-        s -= log(1.0f - rnd(rng)) / mu;
-        if (!(s < t)) return;
-        *T *= 1.0f - (ct + ut * medium_density(scene, x->field, o + s * d)) / mu;
-        float b = max3(fabs(*T));
-        if (!(b > 0.0f)) break;
-        if (b < b0) {
-            if (rnd(rng) * b0 >= b) break;
-            *T *= b0 / b;
-        }
-    }
-    *T = (float3)(0.0f);
+    medium_track(scene, x, o, d, t, false, rate, 0.0f, rng, T, 0);
 }
 
 /* the media x of a field with constant extinction c (the others') where only the extinction
@@ -178,7 +168,7 @@ inline float3 media_transmittance_ray(const Scene *scene, const Media *m, float3
     if (x.field < 0) return media_transmittance(m, scene->materials, t);
     uint rng = ray_hash(o, d);
     float3 T = (float3)(1.0f);
-    medium_ratio(scene, &x, o, d, t, isfinite(t) ? MEDIUM_RATIO_STEPS / t : 0.0f, &rng, &T);
+    medium_ratio(scene, &x, o, d, t, ratio_rate(t), &rng, &T);
     return T;
 }
 #endif

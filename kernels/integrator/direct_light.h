@@ -93,7 +93,7 @@ inline bool light_met(const Scene *scene, int i, const LightRay *r, float t0, in
         uint rng = ray_hash(r->o, r->d);
         float3 T = (float3)(1.0f);
         Mix x = mix_extinction(scene, r->field - 1, r->sigma_t);
-        medium_ratio(scene, &x, r->o, r->d, t, MEDIUM_RATIO_STEPS / t, &rng, &T);
+        medium_ratio(scene, &x, r->o, r->d, t, ratio_rate(t), &rng, &T);
         Le *= T;
     } else {
         Le *= exp(-r->sigma_t * t);

@@ -85,8 +85,8 @@ inline float3 beam_tr(const Scene *scene, const Beam *bm, float s, uint k) {
     float3 T = bm->tab[j];
     uint rng = pcg_hash(k ^ bm->seed);
     Mix x = mix_extinction(scene, bm->field, bm->medium.xyz);
-    medium_ratio(scene, &x, bm->o + sj * bm->d, bm->d, s - sj,
-                 MEDIUM_RATIO_STEPS / (BEAM_TABLE * bm->step), &rng, &T);
+    medium_ratio(scene, &x, bm->o + sj * bm->d, bm->d, s - sj, ratio_rate(BEAM_TABLE * bm->step),
+                 &rng, &T);
     return T;
 #else
     return medium_tr(bm->medium.xyz, s);
@@ -160,8 +160,8 @@ inline float3 beam_segment(const Scene *scene, const Photons *photons, const Gri
         Mix x = mix_extinction(scene, bm.field, bm.medium.xyz);
         for (int j = 1; j <= BEAM_TABLE; j++) {
             bm.tab[j] = bm.tab[j - 1];
-            medium_ratio(scene, &x, o + (float)(j - 1) * bm.step * d, d, bm.step,
-                         MEDIUM_RATIO_STEPS / s1, &rng, &bm.tab[j]);
+            medium_ratio(scene, &x, o + (float)(j - 1) * bm.step * d, d, bm.step, ratio_rate(s1),
+                         &rng, &bm.tab[j]);
         }
     }
 #endif

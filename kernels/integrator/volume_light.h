@@ -155,7 +155,7 @@ inline float3 volume_equiangular(const Scene *scene, const Segment *sg, const Mi
          * these lights to this) */
         float3 tr = (float3)(1.0f);
         uint rng = ray_hash(p, sg->d) ^ as_uint(u.y);
-        medium_ratio(scene, x, sg->o, sg->d, s_dist, MEDIUM_RATIO_STEPS / s_dist, &rng, &tr);
+        medium_ratio(scene, x, sg->o, sg->d, s_dist, ratio_rate(s_dist), &rng, &tr);
         float3 ss = sigma_s + x->unit_s * medium_density(scene, x->field, p);
         return ss * tr * (ph / (pmf_e * pdf_e)) * T * ls.E;
     }
@@ -198,7 +198,7 @@ inline float3 medium_segment(const Scene *scene, const Media *media, float3 o, f
                                                        (float3)(u.z, u.w, 0.5f)),
                               limits.y);
         }
-        sg->s = medium_track(scene, &x, o, d, t, scat, limits.x, &rng, beta, &L);
+        sg->s = medium_track(scene, &x, o, d, t, scat, ratio_rate(t), limits.x, &rng, beta, &L);
         return L;
     }
     float3 sigma_t = x.sigma_a + x.sigma_s, sigma_s = x.sigma_s;

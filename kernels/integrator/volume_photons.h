@@ -32,7 +32,8 @@ inline int photon_medium(const Scene *scene, const Media *media, float3 o, float
     Mix x = media_mix(media, scene->materials);
     *g = x.g;
     if (x.field >= 0) { /* a heterogeneous medium: tracked (geom/medium_field.h) */
-        float s = medium_track(scene, &x, o, d, t, mix_scatters(&x), 0.0f, rng, flux, 0);
+        float s = medium_track(scene, &x, o, d, t, mix_scatters(&x), ratio_rate(t), 0.0f, rng, flux,
+                               0);
         if (!(s < INFINITY)) return -1;
         *p = o + s * d;
         return vm;
