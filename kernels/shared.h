@@ -23,10 +23,8 @@
 #define LIGHT_AREA_RECT 3
 #define LIGHT_AREA_ELLIPSE 4
 
-/* light flags (scene/arrays.py) */
+/* light flags (scene/arrays.py); one hidden from rays VIS_x has VIS_x << LIGHT_HIDDEN_SHIFT */
 #define LIGHT_FLAG_SOFT_FALLOFF 1u
-
-/* a light hidden from rays of type VIS_x has VIS_x << this in its flags */
 #define LIGHT_HIDDEN_SHIFT 8
 
 /* the world's flags (scene/arrays.py) */
@@ -245,6 +243,7 @@ typedef struct {
     int density_program;    /* its medium's density program (geom/medium_field.h), 0 = none */
     float majorant;         /* the density's bound over its object (DeviceScene) */
     int volume_object;      /* the objects row its density reads, -1 = none */
+    int majorant_grid;      /* bounds per cell at voxels[it - 1] (majorant_grid.h), 0 = none */
 } Material;
 
 /* mirrors ppm_engine/scene/arrays.py SHADER_NODE_DTYPE */

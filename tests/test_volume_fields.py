@@ -8,24 +8,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from tests.helpers.cycles_blocks import blocks, compare_blocks
-from tests.helpers.volume_scenes import absorption_scene, both, cube, fog_room
-
-
-def _drive_density(material, node_name, kind, output="Fac", **inputs):
-    """A ``kind`` texture node (its default vector: Generated coordinates) into the Density of
-    the material's volume node ``node_name``; returns the texture node.  The material's Cycles
-    Step Rate 4: Cycles' unbiased volumes then bound the density on a coarser grid (the same
-    image, measured bit for bit on the Noise fog below, in half the time: 4 s against 8 s)."""
-    material.cycles.volume_step_rate = 4.0
-    nt = material.node_tree
-    tex = nt.nodes.new(kind)
-    for k, v in inputs.items():
-        if hasattr(tex, k):
-            setattr(tex, k, v)
-        else:
-            tex.inputs[k].default_value = v
-    nt.links.new(tex.outputs[output], nt.nodes[node_name].inputs["Density"])
-    return tex
+from tests.helpers.volume_scenes import absorption_scene, both, cube, drive_density, fog_room
 
 
 def test_density_ramp_transmittance_is_its_closed_form(bpy, cycles, render_exr, tmp_path, tiny):
@@ -36,7 +19,7 @@ def test_density_ramp_transmittance_is_its_closed_form(bpy, cycles, render_exr, 
     color = np.array([0.8, 0.5, 0.2])
     scene = absorption_scene(tuple(color), 1.0)
     m = bpy.data.materials["Ink"]
-    grad = _drive_density(m, "Volume Absorption", "ShaderNodeTexGradient")
+    grad = drive_density(m, "Volume Absorption", "ShaderNodeTexGradient")
     mul = m.node_tree.nodes.new("ShaderNodeMath")
     mul.operation, mul.inputs[1].default_value = "MULTIPLY", 3.0
     m.node_tree.links.new(grad.outputs["Fac"], mul.inputs[0])
@@ -65,7 +48,7 @@ def test_noise_density_fog_under_a_spot_light_as_cycles(bpy, cycles, render_exr,
     scene = fog_room(density=1.0)
     m = bpy.data.materials["Fog"]
     nt = m.node_tree
-    noise = _drive_density(m, "Principled Volume", "ShaderNodeTexNoise", Scale=3.0,
+    noise = drive_density(m, "Principled Volume", "ShaderNodeTexNoise", Scale=3.0,
                            Detail=1.0)
     ramp = nt.nodes.new("ShaderNodeValToRGB")
     ramp.color_ramp.elements[0].position, ramp.color_ramp.elements[1].position = 0.45, 0.6
@@ -103,7 +86,7 @@ def test_a_constant_field_renders_as_its_homogeneous_medium(bpy, tiny, render_ex
     c.volume_bounces, c.transparent_max_bounces = 0, 8
     tiny(scene, width=32, height=32, passes=256, photons=4096)
     plain = render_exr(tmp_path / "plain.exr")
-    grad = _drive_density(m, "Principled Volume", "ShaderNodeTexGradient")
+    grad = drive_density(m, "Principled Volume", "ShaderNodeTexGradient")
     mul, add = m.node_tree.nodes.new("ShaderNodeMath"), m.node_tree.nodes.new("ShaderNodeMath")
     mul.operation, mul.inputs[1].default_value = "MULTIPLY", 0.0
     add.operation, add.inputs[1].default_value = "ADD", 0.8
@@ -129,7 +112,7 @@ def test_export_of_a_density_field_and_its_majorant(bpy):
     from ppm_engine.render.device_scene import DeviceScene
     scene = fog_room(density=0.7)
     m = bpy.data.materials["Fog"]
-    _drive_density(m, "Principled Volume", "ShaderNodeTexNoise")
+    drive_density(m, "Principled Volume", "ShaderNodeTexNoise")
     cube("Fog 2", m, loc=(3, 0, 0), size=1.0)
     arrays = export_scene(bpy.context.evaluated_depsgraph_get())
     assert not [w for w in arrays.warnings if "Density" in w], arrays.warnings
@@ -170,7 +153,7 @@ def test_bad_density_fields_render_without_nan(bpy, tiny, render_exr, tmp_path):
                                            ("Negative", "SUBTRACT", 3.0),
                                            ("Infinite", "POWER", 1e30))):
         m = volume_material(name, "ShaderNodeVolumeScatter")
-        grad = _drive_density(m, "Volume Scatter", "ShaderNodeTexGradient")
+        grad = drive_density(m, "Volume Scatter", "ShaderNodeTexGradient")
         math = m.node_tree.nodes.new("ShaderNodeMath")
         math.operation = op
         if op == "POWER":         # (1e30 ^ (1 + x): inf in float32)
@@ -209,7 +192,7 @@ def test_volume_photons_in_a_density_field(bpy, tiny, render_exr, tmp_path):
     scene = fog_lens.build(ball=False, resolution=32, fog=(0.6, 0.4))
     m = next(m for m in bpy.data.materials if m.node_tree is not None
              and "Volume Scatter" in m.node_tree.nodes)
-    noise = _drive_density(m, "Volume Scatter", "ShaderNodeTexNoise", Scale=2.0)
+    noise = drive_density(m, "Volume Scatter", "ShaderNodeTexNoise", Scale=2.0)
     m.node_tree.links.new(noise.outputs["Fac"],
                           m.node_tree.nodes["Volume Absorption"].inputs["Density"])
     quad(scene, "Floor", [(-3, -3, 0.05), (3, -3, 0.05), (3, 3, 0.05), (-3, 3, 0.05)],
@@ -260,7 +243,7 @@ def test_viewport_edits_of_a_field_build_no_kernel(bpy, tiny):
     from tests.helpers.volume_scenes import volume_material
     scene = sphere_scene(bpy, tiny)
     fog = volume_material("Smoke", Density=1.0, Color=(0.9, 0.9, 0.9, 1))
-    noise = _drive_density(fog, "Principled Volume", "ShaderNodeTexNoise", Scale=2.0)
+    noise = drive_density(fog, "Principled Volume", "ShaderNodeTexNoise", Scale=2.0)
     cube("Smoke", fog, loc=(0, 0, 1.0), size=2.5)
 
     def export():

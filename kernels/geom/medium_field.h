@@ -4,26 +4,32 @@
 #include "svm/svm.h"
 #include "geom/medium.h"
 #include "geom/volume_grid.h"
+#include "geom/majorant_grid.h"
 #include "integrator/path_state.h"
 
 /* Heterogeneous media (PPM_VOLUME with PPM_SVM; docs/VOLUMES.md): a medium whose Density is
  * driven by nodes (export/material_volume.py) has a density program, evaluated at a point in
  * the space of the object it is bound to (its Object and Generated coordinates, a Volume
  * object's grids as its attributes: geom/volume_grid.h), that scales its absorption and
- * scattering there (its emission is not scaled, as Cycles' Principled Volume's).  Its majorant
- * (Material.majorant, a bound of the density over the object's box found on the device by
- * render/medium_bound.py, or a grid's largest voxel) sets the rate of tentative collisions: null
- * scattering (Woodcock tracking), with weights (Kutz et al. 2017, "Spectral and Decomposition
- * Tracking") so that chromatic coefficients and a density above the majorant stay unbiased.
- * A homogeneous medium takes none of this (geom/medium.h's closed forms). */
+ * scattering there (its emission is not scaled, as Cycles' Principled Volume's).  Its majorants
+ * (a bound of the density per cell of its object's box, geom/majorant_grid.h, found on the
+ * device by render/medium_bound.py; Material.majorant the largest, or a grid's largest voxel)
+ * set the rate of tentative collisions: null scattering (Woodcock tracking), with weights (Kutz
+ * et al. 2017, "Spectral and Decomposition Tracking") so that chromatic coefficients and a
+ * density above the majorant stay unbiased; its transmittance alone by the telescoping
+ * estimator (medium_transmittance).  A homogeneous medium takes none of this (geom/medium.h's
+ * closed forms). */
 #if PPM_VOLUME
 /* the most tentative collisions one segment tracks (a denser one is cut there: its weight 0) */
 #define MEDIUM_TRACK_MAX 4096
-/* the fewest tentative collisions ratio tracking takes over a segment: the rate is raised to
- * that where the majorant's is lower (any rate keeps it unbiased; more collisions, less noise:
- * the density ramp's columns of tests/test_volume_fields.py over 16 passes, their optical depth
- * within 10 % at the majorant's rate, 3 % at 16; a quarter of the smoke bench scene's pass) */
+/* the fewest tentative collisions ratio tracking takes over a segment (an emitting field's, or
+ * an unbounded one's: the others' transmittance is medium_transmittance's): the rates raised by
+ * what raises the box's to that (any rate keeps it unbiased; more collisions, less noise) */
 #define MEDIUM_RATIO_STEPS 16.0f
+/* the telescoping estimator's orders (medium_transmittance): the order j's probability
+ * TELESCOPE_STOP (1 - TELESCOPE_STOP)^j (Cycles' numbers), the last one's all that is left */
+#define TELESCOPE_STOP 0.9f
+#define TELESCOPE_ORDERS 4
 
 /* whether medium mat's density is a field */
 inline bool medium_field(const Scene *scene, int mat) {
@@ -75,74 +81,207 @@ inline uint ray_hash(float3 o, float3 d) {
         ^ pcg_hash(as_uint(o.y) ^ pcg_hash(as_uint(o.z) ^ pcg_hash(as_uint(d.x) ^ as_uint(d.y)))));
 }
 
-/* the mix's majorant: a bound of its extinction's largest channel (its field at its bound) */
-inline float mix_majorant(const Scene *scene, const Mix *x) {
-    float3 c = x->sigma_a + x->sigma_s;
-    if (x->field < 0) return max3(c);
-    return max3(c + (x->unit_a + x->unit_s) * scene->materials[x->field].majorant);
+/* the mix's majorant where its field's density is bounded by `bound` (its extinction's largest
+ * channel there) */
+inline float mix_bound(const Mix *x, float bound) {
+    return max3(x->sigma_a + x->sigma_s + (x->unit_a + x->unit_s) * bound);
 }
 
-/* Tracks the segment o + s d (0 <= s < t) through the media x, with a field: tentative
- * collisions at exponential distances of the majorant's rate; at each the media's emission per
- * metre over the majorant times the weight there is added to *L (where L is given: the
- * collision estimator, clamped at `limit`); where `scatter` it is a scattering with a
- * probability in proportion to |beta sigma_s| against |beta sigma_n| (sigma_n = majorant -
- * sigma_t, negative where the density exceeds its bound), else a null collision, *beta times
- * the coefficient over the majorant and that probability; without `scatter` every one is null
- * (ratio tracking: *beta times the transmittance, in expectation), the collisions' rate at
- * least `rate` where the media attenuate at all.  Russian roulette below a hundredth of the
- * weight at the start.  Returns where it scattered (INFINITY: it crossed). */
-inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, float t,
-                          bool scatter, float rate, float limit, uint *rng, float3 *beta,
-                          float3 *L) {
-    float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s, ue = x->emission;
-    float mu = mix_majorant(scene, x);
-    bool glow = L && max3(ue) > 0.0f;
-    if (!scatter && mu > 0.0f) mu = fmax(mu, rate);
-    if (!(mu > 0.0f)) { /* nothing attenuates: the emission along it in closed form */
-        if (glow && isfinite(t)) *L += clamp_sample(*beta * ue * t, limit);
-        return INFINITY;
-    }
-    float b0 = 0.01f * max3(fabs(*beta)), s = 0.0f;
-    for (int k = 0; k < MEDIUM_TRACK_MAX; k++) {
-        s -= log(1.0f - rnd(rng)) / mu;
-        if (!(s < t)) return INFINITY;
-        float dens = medium_density(scene, x->field, o + s * d);
-        float3 ss = x->sigma_s + x->unit_s * dens, sn = mu - (ct + ut * dens);
-        if (glow) *L += clamp_sample(*beta * ue / mu, limit);
-        if (scatter) {
-            float ps = dot(fabs(*beta * ss), (float3)(1.0f)),
-                  pn = dot(fabs(*beta * sn), (float3)(1.0f));
-            if (!(ps + pn > 0.0f)) break;
-            float q = ps / (ps + pn);
-            if (rnd(rng) < q) {
-                *beta *= ss / (mu * q);
-                return s;
-            }
-            *beta *= sn / (mu * (1.0f - q));
-        } else {
-            *beta *= sn / mu;
-        }
-        float b = max3(fabs(*beta));
-        if (!(b > 0.0f)) break;
-        if (b < b0) { /* Russian roulette */
-            if (rnd(rng) * b0 >= b) break;
-            *beta *= b0 / b;
-        }
-    }
-    *beta = (float3)(0.0f);
-    return INFINITY;
+/* the mix's majorant: a bound of its extinction's largest channel (its field at its bound) */
+inline float mix_majorant(const Scene *scene, const Mix *x) {
+    return mix_bound(x, x->field < 0 ? 0.0f : scene->materials[x->field].majorant);
 }
 
 /* the least rate of ratio tracking's collisions over a segment of length t (0: unbounded) */
 inline float ratio_rate(float t) { return isfinite(t) && t > 0.0f ? MEDIUM_RATIO_STEPS / t : 0.0f; }
 
-/* Ratio tracking alone over the segment o + s d (0 <= s < t) of the media x, with a field: *T
- * times the transmittance (in expectation), tentative collisions at the majorant's rate or at
- * least `rate` (medium_track without scattering or emission). */
+/* The transmittance of the piece [a, b) of the ray o + s d through the media x by the
+ * telescoping estimator (medium_transmittance): T_k, the optical depth from k regularly spaced
+ * samples of the extinction (a random offset), averaged over N = 2^j interleaved sets, plus
+ * the debiasing term of order j >= 1 (the N k samples' T less their two halves', over j's
+ * probability), j drawn with probability TELESCOPE_STOP (1 - TELESCOPE_STOP)^j up to
+ * TELESCOPE_ORDERS (which takes what is left). */
+inline float3 telescope_piece(const Scene *scene, const Mix *x, float3 o, float3 d, float a,
+                              float b, int k, uint *rng) {
+    float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s;
+    float u = rnd(rng), pmf = 1.0f;
+    int j = 0;
+    for (; j < TELESCOPE_ORDERS && u >= TELESCOPE_STOP; j++) {
+        u = (u - TELESCOPE_STOP) / (1.0f - TELESCOPE_STOP);
+        pmf *= 1.0f - TELESCOPE_STOP;
+    }
+    if (j < TELESCOPE_ORDERS) pmf *= TELESCOPE_STOP;
+    int n = 1 << j;
+    float h = (b - a) / (float)(n * k), off = rnd(rng);
+    float3 whole = (float3)(0.0f), parts[2] = {(float3)(0.0f), (float3)(0.0f)}, tk = whole;
+    for (int m = 0; m < n; m++) {
+        float3 tau = (float3)(0.0f);
+        for (int i = 0; i < k; i++) {
+            int step = i * n + m;
+            float s = fmin(a + ((float)step + off) * h, b);
+            float3 e = (ct + ut * medium_density(scene, x->field, o + s * d)) * h;
+            tau += e;
+            parts[step & 1] += e;
+        }
+        whole += tau;
+        tk += exp(-tau * (float)n);
+    }
+    tk /= (float)n;
+    if (j == 0) return tk;
+    return tk + (exp(-whole) - 0.5f * (exp(-2.0f * parts[0]) + exp(-2.0f * parts[1]))) / pmf;
+}
+
+/* The transmittance of the piece [a, b) of the ray o + s d through the media x by ratio
+ * tracking at the rate mu (> 0: a bound of the extinction there, or not: unbiased either way) */
+inline float3 ratio_piece(const Scene *scene, const Mix *x, float3 o, float3 d, float a, float b,
+                          float mu, uint *rng) {
+    float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s, T = (float3)(1.0f);
+    if (!(mu > 0.0f)) return T;
+    for (int k = 0; k < MEDIUM_TRACK_MAX; k++) {
+        a -= log(1.0f - rnd(rng)) / mu;
+        if (!(a < b)) return T;
+        T *= 1.0f - (ct + ut * medium_density(scene, x->field, o + a * d)) / mu;
+    }
+    return (float3)(0.0f);
+}
+
+/* the transmittance of the piece [a, b) of the ray o + s d through the media x whose
+ * extinction's bound there is mu: by ratio tracking, or by the telescoping estimator with as
+ * many samples as its optical depth at mu (at least one) */
+inline float3 medium_piece(const Scene *scene, const Mix *x, float3 o, float3 d, float a, float b,
+                           float mu, bool ratio, uint *rng) {
+    if (ratio) return ratio_piece(scene, x, o, d, a, b, mu, rng);
+    float k = clamp(rint(mu * (b - a)), 1.0f, (float)MEDIUM_TRACK_MAX);
+    return telescope_piece(scene, x, o, d, a, b, (int)k, rng);
+}
+
+/* The transmittance of the segment o + s d (0 <= s < t) of the media x, with a field, as
+ * Cycles' shadows take it: Misso et al. 2022's telescoping estimator ("Unbiased and Consistent
+ * Rendering Using Biased Estimators"), whose samples fall at regular steps where ratio
+ * tracking's fall at random (as many, and far less noise where the density is smooth: a
+ * smoke's shadow).  The segment is cut into pieces along its majorant grid's stretches, each
+ * estimated on its own (medium_piece): a run of clear cells (where the bound's samples found no
+ * density: the grid's least bound) by ratio tracking (less than a collision in expectation,
+ * each a factor near 1); the others by the telescoping estimator, such a piece ending where
+ * its optical depth at its largest bound reaches 1, at the segment's end, and before a stretch
+ * whose bound is above twice its own (a puff after thin air; ratio tracking there, where the
+ * piece is thinner than 1).  Russian roulette below a hundredth.  Its expectation: the pieces'
+ * regular sampling at 2^TELESCOPE_ORDERS times as many samples (the sum telescopes that far). */
+inline float3 medium_transmittance(const Scene *scene, const Mix *x, float3 o, float3 d, float t,
+                                   uint *rng) {
+    float top = scene->materials[x->field].majorant;
+    int grid = scene->materials[x->field].majorant_grid;
+    MajorantWalk w = majorant_walk(grid > 0 ? scene->voxels + grid - 1 : 0, o, d, t);
+    float3 T = (float3)(1.0f);
+    float a = 0.0f, s = 0.0f, mu_piece = 0.0f;
+    bool clear_piece = false;
+    for (int n = 0; s < t && n < MEDIUM_TRACK_MAX; n++) {
+        float bound, end = majorant_stretch(&w, s, top, &bound), mu = mix_bound(x, bound);
+        bool clear = bound <= w.clear;
+        /* the piece ends before a stretch unlike it (by ratio tracking where it is clear or
+         * thin: the edge of a puff, where one regular sample would cost more than collisions) */
+        if (s > a && (clear != clear_piece || (!clear && mu > 2.0f * mu_piece))) {
+            T *= medium_piece(scene, x, o, d, a, s, mu_piece,
+                              clear_piece || mu_piece * (s - a) < 1.0f, rng);
+            a = s;
+            mu_piece = 0.0f;
+        }
+        mu_piece = fmax(mu_piece, mu);
+        clear_piece = clear;
+        s = end;
+        /* ... or with it, where its optical depth reaches 1, and at the segment's end */
+        if (!(s < t) || (!clear && mu_piece * (s - a) >= 1.0f)) {
+            T *= medium_piece(scene, x, o, d, a, s, mu_piece, clear_piece, rng);
+            a = s;
+            mu_piece = 0.0f;
+        }
+        float m = max3(fabs(T));
+        if (!(m > 0.0f)) return (float3)(0.0f);
+        if (m < 0.01f) { /* Russian roulette */
+            if (rnd(rng) * 0.01f >= m) return (float3)(0.0f);
+            T *= 0.01f / m;
+        }
+    }
+    return T;
+}
+
+/* Tracks the segment o + s d (0 <= s < t) through the media x, with a field: tentative
+ * collisions at exponential distances of the majorant's rate, stretch by stretch of its
+ * majorant grid (geom/majorant_grid.h); at each the media's emission per metre over the
+ * majorant times the weight there is added to *L (where L is given: the collision estimator,
+ * clamped at `limit`); where `scatter` it is a scattering with a probability in proportion to
+ * |beta sigma_s| against |beta sigma_n| (sigma_n = majorant - sigma_t, negative where the
+ * density exceeds its bound), else a null collision, *beta times the coefficient over the
+ * majorant and that probability; without `scatter` every one is null (ratio tracking: *beta
+ * times the transmittance, in expectation), the rates raised by what raises the whole box's to
+ * at least `rate`.  Russian roulette below a hundredth of the weight at the start.  Returns
+ * where it scattered (INFINITY: it crossed). */
+inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, float t,
+                          bool scatter, float rate, float limit, uint *rng, float3 *beta,
+                          float3 *L) {
+    float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s, ue = x->emission;
+    float top = x->field < 0 ? 0.0f : scene->materials[x->field].majorant, mu = mix_bound(x, top);
+    bool glow = L && max3(ue) > 0.0f;
+    if (!scatter && !glow && isfinite(t)) { /* the transmittance alone */
+        *beta *= medium_transmittance(scene, x, o, d, t, rng);
+        return INFINITY;
+    }
+    float raise = !scatter && mu > 0.0f ? fmax(1.0f, rate / mu) : 1.0f;
+    int grid = x->field < 0 ? 0 : scene->materials[x->field].majorant_grid;
+    MajorantWalk w = majorant_walk(grid > 0 ? scene->voxels + grid - 1 : 0, o, d, t);
+    float b0 = 0.01f * max3(fabs(*beta)), s = 0.0f;
+    int k = 0;
+    while (s < t) {
+        float bound, end = majorant_stretch(&w, s, top, &bound);
+        mu = mix_bound(x, bound) * raise;
+        if (!(mu > 0.0f)) { /* nothing attenuates here: the emission along it in closed form */
+            if (glow && isfinite(end)) *L += clamp_sample(*beta * ue * (end - s), limit);
+            s = end;
+            continue;
+        }
+        for (;; k++) {
+            if (k >= MEDIUM_TRACK_MAX) goto cut;
+            float s1 = s - log(1.0f - rnd(rng)) / mu;
+            if (!(s1 < end)) break;
+            s = s1;
+            float dens = medium_density(scene, x->field, o + s * d);
+            float3 ss = x->sigma_s + x->unit_s * dens, sn = mu - (ct + ut * dens);
+            if (glow) *L += clamp_sample(*beta * ue / mu, limit);
+            if (scatter) {
+                float ps = dot(fabs(*beta * ss), (float3)(1.0f)),
+                      pn = dot(fabs(*beta * sn), (float3)(1.0f));
+                if (!(ps + pn > 0.0f)) goto cut;
+                float q = ps / (ps + pn);
+                if (rnd(rng) < q) {
+                    *beta *= ss / (mu * q);
+                    return s;
+                }
+                *beta *= sn / (mu * (1.0f - q));
+            } else {
+                *beta *= sn / mu;
+            }
+            float b = max3(fabs(*beta));
+            if (!(b > 0.0f)) goto cut;
+            if (b < b0) { /* Russian roulette */
+                if (rnd(rng) * b0 >= b) goto cut;
+                *beta *= b0 / b;
+            }
+        }
+        s = end;
+    }
+    return INFINITY;
+cut:
+    *beta = (float3)(0.0f);
+    return INFINITY;
+}
+
+/* *T times the transmittance of the segment o + s d (0 <= s < t) of the media x, with a field
+ * (medium_transmittance; where the segment is unbounded, ratio tracking: medium_track without
+ * scattering or emission, at least `rate`) */
 inline void medium_ratio(const Scene *scene, const Mix *x, float3 o, float3 d, float t, float rate,
                          uint *rng, float3 *T) {
-    medium_track(scene, x, o, d, t, false, rate, 0.0f, rng, T, 0);
+    if (isfinite(t)) *T *= medium_transmittance(scene, x, o, d, t, rng);
+    else medium_track(scene, x, o, d, t, false, rate, 0.0f, rng, T, 0);
 }
 
 /* the media x of a field with constant extinction c (the others') where only the extinction

@@ -48,21 +48,46 @@ __kernel void world_sample_test(__global const float *map, int w, int h, float m
 }
 
 #if PPM_VOLUME
-/* The majorant of a heterogeneous medium (geom/medium_field.h; ppm_engine/render/medium_bound.py):
- * its density program evaluated at one jittered point of each of n^3 cells of its object's box,
- * the largest value kept (atomic_max on the bits: densities are >= 0, whose bits order as the
- * floats do), as Cycles bounds a procedural volume's density by evaluating its shader over a
- * grid.  Tracking stays unbiased where the density exceeds the bound (weighted null
- * collisions); the bound sets how many tentative collisions a segment takes. */
-__kernel void medium_bound(SCENE_PARAMS int mat, float4 lo, float4 hi, int n, uint seed,
-                           __global uint *out) {
+/* The density of a heterogeneous medium (geom/medium_field.h) at the points of an m^3 lattice
+ * over its object's box, corners included (x fastest): ppm_engine/render/medium_bound.py bounds
+ * each cell of its majorant grid (geom/majorant_grid.h) by the lattice points on and in it, as
+ * Cycles bounds a procedural volume's density by evaluating its shader over a grid. */
+__kernel void medium_lattice(SCENE_PARAMS int mat, float4 lo, float4 hi, int m,
+                             __global float *out) {
     SCENE_LOAD(scene);
     int id = WORK_ITEM();
-    if (id >= n * n * n) return;
-    uint rng = rng_seed(seed, 0u, (uint)id, 11u);
-    float3 c = (float3)((float)(id % n), (float)((id / n) % n), (float)(id / (n * n)));
-    float3 u = (c + (float3)(rnd(&rng), rnd(&rng), rnd(&rng))) / (float)n;
-    float d = medium_density(scene, mat, lo.xyz + u * (hi.xyz - lo.xyz));
-    atomic_max(out, as_uint(d));
+    if (id >= m * m * m) return;
+    float3 c = (float3)((float)(id % m), (float)((id / m) % m), (float)(id / (m * m)));
+    out[id] = medium_density(scene, mat, lo.xyz + c / (float)(m - 1) * (hi.xyz - lo.xyz));
+}
+#endif
+
+#if PPM_VOLUME
+/* Tests (tests/test_majorant_grid.py): the transmittance of n segments (o: xyz, its length in
+ * w; d) through medium mat's field, the mean of `reps` estimates by medium_transmittance (x),
+ * by ratio tracking at the box's majorant (y) and by the telescoping sum from one sample over
+ * the whole segment (w: the debiasing terms' work), and by `reps` x 64 regular steps (z) */
+__kernel void medium_transmittance_test(SCENE_PARAMS int mat, __global const float4 *o,
+                                        __global const float4 *d, uint seed, int reps, int n,
+                                        __global float4 *out) {
+    SCENE_LOAD(scene);
+    int id = WORK_ITEM();
+    if (id >= n) return;
+    Mix x = mix_extinction(scene, mat, (float3)(0.0f));
+    float3 p = o[id].xyz, v = d[id].xyz;
+    float t = o[id].w, mu = mix_majorant(scene, &x), tau = 0.0f;
+    float4 r = (float4)(0.0f);
+    for (int k = 0; k < reps; k++) {
+        uint rng = rng_seed(seed, (uint)k, (uint)id, 13u);
+        r.x += medium_transmittance(scene, &x, p, v, t, &rng).x;
+        r.y += ratio_piece(scene, &x, p, v, 0.0f, t, mu, &rng).x;
+        r.w += telescope_piece(scene, &x, p, v, 0.0f, t, 1, &rng).x;
+    }
+    int steps = 64 * reps;
+    for (int i = 0; i < steps; i++)
+        tau += medium_density(scene, mat, p + ((float)i + 0.5f) / (float)steps * t * v);
+    r.xyw /= (float)reps;
+    r.z = exp(-tau / (float)steps * t * (x.unit_a.x + x.unit_s.x));
+    out[id] = r;
 }
 #endif

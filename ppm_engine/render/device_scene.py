@@ -178,15 +178,16 @@ class DeviceScene:
             terminator=(prepared.terminator if prepared.terminator.size else
                         np.full(prepared.n_triangles, TERMINATOR_OFFSET, np.float32)),
             camera=prepared.camera, light_paths=prepared.light_paths)
-        # heterogeneous media: their majorants bounded with the shading buffers (a density
-        # that is a Volume object's grid by its voxels, on the host)
+        # heterogeneous media: their majorants bounded with the shading buffers, their grids
+        # after the Volume objects' (a density that is a grid by its voxels, on the host)
         boxes = media_boxes(prepared.positions, prepared.material, self.kmaterials)
         if boxes:
             grid_majorants(prepared.svm, self.kmaterials, prepared.objects, prepared.voxels,
                            boxes)
-            bound_media(self.device, placeholders(self.device, **args), prepared.svm,
-                        self.kmaterials, boxes, self.specialize)
-            args.update(self._upload(materials=self.kmaterials))
+            grids = bound_media(self.device, placeholders(self.device, **args), prepared.svm,
+                                self.kmaterials, boxes, prepared.voxels.size, self.specialize)
+            args.update(self._upload(materials=self.kmaterials, **(
+                {"voxels": np.concatenate([prepared.voxels, grids])} if grids.size else {})))
         # the world's map is baked with the shading buffers; the emitter table needs its power
         self.world_map = self._world_map(prepared, args)
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,

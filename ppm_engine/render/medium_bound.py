@@ -1,7 +1,9 @@
 """The majorants of heterogeneous media (kernels/geom/medium_field.h): each medium's density
-program bounded over its object's box on the device (kernels/light/world_map.cl medium_bound:
-the program the world's map is baked with, one build of every node for every scene), padded; a
-density that is a Volume object's grid itself by the grid's largest voxel, on the host."""
+program bounded over each cell of a grid over its object's box (kernels/geom/majorant_grid.h),
+from its values at a lattice of points evaluated on the device (kernels/light/world_map.cl
+medium_lattice: the program the world's map is baked with, one build of every node for every
+scene), padded; a density that is a Volume object's grid itself by the grid's largest voxel,
+on the host."""
 from __future__ import annotations
 
 import numpy as np
@@ -15,12 +17,16 @@ from ppm_engine.scene.shader_program import (
 )
 from ppm_engine.scene.voxels import grid_maximum
 
-BOUND_CELLS = 32          # the box's cells per axis: one density sample each
-BOUND_PADDING = 1.25      # the bound over the largest sample (a peak between samples)
+GRID_CELLS = 32           # the majorant grid's cells per axis
+CELL_STEPS = 2            # lattice steps per cell edge: (4 x 16 + 1)^3 density samples a medium
+BOUND_PADDING = 1.25     # a cell's bound over its largest sample (a peak between samples)
+GRID_FLOOR = 1.0 / 64.0   # the least cell bound, of the box's: a density the lattice missed
+                          # there is still tracked without bias (weighted null collisions)
+MAJORANT_HEADER = 16      # floats before a grid's bounds (geom/majorant_grid.h)
 
 
 def bound_defines(svm: np.ndarray, programs) -> dict:
-    """-D flags of world_map.cl's medium_bound for these density programs."""
+    """-D flags of world_map.cl's medium_lattice for these density programs."""
     ops = ops_used(svm, programs)
     return {"PPM_SPECIALIZED": True, "PPM_SVM": True, "PPM_VOLUME": True,
             "PPM_ABSORPTION": True, "PPM_SVM_OPS": ops_define(ops),
@@ -30,41 +36,74 @@ def bound_defines(svm: np.ndarray, programs) -> dict:
 
 def media_boxes(positions: np.ndarray, material: np.ndarray, kmaterials: np.ndarray) -> dict:
     """{material: (lo, hi)} of the world-space box of the triangles of each material whose
-    medium has a density program."""
+    medium has a density program, widened by a ten-thousandth of its size (a flat one too)."""
     out = {}
     for k in np.nonzero(kmaterials["density_program"] > 0)[0]:
         tri = positions[material == k]
         if tri.size:
-            p = tri.reshape(-1, 3)
-            out[int(k)] = (p.min(axis=0), p.max(axis=0))
+            p = tri.reshape(-1, 3).astype(np.float64)
+            lo, hi = p.min(axis=0), p.max(axis=0)
+            pad = 1e-4 * float((hi - lo).max()) + 1e-6
+            out[int(k)] = (lo - pad, hi + pad)
+    return out
+
+
+def cell_bounds(lattice: np.ndarray, steps: int = CELL_STEPS) -> np.ndarray:
+    """(n, n, n) the largest of the lattice's values on and in each cell: ``lattice`` (m, m, m)
+    with m = n steps + 1, z slowest."""
+    w = np.lib.stride_tricks.sliding_window_view(lattice, (steps + 1,) * 3)
+    return w[::steps, ::steps, ::steps].max(axis=(3, 4, 5))
+
+
+def majorant_grid(lo, hi, cells: np.ndarray, clear: float = -1.0) -> np.ndarray:
+    """The float32 words of a majorant grid (geom/majorant_grid.h) of (n, n, n) ``cells``
+    (z slowest) over the box [lo, hi], padded to a multiple of MAJORANT_HEADER; ``clear``: the
+    bound of a cell where no sample found density (-1: none)."""
+    n = cells.shape[0]
+    head = np.zeros(MAJORANT_HEADER, np.float32)
+    head[0:3], head[3] = lo, n
+    head[4:7] = n / (np.asarray(hi, np.float64) - np.asarray(lo, np.float64))
+    head[7] = clear
+    out = np.zeros(-(-(MAJORANT_HEADER + n ** 3) // MAJORANT_HEADER) * MAJORANT_HEADER,
+                   np.float32)
+    out[:MAJORANT_HEADER] = head
+    out[MAJORANT_HEADER:MAJORANT_HEADER + n ** 3] = cells.reshape(-1)
     return out
 
 
 def bound_media(device, args: dict, svm: np.ndarray, kmaterials: np.ndarray,
-                boxes: dict, specialize: bool = True, seed: int = 0) -> None:
-    """Sets kmaterials["majorant"] of every medium in ``boxes`` (material -> its box): the
-    largest density of BOUND_CELLS^3 samples over the box times BOUND_PADDING (0: a clear
-    medium); ``args``: the scene's buffers (device_scene.SCENE_BUFFERS)."""
+                boxes: dict, first: int, specialize: bool = True) -> np.ndarray:
+    """Sets kmaterials["majorant"] (the box's bound) and ["majorant_grid"] of every medium in
+    ``boxes`` (material -> its box): each cell's bound the largest density of the lattice
+    points on and in it times BOUND_PADDING, at least GRID_FLOOR of the box's (0 for all: a
+    clear medium); returns the grids' words, which go into the voxels buffer at ``first`` (a
+    multiple of MAJORANT_HEADER); ``args``: the scene's buffers (device_scene.SCENE_BUFFERS)."""
     import pyopencl as cl
     if not boxes:
-        return
+        return np.zeros(0, np.float32)
     programs = [int(kmaterials["density_program"][k]) for k in boxes]
     prog = device.programs.get("light/world_map.cl",
                                bound_defines(svm, programs) if specialize else {})
-    kernel = prog.launch("medium_bound", "medium bound")
-    out = device.buffer(4, "medium bound")
-    q = device.queue
-    n = BOUND_CELLS
+    kernel = prog.launch("medium_lattice", "medium lattice")
+    m = GRID_CELLS * CELL_STEPS + 1
+    out = device.buffer(4 * m ** 3, "medium lattice")
+    lattice = np.empty((m, m, m), np.float32)
+    chunks = []
     for k, (lo, hi) in boxes.items():
-        zero = np.zeros(1, np.uint32)
-        cl.enqueue_copy(q, out, zero)
-        kernel(q, n ** 3, **args, mat=np.int32(k), lo=np.array([*lo, 0], np.float32),
-               hi=np.array([*hi, 0], np.float32), n=np.int32(n), seed=np.uint32(seed + k),
-               out=out)
-        cl.enqueue_copy(q, zero, out).wait()
-        top = float(zero.view(np.float32)[0])
-        kmaterials["majorant"][k] = top * BOUND_PADDING if np.isfinite(top) else 1e30
+        kernel(device.queue, m ** 3, **args, mat=np.int32(k), lo=np.array([*lo, 0], np.float32),
+               hi=np.array([*hi, 0], np.float32), m=np.int32(m), out=out)
+        cl.enqueue_copy(device.queue, lattice, out).wait()
+        cells = np.nan_to_num(cell_bounds(lattice), nan=0.0, posinf=1e30) * BOUND_PADDING
+        cells = np.minimum(cells, 1e30)
+        top = float(cells.max())
+        floor = np.float32(top * GRID_FLOOR)
+        cells = np.maximum(cells, floor).astype(np.float32)
+        kmaterials["majorant"][k] = top
+        kmaterials["majorant_grid"][k] = first + 1
+        chunks.append(majorant_grid(lo, hi, cells, floor))
+        first += chunks[-1].size
     out.release()
+    return np.concatenate(chunks)
 
 
 def grid_majorants(svm: np.ndarray, kmaterials: np.ndarray, objects: np.ndarray,

@@ -45,6 +45,7 @@ KMATERIAL_DTYPE = np.dtype([
     ("density_program", np.int32),  # its medium's density program (geom/medium_field.h), 0 = none
     ("majorant", np.float32),      # the density's bound over its object (DeviceScene)
     ("volume_object", np.int32),   # the objects row its density reads, -1 = none
+    ("majorant_grid", np.int32),   # bounds per cell at voxels[it - 1] (majorant_grid.h), 0 = none
 ])
 MAT_EMISSIVE = 1          # constant emission > 0: an emitter
 MAT_GATHER = 2            # some closure can hold a visible point and photons

@@ -145,10 +145,10 @@ def generate() -> str:
     fam += [_family("light types (scene/arrays.py LIGHT_*)",
                     [(k, v) for k, v in _constants(sa, "LIGHT_") if "FLAG" not in k
                      and "SHIFT" not in k]),
-            _family("light flags (scene/arrays.py)", [("LIGHT_FLAG_SOFT_FALLOFF",
-                                                       sa.LIGHT_FLAG_SOFT_FALLOFF)], "u"),
-            _family("a light hidden from rays of type VIS_x has VIS_x << this in its flags",
-                    [("LIGHT_HIDDEN_SHIFT", sa.LIGHT_HIDDEN_SHIFT)]),
+            _family("light flags (scene/arrays.py); one hidden from rays VIS_x has VIS_x << "
+                    "LIGHT_HIDDEN_SHIFT", [("LIGHT_FLAG_SOFT_FALLOFF",
+                                                         sa.LIGHT_FLAG_SOFT_FALLOFF)], "u")
+            + _family("", [("LIGHT_HIDDEN_SHIFT", sa.LIGHT_HIDDEN_SHIFT)])[-1:],
             _family("the world's flags (scene/arrays.py)",
                     [("WORLD_HIDDEN_CAMERA", sa.WORLD_HIDDEN_CAMERA)]),
             _family("camera types and film flags (ppm_engine/scene/camera.py)",
