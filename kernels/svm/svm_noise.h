@@ -140,6 +140,39 @@ inline float tex_perlin(int dim, float4 p) {
     return r;
 }
 
+/* Perlin noise of 3 dimensions, as tex_perlin(3, p) to the bit: its eight corners at once
+ * (lookup3's final on eight lanes, their gradients by selects, the blends on the even and odd
+ * lanes), which a CPU's vector unit runs side by side: the noise was most of the cost of a
+ * smoke's density (docs/BENCHMARKS.md) */
+inline float tex_perlin3(float4 p) {
+    float4 fl = floor(p), d = p - fl;
+    int4 c = convert_int4(fl);
+    const int8 ox = (int8)(0, 1, 0, 1, 0, 1, 0, 1), oy = (int8)(0, 0, 1, 1, 0, 0, 1, 1),
+               oz = (int8)(0, 0, 0, 0, 1, 1, 1, 1);
+    uint8 a = (uint8)(0xdeadbeefu + (3u << 2) + 13u), b = a, h = a;
+    a += as_uint8((int8)(c.x) + ox);
+    b += as_uint8((int8)(c.y) + oy);
+    h += as_uint8((int8)(c.z) + oz);
+    /* clang-format off */
+    h ^= b; h -= rotate(b, (uint8)(14u));
+    a ^= h; a -= rotate(h, (uint8)(11u));
+    b ^= a; b -= rotate(a, (uint8)(25u));
+    h ^= b; h -= rotate(b, (uint8)(16u));
+    a ^= h; a -= rotate(h, (uint8)(4u));
+    b ^= a; b -= rotate(a, (uint8)(14u));
+    h ^= b; h -= rotate(b, (uint8)(24u));
+    /* clang-format on */
+    int8 k = as_int8(h) & 15;
+    float8 dx = (float8)(d.x) - convert_float8(ox), dy = (float8)(d.y) - convert_float8(oy),
+           dz = (float8)(d.z) - convert_float8(oz);
+    float8 u = select(dy, dx, k < 8);
+    float8 v = select(select(dz, dx, (k == 12) | (k == 14)), dy, k < 4);
+    float8 g = select(u, -u, (k & 1) != 0) + select(v, -v, (k & 2) != 0);
+    float4 x = mix(g.even, g.odd, (float4)(tex_fade(d.x)));
+    float2 y = mix(x.even, x.odd, (float2)(tex_fade(d.y)));
+    return mix(y.x, y.y, tex_fade(d.z));
+}
+
 /* Signed noise in about [-1, 1] (snoise_[1234]d): repeated every 100000 to keep precision */
 inline float tex_snoise(int dim, float4 p) {
     float4 corr = select((float4)(0.0f), (float4)(0.5f),
@@ -148,7 +181,7 @@ inline float tex_snoise(int dim, float4 p) {
     /* (each dimension its own call: a constant dim unrolls the corner loops into registers) */
     float r = dim == 1   ? tex_perlin(1, p)
               : dim == 2 ? tex_perlin(2, p)
-              : dim == 3 ? tex_perlin(3, p)
+              : dim == 3 ? tex_perlin3(p)
                          : tex_perlin(4, p);
     return r * (dim == 1 ? 0.25f : dim == 2 ? 0.6616f : dim == 3 ? 0.9820f : 0.8344f);
 }
