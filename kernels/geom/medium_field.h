@@ -165,7 +165,7 @@ inline float3 medium_piece(const Scene *scene, const Mix *x, float3 o, float3 d,
  * each a factor near 1); the others by the telescoping estimator, such a piece ending where
  * its optical depth at its largest bound reaches 1, at the segment's end, and before a stretch
  * whose bound is above twice its own (a puff after thin air; ratio tracking there, where the
- * piece is thinner than 1).  Russian roulette below a hundredth.  Its expectation: the pieces'
+ * piece is thinner than 1).  Russian roulette below a tenth.  Its expectation: the pieces'
  * regular sampling at 2^TELESCOPE_ORDERS times as many samples (the sum telescopes that far). */
 inline float3 medium_transmittance(const Scene *scene, const Mix *x, float3 o, float3 d, float t,
                                    uint *rng) {
@@ -197,9 +197,9 @@ inline float3 medium_transmittance(const Scene *scene, const Mix *x, float3 o, f
         }
         float m = max3(fabs(T));
         if (!(m > 0.0f)) return (float3)(0.0f);
-        if (m < 0.01f) { /* Russian roulette */
-            if (rnd(rng) * 0.01f >= m) return (float3)(0.0f);
-            T *= 0.01f / m;
+        if (m < 0.1f) { /* Russian roulette */
+            if (rnd(rng) * 0.1f >= m) return (float3)(0.0f);
+            T *= 0.1f / m;
         }
     }
     return T;
