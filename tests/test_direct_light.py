@@ -34,6 +34,7 @@ def direct_light(scene, pts, nrm, samples):
     return got
 
 
+@pytest.mark.slow
 def test_grazing_emitter_does_not_shadow_itself():
     """A ceiling point 2-65 cm beside a lamp hanging 1 cm below the ceiling sees the lamp's
     top at grazing angles; next-event estimation must not let the lamp shadow itself (the

@@ -199,6 +199,7 @@ def test_a_lamp_seen_through_rough_glass_as_cycles(bpy, cycles, tiny, render_exr
     assert not (np.abs(a - b) > 0.10 * b).any(), f"ours / Cycles per block:\n{np.round(a / b, 3)}"
 
 
+@pytest.mark.slow
 def test_rough_glass_caustic_is_the_exact_spheres(bpy, tiny, render_exr, tmp_path):
     """The bench's rough_caustic (a radius-0 point light focused by a ball of GGX glass of
     roughness 0.1 onto the floor) against its exact-geometry reference in NumPy
