@@ -13,7 +13,7 @@
  * object's grids as its attributes: geom/volume_grid.h), that scales its absorption and
  * scattering there (its emission is not scaled, as Cycles' Principled Volume's).  Its majorants
  * (a bound of the density per cell of its object's box, geom/majorant_grid.h, found on the
- * device by render/medium_bound.py; Material.majorant the largest, or a grid's largest voxel)
+ * device by render/medium_bound.py, or from a grid's voxels; Material.majorant the largest)
  * set the rate of tentative collisions: null scattering (Woodcock tracking), with weights (Kutz
  * et al. 2017, "Spectral and Decomposition Tracking") so that chromatic coefficients and a
  * density above the majorant stay unbiased; its transmittance alone by the telescoping

@@ -182,10 +182,12 @@ class DeviceScene:
         # after the Volume objects' (a density that is a grid by its voxels, on the host)
         boxes = media_boxes(prepared.positions, prepared.material, self.kmaterials)
         if boxes:
-            grid_majorants(prepared.svm, self.kmaterials, prepared.objects, prepared.voxels,
-                           boxes)
+            exact = grid_majorants(prepared.svm, self.kmaterials, prepared.objects,
+                                   prepared.voxels, boxes, prepared.voxels.size)
             grids = bound_media(self.device, placeholders(self.device, **args), prepared.svm,
-                                self.kmaterials, boxes, prepared.voxels.size, self.specialize)
+                                self.kmaterials, boxes, prepared.voxels.size + exact.size,
+                                self.specialize)
+            grids = np.concatenate([exact, grids])
             args.update(self._upload(materials=self.kmaterials, **(
                 {"voxels": np.concatenate([prepared.voxels, grids])} if grids.size else {})))
         # the world's map is baked with the shading buffers; the emitter table needs its power

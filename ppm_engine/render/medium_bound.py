@@ -2,8 +2,7 @@
 program bounded over each cell of a grid over its object's box (kernels/geom/majorant_grid.h),
 from its values at a lattice of points evaluated on the device (kernels/light/world_map.cl
 medium_lattice: the program the world's map is baked with, one build of every node for every
-scene), padded; a density that is a Volume object's grid itself by the grid's largest voxel,
-on the host."""
+scene), padded; a density that is a Volume object's grid itself by its voxels, on the host."""
 from __future__ import annotations
 
 import numpy as np
@@ -15,7 +14,7 @@ from ppm_engine.scene.shader_program import (
     ops_used,
     stack_used,
 )
-from ppm_engine.scene.voxels import grid_maximum
+from ppm_engine.scene.voxels import grid_cell_maxima
 
 GRID_CELLS = 32           # the majorant grid's cells per axis
 CELL_STEPS = 2            # lattice steps per cell edge: (4 x 16 + 1)^3 density samples a medium
@@ -107,15 +106,26 @@ def bound_media(device, args: dict, svm: np.ndarray, kmaterials: np.ndarray,
 
 
 def grid_majorants(svm: np.ndarray, kmaterials: np.ndarray, objects: np.ndarray,
-                   voxels: np.ndarray, boxes: dict) -> None:
-    """Sets kmaterials["majorant"] of every medium in ``boxes`` whose density is its Volume
-    object's grid itself (shader_program.PROGRAM_GRID) to that grid's largest voxel (trilinear
-    interpolation never exceeds it: exact, where samples of the box could miss a thin peak),
-    and takes it out of ``boxes``."""
+                   voxels: np.ndarray, boxes: dict, first: int) -> np.ndarray:
+    """The majorant grids of every medium in ``boxes`` whose density is its Volume object's
+    grid itself (shader_program.PROGRAM_GRID): each cell's bound the largest voxel it reads,
+    or a little more (scene/voxels.py grid_cell_maxima: no voxel's peak missed, where samples
+    could miss one; 0 in the clear air of a simulation's box, which tracking then skips),
+    kmaterials' "majorant" the largest; takes those media out of ``boxes`` and returns their
+    grids' words, which go into the voxels buffer at ``first``."""
+    chunks = []
     for k in list(boxes):
         a = grid_density(svm, int(kmaterials["density_program"][k]))
         o = int(kmaterials["volume_object"][k])
-        top = grid_maximum(voxels, objects, o, a) if a is not None and o >= 0 else None
-        if top is not None:
-            kmaterials["majorant"][k] = top
-            del boxes[k]
+        lo, hi = boxes[k]
+        cells = grid_cell_maxima(voxels, objects, o, a, lo, hi, GRID_CELLS) \
+            if a is not None and o >= 0 else None
+        if cells is None:
+            continue
+        cells = np.minimum(cells, 1e30).astype(np.float32)
+        kmaterials["majorant"][k] = float(cells.max())
+        kmaterials["majorant_grid"][k] = first + 1
+        chunks.append(majorant_grid(lo, hi, cells, 0.0))
+        first += chunks[-1].size
+        del boxes[k]
+    return np.concatenate(chunks) if chunks else np.zeros(0, np.float32)

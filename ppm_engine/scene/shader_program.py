@@ -194,7 +194,7 @@ PROGRAM_OBJECT = 16    # the object's data are read (SceneArrays.object, objects
 PROGRAM_WINDOW = 32    # the Window coordinates are read (the camera's projection)
 PROGRAM_BUMP = 64      # a Bump node reads the footprint's offsets (kernels/svm/svm_bump.h)
 # a medium's density program that is its Volume object's grid of attribute k itself: its first
-# op reads GEOM_ATTRIBUTE + k (its majorant is that grid's largest voxel: render/medium_bound.py)
+# op reads GEOM_ATTRIBUTE + k (its majorants are that grid's voxels: render/medium_bound.py)
 PROGRAM_GRID = 128
 MAX_STACK = 256        # floats of stack a program may use (kernels: PPM_SVM_STACK, the most a
                        # scene's programs use)

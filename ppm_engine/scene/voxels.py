@@ -118,18 +118,111 @@ def check_objects(object: np.ndarray, objects: np.ndarray, volume_object: np.nda
             raise ValueError(f"SceneArrays.voxels: {e}") from e
 
 
-def grid_maximum(voxels: np.ndarray, objects: np.ndarray, obj: int, attribute: int) -> float | None:
-    """The largest value (of a float grid; of a vector grid its components' mean, as a float
-    reads it) the grids of object ``obj`` hold for program attribute ``attribute``, at least 0
-    (None: no such grid): the bound of a density that is the grid's value (trilinear
-    interpolation never exceeds its voxels)."""
-    top = None
-    for g in object_grids(voxels, objects[obj]):
+def _axis_maxima(grid: np.ndarray, first: list, last: list) -> np.ndarray:
+    """(n, n, n) the largest voxel of grid[first[0][i]:last[0][i] + 1, first[1][j]..., ...] for
+    each (i, j, k), the ranges per axis given as (n,) arrays (0 where a range misses the grid),
+    at least 0: one axis at a time."""
+    out = grid
+    for a in range(3):
+        d = grid.shape[a]
+        parts = []
+        for f, x in zip(first[a].astype(np.int64), last[a].astype(np.int64)):
+            f, x = max(f, 0), min(x, d - 1)
+            sl = [slice(None)] * 3
+            sl[a] = slice(f, x + 1) if f <= x else slice(0, 1)
+            part = out[tuple(sl)].max(axis=a, keepdims=True)
+            parts.append(part if f <= x else np.zeros_like(part))
+        out = np.concatenate(parts, axis=a)
+    return np.maximum(out, 0.0)
+
+
+def max_pyramid(values: np.ndarray) -> list[np.ndarray]:
+    """Levels of maxima over blocks of 2^L voxels per axis (level 0 the voxels; a level's odd
+    end padded with -inf), down to one block."""
+    levels = [values]
+    while max(levels[-1].shape) > 1:
+        v = levels[-1]
+        pad = [(0, s % 2) for s in v.shape]
+        v = np.pad(v, pad, constant_values=-np.inf)
+        s = v.shape
+        levels.append(v.reshape(s[0] // 2, 2, s[1] // 2, 2, s[2] // 2, 2).max(axis=(1, 3, 5)))
+    return levels
+
+
+def grid_cell_maxima(voxels: np.ndarray, objects: np.ndarray, obj: int, attribute: int,
+                     lo, hi, n: int) -> np.ndarray | None:
+    """(n, n, n), z slowest: for each cell of the world box [lo, hi] cut n times per axis, the
+    largest voxel (of a vector grid its components' mean, as a float reads it) that trilinear
+    interpolation reads anywhere in it, from the grids of object ``obj`` filling program
+    attribute ``attribute``, or a little more: 0 where the cell is outside them; a bound of
+    such a density over the cell that misses no voxel's peak (None: no such grid).  The cell's
+    corners mapped to the grid's index space bound the voxels it reads (a box around them
+    where the grid is turned): where the grid is not turned against the world, the largest of
+    them exactly (one axis at a time); where it is, read from a pyramid of maxima at the level
+    where that box spans at most two blocks per axis (the blocks read reach at most twice the
+    box's size past it)."""
+    row = objects[obj]
+    world_to_object = np.vstack([row[:3].astype(np.float64), [0.0, 0.0, 0.0, 1.0]])
+    edges = [np.linspace(lo[a], hi[a], n + 1) for a in range(3)]
+    out = None
+    for g in object_grids(voxels, row):
         if g["attribute"] != attribute:
             continue
-        v = voxels[g["offset"]:g["offset"] + int(np.prod(g["dims"])) * g["channels"]]
-        if g["channels"] > 1:
-            v = v.reshape(-1, g["channels"]).mean(axis=1)
-        m = float(v.max()) if v.size else 0.0
-        top = max(top or 0.0, m if np.isfinite(m) else 1e30, 0.0)
-    return top
+        dims = g["dims"]
+        v = voxels[g["offset"]:g["offset"] + int(np.prod(dims)) * g["channels"]]
+        v = v.reshape(*dims, g["channels"]).mean(axis=3) if g["channels"] > 1 \
+            else v.reshape(dims)
+        m = g["to_index"].astype(np.float64) @ world_to_object      # world -> index, (3, 4)
+        # each index axis's least and largest over a cell: per world axis the smaller and
+        # larger of its two faces' terms, summed over the axes (cells x slowest here)
+        rng = []
+        for a in range(3):
+            t = [m[a, w] * edges[w] for w in range(3)]
+            low = [np.minimum(x[:-1], x[1:]) for x in t]
+            high = [np.maximum(x[:-1], x[1:]) for x in t]
+            rng.append((m[a, 3] + low[0][:, None, None] + low[1][None, :, None]
+                        + low[2][None, None, :],
+                        m[a, 3] + high[0][:, None, None] + high[1][None, :, None]
+                        + high[2][None, None, :]))
+        first = [np.floor(r[0]) for r in rng]
+        last = [np.floor(r[1]) + 1 for r in rng]
+        grid = np.nan_to_num(v, nan=0.0, posinf=1e30).astype(np.float32)
+        if (np.abs(m[:, :3] - np.diag(np.diag(m[:, :3]))) <= 1e-6 * np.abs(m[:, :3]).max()).all():
+            # not turned: each index axis's range by its world axis alone, the largest voxel
+            # of each cell's reach exactly, axis by axis
+            best = _axis_maxima(grid, [first[a][(slice(None) if a == 0 else 0),
+                                                (slice(None) if a == 1 else 0),
+                                                (slice(None) if a == 2 else 0)]
+                                       for a in range(3)],
+                                [last[a][(slice(None) if a == 0 else 0),
+                                         (slice(None) if a == 1 else 0),
+                                         (slice(None) if a == 2 else 0)] for a in range(3)])
+            best = best.transpose(2, 1, 0)
+            out = best if out is None else np.maximum(out, best)
+            continue
+        inside = np.ones((n, n, n), bool)
+        for a in range(3):
+            inside &= (last[a] >= 0) & (first[a] <= dims[a] - 1)
+        first = [np.clip(f, 0, d - 1).astype(np.int64) for f, d in zip(first, dims)]
+        last = [np.clip(x, 0, d - 1).astype(np.int64) for x, d in zip(last, dims)]
+        span = np.max([x - f for f, x in zip(first, last)], axis=0)
+        level = np.ceil(np.log2(span + 1.0)).astype(np.int64)
+        pyramid = max_pyramid(grid)
+        best = np.zeros((n, n, n), np.float32)
+        for lv in np.unique(level[inside]):
+            sel = inside & (level == lv)
+            p = pyramid[min(lv, len(pyramid) - 1)]
+            b0 = [f[sel] >> lv for f in first]
+            b1 = [x[sel] >> lv for x in last]
+            top = np.full(b0[0].shape, -np.inf, np.float32)
+            for cx in (b0[0], b1[0]):
+                for cy in (b0[1], b1[1]):
+                    for cz in (b0[2], b1[2]):
+                        top = np.maximum(top, p[np.minimum(cx, p.shape[0] - 1),
+                                                np.minimum(cy, p.shape[1] - 1),
+                                                np.minimum(cz, p.shape[2] - 1)])
+            best[sel] = np.maximum(top, 0.0)
+        # (cells x slowest above: z slowest for the grid)
+        best = best.transpose(2, 1, 0)
+        out = best if out is None else np.maximum(out, best)
+    return out

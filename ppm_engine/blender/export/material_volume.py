@@ -235,7 +235,7 @@ def _field_program(reader, medium, material) -> bool:
         v = None
     if v is None:
         v = g
-        c.flags |= PROGRAM_GRID          # its majorant: the grid's largest voxel
+        c.flags |= PROGRAM_GRID          # its majorants: the grid's voxels per cell
     elif g is not None:
         v = c.math("MULTIPLY", v, g)
     c.binds.append((0, 0, 1, c.slot(v)))
