@@ -92,6 +92,13 @@ inline float mix_majorant(const Scene *scene, const Mix *x) {
     return mix_bound(x, x->field < 0 ? 0.0f : scene->materials[x->field].majorant);
 }
 
+/* the walk of the segment o + s d (0 <= s < t) through medium `field`'s majorant grid
+ * (geom/majorant_grid.h; one stretch where it has none) */
+inline MajorantWalk field_walk(const Scene *scene, int field, float3 o, float3 d, float t) {
+    int grid = field < 0 ? 0 : scene->materials[field].majorant_grid;
+    return majorant_walk(grid > 0 ? scene->voxels + grid - 1 : 0, o, d, t);
+}
+
 /* the least rate of ratio tracking's collisions over a segment of length t (0: unbounded) */
 inline float ratio_rate(float t) { return isfinite(t) && t > 0.0f ? MEDIUM_RATIO_STEPS / t : 0.0f; }
 
@@ -170,8 +177,7 @@ inline float3 medium_piece(const Scene *scene, const Mix *x, float3 o, float3 d,
 inline float3 medium_transmittance(const Scene *scene, const Mix *x, float3 o, float3 d, float t,
                                    uint *rng) {
     float top = scene->materials[x->field].majorant;
-    int grid = scene->materials[x->field].majorant_grid;
-    MajorantWalk w = majorant_walk(grid > 0 ? scene->voxels + grid - 1 : 0, o, d, t);
+    MajorantWalk w = field_walk(scene, x->field, o, d, t);
     float3 T = (float3)(1.0f);
     float a = 0.0f, s = 0.0f, mu_piece = 0.0f;
     bool clear_piece = false;
@@ -227,8 +233,7 @@ inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, 
         return INFINITY;
     }
     float raise = !scatter && mu > 0.0f ? fmax(1.0f, rate / mu) : 1.0f;
-    int grid = x->field < 0 ? 0 : scene->materials[x->field].majorant_grid;
-    MajorantWalk w = majorant_walk(grid > 0 ? scene->voxels + grid - 1 : 0, o, d, t);
+    MajorantWalk w = field_walk(scene, x->field, o, d, t);
     float b0 = 0.01f * max3(fabs(*beta)), s = 0.0f;
     int k = 0;
     while (s < t) {
@@ -275,13 +280,12 @@ cut:
     return INFINITY;
 }
 
-/* *T times the transmittance of the segment o + s d (0 <= s < t) of the media x, with a field
- * (medium_transmittance; where the segment is unbounded, ratio tracking: medium_track without
- * scattering or emission, at least `rate`) */
+/* *T times the transmittance of the segment o + s d (0 <= s < t) of the media x, with a field:
+ * medium_track without scattering or emission (medium_transmittance; where the segment is
+ * unbounded, ratio tracking at least `rate`) */
 inline void medium_ratio(const Scene *scene, const Mix *x, float3 o, float3 d, float t, float rate,
                          uint *rng, float3 *T) {
-    if (isfinite(t)) *T *= medium_transmittance(scene, x, o, d, t, rng);
-    else medium_track(scene, x, o, d, t, false, rate, 0.0f, rng, T, 0);
+    medium_track(scene, x, o, d, t, false, rate, 0.0f, rng, T, 0);
 }
 
 /* the media x of a field with constant extinction c (the others') where only the extinction

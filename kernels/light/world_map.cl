@@ -60,9 +60,7 @@ __kernel void medium_lattice(SCENE_PARAMS int mat, float4 lo, float4 hi, int m,
     float3 c = (float3)((float)(id % m), (float)((id / m) % m), (float)(id / (m * m)));
     out[id] = medium_density(scene, mat, lo.xyz + c / (float)(m - 1) * (hi.xyz - lo.xyz));
 }
-#endif
 
-#if PPM_VOLUME
 /* Tests (tests/test_majorant_grid.py): the transmittance of n segments (o: xyz, its length in
  * w; d) through medium mat's field, the mean of `reps` estimates by medium_transmittance (x),
  * by ratio tracking at the box's majorant (y) and by the telescoping sum from one sample over
