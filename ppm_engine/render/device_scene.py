@@ -16,7 +16,7 @@ from ppm_engine.render.bvh import BVH
 from ppm_engine.render.features import VALUE_FEATURES, scene_features, used_materials
 from ppm_engine.render.features import defines as feature_defines
 from ppm_engine.render.film import filter_density, filter_table
-from ppm_engine.render.medium_bound import bound_media, grid_majorants, media_boxes
+from ppm_engine.render.medium_bound import bound_media, grid_majorants, media_boxes, pack_grids
 from ppm_engine.render.world_map import bake, build_map, map_size
 from ppm_engine.scene.arrays import (
     LIGHT_DTYPE,
@@ -182,14 +182,13 @@ class DeviceScene:
         # after the Volume objects' (a density that is a grid by its voxels, on the host)
         boxes = media_boxes(prepared.positions, prepared.material, self.kmaterials)
         if boxes:
-            exact = grid_majorants(prepared.svm, self.kmaterials, prepared.objects,
-                                   prepared.voxels, boxes, prepared.voxels.size)
-            grids = bound_media(self.device, placeholders(self.device, **args), prepared.svm,
-                                self.kmaterials, boxes, prepared.voxels.size + exact.size,
-                                self.specialize)
-            grids = np.concatenate([exact, grids])
+            grids = grid_majorants(prepared.svm, self.kmaterials, prepared.objects,
+                                   prepared.voxels, boxes)
+            grids.update(bound_media(self.device, placeholders(self.device, **args),
+                                     prepared.svm, self.kmaterials, boxes, self.specialize))
+            words = pack_grids(self.kmaterials, grids, prepared.voxels.size)
             args.update(self._upload(materials=self.kmaterials, **(
-                {"voxels": np.concatenate([prepared.voxels, grids])} if grids.size else {})))
+                {"voxels": np.concatenate([prepared.voxels, words])} if words.size else {})))
         # the world's map is baked with the shading buffers; the emitter table needs its power
         self.world_map = self._world_map(prepared, args)
         self.emitters = em = build_emitters(prepared, self.kmaterials, self.bvh.leaf_order,

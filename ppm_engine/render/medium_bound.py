@@ -17,8 +17,8 @@ from ppm_engine.scene.shader_program import (
 from ppm_engine.scene.voxels import grid_cell_maxima
 
 GRID_CELLS = 32           # the majorant grid's cells per axis
-CELL_STEPS = 2            # lattice steps per cell edge: (4 x 16 + 1)^3 density samples a medium
-BOUND_PADDING = 1.25     # a cell's bound over its largest sample (a peak between samples)
+CELL_STEPS = 2            # lattice steps per cell edge: (2 x 32 + 1)^3 density samples a medium
+BOUND_PADDING = 1.25      # a cell's bound over its largest sample (a peak between samples)
 GRID_FLOOR = 1.0 / 64.0   # the least cell bound, of the box's: a density the lattice missed
                           # there is still tracked without bias (weighted null collisions)
 MAJORANT_HEADER = 16      # floats before a grid's bounds (geom/majorant_grid.h)
@@ -70,16 +70,29 @@ def majorant_grid(lo, hi, cells: np.ndarray, clear: float = -1.0) -> np.ndarray:
     return out
 
 
+def pack_grids(kmaterials: np.ndarray, grids: dict, first: int) -> np.ndarray:
+    """The words of the majorant grids ``grids`` ({material: (lo, hi, cells, clear)}, as
+    bound_media and grid_majorants give them), which go into the voxels buffer at ``first`` (a
+    multiple of MAJORANT_HEADER): sets each material's "majorant" (its largest cell) and
+    "majorant_grid"."""
+    chunks = []
+    for k, (lo, hi, cells, clear) in grids.items():
+        kmaterials["majorant"][k] = float(cells.max())
+        kmaterials["majorant_grid"][k] = first + 1
+        chunks.append(majorant_grid(lo, hi, cells, clear))
+        first += chunks[-1].size
+    return np.concatenate(chunks) if chunks else np.zeros(0, np.float32)
+
+
 def bound_media(device, args: dict, svm: np.ndarray, kmaterials: np.ndarray,
-                boxes: dict, first: int, specialize: bool = True) -> np.ndarray:
-    """Sets kmaterials["majorant"] (the box's bound) and ["majorant_grid"] of every medium in
-    ``boxes`` (material -> its box): each cell's bound the largest density of the lattice
-    points on and in it times BOUND_PADDING, at least GRID_FLOOR of the box's (0 for all: a
-    clear medium); returns the grids' words, which go into the voxels buffer at ``first`` (a
-    multiple of MAJORANT_HEADER); ``args``: the scene's buffers (device_scene.SCENE_BUFFERS)."""
+                boxes: dict, specialize: bool = True) -> dict:
+    """The majorant grids of every medium in ``boxes`` (material -> its box), for pack_grids:
+    each cell's bound the largest density of the lattice points on and in it times
+    BOUND_PADDING, at least GRID_FLOOR of the box's (0 for all: a clear medium), the clear
+    bound that floor; ``args``: the scene's buffers (device_scene.SCENE_BUFFERS)."""
     import pyopencl as cl
     if not boxes:
-        return np.zeros(0, np.float32)
+        return {}
     programs = [int(kmaterials["density_program"][k]) for k in boxes]
     prog = device.programs.get("light/world_map.cl",
                                bound_defines(svm, programs) if specialize else {})
@@ -87,45 +100,34 @@ def bound_media(device, args: dict, svm: np.ndarray, kmaterials: np.ndarray,
     m = GRID_CELLS * CELL_STEPS + 1
     out = device.buffer(4 * m ** 3, "medium lattice")
     lattice = np.empty((m, m, m), np.float32)
-    chunks = []
+    grids = {}
     for k, (lo, hi) in boxes.items():
         kernel(device.queue, m ** 3, **args, mat=np.int32(k), lo=np.array([*lo, 0], np.float32),
                hi=np.array([*hi, 0], np.float32), m=np.int32(m), out=out)
         cl.enqueue_copy(device.queue, lattice, out).wait()
         cells = np.nan_to_num(cell_bounds(lattice), nan=0.0, posinf=1e30) * BOUND_PADDING
         cells = np.minimum(cells, 1e30)
-        top = float(cells.max())
-        floor = np.float32(top * GRID_FLOOR)
-        cells = np.maximum(cells, floor).astype(np.float32)
-        kmaterials["majorant"][k] = top
-        kmaterials["majorant_grid"][k] = first + 1
-        chunks.append(majorant_grid(lo, hi, cells, floor))
-        first += chunks[-1].size
+        floor = np.float32(float(cells.max()) * GRID_FLOOR)
+        grids[k] = (lo, hi, np.maximum(cells, floor).astype(np.float32), floor)
     out.release()
-    return np.concatenate(chunks)
+    return grids
 
 
 def grid_majorants(svm: np.ndarray, kmaterials: np.ndarray, objects: np.ndarray,
-                   voxels: np.ndarray, boxes: dict, first: int) -> np.ndarray:
-    """The majorant grids of every medium in ``boxes`` whose density is its Volume object's
-    grid itself (shader_program.PROGRAM_GRID): each cell's bound the largest voxel it reads,
-    or a little more (scene/voxels.py grid_cell_maxima: no voxel's peak missed, where samples
-    could miss one; 0 in the clear air of a simulation's box, which tracking then skips),
-    kmaterials' "majorant" the largest; takes those media out of ``boxes`` and returns their
-    grids' words, which go into the voxels buffer at ``first``."""
-    chunks = []
+                   voxels: np.ndarray, boxes: dict) -> dict:
+    """The majorant grids, for pack_grids, of every medium in ``boxes`` whose density is its
+    Volume object's grid itself (shader_program.PROGRAM_GRID): each cell's bound the largest
+    voxel it reads, or a little more (scene/voxels.py grid_cell_maxima: no voxel's peak
+    missed, where samples could miss one; 0 in the clear air of a simulation's box, which
+    tracking then skips); takes those media out of ``boxes``."""
+    grids = {}
     for k in list(boxes):
         a = grid_density(svm, int(kmaterials["density_program"][k]))
         o = int(kmaterials["volume_object"][k])
         lo, hi = boxes[k]
         cells = grid_cell_maxima(voxels, objects, o, a, lo, hi, GRID_CELLS) \
             if a is not None and o >= 0 else None
-        if cells is None:
-            continue
-        cells = np.minimum(cells, 1e30).astype(np.float32)
-        kmaterials["majorant"][k] = float(cells.max())
-        kmaterials["majorant_grid"][k] = first + 1
-        chunks.append(majorant_grid(lo, hi, cells, 0.0))
-        first += chunks[-1].size
-        del boxes[k]
-    return np.concatenate(chunks) if chunks else np.zeros(0, np.float32)
+        if cells is not None:
+            grids[k] = (lo, hi, np.minimum(cells, 1e30).astype(np.float32), 0.0)
+            del boxes[k]
+    return grids
