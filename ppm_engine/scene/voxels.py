@@ -173,33 +173,29 @@ def grid_cell_maxima(voxels: np.ndarray, objects: np.ndarray, obj: int, attribut
         v = v.reshape(*dims, g["channels"]).mean(axis=3) if g["channels"] > 1 \
             else v.reshape(dims)
         m = g["to_index"].astype(np.float64) @ world_to_object      # world -> index, (3, 4)
-        # each index axis's least and largest over a cell: per world axis the smaller and
-        # larger of its two faces' terms, summed over the axes (cells x slowest here)
-        rng = []
+        # each index axis a's least and largest over a cell: per world axis w the smaller and
+        # larger of its two faces' terms m[a, w] x, summed over the axes
+        low, high = [], []
         for a in range(3):
             t = [m[a, w] * edges[w] for w in range(3)]
-            low = [np.minimum(x[:-1], x[1:]) for x in t]
-            high = [np.maximum(x[:-1], x[1:]) for x in t]
-            rng.append((m[a, 3] + low[0][:, None, None] + low[1][None, :, None]
-                        + low[2][None, None, :],
-                        m[a, 3] + high[0][:, None, None] + high[1][None, :, None]
-                        + high[2][None, None, :]))
-        first = [np.floor(r[0]) for r in rng]
-        last = [np.floor(r[1]) + 1 for r in rng]
+            low.append([np.minimum(x[:-1], x[1:]) for x in t])
+            high.append([np.maximum(x[:-1], x[1:]) for x in t])
         grid = np.nan_to_num(v, nan=0.0, posinf=1e30).astype(np.float32)
         if (np.abs(m[:, :3] - np.diag(np.diag(m[:, :3]))) <= 1e-6 * np.abs(m[:, :3]).max()).all():
-            # not turned: each index axis's range by its world axis alone, the largest voxel
-            # of each cell's reach exactly, axis by axis
-            best = _axis_maxima(grid, [first[a][(slice(None) if a == 0 else 0),
-                                                (slice(None) if a == 1 else 0),
-                                                (slice(None) if a == 2 else 0)]
-                                       for a in range(3)],
-                                [last[a][(slice(None) if a == 0 else 0),
-                                         (slice(None) if a == 1 else 0),
-                                         (slice(None) if a == 2 else 0)] for a in range(3)])
-            best = best.transpose(2, 1, 0)
+            # not turned: index axis a's range by world axis a (the others' tiny terms at
+            # their extremes), the largest voxel of each cell's reach exactly, axis by axis
+            first = [np.floor(m[a, 3] + low[a][a] + sum(low[a][w].min() for w in range(3)
+                                                         if w != a)) for a in range(3)]
+            last = [np.floor(m[a, 3] + high[a][a] + sum(high[a][w].max() for w in range(3)
+                                                          if w != a)) + 1 for a in range(3)]
+            best = _axis_maxima(grid, first, last).transpose(2, 1, 0)   # z slowest
             out = best if out is None else np.maximum(out, best)
             continue
+        # turned: the range of every cell (x slowest here)
+        first = [np.floor(m[a, 3] + low[a][0][:, None, None] + low[a][1][None, :, None]
+                          + low[a][2][None, None, :]) for a in range(3)]
+        last = [np.floor(m[a, 3] + high[a][0][:, None, None] + high[a][1][None, :, None]
+                         + high[a][2][None, None, :]) + 1 for a in range(3)]
         inside = np.ones((n, n, n), bool)
         for a in range(3):
             inside &= (last[a] >= 0) & (first[a] <= dims[a] - 1)
