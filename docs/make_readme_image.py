@@ -53,12 +53,10 @@ def render_example(bpy, name: str, engine: str, seconds: float, size: int, path:
     return render_png(bpy, scene, path)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seconds", type=float, default=45.0)
-    ap.add_argument("--size", type=int, default=320)
-    args = ap.parse_args(argv)
-
+def render_pairs(names, seconds: float, size: int, prefix: str,
+                 bench_light_paths: bool = False):
+    """Each example of ``names`` rendered by this engine and by Cycles (render_example) into a
+    temporary folder: (matplotlib's pyplot, off screen; {(name, engine): the PNG's path})."""
     import bpy
 
     import matplotlib
@@ -68,19 +66,30 @@ def main(argv=None) -> int:
     from ppm_engine.blender.harness import ensure_registered
 
     ensure_registered()
-    tmp = Path(tempfile.mkdtemp(prefix="ppm-readme-"))
-    walls = {}
-    for engine in ("PPM", "CYCLES"):
-        walls[engine] = render_example(bpy, "bulb_box", engine, args.seconds, args.size,
-                                       tmp / f"{engine}.png")
-        print(f"{engine}: {walls[engine]:.1f} s", file=sys.stderr)
+    tmp = Path(tempfile.mkdtemp(prefix=prefix))
+    paths = {}
+    for name in names:
+        for engine in ("PPM", "CYCLES"):
+            paths[name, engine] = tmp / f"{name}_{engine}.png"
+            wall = render_example(bpy, name, engine, seconds, size, paths[name, engine],
+                                  bench_light_paths=bench_light_paths)
+            print(f"{name} {engine}: {wall:.1f} s", file=sys.stderr)
+    return plt, paths
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=45.0)
+    ap.add_argument("--size", type=int, default=320)
+    args = ap.parse_args(argv)
+    plt, paths = render_pairs(["bulb_box"], args.seconds, args.size, "ppm-readme-")
 
     fig, axes = plt.subplots(1, 2, figsize=(2 * args.size / 100, args.size / 100 + 0.45),
                              dpi=100)
     titles = {"PPM": f"Progressive Photon Mapping, {args.seconds:.0f} s",
               "CYCLES": f"Cycles, {args.seconds:.0f} s"}
     for ax, engine in zip(axes, ("PPM", "CYCLES")):
-        ax.imshow(plt.imread(tmp / f"{engine}.png"))
+        ax.imshow(plt.imread(paths["bulb_box", engine]))
         ax.set_title(titles[engine], fontsize=9)
         ax.axis("off")
     fig.subplots_adjust(left=0.005, right=0.995, bottom=0.005, top=0.92, wspace=0.01)

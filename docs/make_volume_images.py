@@ -14,11 +14,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from make_readme_image import render_example
+from make_readme_image import render_pairs
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "images" / "volumes_vs_cycles.png"
@@ -30,28 +29,14 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, default=16.0)
     ap.add_argument("--size", type=int, default=160)
     args = ap.parse_args(argv)
-
-    import bpy
-
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ppm_engine.blender.harness import ensure_registered
-
-    ensure_registered()
-    tmp = Path(tempfile.mkdtemp(prefix="ppm-volumes-"))
-    for name in SCENES:
-        for engine in ("PPM", "CYCLES"):
-            wall = render_example(bpy, name, engine, args.seconds, args.size,
-                                  tmp / f"{name}_{engine}.png", bench_light_paths=True)
-            print(f"{name} {engine}: {wall:.1f} s", file=sys.stderr)
+    plt, paths = render_pairs(SCENES, args.seconds, args.size, "ppm-volumes-",
+                              bench_light_paths=True)
 
     s = args.size / 100
     fig, axes = plt.subplots(len(SCENES), 2, figsize=(2 * s, len(SCENES) * (s + 0.3)), dpi=100)
     for row, name in zip(axes, SCENES):
         for ax, engine in zip(row, ("PPM", "CYCLES")):
-            ax.imshow(plt.imread(tmp / f"{name}_{engine}.png"))
+            ax.imshow(plt.imread(paths[name, engine]))
             label = "PPM" if engine == "PPM" else "Cycles"
             ax.set_title(f"{name}, {label}, {args.seconds:.0f} s", fontsize=7)
             ax.axis("off")
