@@ -154,15 +154,19 @@ def test_walk_stretches_are_the_cells_the_segment_crosses():
 def noise_fog(bpy):
     """The fog room's cube (3 m, density 0.7) with a Noise Texture on its Density (as
     tests/test_volume_fields.py's export test: the same build), on the device: (DeviceScene,
-    its field's material)."""
+    its field's material, world_map.cl built for its density program as the bound builds it)."""
     from ppm_engine.blender.export import export_scene
     from ppm_engine.render.device import get_device
     from ppm_engine.render.device_scene import DeviceScene
+    from ppm_engine.render.medium_bound import bound_defines
     from tests.helpers.volume_scenes import drive_density, fog_room
     scene = fog_room(density=0.7)
     drive_density(bpy.data.materials["Fog"], "Principled Volume", "ShaderNodeTexNoise")
     ds = DeviceScene(get_device(), export_scene(bpy.context.evaluated_depsgraph_get()))
-    yield ds, int(np.nonzero(ds.kmaterials["density_program"] > 0)[0][0])
+    k = int(np.nonzero(ds.kmaterials["density_program"] > 0)[0][0])
+    prog = ds.device.programs.get("light/world_map.cl", bound_defines(
+        ds.prepared.svm, [int(ds.kmaterials["density_program"][k])]))
+    yield ds, k, prog
     del scene
 
 
@@ -182,7 +186,7 @@ def test_noise_field_grid_bounds_its_cells(noise_fog):
     import pyopencl as cl
 
     from ppm_engine.render import medium_bound as mb
-    ds, k = noise_fog
+    ds, k, prog = noise_fog
     at, words = _grid_words(ds, k)
     assert at >= ds.prepared.voxels.size and at % MAJORANT_HEADER == 0
     n = int(words[at + 3])
@@ -191,8 +195,6 @@ def test_noise_field_grid_bounds_its_cells(noise_fog):
     hi = lo + n / per
     # the fine lattice: the bound's kernel at 2 x its steps over the same box
     m = 2 * n * mb.CELL_STEPS + 1
-    prog = ds.device.programs.get("light/world_map.cl", mb.bound_defines(
-        ds.prepared.svm, [int(ds.kmaterials["density_program"][k])]))
     out = ds.device.buffer(4 * m ** 3, "test")
     prog.launch("medium_lattice", "test")(
         ds.device.queue, m ** 3, **ds.args, mat=np.int32(k),
@@ -226,10 +228,7 @@ def test_field_transmittance_is_unbiased(noise_fog):
     sum from one sample over each whole segment, whose debiasing terms do the work (without
     them its mean is 0.0043 too bright, 23 standard errors; the default one's 0.0014, 11)."""
     import pyopencl as cl
-    ds, k = noise_fog
-    from ppm_engine.render import medium_bound as mb
-    prog = ds.device.programs.get("light/world_map.cl", mb.bound_defines(
-        ds.prepared.svm, [int(ds.kmaterials["density_program"][k])]))
+    ds, k, prog = noise_fog
     rng = np.random.default_rng(11)
     n, lo, hi = 64, np.array([-1.5, -1.5, -0.9]), np.array([1.5, 1.5, 2.1])
     a, b = rng.uniform(lo, hi, (n, 3)), rng.uniform(lo, hi, (n, 3))
