@@ -40,9 +40,24 @@ inline bool medium_field(const Scene *scene, int mat) {
 #endif
 }
 
+/* whether medium mat's field program also gives its emission (a second bind: a Volume object's
+ * blackbody emission through its temperature grid, export/material_volume.py _glow) */
+inline bool medium_glows(const Scene *scene, int mat) {
+#if PPM_SVM
+    return mat >= 0 && scene->materials[mat].density_program > 0
+           && scene->svm[scene->materials[mat].density_program].x > 1;
+#else
+    return false;
+#endif
+}
+
 /* the density of medium mat's field at P (>= 0; NaN and negative ones 0, as Cycles clamps; 0
- * where mat is none) */
-__attribute__((noinline)) float medium_density(const Scene *scene, int mat, float3 P) {
+ * where mat is none); where glow is given, *glow its emission per metre there (medium_glows),
+ * a Volume object's grids then read as Cycles reads them for its shading, stochastically
+ * (numbers rng: a function of a voxel's value, the blackbody's of the temperature, is mixed
+ * trilinearly, not the values) */
+__attribute__((noinline)) float medium_point(const Scene *scene, int mat, float3 P, float3 *glow,
+                                             uint *rng) {
 #if PPM_SVM
     if (mat < 0) return 0.0f;
     __global const Material *mt = scene->materials + mat;
@@ -56,7 +71,7 @@ __attribute__((noinline)) float medium_density(const Scene *scene, int mat, floa
         cx.P_object = (float3)(dot(o[0], h), dot(o[1], h), dot(o[2], h));
         cx.generated = cx.P_object * o[9].xyz + o[10].xyz;
         /* a Volume object's grids: the attributes its program reads (geom/volume_grid.h) */
-        if (o[5].z > 0.0f) grid_attributes(scene, o, cx.P_object, cx.attr);
+        if (o[5].z > 0.0f) grid_attributes(scene, o, cx.P_object, cx.attr, glow ? rng : 0);
         for (int r = 0; r < 3; r++) {
             cx.object[r] = o[3 + r];
 #if SVM_OBJECT_MATRICES
@@ -68,10 +83,20 @@ __attribute__((noinline)) float medium_density(const Scene *scene, int mat, floa
     float stack[PPM_SVM_STACK];
     svm_eval(scene, p, stack, &cx);
     float d = stack[scene->svm[p + 1].w];
+    if (glow) {
+        int e = scene->svm[p].x > 1 ? scene->svm[p + 2].w : -1;
+        float3 g = e >= 0 ? (float3)(stack[e], stack[e + 1], stack[e + 2]) : (float3)(0.0f);
+        *glow = fmin(fmax(g, (float3)(0.0f)), (float3)(1e30f)); /* (NaN: 0) */
+    }
     return d > 0.0f ? fmin(d, 1e30f) : 0.0f;
 #else
+    if (glow) *glow = (float3)(0.0f);
     return 1.0f;
 #endif
+}
+
+inline float medium_density(const Scene *scene, int mat, float3 P) {
+    return medium_point(scene, mat, P, 0, 0);
 }
 
 /* numbers for a ray's tracking where its path has none (shadow rays): hashed from the ray */
@@ -227,7 +252,8 @@ inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, 
                           float3 *L) {
     float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s, ue = x->emission;
     float top = x->field < 0 ? 0.0f : scene->materials[x->field].majorant, mu = mix_bound(x, top);
-    bool glow = L && max3(ue) > 0.0f;
+    bool vary = L && medium_glows(scene, x->field), glow = vary || (L && max3(ue) > 0.0f);
+    float3 ge = (float3)(0.0f);
     if (!scatter && !glow && isfinite(t)) { /* the transmittance alone */
         *beta *= medium_transmittance(scene, x, o, d, t, rng);
         return INFINITY;
@@ -239,8 +265,11 @@ inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, 
     while (s < t) {
         float bound, end = majorant_stretch(&w, s, top, &bound);
         mu = mix_bound(x, bound) * raise;
-        if (!(mu > 0.0f)) { /* nothing attenuates here: the emission along it in closed form */
-            if (glow && isfinite(end)) *L += clamp_sample(*beta * ue * (end - s), limit);
+        if (!(mu > 0.0f)) { /* nothing attenuates here: the emission along it in closed form
+                              * (a field's at a point drawn uniformly on it) */
+            if (vary && isfinite(end))
+                medium_point(scene, x->field, o + mix(s, end, rnd(rng)) * d, &ge, rng);
+            if (glow && isfinite(end)) *L += clamp_sample(*beta * (ue + ge) * (end - s), limit);
             s = end;
             continue;
         }
@@ -249,9 +278,9 @@ inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, 
             float s1 = s - log(1.0f - rnd(rng)) / mu;
             if (!(s1 < end)) break;
             s = s1;
-            float dens = medium_density(scene, x->field, o + s * d);
+            float dens = medium_point(scene, x->field, o + s * d, vary ? &ge : 0, rng);
             float3 ss = x->sigma_s + x->unit_s * dens, sn = mu - (ct + ut * dens);
-            if (glow) *L += clamp_sample(*beta * ue / mu, limit);
+            if (glow) *L += clamp_sample(*beta * (ue + ge) / mu, limit);
             if (scatter) {
                 float ps = dot(fabs(*beta * ss), (float3)(1.0f)),
                       pn = dot(fabs(*beta * sn), (float3)(1.0f));

@@ -29,6 +29,7 @@ from ppm_engine.scene.light_tree import (
 )
 from ppm_engine.scene.materials import MAT_VOLUME, mean_emission, world_medium
 from ppm_engine.scene.prep import corner_box
+from ppm_engine.scene.shader_program import field_glows
 
 # the emitter table's header (kernels/shared.h EmitterInfo)
 EMITTER_INFO_DTYPE = np.dtype([
@@ -258,6 +259,7 @@ def emits_light(scene: SceneArrays, kmaterials: np.ndarray) -> bool:
     if (light_power(scene.lights, 1.0) > 0).any():
         return True
     glowing = kmaterials["volume_emission"].max(axis=1) > 0     # (media: MAT_VOLUME only)
+    glowing |= field_glows(scene.svm, kmaterials["density_program"])
     if world_medium(scene) >= 0 and glowing[world_medium(scene)]:
         return True                     # an emitting world medium
     if glowing.any():

@@ -265,6 +265,16 @@ def grid_density(svm: np.ndarray, p: int) -> int | None:
     return int(first[2]) - GEOM_ATTRIBUTE
 
 
+def field_glows(svm: np.ndarray, programs: np.ndarray) -> np.ndarray:
+    """Per density program word (0: none), whether it also gives the medium's emission (a second
+    bind: export/material_volume.py _glow)."""
+    p = np.asarray(programs, np.int64)
+    ok = (p > 0) & (p < svm.shape[0])
+    out = np.zeros(p.shape, bool)
+    out[ok] = svm[p[ok], 0] > 1
+    return out
+
+
 def stack_used(svm: np.ndarray, starts) -> int:
     return max([int(svm[int(p), 2]) for p in starts if int(p) > 0] or [0])
 

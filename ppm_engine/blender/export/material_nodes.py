@@ -377,6 +377,7 @@ def read_volume_object(material, warn, textures=None, attributes: list | None = 
     ``scale`` (Cycles' object-space density: 1 / the object's scale)."""
     reader = _Reader(material, warn, textures, attributes, camera)
     reader.grids = frozenset(grids)
+    reader.scale = scale                  # (a grid's blackbody emission: material_volume._glow)
     medium = read_volume(material, reader) if material is not None else default_volume(reader)
     if medium is None:
         return None

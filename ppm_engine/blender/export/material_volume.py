@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ppm_engine.blender.export.shader_graph import Compiler
-from ppm_engine.scene.shader_program import PROGRAM_GRID, PROGRAM_OBJECT
+from ppm_engine.scene.shader_program import PROGRAM_GRID, PROGRAM_OBJECT, SVM_BLACKBODY
 from ppm_engine.scene.spectra import blackbody_rgb
 
 _MAX_DEPTH = 64
@@ -58,6 +58,9 @@ class _Medium:
         self.fielded = False
         self.plain = False
         self.program = None           # the field's program words (read_volume)
+        # blackbody emission through a Volume object's grid (its Temperature Attribute):
+        # (weight, node, grid) each, the field program's emission (_glow)
+        self.glow: list = []
 
     def scatter(self, sigma_s, g):
         sigma_s = np.asarray(sigma_s, np.float64)
@@ -119,19 +122,23 @@ def _grid(reader, node, name: str) -> str | None:
 _STEFAN_BOLTZMANN = 5.670373e-8 * 1e-6 / np.pi
 
 
-def _blackbody(reader, node) -> np.ndarray:
+def _blackbody(reader, node, medium=None, weight=1.0) -> np.ndarray:
     """The Principled Volume's blackbody emission per metre, as Cycles' svm_node_principled_volume
     adds it: Blackbody Tint x sigma mix(1, T^4, Blackbody Intensity) x the black body's colour at
     Temperature T (linear Rec.709, luminance 1: the Blackbody node's, spectra.blackbody_rgb).
-    (Cycles multiplies T by a Volume object's grid its Temperature Attribute names: not
-    rendered yet, warned about.)"""
+    Where the Volume object has the grid its Temperature Attribute names (Cycles multiplies T
+    by it), the emission varies from point to point: recorded in ``medium.glow`` for the field
+    program (_glow), 0 here."""
     intensity = float(np.nan_to_num(reader.value(node, "Blackbody Intensity") or 0.0))
     if not intensity > 0:
         return np.zeros(3)
     grid = _grid(reader, node, "Temperature Attribute")
     if grid is not None:
-        reader.warn(f"the blackbody emission of '{node.name}' through the grid '{grid}' (its "
-                    "Temperature Attribute) is not rendered yet; it is left out")
+        if medium is not None and getattr(reader, "fields", True):
+            medium.glow.append((weight, node, grid))
+        else:
+            reader.warn(f"the blackbody emission of '{node.name}' through the grid '{grid}' "
+                        "(its Temperature Attribute) is not rendered here; it is left out")
         return np.zeros(3)
     t = max(float(np.nan_to_num(reader.value(node, "Temperature") or 0.0)), 0.0)
     power = _STEFAN_BOLTZMANN * (1.0 + intensity * (min(t, 1e9) ** 4 - 1.0))
@@ -139,6 +146,38 @@ def _blackbody(reader, node) -> np.ndarray:
         return np.zeros(3)
     tint = np.maximum(np.nan_to_num(reader.value(node, "Blackbody Tint", 3)), 0.0)
     return tint * power * np.asarray(blackbody_rgb(t))
+
+
+def _glow(c, reader, medium):
+    """The field program's emission per metre (its second bind, 3 floats; kernels/geom/
+    medium_field.h medium_point): the sum over medium.glow of Cycles' blackbody emission with
+    T = Temperature x max(the grid, 0), then max(T, 0) (svm_node_principled_volume), times
+    the mix weight and the object-space density's ``reader.scale``; None: nothing to add."""
+    total = None
+    scale = float(getattr(reader, "scale", 1.0))
+    for weight, node, grid in medium.glow:
+        intensity = float(np.nan_to_num(reader.value(node, "Blackbody Intensity") or 0.0))
+        tint = np.maximum(np.nan_to_num(reader.value(node, "Blackbody Tint", 3)), 0.0)
+        tint = tint * weight * scale
+        a = c.attribute(grid)
+        if a is None or not tint.max() > 0:
+            continue
+        a = c.math("MAXIMUM", c.convert(a, 1, "vector"), c.const(0.0, 1))
+        t0 = reader.value(node, "Temperature") or 0.0
+        t0 = float(np.clip(np.nan_to_num(t0), 0.0, 1e9))
+        t = c.math("MINIMUM", c.math("MULTIPLY", a, c.const(t0, 1)), c.const(1e9, 1))
+        t2 = c.math("MULTIPLY", t, t)
+        sigma = _STEFAN_BOLTZMANN
+        power = c.math("MULTIPLY_ADD", c.math("MULTIPLY", t2, t2), c.const(sigma * intensity, 1),
+                       c.const(sigma * (1.0 - intensity), 1))
+        bb = c.stacked(3)
+        c.ops.append((SVM_BLACKBODY, bb.slot, c.slot(t), 0))
+        e = c.scale(bb, power)
+        e = c.combine(*(c.math("MULTIPLY", c.component(e, k), c.const(float(tint[k]), 1))
+                        for k in range(3)))
+        total = e if total is None else c.combine(
+            *(c.math("ADD", c.component(total, k), c.component(e, k)) for k in range(3)))
+    return total
 
 
 def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0):
@@ -191,7 +230,7 @@ def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0
         if strength > 0:
             medium.emission += weight * strength * np.maximum(
                 np.nan_to_num(reader.value(node, "Emission Color", 3)), 0.0)
-        medium.emission += weight * _blackbody(reader, node)
+        medium.emission += weight * _blackbody(reader, node, medium, weight)
         return
     if kind == "ShaderNodeEmission":
         strength = np.nan_to_num(reader.value(node, "Strength"))
@@ -233,12 +272,17 @@ def _field_program(reader, medium, material) -> bool:
         if g is None:
             return True
         v = None
-    if v is None:
+    if v is None and g is None:          # a constant density, a field for its glow alone
+        v = c.const(1.0, 1)
+    elif v is None:
         v = g
         c.flags |= PROGRAM_GRID          # its majorants: the grid's voxels per cell
     elif g is not None:
         v = c.math("MULTIPLY", v, g)
     c.binds.append((0, 0, 1, c.slot(v)))
+    glow = _glow(c, reader, medium) if medium.glow else None
+    if glow is not None:                 # its emission per metre: the second bind
+        c.binds.append((1, 0, 3, c.slot(glow)))
     c.flags |= PROGRAM_OBJECT          # the object's space: its row exists (export/__init__.py)
     medium.program = c.program()
     if medium.program is None:         # (a graph too large)
@@ -292,6 +336,15 @@ def read_volume(material, reader) -> _Medium | None:
         medium = _constant_medium(reader, sock)
     elif medium.fielded and not _field_program(reader, medium, material):
         medium = _constant_medium(reader, sock)
+    if medium.glow and medium.program is None:
+        # a blackbody emission through a grid beside a constant density: a field of
+        # density 1 (the coefficients as they are) for the emission's program
+        medium.field, medium.fielded = (None, None, (), (None, None)), True
+        if not _field_program(reader, medium, material):
+            medium.glow = []
+    if medium.glow and medium.program is None:
+        reader.warn("the blackbody emission through its Temperature Attribute's grid is left "
+                    "out: its volume's program could not be made")
     if len(medium.g_seen) > 1:
         reader.warn("its volume mixes scattering of different anisotropies; their mean, "
                     "weighted by the scattering, is rendered")
