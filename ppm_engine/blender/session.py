@@ -135,7 +135,7 @@ def emits_nothing(arrays) -> bool:
     check_finite(arrays)
     return not emits_light(arrays, kernel_materials(arrays.materials,
                                                     kernel_nodes(arrays.shader_nodes),
-                                                    world_medium(arrays)))
+                                                    world_medium(arrays), arrays.svm))
 
 
 class Session:

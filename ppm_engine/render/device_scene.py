@@ -161,7 +161,7 @@ class DeviceScene:
         self.prepared = prepared = prepared    # the BVH's triangles, moved as the BVH's
         self.knodes = kernel_nodes(prepared.shader_nodes)
         self.kmaterials = kernel_materials(prepared.materials, self.knodes,
-                                           world_medium(prepared))
+                                           world_medium(prepared), prepared.svm)
         self.used_materials = used_materials(prepared, self.kmaterials.shape[0])
         self.offset_scale = offset_scale(prepared)
         b = self.bvh

@@ -26,7 +26,7 @@ from ppm_engine.scene.arrays import (
     TEX_FLAG_SRGB,
     WORLD_MEDIUM,
 )
-from ppm_engine.scene.shader_program import BOUND
+from ppm_engine.scene.shader_program import BOUND, field_glows
 
 # what a pass needs of a material before it shades a hit (kernels/shared.h Material)
 KMATERIAL_DTYPE = np.dtype([
@@ -253,10 +253,12 @@ def world_medium(scene) -> int:
     return scene.materials.shape[0] - 1 if int(scene.world_shader[1]) & WORLD_MEDIUM else -1
 
 
-def kernel_materials(materials: np.ndarray, nodes: np.ndarray, world: int = -1) -> np.ndarray:
+def kernel_materials(materials: np.ndarray, nodes: np.ndarray, world: int = -1,
+                     svm: np.ndarray | None = None) -> np.ndarray:
     """KMATERIAL_DTYPE rows for the scene's materials; ``nodes`` as kernel_nodes returns
     them (ordered by material); ``world``: the row of the world's medium (world_medium), -1
-    none."""
+    none; ``svm`` the shader programs (a medium whose field program gives its emission is
+    live without constant coefficients)."""
     m = materials.shape[0]
     k = np.zeros(m, KMATERIAL_DTYPE)
     owner = nodes["material"]
@@ -301,8 +303,10 @@ def kernel_materials(materials: np.ndarray, nodes: np.ndarray, world: int = -1) 
         return np.nan_to_num(materials[name].astype(np.float64), nan=0.0,
                              posinf=MAX_COEFFICIENT).clip(0.0, MAX_COEFFICIENT)
     sigma_a, sigma_s, em = coeff("absorption"), coeff("scattering"), coeff("volume_emission")
-    live = (sigma_a.max(axis=1) > 0) | (sigma_s.max(axis=1) > 0) | (em.max(axis=1) > 0)
     field = materials["density_program"] > 0          # a heterogeneous medium: the stack's
+    glows = (field_glows(svm, materials["density_program"]) if svm is not None
+             else np.zeros(m, bool))
+    live = (sigma_a.max(axis=1) > 0) | (sigma_s.max(axis=1) > 0) | (em.max(axis=1) > 0) | glows
     volume = live & ((tr & ~glass) | (glass & ((sigma_s.max(axis=1) > 0)
                                                | (em.max(axis=1) > 0) | field)))
     k["density_program"] = np.where(volume, materials["density_program"], 0)

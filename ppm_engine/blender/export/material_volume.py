@@ -135,7 +135,7 @@ def _blackbody(reader, node, medium=None, weight=1.0) -> np.ndarray:
     grid = _grid(reader, node, "Temperature Attribute")
     if grid is not None:
         if medium is not None and getattr(reader, "fields", True):
-            medium.glow.append((weight, node, grid))
+            medium.glow.append(("blackbody", weight, node, grid))
         else:
             reader.warn(f"the blackbody emission of '{node.name}' through the grid '{grid}' "
                         "(its Temperature Attribute) is not rendered here; it is left out")
@@ -150,34 +150,62 @@ def _blackbody(reader, node, medium=None, weight=1.0) -> np.ndarray:
 
 def _glow(c, reader, medium):
     """The field program's emission per metre (its second bind, 3 floats; kernels/geom/
-    medium_field.h medium_point): the sum over medium.glow of Cycles' blackbody emission with
-    T = Temperature x max(the grid, 0), then max(T, 0) (svm_node_principled_volume), times
-    the mix weight and the object-space density's ``reader.scale``; None: nothing to add."""
+    medium_field.h medium_point): the sum over medium.glow of an emission closure's Strength x
+    Color driven by nodes, and of Cycles' blackbody emission with T = Temperature x max(the
+    grid, 0), then max(T, 0) (svm_node_principled_volume); each times its mix weight and the
+    object-space density's ``reader.scale``; None: nothing to add."""
     total = None
     scale = float(getattr(reader, "scale", 1.0))
-    for weight, node, grid in medium.glow:
-        intensity = float(np.nan_to_num(reader.value(node, "Blackbody Intensity") or 0.0))
-        tint = np.maximum(np.nan_to_num(reader.value(node, "Blackbody Tint", 3)), 0.0)
-        tint = tint * weight * scale
-        a = c.attribute(grid)
-        if a is None or not tint.max() > 0:
+    for kind, weight, node, what in medium.glow:
+        if kind == "emission":
+            ctx, strength, color = what
+            v = c.math("MAXIMUM", c.inp(node, strength, ctx, 1), c.const(0.0, 1))
+            e = c.scale(c.inp(node, color, ctx, 3), c.math("MULTIPLY", v,
+                                                          c.const(weight * scale, 1)))
+        else:
+            e = _blackbody_glow(c, reader, node, what, weight * scale)
+        if e is None:
             continue
-        a = c.math("MAXIMUM", c.convert(a, 1, "vector"), c.const(0.0, 1))
-        t0 = reader.value(node, "Temperature") or 0.0
-        t0 = float(np.clip(np.nan_to_num(t0), 0.0, 1e9))
-        t = c.math("MINIMUM", c.math("MULTIPLY", a, c.const(t0, 1)), c.const(1e9, 1))
-        t2 = c.math("MULTIPLY", t, t)
-        sigma = _STEFAN_BOLTZMANN
-        power = c.math("MULTIPLY_ADD", c.math("MULTIPLY", t2, t2), c.const(sigma * intensity, 1),
-                       c.const(sigma * (1.0 - intensity), 1))
-        bb = c.stacked(3)
-        c.ops.append((SVM_BLACKBODY, bb.slot, c.slot(t), 0))
-        e = c.scale(bb, power)
-        e = c.combine(*(c.math("MULTIPLY", c.component(e, k), c.const(float(tint[k]), 1))
-                        for k in range(3)))
         total = e if total is None else c.combine(
             *(c.math("ADD", c.component(total, k), c.component(e, k)) for k in range(3)))
     return total
+
+
+def _blackbody_glow(c, reader, node, grid, weight):
+    """The Principled Volume's blackbody emission through the grid (_glow), times weight."""
+    intensity = float(np.nan_to_num(reader.value(node, "Blackbody Intensity") or 0.0))
+    tint = np.maximum(np.nan_to_num(reader.value(node, "Blackbody Tint", 3)), 0.0) * weight
+    a = c.attribute(grid)
+    if a is None or not tint.max() > 0:
+        return None
+    a = c.math("MAXIMUM", c.convert(a, 1, "vector"), c.const(0.0, 1))
+    t0 = float(np.clip(np.nan_to_num(reader.value(node, "Temperature") or 0.0), 0.0, 1e9))
+    t = c.math("MINIMUM", c.math("MULTIPLY", a, c.const(t0, 1)), c.const(1e9, 1))
+    t2 = c.math("MULTIPLY", t, t)
+    power = c.math("MULTIPLY_ADD", c.math("MULTIPLY", t2, t2),
+                   c.const(_STEFAN_BOLTZMANN * intensity, 1),
+                   c.const(_STEFAN_BOLTZMANN * (1.0 - intensity), 1))
+    bb = c.stacked(3)
+    c.ops.append((SVM_BLACKBODY, bb.slot, c.slot(t), 0))
+    e = c.scale(bb, power)
+    return c.combine(*(c.math("MULTIPLY", c.component(e, k), c.const(float(tint[k]), 1))
+                       for k in range(3)))
+
+
+def _emission(reader, node, ctx, strength: str, color: str, weight: float, medium) -> None:
+    """An emission closure in the volume (Cycles: Strength x Color where the Strength is above
+    0): constant into medium.emission, or, where either input is driven by nodes (a "flame"
+    grid through an Attribute node, a Noise Texture), recorded in medium.glow for the field
+    program (_glow)."""
+    socks = [node.inputs.get(strength), node.inputs.get(color)]
+    if any(k is not None and reader.graph.source(k, ctx) is not None for k in socks) \
+            and getattr(reader, "fields", True):
+        medium.glow.append(("emission", weight, node, (ctx, strength, color)))
+        return
+    value = np.nan_to_num(reader.value(node, strength) or 0.0)
+    if value > 0:
+        medium.emission += weight * value * np.maximum(
+            np.nan_to_num(reader.value(node, color, 3)), 0.0)
 
 
 def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0):
@@ -226,17 +254,11 @@ def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0
         medium.scatter(weight * color * density, reader.value(node, "Anisotropy") or 0.0)
         medium.absorption += weight * (np.maximum(1.0 - color, 0.0)
                                        * np.maximum(1.0 - absorbing, 0.0) * density)
-        strength = np.nan_to_num(reader.value(node, "Emission Strength") or 0.0)
-        if strength > 0:
-            medium.emission += weight * strength * np.maximum(
-                np.nan_to_num(reader.value(node, "Emission Color", 3)), 0.0)
+        _emission(reader, node, ctx, "Emission Strength", "Emission Color", weight, medium)
         medium.emission += weight * _blackbody(reader, node, medium, weight)
         return
     if kind == "ShaderNodeEmission":
-        strength = np.nan_to_num(reader.value(node, "Strength"))
-        if strength > 0:
-            medium.emission += weight * strength * np.maximum(
-                np.nan_to_num(reader.value(node, "Color", 3)), 0.0)
+        _emission(reader, node, ctx, "Strength", "Color", weight, medium)
         return
     reader.warn(f"the shader '{node.name}' ({node.bl_label}) on the Volume output is not a "
                 "volume shader this engine renders; it is left out of the volume")
@@ -337,14 +359,14 @@ def read_volume(material, reader) -> _Medium | None:
     elif medium.fielded and not _field_program(reader, medium, material):
         medium = _constant_medium(reader, sock)
     if medium.glow and medium.program is None:
-        # a blackbody emission through a grid beside a constant density: a field of
-        # density 1 (the coefficients as they are) for the emission's program
+        # an emission driven by nodes or a temperature grid beside a constant density: a
+        # field of density 1 (the coefficients as they are) for the emission's program
         medium.field, medium.fielded = (None, None, (), (None, None)), True
         if not _field_program(reader, medium, material):
             medium.glow = []
     if medium.glow and medium.program is None:
-        reader.warn("the blackbody emission through its Temperature Attribute's grid is left "
-                    "out: its volume's program could not be made")
+        reader.warn("its volume's emission driven by nodes or a temperature grid is left out: "
+                    "its program could not be made")
     if len(medium.g_seen) > 1:
         reader.warn("its volume mixes scattering of different anisotropies; their mean, "
                     "weighted by the scattering, is rendered")
