@@ -9,6 +9,11 @@
 
 /* --- hashes ------------------------------------------------------------------------------- */
 
+/* x rotated left by k bits, 0 < k < 32 (PoCL calls rotate() out of line) */
+#define TEX_ROTL(x, k) (((x) << (k)) | ((x) >> (32u - (k))))
+/* select(a, b, m) of float8 where m is a relational result (-1 or 0 per lane), bitwise */
+#define TEX_SEL8(a, b, m) as_float8((as_int8(a) & ~(m)) | (as_int8(b) & (m)))
+
 /* Bob Jenkins' lookup3 hash of `n` (1 to 4) 32-bit keys, as Cycles' hash_uint[234] */
 /* (lookup3's rounds three to a line, as Bob Jenkins writes them) */
 /* clang-format off */
@@ -19,22 +24,22 @@ inline uint tex_jenkins(int n, uint4 k) {
     if (n >= 2) b += k.y;
     if (n >= 3) c += k.z;
     if (n == 4) {                                    /* lookup3's mix, then the 4th key */
-        a -= c; a ^= rotate(c, 4u);  c += b;
-        b -= a; b ^= rotate(a, 6u);  a += c;
-        c -= b; c ^= rotate(b, 8u);  b += a;
-        a -= c; a ^= rotate(c, 16u); c += b;
-        b -= a; b ^= rotate(a, 19u); a += c;
-        c -= b; c ^= rotate(b, 4u);  b += a;
+        a -= c; a ^= TEX_ROTL(c, 4u);  c += b;
+        b -= a; b ^= TEX_ROTL(a, 6u);  a += c;
+        c -= b; c ^= TEX_ROTL(b, 8u);  b += a;
+        a -= c; a ^= TEX_ROTL(c, 16u); c += b;
+        b -= a; b ^= TEX_ROTL(a, 19u); a += c;
+        c -= b; c ^= TEX_ROTL(b, 4u);  b += a;
         a += k.w;
     }
     /* lookup3's final */
-    c ^= b; c -= rotate(b, 14u);
-    a ^= c; a -= rotate(c, 11u);
-    b ^= a; b -= rotate(a, 25u);
-    c ^= b; c -= rotate(b, 16u);
-    a ^= c; a -= rotate(c, 4u);
-    b ^= a; b -= rotate(a, 14u);
-    c ^= b; c -= rotate(b, 24u);
+    c ^= b; c -= TEX_ROTL(b, 14u);
+    a ^= c; a -= TEX_ROTL(c, 11u);
+    b ^= a; b -= TEX_ROTL(a, 25u);
+    c ^= b; c -= TEX_ROTL(b, 16u);
+    a ^= c; a -= TEX_ROTL(c, 4u);
+    b ^= a; b -= TEX_ROTL(a, 14u);
+    c ^= b; c -= TEX_ROTL(b, 24u);
     return c;
 }
 /* clang-format on */
@@ -154,20 +159,20 @@ inline float tex_perlin3(float4 p) {
     b += as_uint8((int8)(c.y) + oy);
     h += as_uint8((int8)(c.z) + oz);
     /* clang-format off */
-    h ^= b; h -= rotate(b, (uint8)(14u));
-    a ^= h; a -= rotate(h, (uint8)(11u));
-    b ^= a; b -= rotate(a, (uint8)(25u));
-    h ^= b; h -= rotate(b, (uint8)(16u));
-    a ^= h; a -= rotate(h, (uint8)(4u));
-    b ^= a; b -= rotate(a, (uint8)(14u));
-    h ^= b; h -= rotate(b, (uint8)(24u));
+    h ^= b; h -= TEX_ROTL(b, 14u);
+    a ^= h; a -= TEX_ROTL(h, 11u);
+    b ^= a; b -= TEX_ROTL(a, 25u);
+    h ^= b; h -= TEX_ROTL(b, 16u);
+    a ^= h; a -= TEX_ROTL(h, 4u);
+    b ^= a; b -= TEX_ROTL(a, 14u);
+    h ^= b; h -= TEX_ROTL(b, 24u);
     /* clang-format on */
     int8 k = as_int8(h) & 15;
     float8 dx = (float8)(d.x) - convert_float8(ox), dy = (float8)(d.y) - convert_float8(oy),
            dz = (float8)(d.z) - convert_float8(oz);
-    float8 u = select(dy, dx, k < 8);
-    float8 v = select(select(dz, dx, (k == 12) | (k == 14)), dy, k < 4);
-    float8 g = select(u, -u, (k & 1) != 0) + select(v, -v, (k & 2) != 0);
+    float8 u = TEX_SEL8(dy, dx, k < 8);
+    float8 v = TEX_SEL8(TEX_SEL8(dz, dx, (k == 12) | (k == 14)), dy, k < 4);
+    float8 g = TEX_SEL8(u, -u, (k & 1) != 0) + TEX_SEL8(v, -v, (k & 2) != 0);
     float4 x = mix(g.even, g.odd, (float4)(tex_fade(d.x)));
     float2 y = mix(x.even, x.odd, (float2)(tex_fade(d.y)));
     return mix(y.x, y.y, tex_fade(d.z));
@@ -180,7 +185,10 @@ inline float tex_perlin3(float4 p) {
 __attribute__((noinline)) float tex_snoise(int dim, float4 p) {
     float4 corr = select((float4)(0.0f), (float4)(0.5f),
                          isgreaterequal(fabs(p), (float4)(1000000.0f)));
-    p = fmod(p, (float4)(100000.0f)) + corr;
+    /* (fmod is a loop in PoCL's library, 6 % of a Noise Texture's smoke pass: only where it
+     * changes p) */
+    if (any(isgreaterequal(fabs(p), (float4)(100000.0f)))) p = fmod(p, (float4)(100000.0f));
+    p += corr;
     /* (each dimension its own call: a constant dim unrolls the corner loops into registers) */
     float r = dim == 1   ? tex_perlin(1, p)
               : dim == 2 ? tex_perlin(2, p)
