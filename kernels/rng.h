@@ -76,6 +76,23 @@ inline uint owen_scramble_reversed(uint xr, uint seed) {
     xr ^= xr * 0x53a22864u;
     return reverse_bits(xr);
 }
+/* reverse_bits and owen_scramble_reversed on four lanes at once (ld_set's four coordinates:
+ * PoCL runs them on the vector unit, the same bits) */
+inline uint4 reverse_bits4(uint4 x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
+    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
+    return (x >> 16) | (x << 16);
+}
+inline uint4 owen_scramble_reversed4(uint4 xr, uint4 seed) {
+    xr ^= xr * 0x3d20adeau;
+    xr += seed;
+    xr *= (seed >> 16) | 1u;
+    xr ^= xr * 0x05526c56u;
+    xr ^= xr * 0x53a22864u;
+    return reverse_bits4(xr);
+}
 /* dimensions 1-3 of the Sobol point `index`, bits reversed: bit i's direction numbers added */
 inline void sobol_add_bit(uint index, int i, uint *x1, uint *x2, uint *x3) {
     uint on = 0u - ((index >> i) & 1u);
@@ -99,10 +116,11 @@ inline float4 ld_set(uint pass, uint key, uint set) {
     int bits = (index >> 16) != 0u ? 32 : 16;
     for (int i = 0; i < 16; i++) sobol_add_bit(index, i, &x1, &x2, &x3);
     for (int i = 16; i < bits; i++) sobol_add_bit(index, i, &x1, &x2, &x3);
-    return (float4)(bits_unit(owen_scramble_reversed(index, seed ^ 0x71c3a94du)),
-                    bits_unit(owen_scramble_reversed(x1, seed ^ 0xd46b0e27u)),
-                    bits_unit(owen_scramble_reversed(x2, seed ^ 0x9a5f62b1u)),
-                    bits_unit(owen_scramble_reversed(x3, seed ^ 0x0ce7d8f3u)));
+    uint4 r = owen_scramble_reversed4((uint4)(index, x1, x2, x3),
+                                      (uint4)(seed)
+                                          ^ (uint4)(0x71c3a94du, 0xd46b0e27u, 0x9a5f62b1u,
+                                                    0x0ce7d8f3u));
+    return convert_float4(r >> 8) * (1.0f / 16777216.0f); /* (bits_unit's) */
 }
 /* set `set` of the pixel's stream (key) for pass `pass` while set < LD_SETS (ld_set), four
  * pseudo-random numbers from the generator past them */
