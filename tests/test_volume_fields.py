@@ -205,6 +205,43 @@ def test_bad_density_fields_render_without_nan(bpy, tiny, render_exr, tmp_path):
     assert huge < 0.2 * zero and infinite < 0.2 * zero, (zero, huge, infinite)
 
 
+def test_bad_emission_fields_render_without_nan(bpy, tiny, render_exr, tmp_path):
+    """Emission volumes whose Strength is driven to negative, huge and infinite values (a
+    Gradient through Math nodes): the image finite, a negative Strength emits nothing (Cycles
+    emits where the Strength is above 0), a huge one is bright, an infinite one is clamped
+    (1e30 per metre) rather than NaN."""
+    from tests.helpers.volume_scenes import W, base_scene, volume_material
+    scene = base_scene(camera=((0, 0, 8), (0, 0, 0), 50.0))
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 8.0
+    for k, (name, op, value) in enumerate((("Plain", "MULTIPLY", 1.0),
+                                           ("Negative", "SUBTRACT", 3.0),
+                                           ("Huge", "MULTIPLY", 1e6),
+                                           ("Infinite", "POWER", 1e30))):
+        m = volume_material(name, "ShaderNodeEmission")
+        nt = m.node_tree
+        grad, math = nt.nodes.new("ShaderNodeTexGradient"), nt.nodes.new("ShaderNodeMath")
+        math.operation = op
+        if op == "POWER":         # (1e30 ^ (1 + x): inf in float32)
+            math.inputs[0].default_value = value
+            add = nt.nodes.new("ShaderNodeMath")
+            add.operation, add.inputs[1].default_value = "ADD", 1.0
+            nt.links.new(grad.outputs["Fac"], add.inputs[0])
+            nt.links.new(add.outputs[0], math.inputs[1])
+        else:
+            nt.links.new(grad.outputs["Fac"], math.inputs[0])
+            math.inputs[1].default_value = value
+        nt.links.new(math.outputs[0], nt.nodes["Emission"].inputs["Strength"])
+        cube(name, m, loc=(-3 + 2 * k, 0, 0), size=1.5)
+    tiny(scene, width=W, height=W, passes=4, photons=1024)
+    img = render_exr(tmp_path / "ours.exr")
+    assert np.isfinite(img).all()
+    row = img[W // 2]
+    plain, negative, huge, infinite = (row[int(W * (0.5 + (-3 + 2 * k) / 8))].mean()
+                                       for k in range(4))
+    assert 0.1 < plain < 2.0 and negative == 0.0, (plain, negative)
+    assert huge > 1e4 * plain and infinite > 1e20, (plain, huge, infinite)
+
+
 @pytest.mark.slow
 def test_volume_photons_in_a_density_field(bpy, tiny, render_exr, tmp_path):
     """fog_lens's fog box without its ball, albedo 0.6, its density from a Noise Texture (into
