@@ -40,8 +40,9 @@ inline bool medium_field(const Scene *scene, int mat) {
 #endif
 }
 
-/* whether medium mat's field program also gives its emission (a second bind: a Volume object's
- * blackbody emission through its temperature grid, export/material_volume.py _glow) */
+/* whether medium mat's field program also gives its emission (a second bind: an emission
+ * driven by nodes, a Volume object's blackbody emission through its temperature grid;
+ * export/material_volume.py _glow) */
 inline bool medium_glows(const Scene *scene, int mat) {
 #if PPM_SVM
     return mat >= 0 && scene->materials[mat].density_program > 0
