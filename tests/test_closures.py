@@ -143,9 +143,12 @@ def test_ggx_albedo_table_known_values():
     assert ((t["ggx_E"] > 0) & (t["ggx_E"] <= 1)).all()
 
 
+@pytest.mark.slow
 def test_shipped_ggx_tables_match_a_recomputation(device):
     """The tables in the package data are what kernels/closure/precompute.cl computes (fewer samples
-    here: within their noise)."""
+    here: within their noise).  Slow (4.5 s of a cold default run): the tables change only with
+    precompute.cl or the tool (ppm_engine/tools/make_shading_tables.py); the default run checks
+    the shipped tables' known values by quadrature above."""
     fresh = make_shading_tables.compute(device, ["ggx_E", "glass_E", "schlick_ior_s"],
                                         samples=1 << 12)
     shipped = st.unpack(st.load())

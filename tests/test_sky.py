@@ -128,10 +128,12 @@ SINGLE = [dict(sky_type="SINGLE_SCATTERING", sun_disc=False, sun_elevation=e, su
                                         (2.3, -1.0, 500.0, 1.0, 1.0, 1.0))]
 
 
-# the multiple-scattering variants: 24 s and 14 s of the default run, under -m slow (the
-# default run keeps that model's sun-lit sphere, tests/test_world.py)
-@pytest.mark.parametrize("model", ["SINGLE_SCATTERING",
-                                   pytest.param("MULTIPLE_SCATTERING", marks=pytest.mark.slow)])
+# both models' skies and sun discs against Cycles are under -m slow (the multiple-scattering
+# variants 24 s and 14 s of the default run, the single-scattering ones 7 s and 6 s): the
+# default run keeps each model's sun-lit sphere against Cycles (tests/test_world.py
+# test_sun_disc_sky_direct_light_per_block_as_cycles), which reads the sky and its disc
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["SINGLE_SCATTERING", "MULTIPLE_SCATTERING"])
 def test_scattering_skies_as_cycles(model, render_direct, tmp_path):
     """Five skies without the sun disc (sun elevations -0.05 to 1.2 rad and 2.3 (past the
     zenith: wrapped as Cycles wraps it), rotations, altitudes
@@ -164,8 +166,8 @@ def _offset(sun, angle):
     return np.cos(angle) * sun + np.sin(angle) * up
 
 
-@pytest.mark.parametrize("model", ["SINGLE_SCATTERING",
-                                   pytest.param("MULTIPLE_SCATTERING", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["SINGLE_SCATTERING", "MULTIPLE_SCATTERING"])
 def test_sun_disc_as_cycles(model, cycles, render_exr, tmp_path, tiny):
     """The sun disc of a single- or multiple-scattering world (its Vector is then unavailable: the
     ray's direction), seen by an orthographic camera (every ray one direction): at the centre, at
