@@ -171,6 +171,64 @@ def test_a_fire_grid_s_blackbody_emission_is_its_closed_form(bpy, tiny, render_e
     assert ratio(ours) == pytest.approx(ratio(exact), rel=0.03)
 
 
+# a colour grid over the same voxels (a smoke's "color"), each channel in 0.1-1
+COLORS = np.stack([0.2 + 0.15 * np.arange(6)[:, None, None] + 0.0 * np.arange(5)[None, :, None]
+                   + 0.0 * np.arange(4)[None, None, :],
+                   np.broadcast_to(0.9 - 0.15 * np.arange(5)[None, :, None], (6, 5, 4)),
+                   np.broadcast_to(0.1 + 0.25 * np.arange(4)[None, None, :], (6, 5, 4))],
+                  axis=-1).astype(np.float32)
+SUN = 3.0
+
+
+def _exact_sun_scattering(sub=2, steps=100) -> np.ndarray:
+    """W x W x 3: a sun straight down singly scattered straight back up by the grids: per ray
+    SUN / 4 pi x the integral of Color x colour grid x density x exp(-2 x the optical depth
+    from the top) (the sun's path and the camera's are the same column; index space, where the
+    object's scale cancels), sub x sub rays per pixel."""
+    u = (np.arange(W * sub) + 0.5) / (W * sub) * ORTHO - ORTHO / 2
+    x, y = np.meshgrid(u, -u)
+    c, s = np.cos(TURN), np.sin(TURN)
+    px, py = x - LOC[0], y - LOC[1]
+    ox, oy = (c * px + s * py) / SCALE, (-s * px + c * py) / SCALE
+    fi = ((ox - SHIFT[0]) / VOXEL - IJK[0] + 1).ravel()[:, None]
+    fj = ((oy - SHIFT[1]) / VOXEL - IJK[1] + 1).ravel()[:, None]
+    nz = VALUES.shape[2] + 2
+    fk = (nz - 1 - (np.arange(steps) + 0.5) / steps * (nz - 1))[None, :]
+    dk = (nz - 1) / steps
+    sigma = _trilinear(np.pad(VALUES, 1), fi, fj, fk) * VOXEL
+    tau = np.cumsum(sigma, axis=1) * dk - sigma * dk / 2
+    tint = np.stack([_trilinear(np.pad(COLORS[..., k], 1), fi, fj, fk) for k in range(3)], -1)
+    L = SUN / (4 * np.pi) * (tint * (sigma * np.exp(-2 * tau))[..., None]).sum(axis=1) * dk
+    return L.reshape(W, sub, W, sub, 3).mean(axis=(1, 3))
+
+
+def test_a_smoke_s_colour_grid_is_its_closed_form(bpy, tiny, render_exr, tmp_path):
+    """A smoke's grids (a .vdb with "density" and a vector "color"), a white Principled Volume
+    whose Color Attribute names "color" (Cycles multiplies the Color by it: the scattering
+    colour per point, the extinction still the density), under a sun straight down, seen
+    straight down against a black world: single scattering straight back, SUN / 4 pi x the
+    column's integral of colour x density x exp(-2 x depth) (_exact_sun_scattering): each 4 x 4
+    block within 4.5 % of the brightest pixel (3.0 % measured at 128 passes, 2.2 % at 512: the
+    noise), each channel's mean within 1.5 % (0.996-0.999; the colour varies along x, y and z).
+    Before: the Color alone (white), with a warning."""
+    from tests.helpers.blender_scenes import add_light
+    scene = base_scene(camera=((0, 0, 5), (0, 0, 0), 50.0))
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", ORTHO
+    obj = vdb_volume("Smoke", tmp_path / "smoke.vdb", {"density": (VALUES, VOXEL, IJK, SHIFT),
+                                                       "color": (COLORS, VOXEL, IJK, SHIFT)})
+    obj.data.materials.append(volume_material("Tinted", Color=(1, 1, 1, 1),
+                                              **{"Color Attribute": "color"}))
+    obj.location, obj.rotation_euler, obj.scale = LOC, (0, 0, TURN), (SCALE,) * 3
+    add_light("SUN", "Sun", (0, 0, 3), energy=SUN, angle=0.0)
+    tiny(scene, width=W, height=W, passes=128, photons=256)
+    ours = render_exr(tmp_path / "ours.exr")[..., :3]
+    exact = _exact_sun_scattering()
+    top = exact.max()
+    b4 = lambda a: a.reshape(W // 4, 4, W // 4, 4, 3).mean(axis=(1, 3))
+    np.testing.assert_allclose(b4(ours), b4(exact), atol=0.045 * top)
+    np.testing.assert_allclose(ours.mean(axis=(0, 1)), exact.mean(axis=(0, 1)), rtol=0.015)
+
+
 @pytest.mark.slow
 def test_volume_objects_lit_as_cycles(bpy, cycles, render_exr, tmp_path, tiny):
     """Two geometry-nodes volumes in a room under a point light, direct light and single

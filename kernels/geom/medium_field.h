@@ -43,14 +43,19 @@ inline bool medium_field(const Scene *scene, int mat) {
 /* whether medium mat's field program also gives its emission (a second bind: an emission
  * driven by nodes, a Volume object's blackbody emission through its temperature grid;
  * export/material_volume.py _glow) */
-inline bool medium_glows(const Scene *scene, int mat) {
+inline int field_bind(const Scene *scene, int mat, int which) {
 #if PPM_SVM
-    return mat >= 0 && scene->materials[mat].density_program > 0
-           && scene->svm[scene->materials[mat].density_program].x > 1;
-#else
-    return false;
+    int p = mat >= 0 ? scene->materials[mat].density_program : 0;
+    if (p <= 0) return -1;
+    for (int b = 1; b < scene->svm[p].x; b++)
+        if (scene->svm[p + 1 + b].x == which) return scene->svm[p + 1 + b].w;
 #endif
+    return -1;
 }
+inline bool medium_glows(const Scene *scene, int mat) { return field_bind(scene, mat, 1) >= 0; }
+/* whether its field program gives its scattering's colour per point (bind 2: a Principled
+ * Volume's Color Attribute grid, export/material_volume.py _tint) */
+inline bool medium_tinted(const Scene *scene, int mat) { return field_bind(scene, mat, 2) >= 0; }
 
 /* the density of medium mat's field at P (>= 0; NaN and negative ones 0, as Cycles clamps; 0
  * where mat is none); where glow is given, *glow its emission per metre there (medium_glows),
@@ -58,7 +63,7 @@ inline bool medium_glows(const Scene *scene, int mat) {
  * (numbers rng: a function of a voxel's value, the blackbody's of the temperature, is mixed
  * trilinearly, not the values) */
 __attribute__((noinline)) float medium_point(const Scene *scene, int mat, float3 P, float3 *glow,
-                                             uint *rng) {
+                                             float3 *tint, uint *rng) {
 #if PPM_SVM
     if (mat < 0) return 0.0f;
     __global const Material *mt = scene->materials + mat;
@@ -84,20 +89,21 @@ __attribute__((noinline)) float medium_point(const Scene *scene, int mat, float3
     float stack[PPM_SVM_STACK];
     svm_eval(scene, p, stack, &cx);
     float d = stack[scene->svm[p + 1].w];
-    if (glow) {
-        int e = scene->svm[p].x > 1 ? scene->svm[p + 2].w : -1;
-        float3 g = e >= 0 ? (float3)(stack[e], stack[e + 1], stack[e + 2]) : (float3)(0.0f);
-        *glow = fmin(fmax(g, (float3)(0.0f)), (float3)(1e30f)); /* (NaN: 0) */
+    for (int b = 1; b < scene->svm[p].x; b++) {
+        int4 w = scene->svm[p + 1 + b];
+        float3 v = fmin(fmax((float3)(stack[w.w], stack[w.w + 1], stack[w.w + 2]), (float3)(0.0f)),
+                        (float3)(1e30f)); /* (NaN: 0) */
+        if (w.x == 1 && glow) *glow = v;
+        if (w.x == 2 && tint) *tint = v;
     }
     return d > 0.0f ? fmin(d, 1e30f) : 0.0f;
 #else
-    if (glow) *glow = (float3)(0.0f);
     return 1.0f;
 #endif
 }
 
 inline float medium_density(const Scene *scene, int mat, float3 P) {
-    return medium_point(scene, mat, P, 0, 0);
+    return medium_point(scene, mat, P, 0, 0, 0);
 }
 
 /* numbers for a ray's tracking where its path has none (shadow rays): hashed from the ray */
@@ -254,7 +260,8 @@ inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, 
     float3 ct = x->sigma_a + x->sigma_s, ut = x->unit_a + x->unit_s, ue = x->emission;
     float top = x->field < 0 ? 0.0f : scene->materials[x->field].majorant, mu = mix_bound(x, top);
     bool vary = L && medium_glows(scene, x->field), glow = vary || (L && max3(ue) > 0.0f);
-    float3 ge = (float3)(0.0f);
+    bool tinted = scatter && medium_tinted(scene, x->field);
+    float3 ge = (float3)(0.0f), tn = (float3)(1.0f);
     if (!scatter && !glow && isfinite(t)) { /* the transmittance alone */
         *beta *= medium_transmittance(scene, x, o, d, t, rng);
         return INFINITY;
@@ -269,7 +276,7 @@ inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, 
         if (!(mu > 0.0f)) { /* nothing attenuates here: the emission along it in closed form
                               * (a field's at a point drawn uniformly on it) */
             if (vary && isfinite(end))
-                medium_point(scene, x->field, o + mix(s, end, rnd(rng)) * d, &ge, rng);
+                medium_point(scene, x->field, o + mix(s, end, rnd(rng)) * d, &ge, 0, rng);
             if (glow && isfinite(end)) *L += clamp_sample(*beta * (ue + ge) * (end - s), limit);
             s = end;
             continue;
@@ -279,8 +286,9 @@ inline float medium_track(const Scene *scene, const Mix *x, float3 o, float3 d, 
             float s1 = s - log(1.0f - rnd(rng)) / mu;
             if (!(s1 < end)) break;
             s = s1;
-            float dens = medium_point(scene, x->field, o + s * d, vary ? &ge : 0, rng);
-            float3 ss = x->sigma_s + x->unit_s * dens, sn = mu - (ct + ut * dens);
+            float dens = medium_point(scene, x->field, o + s * d, vary ? &ge : 0, tinted ? &tn : 0,
+                                      rng);
+            float3 ss = x->sigma_s + x->unit_s * tn * dens, sn = mu - (ct + ut * dens);
             if (glow) *L += clamp_sample(*beta * (ue + ge) / mu, limit);
             if (scatter) {
                 float ps = dot(fabs(*beta * ss), (float3)(1.0f)),

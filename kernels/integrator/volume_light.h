@@ -156,7 +156,9 @@ inline float3 volume_equiangular(const Scene *scene, const Segment *sg, const Mi
         float3 tr = (float3)(1.0f);
         uint rng = ray_hash(p, sg->d) ^ as_uint(u.y);
         medium_ratio(scene, x, sg->o, sg->d, s_dist, ratio_rate(s_dist), &rng, &tr);
-        float3 ss = sigma_s + x->unit_s * medium_density(scene, x->field, p);
+        float3 tn = (float3)(1.0f);
+        float dens = medium_point(scene, x->field, p, 0, &tn, 0);
+        float3 ss = sigma_s + x->unit_s * tn * dens;
         return ss * tr * (ph / (pmf_e * pdf_e)) * T * ls.E;
     }
     float3 tr = exp(-sigma_t * s_dist);

@@ -265,13 +265,17 @@ def grid_density(svm: np.ndarray, p: int) -> int | None:
     return int(first[2]) - GEOM_ATTRIBUTE
 
 
+FIELD_DENSITY, FIELD_GLOW, FIELD_TINT = 0, 1, 2   # a density program's binds (their first word)
+
+
 def field_glows(svm: np.ndarray, programs: np.ndarray) -> np.ndarray:
-    """Per density program word (0: none), whether it also gives the medium's emission (a second
-    bind: export/material_volume.py _glow)."""
-    p = np.asarray(programs, np.int64)
-    ok = (p > 0) & (p < svm.shape[0])
-    out = np.zeros(p.shape, bool)
-    out[ok] = svm[p[ok], 0] > 1
+    """Per density program word (0: none), whether it also gives the medium's emission (a bind
+    FIELD_GLOW: export/material_volume.py _glow)."""
+    out = np.zeros(np.shape(programs), bool)
+    for i, p in enumerate(np.asarray(programs, np.int64).ravel()):
+        if 0 < p < svm.shape[0]:
+            out.flat[i] = any(int(svm[p + 1 + b, 0]) == FIELD_GLOW for b in range(int(svm[p, 0]))
+                              if p + 1 + b < svm.shape[0])
     return out
 
 

@@ -1,5 +1,6 @@
 """Small scenes of media for the volume tests (test_volumes.py, test_volume_fields.py): materials
 with a Volume output, boxes and planes, the fog room, and renders by both engines."""
+import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
@@ -160,13 +161,14 @@ def volume_cube(name, material=None, res=8, loc=(0, 0, 0), ramp=1.0):
 
 def vdb_volume(name, path, grids):
     """A Volume object reading the .vdb file ``path`` that this writes with Blender's openvdb
-    module: ``grids`` {name: (values (nx, ny, nz) float32, voxel size, index (i, j, k) of
+    module: ``grids`` {name: (values (nx, ny, nz) float32, or (nx, ny, nz, 3) for a vector
+    grid, voxel size, index (i, j, k) of
     values[0, 0, 0], translation)}."""
     from ppm_engine.blender.export.volume_object import openvdb_module
     ovdb = openvdb_module()
     made = []
     for grid_name, (values, size, ijk, shift) in grids.items():
-        g = ovdb.FloatGrid()
+        g = ovdb.Vec3SGrid() if np.ndim(values) == 4 else ovdb.FloatGrid()
         g.name = grid_name
         g.copyFromArray(values, ijk=ijk)
         t = ovdb.createLinearTransform(voxelSize=size)

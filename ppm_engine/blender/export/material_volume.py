@@ -61,6 +61,8 @@ class _Medium:
         # blackbody emission through a Volume object's grid (its Temperature Attribute):
         # (weight, node, grid) each, the field program's emission (_glow)
         self.glow: list = []
+        # a Color Attribute's grid: (node, grid, Color, its scattering per unit density), _tint
+        self.tint = None
 
     def scatter(self, sigma_s, g):
         sigma_s = np.asarray(sigma_s, np.float64)
@@ -171,6 +173,26 @@ def _glow(c, reader, medium):
     return total
 
 
+def _tint(c, medium):
+    """The factor of the field's scattering per point from a Principled Volume's Color
+    Attribute grid g (Cycles: Color x g scatters, (1 - Color x g) absorbs, the Absorption Color
+    black): g between 0 and 1 / Color per channel, so that the extinction stays the density's
+    (the host's coefficients: Color x density scattering, (1 - Color) x density absorbing);
+    None where the node is not the field's only scattering."""
+    if medium.tint is None:
+        return None
+    _node, grid, color, own = medium.tint
+    if not own.max() > 0 or not np.allclose(own, medium.scattering, rtol=1e-6, atol=0.0):
+        return None
+    a = c.attribute(grid)
+    if a is None:
+        return None
+    cap = [1.0 / x if x > 1e-6 else 1e6 for x in color]
+    return c.combine(*(c.math("MINIMUM", c.math("MAXIMUM", c.component(a, k), c.const(0.0, 1)),
+                              c.const(float(cap[k]), 1))
+                       for k in range(3)))
+
+
 def _blackbody_glow(c, reader, node, grid, weight):
     """The Principled Volume's blackbody emission through the grid (_glow), times weight."""
     intensity = float(np.nan_to_num(reader.value(node, "Blackbody Intensity") or 0.0))
@@ -245,12 +267,20 @@ def _volume_walk(reader, socket, weight: float, medium: _Medium, ctx=(), depth=0
         grid = (_grid(reader, node, "Density Attribute") if dens is not None and (
             reader.graph.source(dens, ctx) is not None or dens.default_value > 0) else None)
         density = _density(reader, node, medium=medium, ctx=ctx, grid=grid)
-        if _grid(reader, node, "Color Attribute") is not None:
-            reader.warn(f"the grid its Color Attribute names ('{node.name}') is not rendered "
-                        "yet; its Color is used")
         color = np.maximum(np.nan_to_num(reader.value(node, "Color", 3)), 0.0)
         absorbing = np.sqrt(np.maximum(np.nan_to_num(reader.value(node, "Absorption Color", 3)),
                                        0.0))
+        tint = _grid(reader, node, "Color Attribute")
+        if tint is not None:
+            # Cycles' Color times the grid: the field program's scattering per point where the
+            # extinction stays the density's (_tint); else its Color alone, said
+            if (medium.fielded and medium.field[0] == node and absorbing.max() == 0.0
+                    and color.max() <= 1.0 and getattr(reader, "fields", True)):
+                medium.tint = (node, tint, color, weight * color * density)
+            else:
+                reader.warn(f"the grid its Color Attribute names ('{node.name}') is rendered "
+                            "only where that node's Density is the volume's field, its "
+                            "Absorption Color black and its Color at most 1; its Color is used")
         medium.scatter(weight * color * density, reader.value(node, "Anisotropy") or 0.0)
         medium.absorption += weight * (np.maximum(1.0 - color, 0.0)
                                        * np.maximum(1.0 - absorbing, 0.0) * density)
@@ -303,8 +333,11 @@ def _field_program(reader, medium, material) -> bool:
         v = c.math("MULTIPLY", v, g)
     c.binds.append((0, 0, 1, c.slot(v)))
     glow = _glow(c, reader, medium) if medium.glow else None
-    if glow is not None:                 # its emission per metre: the second bind
+    if glow is not None:                 # its emission per metre: bind 1
         c.binds.append((1, 0, 3, c.slot(glow)))
+    tint = _tint(c, medium)
+    if tint is not None:                 # its scattering's colour per point: bind 2
+        c.binds.append((2, 0, 3, c.slot(tint)))
     c.flags |= PROGRAM_OBJECT          # the object's space: its row exists (export/__init__.py)
     medium.program = c.program()
     if medium.program is None:         # (a graph too large)
