@@ -56,41 +56,39 @@ __constant uint SOBOL_V[3][32] = {
      0x002a7289u, 0x0079e7dbu, 0x00b6dba4u, 0x0100011au, 0x030002a7u, 0x0400079eu, 0x0a000b6du,
      0x1f001001u, 0x2e003003u, 0x45004004u, 0xc900a00au}};
 /* clang-format on */
+/* x's bits reversed, and Owen scrambling of x's bits by a hash on x's bits reversed (Vegdahl's
+ * hash, "Building a better LK hash", 2021, in place of the Laine-Karras constants of Burley's
+ * paper: it measured closer to Cycles at the Cornell box's lamp edge, docs/BENCHMARKS.md): each
+ * bit of the result is flipped by a function of the seed and the bits above it, so the
+ * stratification of every power-of-two prefix survives.  One body for a uint and for four
+ * lanes (ld_set's four coordinates at once, which PoCL runs on the vector unit; its pass index
+ * on its own, where four lanes measured 2 % slower). */
+#define REVERSE_BITS(x)                                      \
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1); \
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2); \
+    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4); \
+    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8); \
+    x = (x >> 16) | (x << 16)
+#define OWEN_HASH(xr, seed)  \
+    xr ^= xr * 0x3d20adeau;  \
+    xr += seed;              \
+    xr *= (seed >> 16) | 1u; \
+    xr ^= xr * 0x05526c56u;  \
+    xr ^= xr * 0x53a22864u
 inline uint reverse_bits(uint x) {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
-    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
-    return (x >> 16) | (x << 16);
+    REVERSE_BITS(x);
+    return x;
 }
-/* Owen scrambling of x's bits by a hash, on x's bits reversed (Vegdahl's hash, "Building a
- * better LK hash", 2021, in place of the Laine-Karras constants of Burley's paper: it measured
- * closer to Cycles at the Cornell box's lamp edge, docs/BENCHMARKS.md): each bit of the result
- * is flipped by a function of the seed and the bits above it, so the stratification of every
- * power-of-two prefix survives */
+inline uint4 reverse_bits4(uint4 x) {
+    REVERSE_BITS(x);
+    return x;
+}
 inline uint owen_scramble_reversed(uint xr, uint seed) {
-    xr ^= xr * 0x3d20adeau;
-    xr += seed;
-    xr *= (seed >> 16) | 1u;
-    xr ^= xr * 0x05526c56u;
-    xr ^= xr * 0x53a22864u;
+    OWEN_HASH(xr, seed);
     return reverse_bits(xr);
 }
-/* reverse_bits and owen_scramble_reversed on four lanes at once (ld_set's four coordinates:
- * PoCL runs them on the vector unit, the same bits) */
-inline uint4 reverse_bits4(uint4 x) {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
-    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
-    return (x >> 16) | (x << 16);
-}
 inline uint4 owen_scramble_reversed4(uint4 xr, uint4 seed) {
-    xr ^= xr * 0x3d20adeau;
-    xr += seed;
-    xr *= (seed >> 16) | 1u;
-    xr ^= xr * 0x05526c56u;
-    xr ^= xr * 0x53a22864u;
+    OWEN_HASH(xr, seed);
     return reverse_bits4(xr);
 }
 /* dimensions 1-3 of the Sobol point `index`, bits reversed: bit i's direction numbers added */

@@ -40,9 +40,11 @@ inline bool medium_field(const Scene *scene, int mat) {
 #endif
 }
 
-/* whether medium mat's field program also gives its emission (a second bind: an emission
- * driven by nodes, a Volume object's blackbody emission through its temperature grid;
- * export/material_volume.py _glow) */
+/* a density program's binds past its density (their first word: scene/shader_program.py
+ * FIELD_*, tests/test_volume_fields.py checks them), and the stack slot of bind `which` of
+ * medium mat's (-1: none) */
+#define FIELD_GLOW 1
+#define FIELD_TINT 2
 inline int field_bind(const Scene *scene, int mat, int which) {
 #if PPM_SVM
     int p = mat >= 0 ? scene->materials[mat].density_program : 0;
@@ -52,10 +54,17 @@ inline int field_bind(const Scene *scene, int mat, int which) {
 #endif
     return -1;
 }
-inline bool medium_glows(const Scene *scene, int mat) { return field_bind(scene, mat, 1) >= 0; }
-/* whether its field program gives its scattering's colour per point (bind 2: a Principled
+/* whether medium mat's field program also gives its emission (an emission driven by nodes, a
+ * Volume object's blackbody emission through its temperature grid; export/material_volume.py
+ * _glow) */
+inline bool medium_glows(const Scene *scene, int mat) {
+    return field_bind(scene, mat, FIELD_GLOW) >= 0;
+}
+/* whether its field program gives its scattering's colour per point (a Principled
  * Volume's Color Attribute grid, export/material_volume.py _tint) */
-inline bool medium_tinted(const Scene *scene, int mat) { return field_bind(scene, mat, 2) >= 0; }
+inline bool medium_tinted(const Scene *scene, int mat) {
+    return field_bind(scene, mat, FIELD_TINT) >= 0;
+}
 
 /* the density of medium mat's field at P (>= 0; NaN and negative ones 0, as Cycles clamps; 0
  * where mat is none); where glow is given, *glow its emission per metre there (medium_glows),
@@ -93,8 +102,8 @@ __attribute__((noinline)) float medium_point(const Scene *scene, int mat, float3
         int4 w = scene->svm[p + 1 + b];
         float3 v = fmin(fmax((float3)(stack[w.w], stack[w.w + 1], stack[w.w + 2]), (float3)(0.0f)),
                         (float3)(1e30f)); /* (NaN: 0) */
-        if (w.x == 1 && glow) *glow = v;
-        if (w.x == 2 && tint) *tint = v;
+        if (w.x == FIELD_GLOW && glow) *glow = v;
+        if (w.x == FIELD_TINT && tint) *tint = v;
     }
     return d > 0.0f ? fmin(d, 1e30f) : 0.0f;
 #else

@@ -11,6 +11,17 @@
 
 /* x rotated left by k bits, 0 < k < 32 (PoCL calls rotate() out of line) */
 #define TEX_ROTL(x, k) (((x) << (k)) | ((x) >> (32u - (k))))
+/* lookup3's final mix of (a, b, c), c the hash (scalars or vectors of uint alike) */
+/* clang-format off */
+#define TEX_LOOKUP3_FINAL(a, b, c)                     \
+    c ^= b; c -= TEX_ROTL(b, 14u);                     \
+    a ^= c; a -= TEX_ROTL(c, 11u);                     \
+    b ^= a; b -= TEX_ROTL(a, 25u);                     \
+    c ^= b; c -= TEX_ROTL(b, 16u);                     \
+    a ^= c; a -= TEX_ROTL(c, 4u);                      \
+    b ^= a; b -= TEX_ROTL(a, 14u);                     \
+    c ^= b; c -= TEX_ROTL(b, 24u)
+/* clang-format on */
 /* select(a, b, m) of float8 where m is a relational result (-1 or 0 per lane), bitwise */
 #define TEX_SEL8(a, b, m) as_float8((as_int8(a) & ~(m)) | (as_int8(b) & (m)))
 
@@ -32,14 +43,7 @@ inline uint tex_jenkins(int n, uint4 k) {
         c -= b; c ^= TEX_ROTL(b, 4u);  b += a;
         a += k.w;
     }
-    /* lookup3's final */
-    c ^= b; c -= TEX_ROTL(b, 14u);
-    a ^= c; a -= TEX_ROTL(c, 11u);
-    b ^= a; b -= TEX_ROTL(a, 25u);
-    c ^= b; c -= TEX_ROTL(b, 16u);
-    a ^= c; a -= TEX_ROTL(c, 4u);
-    b ^= a; b -= TEX_ROTL(a, 14u);
-    c ^= b; c -= TEX_ROTL(b, 24u);
+    TEX_LOOKUP3_FINAL(a, b, c);
     return c;
 }
 /* clang-format on */
@@ -158,15 +162,7 @@ inline float tex_perlin3(float4 p) {
     a += as_uint8((int8)(c.x) + ox);
     b += as_uint8((int8)(c.y) + oy);
     h += as_uint8((int8)(c.z) + oz);
-    /* clang-format off */
-    h ^= b; h -= TEX_ROTL(b, 14u);
-    a ^= h; a -= TEX_ROTL(h, 11u);
-    b ^= a; b -= TEX_ROTL(a, 25u);
-    h ^= b; h -= TEX_ROTL(b, 16u);
-    a ^= h; a -= TEX_ROTL(h, 4u);
-    b ^= a; b -= TEX_ROTL(a, 14u);
-    h ^= b; h -= TEX_ROTL(b, 24u);
-    /* clang-format on */
+    TEX_LOOKUP3_FINAL(a, b, h);
     int8 k = as_int8(h) & 15;
     float8 dx = (float8)(d.x) - convert_float8(ox), dy = (float8)(d.y) - convert_float8(oy),
            dz = (float8)(d.z) - convert_float8(oz);

@@ -8,7 +8,14 @@ from __future__ import annotations
 import numpy as np
 
 from ppm_engine.blender.export.shader_graph import Compiler
-from ppm_engine.scene.shader_program import PROGRAM_GRID, PROGRAM_OBJECT, SVM_BLACKBODY
+from ppm_engine.scene.shader_program import (
+    FIELD_DENSITY,
+    FIELD_GLOW,
+    FIELD_TINT,
+    PROGRAM_GRID,
+    PROGRAM_OBJECT,
+    SVM_BLACKBODY,
+)
 from ppm_engine.scene.spectra import blackbody_rgb
 
 _MAX_DEPTH = 64
@@ -331,13 +338,13 @@ def _field_program(reader, medium, material) -> bool:
         c.flags |= PROGRAM_GRID          # its majorants: the grid's voxels per cell
     elif g is not None:
         v = c.math("MULTIPLY", v, g)
-    c.binds.append((0, 0, 1, c.slot(v)))
+    c.binds.append((FIELD_DENSITY, 0, 1, c.slot(v)))
     glow = _glow(c, reader, medium) if medium.glow else None
-    if glow is not None:                 # its emission per metre: bind 1
-        c.binds.append((1, 0, 3, c.slot(glow)))
+    if glow is not None:                 # its emission per metre
+        c.binds.append((FIELD_GLOW, 0, 3, c.slot(glow)))
     tint = _tint(c, medium)
-    if tint is not None:                 # its scattering's colour per point: bind 2
-        c.binds.append((2, 0, 3, c.slot(tint)))
+    if tint is not None:                 # its scattering's colour per point
+        c.binds.append((FIELD_TINT, 0, 3, c.slot(tint)))
     c.flags |= PROGRAM_OBJECT          # the object's space: its row exists (export/__init__.py)
     medium.program = c.program()
     if medium.program is None:         # (a graph too large)
