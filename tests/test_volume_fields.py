@@ -164,15 +164,59 @@ def test_object_rows_are_the_kernels():
     assert int(re.search(r"#define OBJECT_ROWS (\d+)", src).group(1)) == OBJECT_ROWS
 
 
+# the bad values of the two tests below: a Gradient's Fac through Math nodes, four cubes in a row
+def _through_math(nt, fac, op, value):
+    """The output of Math nodes taking ``fac`` to ``fac op value``, or for POWER to value ^ (1 +
+    fac) (1e30 ^ (1 + x): inf in float32)."""
+    math = nt.nodes.new("ShaderNodeMath")
+    math.operation = op
+    if op == "POWER":
+        math.inputs[0].default_value = value
+        add = nt.nodes.new("ShaderNodeMath")
+        add.operation, add.inputs[1].default_value = "ADD", 1.0
+        nt.links.new(fac, add.inputs[0])
+        nt.links.new(add.outputs[0], math.inputs[1])
+    else:
+        nt.links.new(fac, math.inputs[0])
+        math.inputs[1].default_value = value
+    return math.outputs[0]
+
+
+def _cube_row_scene():
+    """An orthographic camera 8 m above, looking down on 8 m: cube k at x = -3 + 2 k."""
+    from tests.helpers.volume_scenes import base_scene
+    scene = base_scene(camera=((0, 0, 8), (0, 0, 0), 50.0))
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 8.0
+    return scene
+
+
+def _cube_values(img, W):
+    """The four cubes' pixels at the image's middle row (each its centre's mean of RGB)."""
+    row = img[W // 2]
+    return [row[int(W * (0.5 + (-3 + 2 * k) / 8))].mean() for k in range(4)]
+
+
+def test_field_binds_are_the_kernels():
+    """The density programs' binds past the density (shader_program.FIELD_*) as
+    kernels/geom/medium_field.h numbers them."""
+    import re
+    from pathlib import Path
+
+    from ppm_engine.scene.shader_program import FIELD_DENSITY, FIELD_GLOW, FIELD_TINT
+    src = (Path(__file__).parents[1] / "kernels/geom/medium_field.h").read_text()
+    for name, value in (("FIELD_GLOW", FIELD_GLOW), ("FIELD_TINT", FIELD_TINT)):
+        assert int(re.search(rf"#define {name} (\d+)", src).group(1)) == value
+    assert FIELD_DENSITY == 0 and "svm[p + 1].w" in src      # the density: the first bind
+
+
 def test_bad_density_fields_render_without_nan(bpy, tiny, render_exr, tmp_path):
     """Density fields of 0, 1e6, negative and infinite values (a Gradient through Math nodes,
     as a node graph can make them; Cycles clamps a negative density to 0): the image finite and
     in time, the zero and negative cubes show the lit floor, the huge and infinite ones are dark
     (their majorants 1e6 x 1.25 and the largest coefficient)."""
     from tests.helpers.blender_scenes import add_light
-    from tests.helpers.volume_scenes import W, base_scene, diffuse, plane, volume_material
-    scene = base_scene(camera=((0, 0, 8), (0, 0, 0), 50.0))
-    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 8.0
+    from tests.helpers.volume_scenes import W, diffuse, plane, volume_material
+    scene = _cube_row_scene()
     plane("Floor", diffuse("Grey", (0.6, 0.6, 0.6)), (0, 0, -1.5), size=10.0)
     for k, (name, op, value) in enumerate((("Zero", "MULTIPLY", 0.0),
                                            ("Huge", "MULTIPLY", 1e6),
@@ -180,27 +224,15 @@ def test_bad_density_fields_render_without_nan(bpy, tiny, render_exr, tmp_path):
                                            ("Infinite", "POWER", 1e30))):
         m = volume_material(name, "ShaderNodeVolumeScatter")
         grad = drive_density(m, "Volume Scatter", "ShaderNodeTexGradient")
-        math = m.node_tree.nodes.new("ShaderNodeMath")
-        math.operation = op
-        if op == "POWER":         # (1e30 ^ (1 + x): inf in float32)
-            math.inputs[0].default_value = value
-            add = m.node_tree.nodes.new("ShaderNodeMath")
-            add.operation, add.inputs[1].default_value = "ADD", 1.0
-            m.node_tree.links.new(grad.outputs["Fac"], add.inputs[0])
-            m.node_tree.links.new(add.outputs[0], math.inputs[1])
-        else:
-            m.node_tree.links.new(grad.outputs["Fac"], math.inputs[0])
-            math.inputs[1].default_value = value
-        m.node_tree.links.new(math.outputs[0], m.node_tree.nodes["Volume Scatter"]
-                              .inputs["Density"])
+        nt = m.node_tree
+        nt.links.new(_through_math(nt, grad.outputs["Fac"], op, value),
+                     nt.nodes["Volume Scatter"].inputs["Density"])
         cube(name, m, loc=(-3 + 2 * k, 0, 0), size=1.5)
     add_light("SUN", "Sun", (0, 0, 0), energy=3.0)
     tiny(scene, width=W, height=W, passes=4, photons=1024)
     img = render_exr(tmp_path / "ours.exr")
     assert np.isfinite(img).all()
-    row = img[W // 2]
-    zero, huge, negative, infinite = (row[int(W * (0.5 + (-3 + 2 * k) / 8))].mean()
-                                      for k in range(4))
+    zero, huge, negative, infinite = _cube_values(img, W)
     assert zero > 0.05 and negative > 0.9 * zero, (zero, negative)
     assert huge < 0.2 * zero and infinite < 0.2 * zero, (zero, huge, infinite)
 
@@ -210,34 +242,22 @@ def test_bad_emission_fields_render_without_nan(bpy, tiny, render_exr, tmp_path)
     Gradient through Math nodes): the image finite, a negative Strength emits nothing (Cycles
     emits where the Strength is above 0), a huge one is bright, an infinite one is clamped
     (1e30 per metre) rather than NaN."""
-    from tests.helpers.volume_scenes import W, base_scene, volume_material
-    scene = base_scene(camera=((0, 0, 8), (0, 0, 0), 50.0))
-    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 8.0
+    from tests.helpers.volume_scenes import W, volume_material
+    scene = _cube_row_scene()
     for k, (name, op, value) in enumerate((("Plain", "MULTIPLY", 1.0),
                                            ("Negative", "SUBTRACT", 3.0),
                                            ("Huge", "MULTIPLY", 1e6),
                                            ("Infinite", "POWER", 1e30))):
         m = volume_material(name, "ShaderNodeEmission")
         nt = m.node_tree
-        grad, math = nt.nodes.new("ShaderNodeTexGradient"), nt.nodes.new("ShaderNodeMath")
-        math.operation = op
-        if op == "POWER":         # (1e30 ^ (1 + x): inf in float32)
-            math.inputs[0].default_value = value
-            add = nt.nodes.new("ShaderNodeMath")
-            add.operation, add.inputs[1].default_value = "ADD", 1.0
-            nt.links.new(grad.outputs["Fac"], add.inputs[0])
-            nt.links.new(add.outputs[0], math.inputs[1])
-        else:
-            nt.links.new(grad.outputs["Fac"], math.inputs[0])
-            math.inputs[1].default_value = value
-        nt.links.new(math.outputs[0], nt.nodes["Emission"].inputs["Strength"])
+        grad = nt.nodes.new("ShaderNodeTexGradient")
+        nt.links.new(_through_math(nt, grad.outputs["Fac"], op, value),
+                     nt.nodes["Emission"].inputs["Strength"])
         cube(name, m, loc=(-3 + 2 * k, 0, 0), size=1.5)
     tiny(scene, width=W, height=W, passes=4, photons=1024)
     img = render_exr(tmp_path / "ours.exr")
     assert np.isfinite(img).all()
-    row = img[W // 2]
-    plain, negative, huge, infinite = (row[int(W * (0.5 + (-3 + 2 * k) / 8))].mean()
-                                       for k in range(4))
+    plain, negative, huge, infinite = _cube_values(img, W)
     assert 0.1 < plain < 2.0 and negative == 0.0, (plain, negative)
     assert huge > 1e4 * plain and infinite > 1e20, (plain, huge, infinite)
 

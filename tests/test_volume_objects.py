@@ -41,19 +41,25 @@ def _glow_wall():
     plane("Wall", wall, (0, 0, -2), size=8.0)
 
 
+def _padded_index_xy(sub):
+    """(fi, fj), (W sub, W sub) rows top-down: the grid's padded index coordinates (voxel -1 at
+    0) of the points sub x sub per pixel that the orthographic camera looking straight down
+    sees, the object moved, turned and scaled."""
+    u = (np.arange(W * sub) + 0.5) / (W * sub) * ORTHO - ORTHO / 2
+    x, y = np.meshgrid(u, -u)                                # rows top-down
+    c, s = np.cos(TURN), np.sin(TURN)
+    px, py = x - LOC[0], y - LOC[1]
+    ox, oy = (c * px + s * py) / SCALE, (-s * px + c * py) / SCALE
+    return (ox - SHIFT[0]) / VOXEL - IJK[0] + 1, (oy - SHIFT[1]) / VOXEL - IJK[1] + 1
+
+
 def _exact_transmittance(sub=8) -> np.ndarray:
     """W x W: exp(-optical depth) seen straight down through the grid, averaged over sub x sub
     points per pixel: along z the trilinear density integrates to the voxel size x the column's
     sum (each voxel's hat), between columns bilinearly (0 beyond the grid's last voxel +- 1);
     in world units the column is SCALE x longer and its density 1 / SCALE."""
     cols = np.pad(VALUES.sum(axis=2) * VOXEL, 1)           # columns -1 .. n
-    u = (np.arange(W * sub) + 0.5) / (W * sub) * ORTHO - ORTHO / 2
-    x, y = np.meshgrid(u, -u)                                # rows top-down
-    c, s = np.cos(TURN), np.sin(TURN)
-    px, py = x - LOC[0], y - LOC[1]
-    ox, oy = (c * px + s * py) / SCALE, (-s * px + c * py) / SCALE
-    fi = (ox - SHIFT[0]) / VOXEL - IJK[0] + 1                # index in the padded columns
-    fj = (oy - SHIFT[1]) / VOXEL - IJK[1] + 1
+    fi, fj = _padded_index_xy(sub)
     i0, j0 = np.floor(fi).astype(int), np.floor(fj).astype(int)
     ti, tj = fi - i0, fj - j0
 
@@ -113,30 +119,32 @@ def _trilinear(values, fi, fj, fk):
     return out
 
 
-def _exact_glow(sub=2, steps=100) -> np.ndarray:
-    """W x W x 3: the blackbody emission of the grids seen straight down, integrated along each
-    ray with its transmittance (midpoint rule in the grid's index space, where the object's
-    scale cancels: emission and absorption per metre both scale by 1 / SCALE), averaged over
-    sub x sub rays per pixel.  The emission is the trilinear mix of each voxel's (Cycles reads
-    the temperature stochastically, one voxel with its trilinear weight: 1.6-2.5x brighter than
-    the emission of the interpolated temperature here), the density trilinear."""
-    from ppm_engine.scene.spectra import blackbody_rgb
-    u = (np.arange(W * sub) + 0.5) / (W * sub) * ORTHO - ORTHO / 2
-    x, y = np.meshgrid(u, -u)
-    c, s = np.cos(TURN), np.sin(TURN)
-    px, py = x - LOC[0], y - LOC[1]
-    ox, oy = (c * px + s * py) / SCALE, (-s * px + c * py) / SCALE
-    fi = ((ox - SHIFT[0]) / VOXEL - IJK[0] + 1).ravel()[:, None]
-    fj = ((oy - SHIFT[1]) / VOXEL - IJK[1] + 1).ravel()[:, None]
+def _columns(sub, steps):
+    """The straight-down rays' samples for the midpoint rule in the grid's padded index space
+    (where the object's scale cancels: coefficients per metre scale by 1 / SCALE): (fi, fj) one
+    row per ray, fk one column per step from the top, dk the step, the density per index unit
+    sigma (trilinear) and the optical depth tau from the top to each sample."""
+    fi, fj = (f.ravel()[:, None] for f in _padded_index_xy(sub))
     nz = VALUES.shape[2] + 2
     fk = (nz - 1 - (np.arange(steps) + 0.5) / steps * (nz - 1))[None, :]   # top down
     dk = (nz - 1) / steps
-    sigma = _trilinear(np.pad(VALUES, 1), fi, fj, fk) * VOXEL           # per index unit
+    sigma = _trilinear(np.pad(VALUES, 1), fi, fj, fk) * VOXEL
+    tau = np.cumsum(sigma, axis=1) * dk - sigma * dk / 2
+    return fi, fj, fk, dk, sigma, tau
+
+
+def _exact_glow(sub=2, steps=100) -> np.ndarray:
+    """W x W x 3: the blackbody emission of the grids seen straight down, integrated along each
+    ray with its transmittance (_columns), averaged over sub x sub rays per pixel.  The
+    emission is the trilinear mix of each voxel's (Cycles reads the temperature
+    stochastically, one voxel with its trilinear weight: 1.6-2.5x brighter than the emission of
+    the interpolated temperature here), the density trilinear."""
+    from ppm_engine.scene.spectra import blackbody_rgb
+    fi, fj, fk, dk, _sigma, tau = _columns(sub, steps)
     temp = 1000.0 * np.float32(TEMPS)
     rgb = np.array([blackbody_rgb(t) for t in temp.ravel()]).reshape(*temp.shape, 3)
     voxel_glow = np.pad(SIGMA_SB * temp[..., None] ** 4 * rgb, ((1, 1),) * 3 + ((0, 0),))
     glow = np.stack([_trilinear(voxel_glow[..., k], fi, fj, fk) for k in range(3)], -1) * VOXEL
-    tau = np.cumsum(sigma, axis=1) * dk - sigma * dk / 2
     L = (glow * np.exp(-tau)[..., None]).sum(axis=1) * dk
     return L.reshape(W, sub, W, sub, 3).mean(axis=(1, 3))
 
@@ -183,20 +191,9 @@ SUN = 3.0
 def _exact_sun_scattering(sub=2, steps=100) -> np.ndarray:
     """W x W x 3: a sun straight down singly scattered straight back up by the grids: per ray
     SUN / 4 pi x the integral of Color x colour grid x density x exp(-2 x the optical depth
-    from the top) (the sun's path and the camera's are the same column; index space, where the
-    object's scale cancels), sub x sub rays per pixel."""
-    u = (np.arange(W * sub) + 0.5) / (W * sub) * ORTHO - ORTHO / 2
-    x, y = np.meshgrid(u, -u)
-    c, s = np.cos(TURN), np.sin(TURN)
-    px, py = x - LOC[0], y - LOC[1]
-    ox, oy = (c * px + s * py) / SCALE, (-s * px + c * py) / SCALE
-    fi = ((ox - SHIFT[0]) / VOXEL - IJK[0] + 1).ravel()[:, None]
-    fj = ((oy - SHIFT[1]) / VOXEL - IJK[1] + 1).ravel()[:, None]
-    nz = VALUES.shape[2] + 2
-    fk = (nz - 1 - (np.arange(steps) + 0.5) / steps * (nz - 1))[None, :]
-    dk = (nz - 1) / steps
-    sigma = _trilinear(np.pad(VALUES, 1), fi, fj, fk) * VOXEL
-    tau = np.cumsum(sigma, axis=1) * dk - sigma * dk / 2
+    from the top) (the sun's path and the camera's are the same column; _columns), sub x sub
+    rays per pixel."""
+    fi, fj, fk, dk, sigma, tau = _columns(sub, steps)
     tint = np.stack([_trilinear(np.pad(COLORS[..., k], 1), fi, fj, fk) for k in range(3)], -1)
     L = SUN / (4 * np.pi) * (tint * (sigma * np.exp(-2 * tau))[..., None]).sum(axis=1) * dk
     return L.reshape(W, sub, W, sub, 3).mean(axis=(1, 3))
