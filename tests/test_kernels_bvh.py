@@ -9,7 +9,7 @@ import pyopencl as cl
 
 from ppm_engine.oracle import reference as ref
 from ppm_engine.oracle.procedural import MeshBuilder, look_at
-from ppm_engine.render.bvh import BVH
+from ppm_engine.render.bvh import BVH, BVH4_EMPTY, collapse4
 from ppm_engine.render.device import get_device
 from ppm_engine.render.device_scene import placeholders
 from ppm_engine.scene.camera import make_camera
@@ -159,7 +159,7 @@ def test_bvh_host_primitives_build_the_device_s_tree(device, method, monkeypatch
     for limit in (1 << 14, 0):                 # the host's primitives, then the device's
         monkeypatch.setattr(BVH, "HOST_PRIMITIVES", limit)
         bvh = BVH(device, scene, method=method)
-        nodes = np.empty((2999, 4, 4), np.uint32)          # (w holds child indices)
+        nodes = np.empty((bvh.n_nodes, 7, 4), np.uint32)   # (row 6 holds child indices)
         cl.enqueue_copy(q, nodes, bvh.nodes)
         trees.append((nodes, bvh.leaf_order, bvh.cost, _trace(device, bvh, o, d,
                                                               np.full(3000, 1e30))))
@@ -188,3 +188,71 @@ def test_bvh_visibility_mask(device):
     t_ref, _i_ref = ref.closest_hits(o, d, tmax, scene.positions[keep])
     assert ((t >= 0) == (t_ref >= 0)).mean() > 0.999
     assert (vis[idx[t >= 0]] == 1).all()
+
+
+# --- the 4-wide tree -----------------------------------------------------------------------------
+def test_collapse4_opens_the_largest_boxes_first():
+    """collapse4 on a small tree whose answer is known: the root's two children, then the larger
+    internal one opened (area 10), then the larger of the three (5)."""
+    left = np.array([1, ~0, 3, ~2, ~4], np.int32)
+    right = np.array([2, ~1, 4, ~3, ~5], np.int32)
+    area = np.array([20.0, 1.0, 10.0, 5.0, 2.0])
+    src, child = collapse4(left, right, area)
+    e = BVH4_EMPTY
+    assert src.tolist() == [[1, ~2, 4, ~3], [~0, ~1, e, e], [~4, ~5, e, e]]
+    assert child.tolist() == [[1, ~2, 2, ~3], [~0, ~1, 0, 0], [~4, ~5, 0, 0]]
+
+
+def test_collapse4_keeps_every_leaf_once():
+    """On a random binary tree of 3,000 leaves: every leaf under the root exactly once, every
+    node with two to four children and with fewer than four only when none is internal (the
+    greedy collapse opened all it could), each internal child a later node (the level order)."""
+    rng = np.random.default_rng(5)
+    n = 3000
+    left, right = np.zeros(n - 1, np.int32), np.zeros(n - 1, np.int32)
+    todo, count = [(0, 0, n)], 1          # (node, first leaf, leaves)
+    while todo:
+        node, first, size = todo.pop()
+        cut = int(rng.integers(1, size))
+        for side, (f, s) in ((left, (first, cut)), (right, (first + cut, size - cut))):
+            if s == 1:
+                side[node] = ~f
+            else:
+                side[node] = count
+                todo.append((count, f, s))
+                count += 1
+    src, child = collapse4(left, right, rng.uniform(0.1, 1.0, n - 1))
+    seen, stack = [], [0]
+    while stack:
+        j = stack.pop()
+        kids = child[j][child[j] != 0]
+        assert 2 <= kids.size <= 4
+        assert kids.size == 4 or (kids < 0).all()
+        assert (kids[kids > 0] > j).all()
+        seen += [~k for k in kids[kids < 0]]
+        stack += kids[kids > 0].tolist()
+    assert sorted(seen) == list(range(n))
+    assert ((src == BVH4_EMPTY) == (child == 0)).all()
+
+
+@pytest.mark.parametrize("order", [(0, 1), (1, 0)])
+def test_bvh_coincident_faces_the_one_the_ray_leaves_first(device, order):
+    """A glass block's bottom face on a floor: two triangles in one plane, facing apart.  A ray
+    down from above (inside the block) meets both at the same t and must get the face it leaves
+    (the block's: facing down), a ray up from below the floor's, whichever comes first in the
+    scene or the tree (tri_hit's ties)."""
+    floor = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0]], np.float64)      # facing +z
+    bottom = floor[[0, 2, 1]]                                             # the same, facing -z
+    tris = np.stack([floor, bottom])[list(order)]
+    mb = MeshBuilder()
+    mb.add(tris, mb.material("m"))
+    mb.add(np.array([[[5, 5, 5], [6, 5, 5], [5, 6, 5]]], np.float64), mb.material("m"))
+    scene = mb.build(camera=make_camera(width=4, height=4, to_world=np.eye(4)[:3], extent=(1, 1)))
+    bvh = BVH(device, scene)
+    xy = np.array([[0.25, 0.25], [0.5, 0.75], [1.0, 0.5], [0.125, 1.5]])
+    o = np.r_[np.c_[xy, np.ones(4)], np.c_[xy, -np.ones(4)]]
+    d = np.r_[np.tile([0.0, 0.0, -1.0], (4, 1)), np.tile([0.0, 0.0, 1.0], (4, 1))]
+    t, idx = _trace(device, bvh, o, d, np.full(8, 1e30))
+    np.testing.assert_array_equal(t, 1.0)
+    down_face, up_face = order.index(1), order.index(0)   # the face each ray leaves
+    assert idx[:4].tolist() == [down_face] * 4 and idx[4:].tolist() == [up_face] * 4

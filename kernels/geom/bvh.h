@@ -6,22 +6,51 @@
 /* Triangles in BVH leaf order, three float4 each (bvh_build.cl, reorder_triangles):
  *   v0 = (p0, as_float(original triangle index)), e1 = (p1 - p0, as_float(visibility bits)),
  *   e2 = (p2 - p0, as_float(material index)).
- * Nodes: 4 float4 per internal node, both children's boxes stored in the parent:
- *   (lmin, as_float(left)), (lmax, as_float(right)), (rmin, 0), (rmax, 0);
- * child >= 0 is an internal node, child < 0 is the leaf ~child (one triangle per leaf). */
+ * Nodes: 4-wide (ppm_engine/render/bvh.py collapses the binary tree the build makes), 7 float4
+ * each: the four children's boxes by axis, (xmin, xmax, ymin, ymax, zmin, zmax), one child per
+ * lane, then the children as_int4: > 0 an internal node, < 0 the leaf ~k (one triangle per
+ * leaf), 0 no child (its box inverted: the root is no one's child).  A ray tests the four boxes
+ * at once in the vector lanes (Embree's layout; Wald et al., "Getting Rid of Packets", 2008). */
 #define BVH_STACK 64
+#define BVH_NODE 7
 /* min and max of the slabs' distances by compares (finite: fmin's NaN rule not needed) */
 #define BVH_MIN(a, b) ((a) < (b) ? (a) : (b))
 #define BVH_MAX(a, b) ((a) > (b) ? (a) : (b))
+/* bvh_intersect's steps: a leaf child met (c < 0) tested; entries (t, c) ordered by t; an
+ * entry stacked when met (t finite) */
+#define BVH_LEAF(c)                                                \
+    if ((c) < 0) {                                                 \
+        leaf_test(tri_v0, tri_e1, tri_e2, ~(c), o, d, mask, &hit); \
+        if (any_hit && hit.leaf >= 0) return hit;                  \
+    }
+#define BVH_CSWAP(ta, ca, tb, cb) \
+    if ((tb) < (ta)) {            \
+        float t_ = ta;            \
+        int c_ = ca;              \
+        ta = tb;                  \
+        ca = cb;                  \
+        tb = t_;                  \
+        cb = c_;                  \
+    }
+#define BVH_PUSH(t, c)                                                             \
+    if ((t) < INFINITY) {                                                          \
+        stack[sp] = c;                                                             \
+        stack_t[sp] = t;                                                           \
+        sp += sp < BVH_STACK - 1 ? 1 : 0; /* full: the last slot is overwritten */ \
+    }
 
 typedef struct {
     float t, u, v;
     int leaf;         /* index into the leaf-ordered triangle arrays, -1 = miss */
 } Hit;
 
-/* Moeller-Trumbore; returns t in (tmin, tmax) or -1 */
-inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float tmax, float *u,
-                     float *v) {
+/* Moeller-Trumbore; returns t in (0, tmax) or -1.  With ties set (tmax is a hit's), also t ==
+ * tmax where the ray leaves the triangle's front side (det < 0: d . (e1 x e2) > 0): of two
+ * coincident faces (a glass block resting on a floor, two boxes stacked) the one the ray leaves
+ * comes first, as the ray must leave one object before it meets what touches it from outside,
+ * whatever order the traversal tests them in. */
+inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float tmax, bool ties,
+                     float *u, float *v) {
     float3 p = cross(d, e2);
     float det = dot(e1, p);
     if (det == 0.0f || !isfinite(det)) return -1.0f;
@@ -33,7 +62,7 @@ inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float 
     float vv = dot(d, q) * inv;
     if (vv < 0.0f || uu + vv > 1.0f) return -1.0f;
     float t = dot(e2, q) * inv;
-    if (!(t > 0.0f && t < tmax)) return -1.0f;
+    if (!(t > 0.0f && (t < tmax || (ties && t == tmax && det < 0.0f)))) return -1.0f;
     *u = uu;
     *v = vv;
     return t;
@@ -46,7 +75,7 @@ inline void leaf_test(__global const float4 *tri_v0, __global const float4 *tri_
     if ((as_uint(e1.w) & mask) == 0u) return;
     float4 v0 = tri_v0[k], e2 = tri_e2[k];
     float u, v;
-    float t = tri_hit(o, d, v0.xyz, e1.xyz, e2.xyz, hit->t, &u, &v);
+    float t = tri_hit(o, d, v0.xyz, e1.xyz, e2.xyz, hit->t, hit->leaf >= 0, &u, &v);
     if (t > 0.0f) {
         hit->t = t;
         hit->u = u;
@@ -58,12 +87,15 @@ inline void leaf_test(__global const float4 *tri_v0, __global const float4 *tri_
 /* Closest hit along o + t d, 0 < t < tmax, among triangles whose visibility has a bit of mask.
  * With any_hit set it returns at the first hit (shadow rays).  The slabs are computed as
  * bound * inv_d - o * inv_d (one multiply-add per plane): 1.5x the rays per second of
- * (bound - o) * inv_d on PoCL (docs/BENCHMARKS.md).  A zero direction component becomes
- * +-2^-64 (inv_d finite, 2^64): with an infinite inv_d, bound * inf - o * inf is inf - inf =
- * NaN and an axis-parallel ray (an orthographic camera's) would miss flat boxes.  The BVH's
- * arrays are read from the scene once, into locals: the loop stores to private memory (the
- * stack, the hit), which a compiler cannot tell apart from the Scene struct the pointer
- * reaches, so a field read in the loop would be read again at every node. */
+ * (bound - o) * inv_d on PoCL (docs/BENCHMARKS.md), the near plane of each axis picked once
+ * per ray by the direction's sign.  A zero direction component becomes +-2^-64 (inv_d finite,
+ * 2^64): with an infinite inv_d, bound * inf - o * inf is inf - inf = NaN and an axis-parallel
+ * ray (an orthographic camera's) would miss flat boxes.  The leaves a node's boxes meet are
+ * tested at once; its internal children are visited nearest first, the others stacked with
+ * their entry distances (a stacked node farther than the closest hit found since is
+ * skipped).  The BVH's arrays are read from the scene once, into locals: the loop stores to
+ * private memory (the stack, the hit), which a compiler cannot tell apart from the Scene
+ * struct the pointer reaches, so a field read in the loop would be read again at every node. */
 inline Hit bvh_intersect(const Scene *scene, float3 o, float3 d, float tmax, uint mask,
                          bool any_hit) {
     __global const float4 *nodes = scene->nodes, *tri_v0 = scene->tri_v0, *tri_e1 = scene->tri_e1,
@@ -76,45 +108,49 @@ inline Hit bvh_intersect(const Scene *scene, float3 o, float3 d, float tmax, uin
     float3 tiny = (float3)(5.421011e-20f);        /* 2^-64 */
     float3 inv_d = 1.0f / select(d, copysign(tiny, d), isless(fabs(d), tiny));
     float3 ood = o * inv_d;
+    /* the near and far planes' rows of a node by the direction's signs */
+    int nx = inv_d.x < 0.0f ? 1 : 0, ny = inv_d.y < 0.0f ? 3 : 2, nz = inv_d.z < 0.0f ? 5 : 4;
+    float4 ix = (float4)(inv_d.x), iy = (float4)(inv_d.y), iz = (float4)(inv_d.z);
+    float4 ox = (float4)(ood.x), oy = (float4)(ood.y), oz = (float4)(ood.z);
     int stack[BVH_STACK];
+    float stack_t[BVH_STACK];
     int sp = 0, node = 0;
     for (;;) {
-        __global const float4 *nd = nodes + 4 * node;
-        float4 a = nd[0], b = nd[1], c = nd[2], e = nd[3];
-        int left = as_int(a.w), right = as_int(b.w);
-        float3 l0 = a.xyz * inv_d - ood, l1 = b.xyz * inv_d - ood;
-        float3 r0 = c.xyz * inv_d - ood, r1 = e.xyz * inv_d - ood;
-        /* (compares: the slabs are finite, as inv_d is; fmin's NaN rule costs a compare and
-         * a blend per lane on PoCL: 5 % of the fog room's pass) */
-        float3 lmn = BVH_MIN(l0, l1), lmx = BVH_MAX(l0, l1), rmn = BVH_MIN(r0, r1),
-               rmx = BVH_MAX(r0, r1);
-        float tl = BVH_MAX(BVH_MAX(lmn.x, lmn.y), BVH_MAX(lmn.z, 0.0f));
-        float tr = BVH_MAX(BVH_MAX(rmn.x, rmn.y), BVH_MAX(rmn.z, 0.0f));
-        bool hl = tl <= BVH_MIN(BVH_MIN(lmx.x, lmx.y), BVH_MIN(lmx.z, hit.t));
-        bool hr = tr <= BVH_MIN(BVH_MIN(rmx.x, rmx.y), BVH_MIN(rmx.z, hit.t));
-        if (hl && left < 0) {
-            leaf_test(tri_v0, tri_e1, tri_e2, ~left, o, d, mask, &hit);
-            if (any_hit && hit.leaf >= 0) return hit;
-            hl = false;
+        __global const float4 *nd = nodes + BVH_NODE * node;
+        float4 tn = BVH_MAX(BVH_MAX(nd[nx] * ix - ox, nd[ny] * iy - oy),
+                            BVH_MAX(nd[nz] * iz - oz, (float4)(0.0f)));
+        float4 tf = BVH_MIN(BVH_MIN(nd[nx ^ 1] * ix - ox, nd[ny ^ 1] * iy - oy),
+                            BVH_MIN(nd[nz ^ 1] * iz - oz, (float4)(hit.t)));
+        int4 child = select((int4)(0), as_int4(nd[6]), tn <= tf);
+        /* the leaves met first: their hits shorten what the internal children may be */
+        BVH_LEAF(child.s0);
+        BVH_LEAF(child.s1);
+        BVH_LEAF(child.s2);
+        BVH_LEAF(child.s3);
+        /* the internal children met before the closest hit, by entry distance (a sorting
+         * network): the nearest next, the others stacked farthest first */
+        float4 tk = select((float4)(INFINITY), tn, child > 0 && tn <= (float4)(hit.t));
+        float t0 = tk.s0, t1 = tk.s1, t2 = tk.s2, t3 = tk.s3;
+        int c0 = child.s0, c1 = child.s1, c2 = child.s2, c3 = child.s3;
+        BVH_CSWAP(t0, c0, t1, c1);
+        BVH_CSWAP(t2, c2, t3, c3);
+        BVH_CSWAP(t0, c0, t2, c2);
+        BVH_CSWAP(t1, c1, t3, c3);
+        BVH_CSWAP(t1, c1, t2, c2);
+        if (t0 < INFINITY) {
+            BVH_PUSH(t3, c3);
+            BVH_PUSH(t2, c2);
+            BVH_PUSH(t1, c1);
+            node = c0;
+            continue;
         }
-        if (hr && right < 0) {
-            leaf_test(tri_v0, tri_e1, tri_e2, ~right, o, d, mask, &hit);
-            if (any_hit && hit.leaf >= 0) return hit;
-            hr = false;
+        for (;;) {
+            if (sp == 0) return hit;
+            --sp;
+            if (stack_t[sp] <= hit.t) break;
         }
-        if (hl && hr) {
-            bool left_first = tl <= tr;
-            stack[sp] = left_first ? right : left;
-            sp += sp < BVH_STACK - 1 ? 1 : 0;    /* full: the last slot is overwritten */
-            node = left_first ? left : right;
-        } else if (hl | hr) {
-            node = hl ? left : right;
-        } else {
-            if (sp == 0) break;
-            node = stack[--sp];
-        }
+        node = stack[sp];
     }
-    return hit;
 }
 
 /* Surface data at a hit, from the leaf-ordered triangles and per-original-triangle normals. */

@@ -6,6 +6,9 @@
 #include "builtins.h"
 #include "geom/geometry.h"
 
+/* an empty slot among a 4-wide node's sources (bvh.py BVH4_EMPTY: INT_MIN, never ~k) */
+#define BVH4_EMPTY (-2147483647 - 1)
+
 inline uint expand_bits(uint v) {
     v = (v * 0x00010001u) & 0xFF0000FFu;
     v = (v * 0x00000101u) & 0x0F00F00Fu;
@@ -98,19 +101,34 @@ bottom_up_boxes(__global const float *pos, __global const uint *sorted_ids, int 
     }
 }
 
-__kernel void pack_nodes(int n, __global const int *left, __global const int *right,
-                         __global const float4 *leaf_min, __global const float4 *leaf_max,
-                         __global const float4 *node_min, __global const float4 *node_max,
-                         __global float4 *nodes) {
+/* The 4-wide nodes (layout in bvh.h) from the binary tree's boxes: node i's four children are
+ * the binary tree's nodes src[i] (>= 0 internal, < 0 leaf ~k, BVH4_EMPTY none), chosen by
+ * collapse4 in bvh.py; child[i] their references in the 4-wide tree.  An empty slot gets an
+ * inverted box (min +inf, max -inf), which no ray's slabs meet. */
+__kernel void pack_nodes4(int m, __global const int4 *src, __global const int4 *child,
+                          __global const float4 *leaf_min, __global const float4 *leaf_max,
+                          __global const float4 *node_min, __global const float4 *node_max,
+                          __global float4 *nodes) {
     int i = WORK_ITEM();
-    if (i >= n - 1) return;
-    int l = left[i], r = right[i];
-    float4 lmin = l < 0 ? leaf_min[~l] : node_min[l], lmax = l < 0 ? leaf_max[~l] : node_max[l];
-    float4 rmin = r < 0 ? leaf_min[~r] : node_min[r], rmax = r < 0 ? leaf_max[~r] : node_max[r];
-    nodes[4 * i] = (float4)(lmin.xyz, as_float(l));
-    nodes[4 * i + 1] = (float4)(lmax.xyz, as_float(r));
-    nodes[4 * i + 2] = (float4)(rmin.xyz, 0.0f);
-    nodes[4 * i + 3] = (float4)(rmax.xyz, 0.0f);
+    if (i >= m) return;
+    int s[4];
+    vstore4(src[i], 0, s);
+    float lo[3][4], hi[3][4];
+    for (int k = 0; k < 4; k++) {
+        float4 a = (float4)(INFINITY), b = (float4)(-INFINITY);
+        if (s[k] != BVH4_EMPTY) {
+            a = s[k] < 0 ? leaf_min[~s[k]] : node_min[s[k]];
+            b = s[k] < 0 ? leaf_max[~s[k]] : node_max[s[k]];
+        }
+        lo[0][k] = a.x, lo[1][k] = a.y, lo[2][k] = a.z;
+        hi[0][k] = b.x, hi[1][k] = b.y, hi[2][k] = b.z;
+    }
+    __global float4 *nd = nodes + 7 * (size_t)i;
+    for (int a = 0; a < 3; a++) {
+        nd[2 * a] = vload4(0, lo[a]);
+        nd[2 * a + 1] = vload4(0, hi[a]);
+    }
+    nd[6] = as_float4(child[i]);
 }
 
 __kernel void reorder_triangles(__global const float *pos, __global const uint *sorted_ids,

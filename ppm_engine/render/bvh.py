@@ -1,7 +1,8 @@
 """The BVH over all triangles, built data-parallel on the device (kernels/geom/bvh_build.cl): Morton
 codes sorted with pyopencl's RadixSort, then PLOC (Meister & Bittner 2018, the default: nearest
-neighbours merged bottom-up) or Karras' LBVH hierarchy, bottom-up boxes, packed nodes; refitted
-in place when only positions change."""
+neighbours merged bottom-up) or Karras' LBVH hierarchy, bottom-up boxes; that binary tree
+collapsed into a 4-wide one (collapse4: the children's boxes in a node's vector lanes) and
+packed; refitted in place when only positions change."""
 from __future__ import annotations
 
 import time
@@ -11,6 +12,49 @@ import numpy as np
 from ppm_engine.render.device.program import grid
 from ppm_engine.scene.arrays import SceneArrays
 from ppm_engine.scene.prep import corner_box
+
+# a 4-wide node's bytes (kernels/geom/bvh.h: 7 float4), and an empty slot among its sources
+# (bvh_build.cl BVH4_EMPTY: never a leaf's ~k, as no scene has 2^31 triangles)
+BVH_NODE_BYTES = 7 * 16
+BVH4_EMPTY = np.iinfo(np.int32).min
+
+
+def collapse4(left: np.ndarray, right: np.ndarray, area: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """A 4-wide tree over the binary tree (left, right: node i's children, >= 0 internal, < 0
+    the leaf ~k; root 0; area: each internal node's box's half surface area): from each of its
+    nodes' two children, the internal child of largest area is replaced by its two children
+    while fewer than four (the greedy collapse of Wald et al., "Getting Rid of Packets", 2008,
+    and Embree's, by area: the children a ray most likely meets are opened).  Level by level
+    in NumPy.  Returns (src, child), (m, 4) int32 each: node j's children as the binary tree's
+    references (BVH4_EMPTY: none) and as the 4-wide tree's (internal: its index > 0; the leaf
+    ~k; 0: none), node 0 the root."""
+    left, right = np.asarray(left, np.int32), np.asarray(right, np.int32)
+    level = np.zeros(1, np.int64)                 # binary nodes heading this level's nodes
+    srcs = []
+    while level.size:
+        f = level.size
+        ch = np.full((f, 4), BVH4_EMPTY, np.int64)
+        ch[:, 0], ch[:, 1] = left[level], right[level]
+        rows = np.arange(f)
+        for slot in (2, 3):
+            internal = (ch >= 0)
+            a = np.where(internal, area[np.where(internal, ch, 0)], -1.0)
+            j = a.argmax(axis=1)
+            ok = internal[rows, j]
+            r, x = rows[ok], ch[rows[ok], j[ok]]
+            ch[r, j[ok]] = left[x]
+            ch[r, slot] = right[x]
+        srcs.append(ch)
+        level = ch[ch >= 0]
+    src = np.concatenate(srcs).astype(np.int32)
+    # the 4-wide index of each binary node heading a node: its place in the level order
+    heads = np.concatenate([np.zeros(1, np.int64), src[src >= 0].astype(np.int64)])
+    index = np.zeros(left.shape[0], np.int32)
+    index[heads] = np.arange(heads.size, dtype=np.int32)
+    child = np.where(src >= 0, index[np.maximum(src, 0)],
+                     np.where(src == BVH4_EMPTY, 0, src)).astype(np.int32)
+    return np.ascontiguousarray(src), np.ascontiguousarray(child)
 
 
 class BVH:
@@ -30,13 +74,12 @@ class BVH:
         prog = self.prog = device.programs.get("geom/bvh_build.cl")
         self._scene = scene
         self.cost = self.built_cost = 1.0
+        self.src4 = self.child4 = None           # the 4-wide tree's shape (_collapse)
         ntri = max(n, 1)
         f4 = 16
         self.tri_v0 = device.buffer(ntri * f4, "triangles")
         self.tri_e1 = device.buffer(ntri * f4, "triangles")
         self.tri_e2 = device.buffer(ntri * f4, "triangles")
-        n_nodes = max(n - 1, 1)
-        self.nodes = device.buffer(n_nodes * 4 * f4, "BVH nodes")
         if n < 2:
             self._tiny(scene)
             self.build_seconds = time.perf_counter() - t0
@@ -144,6 +187,24 @@ class BVH:
             m = merged_to
             a, b = b, a
 
+    def _collapse(self, node_min, node_max) -> None:
+        """The 4-wide tree's topology from the binary one's (collapse4), its sources and
+        children uploaded for pack_nodes4 (kept: a refit packs new boxes into it)."""
+        import pyopencl as cl
+        q, n = self.device.queue, self.n_triangles
+        left, right = np.empty(n - 1, np.int32), np.empty(n - 1, np.int32)
+        lo, hi = np.empty((n - 1, 4), np.float32), np.empty((n - 1, 4), np.float32)
+        for host, buf in ((left, self.left), (right, self.right), (lo, node_min),
+                          (hi, node_max)):
+            cl.enqueue_copy(q, host, buf)
+        e = np.maximum(hi[:, :3].astype(np.float64) - lo[:, :3], 0.0)
+        area = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+        src, child = collapse4(left, right, area)
+        self.n_nodes = src.shape[0]
+        self.src4 = self.device.upload(src, "BVH")
+        self.child4 = self.device.upload(child, "BVH")
+        self.nodes = self.device.buffer(self.n_nodes * BVH_NODE_BYTES, "BVH nodes")
+
     def _boxes(self, scene: SceneArrays, pos) -> float:
         """Boxes bottom-up over the hierarchy, packed nodes and leaf-ordered triangles from the
         positions in ``pos``; returns the tree's cost for refit(): the summed surface area of
@@ -164,8 +225,10 @@ class BVH:
         prog.bottom_up_boxes(q, *grid(n), pos, ids, np.int32(n), self.left,
                              self.right, self.parent_int, self.parent_leaf, leaf_min, leaf_max,
                              node_min, node_max, arrivals)
-        prog.pack_nodes(q, *grid(n - 1), np.int32(n), self.left, self.right,
-                        leaf_min, leaf_max, node_min, node_max, self.nodes)
+        if self.src4 is None:        # a build: the 4-wide tree's shape
+            self._collapse(node_min, node_max)
+        prog.pack_nodes4(q, *grid(self.n_nodes), np.int32(self.n_nodes), self.src4, self.child4,
+                         leaf_min, leaf_max, node_min, node_max, self.nodes)
         prog.reorder_triangles(q, *grid(n), pos, ids, mat, vis, np.int32(n),
                                self.tri_v0, self.tri_e1, self.tri_e2)
         import pyopencl.array as cla
@@ -212,20 +275,21 @@ class BVH:
         """0 or 1 triangles: one root whose missing children have empty (inverted) boxes."""
         import pyopencl as cl
         q = self.device.queue
-        node = np.zeros((4, 4), np.float32)
-        empty_min, empty_max = np.full(3, np.inf, np.float32), np.full(3, -np.inf, np.float32)
-        node[0, :3], node[1, :3] = empty_min, empty_max
-        node[2, :3], node[3, :3] = empty_min, empty_max
-        node[0, 3] = node[1, 3] = np.int32(~0).view(np.float32)
+        node = np.zeros((BVH_NODE_BYTES // 16, 4), np.float32)
+        node[0:6:2] = np.inf                     # every slot empty: inverted boxes, child 0
+        node[1:6:2] = -np.inf
         tri = np.zeros((3, 4), np.float32)
         if scene.n_triangles == 1:
             v = scene.positions[0]
-            node[0, :3], node[1, :3] = v.min(axis=0), v.max(axis=0)
+            node[0:6:2, 0], node[1:6:2, 0] = v.min(axis=0), v.max(axis=0)
+            node[6, 0] = np.int32(~0).view(np.float32)
             tri[0, :3], tri[1, :3], tri[2, :3] = v[0], v[1] - v[0], v[2] - v[0]
             tri[0, 3] = np.uint32(0).view(np.float32)
             tri[1, 3] = scene.visibility[0].view(np.float32)
             tri[2, 3] = scene.material[0].view(np.float32)
         # (0 triangles: visibility 0, nothing is ever hit)
+        self.n_nodes = 1
+        self.nodes = self.device.buffer(BVH_NODE_BYTES, "BVH nodes")
         cl.enqueue_copy(q, self.nodes, node)
         for buf, row in ((self.tri_v0, 0), (self.tri_e1, 1), (self.tri_e2, 2)):
             cl.enqueue_copy(q, buf, np.ascontiguousarray(tri[row]))
