@@ -61,7 +61,7 @@ class SceneBuffer:
 
 # The scene's buffers, in the kernels' parameter order.
 SCENE_BUFFERS = (
-    SceneBuffer("nodes", _F4, "BVH nodes: 4-wide, the children's boxes in lanes (kernels/geom/bvh.h)"),
+    SceneBuffer("nodes", _F4, "BVH nodes, 4-wide (kernels/geom/bvh.h)"),
     SceneBuffer("tri_v0", _F4, "triangles in BVH leaf order: p0, original index"),
     SceneBuffer("tri_e1", _F4, "triangles: p1 - p0, visibility bits"),
     SceneBuffer("tri_e2", _F4, "triangles: p2 - p0, material"),
