@@ -121,23 +121,30 @@ inline Hit bvh_intersect(const Scene *scene, float3 o, float3 d, float tmax, uin
                             BVH_MAX(nd[nz] * iz - oz, (float4)(0.0f)));
         float4 tf = BVH_MIN(BVH_MIN(nd[nx ^ 1] * ix - ox, nd[ny ^ 1] * iy - oy),
                             BVH_MIN(nd[nz ^ 1] * iz - oz, (float4)(hit.t)));
-        int4 child = select((int4)(0), as_int4(nd[6]), tn <= tf);
+        int4 child = as_int4(nd[6]) & (tn <= tf); /* (masks, not select: a call on PoCL) */
         /* the leaves met first: their hits shorten what the internal children may be */
         BVH_LEAF(child.s0);
         BVH_LEAF(child.s1);
         BVH_LEAF(child.s2);
         BVH_LEAF(child.s3);
-        /* the internal children met before the closest hit, by entry distance (a sorting
-         * network): the nearest next, the others stacked farthest first */
-        float4 tk = select((float4)(INFINITY), tn, child > 0 && tn <= (float4)(hit.t));
-        float t0 = tk.s0, t1 = tk.s1, t2 = tk.s2, t3 = tk.s3;
-        int c0 = child.s0, c1 = child.s1, c2 = child.s2, c3 = child.s3;
-        BVH_CSWAP(t0, c0, t1, c1);
-        BVH_CSWAP(t2, c2, t3, c3);
-        BVH_CSWAP(t0, c0, t2, c2);
-        BVH_CSWAP(t1, c1, t3, c3);
-        BVH_CSWAP(t1, c1, t2, c2);
-        if (t0 < INFINITY) {
+        /* the internal children met before the closest hit: one goes on; of more, the
+         * nearest goes on and the others are stacked farthest first (a sorting network on
+         * their entry distances) */
+        int4 inner = child > 0 && tn <= (float4)(hit.t);
+        int met = -(inner.s0 + inner.s1 + inner.s2 + inner.s3);
+        if (met == 1) {
+            node = inner.s0 ? child.s0 : inner.s1 ? child.s1 : inner.s2 ? child.s2 : child.s3;
+            continue;
+        }
+        if (met > 1) {
+            float4 tk = as_float4((as_int4(tn) & inner) | (as_int4((float4)(INFINITY)) & ~inner));
+            float t0 = tk.s0, t1 = tk.s1, t2 = tk.s2, t3 = tk.s3;
+            int c0 = child.s0, c1 = child.s1, c2 = child.s2, c3 = child.s3;
+            BVH_CSWAP(t0, c0, t1, c1);
+            BVH_CSWAP(t2, c2, t3, c3);
+            BVH_CSWAP(t0, c0, t2, c2);
+            BVH_CSWAP(t1, c1, t3, c3);
+            BVH_CSWAP(t1, c1, t2, c2);
             BVH_PUSH(t3, c3);
             BVH_PUSH(t2, c2);
             BVH_PUSH(t1, c1);

@@ -81,6 +81,8 @@ def build_parser(prog: str = "python -m ppm_engine bench") -> argparse.ArgumentP
     b.add_argument("--seeds", type=int, default=4, help="--noise: seeds per engine (default 4)")
     b.add_argument("--bounces", type=int, default=12,
                    help="--noise: bounces for both engines (0: direct light only; default 12)")
+    b.add_argument("--diffuse-bounces", type=int, default=None,
+                   help="--noise: Light Paths > Diffuse for both engines (default: the scene's)")
     b.add_argument("--report", metavar="JSON",
                    help="write the tables and plot again from a run's JSON (no rendering): "
                         "the same figures, the current report's layout and targets")
@@ -219,12 +221,14 @@ def run(args, cmdline: str, progress=print) -> int:
         if args.noise not in (*curves.SCENES, "glossy"):
             raise UsageError(f"unknown bench scene '{args.noise}'; available: "
                              f"{', '.join(curves.SCENES)}, glossy (--glossy's spheres)")
-        if args.samples < 1 or args.seeds < 2 or args.bounces < 0:
-            raise UsageError("--noise needs --samples >= 1, --seeds >= 2 and --bounces >= 0")
+        if (args.samples < 1 or args.seeds < 2 or args.bounces < 0
+                or (args.diffuse_bounces is not None and args.diffuse_bounces < 0)):
+            raise UsageError("--noise needs --samples >= 1, --seeds >= 2, --bounces >= 0 and "
+                             "--diffuse-bounces >= 0")
         d = noise.run_noise(args.noise, 8 if args.quick else args.samples,
                             2 if args.quick else args.seeds, args.bounces,
                             args.resolution or (16 if args.quick else 128), args.device,
-                            progress)
+                            progress, diffuse_bounces=args.diffuse_bounces)
         d["machine"] = report.machine_info(args.device)
         return publish("noise", d, noise.format_noise(d))
     if args.phases or args.shader:

@@ -9,7 +9,9 @@ needed: both estimators are unbiased where they are compared), and the figure is
 square over the image, also split into the pixels brighter than 1 (emitters and the edges of
 their images: anti-aliasing there dominates a scene with a visible lamp) and the rest.  With
 ``bounces`` 0 only direct light counts (both engines' bounce limits), which isolates the pixel
-sampling and next-event estimation.
+sampling and next-event estimation; ``diffuse_bounces`` (Light Paths > Diffuse, both engines)
+limits only the diffuse bounces, to tell the noise of each order of diffuse interreflection
+apart where glass needs the other bounces (docs/BENCHMARKS.md, lifted_caustic).
 """
 from __future__ import annotations
 
@@ -22,7 +24,8 @@ BRIGHT = 1.0          # radiance above which a pixel counts as an emitter or its
 
 
 def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int = 12,
-              resolution: int = 128, device: str = "", progress=print) -> dict:
+              resolution: int = 128, device: str = "", progress=print,
+              diffuse_bounces: int | None = None) -> dict:
     from ppm_engine.blender.harness import cycles_reference, ensure_registered, unbiased_light_paths
     from ppm_engine.tools.bench.curves import Bench, ppm_settings, render
     from ppm_engine.tools.bench.scenes import set_light_paths
@@ -30,7 +33,8 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
     if seeds < 2:
         raise ValueError("the noise needs at least two seeds")
     out = {"scene": scene_name, "passes": passes, "seeds": seeds, "bounces": bounces,
-           "resolution": resolution, "bright_above": BRIGHT, "engines": {}}
+           "diffuse_bounces": diffuse_bounces, "resolution": resolution,
+           "bright_above": BRIGHT, "engines": {}}
     with tempfile.TemporaryDirectory(prefix="ppm-noise-") as tmp:
         b = Bench(resolution, device, None, Path(tmp), progress)
         scene = b._scene(scene_name)
@@ -46,6 +50,8 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
                     scene.ppm.time_limit = 0
                     unbiased_light_paths(scene, bounces)
                 set_light_paths(scene, scene_name)        # the scene's own clamp
+                if diffuse_bounces is not None:
+                    scene.cycles.diffuse_bounces = diffuse_bounces
                 img, w, _info = render(scene, Path(tmp) / f"{engine}_{seed}.exr")
                 imgs.append(img)
                 wall.append(w)
@@ -77,8 +83,11 @@ def run_noise(scene_name: str, passes: int = 550, seeds: int = 4, bounces: int =
 
 
 def format_noise(d: dict) -> str:
+    diffuse = d.get("diffuse_bounces")
     lines = [f"{d['scene']}, {d['resolution']}x{d['resolution']}, {d['passes']} samples per "
-             f"pixel, {d['bounces']} bounces, {d['seeds']} seeds (noise: RMS over pixels of the "
+             f"pixel, {d['bounces']} bounces"
+             + (f" ({diffuse} diffuse)" if diffuse is not None else "")
+             + f", {d['seeds']} seeds (noise: RMS over pixels of the "
              f"standard deviation over seeds; bright: the {d['bright_pixels']} pixels above "
              f"{d['bright_above']:g})",
              "", "| engine | noise | bright pixels' share | the rest's | median pixel's | mean "
