@@ -107,7 +107,9 @@ def test_bvh_axis_parallel_rays_equal_brute_force(device):
     zero = rng.random((n, 3)) < 0.2                          # exact zeros off the ray's axis
     zero[np.arange(n), axis] = False
     o[zero] = 0.0
-    tmax = np.full(n, 1e30)
+    d[(d == 0.0) & (rng.random((n, 3)) < 0.5)] = -0.0        # zero components as -0.0 too
+    assert np.signbit(d[d == 0.0]).any()
+    tmax = np.where(rng.random(n) < 0.5, np.inf, 1e30)      # the integrators' PPM_INF too
     t, _idx = _trace(device, bvh, o, d, tmax)
     t_ref, _i_ref = ref.closest_hits(o, d, tmax, scene.positions)
     assert (t_ref >= 0).sum() > n // 4
@@ -233,6 +235,27 @@ def test_collapse4_keeps_every_leaf_once():
         stack += kids[kids > 0].tolist()
     assert sorted(seen) == list(range(n))
     assert ((src == BVH4_EMPTY) == (child == 0)).all()
+
+    # each lane's 4-wide child holds the leaves of the binary node its box is taken from
+    def leaves2(x):
+        out, todo = [], [x]
+        while todo:
+            y = todo.pop()
+            if y < 0:
+                out.append(~y)
+            else:
+                todo += [left[y], right[y]]
+        return sorted(out)
+
+    def leaves4(j):
+        out, todo = [], [j]
+        while todo:
+            kids = child[todo.pop()]
+            out += [~k for k in kids[kids < 0]]
+            todo += kids[kids > 0].tolist()
+        return sorted(out)
+    for j, s_ in zip(*np.nonzero(src >= 0)):
+        assert leaves4(child[j, s_]) == leaves2(src[j, s_])
 
 
 @pytest.mark.parametrize("order", [(0, 1), (1, 0)])

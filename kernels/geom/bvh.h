@@ -17,7 +17,7 @@
 #define BVH_MIN(a, b) ((a) < (b) ? (a) : (b))
 #define BVH_MAX(a, b) ((a) > (b) ? (a) : (b))
 /* bvh_intersect's steps: a leaf child met (c < 0) tested; entries (t, c) ordered by t; an
- * entry stacked when met (t finite) */
+ * entry stacked (its t below INFINITY, which marks the lanes not met) */
 #define BVH_LEAF(c)                                                \
     if ((c) < 0) {                                                 \
         leaf_test(tri_v0, tri_e1, tri_e2, ~(c), o, d, mask, &hit); \
@@ -32,11 +32,14 @@
         tb = t_;                  \
         cb = c_;                  \
     }
-#define BVH_PUSH(t, c)                                                             \
-    if ((t) < INFINITY) {                                                          \
-        stack[sp] = c;                                                             \
-        stack_t[sp] = t;                                                           \
-        sp += sp < BVH_STACK - 1 ? 1 : 0; /* full: the last slot is overwritten */ \
+/* A full stack's top entry is replaced (the pushes of a node go farthest first, so the nearest
+ * stays; the one replaced may lose a hit: a tree unbalanced past BVH_STACK / 3 levels) */
+#define BVH_PUSH(t, c)                   \
+    if ((t) < INFINITY) {                \
+        int k_ = min(sp, BVH_STACK - 1); \
+        stack[k_] = c;                   \
+        stack_t[k_] = t;                 \
+        sp = k_ + 1;                     \
     }
 
 typedef struct {
@@ -46,9 +49,10 @@ typedef struct {
 
 /* Moeller-Trumbore; returns t in (0, tmax) or -1.  With ties set (tmax is a hit's), also t ==
  * tmax where the ray leaves the triangle's front side (det < 0: d . (e1 x e2) > 0): of two
- * coincident faces (a glass block resting on a floor, two boxes stacked) the one the ray leaves
- * comes first, as the ray must leave one object before it meets what touches it from outside,
- * whatever order the traversal tests them in. */
+ * coincident faces (a glass block resting on a floor, two boxes stacked) met at the same t the
+ * one the ray leaves comes first, as the ray must leave one object before it meets what
+ * touches it from outside, in whichever order the traversal tests them (where rounding gives
+ * the two different t, the nearer one wins, as it must). */
 inline float tri_hit(float3 o, float3 d, float3 v0, float3 e1, float3 e2, float tmax, bool ties,
                      float *u, float *v) {
     float3 p = cross(d, e2);
@@ -137,7 +141,9 @@ inline Hit bvh_intersect(const Scene *scene, float3 o, float3 d, float tmax, uin
             continue;
         }
         if (met > 1) {
-            float4 tk = as_float4((as_int4(tn) & inner) | (as_int4((float4)(INFINITY)) & ~inner));
+            /* (a met child's entry at most FLT_MAX: INFINITY marks the lanes not met) */
+            float4 tk = as_float4((as_int4(BVH_MIN(tn, (float4)(FLT_MAX))) & inner)
+                                  | (as_int4((float4)(INFINITY)) & ~inner));
             float t0 = tk.s0, t1 = tk.s1, t2 = tk.s2, t3 = tk.s3;
             int c0 = child.s0, c1 = child.s1, c2 = child.s2, c3 = child.s3;
             BVH_CSWAP(t0, c0, t1, c1);
