@@ -30,20 +30,22 @@ def collapse4(left: np.ndarray, right: np.ndarray, area: np.ndarray
     references (BVH4_EMPTY: none) and as the 4-wide tree's (internal: its index > 0; the leaf
     ~k; 0: none), node 0 the root."""
     left, right = np.asarray(left, np.int32), np.asarray(right, np.int32)
-    level = np.zeros(1, np.int64)                 # binary nodes heading this level's nodes
+    pad = left.shape[0]                  # leaves and empty slots read this area: never opened
+    area_of = np.empty(pad + 1, np.float64)
+    area_of[:pad], area_of[pad] = area, -1.0
+    level = np.zeros(1, np.int32)        # binary nodes heading this level's nodes
     srcs = []
     while level.size:
         f = level.size
-        ch = np.full((f, 4), BVH4_EMPTY, np.int64)
+        ch = np.full((f, 4), BVH4_EMPTY, np.int32)
         ch[:, 0], ch[:, 1] = left[level], right[level]
         rows = np.arange(f)
         for slot in (2, 3):
-            internal = (ch >= 0)
-            a = np.where(internal, area[np.where(internal, ch, 0)], -1.0)
-            j = a.argmax(axis=1)
-            ok = internal[rows, j]
-            r, x = rows[ok], ch[rows[ok], j[ok]]
-            ch[r, j[ok]] = left[x]
+            j = area_of[np.where(ch >= 0, ch, pad)].argmax(axis=1)
+            x = ch[rows, j]
+            ok = x >= 0
+            r, j, x = rows[ok], j[ok], x[ok]
+            ch[r, j] = left[x]
             ch[r, slot] = right[x]
         srcs.append(ch)
         level = ch[ch >= 0]
