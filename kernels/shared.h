@@ -362,7 +362,7 @@ typedef struct {
  * parameter order: X(element type, name); kernels/scene.h makes the kernels' parameters and the
  * Scene struct of them */
 #define SCENE_DATA(X) \
-    X(float4, nodes) \
+    X(float4, nodes)              /* BVH nodes, 4-wide (kernels/geom/bvh.h) */ \
     X(float4, tri_v0)             /* triangles in BVH leaf order: p0, original index */ \
     X(float4, tri_e1)             /* triangles: p1 - p0, visibility bits */ \
     X(float4, tri_e2)             /* triangles: p2 - p0, material */ \
