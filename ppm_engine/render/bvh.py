@@ -19,6 +19,13 @@ BVH_NODE_BYTES = 7 * 16
 BVH4_EMPTY = np.iinfo(np.int32).min
 
 
+def half_areas(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Half the surface area of each box (lo, hi: (m, 4) float32 corners, w unused), in
+    float64; an inverted box's 0."""
+    e = np.maximum(hi[:, :3].astype(np.float64) - lo[:, :3], 0.0)
+    return e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+
+
 def collapse4(left: np.ndarray, right: np.ndarray, area: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray]:
     """A 4-wide tree over the binary tree (left, right: node i's children, >= 0 internal, < 0
@@ -49,9 +56,9 @@ def collapse4(left: np.ndarray, right: np.ndarray, area: np.ndarray
             ch[r, slot] = right[x]
         srcs.append(ch)
         level = ch[ch >= 0]
-    src = np.concatenate(srcs).astype(np.int32)
+    src = np.concatenate(srcs)
     # the 4-wide index of each binary node heading a node: its place in the level order
-    heads = np.concatenate([np.zeros(1, np.int64), src[src >= 0].astype(np.int64)])
+    heads = np.concatenate([np.zeros(1, np.int32), src[src >= 0]])
     index = np.zeros(left.shape[0], np.int32)
     index[heads] = np.arange(heads.size, dtype=np.int32)
     child = np.where(src >= 0, index[np.maximum(src, 0)],
@@ -189,9 +196,10 @@ class BVH:
             m = merged_to
             a, b = b, a
 
-    def _collapse(self, node_min, node_max) -> None:
+    def _collapse(self, node_min, node_max) -> np.ndarray:
         """The 4-wide tree's topology from the binary one's (collapse4), its sources and
-        children uploaded for pack_nodes4 (kept: a refit packs new boxes into it)."""
+        children uploaded for pack_nodes4 (kept: a refit packs new boxes into it).  Returns
+        the binary nodes' half areas it read (the build's cost needs their sum)."""
         import pyopencl as cl
         q, n = self.device.queue, self.n_triangles
         left, right = np.empty(n - 1, np.int32), np.empty(n - 1, np.int32)
@@ -199,13 +207,13 @@ class BVH:
         for host, buf in ((left, self.left), (right, self.right), (lo, node_min),
                           (hi, node_max)):
             cl.enqueue_copy(q, host, buf)
-        e = np.maximum(hi[:, :3].astype(np.float64) - lo[:, :3], 0.0)
-        area = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+        area = half_areas(lo, hi)
         src, child = collapse4(left, right, area)
         self.n_nodes = src.shape[0]
         self.src4 = self.device.upload(src, "BVH")
         self.child4 = self.device.upload(child, "BVH")
         self.nodes = self.device.buffer(self.n_nodes * BVH_NODE_BYTES, "BVH nodes")
+        return area
 
     def _boxes(self, scene: SceneArrays, pos) -> float:
         """Boxes bottom-up over the hierarchy, packed nodes and leaf-ordered triangles from the
@@ -227,8 +235,8 @@ class BVH:
         prog.bottom_up_boxes(q, *grid(n), pos, ids, np.int32(n), self.left,
                              self.right, self.parent_int, self.parent_leaf, leaf_min, leaf_max,
                              node_min, node_max, arrivals)
-        if self.src4 is None:        # a build: the 4-wide tree's shape
-            self._collapse(node_min, node_max)
+        # a build: the 4-wide tree's shape, from the nodes' boxes read once
+        node_area = self._collapse(node_min, node_max) if self.src4 is None else None
         prog.pack_nodes4(q, *grid(self.n_nodes), np.int32(self.n_nodes), self.src4, self.child4,
                          leaf_min, leaf_max, node_min, node_max, self.nodes)
         prog.reorder_triangles(q, *grid(n), pos, ids, mat, vis, np.int32(n),
@@ -241,13 +249,13 @@ class BVH:
                 lo, hi = np.empty((m, 4), np.float32), np.empty((m, 4), np.float32)
                 cl.enqueue_copy(q, lo, a)
                 cl.enqueue_copy(q, hi, b)
-                d = np.maximum(hi[:, :3].astype(np.float64) - lo[:, :3], 0.0)
-                return float(2.0 * (d[:, 0] * d[:, 1] + d[:, 1] * d[:, 2]
-                                    + d[:, 2] * d[:, 0]).sum())
+                return float(2.0 * half_areas(lo, hi).sum())
             return float(device.box_area_sum()(cla.Array(q, (m,), cltypes.float4, data=a),
                                                cla.Array(q, (m,), cltypes.float4, data=b)).get())
         leaves = area_sum(leaf_min, leaf_max, n)
-        return area_sum(node_min, node_max, n - 1) / leaves if leaves > 0 else float("inf")
+        nodes = (float(2.0 * node_area.sum()) if node_area is not None
+                 else area_sum(node_min, node_max, n - 1))
+        return nodes / leaves if leaves > 0 else float("inf")
 
     # A refitted tree (the hierarchy of the first build, boxes from new positions) is used while
     # its cost stays within this factor of a fresh build's; beyond it refit() says rebuild.
