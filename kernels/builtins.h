@@ -172,4 +172,17 @@ PPM_OVL int4 ppm_isfinite(float4 a) { return ppm_fabs(a) <= (float4)(FLT_MAX); }
 #define floor ppm_floor
 
 #endif
+
+/* float atomic add (compare-and-swap on the bits) */
+inline void atomic_add_float(volatile __global float *a, float v) {
+    union {
+        uint u;
+        float f;
+    } old, new_;
+    do {
+        old.f = *a;
+        new_.f = old.f + v;
+    } while (atomic_cmpxchg((volatile __global uint *)a, old.u, new_.u) != old.u);
+}
+
 #endif

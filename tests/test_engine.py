@@ -257,7 +257,8 @@ def fake_render(bpy, pocl_key, monkeypatch):
         settings = types.SimpleNamespace(passes=passes, time_limit=0.0, photons_per_pass=4096,
                                          auto_photons=False, noise_threshold=0.0,
                                          initial_radius=0.0, alpha=0.7, max_bounces=8, seed=0,
-                                         indirect="AUTO", light_tracing=True, specialize=True,
+                                         indirect="AUTO", light_tracing=True, path_filter=True,
+                                         specialize=True,
                                          device=pocl_key, devices="")
         depsgraph = types.SimpleNamespace(
             view_layer=types.SimpleNamespace(name="ViewLayer"),

@@ -3,6 +3,7 @@
 /* Connections of light-path vertices to the pinhole camera (light tracing:
  * kernels/integrator/light_trace.cl, the reference estimator; kernels/integrator/photon_pass.cl,
  * the photons' strategy against the merge). */
+#include "builtins.h"
 #include "geom/camera.h"
 
 /* p seen by the pinhole camera: raster position (full-frame pixels, y up), the unit direction
@@ -45,18 +46,6 @@ inline bool camera_project(__global const Camera *cam, float3 p, float reach, fl
     float x0 = (float)cam->region[0], y0 = (float)cam->region[1];
     return *px > x0 - reach && *px < x0 + (float)cam->region[2] + reach && *py > y0 - reach
            && *py < y0 + (float)cam->region[3] + reach;
-}
-
-/* float atomic add (compare-and-swap on the bits) */
-inline void atomic_add_float(volatile __global float *a, float v) {
-    union {
-        uint u;
-        float f;
-    } old, new_;
-    do {
-        old.f = *a;
-        new_.f = old.f + v;
-    } while (atomic_cmpxchg((volatile __global uint *)a, old.u, new_.u) != old.u);
 }
 
 /* the pixel filter's normalised 1D density (pixel units) at offset x: a table over

@@ -36,7 +36,8 @@ inline float3 eye_nee_u(uint pass, uint key, int depth, uint *rng) {
 __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint seed,
                        float initial_radius, float auto_radius_pixels, float radius_scale,
                        __global const float *filter_table, __global uint *counters,
-                       uint path_indirect, float lt_kappa, uint volume_photons) {
+                       uint path_indirect, float lt_kappa, uint volume_photons, uint path_filter,
+                       __global float4 *pf_pos, __global float4 *pf_v, __global float4 *pf_w) {
     SCENE_LOAD(scene);
     FILM_LOAD(film);
     VP_LOAD(vps);
@@ -44,6 +45,7 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
     int id = WORK_ITEM();
     int rw = cam->region[2], rh = cam->region[3];
     if (id >= rw * rh) return;
+    if (path_filter) pf_w[id] = (float4)(0.0f); /* no record (path_filter.cl) until one is made */
     if (!film->active[id]) {               /* converged (adaptive sampling): no visible point */
         vps->pos[id] = (float4)(0.0f);
         return;
@@ -349,18 +351,24 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             /* direct and indirect light by path tracing (indirect_paths.h); the photons bring
              * caustics (with indirect light by photons and Filter Glossy, the paths bring what
              * it blurs); where no photon is gathered, the paths bring it all */
-            IndirectStart start = {min_pdf, whole ? MASK_ALL : MASK_GATHER,
+            PathRecord rec = {path_filter != 0u, false};
+            IndirectStart start = {min_pdf,
+                                   whole ? MASK_ALL : MASK_GATHER,
                                    !gathers        ? INDIRECT_EVERY
                                    : path_indirect ? INDIRECT_ALL
                                                    : INDIRECT_BLURRED,
-                                   mixed, path_indirect || whole};
+                                   mixed,
+                                   path_indirect || whole,
+                                   &rec};
             if (path_indirect || lp->filter_glossy > 0.0f)
-                L += indirect_paths(scene, &sd, s.p, s.material, bvp, depth, path, pass_index,
-                                    rng_seed(seed, 0u, (uint)id, 5u), start,
+                L += record_tail(&rec,
+                                 indirect_paths(scene, &sd, s.p, s.material, bvp, depth, path,
+                                                pass_index, rng_seed(seed, 0u, (uint)id, 5u), start,
 #if PPM_ABSORPTION
-                                    &media,
+                                                &media,
 #endif
-                                    &rng);
+                                                &rng),
+                                 pf_pos + id, pf_v + id, pf_w + id);
             break;
         }
         /* the path goes on through the other closures (mirrors, glass, smooth glossy lobes,
@@ -423,5 +431,6 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
     bool ok = isfinite(L.x) && isfinite(L.y) && isfinite(L.z);
     film->direct_pass[id] = ok ? (float4)(L, 1.0f) : (float4)(0.0f);
     if (!ok) atomic_inc(&counters[CNT_NAN]);
+    if (!ok && path_filter) pf_w[id] = (float4)(0.0f); /* (the sample is dropped) */
     if (clear > 0.0f && isfinite(clear)) film->transparency[id] += clear;
 }

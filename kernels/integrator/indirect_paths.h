@@ -47,6 +47,52 @@
 #define INDIRECT_BLURRED 1
 #define INDIRECT_EVERY 2
 
+/* Path space filtering (Keller et al. 2016, "Path Space Filtering"; kernels/integrator/
+ * path_filter.cl): the light a path brings past its second vertex x2 (the tail: what its sample
+ * there finds) is averaged with that of the other pixels' paths whose x2 share a grid cell,
+ * surface orientation and path state.  x2 must be Lambert and sample only the gather's closures:
+ * the tail is then the albedo times (1 / pi) x the irradiance it estimates, the same for every
+ * path that reaches x2 in that state.  The eye pass records the tail over its weight (v) and
+ * the weight (the throughput at x2 times the albedo) and adds the average later. */
+typedef struct {
+    bool want;   /* filtering on (in) */
+    bool on;     /* this path recorded its x2 (out) */
+    uint key;    /* the path state at x2 (path_state.h bits) */
+    float3 p, ng; /* x2 and its geometric normal */
+    float3 mark; /* L before the tail */
+    float3 w;    /* the tail's weight */
+} PathRecord;
+
+/* Whether x2's closures (sd, the set its sample takes) make a recordable tail: its albedo, else
+ * zero */
+inline float3 record_albedo(const ShaderData *sd, int set) {
+    if (set != MASK_GATHER && !(set == MASK_ALL && !(sd->sw_continue > 0.0f)))
+        return (float3)(0.0f);
+    float3 a = (float3)(0.0f);
+    for (int k = 0; k < sd->n; k++) {
+        if (!sd->c[k].gather) continue;
+        if (!closure_lambert(sd, &sd->c[k])) return (float3)(0.0f);
+        a += sd->c[k].weight;
+    }
+    return a;
+}
+
+/* The light L of a path that made a record, less its tail, which the record keeps over its
+ * weight (v) for path_filter.cl to add its group's mean of; L whole where that is not finite
+ * (the eye pass drops such a sample) */
+inline float3 record_tail(const PathRecord *rec, float3 L, __global float4 *pos, __global float4 *v,
+                          __global float4 *w) {
+    if (!rec->on) return L;
+    float3 t = L - rec->mark, a = rec->w;
+    float3 r = (float3)(a.x > 0.0f ? t.x / a.x : 0.0f, a.y > 0.0f ? t.y / a.y : 0.0f,
+                        a.z > 0.0f ? t.z / a.z : 0.0f);
+    if (!(isfinite(r.x) && isfinite(r.y) && isfinite(r.z) && isfinite(max3(a)))) return L;
+    *pos = (float4)(rec->p, as_float(rec->key));
+    *v = (float4)(r, as_float(pack_unit(rec->ng)));
+    *w = (float4)(a, 1.0f);
+    return rec->mark;
+}
+
 /* How the eye pass hands its visible point to indirect_paths */
 typedef struct {
     float min_pdf; /* the smallest density of the eye path's bounces before it (Filter Glossy) */
@@ -57,6 +103,7 @@ typedef struct {
      * against that one's density */
     bool nee_all;
     bool own; /* its own direct light is the paths' (else the eye pass's) */
+    PathRecord *rec; /* the path space filter's record of the path (rec->want: on) */
 } IndirectStart;
 
 /* Russian roulette spares the hit of the visible point's own sample: measured at equal time
@@ -87,6 +134,7 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
 #endif
                              uint *rng) {
     float3 L = (float3)(0.0f);
+    PathRecord *rec = start.rec;
     float beta0 = max3(beta);
     if (!(beta0 > 0.0f)) return L;
     int set = start.set;             /* the closures this vertex samples */
@@ -122,6 +170,20 @@ inline float3 indirect_paths(const Scene *scene, ShaderData *sd, float3 p, int m
                 float3 u = (float3)(ua.z, ua.x, ua.y);
                 L += clamp_sample(beta * direct_nee_u(scene, sd, p, set, EMITTERS_HITTABLE, u),
                                   clamp_limit(depth, lp));
+            }
+            /* x2 (path space filtering): the tail starts here, after its next-event estimation
+             * (with Filter Glossy only at a blurred x2: every vertex past it is blurred too) */
+            if (vertex == 1 && rec->want && own
+                && (!(lp->filter_glossy > 0.0f) || filter_glossy_blurs(min_pdf, lp))) {
+                float3 a = record_albedo(sd, set);
+                if (max3(a) > 0.0f) {
+                    rec->on = true;
+                    rec->key = path;
+                    rec->p = p;
+                    rec->ng = sd->Ng;
+                    rec->mark = L;
+                    rec->w = beta * a;
+                }
             }
             float4 ub = indirect_set(vertex, 1u, pass, key, rng);
             if (vertex == 0) u_rr = ub.w;

@@ -113,6 +113,7 @@ def apply_settings(scene, overrides: dict, device: str | None) -> None:
     stored = {name: getattr(settings, name) for name in LIMITS}
     stored["indirect"] = str(settings.indirect).lower()
     stored["light_tracing"] = bool(settings.light_tracing)
+    stored["path_filter"] = bool(settings.path_filter)
     if settings.auto_photons:
         stored["photons_per_pass"] = None
     RenderOptions(**stored).replace(**overrides).validate()

@@ -133,6 +133,15 @@ class PPMSettings(bpy.types.PropertyGroup):
                     "with depth of field",
         default=True,
     )
+    path_filter: BoolProperty(
+        name="Path Filter",
+        description="With eye paths for the indirect light: average the light each path finds "
+                    "past its second bounce with that of the paths whose second bounce lands "
+                    "near it (on a diffuse surface facing the same way), over cells that shrink "
+                    "pass by pass. Less noise in light that bounced twice or more, at the cost of "
+                    "a blur that fades as the render goes on",
+        default=True,
+    )
     viewport_passes: _int("viewport_passes", label="Viewport Passes", soft_max=4096)
     viewport_time_limit: _float("viewport_time_limit", label="Viewport Time Limit",
                                 subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE", soft_max=3600.0,
@@ -218,6 +227,7 @@ def to_options(settings) -> RenderOptions:
         noise_threshold=float(settings.noise_threshold),
         indirect=str(settings.indirect).lower(),
         light_tracing=bool(settings.light_tracing),
+        path_filter=bool(settings.path_filter),
         specialize=bool(settings.specialize),
         device="" if device in ("", DEFAULT_DEVICE) else device,
         devices=ticked_devices(settings),

@@ -119,7 +119,8 @@ class PPM_PT_photons(PPMPanel, bpy.types.Panel):
         row = col.row()
         row.active = not settings.auto_photons
         row.prop(settings, "photons_per_pass")
-        _draw_props(self.layout, settings, ("indirect", "light_tracing", "initial_radius", "alpha"))
+        _draw_props(self.layout, settings, ("indirect", "path_filter", "light_tracing",
+                                            "initial_radius", "alpha"))
 
 
 class PPM_PT_device(PPMPanel, bpy.types.Panel):

@@ -167,6 +167,10 @@ class RenderOptions:
     skip_unguided_photons: bool = True   # False: photons of point, spot and area lights
                                          # keep the light's own directions, not guided toward
                                          # where they were stored (ppm_engine/scene/guide.py)
+    # path space filtering (passes/path_filter.py): with eye paths for the indirect light, the
+    # light past a path's second vertex averaged over the paths whose second vertices share a
+    # cell (the cells shrink over the passes); False: each path's own
+    path_filter: bool = True
     # the photons' second strategy: each stored photon also connected to the camera (light
     # tracing), combined with the merge by MIS (kernels/integrator/photon_pass.cl connect_camera);
     # for a pinhole camera only

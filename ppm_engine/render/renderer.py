@@ -36,10 +36,11 @@ from ppm_engine.render.passes import (
     RadiusUpdate,
     VisiblePoints,
 )
+from ppm_engine.render.passes.path_filter import PathFilter
 from ppm_engine.render.passes.photons import caustic_fraction
 from ppm_engine.render.passes.volume import VolumeGather
 from ppm_engine.render.photon_map import GRID_DTYPE, PhotonMap
-from ppm_engine.render.stats import PassStats
+from ppm_engine.render.stats import PassStats, phase_times
 from ppm_engine.scene.arrays import SceneArrays
 from ppm_engine.scene.casters import caustic_roughness
 from ppm_engine.scene.guide import GUIDE_BINS
@@ -152,6 +153,8 @@ class Renderer:
         if (lt_kappa := self.light_tracing_kappa(o)) > 0:
             self.film.enable_light_tracing()
         self.lt_kappa, self.passes_done = lt_kappa, 0
+        self.path_filter = self.eye.records = PathFilter.renew(     # (passes/path_filter.py)
+            getattr(self, "path_filter", None), ctx, self.n_pixels, self.path_indirect and o)
         self.pass_indices: list[int] = []   # the passes this film holds, in the order run
         self.photons_used = 0     # Counter.USED over the render's passes (photons_due)
         self.nan_dropped = 0
@@ -378,9 +381,6 @@ class Renderer:
         if converged:
             self.active_pixels = int(counters[Counter.ACTIVE])
         self.nan_dropped = int(counters[Counter.NAN])
-        phase_ms: dict[str, float] = {}
-        for label, ev in events:
-            phase_ms[label] = phase_ms.get(label, 0.0) + (ev.profile.end - ev.profile.start) * 1e-6
         pm = self.photon_map
         overflow = int(counters[Counter.OVERFLOW])
         stats = PassStats(
@@ -390,7 +390,7 @@ class Renderer:
             occupied_entries=int(counters[Counter.OCCUPIED]),
             visible_points=int(grid["valid"][0]), radius_min=float(grid["r_min"][0]),
             radius_max=float(grid["r_max"][0]), nan_dropped=self.nan_dropped,
-            seconds=seconds, phase_ms=phase_ms, active_pixels=self.active_pixels,
+            seconds=seconds, phase_ms=phase_times(events), active_pixels=self.active_pixels,
             pixels=self.n_pixels, indirect="paths" if self.path_indirect else "photons",
             caustic_fraction=self.caustic_fraction, light_tracing=self.lt_kappa > 0,
             caster_fraction=(int(counters[Counter.CASTER]) / self.photon_count
@@ -416,7 +416,7 @@ class Renderer:
         """(owner's dict, name, buffer) of every device buffer this render holds."""
         import pyopencl as cl
         for obj in (self.bvh, self.scene, self.scene.args, self.film, self.photon_map, self.vps,
-                    self, self.volume or {}):
+                    self, self.volume or {}, self.path_filter or {}):
             items = obj if isinstance(obj, dict) else vars(obj)
             for name, value in list(items.items()):
                 if isinstance(value, cl.MemoryObjectHolder):

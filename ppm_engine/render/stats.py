@@ -5,6 +5,14 @@ from __future__ import annotations
 import dataclasses
 
 
+def phase_times(events) -> dict[str, float]:
+    """Device milliseconds per timing label of a pass's (label, event) pairs."""
+    ms: dict[str, float] = {}
+    for label, ev in events:
+        ms[label] = ms.get(label, 0.0) + (ev.profile.end - ev.profile.start) * 1e-6
+    return ms
+
+
 @dataclasses.dataclass
 class PassStats:
     pass_index: int            # passes done, 1-based

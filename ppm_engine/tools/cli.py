@@ -3,7 +3,7 @@
     python -m ppm_engine render SCENE.blend -o OUT.png|OUT.exr [--passes N] [--time-limit S]
                                 [--resolution WxH] [--device NAME] [--photons N] [--seed N]
                                 [--noise-threshold T] [--indirect auto|photons|paths]
-                                [--light-tracing on|off] [--denoise]
+                                [--light-tracing on|off] [--path-filter on|off] [--denoise]
                                 [--frame N | --frames A-B]
                                 [--pass-range A-B] [--dask tcp://HOST:PORT | local:N]
     python -m ppm_engine render SCENE.blend --pass-range A-B -o PART.npz
@@ -96,6 +96,10 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="connect the photons to the camera too, weighed against their gather "
                         "(sharp caustics seen directly; default: the file's setting, normally "
                         "on)")
+    r.add_argument("--path-filter", choices=("on", "off"),
+                   help="with eye paths for the indirect light, average the light past each "
+                        "path's second bounce over neighbouring paths (default: the file's "
+                        "setting, normally on)")
     r.add_argument("--denoise", action="store_true",
                    help="denoise the image with Intel Open Image Denoise (albedo and normal, "
                         "the file's Cycles denoising settings; default: the file's Denoise)")
@@ -197,7 +201,8 @@ def cmd_render(args) -> int:
         ("passes", args.passes), ("time_limit", args.time_limit),
         ("photons_per_pass", args.photons), ("seed", args.seed),
         ("noise_threshold", args.noise_threshold), ("indirect", args.indirect),
-        ("light_tracing", None if args.light_tracing is None else args.light_tracing == "on"))
+        ("light_tracing", None if args.light_tracing is None else args.light_tracing == "on"),
+        ("path_filter", None if args.path_filter is None else args.path_filter == "on"))
         if value is not None}
     if args.denoise:                 # say it now, not after the render
         from ppm_engine.render.denoise import unavailable

@@ -8,6 +8,8 @@ in the paper's order (Hachisuka & Jensen 2010):
 
     EyePass        "eye"       camera rays through specular bounces to visible points; direct
                                light by next-event estimation
+    PathFilter     "filter"    (run by EyePass, eye paths only) each path's light past its second
+                               vertex averaged over its cell's (passes/path_filter.py)
     GridSetup      "grid"      the grid over this pass's visible points (before the photons,
                                so that photons outside it are not stored: departs from the
                                paper, which builds it after)

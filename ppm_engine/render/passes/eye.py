@@ -73,6 +73,9 @@ class EyePass:
         self.ctx = ctx
         self.kernel = ctx.device.programs.get("integrator/eye_pass.cl", ctx.defines).launch(
             "eye_pass", "eye")
+        # the path space filter (passes/path_filter.py PathFilter), which the pass runs after
+        # its eye paths where they bring the indirect light, or None
+        self.records = None
 
     def enqueue(self, q, it: Iteration) -> list | None:
         """``it.path_indirect``: indirect light by eye paths
@@ -85,10 +88,16 @@ class EyePass:
         the pass stops there and None is returned (the viewport: a new view is waiting, this
         pass's work is dropped)."""
         def launch(count, start):
-            return self._launch(q, count, start, it)
-        return in_pieces(launch, self.ctx.vps.n, it.piece, it.interrupt, self.kernel.label)
+            return self.launch(q, count, start, it)
+        records = self.records if it.path_indirect else None
+        if records is not None:
+            records.prepare(q, self, it)
+        events = in_pieces(launch, self.ctx.vps.n, it.piece, it.interrupt, self.kernel.label)
+        if events is not None and records is not None:
+            events += records.enqueue(q, it)    # the path space filter (passes/path_filter.py)
+        return events
 
-    def _launch(self, q, count: int, start: int, it: Iteration):
+    def launch(self, q, count: int, start: int, it: Iteration):
         c, o = self.ctx, it.options
         return self.kernel(
             q, count, SHADING_GROUP, offset=start, **c.scene.args, **c.film.args,
@@ -99,4 +108,7 @@ class EyePass:
                                     if o.radius_schedule == "global" else 0.0),
             filter_table=c.scene.filter_table, counters=c.counters,
             path_indirect=np.uint32(it.path_indirect), lt_kappa=np.float32(it.lt_kappa),
-            volume_photons=np.uint32(it.volume_photons))
+            volume_photons=np.uint32(it.volume_photons),
+            **(self.records.eye_args if self.records is not None and it.path_indirect
+               else dict(path_filter=np.uint32(0), pf_pos=c.vps.pos, pf_v=c.vps.pos,
+                         pf_w=c.vps.pos)))
