@@ -37,7 +37,7 @@ def run_phases(scene_name: str, resolution: int = 256, passes: int = 8, warmup: 
     allocated = dev.allocated - before
     light_traced = r.lt_kappa > 0
     r.close()
-    labels = ["eye", "grid", "photon", "hash", "gather", "update", "adaptive"]
+    labels = ["eye", "filter", "grid", "photon", "hash", "gather", "update", "adaptive"]
     mean = {k: float(np.mean([s.phase_ms.get(k, 0.0) for s in rows])) for k in labels
             if any(k in s.phase_ms for s in rows)}
     total = sum(mean.values())
