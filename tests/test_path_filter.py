@@ -42,7 +42,9 @@ def _groups(pos, vw, cell, off, jitter, states):
 def test_each_record_gets_its_group_s_mean(device):
     """Records on a floor and a wall, two path states, two normals' bins, some not made: each
     pixel's sample gains w x the mean v of the records in its cell, bins and state, as NumPy
-    groups them (every kernel on every device, tests/helpers/device_buffers.py)."""
+    groups them (every kernel on every device, tests/helpers/device_buffers.py).  A record past
+    the fixed-point sums' range (v over 2^14, with 64-bit atomics) keeps its own v, out of its
+    group's mean."""
     rng = np.random.default_rng(3)
     n = 4096
     floor = rng.random(n) < 0.6
@@ -56,6 +58,9 @@ def test_each_record_gets_its_group_s_mean(device):
                       np.uint32(65535 | 32768 << 16)).astype(np.uint32)
     v = np.c_[rng.random((n, 3)), packed.view(np.float32)].astype(np.float32)
     w = np.c_[rng.random((n, 3)) + 0.1, (rng.random(n) < 0.9)].astype(np.float32)
+    v[7, :3], w[7, 3] = (3e4, 1.0, 2.0), 1.0                   # past PF_VMAX
+    own = np.zeros(n, bool)
+    own[7] = device.int64_atomics
     film = types.SimpleNamespace(direct_pass=cl.Buffer(device.context, cl.mem_flags.READ_WRITE,
                                                        16 * n), radius=None)
     cl.enqueue_fill_buffer(device.queue, film.direct_pass, np.float32(0), 0, 16 * n)
@@ -70,7 +75,7 @@ def test_each_record_gets_its_group_s_mean(device):
     cell = 0.3 * global_radius_scale(3, o.alpha)
     u = np.random.default_rng([o.seed, 3, 0x5046]).random(5)
     key = _groups(pos, v[:, 3], np.float32(cell), u[:3] * cell, u[3:5], states)
-    ok = w[:, 3] > 0
+    ok = (w[:, 3] > 0) & ~own
     _, group = np.unique(key[ok], axis=0, return_inverse=True)
     group = group.ravel()
     sums = np.zeros((group.max() + 1, 3))
@@ -78,6 +83,7 @@ def test_each_record_gets_its_group_s_mean(device):
     mean = sums / np.bincount(group)[:, None]
     want = np.zeros((n, 3))
     want[ok] = w[ok, :3] * mean[group]
+    want[own] = w[own, :3] * v[own, :3]
     assert np.bincount(group).max() > 5                 # groups of several records
     np.testing.assert_allclose(got[:, :3], want, rtol=2e-5, atol=1e-7)
     assert not got[:, 3].any()                         # the sample count is the eye pass's
