@@ -169,3 +169,17 @@ def test_a_furnace_s_few_values_turn_the_filter_off():
     spread = np.r_[rng.lognormal(0.0, 1.0, 2000), np.zeros(3000)]
     assert not roulette_only(np.repeat(spread[:, None], 3, axis=1))
     assert not roulette_only(np.repeat(levels[:200, None], 3, axis=1))
+
+
+def test_the_filter_stops_once_its_cells_hold_two_records():
+    """PathFilter.wanted: a pass filters while its cells (shrinking with alpha) still hold
+    RECORDS_MIN records a group on average; from some 13,000 passes on (alpha 0.7) the
+    unfiltered estimator goes on alone, and a filter turned off by its first pass never
+    filters."""
+    o = RenderOptions()
+    f = types.SimpleNamespace(active=True, CELL_RECORDS=PathFilter.CELL_RECORDS,
+                              RECORDS_MIN=PathFilter.RECORDS_MIN)
+    assert PathFilter.wanted(f, Iteration(1000, o))
+    assert not PathFilter.wanted(f, Iteration(20000, o))
+    f.active = False
+    assert not PathFilter.wanted(f, Iteration(0, o))

@@ -100,9 +100,10 @@ class EyePass:
 
     def _records(self, it: Iteration):
         """The path space filter this pass records for: where eye paths bring the indirect
-        light and the filter is on (not turned off by its first pass, PathFilter.active)."""
+        light and the filter is on for this pass (PathFilter.wanted: not turned off by its first
+        pass, its cells not shrunk past use)."""
         r = self.records
-        return r if r is not None and it.path_indirect and r.active else None
+        return r if r is not None and it.path_indirect and r.wanted(it) else None
 
     def launch(self, q, count: int, start: int, it: Iteration):
         """One launch of the eye pass over ``count`` pixels from ``start``."""
