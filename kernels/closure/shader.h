@@ -202,6 +202,19 @@ inline bool closure_lambert(const ShaderData *sd, const Closure *c) {
     return c->type == CLOSURE_DIFFUSE && all(isequal(c->N, sd->N));
 }
 
+/* the sum of the gather's closures' weights (their albedo where all are Lambert), and in
+ * *lambert whether they all are (closure_lambert) */
+inline float3 gather_albedo(const ShaderData *sd, bool *lambert) {
+    float3 albedo = (float3)(0.0f);
+    *lambert = true;
+    for (int k = 0; k < sd->n; k++) {
+        if (!sd->c[k].gather) continue;
+        albedo += sd->c[k].weight;
+        *lambert &= closure_lambert(sd, &sd->c[k]);
+    }
+    return albedo;
+}
+
 /* closure c's f cos at wo with its bump shadowing; *p its density (0 where shadowed); light: for
  * next-event estimation (microfacet_eval) */
 inline float3 closure_eval_bumped(const ShaderData *sd, const Closure *c, float3 wo, bool light,

@@ -302,13 +302,8 @@ __kernel void eye_pass(SCENE_PARAMS FILM_PARAMS VP_PARAMS uint pass_index, uint 
             /* the surface's own normal: the gather's disc lies in it, as the photons do (the
              * gather shades the point again) */
             vps->nrm[id] = (float4)(sd.Ng, as_float(path));
-            float3 albedo = (float3)(0.0f);
-            bool lambert = true;
-            for (int k = 0; k < sd.n; k++) {
-                if (!sd.c[k].gather) continue;
-                albedo += sd.c[k].weight;
-                lambert &= closure_lambert(&sd, &sd.c[k]);
-            }
+            bool lambert;
+            float3 albedo = gather_albedo(&sd, &lambert);
             /* (with Filter Glossy the gather asks every photon's direction the closures'
              * density: it shades the point) */
             if (lambert && !(lp->filter_glossy > 0.0f && gathers)) {

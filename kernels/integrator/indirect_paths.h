@@ -68,13 +68,9 @@ typedef struct {
 inline float3 record_albedo(const ShaderData *sd, int set) {
     if (set != MASK_GATHER && !(set == MASK_ALL && !(sd->sw_continue > 0.0f)))
         return (float3)(0.0f);
-    float3 a = (float3)(0.0f);
-    for (int k = 0; k < sd->n; k++) {
-        if (!sd->c[k].gather) continue;
-        if (!closure_lambert(sd, &sd->c[k])) return (float3)(0.0f);
-        a += sd->c[k].weight;
-    }
-    return a;
+    bool lambert;
+    float3 a = gather_albedo(sd, &lambert);
+    return lambert ? a : (float3)(0.0f);
 }
 
 /* The light L of a path that made a record, less its tail, which the record keeps over its

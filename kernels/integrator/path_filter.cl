@@ -65,12 +65,6 @@ __kernel void pf_sample(__global const float4 *pf_pos, __global const float4 *pf
     v[i] = pf_v[k];
 }
 
-__kernel void pf_clear(__global uint *table, uint n) {
-    uint i = WORK_ITEM();
-    if (i >= n) return;
-    for (int k = 0; k < PF_WORDS; k++) table[PF_WORDS * i + k] = 0u;
-}
-
 __kernel void pf_insert(__global const float4 *pf_pos, __global const float4 *pf_v,
                         __global const float4 *pf_w, uint n, float4 grid, float4 jitter,
                         __global uint *table, uint mask, __global uint *pf_slot) {

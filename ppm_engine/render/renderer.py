@@ -154,7 +154,8 @@ class Renderer:
             self.film.enable_light_tracing()
         self.lt_kappa, self.passes_done = lt_kappa, 0
         self.path_filter = self.eye.records = PathFilter.renew(     # (passes/path_filter.py)
-            getattr(self, "path_filter", None), ctx, self.n_pixels, self.path_indirect and o)
+            getattr(self, "path_filter", None), ctx, self.n_pixels,
+            o.path_filter and self.path_indirect)
         self.pass_indices: list[int] = []   # the passes this film holds, in the order run
         self.photons_used = 0     # Counter.USED over the render's passes (photons_due)
         self.nan_dropped = 0
@@ -242,9 +243,8 @@ class Renderer:
             or options.exact_gather != old.exact_gather))
 
     # ------------------------------------------------------------------------------------------
-    # an interruptible pass (iterate's ``interrupt``) splits its eye pass and its photon pass
-    # into launches of about this many pixels or photons (on a 2-core CPU some 50 ms of the
-    # Cornell box's eye paths)
+    # an interruptible pass (iterate's ``interrupt``) splits its eye and photon passes into
+    # launches of about this many pixels or photons (2-core CPU: ~50 ms of the Cornell box's)
     INTERRUPT_PIXELS = 1 << 15
 
     @_locked

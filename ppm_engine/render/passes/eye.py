@@ -87,12 +87,13 @@ class EyePass:
         ``it.piece`` pixels, each waited for (device.program.in_pieces); when it returns True
         the pass stops there and None is returned (the viewport: a new view is waiting, this
         pass's work is dropped)."""
-        def launch(count, start):
-            return self.launch(q, count, start, it)
         records = self._records(it)
         if records is not None:
             records.prepare(q, self, it)
             records = self._records(it)       # (pass 0's records may have turned it off)
+
+        def launch(count, start):
+            return self.launch(q, count, start, it, records)
         events = in_pieces(launch, self.ctx.vps.n, it.piece, it.interrupt, self.kernel.label)
         if events is not None and records is not None:
             events += records.enqueue(q, it)    # the path space filter (passes/path_filter.py)
@@ -105,8 +106,9 @@ class EyePass:
         r = self.records
         return r if r is not None and it.path_indirect and r.wanted(it) else None
 
-    def launch(self, q, count: int, start: int, it: Iteration):
-        """One launch of the eye pass over ``count`` pixels from ``start``."""
+    def launch(self, q, count: int, start: int, it: Iteration, records=None):
+        """One launch of the eye pass over ``count`` pixels from ``start``; ``records``: the
+        path space filter it records for (_records), or None."""
         c, o = self.ctx, it.options
         return self.kernel(
             q, count, SHADING_GROUP, offset=start, **c.scene.args, **c.film.args,
@@ -118,6 +120,6 @@ class EyePass:
             filter_table=c.scene.filter_table, counters=c.counters,
             path_indirect=np.uint32(it.path_indirect), lt_kappa=np.float32(it.lt_kappa),
             volume_photons=np.uint32(it.volume_photons),
-            **(self.records.eye_args if self._records(it) is not None
+            **(records.eye_args if records is not None
                else dict(path_filter=np.uint32(0), pf_pos=c.vps.pos, pf_v=c.vps.pos,
                          pf_w=c.vps.pos)))

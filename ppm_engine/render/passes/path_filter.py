@@ -103,7 +103,6 @@ class PathFilter:
         self.sampled_v = dev.buffer(16 * -(-self.n // self.stride), "path filter records")
         p = dev.programs.get("integrator/path_filter.cl",
                              {"PPM_INT64_ATOMICS": True} if dev.int64_atomics else {})
-        self.k_clear = p.launch("pf_clear", "filter")
         self.k_insert = p.launch("pf_insert", "filter")
         self.k_resolve = p.launch("pf_resolve", "filter")
         self.k_sample = p.launch("pf_sample", "filter")
@@ -111,12 +110,13 @@ class PathFilter:
         self.active = True   # False: roulette_only found the filter of no use in this render
 
     @classmethod
-    def renew(cls, old: PathFilter | None, ctx: PassContext, n: int, options) -> PathFilter | None:
-        """The filter for a new render of ``n`` pixels on ``ctx`` with ``options`` (falsy: a
-        render with no eye paths for the indirect light): None where it has none
-        (RenderOptions.path_filter off), else ``old`` (its buffers) where it has as many pixels,
-        with a new choice of cell size."""
-        if not options or not options.path_filter:
+    def renew(cls, old: PathFilter | None, ctx: PassContext, n: int, on: bool
+              ) -> PathFilter | None:
+        """The filter for a new render of ``n`` pixels on ``ctx``: None where it has none
+        (``on`` false: no eye paths for the indirect light, or RenderOptions.path_filter off),
+        else ``old`` (its buffers) where it has as many pixels, with a new choice of cell
+        size."""
+        if not on:
             return None
         if old is None or old.n != n or old.ctx.device is not ctx.device:
             return cls(ctx, n)
@@ -141,8 +141,8 @@ class PathFilter:
         it would on a render that runs it: an eye pass of pass 0 first, only for them."""
         if self.cell0 is None and it.pass_index != 0 and it.options.radius_schedule == "global":
             it0 = dataclasses.replace(it, pass_index=0, interrupt=None)
-            in_pieces(lambda count, start: eye.launch(q, count, start, it0), self.n, it.piece,
-                      None, "eye")
+            in_pieces(lambda count, start: eye.launch(q, count, start, it0, self), self.n,
+                      it.piece, None, "eye")
             self.cell0 = self._choose_cell(q)
 
     def _choose_cell(self, q) -> float | None:
@@ -162,10 +162,11 @@ class PathFilter:
     def enqueue(self, q, it: Iteration) -> list:
         """After the eye pass: each record's group mean into its pixel's sample (film
         direct_pass), or its own value where the filter is off (roulette_only, ``wanted``)."""
+        import pyopencl as cl
         o = it.options
         if self.cell0 is None:
             self.cell0 = self._choose_cell(q)     # (None: too few records yet, the next pass)
-        if self.cell0 is None or not self.wanted(it):
+        if self.cell0 is None or not self.active:     # (the eye pass asked wanted())
             return [(self.k_resolve.label, self.k_resolve(
                 q, self.n, pf_v=self.v, pf_w=self.w, pf_slot=self.slot, table=self.table,
                 direct_pass=self.ctx.film.direct_pass, n=np.uint32(self.n), own=np.uint32(1)))]
@@ -175,9 +176,8 @@ class PathFilter:
         grid = np.array([*(u[:3] * cell), cell], np.float32)
         jitter = np.array([u[3], u[4], 0, 0], np.float32)
         n = np.uint32(self.n)
-        return [(k.label, ev) for k, ev in (
-            (self.k_clear, self.k_clear(q, self.table_size, table=self.table,
-                                        n=np.uint32(self.table_size))),
+        clear = cl.enqueue_fill_buffer(q, self.table, np.uint32(0), 0, self.table.size)
+        return [("filter", clear)] + [(k.label, ev) for k, ev in (
             (self.k_insert, self.k_insert(q, self.n, pf_pos=self.pos, pf_v=self.v, pf_w=self.w,
                                           n=n, grid=grid, jitter=jitter, table=self.table,
                                           mask=np.uint32(self.table_size - 1),
