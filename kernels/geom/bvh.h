@@ -6,13 +6,13 @@
 /* Triangles in BVH leaf order, three float4 each (bvh_build.cl, reorder_triangles):
  *   v0 = (p0, as_float(original triangle index)), e1 = (p1 - p0, as_float(visibility bits)),
  *   e2 = (p2 - p0, as_float(material index)).
- * Nodes: 4-wide (ppm_engine/render/bvh.py collapses the binary tree the build makes), 7 float4
- * each: the four children's boxes by axis, (xmin, xmax, ymin, ymax, zmin, zmax), one child per
- * lane, then the children as_int4: > 0 an internal node, < 0 the leaf ~k (one triangle per
- * leaf), 0 no child (its box inverted: the root is no one's child).  A ray tests the four boxes
- * at once in the vector lanes (Embree's layout; Wald et al., "Getting Rid of Packets", 2008). */
+ * Nodes: 4-wide (ppm_engine/render/bvh.py collapses the binary tree the build makes), BVH_NODE
+ * (7, geometry.h) float4 each: the four children's boxes by axis, (xmin, xmax, ymin, ymax,
+ * zmin, zmax), one child per lane, then the children as_int4: > 0 an internal node, < 0 the
+ * leaf ~k (one triangle per leaf), 0 no child (its box inverted: the root is no one's child).
+ * A ray tests the four boxes at once in the vector lanes (Embree's layout; Wald et al.,
+ * "Getting Rid of Packets", 2008). */
 #define BVH_STACK 64
-#define BVH_NODE 7
 /* min and max of the slabs' distances by compares (finite: fmin's NaN rule not needed) */
 #define BVH_MIN(a, b) ((a) < (b) ? (a) : (b))
 #define BVH_MAX(a, b) ((a) > (b) ? (a) : (b))

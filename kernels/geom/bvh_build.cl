@@ -123,7 +123,7 @@ __kernel void pack_nodes4(int m, __global const int4 *src, __global const int4 *
         lo[0][k] = a.x, lo[1][k] = a.y, lo[2][k] = a.z;
         hi[0][k] = b.x, hi[1][k] = b.y, hi[2][k] = b.z;
     }
-    __global float4 *nd = nodes + 7 * (size_t)i;
+    __global float4 *nd = nodes + BVH_NODE * (size_t)i;
     for (int a = 0; a < 3; a++) {
         nd[2 * a] = vload4(0, lo[a]);
         nd[2 * a + 1] = vload4(0, hi[a]);

@@ -4,6 +4,9 @@
 
 #define PPM_PI 3.14159265358979323846f
 #define PPM_INF INFINITY
+/* a 4-wide BVH node's float4s (geom/bvh.h's layout, written by bvh_build.cl pack_nodes4;
+ * ppm_engine/render/bvh.py BVH_NODE_BYTES) */
+#define BVH_NODE 7
 
 inline float max3(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
 inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
